@@ -1,0 +1,72 @@
+// The ellipsoidal head hull. Keep in step with src/scene/head.rs (Ellipsoid).
+
+const PI: f32 = 3.14159265358979;
+// Pushed nodes end this far outside, in units of the quadric form.
+const EPS_OUT: f32 = 2e-4;
+
+struct Hull {
+    center: vec3<f32>,
+    radii: vec3<f32>,
+}
+
+// Quadric form: negative inside.
+fn hull_eval(h: Hull, p: vec3<f32>) -> f32 {
+    let q = (p - h.center) / h.radii;
+    return dot(q, q) - 1.0;
+}
+
+fn hull_gradient(h: Hull, p: vec3<f32>) -> vec3<f32> {
+    return 2.0 * (p - h.center) / (h.radii * h.radii);
+}
+
+// Any unit vector orthogonal to unit v (Duff et al. 2017; glam's any_orthonormal_vector).
+fn any_orthonormal(v: vec3<f32>) -> vec3<f32> {
+    let sign = select(-1.0, 1.0, v.z >= 0.0);
+    let a = -1.0 / (sign + v.z);
+    let b = v.x * v.y * a;
+    return vec3<f32>(b, sign + v.y * v.y * a, -v.y);
+}
+
+fn circle_point(pivot: vec3<f32>, u: vec3<f32>, v: vec3<f32>, d: f32, phi: f32) -> vec3<f32> {
+    return pivot + d * (cos(phi) * u + sin(phi) * v);
+}
+
+// Anjyo's collision response: an inside node moves to the nearest outside point on the
+// circle of radius d about the pivot, in the plane of the previous segment a0 and the node.
+fn hull_push_out(h: Hull, pivot: vec3<f32>, a0: vec3<f32>, p: vec3<f32>, d: f32) -> vec3<f32> {
+    if hull_eval(h, p) >= 0.0 {
+        return p;
+    }
+    let w = p - pivot;
+    var v = w - dot(w, a0) * a0;
+    if length(v) <= 1e-6 * d {
+        let g = hull_gradient(h, p);
+        v = g - dot(g, a0) * a0;
+        if length(v) <= 1e-7 * length(g) {
+            v = any_orthonormal(a0);
+        }
+    }
+    v = normalize(v);
+    let phi0 = atan2(dot(w, v), dot(w, a0));
+    let step = PI / 64.0;
+    for (var n = 1u; n <= 64u; n++) {
+        for (var k = 0u; k < 2u; k++) {
+            let dir = select(-1.0, 1.0, k == 0u);
+            let phi = phi0 + dir * f32(n) * step;
+            if hull_eval(h, circle_point(pivot, a0, v, d, phi)) >= EPS_OUT {
+                var lo = phi - dir * step;
+                var hi = phi;
+                for (var b = 0u; b < 24u; b++) {
+                    let mid = 0.5 * (lo + hi);
+                    if hull_eval(h, circle_point(pivot, a0, v, d, mid)) >= EPS_OUT {
+                        hi = mid;
+                    } else {
+                        lo = mid;
+                    }
+                }
+                return circle_point(pivot, a0, v, d, hi);
+            }
+        }
+    }
+    return pivot + d * normalize(hull_gradient(h, pivot));
+}

@@ -1,0 +1,15 @@
+// Per-frame view and light. Keep in sync with GpuFrame in src/gpu/gpu_data.rs.
+struct Frame {
+    view_proj: mat4x4<f32>,
+    eye: vec4<f32>,
+    // xyz towards the light, w intensity I_s
+    light_dir: vec4<f32>,
+    // rgb light colour, w ambient intensity I_a
+    light_color: vec4<f32>,
+    // width, height (samples), 1/width, 1/height
+    viewport: vec4<f32>,
+    // x focal length in samples, y narrowest strand (samples), z 1 if orthographic
+    raster: vec4<f32>,
+}
+
+@group(0) @binding(0) var<uniform> frame: Frame;

@@ -1,0 +1,41 @@
+// The head ellipsoid: a unit-sphere mesh scaled by the radii, lit by the scene light with a
+// soft wrap so the unlit side is not black.
+
+// Keep in sync with GpuHead in src/gpu/gpu_data.rs.
+struct Head {
+    model: mat4x4<f32>,
+    color: vec4<f32>,
+    inv_radii2: vec4<f32>,
+}
+
+@group(1) @binding(0) var<uniform> head: Head;
+
+struct VOut {
+    @builtin(position) pos: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+}
+
+@vertex
+fn vs(@location(0) unit: vec3<f32>) -> VOut {
+    var out: VOut;
+    let world = (head.model * vec4<f32>(unit, 1.0)).xyz;
+    out.pos = frame.view_proj * vec4<f32>(world, 1.0);
+    out.world = world;
+    // Ellipsoid normal: gradient of the quadric, (p - c) / r^2 = unit / r.
+    out.normal = unit * sqrt(head.inv_radii2.xyz);
+    return out;
+}
+
+@fragment
+fn fs(in: VOut) -> @location(0) vec4<f32> {
+    let n = normalize(in.normal);
+    let l = frame.light_dir.xyz;
+    let v = normalize(frame.eye.xyz - in.world);
+    let wrap = max((dot(n, l) + 0.3) / 1.3, 0.0);
+    let h = normalize(l + v);
+    let spec = 0.08 * pow(max(dot(n, h), 0.0), 30.0);
+    let ambient = 0.3 * frame.light_color.w;
+    let rgb = head.color.rgb * (ambient + 0.8 * frame.light_dir.w * wrap) + frame.light_color.rgb * spec * frame.light_dir.w;
+    return vec4<f32>(rgb, 1.0);
+}

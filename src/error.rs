@@ -1,0 +1,64 @@
+//! Library errors. Every failure a user can cause (a bad scene, a missing adapter, a scene
+//! too large for the GPU) is a variant here with a message that says what to change; the
+//! binary adds context with `anyhow`.
+
+use std::path::PathBuf;
+
+/// Errors from loading, grooming and rendering scenes.
+#[derive(Debug, thiserror::Error)]
+pub enum KamiError {
+    #[error("cannot read {path}: {source}")]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+
+    /// RON syntax or type error, with the place it broke.
+    #[error("{path}:{line}:{col}: {message}")]
+    Parse {
+        path: String,
+        line: usize,
+        col: usize,
+        message: String,
+    },
+
+    /// A value that parsed but is not allowed.
+    #[error("invalid scene: `{field}` = {value}: {allowed}")]
+    Invalid {
+        field: String,
+        value: String,
+        allowed: String,
+    },
+
+    #[error(
+        "no GPU adapter found{backend_note}. Kami runs on software adapters too: install \
+         Mesa's llvmpipe (`apt-get install -y libegl-mesa0 libgl1-mesa-dri`) for OpenGL or \
+         lavapipe (`apt-get install -y mesa-vulkan-drivers`) for Vulkan, or unset KAMI_BACKEND"
+    )]
+    NoAdapter { backend_note: String },
+
+    #[error("KAMI_BACKEND={0:?} is not a backend Kami knows: use `vulkan`, `gl`, `metal`, `dx12` or leave it unset")]
+    BadBackend(String),
+
+    #[error("the GPU device could not be created: {0}")]
+    Device(String),
+
+    /// The scene needs more than the adapter allows (buffer, texture or dispatch size).
+    #[error("{what} needs {needed}, but this adapter allows at most {limit}: {hint}")]
+    TooLarge {
+        what: String,
+        needed: u64,
+        limit: u64,
+        hint: String,
+    },
+
+    /// A GPU operation failed (validation error, device lost, readback failure).
+    #[error("GPU error: {0}")]
+    Gpu(String),
+
+    #[error("cannot write image {path}: {message}")]
+    Image { path: PathBuf, message: String },
+}
+
+pub type Result<T, E = KamiError> = std::result::Result<T, E>;

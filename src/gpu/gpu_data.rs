@@ -1,0 +1,163 @@
+//! Every struct shared with WGSL, in one place: `#[repr(C)]`, `Pod`, explicit padding and a
+//! compile-time size check. Each names the WGSL struct it must match.
+
+use bytemuck::{Pod, Zeroable};
+
+macro_rules! assert_size {
+    ($t:ty, $n:expr) => {
+        const _: () = assert!(std::mem::size_of::<$t>() == $n);
+    };
+}
+
+/// One strand of any kind. Keep in sync with `struct Strand` in `shaders/common/strands.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuStrand {
+    /// Index of the root node in the vertex buffer.
+    pub first_vertex: u32,
+    /// Segments (nodes - 1).
+    pub segments: u32,
+    /// Index into the group tables (materials, solver parameters).
+    pub group: u32,
+    pub flags: u32,
+    /// Drawn segments, fractional (cuts); written by the groom kernel.
+    pub visible: f32,
+    /// Ambient coefficient k_a.
+    pub ka: f32,
+    /// Segment length d.
+    pub seg_len: f32,
+    /// A uniform random number per strand.
+    pub rand: f32,
+}
+assert_size!(GpuStrand, 32);
+
+/// Groom input per strand. Keep in sync with `struct Root` in `shaders/cantilever.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuRoot {
+    /// xyz: pore; w: segment length d.
+    pub pos: [f32; 4],
+    /// xyz: unloaded direction; w: cut mask (bits, as f32 bits).
+    pub dir: [f32; 4],
+}
+assert_size!(GpuRoot, 32);
+
+/// Bending parameters per group. Keep in sync with `struct Group` in `shaders/cantilever.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuGroomGroup {
+    pub segments: u32,
+    /// 0: paper, 1: converged.
+    pub mode: u32,
+    pub max_iterations: u32,
+    pub first_load: u32,
+    pub load_count: u32,
+    pub first_cut: u32,
+    pub cut_count: u32,
+    pub _pad0: u32,
+    pub rigidity: f32,
+    pub tolerance: f32,
+    pub _pad1: [f32; 2],
+}
+assert_size!(GpuGroomGroup, 48);
+
+/// A load field limited to half-spaces. Keep in sync with `struct Load` in
+/// `shaders/common/loads.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuLoad {
+    /// xyz: force (uniform) or target point (toward); w: 0 uniform, 1 toward.
+    pub field: [f32; 4],
+    /// x: strength (toward); y: number of planes.
+    pub params: [f32; 4],
+    /// xyz: unit normal, w: offset; inside where dot(n, p) >= offset.
+    pub planes: [[f32; 4]; 4],
+}
+assert_size!(GpuLoad, 96);
+
+/// A cut rule. Keep in sync with `struct Cut` in `shaders/cantilever.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuCut {
+    /// 0: below y, 1: by pore height, 2: near a point.
+    pub kind: u32,
+    pub _pad: [u32; 3],
+    /// below: (y); by pore height: (low y, low k, high y, high k); near: (center, radius).
+    pub a: [f32; 4],
+}
+assert_size!(GpuCut, 32);
+
+/// Groom dispatch parameters. Keep in sync with `struct Params` in `shaders/cantilever.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuGroomParams {
+    pub strand_count: u32,
+    pub total_vertices: u32,
+    /// Invocations per row of the 2D dispatch.
+    pub row_stride: u32,
+    pub _pad: u32,
+    pub head_center: [f32; 4],
+    pub head_radii: [f32; 4],
+}
+assert_size!(GpuGroomParams, 48);
+
+/// Per-frame view and light. Keep in sync with `struct Frame` in `shaders/common/frame.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuFrame {
+    pub view_proj: [[f32; 4]; 4],
+    /// xyz: eye position.
+    pub eye: [f32; 4],
+    /// xyz: unit direction towards the light; w: intensity I_s.
+    pub light_dir: [f32; 4],
+    /// rgb: light colour; w: ambient intensity I_a.
+    pub light_color: [f32; 4],
+    /// (width, height) of the target in samples, then 1/width, 1/height.
+    pub viewport: [f32; 4],
+    /// x: pixels per world unit at distance 1 (focal length in samples); y: narrowest
+    /// strand drawn, samples; z: 1 for an orthographic camera; w: unused.
+    pub raster: [f32; 4],
+}
+assert_size!(GpuFrame, 144);
+
+/// Look of a hair group. Keep in sync with `struct Material` in `shaders/strands.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuMaterial {
+    /// rgb: linear hair colour; w: k_s.
+    pub color_ks: [f32; 4],
+    /// x: shininess n, y: k_d, z: root width (world), w: tip width ratio.
+    pub params: [f32; 4],
+}
+assert_size!(GpuMaterial, 32);
+
+/// The head mesh's uniform. Keep in sync with `struct Head` in `shaders/head.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuHead {
+    /// Model matrix of the unit sphere (scale by radii, then translate).
+    pub model: [[f32; 4]; 4],
+    /// rgb: linear skin colour.
+    pub color: [f32; 4],
+    /// 1 / radii^2 (for normals of the ellipsoid).
+    pub inv_radii2: [f32; 4],
+}
+assert_size!(GpuHead, 96);
+
+/// sRGB component (0..1) to linear.
+pub fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// sRGB colour to linear rgb.
+pub fn linear_rgb(c: [f32; 3]) -> [f32; 3] {
+    [
+        srgb_to_linear(c[0]),
+        srgb_to_linear(c[1]),
+        srgb_to_linear(c[2]),
+    ]
+}

@@ -1,0 +1,337 @@
+//! GPU context: adapter choice (headless or for a window), device creation with the
+//! adapter's full limits, and small helpers shared by every pass.
+//!
+//! `KAMI_BACKEND=vulkan|gl|metal|dx12` forces a backend. Without it all backends are tried;
+//! `Preference::Software` (tests, snapshots) picks a CPU adapter (llvmpipe, lavapipe) first so
+//! images are deterministic, `Preference::Hardware` (the CLI and viewer) a real GPU first.
+
+pub mod gpu_data;
+pub mod strands;
+
+use crate::error::{KamiError, Result};
+use std::sync::{Arc, Mutex};
+
+/// Which kind of adapter to look for first.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Preference {
+    /// A discrete or integrated GPU if there is one, else software.
+    Hardware,
+    /// A software (CPU) adapter if there is one: deterministic output for tests.
+    Software,
+}
+
+/// Adapter, device and queue.
+pub struct Gpu {
+    pub instance: wgpu::Instance,
+    pub adapter: wgpu::Adapter,
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub info: wgpu::AdapterInfo,
+    /// Validation errors not caught by a scope (logged, and kept for `take_error`).
+    errors: Arc<Mutex<Vec<String>>>,
+}
+
+/// Backends named by `KAMI_BACKEND`, or all.
+pub fn backends_from_env() -> Result<wgpu::Backends> {
+    match std::env::var("KAMI_BACKEND") {
+        Err(_) => Ok(wgpu::Backends::all()),
+        Ok(v) => match v.to_ascii_lowercase().as_str() {
+            "" | "auto" => Ok(wgpu::Backends::all()),
+            "vulkan" | "vk" => Ok(wgpu::Backends::VULKAN),
+            "gl" | "gles" | "opengl" => Ok(wgpu::Backends::GL),
+            "metal" => Ok(wgpu::Backends::METAL),
+            "dx12" => Ok(wgpu::Backends::DX12),
+            _ => Err(KamiError::BadBackend(v)),
+        },
+    }
+}
+
+/// Instance settings for `backends`; a window sets `display` before creating the instance
+/// (needed by GL to present).
+pub fn instance_descriptor(backends: wgpu::Backends) -> wgpu::InstanceDescriptor {
+    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle();
+    desc.backends = backends;
+    // Keep wgpu's validation on in debug builds only.
+    desc.flags = if cfg!(debug_assertions) {
+        wgpu::InstanceFlags::debugging()
+    } else {
+        wgpu::InstanceFlags::empty()
+    }
+    .with_env();
+    desc
+}
+
+fn rank(info: &wgpu::AdapterInfo, pref: Preference) -> u32 {
+    use wgpu::DeviceType::*;
+    let kind = match (pref, info.device_type) {
+        (Preference::Software, Cpu) => 0,
+        (Preference::Hardware, DiscreteGpu) => 0,
+        (Preference::Hardware, IntegratedGpu) => 1,
+        (_, DiscreteGpu | IntegratedGpu | VirtualGpu) => 2,
+        (_, Other) => 3,
+        (Preference::Hardware, Cpu) => 4,
+    };
+    // Prefer Vulkan over GL when otherwise equal: fuller feature set.
+    let backend = match info.backend {
+        wgpu::Backend::Vulkan | wgpu::Backend::Metal | wgpu::Backend::Dx12 => 0,
+        _ => 1,
+    };
+    kind * 2 + backend
+}
+
+impl Gpu {
+    /// A device with no window.
+    pub fn headless(pref: Preference) -> Result<Gpu> {
+        let backends = backends_from_env()?;
+        let instance = wgpu::Instance::new(instance_descriptor(backends));
+        Self::with_instance(instance, backends, pref, None)
+    }
+
+    /// A device on `instance`, able to present to `surface` when given.
+    pub fn with_instance(
+        instance: wgpu::Instance,
+        backends: wgpu::Backends,
+        pref: Preference,
+        surface: Option<&wgpu::Surface<'_>>,
+    ) -> Result<Gpu> {
+        let mut adapters = pollster::block_on(instance.enumerate_adapters(backends));
+        if let Some(s) = surface {
+            adapters.retain(|a| a.is_surface_supported(s));
+        }
+        adapters.sort_by_key(|a| rank(&a.get_info(), pref));
+        let adapter = adapters
+            .into_iter()
+            .next()
+            .ok_or_else(|| KamiError::NoAdapter {
+                backend_note: match std::env::var("KAMI_BACKEND") {
+                    Ok(b) if !b.is_empty() => format!(" for KAMI_BACKEND={b}"),
+                    _ => String::new(),
+                },
+            })?;
+        let info = adapter.get_info();
+        let downlevel = adapter.get_downlevel_capabilities();
+        if !downlevel
+            .flags
+            .contains(wgpu::DownlevelFlags::COMPUTE_SHADERS)
+            || !downlevel
+                .flags
+                .contains(wgpu::DownlevelFlags::VERTEX_STORAGE)
+        {
+            return Err(KamiError::Device(format!(
+                "adapter {} ({:?}) lacks compute shaders or storage buffers in vertex shaders, \
+                 which Kami needs; try KAMI_BACKEND=vulkan",
+                info.name, info.backend
+            )));
+        }
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("kami device"),
+            required_features: wgpu::Features::empty(),
+            required_limits: adapter.limits(),
+            experimental_features: wgpu::ExperimentalFeatures::disabled(),
+            memory_hints: wgpu::MemoryHints::Performance,
+            trace: wgpu::Trace::Off,
+        }))
+        .map_err(|e| KamiError::Device(e.to_string()))?;
+        let errors = Arc::new(Mutex::new(Vec::new()));
+        let sink = errors.clone();
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            log::error!("wgpu: {e}");
+            sink.lock().unwrap().push(e.to_string());
+        }));
+        log::info!(
+            "adapter: {} ({:?}, {:?})",
+            info.name,
+            info.backend,
+            info.device_type
+        );
+        Ok(Gpu {
+            instance,
+            adapter,
+            device,
+            queue,
+            info,
+            errors,
+        })
+    }
+
+    /// "llvmpipe (Vulkan)".
+    pub fn describe(&self) -> String {
+        format!("{} ({:?})", self.info.name, self.info.backend)
+    }
+
+    /// Block until all submitted work is done.
+    pub fn wait(&self) -> Result<()> {
+        self.device
+            .poll(wgpu::PollType::Wait {
+                submission_index: None,
+                timeout: Some(std::time::Duration::from_secs(600)),
+            })
+            .map(|_| ())
+            .map_err(|e| KamiError::Gpu(format!("waiting for the GPU: {e}")))
+    }
+
+    /// The first uncaptured GPU error since the last call, as an error.
+    pub fn take_error(&self) -> Result<()> {
+        let mut e = self.errors.lock().unwrap();
+        if e.is_empty() {
+            Ok(())
+        } else {
+            let first = e.remove(0);
+            e.clear();
+            Err(KamiError::Gpu(first))
+        }
+    }
+
+    /// Check that a storage buffer of `bytes` fits this adapter.
+    pub fn check_storage_size(&self, what: &str, bytes: u64) -> Result<()> {
+        let lim = self.device.limits();
+        let limit = (lim.max_storage_buffer_binding_size).min(lim.max_buffer_size);
+        if bytes > limit {
+            return Err(KamiError::TooLarge {
+                what: what.to_string(),
+                needed: bytes,
+                limit,
+                hint: "use fewer hairs or segments".into(),
+            });
+        }
+        Ok(())
+    }
+
+    /// Check a texture side against the adapter.
+    pub fn check_texture_size(&self, what: &str, side: u32) -> Result<()> {
+        let limit = self.device.limits().max_texture_dimension_2d;
+        if side > limit {
+            return Err(KamiError::TooLarge {
+                what: what.to_string(),
+                needed: side as u64,
+                limit: limit as u64,
+                hint: "lower the image size or render.supersample".into(),
+            });
+        }
+        Ok(())
+    }
+
+    /// Workgroup counts (x, y) covering `n` invocations of `size` each, folding into y when
+    /// x would pass the adapter's per-dimension limit. Kernels recover the linear index as
+    /// `id.x + id.y * x * size`.
+    pub fn dispatch_dims(&self, n: u32, size: u32) -> Result<(u32, u32)> {
+        let groups = n.div_ceil(size).max(1);
+        let max = self.device.limits().max_compute_workgroups_per_dimension;
+        let x = groups.min(max);
+        let y = groups.div_ceil(x);
+        if y > max {
+            return Err(KamiError::TooLarge {
+                what: "compute dispatch".into(),
+                needed: n as u64,
+                limit: max as u64 * max as u64 * size as u64,
+                hint: "use fewer hairs".into(),
+            });
+        }
+        Ok((x, y))
+    }
+}
+
+/// Compile a WGSL module, turning validation errors into `KamiError::Gpu`.
+pub fn shader_module(
+    device: &wgpu::Device,
+    label: &str,
+    source: &str,
+) -> Result<wgpu::ShaderModule> {
+    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(label),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    });
+    if let Some(e) = pollster::block_on(scope.pop()) {
+        return Err(KamiError::Gpu(format!("shader {label}: {e}")));
+    }
+    Ok(module)
+}
+
+/// Create a storage buffer with contents (never empty: wgpu bindings need a size).
+pub fn storage_buffer(
+    device: &wgpu::Device,
+    label: &str,
+    data: &[u8],
+    extra: wgpu::BufferUsages,
+) -> wgpu::Buffer {
+    use wgpu::util::DeviceExt;
+    let placeholder = [0u8; 16];
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents: if data.is_empty() { &placeholder } else { data },
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST | extra,
+    })
+}
+
+/// Bind group layout entry for a storage buffer.
+pub fn storage_entry(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+    read_only: bool,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+/// Bind group layout entry for a uniform buffer.
+pub fn uniform_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+/// Read a buffer back to the CPU (tests, benchmarks, screenshots; never in the frame loop).
+pub fn read_buffer<T: bytemuck::Pod>(gpu: &Gpu, src: &wgpu::Buffer, bytes: u64) -> Result<Vec<T>> {
+    let staging = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback staging"),
+        size: bytes,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let mut enc = gpu
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("readback"),
+        });
+    enc.copy_buffer_to_buffer(src, 0, &staging, 0, bytes);
+    gpu.queue.submit([enc.finish()]);
+    map_read(gpu, &staging)
+}
+
+/// Map a MAP_READ buffer and copy it out.
+pub fn map_read<T: bytemuck::Pod>(gpu: &Gpu, staging: &wgpu::Buffer) -> Result<Vec<T>> {
+    let (tx, rx) = std::sync::mpsc::channel();
+    staging.slice(..).map_async(wgpu::MapMode::Read, move |r| {
+        let _ = tx.send(r);
+    });
+    gpu.wait()?;
+    rx.recv()
+        .map_err(|_| KamiError::Gpu("readback was dropped".into()))?
+        .map_err(|e| KamiError::Gpu(format!("readback failed: {e}")))?;
+    let data = {
+        let view = staging
+            .slice(..)
+            .get_mapped_range()
+            .map_err(|e| KamiError::Gpu(format!("readback mapping: {e}")))?;
+        bytemuck::cast_slice::<u8, T>(&view).to_vec()
+    };
+    staging.unmap();
+    gpu.take_error()?;
+    Ok(data)
+}

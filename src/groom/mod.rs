@@ -1,0 +1,245 @@
+//! Grooming: rest shapes of hair, computed once per scene. `prepare` turns a scene into a
+//! deterministic table of roots (pores, initial directions, segment lengths, per-strand
+//! ambient) and resolved group parameters; the cantilever solver bends them (on the GPU in
+//! `cantilever::CantileverPass`, with `cantilever::bend_all` as the f64 reference).
+
+pub mod cantilever;
+pub mod elastica;
+
+use crate::rng::Rng;
+use crate::scene::{head::phi_in_range, Bending, CutRule, Direction, Ellipsoid, Load, Scene};
+use glam::DVec3;
+
+/// One hair's root, as drawn from the scene's seed.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StrandRoot {
+    pub pos: DVec3,
+    /// Unloaded direction at the pore (unit).
+    pub dir: DVec3,
+    /// Segment length d.
+    pub seg_len: f64,
+    pub group: u32,
+    /// Ambient coefficient k_a of this strand (Anjyo 4.1: normally distributed per strand).
+    pub ka: f64,
+    /// Bit i set: the group's cut i applies to this pore.
+    pub cut_mask: u32,
+}
+
+/// A load resolved to world vectors: a field and the half-spaces it is limited to.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ResolvedLoad {
+    pub field: LoadField,
+    /// `(unit normal n, offset o)`: the load acts where `dot(n, p) >= o` for all of them.
+    pub planes: Vec<(DVec3, f64)>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LoadField {
+    Uniform(DVec3),
+    Toward { point: DVec3, strength: f64 },
+}
+
+impl ResolvedLoad {
+    /// Force per unit length at `p`.
+    pub fn at(&self, p: DVec3) -> DVec3 {
+        if self.planes.iter().any(|(n, o)| n.dot(p) < *o) {
+            return DVec3::ZERO;
+        }
+        match self.field {
+            LoadField::Uniform(f) => f,
+            LoadField::Toward { point, strength } => (point - p).normalize_or_zero() * strength,
+        }
+    }
+}
+
+/// Bending mode with its numbers.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BendMode {
+    Paper,
+    Converged { max_iterations: u32, tolerance: f64 },
+}
+
+impl From<&Bending> for BendMode {
+    fn from(b: &Bending) -> Self {
+        match b {
+            Bending::Paper => BendMode::Paper,
+            Bending::Converged {
+                max_iterations,
+                tolerance,
+            } => BendMode::Converged {
+                max_iterations: *max_iterations,
+                tolerance: *tolerance,
+            },
+        }
+    }
+}
+
+/// Per-group parameters the solver needs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GroupParams {
+    pub segments: u32,
+    pub rigidity: f64,
+    pub mode: BendMode,
+    /// Gravity plus the group's combing loads.
+    pub loads: Vec<ResolvedLoad>,
+    pub cuts: Vec<CutRule>,
+    /// Index of the group's first strand; its strands are contiguous.
+    pub first_strand: u32,
+    pub strand_count: u32,
+}
+
+impl GroupParams {
+    /// Total load per unit length at `p`.
+    pub fn load_at(&self, p: DVec3) -> DVec3 {
+        self.loads.iter().map(|l| l.at(p)).sum()
+    }
+}
+
+/// Everything the cantilever solver reads.
+#[derive(Clone, Debug)]
+pub struct GroomInput {
+    pub head: Ellipsoid,
+    pub roots: Vec<StrandRoot>,
+    pub groups: Vec<GroupParams>,
+}
+
+impl GroomInput {
+    /// Index of each strand's first node in the shared vertex array (one per strand, plus
+    /// the total at the end).
+    pub fn vertex_offsets(&self) -> Vec<u32> {
+        let mut off = Vec::with_capacity(self.roots.len() + 1);
+        let mut acc = 0u32;
+        for r in &self.roots {
+            off.push(acc);
+            acc += self.groups[r.group as usize].segments + 1;
+        }
+        off.push(acc);
+        off
+    }
+
+    pub fn total_vertices(&self) -> u64 {
+        self.roots
+            .iter()
+            .map(|r| self.groups[r.group as usize].segments as u64 + 1)
+            .sum()
+    }
+}
+
+/// Draw the roots of every group from the scene's seed. Pores are uniform by area on the
+/// hull's polar patch (uniform on the sphere, then rejection by the ellipsoid's area
+/// element), so density does not bunch at the poles.
+pub fn prepare(scene: &Scene) -> GroomInput {
+    let head = scene.head_ellipsoid();
+    let gravity = ResolvedLoad {
+        field: LoadField::Uniform(DVec3::from(scene.gravity)),
+        planes: vec![],
+    };
+    let mut roots = Vec::new();
+    let mut groups = Vec::new();
+    for (gi, g) in scene.groups.iter().enumerate() {
+        let hull = g
+            .roots
+            .on
+            .as_ref()
+            .map(|e| Ellipsoid::new(e.center, e.radii))
+            .unwrap_or(head);
+        let mut rng = Rng::new(scene.seed, gi as u64 + 1);
+        let first = roots.len() as u32;
+        let (t0, t1) = (g.roots.theta.0.to_radians(), g.roots.theta.1.to_radians());
+        let (p0, p1) = (g.roots.phi.0.to_radians(), g.roots.phi.1.to_radians());
+        let amax = hull.area_factor_max();
+        for _ in 0..g.count {
+            let (theta, phi) = loop {
+                let ct = rng.range(t1.cos(), t0.cos());
+                let phi = rng.range(p0, p1);
+                let theta = ct.clamp(-1.0, 1.0).acos();
+                if rng.uniform() * amax <= hull.area_factor(theta, phi) {
+                    break (theta, phi);
+                }
+            };
+            let pos = hull.point(theta, phi);
+            let n = hull.normal(pos);
+            let dir = match &g.direction {
+                Direction::Normal => n,
+                Direction::Blend { dir, weight } => {
+                    let b = (1.0 - weight) * n + weight * DVec3::from(*dir).normalize();
+                    b.normalize_or(n)
+                }
+            };
+            let dir = if g.direction_jitter > 0.0 {
+                // Uniform in a cone of half-angle `direction_jitter` about `dir`.
+                let cmax = g.direction_jitter.to_radians().cos();
+                let ct = rng.range(cmax, 1.0);
+                let st = (1.0 - ct * ct).max(0.0).sqrt();
+                let a = rng.range(0.0, std::f64::consts::TAU);
+                let u = dir.any_orthonormal_vector();
+                let v = dir.cross(u);
+                let tilted = ct * dir + st * (a.cos() * u + a.sin() * v);
+                // Never into the hull.
+                if tilted.dot(n) > 0.05 {
+                    tilted
+                } else {
+                    dir
+                }
+            } else {
+                dir
+            };
+            let len = g.length * (1.0 + g.length_jitter * (2.0 * rng.uniform() - 1.0));
+            let ka = (g.material.ka + g.material.ka_spread * rng.normal()).max(0.0);
+            let (td, pd) = (theta.to_degrees(), phi.to_degrees());
+            let mut cut_mask = 0u32;
+            for (ci, c) in g.cuts.iter().enumerate() {
+                let in_theta = c.theta.is_none_or(|(a, b)| td >= a && td <= b);
+                let in_phi = c.phi.is_none_or(|r| phi_in_range(pd, r));
+                if in_theta && in_phi {
+                    cut_mask |= 1 << ci;
+                }
+            }
+            roots.push(StrandRoot {
+                pos,
+                dir,
+                seg_len: len / g.segments as f64,
+                group: gi as u32,
+                ka,
+                cut_mask,
+            });
+        }
+        let mut loads = vec![gravity.clone()];
+        loads.extend(g.loads.iter().map(resolve_load));
+        groups.push(GroupParams {
+            segments: g.segments,
+            rigidity: g.rigidity,
+            mode: BendMode::from(&g.bending),
+            loads,
+            cuts: g.cuts.iter().map(|c| c.rule.clone()).collect(),
+            first_strand: first,
+            strand_count: g.count,
+        });
+    }
+    GroomInput {
+        head,
+        roots,
+        groups,
+    }
+}
+
+fn resolve_load(l: &Load) -> ResolvedLoad {
+    let planes = l
+        .region()
+        .iter()
+        .map(|r| {
+            let (n, o) = r.plane();
+            (DVec3::from(n), o)
+        })
+        .collect();
+    let field = match l {
+        Load::Uniform { force, .. } => LoadField::Uniform(DVec3::from(*force)),
+        Load::Toward {
+            point, strength, ..
+        } => LoadField::Toward {
+            point: DVec3::from(*point),
+            strength: *strength,
+        },
+    };
+    ResolvedLoad { field, planes }
+}

@@ -1,0 +1,187 @@
+//! The head: the collision ellipsoid drawn as a lit mesh (a unit UV sphere scaled by the
+//! radii), z-buffered with the hair.
+
+use crate::error::Result;
+use crate::gpu::gpu_data::{linear_rgb, GpuHead};
+use crate::gpu::{self, Gpu};
+use crate::scene::Ellipsoid;
+use glam::{DMat4, Mat4};
+use wgpu::util::DeviceExt;
+
+const RINGS: u32 = 48;
+const SECTORS: u32 = 96;
+
+pub struct HeadPass {
+    module: wgpu::ShaderModule,
+    pipeline_layout: wgpu::PipelineLayout,
+    format: wgpu::TextureFormat,
+    pipeline: wgpu::RenderPipeline,
+    vertices: wgpu::Buffer,
+    indices: wgpu::Buffer,
+    index_count: u32,
+    uniform: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+}
+
+impl HeadPass {
+    /// `frame_layout` is the shared group 0 (frame uniform).
+    pub fn new(
+        gpu: &Gpu,
+        frame_layout: &wgpu::BindGroupLayout,
+        color_format: wgpu::TextureFormat,
+        samples: u32,
+    ) -> Result<HeadPass> {
+        let device = &gpu.device;
+        let module = gpu::shader_module(device, "head", crate::shaders::HEAD)?;
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("head"),
+            entries: &[gpu::uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT)],
+        });
+        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("head"),
+            bind_group_layouts: &[Some(frame_layout), Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = Self::pipeline(device, &module, &pl, color_format, samples);
+        let (verts, idx) = unit_sphere();
+        let vertices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("head vertices"),
+            contents: bytemuck::cast_slice(&verts),
+            usage: wgpu::BufferUsages::VERTEX,
+        });
+        let indices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("head indices"),
+            contents: bytemuck::cast_slice(&idx),
+            usage: wgpu::BufferUsages::INDEX,
+        });
+        let uniform = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("head uniform"),
+            size: std::mem::size_of::<GpuHead>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("head"),
+            layout: &layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: uniform.as_entire_binding(),
+            }],
+        });
+        Ok(HeadPass {
+            module,
+            pipeline_layout: pl,
+            format: color_format,
+            pipeline,
+            vertices,
+            indices,
+            index_count: idx.len() as u32,
+            uniform,
+            bind_group,
+        })
+    }
+
+    /// Rebuild the pipeline for another MSAA sample count.
+    pub fn set_samples(&mut self, gpu: &Gpu, samples: u32) {
+        self.pipeline = Self::pipeline(
+            &gpu.device,
+            &self.module,
+            &self.pipeline_layout,
+            self.format,
+            samples,
+        );
+    }
+
+    fn pipeline(
+        device: &wgpu::Device,
+        module: &wgpu::ShaderModule,
+        pl: &wgpu::PipelineLayout,
+        color_format: wgpu::TextureFormat,
+        samples: u32,
+    ) -> wgpu::RenderPipeline {
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("head"),
+            layout: Some(pl),
+            vertex: wgpu::VertexState {
+                module: module,
+                entry_point: Some("vs"),
+                compilation_options: Default::default(),
+                buffers: &[Some(wgpu::VertexBufferLayout {
+                    array_stride: 12,
+                    step_mode: wgpu::VertexStepMode::Vertex,
+                    attributes: &wgpu::vertex_attr_array![0 => Float32x3],
+                })],
+            },
+            primitive: wgpu::PrimitiveState {
+                cull_mode: Some(wgpu::Face::Back),
+                ..Default::default()
+            },
+            depth_stencil: Some(super::depth_state(true)),
+            multisample: wgpu::MultisampleState {
+                count: samples,
+                ..Default::default()
+            },
+            fragment: Some(wgpu::FragmentState {
+                module: module,
+                entry_point: Some("fs"),
+                compilation_options: Default::default(),
+                targets: &[Some(color_format.into())],
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+    }
+
+    /// Set the ellipsoid (and its pose) and colour.
+    pub fn prepare(&self, queue: &wgpu::Queue, hull: &Ellipsoid, pose: DMat4, color: [f32; 3]) {
+        let model: Mat4 =
+            (pose * DMat4::from_translation(hull.center) * DMat4::from_scale(hull.radii)).as_mat4();
+        let c = linear_rgb(color);
+        let r2 = hull.radii * hull.radii;
+        let data = GpuHead {
+            model: model.to_cols_array_2d(),
+            color: [c[0], c[1], c[2], 1.0],
+            inv_radii2: [
+                (1.0 / r2.x) as f32,
+                (1.0 / r2.y) as f32,
+                (1.0 / r2.z) as f32,
+                0.0,
+            ],
+        };
+        queue.write_buffer(&self.uniform, 0, bytemuck::bytes_of(&data));
+    }
+
+    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>) {
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(1, &self.bind_group, &[]);
+        pass.set_vertex_buffer(0, self.vertices.slice(..));
+        pass.set_index_buffer(self.indices.slice(..), wgpu::IndexFormat::Uint32);
+        pass.draw_indexed(0..self.index_count, 0, 0..1);
+    }
+}
+
+/// Unit UV sphere, counter-clockwise seen from outside.
+fn unit_sphere() -> (Vec<[f32; 3]>, Vec<u32>) {
+    let mut v = Vec::new();
+    for r in 0..=RINGS {
+        let theta = std::f32::consts::PI * r as f32 / RINGS as f32;
+        for s in 0..=SECTORS {
+            let phi = std::f32::consts::TAU * s as f32 / SECTORS as f32;
+            v.push([
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin(),
+            ]);
+        }
+    }
+    let mut idx = Vec::new();
+    let row = SECTORS + 1;
+    for r in 0..RINGS {
+        for s in 0..SECTORS {
+            let a = r * row + s;
+            let b = a + row;
+            idx.extend_from_slice(&[a, a + 1, b, a + 1, b + 1, b]);
+        }
+    }
+    (v, idx)
+}

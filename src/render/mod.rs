@@ -1,0 +1,277 @@
+//! Render passes and the `Renderer` that runs them. One code path serves the window and the
+//! headless renders: `Renderer::render` draws into any `TextureView` of the output format.
+//!
+//! Per frame: the head and the hair are drawn z-buffered into supersampled, multisampled
+//! scene buffers (`target::SceneTargets`), then averaged down into the output.
+
+pub mod camera;
+pub mod head;
+pub mod strands;
+pub mod target;
+
+use crate::error::Result;
+use crate::gpu::gpu_data::{linear_rgb, GpuFrame, GpuMaterial};
+use crate::gpu::strands::StrandBuffers;
+use crate::gpu::{self, Gpu};
+use crate::scene::{Ellipsoid, Light, Scene};
+use camera::Camera;
+use glam::{DMat4, DVec3};
+use target::{DownsamplePass, SceneTargets};
+
+/// Depth test shared by the scene passes.
+pub fn depth_state(write: bool) -> wgpu::DepthStencilState {
+    wgpu::DepthStencilState {
+        format: target::DEPTH_FORMAT,
+        depth_write_enabled: Some(write),
+        depth_compare: Some(wgpu::CompareFunction::Less),
+        stencil: Default::default(),
+        bias: Default::default(),
+    }
+}
+
+/// Anti-aliasing settings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Quality {
+    /// MSAA samples: 1 or 4.
+    pub msaa: u32,
+    /// Supersampling factor per axis, 1..=4.
+    pub supersample: u32,
+}
+
+/// Everything a frame shows besides the hair.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameView {
+    pub camera: Camera,
+    pub light: Light,
+    pub background: [f32; 3],
+    /// The head hull, its pose and skin colour; `None` hides it.
+    pub head: Option<(Ellipsoid, DMat4, [f32; 3])>,
+    /// A sphere holding the whole scene (for the clip planes).
+    pub bounds: (DVec3, f64),
+    /// Narrowest strand drawn, in samples.
+    pub min_width: f64,
+}
+
+impl FrameView {
+    pub fn from_scene(scene: &Scene) -> FrameView {
+        FrameView {
+            camera: Camera::from_desc(&scene.camera),
+            light: scene.light.clone(),
+            background: scene.render.background,
+            head: scene
+                .head
+                .visible
+                .then(|| (scene.head_ellipsoid(), DMat4::IDENTITY, scene.head.color)),
+            bounds: scene_bounds(scene),
+            min_width: scene.render.min_width,
+        }
+    }
+}
+
+/// A sphere around the head and the longest possible hair of every group.
+pub fn scene_bounds(scene: &Scene) -> (DVec3, f64) {
+    let c = DVec3::from(scene.head.center);
+    let head_r = scene.head.radii.iter().cloned().fold(0.0, f64::max);
+    let mut r = head_r;
+    for g in &scene.groups {
+        let (hc, hr) = match &g.roots.on {
+            Some(e) => (
+                DVec3::from(e.center),
+                e.radii.iter().cloned().fold(0.0, f64::max),
+            ),
+            None => (c, head_r),
+        };
+        let reach = (hc - c).length() + hr + g.length * (1.0 + g.length_jitter);
+        r = r.max(reach);
+    }
+    (c, r)
+}
+
+/// Group materials of a scene, in group order.
+pub fn materials(scene: &Scene) -> Vec<GpuMaterial> {
+    scene
+        .groups
+        .iter()
+        .map(|g| GpuMaterial::from_material(&g.material))
+        .collect()
+}
+
+pub struct Renderer {
+    pub quality: Quality,
+    frame_buffer: wgpu::Buffer,
+    frame_bind_group: wgpu::BindGroup,
+    head: head::HeadPass,
+    strands: strands::StrandsPass,
+    downsample: DownsamplePass,
+    targets: Option<(SceneTargets, wgpu::BindGroup)>,
+}
+
+impl Renderer {
+    pub fn new(
+        gpu: &Gpu,
+        output_format: wgpu::TextureFormat,
+        quality: Quality,
+    ) -> Result<Renderer> {
+        let device = &gpu.device;
+        let frame_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("frame"),
+            entries: &[gpu::uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT)],
+        });
+        let frame_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("frame uniform"),
+            size: std::mem::size_of::<GpuFrame>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let frame_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("frame"),
+            layout: &frame_layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: frame_buffer.as_entire_binding(),
+            }],
+        });
+        let fmt = target::SCENE_FORMAT;
+        Ok(Renderer {
+            quality,
+            head: head::HeadPass::new(gpu, &frame_layout, fmt, quality.msaa)?,
+            strands: strands::StrandsPass::new(gpu, &frame_layout, fmt, quality.msaa)?,
+            downsample: DownsamplePass::new(gpu, output_format)?,
+            frame_buffer,
+            frame_bind_group,
+            targets: None,
+        })
+    }
+
+    /// Change anti-aliasing; pipelines and targets are rebuilt only when needed.
+    pub fn set_quality(&mut self, gpu: &Gpu, quality: Quality) {
+        if quality.msaa != self.quality.msaa {
+            self.head.set_samples(gpu, quality.msaa);
+            self.strands.set_samples(gpu, quality.msaa);
+        }
+        if quality != self.quality {
+            self.targets = None;
+        }
+        self.quality = quality;
+    }
+
+    /// Draw this hair from now on.
+    pub fn set_hair(&mut self, gpu: &Gpu, hair: &StrandBuffers, materials: &[GpuMaterial]) {
+        self.strands.set_hair(gpu, hair, materials);
+    }
+
+    pub fn update_materials(&self, gpu: &Gpu, materials: &[GpuMaterial]) {
+        self.strands.update_materials(&gpu.queue, materials);
+    }
+
+    /// Record a frame into `output` (of the output format, `size` pixels).
+    pub fn render(
+        &mut self,
+        gpu: &Gpu,
+        enc: &mut wgpu::CommandEncoder,
+        output: &wgpu::TextureView,
+        size: (u32, u32),
+        view: &FrameView,
+    ) -> Result<()> {
+        let stale = self
+            .targets
+            .as_ref()
+            .is_none_or(|(t, _)| t.output_size != size);
+        if stale {
+            let t = SceneTargets::new(gpu, size, self.quality.msaa, self.quality.supersample)?;
+            let bg = self.downsample.bind(gpu, &t);
+            self.targets = Some((t, bg));
+        }
+        let (targets, down_bg) = self.targets.as_ref().unwrap();
+        gpu.queue.write_buffer(
+            &self.frame_buffer,
+            0,
+            bytemuck::bytes_of(&frame_uniform(view, targets.size)),
+        );
+        if let Some((hull, pose, color)) = &view.head {
+            self.head.prepare(&gpu.queue, hull, *pose, *color);
+        }
+        let bg = linear_rgb(view.background);
+        {
+            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("scene"),
+                color_attachments: &[Some(targets.color_attachment(wgpu::Color {
+                    r: bg[0] as f64,
+                    g: bg[1] as f64,
+                    b: bg[2] as f64,
+                    a: 1.0,
+                }))],
+                depth_stencil_attachment: Some(targets.depth_attachment()),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_bind_group(0, &self.frame_bind_group, &[]);
+            if view.head.is_some() {
+                self.head.draw(&mut pass);
+            }
+            self.strands.draw(&mut pass);
+        }
+        self.downsample.draw(enc, down_bg, output);
+        Ok(())
+    }
+}
+
+/// The frame uniform for a target of `size` samples.
+pub fn frame_uniform(view: &FrameView, size: (u32, u32)) -> GpuFrame {
+    let cam = &view.camera;
+    let (near, far) = cam.clip_planes(view.bounds.0, view.bounds.1);
+    let vp = cam.view_proj(size.0 as f64 / size.1 as f64, near, far);
+    let l = DVec3::from(view.light.direction).normalize();
+    GpuFrame {
+        view_proj: vp.to_cols_array_2d(),
+        eye: [cam.eye.x as f32, cam.eye.y as f32, cam.eye.z as f32, 1.0],
+        light_dir: [
+            l.x as f32,
+            l.y as f32,
+            l.z as f32,
+            view.light.intensity as f32,
+        ],
+        light_color: [
+            view.light.color[0],
+            view.light.color[1],
+            view.light.color[2],
+            view.light.ambient as f32,
+        ],
+        viewport: [
+            size.0 as f32,
+            size.1 as f32,
+            1.0 / size.0 as f32,
+            1.0 / size.1 as f32,
+        ],
+        raster: [cam.focal_px(size.1) as f32, view.min_width as f32, 0.0, 0.0],
+    }
+}
+
+/// Groom a scene on the GPU and render it offscreen: the CLI's `render` and the snapshot
+/// tests go through here.
+pub fn render_scene(gpu: &Gpu, scene: &Scene, size: (u32, u32)) -> Result<image::RgbaImage> {
+    let input = crate::groom::prepare(scene);
+    let hair = crate::groom::cantilever::groom_gpu(gpu, &input)?;
+    let quality = Quality {
+        msaa: scene.render.msaa,
+        supersample: scene.render.supersample,
+    };
+    let mut renderer = Renderer::new(gpu, target::OUTPUT_FORMAT, quality)?;
+    renderer.set_hair(gpu, &hair, &materials(scene));
+    let out = target::Offscreen::new(gpu, size)?;
+    let mut enc = gpu
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("render"),
+        });
+    renderer.render(
+        gpu,
+        &mut enc,
+        &out.view,
+        size,
+        &FrameView::from_scene(scene),
+    )?;
+    gpu.queue.submit([enc.finish()]);
+    out.read_rgba(gpu)
+}

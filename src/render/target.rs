@@ -1,0 +1,316 @@
+//! Render targets: the scene is drawn at `supersample` times the output size into a
+//! multisampled colour buffer (a render-attachment-only texture: on the GL backend a
+//! multisampled texture that is also bindable reads back as zeros), resolved, then averaged
+//! down by `DownsamplePass` into whatever the caller draws to — a window's surface or an
+//! offscreen texture that `read_rgba` copies back.
+
+use crate::error::{KamiError, Result};
+use crate::gpu::{self, Gpu};
+
+/// Format of the internal scene buffers: linear values stored as sRGB, so resolving and
+/// averaging happen in linear light.
+pub const SCENE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// The supersampled, multisampled scene buffers for one output size.
+pub struct SceneTargets {
+    pub output_size: (u32, u32),
+    pub size: (u32, u32),
+    pub samples: u32,
+    pub factor: u32,
+    msaa: Option<wgpu::TextureView>,
+    pub resolved: wgpu::TextureView,
+    pub depth: wgpu::TextureView,
+}
+
+impl SceneTargets {
+    pub fn new(
+        gpu: &Gpu,
+        output_size: (u32, u32),
+        samples: u32,
+        factor: u32,
+    ) -> Result<SceneTargets> {
+        let size = (output_size.0 * factor, output_size.1 * factor);
+        gpu.check_texture_size("the supersampled scene width", size.0)?;
+        gpu.check_texture_size("the supersampled scene height", size.1)?;
+        let extent = wgpu::Extent3d {
+            width: size.0,
+            height: size.1,
+            depth_or_array_layers: 1,
+        };
+        let tex = |label: &str, format, sample_count, usage| {
+            gpu.device
+                .create_texture(&wgpu::TextureDescriptor {
+                    label: Some(label),
+                    size: extent,
+                    mip_level_count: 1,
+                    sample_count,
+                    dimension: wgpu::TextureDimension::D2,
+                    format,
+                    usage,
+                    view_formats: &[],
+                })
+                .create_view(&Default::default())
+        };
+        let msaa = (samples > 1).then(|| {
+            tex(
+                "scene msaa",
+                SCENE_FORMAT,
+                samples,
+                wgpu::TextureUsages::RENDER_ATTACHMENT,
+            )
+        });
+        let resolved = tex(
+            "scene resolved",
+            SCENE_FORMAT,
+            1,
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+        );
+        let depth = tex(
+            "scene depth",
+            DEPTH_FORMAT,
+            samples,
+            wgpu::TextureUsages::RENDER_ATTACHMENT,
+        );
+        Ok(SceneTargets {
+            output_size,
+            size,
+            samples,
+            factor,
+            msaa,
+            resolved,
+            depth,
+        })
+    }
+
+    /// Colour attachment that clears to `clear` and resolves MSAA into `resolved`.
+    pub fn color_attachment(&self, clear: wgpu::Color) -> wgpu::RenderPassColorAttachment<'_> {
+        let ops = wgpu::Operations {
+            load: wgpu::LoadOp::Clear(clear),
+            store: wgpu::StoreOp::Store,
+        };
+        match &self.msaa {
+            Some(m) => wgpu::RenderPassColorAttachment {
+                view: m,
+                depth_slice: None,
+                resolve_target: Some(&self.resolved),
+                ops: wgpu::Operations {
+                    load: ops.load,
+                    store: wgpu::StoreOp::Discard,
+                },
+            },
+            None => wgpu::RenderPassColorAttachment {
+                view: &self.resolved,
+                depth_slice: None,
+                resolve_target: None,
+                ops,
+            },
+        }
+    }
+
+    pub fn depth_attachment(&self) -> wgpu::RenderPassDepthStencilAttachment<'_> {
+        wgpu::RenderPassDepthStencilAttachment {
+            view: &self.depth,
+            depth_ops: Some(wgpu::Operations {
+                load: wgpu::LoadOp::Clear(1.0),
+                store: wgpu::StoreOp::Discard,
+            }),
+            stencil_ops: None,
+        }
+    }
+}
+
+/// Box-filter resolve of the supersampled scene into the output.
+pub struct DownsamplePass {
+    pipeline: wgpu::RenderPipeline,
+    layout: wgpu::BindGroupLayout,
+    uniform: wgpu::Buffer,
+}
+
+impl DownsamplePass {
+    pub fn new(gpu: &Gpu, output_format: wgpu::TextureFormat) -> Result<DownsamplePass> {
+        let device = &gpu.device;
+        let module = gpu::shader_module(device, "downsample", crate::shaders::DOWNSAMPLE)?;
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("downsample"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: wgpu::ShaderStages::FRAGMENT,
+                    ty: wgpu::BindingType::Texture {
+                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                        view_dimension: wgpu::TextureViewDimension::D2,
+                        multisampled: false,
+                    },
+                    count: None,
+                },
+                gpu::uniform_entry(1, wgpu::ShaderStages::FRAGMENT),
+            ],
+        });
+        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("downsample"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("downsample"),
+            layout: Some(&pl),
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: Default::default(),
+            depth_stencil: None,
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs"),
+                compilation_options: Default::default(),
+                targets: &[Some(output_format.into())],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let uniform = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("downsample uniform"),
+            size: 16,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        Ok(DownsamplePass {
+            pipeline,
+            layout,
+            uniform,
+        })
+    }
+
+    /// A bind group reading `targets` (rebuilt when the targets are).
+    pub fn bind(&self, gpu: &Gpu, targets: &SceneTargets) -> wgpu::BindGroup {
+        gpu.queue.write_buffer(
+            &self.uniform,
+            0,
+            bytemuck::cast_slice(&[targets.factor, 0, 0, 0]),
+        );
+        gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("downsample"),
+            layout: &self.layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::TextureView(&targets.resolved),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: self.uniform.as_entire_binding(),
+                },
+            ],
+        })
+    }
+
+    pub fn draw(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        bind_group: &wgpu::BindGroup,
+        output: &wgpu::TextureView,
+    ) {
+        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("downsample"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: output,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, bind_group, &[]);
+        pass.draw(0..3, 0..1);
+    }
+}
+
+/// An offscreen RGBA8 (sRGB) output texture that can be read back.
+pub struct Offscreen {
+    pub texture: wgpu::Texture,
+    pub view: wgpu::TextureView,
+    pub size: (u32, u32),
+}
+
+pub const OUTPUT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+
+impl Offscreen {
+    pub fn new(gpu: &Gpu, size: (u32, u32)) -> Result<Offscreen> {
+        gpu.check_texture_size("the image width", size.0)?;
+        gpu.check_texture_size("the image height", size.1)?;
+        let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("offscreen output"),
+            size: wgpu::Extent3d {
+                width: size.0,
+                height: size.1,
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: OUTPUT_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&Default::default());
+        Ok(Offscreen {
+            texture,
+            view,
+            size,
+        })
+    }
+
+    /// Copy the image back (tests, CLI renders, screenshots).
+    pub fn read_rgba(&self, gpu: &Gpu) -> Result<image::RgbaImage> {
+        let (w, h) = self.size;
+        let row = (w * 4).div_ceil(256) * 256;
+        let staging = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("image readback"),
+            size: row as u64 * h as u64,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
+        let mut enc = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("image readback"),
+            });
+        enc.copy_texture_to_buffer(
+            self.texture.as_image_copy(),
+            wgpu::TexelCopyBufferInfo {
+                buffer: &staging,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(row),
+                    rows_per_image: None,
+                },
+            },
+            wgpu::Extent3d {
+                width: w,
+                height: h,
+                depth_or_array_layers: 1,
+            },
+        );
+        gpu.queue.submit([enc.finish()]);
+        let bytes: Vec<u8> = gpu::map_read(gpu, &staging)?;
+        let mut out = Vec::with_capacity((w * h * 4) as usize);
+        for y in 0..h as usize {
+            let start = y * row as usize;
+            out.extend_from_slice(&bytes[start..start + w as usize * 4]);
+        }
+        image::RgbaImage::from_raw(w, h, out)
+            .ok_or_else(|| KamiError::Gpu("image size mismatch".into()))
+    }
+}

@@ -1,0 +1,465 @@
+//! Scene files: what to show. A scene is a RON file (`assets/scenes/*.ron`) naming the head
+//! ellipsoid, the hair groups with their pores, loads, cuts and looks, and the camera and
+//! light. `load` parses it and `validate` checks every number before anything reaches the GPU,
+//! so a bad file fails with the field, the value and the allowed range.
+//!
+//! Coordinates follow Anjyo's Fig. 5(a): the face looks along +x, y is up, z is to the
+//! head's left. Polar angles on an ellipsoid: the zenith `theta` is measured from +y (0 at
+//! the crown, 180 under the chin), the azimuth `phi` in the zx plane from +x (the face)
+//! towards +z, in degrees. Lengths are in centimetres by convention (any unit works: only
+//! ratios matter to the bending).
+
+pub(crate) mod head;
+mod validate;
+
+pub use head::Ellipsoid;
+pub use validate::{validate, MAX_SEGMENTS, MAX_SIZE, MAX_STRANDS};
+
+use crate::error::{KamiError, Result};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// A whole scene.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// Seed of every random draw (pores, lengths, per-strand ambient).
+    #[serde(default)]
+    pub seed: u64,
+    pub head: Head,
+    /// Weight of hair per unit length (a load, in the same units as `rigidity`).
+    #[serde(default = "default_gravity")]
+    pub gravity: [f64; 3],
+    pub groups: Vec<HairGroup>,
+    #[serde(default)]
+    pub camera: CameraDesc,
+    #[serde(default)]
+    pub light: Light,
+    #[serde(default)]
+    pub render: RenderSettings,
+}
+
+fn default_gravity() -> [f64; 3] {
+    [0.0, -1.0, 0.0]
+}
+
+/// The head: the ellipsoidal hull of Anjyo's step [alpha]. Pores lie on it and hair collides
+/// with it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Head {
+    #[serde(default)]
+    pub center: [f64; 3],
+    pub radii: [f64; 3],
+    /// Skin colour (sRGB, 0..1).
+    #[serde(default = "default_skin")]
+    pub color: [f32; 3],
+    /// Draw the ellipsoid (the collision hull is used either way).
+    #[serde(default = "yes")]
+    pub visible: bool,
+}
+
+fn default_skin() -> [f32; 3] {
+    [0.85, 0.66, 0.55]
+}
+
+fn yes() -> bool {
+    true
+}
+
+/// One separately designed part of a hairstyle (Anjyo designs the bob as halves, bangs and
+/// back; the ponytail as scalp hair plus tail).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HairGroup {
+    #[serde(default)]
+    pub name: String,
+    /// Where the pores are.
+    pub roots: Roots,
+    /// Number of hairs.
+    pub count: u32,
+    /// Segments per hair (k in the paper).
+    pub segments: u32,
+    /// Hair length (k * d).
+    pub length: f64,
+    /// Relative random variation of the length: each hair is `length * (1 + j*(2u-1))`.
+    #[serde(default)]
+    pub length_jitter: f64,
+    /// Initial (unloaded) direction at the pore.
+    #[serde(default)]
+    pub direction: Direction,
+    /// Random tilt of each hair's initial direction, degrees (uniform in a cone), so that
+    /// neighbouring hairs are not exactly parallel.
+    #[serde(default)]
+    pub direction_jitter: f64,
+    /// Flexural rigidity EI.
+    pub rigidity: f64,
+    #[serde(default)]
+    pub bending: Bending,
+    /// Combing forces added to gravity, per unit length, each limited to a region.
+    #[serde(default)]
+    pub loads: Vec<Load>,
+    /// Cutting: segments hidden after styling.
+    #[serde(default)]
+    pub cuts: Vec<Cut>,
+    #[serde(default)]
+    pub material: Material,
+}
+
+/// Pore region: a polar range on the head ellipsoid, or on another ellipsoid (a ponytail's
+/// tie, say). Angles in degrees; `phi` may run past 180 to wrap round the back.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Roots {
+    pub theta: (f64, f64),
+    pub phi: (f64, f64),
+    /// Pores on this ellipsoid instead of the head.
+    #[serde(default)]
+    pub on: Option<EllipsoidDesc>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EllipsoidDesc {
+    pub center: [f64; 3],
+    pub radii: [f64; 3],
+}
+
+/// The unloaded hair direction at the pore.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub enum Direction {
+    /// Along the hull normal: hair "stands radially" (Anjyo Fig. 4a).
+    #[default]
+    Normal,
+    /// The normal blended with a fixed direction: `normalize((1-w) n + w dir)`.
+    Blend { dir: [f64; 3], weight: f64 },
+}
+
+/// How the cantilever is bent.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub enum Bending {
+    /// Anjyo's eqs 1-3: one root-to-tip pass, moments from straight-beam lever arms.
+    #[default]
+    Paper,
+    /// True lever arms from the deformed shape, iterated to a fixed point; converges to the
+    /// large-deflection elastica.
+    Converged {
+        #[serde(default = "default_iterations")]
+        max_iterations: u32,
+        #[serde(default = "default_tolerance")]
+        tolerance: f64,
+    },
+}
+
+fn default_iterations() -> u32 {
+    400
+}
+
+fn default_tolerance() -> f64 {
+    1e-5
+}
+
+/// A combing force per unit length, applied to segments inside all of its regions.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Load {
+    /// The same force everywhere in the region.
+    Uniform {
+        force: [f64; 3],
+        #[serde(default)]
+        region: Vec<Region>,
+    },
+    /// A force of magnitude `strength` pointing at `point` (tying hair up).
+    Toward {
+        point: [f64; 3],
+        strength: f64,
+        #[serde(default)]
+        region: Vec<Region>,
+    },
+}
+
+impl Load {
+    pub fn region(&self) -> &[Region] {
+        match self {
+            Load::Uniform { region, .. } | Load::Toward { region, .. } => region,
+        }
+    }
+}
+
+/// A half-space. `Above(y)` is the paper's "higher than the eyes"; `HalfSpace` the
+/// "positive z region" (normal (0,0,1), offset 0).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Region {
+    Above(f64),
+    Below(f64),
+    /// Points with `dot(normal, p) >= offset`.
+    HalfSpace {
+        normal: [f64; 3],
+        offset: f64,
+    },
+}
+
+impl Region {
+    /// (unit normal, offset) with the region being `dot(n, p) >= offset`.
+    pub fn plane(&self) -> ([f64; 3], f64) {
+        match self {
+            Region::Above(y) => ([0.0, 1.0, 0.0], *y),
+            Region::Below(y) => ([0.0, -1.0, 0.0], -*y),
+            Region::HalfSpace { normal, offset } => {
+                let l =
+                    (normal[0] * normal[0] + normal[1] * normal[1] + normal[2] * normal[2]).sqrt();
+                ([normal[0] / l, normal[1] / l, normal[2] / l], offset / l)
+            }
+        }
+    }
+}
+
+/// Cutting (Anjyo 2.2): for hairs whose pores are in the polar range, segments are hidden
+/// from the first node that breaks the rule on (the drawn hair is a prefix of the bent one).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Cut {
+    /// Pore zenith range (degrees); all when absent.
+    #[serde(default)]
+    pub theta: Option<(f64, f64)>,
+    /// Pore azimuth range (degrees); all when absent.
+    #[serde(default)]
+    pub phi: Option<(f64, f64)>,
+    pub rule: CutRule,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum CutRule {
+    /// Hide nodes lower than `y` (the paper's threshold along the vertical).
+    Below(f64),
+    /// Keep a number of segments that depends on the pore height (Fig. 6d): `low.1` segments
+    /// for pores at height `low.0` or below, `high.1` at `high.0` or above, linear between.
+    ByPoreHeight { low: (f64, u32), high: (f64, u32) },
+    /// Hide nodes closer than `radius` to `center` (hair gathered into a tie).
+    Near { center: [f64; 3], radius: f64 },
+}
+
+/// Look of a group: Anjyo's eqs 8-9 plus width.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Material {
+    /// Hair colour (sRGB, 0..1), scaled by the per-strand ambient coefficient.
+    #[serde(default = "default_hair")]
+    pub color: [f32; 3],
+    /// Mean of the ambient coefficient k_a.
+    #[serde(default = "one")]
+    pub ka: f64,
+    /// Standard deviation of k_a between strands (normal distribution, Anjyo 4.1).
+    #[serde(default = "default_ka_spread")]
+    pub ka_spread: f64,
+    /// Specular coefficient k_s.
+    #[serde(default = "default_ks")]
+    pub ks: f64,
+    /// Specular exponent n.
+    #[serde(default = "default_shininess")]
+    pub shininess: f64,
+    /// Diffuse (Kajiya–Kay) coefficient; the paper neglects it (0).
+    #[serde(default)]
+    pub kd: f64,
+    /// Strand width at the root, world units.
+    #[serde(default = "default_width")]
+    pub width: f64,
+    /// Width at the tip relative to the root.
+    #[serde(default = "default_tip")]
+    pub tip_width: f64,
+}
+
+fn default_hair() -> [f32; 3] {
+    [0.16, 0.09, 0.05]
+}
+fn one() -> f64 {
+    1.0
+}
+fn default_ka_spread() -> f64 {
+    0.15
+}
+fn default_ks() -> f64 {
+    0.25
+}
+fn default_shininess() -> f64 {
+    150.0
+}
+fn default_width() -> f64 {
+    0.012
+}
+fn default_tip() -> f64 {
+    0.6
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Material {
+            color: default_hair(),
+            ka: one(),
+            ka_spread: default_ka_spread(),
+            ks: default_ks(),
+            shininess: default_shininess(),
+            kd: 0.0,
+            width: default_width(),
+            tip_width: default_tip(),
+        }
+    }
+}
+
+/// A perspective camera.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraDesc {
+    pub eye: [f64; 3],
+    pub target: [f64; 3],
+    #[serde(default = "up")]
+    pub up: [f64; 3],
+    /// Vertical field of view, degrees.
+    #[serde(default = "default_fov")]
+    pub fov_y: f64,
+}
+
+fn up() -> [f64; 3] {
+    [0.0, 1.0, 0.0]
+}
+fn default_fov() -> f64 {
+    35.0
+}
+
+impl Default for CameraDesc {
+    fn default() -> Self {
+        CameraDesc {
+            eye: [55.0, 12.0, 40.0],
+            target: [0.0, 0.0, 0.0],
+            up: up(),
+            fov_y: default_fov(),
+        }
+    }
+}
+
+/// One directional light plus ambient (Anjyo eq 9: I = I_a k_a + I_s Phi_s).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Light {
+    /// Direction towards the light.
+    pub direction: [f64; 3],
+    /// I_s.
+    #[serde(default = "one")]
+    pub intensity: f64,
+    /// I_a.
+    #[serde(default = "default_ambient")]
+    pub ambient: f64,
+    #[serde(default = "white")]
+    pub color: [f32; 3],
+}
+
+fn default_ambient() -> f64 {
+    0.9
+}
+fn white() -> [f32; 3] {
+    [1.0, 1.0, 1.0]
+}
+
+impl Default for Light {
+    fn default() -> Self {
+        Light {
+            direction: [0.6, 0.8, 0.5],
+            intensity: one(),
+            ambient: default_ambient(),
+            color: white(),
+        }
+    }
+}
+
+/// Image settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RenderSettings {
+    /// Default image size (the CLI's `--size` overrides it).
+    #[serde(default = "default_size")]
+    pub size: (u32, u32),
+    /// Background colour (sRGB, 0..1).
+    #[serde(default = "default_background")]
+    pub background: [f32; 3],
+    /// Hardware multisampling: 1 or 4 samples.
+    #[serde(default = "default_msaa")]
+    pub msaa: u32,
+    /// Supersampling factor per axis (1..=4): Anjyo's oversampling, on top of MSAA.
+    #[serde(default = "default_supersample")]
+    pub supersample: u32,
+    /// Narrowest strand drawn, in samples: thinner strands are widened to this and made
+    /// transparent in proportion (coverage), so sub-pixel hair stays smooth.
+    #[serde(default = "default_min_width")]
+    pub min_width: f64,
+}
+
+fn default_size() -> (u32, u32) {
+    (800, 800)
+}
+fn default_background() -> [f32; 3] {
+    [0.93, 0.93, 0.91]
+}
+fn default_msaa() -> u32 {
+    4
+}
+fn default_supersample() -> u32 {
+    2
+}
+fn default_min_width() -> f64 {
+    1.0
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            size: default_size(),
+            background: default_background(),
+            msaa: default_msaa(),
+            supersample: default_supersample(),
+            min_width: default_min_width(),
+        }
+    }
+}
+
+impl Scene {
+    /// Parse and validate a scene from RON text; `origin` names it in errors.
+    pub fn from_ron(text: &str, origin: &str) -> Result<Scene> {
+        let scene: Scene = ron::from_str(text).map_err(|e| KamiError::Parse {
+            path: origin.to_string(),
+            line: e.span.start.line,
+            col: e.span.start.col,
+            message: e.code.to_string(),
+        })?;
+        validate(&scene)?;
+        Ok(scene)
+    }
+
+    /// Read, parse and validate a scene file.
+    pub fn load(path: impl AsRef<Path>) -> Result<Scene> {
+        let path = path.as_ref();
+        let text = std::fs::read_to_string(path).map_err(|source| KamiError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Scene::from_ron(&text, &path.display().to_string())
+    }
+
+    /// Pretty RON, for saving a tuned scene.
+    pub fn to_ron(&self) -> String {
+        let cfg = ron::ser::PrettyConfig::new()
+            .depth_limit(6)
+            .struct_names(true);
+        ron::ser::to_string_pretty(self, cfg).expect("scene types always serialise")
+    }
+
+    /// The head hull as an ellipsoid.
+    pub fn head_ellipsoid(&self) -> Ellipsoid {
+        Ellipsoid::new(self.head.center, self.head.radii)
+    }
+
+    /// Total hairs and segments over all groups.
+    pub fn counts(&self) -> (u64, u64) {
+        self.groups.iter().fold((0, 0), |(h, s), g| {
+            (h + g.count as u64, s + g.count as u64 * g.segments as u64)
+        })
+    }
+}

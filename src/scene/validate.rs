@@ -1,0 +1,318 @@
+//! Scene validation: every number is checked before it reaches a solver or the GPU, and a
+//! failure names the field (`groups[1].rigidity`), the value and what is allowed. Adapter
+//! limits (buffer and texture sizes) are checked later, where the adapter is known.
+
+use super::*;
+use crate::error::{KamiError, Result};
+
+/// Most segments per strand (the GPU kernels keep per-strand state in loops over k).
+pub const MAX_SEGMENTS: u32 = 256;
+/// Most strands in one scene.
+pub const MAX_STRANDS: u64 = 4_000_000;
+/// Largest image side.
+pub const MAX_SIZE: u32 = 16384;
+
+fn bad(field: &str, value: impl std::fmt::Display, allowed: &str) -> KamiError {
+    KamiError::Invalid {
+        field: field.to_string(),
+        value: value.to_string(),
+        allowed: allowed.to_string(),
+    }
+}
+
+fn finite(field: &str, v: f64) -> Result<()> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(bad(field, v, "must be a finite number"))
+    }
+}
+
+/// `lo <= v <= hi`.
+fn within(field: &str, v: f64, lo: f64, hi: f64) -> Result<()> {
+    finite(field, v)?;
+    if v < lo || v > hi {
+        return Err(bad(field, v, &format!("must be in [{lo}, {hi}]")));
+    }
+    Ok(())
+}
+
+/// `0 < v <= hi`.
+fn positive(field: &str, v: f64, hi: f64) -> Result<()> {
+    finite(field, v)?;
+    if v <= 0.0 || v > hi {
+        return Err(bad(field, v, &format!("must be in (0, {hi}]")));
+    }
+    Ok(())
+}
+
+fn vec3(field: &str, v: [f64; 3], max_abs: f64) -> Result<()> {
+    for (i, c) in v.iter().enumerate() {
+        within(&format!("{field}[{i}]"), *c, -max_abs, max_abs)?;
+    }
+    Ok(())
+}
+
+fn nonzero(field: &str, v: [f64; 3]) -> Result<()> {
+    vec3(field, v, 1e9)?;
+    if v.iter().map(|c| c * c).sum::<f64>() < 1e-18 {
+        return Err(bad(field, format!("{v:?}"), "must be a non-zero vector"));
+    }
+    Ok(())
+}
+
+fn color(field: &str, c: [f32; 3], hi: f64) -> Result<()> {
+    for (i, v) in c.iter().enumerate() {
+        within(&format!("{field}[{i}]"), *v as f64, 0.0, hi)?;
+    }
+    Ok(())
+}
+
+fn theta_range(field: &str, r: (f64, f64)) -> Result<()> {
+    within(&format!("{field}.0"), r.0, 0.0, 180.0)?;
+    within(&format!("{field}.1"), r.1, 0.0, 180.0)?;
+    if r.0 >= r.1 {
+        return Err(bad(
+            field,
+            format!("{r:?}"),
+            "must be (low, high) with low < high, degrees",
+        ));
+    }
+    Ok(())
+}
+
+fn phi_range(field: &str, r: (f64, f64)) -> Result<()> {
+    within(&format!("{field}.0"), r.0, -720.0, 720.0)?;
+    within(&format!("{field}.1"), r.1, -720.0, 720.0)?;
+    if r.0 >= r.1 || r.1 - r.0 > 360.0 {
+        return Err(bad(
+            field,
+            format!("{r:?}"),
+            "must be (low, high) with low < high and high - low <= 360, degrees",
+        ));
+    }
+    Ok(())
+}
+
+const BIG: f64 = 1e6;
+
+/// Check every field of a parsed scene.
+pub fn validate(s: &Scene) -> Result<()> {
+    vec3("head.center", s.head.center, BIG)?;
+    for (i, r) in s.head.radii.iter().enumerate() {
+        positive(&format!("head.radii[{i}]"), *r, BIG)?;
+    }
+    color("head.color", s.head.color, 1.0)?;
+    vec3("gravity", s.gravity, 1e9)?;
+
+    if s.groups.is_empty() {
+        return Err(bad("groups", "[]", "a scene needs at least one hair group"));
+    }
+    let (strands, _) = s.counts();
+    if strands > MAX_STRANDS {
+        return Err(bad(
+            "groups[..].count",
+            strands,
+            &format!("the total must be at most {MAX_STRANDS} hairs"),
+        ));
+    }
+    for (gi, g) in s.groups.iter().enumerate() {
+        validate_group(&format!("groups[{gi}]"), g)?;
+    }
+
+    let c = &s.camera;
+    vec3("camera.eye", c.eye, BIG)?;
+    vec3("camera.target", c.target, BIG)?;
+    nonzero("camera.up", c.up)?;
+    let view = [
+        c.target[0] - c.eye[0],
+        c.target[1] - c.eye[1],
+        c.target[2] - c.eye[2],
+    ];
+    let vl = view.iter().map(|v| v * v).sum::<f64>().sqrt();
+    if vl < 1e-9 {
+        return Err(bad(
+            "camera.target",
+            format!("{:?}", c.target),
+            "must differ from camera.eye",
+        ));
+    }
+    let ul = c.up.iter().map(|v| v * v).sum::<f64>().sqrt();
+    let cross = [
+        view[1] * c.up[2] - view[2] * c.up[1],
+        view[2] * c.up[0] - view[0] * c.up[2],
+        view[0] * c.up[1] - view[1] * c.up[0],
+    ];
+    if cross.iter().map(|v| v * v).sum::<f64>().sqrt() < 1e-6 * vl * ul {
+        return Err(bad(
+            "camera.up",
+            format!("{:?}", c.up),
+            "must not be parallel to the view direction",
+        ));
+    }
+    within("camera.fov_y", c.fov_y, 1.0, 170.0)?;
+
+    nonzero("light.direction", s.light.direction)?;
+    within("light.intensity", s.light.intensity, 0.0, 100.0)?;
+    within("light.ambient", s.light.ambient, 0.0, 100.0)?;
+    color("light.color", s.light.color, 10.0)?;
+
+    let r = &s.render;
+    for (name, v) in [("render.size.0", r.size.0), ("render.size.1", r.size.1)] {
+        if v == 0 || v > MAX_SIZE {
+            return Err(bad(name, v, &format!("must be in [1, {MAX_SIZE}] pixels")));
+        }
+    }
+    color("render.background", r.background, 1.0)?;
+    if r.msaa != 1 && r.msaa != 4 {
+        return Err(bad("render.msaa", r.msaa, "must be 1 or 4 samples"));
+    }
+    if !(1..=4).contains(&r.supersample) {
+        return Err(bad(
+            "render.supersample",
+            r.supersample,
+            "must be in [1, 4]",
+        ));
+    }
+    within("render.min_width", r.min_width, 0.25, 8.0)?;
+    Ok(())
+}
+
+fn validate_group(p: &str, g: &HairGroup) -> Result<()> {
+    if g.count == 0 {
+        return Err(bad(&format!("{p}.count"), 0, "must be at least 1"));
+    }
+    if g.segments == 0 || g.segments > MAX_SEGMENTS {
+        return Err(bad(
+            &format!("{p}.segments"),
+            g.segments,
+            &format!("must be in [1, {MAX_SEGMENTS}]"),
+        ));
+    }
+    positive(&format!("{p}.length"), g.length, BIG)?;
+    within(&format!("{p}.length_jitter"), g.length_jitter, 0.0, 0.95)?;
+    within(
+        &format!("{p}.direction_jitter"),
+        g.direction_jitter,
+        0.0,
+        90.0,
+    )?;
+    positive(&format!("{p}.rigidity"), g.rigidity, 1e15)?;
+
+    theta_range(&format!("{p}.roots.theta"), g.roots.theta)?;
+    phi_range(&format!("{p}.roots.phi"), g.roots.phi)?;
+    if let Some(e) = &g.roots.on {
+        vec3(&format!("{p}.roots.on.center"), e.center, BIG)?;
+        for (i, r) in e.radii.iter().enumerate() {
+            positive(&format!("{p}.roots.on.radii[{i}]"), *r, BIG)?;
+        }
+    }
+    if let Direction::Blend { dir, weight } = &g.direction {
+        nonzero(&format!("{p}.direction.dir"), *dir)?;
+        within(&format!("{p}.direction.weight"), *weight, 0.0, 1.0)?;
+    }
+    if let Bending::Converged {
+        max_iterations,
+        tolerance,
+    } = &g.bending
+    {
+        if *max_iterations == 0 || *max_iterations > 100_000 {
+            return Err(bad(
+                &format!("{p}.bending.max_iterations"),
+                max_iterations,
+                "must be in [1, 100000]",
+            ));
+        }
+        within(&format!("{p}.bending.tolerance"), *tolerance, 1e-12, 0.1)?;
+    }
+    if g.loads.len() > 8 {
+        return Err(bad(
+            &format!("{p}.loads"),
+            g.loads.len(),
+            "at most 8 loads per group",
+        ));
+    }
+    for (li, l) in g.loads.iter().enumerate() {
+        let lp = format!("{p}.loads[{li}]");
+        match l {
+            Load::Uniform { force, .. } => vec3(&format!("{lp}.force"), *force, 1e9)?,
+            Load::Toward {
+                point, strength, ..
+            } => {
+                vec3(&format!("{lp}.point"), *point, BIG)?;
+                within(&format!("{lp}.strength"), *strength, -1e9, 1e9)?;
+            }
+        }
+        if l.region().len() > 4 {
+            return Err(bad(
+                &format!("{lp}.region"),
+                l.region().len(),
+                "at most 4 half-spaces per load",
+            ));
+        }
+        for (ri, r) in l.region().iter().enumerate() {
+            let rp = format!("{lp}.region[{ri}]");
+            match r {
+                Region::Above(y) | Region::Below(y) => within(&rp, *y, -BIG, BIG)?,
+                Region::HalfSpace { normal, offset } => {
+                    nonzero(&format!("{rp}.normal"), *normal)?;
+                    within(&format!("{rp}.offset"), *offset, -BIG, BIG)?;
+                }
+            }
+        }
+    }
+    if g.cuts.len() > 16 {
+        return Err(bad(
+            &format!("{p}.cuts"),
+            g.cuts.len(),
+            "at most 16 cuts per group",
+        ));
+    }
+    for (ci, c) in g.cuts.iter().enumerate() {
+        let cp = format!("{p}.cuts[{ci}]");
+        if let Some(t) = c.theta {
+            theta_range(&format!("{cp}.theta"), t)?;
+        }
+        if let Some(f) = c.phi {
+            phi_range(&format!("{cp}.phi"), f)?;
+        }
+        match &c.rule {
+            CutRule::Below(y) => within(&format!("{cp}.rule"), *y, -BIG, BIG)?,
+            CutRule::ByPoreHeight { low, high } => {
+                within(&format!("{cp}.rule.low.0"), low.0, -BIG, BIG)?;
+                within(&format!("{cp}.rule.high.0"), high.0, -BIG, BIG)?;
+                if low.0 >= high.0 {
+                    return Err(bad(
+                        &format!("{cp}.rule"),
+                        format!("{low:?}..{high:?}"),
+                        "low height must be below high height",
+                    ));
+                }
+                for (n, v) in [("low.1", low.1), ("high.1", high.1)] {
+                    if v > g.segments {
+                        return Err(bad(
+                            &format!("{cp}.rule.{n}"),
+                            v,
+                            &format!("must be at most the group's {} segments", g.segments),
+                        ));
+                    }
+                }
+            }
+            CutRule::Near { center, radius } => {
+                vec3(&format!("{cp}.rule.center"), *center, BIG)?;
+                positive(&format!("{cp}.rule.radius"), *radius, BIG)?;
+            }
+        }
+    }
+    let m = &g.material;
+    let mp = format!("{p}.material");
+    color(&format!("{mp}.color"), m.color, 1.0)?;
+    within(&format!("{mp}.ka"), m.ka, 0.0, 10.0)?;
+    within(&format!("{mp}.ka_spread"), m.ka_spread, 0.0, 5.0)?;
+    within(&format!("{mp}.ks"), m.ks, 0.0, 10.0)?;
+    within(&format!("{mp}.shininess"), m.shininess, 0.0, 10000.0)?;
+    within(&format!("{mp}.kd"), m.kd, 0.0, 10.0)?;
+    positive(&format!("{mp}.width"), m.width, 1e3)?;
+    within(&format!("{mp}.tip_width"), m.tip_width, 0.0, 1.0)?;
+    Ok(())
+}
