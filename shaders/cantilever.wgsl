@@ -4,12 +4,19 @@
 //   converged mode  fixed point of true-lever-arm moments, relaxed with heavy-ball momentum;
 //   both            the hull collision of each new node, then the cuts (drawn length).
 // Reads roots/groups/loads/cuts, writes the strand's nodes and its drawn length.
+//
+// Three entry points, dispatched in order: `bend` (paper bend, and the converged mode's
+// starting state), `iterate` (dispatched repeatedly, `params.chunk` iterations each) and
+// `finish` (fallback of unconverged strands, cuts). The iteration is split across
+// dispatches because Mesa's llvmpipe ends a shader's loops after 65,535 iterations in total
+// per invocation, silently; short dispatches also keep real GPUs clear of watchdogs.
 
 struct Params {
     strand_count: u32,
     total_vertices: u32,
     row_stride: u32,
-    _pad: u32,
+    // Converged-mode iterations per `iterate` dispatch.
+    chunk: u32,
     head_center: vec4<f32>,
     head_radii: vec4<f32>,
 }
@@ -43,6 +50,14 @@ struct Cut {
     a: vec4<f32>,
 }
 
+// Nodes this close outside the hull (units of the quadric) rest on it.
+const CONTACT_BAND: f32 = 4.0 * EPS_OUT;
+
+// strands[].flags: bit 0 a converged-mode strand that fell back to the paper's shape, bit 1
+// converged, bits 8.. iterations used.
+const FLAG_NOT_CONVERGED: u32 = 1u;
+const FLAG_DONE: u32 = 2u;
+
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> roots: array<Root>;
 @group(0) @binding(2) var<storage, read> groups: array<Group>;
@@ -57,8 +72,13 @@ fn hull() -> Hull {
     return Hull(params.head_center.xyz, params.head_radii.xyz);
 }
 
-fn group_load(g: Group, p: vec3<f32>) -> vec3<f32> {
-    return load_at(g.first_load, g.load_count, p);
+fn group_load(g: Group, rest: vec3<f32>, p: vec3<f32>) -> vec3<f32> {
+    return load_at(g.first_load, g.load_count, rest, p);
+}
+
+// Midpoint of segment m (1-based) on the straight, unloaded beam.
+fn rest_mid(p0: vec3<f32>, dir: vec3<f32>, d: f32, m: u32) -> vec3<f32> {
+    return p0 + dir * (d * (f32(m) - 0.5));
 }
 
 fn bend_paper(base: u32, g: Group, p0: vec3<f32>, dir: vec3<f32>, d: f32) {
@@ -67,8 +87,8 @@ fn bend_paper(base: u32, g: Group, p0: vec3<f32>, dir: vec3<f32>, d: f32) {
     var w = vec3<f32>(0.0);
     var s = vec3<f32>(0.0);
     for (var m = k; m >= 1u; m--) {
-        let mid = p0 + dir * (d * (f32(m) - 0.5));
-        let gm = group_load(g, mid) * d;
+        let mid = rest_mid(p0, dir, d, m);
+        let gm = group_load(g, mid, mid) * d;
         w = w + s + 0.5 * gm;
         s += gm;
         verts[base + m] = vec4<f32>(w, 0.0);
@@ -98,52 +118,89 @@ fn relaxation(g_est: f32) -> vec2<f32> {
     return vec2<f32>(alpha, r * r);
 }
 
-fn rebuild(base: u32, k: u32, p0: vec3<f32>, dir: vec3<f32>, d: f32) {
+// Rotation vector turning unit a into unit b.
+fn turn(a: vec3<f32>, b: vec3<f32>) -> vec3<f32> {
+    let axis = cross(a, b);
+    let s = length(axis);
+    if s > 1e-30 {
+        return axis / s * atan2(s, dot(a, b));
+    }
+    return vec3<f32>(0.0);
+}
+
+// Rebuild the nodes from the trial rotations in scratch[base + j], with collision. Where a
+// node is pushed out, the joint's state and its previous value become the rotation it really
+// made (projection, no momentum). Returns the largest change of a realized rotation from the
+// previous iterate (kept in the `prev` slots).
+fn rebuild_projected(base: u32, k: u32, p0: vec3<f32>, dir: vec3<f32>, d: f32) -> f32 {
     let h = hull();
+    let po = params.total_vertices;
     verts[base] = vec4<f32>(p0, 1.0);
     var p = p0;
     var t = dir;
+    var change = 0.0;
     for (var j = 0u; j < k; j++) {
-        let turned = rotate_vec(scratch[base + j].xyz, t);
-        var q = p + turned * d;
-        q = hull_push_out(h, p, t, q, d);
-        t = normalize((q - p) / d);
+        let om = scratch[base + j].xyz;
+        let free = p + rotate_vec(om, t) * d;
+        let q = hull_push_out(h, p, t, free, d);
+        let nt = normalize((q - p) / d);
+        var real = om;
+        let old = scratch[po + base + j].xyz;
+        if any(q != free) {
+            real = turn(t, nt);
+            scratch[base + j] = vec4<f32>(real, 0.0);
+            scratch[po + base + j] = vec4<f32>(real, 0.0);
+        }
+        change = max(change, length(real - old));
+        t = nt;
         verts[base + j + 1u] = vec4<f32>(q, 1.0);
         p = q;
     }
+    return change;
 }
 
-fn bend_converged(base: u32, g: Group, p0: vec3<f32>, dir: vec3<f32>, d: f32) {
-    let k = g.segments;
-    let prev_off = params.total_vertices;
-    // Start from the rotations that reproduce the paper's shape.
+// The converged mode's starting state: the rotations that reproduce the paper's shape.
+fn converged_init(base: u32, k: u32, dir: vec3<f32>, d: f32) {
+    let po = params.total_vertices;
     var t = dir;
-    var wmax = length(group_load(g, p0));
     for (var j = 0u; j < k; j++) {
         let nt = normalize((verts[base + j + 1u].xyz - verts[base + j].xyz) / d);
-        let axis = cross(t, nt);
-        let s = length(axis);
-        var om = vec3<f32>(0.0);
-        if s > 1e-30 {
-            om = axis / s * atan2(s, dot(t, nt));
-        }
+        let om = turn(t, nt);
         scratch[base + j] = vec4<f32>(om, 0.0);
-        scratch[prev_off + base + j] = vec4<f32>(om, 0.0);
+        scratch[po + base + j] = vec4<f32>(om, 0.0);
         t = nt;
-        wmax = max(wmax, length(group_load(g, verts[base + j + 1u].xyz)));
+    }
+}
+
+// Step (alpha, beta) of a strand, from its largest load on the rest beam.
+fn strand_relaxation(g: Group, p0: vec3<f32>, dir: vec3<f32>, d: f32) -> vec2<f32> {
+    let k = g.segments;
+    var wmax = 0.0;
+    for (var m = 1u; m <= k; m++) {
+        let rm = rest_mid(p0, dir, d, m);
+        wmax = max(wmax, length(group_load(g, rm, rm)));
     }
     let len = d * f32(k);
-    let ab = relaxation(wmax * len * len * len / g.rigidity);
-    for (var it = 1u; it <= g.max_iterations; it++) {
-        rebuild(base, k, p0, dir, d);
+    return relaxation(wmax * len * len * len / g.rigidity);
+}
+
+// Up to `iterations` steps of the converged bend (see cantilever::bend_converged); returns
+// how many it took to converge, or `iterations` + 1 if it did not.
+fn converged_steps(base: u32, g: Group, p0: vec3<f32>, dir: vec3<f32>, d: f32, iterations: u32) -> u32 {
+    let k = g.segments;
+    let po = params.total_vertices;
+    let ab = strand_relaxation(g, p0, dir, d);
+    let h = hull();
+    for (var it = 1u; it <= iterations; it++) {
+        // Target rotations from true lever arms (moments about the root), then the relaxed
+        // trial step; the old state moves to the `prev` slot.
         var n = vec3<f32>(0.0);
         var c = vec3<f32>(0.0);
-        var res = 0.0;
         for (var jj = k; jj >= 1u; jj--) {
             let j = jj - 1u;
             let pj = verts[base + j].xyz;
             let mid = 0.5 * (pj + verts[base + j + 1u].xyz);
-            let f = group_load(g, mid) * d;
+            let f = group_load(g, rest_mid(p0, dir, d, jj), mid) * d;
             n += f;
             c += cross(mid - p0, f);
             let m = c - cross(pj - p0, n);
@@ -153,19 +210,86 @@ fn bend_converged(base: u32, g: Group, p0: vec3<f32>, dir: vec3<f32>, d: f32) {
             }
             let m_perp = m - dot(m, t_in) * t_in;
             let l = select(d, 0.5 * d, j == 0u);
-            let tgt = m_perp * (l / g.rigidity);
+            var tgt = m_perp * (l / g.rigidity);
             let om = scratch[base + j].xyz;
-            let pr = scratch[prev_off + base + j].xyz;
-            let dstep = tgt - om;
-            res = max(res, length(dstep));
-            scratch[prev_off + base + j] = vec4<f32>(om, 0.0);
-            scratch[base + j] = vec4<f32>(om + ab.x * dstep + ab.y * (om - pr), 0.0);
+            // A node resting on the hull is not stepped inwards.
+            let node = verts[base + j + 1u].xyz;
+            if hull_eval(h, node) < CONTACT_BAND {
+                let nrm = normalize(hull_gradient(h, node));
+                let stp = cross(tgt - om, t_in);
+                let inward = min(dot(stp, nrm), 0.0);
+                tgt = om + cross(t_in, stp - inward * nrm);
+            }
+            let pr = scratch[po + base + j].xyz;
+            scratch[po + base + j] = vec4<f32>(om, 0.0);
+            scratch[base + j] = vec4<f32>(om + ab.x * (tgt - om) + ab.y * (om - pr), 0.0);
         }
-        if res <= g.tolerance {
-            break;
+        let change = rebuild_projected(base, k, p0, dir, d);
+        if change / ab.x <= g.tolerance {
+            return it;
         }
     }
-    rebuild(base, k, p0, dir, d);
+    return iterations + 1u;
+}
+
+fn strand_index(id: vec3<u32>) -> u32 {
+    return id.x + id.y * params.row_stride;
+}
+
+@compute @workgroup_size(64)
+fn bend(@builtin(global_invocation_id) id: vec3<u32>) {
+    let s = strand_index(id);
+    if s >= params.strand_count {
+        return;
+    }
+    let strand = strands[s];
+    let root = roots[s];
+    let g = groups[strand.group];
+    bend_paper(strand.first_vertex, g, root.pos.xyz, root.dir.xyz, root.pos.w);
+    if g.mode == 1u {
+        converged_init(strand.first_vertex, g.segments, root.dir.xyz, root.pos.w);
+    }
+    strands[s].flags = 0u;
+}
+
+@compute @workgroup_size(64)
+fn iterate(@builtin(global_invocation_id) id: vec3<u32>) {
+    let s = strand_index(id);
+    if s >= params.strand_count {
+        return;
+    }
+    let strand = strands[s];
+    let g = groups[strand.group];
+    let used = strand.flags >> 8u;
+    if g.mode != 1u || (strand.flags & FLAG_DONE) != 0u || used >= g.max_iterations {
+        return;
+    }
+    let root = roots[s];
+    let budget = min(params.chunk, g.max_iterations - used);
+    let took = converged_steps(strand.first_vertex, g, root.pos.xyz, root.dir.xyz, root.pos.w, budget);
+    if took <= budget {
+        strands[s].flags = ((used + took) << 8u) | FLAG_DONE;
+    } else {
+        strands[s].flags = (used + budget) << 8u;
+    }
+}
+
+@compute @workgroup_size(64)
+fn finish(@builtin(global_invocation_id) id: vec3<u32>) {
+    let s = strand_index(id);
+    if s >= params.strand_count {
+        return;
+    }
+    let strand = strands[s];
+    let root = roots[s];
+    let g = groups[strand.group];
+    let base = strand.first_vertex;
+    if g.mode == 1u && (strand.flags & FLAG_DONE) == 0u {
+        // Not converged: keep the paper's shape, and flag the strand.
+        bend_paper(base, g, root.pos.xyz, root.dir.xyz, root.pos.w);
+        strands[s].flags = strand.flags | FLAG_NOT_CONVERGED;
+    }
+    strands[s].visible = visible_segments(base, g, bitcast<u32>(root.dir.w));
 }
 
 // Where f turns negative along the hair, in segments (fractional), or k.
@@ -219,22 +343,4 @@ fn visible_segments(base: u32, g: Group, mask: u32) -> f32 {
         vis = min(vis, v);
     }
     return max(vis, 0.0);
-}
-
-@compute @workgroup_size(64)
-fn bend(@builtin(global_invocation_id) id: vec3<u32>) {
-    let s = id.x + id.y * params.row_stride;
-    if s >= params.strand_count {
-        return;
-    }
-    let strand = strands[s];
-    let root = roots[s];
-    let g = groups[strand.group];
-    let base = strand.first_vertex;
-    let d = root.pos.w;
-    bend_paper(base, g, root.pos.xyz, root.dir.xyz, d);
-    if g.mode == 1u {
-        bend_converged(base, g, root.pos.xyz, root.dir.xyz, d);
-    }
-    strands[s].visible = visible_segments(base, g, bitcast<u32>(root.dir.w));
 }

@@ -79,7 +79,7 @@ pub fn groom(gpu: &Gpu, scene_path: &Path, frames: u32) -> Result<Report> {
                 };
             }
         }
-        let input = prepare(&s);
+        let input = prepare(&s)?;
         let t = Instant::now();
         let reference = cantilever::bend_all(&input);
         let cpu = t.elapsed().as_secs_f64();
@@ -130,7 +130,7 @@ pub fn groom(gpu: &Gpu, scene_path: &Path, frames: u32) -> Result<Report> {
 
     // Render time per frame at 1280x720.
     let size = (1280, 720);
-    let input = prepare(&scene);
+    let input = prepare(&scene)?;
     let hair = cantilever::groom_gpu(gpu, &input)?;
     let _ = writeln!(md, "\n| render 1280x720 | ms/frame | fps |");
     let _ = writeln!(md, "|---|---:|---:|");
@@ -169,7 +169,7 @@ pub fn groom(gpu: &Gpu, scene_path: &Path, frames: u32) -> Result<Report> {
         let exact = elastica::tip_drop(g);
         let half = elastica::tip_drop(g / 2.0);
         for k in [5u32, 10, 20, 40, 80, 160] {
-            let load = move |_: DVec3| DVec3::new(0.0, -g, 0.0);
+            let load = move |_: DVec3, _: DVec3| DVec3::new(0.0, -g, 0.0);
             let beam = Beam {
                 root: DVec3::ZERO,
                 dir: DVec3::X,
@@ -213,7 +213,7 @@ pub fn groom(gpu: &Gpu, scene_path: &Path, frames: u32) -> Result<Report> {
         let exact = elastica::tip_drop(g);
         let mut found = None;
         for k in 1..=200u32 {
-            let load = move |_: DVec3| DVec3::new(0.0, -g, 0.0);
+            let load = move |_: DVec3, _: DVec3| DVec3::new(0.0, -g, 0.0);
             let beam = Beam {
                 root: DVec3::ZERO,
                 dir: DVec3::X,

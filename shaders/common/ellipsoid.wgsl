@@ -48,15 +48,15 @@ fn hull_push_out(h: Hull, pivot: vec3<f32>, a0: vec3<f32>, p: vec3<f32>, d: f32)
     }
     v = normalize(v);
     let phi0 = atan2(dot(w, v), dot(w, a0));
-    let step = PI / 64.0;
-    for (var n = 1u; n <= 64u; n++) {
+    let step = PI / 32.0;
+    for (var n = 1u; n <= 32u; n++) {
         for (var k = 0u; k < 2u; k++) {
             let dir = select(-1.0, 1.0, k == 0u);
             let phi = phi0 + dir * f32(n) * step;
             if hull_eval(h, circle_point(pivot, a0, v, d, phi)) >= EPS_OUT {
                 var lo = phi - dir * step;
                 var hi = phi;
-                for (var b = 0u; b < 24u; b++) {
+                for (var b = 0u; b < 20u; b++) {
                     let mid = 0.5 * (lo + hi);
                     if hull_eval(h, circle_point(pivot, a0, v, d, mid)) >= EPS_OUT {
                         hi = mid;

@@ -8,15 +8,17 @@ struct Load {
     planes: array<vec4<f32>, 4>,
 }
 
-// Total load per unit length at p from loads [first, first + count).
-fn load_at(first: u32, count: u32, p: vec3<f32>) -> vec3<f32> {
+// Total load per unit length from loads [first, first + count) on a segment whose midpoint
+// is `rest` on the straight unloaded beam (regions select by it) and `p` now (where the
+// field is evaluated).
+fn load_at(first: u32, count: u32, rest: vec3<f32>, p: vec3<f32>) -> vec3<f32> {
     var total = vec3<f32>(0.0);
     for (var i = first; i < first + count; i++) {
         var inside = true;
         let planes = u32(loads[i].params.y);
         for (var j = 0u; j < planes; j++) {
             let pl = loads[i].planes[j];
-            if dot(pl.xyz, p) < pl.w {
+            if dot(pl.xyz, rest) < pl.w {
                 inside = false;
             }
         }

@@ -19,6 +19,8 @@ pub struct GpuStrand {
     pub segments: u32,
     /// Index into the group tables (materials, solver parameters).
     pub group: u32,
+    /// Solver state: for the cantilever, bit 0 = converged mode fell back to the paper's
+    /// shape, bit 1 = converged, bits 8.. = iterations used.
     pub flags: u32,
     /// Drawn segments, fractional (cuts); written by the groom kernel.
     pub visible: f32,
@@ -95,7 +97,8 @@ pub struct GpuGroomParams {
     pub total_vertices: u32,
     /// Invocations per row of the 2D dispatch.
     pub row_stride: u32,
-    pub _pad: u32,
+    /// Converged-mode iterations per `iterate` dispatch.
+    pub chunk: u32,
     pub head_center: [f32; 4],
     pub head_radii: [f32; 4],
 }

@@ -7,8 +7,7 @@
 //! which is exactly the paper's `|g| d (k-i+1)^2 / 2` for a uniform load. The node is
 //! deflected off the previous segment's axis `a0` by `y_i = M_i d^2 / (2 EI)` (eq 3) in the
 //! plane of `a0` and the load (`a1`; `a2` completes the frame and carries no deflection for a
-//! single resultant), then renormalised to length `d`. Loads limited to a region are
-//! evaluated on the straight, unloaded beam, like the lever arms.
+//! single resultant), then renormalised to length `d`.
 //!
 //! Because each segment turns by the deflection of its end (`M d^2 / 2EI`, half of the
 //! end slope `M d / EI`), the paper's beam is, in the limit d -> 0, an Euler–Bernoulli beam
@@ -21,7 +20,12 @@
 //! clamp and `l_j = d` inside (midpoint rule, second order in d). The map from shape to
 //! moments is iterated to a fixed point with under-relaxation and heavy-ball momentum, so it
 //! converges for stiff loads (G up to 1000) where plain iteration oscillates. It converges to
-//! the large-deflection elastica.
+//! the large-deflection elastica. Where the hull stops a joint the iteration is projected
+//! (state reset to the rotation the joint really made, momentum dropped).
+//!
+//! **Loads** limited to a region (above the eyes, one half of the head) act on the segments
+//! whose midpoints are in the region on the straight, unloaded beam, in both modes: a comb
+//! selects hair by where it grows, and the selection cannot flicker as the hair moves.
 //!
 //! **Collision** (both modes): after each node is placed it is tested against the head by
 //! the sign of the quadric and moved out in the plane of p(i-2), p(i-1), p(i)
@@ -43,16 +47,25 @@ pub struct Beam<'a> {
     pub segments: u32,
     /// Flexural rigidity EI.
     pub rigidity: f64,
-    /// Load per unit length at a point.
-    pub load: &'a dyn Fn(DVec3) -> DVec3,
+    /// Load per unit length on a segment, given its midpoint on the straight unloaded beam
+    /// (which decides the regions it is in) and its current midpoint (where the field is
+    /// evaluated).
+    pub load: &'a dyn Fn(DVec3, DVec3) -> DVec3,
     pub hull: Option<&'a Ellipsoid>,
+}
+
+impl Beam<'_> {
+    /// Midpoint of segment m (1-based) on the straight, unloaded beam.
+    fn rest_mid(&self, m: usize) -> DVec3 {
+        self.root + self.dir * (self.seg_len * (m as f64 - 0.5))
+    }
 }
 
 /// How an iterated bend ended.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Convergence {
     pub iterations: u32,
-    /// Largest change of a joint rotation in the last iteration, radians.
+    /// Estimated remaining error of the joint rotations, radians.
     pub residual: f64,
     pub converged: bool,
 }
@@ -67,8 +80,8 @@ pub fn bend_paper(b: &Beam) -> Vec<DVec3> {
     let mut w = vec![DVec3::ZERO; k + 2];
     let mut s = DVec3::ZERO;
     for m in (1..=k).rev() {
-        let mid = b.root + b.dir * (d * (m as f64 - 0.5));
-        let g = (b.load)(mid) * d;
+        let mid = b.rest_mid(m);
+        let g = (b.load)(mid, mid) * d;
         w[m] = w[m + 1] + s + 0.5 * g;
         s += g;
     }
@@ -91,24 +104,6 @@ pub fn bend_paper(b: &Beam) -> Vec<DVec3> {
     nodes
 }
 
-/// Shape from joint rotations, root to tip, with collision. `t_in[j]` receives the direction
-/// arriving at joint j (the clamp direction for j = 0).
-fn rebuild(b: &Beam, omega: &[DVec3], nodes: &mut [DVec3], t_in: &mut [DVec3]) {
-    let d = b.seg_len;
-    nodes[0] = b.root;
-    let mut t = b.dir;
-    for j in 0..omega.len() {
-        t_in[j] = t;
-        let turned = rotate(omega[j], t);
-        let mut p = nodes[j] + turned * d;
-        if let Some(h) = b.hull {
-            p = h.push_out(nodes[j], t, p, d);
-        }
-        t = ((p - nodes[j]) / d).normalize();
-        nodes[j + 1] = p;
-    }
-}
-
 /// Rotate `v` by the rotation vector `w` (axis * angle).
 pub fn rotate(w: DVec3, v: DVec3) -> DVec3 {
     let angle = w.length();
@@ -118,8 +113,56 @@ pub fn rotate(w: DVec3, v: DVec3) -> DVec3 {
     DQuat::from_axis_angle(w / angle, angle) * v
 }
 
-/// Target joint rotations from the moments of the current shape (true lever arms).
-fn target_rotations(b: &Beam, nodes: &[DVec3], t_in: &[DVec3], out: &mut [DVec3]) {
+/// Rotation vector turning unit `a` into unit `b` (shortest arc).
+fn turn(a: DVec3, b: DVec3) -> DVec3 {
+    let axis = a.cross(b);
+    let s = axis.length();
+    if s > 1e-300 {
+        axis / s * s.atan2(a.dot(b))
+    } else {
+        DVec3::ZERO
+    }
+}
+
+/// Shape from joint rotations, root to tip, with collision. `realized[j]` receives the
+/// rotation joint j really made (different from `omega[j]` where a node was pushed out of
+/// the hull), `pushed[j]` whether node j + 1 was pushed.
+fn rebuild(
+    b: &Beam,
+    omega: &[DVec3],
+    nodes: &mut [DVec3],
+    realized: &mut [DVec3],
+    pushed: &mut [bool],
+) {
+    let d = b.seg_len;
+    nodes[0] = b.root;
+    let mut t = b.dir;
+    for j in 0..omega.len() {
+        let turned = rotate(omega[j], t);
+        let free = nodes[j] + turned * d;
+        let p = match b.hull {
+            Some(h) => h.push_out(nodes[j], t, free, d),
+            None => free,
+        };
+        pushed[j] = p != free;
+        let nt = ((p - nodes[j]) / d).normalize();
+        realized[j] = if pushed[j] { turn(t, nt) } else { omega[j] };
+        t = nt;
+        nodes[j + 1] = p;
+    }
+}
+
+/// Target joint rotations from the moments of the current shape (true lever arms). Where
+/// node j + 1 rests on the hull (`contact[j]`), the part of the step from the current
+/// rotation `omega[j]` that would move the node into the hull is removed: the head supports
+/// the hair there, so a fixed point exists with the hair lying on the head.
+fn target_rotations(
+    b: &Beam,
+    nodes: &[DVec3],
+    omega: &[DVec3],
+    contact: &[bool],
+    out: &mut [DVec3],
+) {
     let k = out.len();
     let d = b.seg_len;
     // Moments about the root (lever arms relative to it keep f32 accurate far from the
@@ -127,14 +170,28 @@ fn target_rotations(b: &Beam, nodes: &[DVec3], t_in: &[DVec3], out: &mut [DVec3]
     let (mut n, mut c) = (DVec3::ZERO, DVec3::ZERO);
     for j in (0..k).rev() {
         let mid = 0.5 * (nodes[j] + nodes[j + 1]);
-        let f = (b.load)(mid) * d;
+        let f = (b.load)(b.rest_mid(j + 1), mid) * d;
         n += f;
         c += (mid - b.root).cross(f);
         let m = c - (nodes[j] - b.root).cross(n);
-        let t = t_in[j];
+        // Drop the twisting part: only bending about axes across the incoming segment.
+        let t = if j == 0 {
+            b.dir
+        } else {
+            ((nodes[j] - nodes[j - 1]) / d).normalize()
+        };
         let m_perp = m - m.dot(t) * t;
         let l = if j == 0 { 0.5 * d } else { d };
-        out[j] = m_perp * (l / b.rigidity);
+        let mut target = m_perp * (l / b.rigidity);
+        if contact[j] {
+            if let Some(h) = b.hull {
+                let n = h.normal(nodes[j + 1]);
+                let step = (target - omega[j]).cross(t);
+                let inward = step.dot(n).min(0.0);
+                target = omega[j] + t.cross(step - inward * n);
+            }
+        }
+        out[j] = target;
     }
 }
 
@@ -145,76 +202,82 @@ fn target_rotations(b: &Beam, nodes: &[DVec3], t_in: &[DVec3], out: &mut [DVec3]
 pub fn relaxation(g_est: f64) -> (f64, f64) {
     let lam = g_est / 3.0;
     let alpha = 1.0 / (1.0 + lam);
-    let beta = ((lam.sqrt() - 1.0) / (lam.sqrt() + 1.0))
-        .clamp(0.0, 0.9)
-        .powi(2);
-    (alpha, beta)
+    let r = ((lam.sqrt() - 1.0) / (lam.sqrt() + 1.0)).clamp(0.0, 0.9);
+    (alpha, r * r)
 }
 
+/// Nodes within this band outside the hull (in units of the quadric) count as resting on it.
+pub const CONTACT_BAND: f64 = 4.0 * crate::scene::head::EPS_OUT;
+
 /// The converged bend: fixed point of (shape -> true moments -> joint rotations), started
-/// from the paper's shape.
+/// from the paper's shape and relaxed with heavy-ball momentum. Where the hull stops a joint
+/// the iteration is projected: the state becomes the rotation the joint really made (with
+/// no momentum), and nodes resting on the hull are not stepped inwards (`target_rotations`). Converged when the largest change of a joint rotation in one
+/// iteration, divided by the step size, is below `tolerance` (radians; for a contraction
+/// this estimates the remaining error).
 pub fn bend_converged(b: &Beam, max_iterations: u32, tolerance: f64) -> (Vec<DVec3>, Convergence) {
     let k = b.segments as usize;
     let d = b.seg_len;
     let mut nodes = bend_paper(b);
-    let mut t_in = vec![DVec3::ZERO; k];
-    // Start: the rotations that reproduce the paper's shape.
     let mut omega = vec![DVec3::ZERO; k];
+    let mut contact = vec![false; k];
     let mut t = b.dir;
     for j in 0..k {
         let nt = ((nodes[j + 1] - nodes[j]) / d).normalize();
-        let axis = t.cross(nt);
-        let s = axis.length();
-        omega[j] = if s > 1e-300 {
-            axis / s * s.atan2(t.dot(nt))
-        } else {
-            DVec3::ZERO
-        };
+        omega[j] = turn(t, nt);
+        contact[j] = b.hull.is_some_and(|h| h.eval(nodes[j + 1]) < CONTACT_BAND);
         t = nt;
     }
     let g_est = {
         let len = d * k as f64;
-        let wmax = nodes
-            .iter()
-            .map(|p| (b.load)(*p).length())
+        let wmax = (1..=k)
+            .map(|m| (b.load)(b.rest_mid(m), b.rest_mid(m)).length())
             .fold(0.0, f64::max);
         wmax * len * len * len / b.rigidity
     };
     let (alpha, beta) = relaxation(g_est);
     let mut prev = omega.clone();
     let mut target = vec![DVec3::ZERO; k];
+    let mut trial = vec![DVec3::ZERO; k];
+    let mut realized = vec![DVec3::ZERO; k];
+    let mut pushed = vec![false; k];
     let mut info = Convergence::default();
     for it in 1..=max_iterations {
-        rebuild(b, &omega, &mut nodes, &mut t_in);
-        target_rotations(b, &nodes, &t_in, &mut target);
-        let mut res = 0.0f64;
+        target_rotations(b, &nodes, &omega, &contact, &mut target);
         for j in 0..k {
-            let step = target[j] - omega[j];
-            res = res.max(step.length());
-            let next = omega[j] + alpha * step + beta * (omega[j] - prev[j]);
-            prev[j] = omega[j];
-            omega[j] = next;
+            trial[j] = omega[j] + alpha * (target[j] - omega[j]) + beta * (omega[j] - prev[j]);
         }
+        rebuild(b, &trial, &mut nodes, &mut realized, &mut pushed);
+        let mut change = 0.0f64;
+        for j in 0..k {
+            change = change.max((realized[j] - omega[j]).length());
+            prev[j] = if pushed[j] { realized[j] } else { omega[j] };
+            omega[j] = realized[j];
+            // Pushed nodes end inside the band, so this covers them too.
+            contact[j] = b.hull.is_some_and(|h| h.eval(nodes[j + 1]) < CONTACT_BAND);
+        }
+        let residual = change / alpha;
         info = Convergence {
             iterations: it,
-            residual: res,
-            converged: res <= tolerance,
+            residual,
+            converged: residual <= tolerance,
         };
         if info.converged {
             break;
         }
     }
-    rebuild(b, &omega, &mut nodes, &mut t_in);
     (nodes, info)
 }
 
-/// Bend one strand of a prepared groom with its group's mode.
+/// Bend one strand of a prepared groom with its group's mode. A converged-mode strand that
+/// does not converge within its iterations falls back to the paper's shape (and says so:
+/// `converged == false`).
 pub fn bend_strand(
     head: &Ellipsoid,
     group: &GroupParams,
     root: &StrandRoot,
 ) -> (Vec<DVec3>, Convergence) {
-    let load = |p: DVec3| group.load_at(p);
+    let load = |rest: DVec3, at: DVec3| group.load_at(rest, at);
     let beam = Beam {
         root: root.pos,
         dir: root.dir,
@@ -235,7 +298,17 @@ pub fn bend_strand(
         BendMode::Converged {
             max_iterations,
             tolerance,
-        } => bend_converged(&beam, max_iterations, tolerance),
+        } => {
+            let (nodes, info) = bend_converged(&beam, max_iterations, tolerance);
+            if info.converged {
+                (nodes, info)
+            } else {
+                // Contact can leave the iteration chattering, or a singular field (hair
+                // passing through a `Toward` point) can leave it without a fixed point: keep
+                // the paper's shape rather than a half-converged one.
+                (bend_paper(&beam), info)
+            }
+        }
     }
 }
 
@@ -286,36 +359,31 @@ fn first_crossing(nodes: &[DVec3], f: impl Fn(DVec3) -> f64) -> f64 {
 pub struct GroomOutput {
     pub nodes: Vec<DVec3>,
     pub visible: Vec<f64>,
-    pub worst: Convergence,
+    /// Converged-mode strands that did not converge and kept the paper's shape.
+    pub fallbacks: u32,
+    /// Most iterations any strand used.
+    pub max_iterations: u32,
 }
 
 /// Bend every strand on the CPU in f64 (the reference for the GPU kernel).
 pub fn bend_all(input: &GroomInput) -> GroomOutput {
     let mut nodes = Vec::with_capacity(input.total_vertices() as usize);
     let mut visible = Vec::with_capacity(input.roots.len());
-    let mut worst = Convergence {
-        converged: true,
-        ..Default::default()
-    };
+    let mut fallbacks = 0;
+    let mut max_iterations = 0;
     for r in &input.roots {
         let g = &input.groups[r.group as usize];
         let (n, c) = bend_strand(&input.head, g, r);
         visible.push(visible_segments(&n, &g.cuts, r.cut_mask));
-        if c.residual > worst.residual || !c.converged {
-            worst = Convergence {
-                iterations: worst.iterations.max(c.iterations),
-                residual: worst.residual.max(c.residual),
-                converged: worst.converged && c.converged,
-            };
-        } else {
-            worst.iterations = worst.iterations.max(c.iterations);
-        }
+        fallbacks += u32::from(!c.converged);
+        max_iterations = max_iterations.max(c.iterations);
         nodes.extend(n);
     }
     GroomOutput {
         nodes,
         visible,
-        worst,
+        fallbacks,
+        max_iterations,
     }
 }
 
@@ -330,9 +398,11 @@ use wgpu::util::DeviceExt;
 
 const WORKGROUP: u32 = 64;
 
-/// The cantilever kernel (`shaders/cantilever.wgsl`): long-lived pipeline and layout.
+/// The cantilever kernel (`shaders/cantilever.wgsl`): long-lived pipelines and layout.
 pub struct CantileverPass {
-    pipeline: wgpu::ComputePipeline,
+    bend: wgpu::ComputePipeline,
+    iterate: wgpu::ComputePipeline,
+    finish: wgpu::ComputePipeline,
     layout: wgpu::BindGroupLayout,
 }
 
@@ -340,6 +410,18 @@ pub struct CantileverPass {
 pub struct CantileverJob {
     bind_group: wgpu::BindGroup,
     dims: (u32, u32),
+    /// `iterate` dispatches needed (0 when no group uses the converged mode).
+    iterate_dispatches: u32,
+}
+
+/// Converged-mode iterations per dispatch: llvmpipe ends a shader's loops after 65,535
+/// iterations in total per invocation, so one dispatch must stay well below that. The loop
+/// count of one iteration is about k (2 + 2 L + 84): target and rebuild passes over the
+/// segments, L load-and-plane loops per load evaluation, 84 for a hull push-out.
+pub fn iterations_per_dispatch(segments: u32, load_loops: u32) -> u32 {
+    const BUDGET: u32 = 40_000;
+    let per_iteration = segments.max(1) * (2 + 2 * load_loops + 84);
+    (BUDGET / per_iteration).clamp(1, 64)
 }
 
 impl CantileverPass {
@@ -365,15 +447,22 @@ impl CantileverPass {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("cantilever"),
-            layout: Some(&pl),
-            module: &module,
-            entry_point: Some("bend"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-        Ok(CantileverPass { pipeline, layout })
+        let pipeline = |entry: &str| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(&pl),
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+        Ok(CantileverPass {
+            bend: pipeline("bend"),
+            iterate: pipeline("iterate"),
+            finish: pipeline("finish"),
+            layout,
+        })
     }
 
     /// Upload a prepared groom's roots and parameters. The scratch buffer of the converged
@@ -440,11 +529,19 @@ impl CantileverPass {
         };
         gpu.check_storage_size("the converged-bending scratch buffer", scratch_bytes)?;
         let dims = gpu.dispatch_dims(strands.strand_count, WORKGROUP)?;
+        let (mut chunk, mut most) = (64u32, 0u32);
+        for g in &input.groups {
+            if let BendMode::Converged { max_iterations, .. } = g.mode {
+                let load_loops: u32 = g.loads.iter().map(|l| 1 + l.planes.len() as u32).sum();
+                chunk = chunk.min(iterations_per_dispatch(g.segments, load_loops));
+                most = most.max(max_iterations);
+            }
+        }
         let params = GpuGroomParams {
             strand_count: strands.strand_count,
             total_vertices: strands.vertex_count,
             row_stride: dims.0 * WORKGROUP,
-            _pad: 0,
+            chunk,
             head_center: [
                 input.head.center.x as f32,
                 input.head.center.y as f32,
@@ -528,7 +625,11 @@ impl CantileverPass {
                 },
             ],
         });
-        Ok(CantileverJob { bind_group, dims })
+        Ok(CantileverJob {
+            bind_group,
+            dims,
+            iterate_dispatches: most.div_ceil(chunk),
+        })
     }
 
     /// Record the bend of every strand.
@@ -537,8 +638,16 @@ impl CantileverPass {
             label: Some("cantilever"),
             timestamp_writes: None,
         });
-        pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &job.bind_group, &[]);
+        pass.set_pipeline(&self.bend);
+        pass.dispatch_workgroups(job.dims.0, job.dims.1, 1);
+        if job.iterate_dispatches > 0 {
+            pass.set_pipeline(&self.iterate);
+            for _ in 0..job.iterate_dispatches {
+                pass.dispatch_workgroups(job.dims.0, job.dims.1, 1);
+            }
+        }
+        pass.set_pipeline(&self.finish);
         pass.dispatch_workgroups(job.dims.0, job.dims.1, 1);
     }
 }

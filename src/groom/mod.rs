@@ -6,6 +6,7 @@
 pub mod cantilever;
 pub mod elastica;
 
+use crate::error::{KamiError, Result};
 use crate::rng::Rng;
 use crate::scene::{head::phi_in_range, Bending, CutRule, Direction, Ellipsoid, Load, Scene};
 use glam::DVec3;
@@ -40,14 +41,16 @@ pub enum LoadField {
 }
 
 impl ResolvedLoad {
-    /// Force per unit length at `p`.
-    pub fn at(&self, p: DVec3) -> DVec3 {
-        if self.planes.iter().any(|(n, o)| n.dot(p) < *o) {
+    /// Force per unit length on a segment whose rest (straight, unloaded) midpoint is `rest`
+    /// and whose current midpoint is `at`: the regions select by the rest position, the field
+    /// is evaluated where the segment is.
+    pub fn at(&self, rest: DVec3, at: DVec3) -> DVec3 {
+        if self.planes.iter().any(|(n, o)| n.dot(rest) < *o) {
             return DVec3::ZERO;
         }
         match self.field {
             LoadField::Uniform(f) => f,
-            LoadField::Toward { point, strength } => (point - p).normalize_or_zero() * strength,
+            LoadField::Toward { point, strength } => (point - at).normalize_or_zero() * strength,
         }
     }
 }
@@ -89,9 +92,9 @@ pub struct GroupParams {
 }
 
 impl GroupParams {
-    /// Total load per unit length at `p`.
-    pub fn load_at(&self, p: DVec3) -> DVec3 {
-        self.loads.iter().map(|l| l.at(p)).sum()
+    /// Total load per unit length on a segment (see `ResolvedLoad::at`).
+    pub fn load_at(&self, rest: DVec3, at: DVec3) -> DVec3 {
+        self.loads.iter().map(|l| l.at(rest, at)).sum()
     }
 }
 
@@ -128,7 +131,7 @@ impl GroomInput {
 /// Draw the roots of every group from the scene's seed. Pores are uniform by area on the
 /// hull's polar patch (uniform on the sphere, then rejection by the ellipsoid's area
 /// element), so density does not bunch at the poles.
-pub fn prepare(scene: &Scene) -> GroomInput {
+pub fn prepare(scene: &Scene) -> Result<GroomInput> {
     let head = scene.head_ellipsoid();
     let gravity = ResolvedLoad {
         field: LoadField::Uniform(DVec3::from(scene.gravity)),
@@ -149,12 +152,27 @@ pub fn prepare(scene: &Scene) -> GroomInput {
         let (p0, p1) = (g.roots.phi.0.to_radians(), g.roots.phi.1.to_radians());
         let amax = hull.area_factor_max();
         for _ in 0..g.count {
+            let mut tries = 0u32;
             let (theta, phi) = loop {
                 let ct = rng.range(t1.cos(), t0.cos());
                 let phi = rng.range(p0, p1);
                 let theta = ct.clamp(-1.0, 1.0).acos();
-                if rng.uniform() * amax <= hull.area_factor(theta, phi) {
+                let accept = rng.uniform() * amax <= hull.area_factor(theta, phi);
+                let below = g
+                    .roots
+                    .hairline_theta(phi.to_degrees())
+                    .is_some_and(|t| theta.to_degrees() > t);
+                if accept && !below {
                     break (theta, phi);
+                }
+                tries += 1;
+                if tries > 1_000_000 {
+                    return Err(KamiError::Invalid {
+                        field: format!("groups[{gi}].roots"),
+                        value: format!("{:?}", g.roots.theta),
+                        allowed: "the polar range and hairline leave (almost) no area for pores"
+                            .into(),
+                    });
                 }
             };
             let pos = hull.point(theta, phi);
@@ -216,11 +234,11 @@ pub fn prepare(scene: &Scene) -> GroomInput {
             strand_count: g.count,
         });
     }
-    GroomInput {
+    Ok(GroomInput {
         head,
         roots,
         groups,
-    }
+    })
 }
 
 fn resolve_load(l: &Load) -> ResolvedLoad {

@@ -251,7 +251,7 @@ pub fn frame_uniform(view: &FrameView, size: (u32, u32)) -> GpuFrame {
 /// Groom a scene on the GPU and render it offscreen: the CLI's `render` and the snapshot
 /// tests go through here.
 pub fn render_scene(gpu: &Gpu, scene: &Scene, size: (u32, u32)) -> Result<image::RgbaImage> {
-    let input = crate::groom::prepare(scene);
+    let input = crate::groom::prepare(scene)?;
     let hair = crate::groom::cantilever::groom_gpu(gpu, &input)?;
     let quality = Quality {
         msaa: scene.render.msaa,

@@ -89,7 +89,9 @@ impl Ellipsoid {
         let phi0 = w.dot(v).atan2(w.dot(a0));
         let at = |phi: f64| pivot + d * (phi.cos() * a0 + phi.sin() * v);
         let outside = |phi: f64| self.eval(at(phi)) >= EPS_OUT;
-        const STEPS: u32 = 64;
+        // Coarse search then bisection; the WGSL twin uses the same steps (and fewer
+        // bisections, f32). Loop counts matter on llvmpipe (see shaders/cantilever.wgsl).
+        const STEPS: u32 = 32;
         let step = PI / STEPS as f64;
         for n in 1..=STEPS {
             for dir in [1.0, -1.0] {

@@ -116,6 +116,34 @@ pub struct Roots {
     /// Pores on this ellipsoid instead of the head.
     #[serde(default)]
     pub on: Option<EllipsoidDesc>,
+    /// A hairline: (phi, largest theta) pairs in degrees, phi increasing, joined linearly
+    /// and wrapping round; pores below it (larger theta) are not grown. Lets one group follow
+    /// the forehead, temples, ears and nape instead of a polar rectangle.
+    #[serde(default)]
+    pub hairline: Option<Vec<(f64, f64)>>,
+}
+
+impl Roots {
+    /// Largest zenith (degrees) allowed at azimuth `phi_deg` by the hairline, if any.
+    pub fn hairline_theta(&self, phi_deg: f64) -> Option<f64> {
+        let line = self.hairline.as_ref()?;
+        let n = line.len();
+        let start = line[0].0;
+        let p = start + (phi_deg - start).rem_euclid(360.0);
+        for i in 0..n {
+            let (a, ta) = line[i];
+            let (b, tb) = if i + 1 < n {
+                line[i + 1]
+            } else {
+                (line[0].0 + 360.0, line[0].1)
+            };
+            if p >= a && p <= b {
+                let t = if b > a { (p - a) / (b - a) } else { 0.0 };
+                return Some(ta + t * (tb - ta));
+            }
+        }
+        Some(line[n - 1].1)
+    }
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -207,6 +207,30 @@ fn validate_group(p: &str, g: &HairGroup) -> Result<()> {
             positive(&format!("{p}.roots.on.radii[{i}]"), *r, BIG)?;
         }
     }
+    if let Some(line) = &g.roots.hairline {
+        let hp = format!("{p}.roots.hairline");
+        if line.len() < 2 || line.len() > 64 {
+            return Err(bad(&hp, line.len(), "needs 2 to 64 (phi, theta) points"));
+        }
+        for (i, (phi, theta)) in line.iter().enumerate() {
+            within(&format!("{hp}[{i}].0"), *phi, -720.0, 720.0)?;
+            within(&format!("{hp}[{i}].1"), *theta, 0.0, 180.0)?;
+            if i > 0 && *phi <= line[i - 1].0 {
+                return Err(bad(
+                    &format!("{hp}[{i}].0"),
+                    phi,
+                    "phi must increase along the hairline",
+                ));
+            }
+        }
+        if line[line.len() - 1].0 - line[0].0 >= 360.0 {
+            return Err(bad(
+                &hp,
+                format!("{:?}..{:?}", line[0].0, line[line.len() - 1].0),
+                "must span less than 360 degrees of phi",
+            ));
+        }
+    }
     if let Direction::Blend { dir, weight } = &g.direction {
         nonzero(&format!("{p}.direction.dir"), *dir)?;
         within(&format!("{p}.direction.weight"), *weight, 0.0, 1.0)?;
