@@ -141,7 +141,8 @@ fn rebuild_projected(base: u32, k: u32, p0: vec3<f32>, dir: vec3<f32>, d: f32) -
     var change = 0.0;
     for (var j = 0u; j < k; j++) {
         let om = scratch[base + j].xyz;
-        let free = p + rotate_vec(om, t) * d;
+        // Normalised: GPU sin/cos are only accurate to about 2^-11.
+        let free = p + normalize(rotate_vec(om, t)) * d;
         let q = hull_push_out(h, p, t, free, d);
         let nt = normalize((q - p) / d);
         var real = om;

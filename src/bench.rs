@@ -100,8 +100,13 @@ pub fn groom(gpu: &Gpu, scene_path: &Path, frames: u32) -> Result<Report> {
         let mut worst = 0.0f64;
         for (i, r) in input.roots.iter().enumerate() {
             let len = r.seg_len * input.groups[r.group as usize].segments as f64;
-            for v in offsets[i] as usize..offsets[i + 1] as usize {
-                let g = DVec3::new(verts[v][0] as f64, verts[v][1] as f64, verts[v][2] as f64);
+            for (v, p) in verts
+                .iter()
+                .enumerate()
+                .take(offsets[i + 1] as usize)
+                .skip(offsets[i] as usize)
+            {
+                let g = DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
                 worst = worst.max((g - reference.nodes[v]).length() / len);
             }
         }

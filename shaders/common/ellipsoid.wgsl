@@ -27,8 +27,11 @@ fn any_orthonormal(v: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(b, sign + v.y * v.y * a, -v.y);
 }
 
+// Point at angle phi on the circle of radius d about the pivot in the plane (u, v).
+// Normalised because GPU sin/cos may be off by 2^-11 (Vulkan's precision bound), which
+// would otherwise change segment lengths.
 fn circle_point(pivot: vec3<f32>, u: vec3<f32>, v: vec3<f32>, d: f32, phi: f32) -> vec3<f32> {
-    return pivot + d * (cos(phi) * u + sin(phi) * v);
+    return pivot + d * normalize(cos(phi) * u + sin(phi) * v);
 }
 
 // Anjyo's collision response: an inside node moves to the nearest outside point on the

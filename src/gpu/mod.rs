@@ -33,15 +33,20 @@ pub struct Gpu {
 
 /// Backends named by `KAMI_BACKEND`, or all.
 pub fn backends_from_env() -> Result<wgpu::Backends> {
-    match std::env::var("KAMI_BACKEND") {
-        Err(_) => Ok(wgpu::Backends::all()),
-        Ok(v) => match v.to_ascii_lowercase().as_str() {
+    parse_backend(std::env::var("KAMI_BACKEND").ok().as_deref())
+}
+
+/// Backends for a `KAMI_BACKEND` value (`None`, empty or `auto`: all).
+pub fn parse_backend(value: Option<&str>) -> Result<wgpu::Backends> {
+    match value.map(|v| v.trim().to_ascii_lowercase()) {
+        None => Ok(wgpu::Backends::all()),
+        Some(v) => match v.as_str() {
             "" | "auto" => Ok(wgpu::Backends::all()),
             "vulkan" | "vk" => Ok(wgpu::Backends::VULKAN),
             "gl" | "gles" | "opengl" => Ok(wgpu::Backends::GL),
             "metal" => Ok(wgpu::Backends::METAL),
             "dx12" => Ok(wgpu::Backends::DX12),
-            _ => Err(KamiError::BadBackend(v)),
+            _ => Err(KamiError::BadBackend(value.unwrap_or_default().to_string())),
         },
     }
 }
@@ -80,9 +85,13 @@ fn rank(info: &wgpu::AdapterInfo, pref: Preference) -> u32 {
 }
 
 impl Gpu {
-    /// A device with no window.
+    /// A device with no window, on the backends `KAMI_BACKEND` allows.
     pub fn headless(pref: Preference) -> Result<Gpu> {
-        let backends = backends_from_env()?;
+        Self::headless_on(backends_from_env()?, pref)
+    }
+
+    /// A device with no window on the given backends.
+    pub fn headless_on(backends: wgpu::Backends, pref: Preference) -> Result<Gpu> {
         let instance = wgpu::Instance::new(instance_descriptor(backends));
         Self::with_instance(instance, backends, pref, None)
     }
@@ -248,7 +257,8 @@ pub fn shader_module(
     Ok(module)
 }
 
-/// Create a storage buffer with contents (never empty: wgpu bindings need a size).
+/// Create a storage buffer with contents. An empty table gets a zeroed placeholder big
+/// enough for one element of any GPU struct, since a binding must hold at least one.
 pub fn storage_buffer(
     device: &wgpu::Device,
     label: &str,
@@ -256,7 +266,7 @@ pub fn storage_buffer(
     extra: wgpu::BufferUsages,
 ) -> wgpu::Buffer {
     use wgpu::util::DeviceExt;
-    let placeholder = [0u8; 16];
+    let placeholder = [0u8; 256];
     device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some(label),
         contents: if data.is_empty() { &placeholder } else { data },

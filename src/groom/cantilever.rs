@@ -344,8 +344,8 @@ fn first_crossing(nodes: &[DVec3], f: impl Fn(DVec3) -> f64) -> f64 {
     if fa < 0.0 {
         return 0.0;
     }
-    for i in 1..nodes.len() {
-        let fb = f(nodes[i]);
+    for (i, node) in nodes.iter().enumerate().skip(1) {
+        let fb = f(*node);
         if fb < 0.0 {
             return (i - 1) as f64 + fa / (fa - fb);
         }

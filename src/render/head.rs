@@ -103,7 +103,7 @@ impl HeadPass {
             label: Some("head"),
             layout: Some(pl),
             vertex: wgpu::VertexState {
-                module: module,
+                module,
                 entry_point: Some("vs"),
                 compilation_options: Default::default(),
                 buffers: &[Some(wgpu::VertexBufferLayout {
@@ -122,7 +122,7 @@ impl HeadPass {
                 ..Default::default()
             },
             fragment: Some(wgpu::FragmentState {
-                module: module,
+                module,
                 entry_point: Some("fs"),
                 compilation_options: Default::default(),
                 targets: &[Some(color_format.into())],

@@ -248,9 +248,23 @@ pub fn frame_uniform(view: &FrameView, size: (u32, u32)) -> GpuFrame {
     }
 }
 
+/// Check, before anything is allocated, that a scene rendered at `size` fits the adapter:
+/// hair buffers within the storage-binding limit, supersampled targets within the texture
+/// limit.
+pub fn check_limits(gpu: &Gpu, scene: &Scene, size: (u32, u32)) -> Result<()> {
+    let (strands, segments) = scene.counts();
+    gpu.check_storage_size("the hair vertex buffer", (segments + strands) * 16)?;
+    gpu.check_storage_size("the strand table", strands * 32)?;
+    let f = scene.render.supersample;
+    gpu.check_texture_size("the supersampled image width", size.0.saturating_mul(f))?;
+    gpu.check_texture_size("the supersampled image height", size.1.saturating_mul(f))?;
+    Ok(())
+}
+
 /// Groom a scene on the GPU and render it offscreen: the CLI's `render` and the snapshot
 /// tests go through here.
 pub fn render_scene(gpu: &Gpu, scene: &Scene, size: (u32, u32)) -> Result<image::RgbaImage> {
+    check_limits(gpu, scene, size)?;
     let input = crate::groom::prepare(scene)?;
     let hair = crate::groom::cantilever::groom_gpu(gpu, &input)?;
     let quality = Quality {

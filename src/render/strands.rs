@@ -102,7 +102,7 @@ impl StrandsPass {
             label: Some("strands"),
             layout: Some(pl),
             vertex: wgpu::VertexState {
-                module: module,
+                module,
                 entry_point: Some("vs"),
                 compilation_options: Default::default(),
                 buffers: &[],
@@ -119,7 +119,7 @@ impl StrandsPass {
                 alpha_to_coverage_enabled: msaa,
             },
             fragment: Some(wgpu::FragmentState {
-                module: module,
+                module,
                 entry_point: Some("fs"),
                 compilation_options: Default::default(),
                 targets: &[Some(wgpu::ColorTargetState {

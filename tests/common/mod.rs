@@ -1,0 +1,106 @@
+//! Shared by the integration tests: one way to get a headless software device, scene
+//! loading, and snapshot comparison with written-down tolerances.
+#![allow(dead_code)]
+
+use kami::gpu::{Gpu, Preference};
+use std::path::{Path, PathBuf};
+
+/// A device on a software adapter (llvmpipe or lavapipe; `KAMI_BACKEND` picks the backend).
+/// There is no silent skip: without an adapter the test fails and says how to get one.
+pub fn gpu() -> Gpu {
+    match Gpu::headless(Preference::Software) {
+        Ok(g) => g,
+        Err(e) => panic!(
+            "no GPU adapter for the tests: {e}\nOn Debian: apt-get install -y mesa-vulkan-drivers \
+             libegl-mesa0 libgl1-mesa-dri (then KAMI_BACKEND=vulkan or gl)"
+        ),
+    }
+}
+
+pub fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+pub fn scene(name: &str) -> kami::Scene {
+    kami::Scene::load(root().join("assets/scenes").join(format!("{name}.ron")))
+        .unwrap_or_else(|e| panic!("shipped scene {name} does not load: {e}"))
+}
+
+/// The shipped scenes.
+pub const SCENES: &[&str] = &["bob", "swept_back", "ponytail", "short_cut"];
+
+/// How far a rendering may drift from its reference: the mean absolute difference over all
+/// RGB channels (0..255), and the share of pixels whose largest channel difference exceeds
+/// `threshold`.
+#[derive(Clone, Copy, Debug)]
+pub struct Tolerance {
+    pub mean: f64,
+    pub threshold: u8,
+    pub share: f64,
+}
+
+/// Compare `img` with `tests/snapshots/{name}.png`. On failure, `{name}.new.png` and
+/// `{name}.diff.png` are written beside it; `UPDATE_SNAPSHOTS=1` accepts the new image.
+pub fn check_snapshot(name: &str, img: &image::RgbaImage, tol: Tolerance) {
+    let dir = root().join("tests/snapshots");
+    let reference = dir.join(format!("{name}.png"));
+    let update = std::env::var("UPDATE_SNAPSHOTS").is_ok_and(|v| v == "1");
+    if update {
+        img.save(&reference).unwrap();
+        return;
+    }
+    let Ok(want) = image::open(&reference) else {
+        img.save(dir.join(format!("{name}.new.png"))).unwrap();
+        panic!("no reference {}; look at {name}.new.png and run UPDATE_SNAPSHOTS=1 cargo test to accept it", reference.display());
+    };
+    let want = want.to_rgba8();
+    assert_eq!(
+        want.dimensions(),
+        img.dimensions(),
+        "snapshot {name}: size changed"
+    );
+    let (mean, share, diff) = compare(&want, img, tol.threshold);
+    if mean > tol.mean || share > tol.share {
+        img.save(dir.join(format!("{name}.new.png"))).unwrap();
+        diff.save(dir.join(format!("{name}.diff.png"))).unwrap();
+        panic!(
+            "snapshot {name}: mean difference {mean:.3} (allowed {}), {:.3}% of pixels off by more than {} (allowed {:.3}%); see {name}.new.png and {name}.diff.png in {}",
+            tol.mean,
+            share * 100.0,
+            tol.threshold,
+            tol.share * 100.0,
+            dir.display()
+        );
+    }
+}
+
+/// (mean absolute difference, share of pixels over threshold, diff image x4).
+pub fn compare(
+    a: &image::RgbaImage,
+    b: &image::RgbaImage,
+    threshold: u8,
+) -> (f64, f64, image::RgbaImage) {
+    let mut sum = 0u64;
+    let mut over = 0u64;
+    let mut diff = image::RgbaImage::new(a.width(), a.height());
+    for ((pa, pb), pd) in a.pixels().zip(b.pixels()).zip(diff.pixels_mut()) {
+        let mut worst = 0u8;
+        for c in 0..3 {
+            let d = pa[c].abs_diff(pb[c]);
+            sum += d as u64;
+            worst = worst.max(d);
+            pd[c] = d.saturating_mul(4);
+        }
+        pd[3] = 255;
+        if worst > threshold {
+            over += 1;
+        }
+    }
+    let n = (a.width() * a.height()) as f64;
+    (sum as f64 / (3.0 * n), over as f64 / n, diff)
+}
+
+/// Is a path under the repository (for messages).
+pub fn rel(p: &Path) -> String {
+    p.strip_prefix(root()).unwrap_or(p).display().to_string()
+}
