@@ -306,7 +306,7 @@ fn default_ka_spread() -> f64 {
     0.15
 }
 fn default_ks() -> f64 {
-    0.25
+    0.18
 }
 fn default_shininess() -> f64 {
     150.0
