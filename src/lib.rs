@@ -16,3 +16,4 @@ pub mod bench;
 pub mod gpu;
 pub mod render;
 pub mod shaders;
+pub mod sim;

@@ -5,6 +5,8 @@ use clap::{Parser, Subcommand};
 use kami::gpu::{Gpu, Preference};
 use std::path::PathBuf;
 
+mod anim;
+
 #[derive(Parser)]
 #[command(
     name = "kami",
@@ -18,13 +20,26 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Groom a scene on the GPU and render it to a PNG.
+    /// Groom a scene on the GPU and render it to a PNG, or render its animation.
     Render {
         /// Scene file (RON), e.g. assets/scenes/bob.ron.
         scene: PathBuf,
-        /// Output PNG.
-        #[arg(short, long, default_value = "kami.png")]
-        out: PathBuf,
+        /// Output: a PNG file for a still; a directory for `--frames` (numbered PNGs).
+        #[arg(short, long)]
+        out: Option<PathBuf>,
+        /// Render an animation: frames A..B (inclusive; frame 0 is the groomed rest pose).
+        /// Scenes without dynamics render the same still each frame.
+        #[arg(long, value_parser = parse_frames)]
+        frames: Option<(u32, u32)>,
+        /// With --frames: also write an animated GIF here.
+        #[arg(long)]
+        gif: Option<PathBuf>,
+        /// With --frames: also write an animated PNG (APNG) here.
+        #[arg(long)]
+        apng: Option<PathBuf>,
+        /// Playback rate of --gif and --apng, frames per second.
+        #[arg(long, default_value_t = 10)]
+        fps: u32,
         /// Image size as WIDTHxHEIGHT (default: the scene's render.size).
         #[arg(long, value_parser = parse_size)]
         size: Option<(u32, u32)>,
@@ -86,6 +101,26 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
     Ok((w, h))
 }
 
+/// "A..B" (inclusive).
+fn parse_frames(s: &str) -> Result<(u32, u32), String> {
+    let (a, b) = s
+        .split_once("..")
+        .ok_or_else(|| format!("frames {s:?} must look like 0..40"))?;
+    let a: u32 = a
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad first frame in {s:?}"))?;
+    let b: u32 = b
+        .trim()
+        .trim_start_matches('=')
+        .parse()
+        .map_err(|_| format!("bad last frame in {s:?}"))?;
+    if b < a || b > 1_000_000 {
+        return Err(format!("frames {s:?}: need first <= last <= 1000000"));
+    }
+    Ok((a, b))
+}
+
 fn preference(software: bool) -> Preference {
     if software {
         Preference::Software
@@ -104,6 +139,10 @@ fn main() -> Result<()> {
         Command::Render {
             scene,
             out,
+            frames,
+            gif,
+            apng,
+            fps,
             size,
             msaa,
             supersample,
@@ -120,18 +159,74 @@ fn main() -> Result<()> {
             let size = size.unwrap_or(s.render.size);
             let gpu = Gpu::headless(preference(software))?;
             let t = std::time::Instant::now();
-            let img = kami::render::render_scene(&gpu, &s, size)?;
-            img.save(&out)
-                .with_context(|| format!("writing {}", out.display()))?;
             let (hairs, segs) = s.counts();
-            println!(
-                "{}: {hairs} hairs, {segs} segments, {}x{} on {} in {:.2} s",
-                out.display(),
-                size.0,
-                size.1,
-                gpu.describe(),
-                t.elapsed().as_secs_f64()
-            );
+            match frames {
+                None => {
+                    if gif.is_some() || apng.is_some() {
+                        bail!("--gif and --apng need --frames A..B");
+                    }
+                    let out = out.unwrap_or_else(|| PathBuf::from("kami.png"));
+                    let img = kami::render::render_scene(&gpu, &s, size)?;
+                    img.save(&out)
+                        .with_context(|| format!("writing {}", out.display()))?;
+                    println!(
+                        "{}: {hairs} hairs, {segs} segments, {}x{} on {} in {:.2} s",
+                        out.display(),
+                        size.0,
+                        size.1,
+                        gpu.describe(),
+                        t.elapsed().as_secs_f64()
+                    );
+                }
+                Some((first, last)) => {
+                    if fps == 0 || fps > 1000 {
+                        bail!("--fps must be between 1 and 1000");
+                    }
+                    if s.dynamics.is_none() {
+                        log::warn!(
+                            "{} has no dynamics: every frame is the same still",
+                            scene.display()
+                        );
+                    }
+                    let dir = out.unwrap_or_else(|| PathBuf::from("frames"));
+                    std::fs::create_dir_all(&dir)
+                        .with_context(|| format!("creating {}", dir.display()))?;
+                    let count = last - first + 1;
+                    let mut sinks =
+                        anim::Sinks::new(gif.as_deref(), apng.as_deref(), size, count, fps)?;
+                    let mut progress = anim::Progress::new(count);
+                    let capped =
+                        kami::render::render_animation(&gpu, &s, size, first..=last, |f, img| {
+                            let path = dir.join(format!("frame_{f:04}.png"));
+                            img.save(&path).map_err(|e| kami::KamiError::Image {
+                                path: path.clone(),
+                                message: e.to_string(),
+                            })?;
+                            sinks.push(&img).map_err(|e| kami::KamiError::Image {
+                                path: path.clone(),
+                                message: e.to_string(),
+                            })?;
+                            progress.tick();
+                            Ok(())
+                        })?;
+                    sinks.finish()?;
+                    progress.done();
+                    if capped > 0 {
+                        eprintln!(
+                            "warning: {capped} frame(s) needed more than dynamics.max_substeps substeps; the solver clamped \
+                             the angular step there (raise max_substeps or lower dt for accuracy)"
+                        );
+                    }
+                    println!(
+                        "{}: frames {first}..{last} ({hairs} hairs, {segs} segments, {}x{}) on {} in {:.2} s",
+                        dir.display(),
+                        size.0,
+                        size.1,
+                        gpu.describe(),
+                        t.elapsed().as_secs_f64()
+                    );
+                }
+            }
         }
         Command::Bench { which } => match which {
             Bench::Groom {

@@ -17,6 +17,14 @@ pub const CANTILEVER: &str = wgsl!(
     "cantilever.wgsl",
 );
 
+/// Projective dynamics (Anjyo section 3).
+pub const PROJECTIVE: &str = wgsl!(
+    "common/ellipsoid.wgsl",
+    "common/rotate.wgsl",
+    "common/random.wgsl",
+    "projective.wgsl",
+);
+
 /// Hair ribbons with Anjyo's anisotropic specular.
 pub const STRANDS: &str = wgsl!("common/strands.wgsl", "common/frame.wgsl", "strands.wgsl");
 
@@ -29,6 +37,7 @@ pub const DOWNSAMPLE: &str = wgsl!("downsample.wgsl");
 /// (name, source) of every module, for validation.
 pub const ALL: &[(&str, &str)] = &[
     ("cantilever", CANTILEVER),
+    ("projective", PROJECTIVE),
     ("strands", STRANDS),
     ("head", HEAD),
     ("downsample", DOWNSAMPLE),

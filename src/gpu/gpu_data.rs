@@ -147,6 +147,65 @@ pub struct GpuHead {
 }
 assert_size!(GpuHead, 96);
 
+/// Projective-dynamics parameters. Keep in sync with `struct DynParams` in
+/// `shaders/projective.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuDynParams {
+    pub strand_count: u32,
+    pub row_stride: u32,
+    pub collision: u32,
+    pub pseudo: u32,
+    pub density: f32,
+    pub damping: f32,
+    pub seed: u32,
+    /// Fluctuation amplitude, radians.
+    pub fluct_amp: f32,
+    pub pseudo_alpha: f32,
+    pub eps_pore: f32,
+    pub eps_tip: f32,
+    pub near: f32,
+    /// Joint-angle limits, radians, and where the fall starts (fraction).
+    pub sigma_root: f32,
+    pub sigma_tip: f32,
+    pub sigma_start: f32,
+    pub inertia_root: f32,
+    pub inertia_tip: f32,
+    pub _pad: [f32; 3],
+    pub head_center: [f32; 4],
+    pub head_radii: [f32; 4],
+}
+assert_size!(GpuDynParams, 112);
+
+/// One substep's forces, in a 256-byte slot of a dynamic-offset uniform buffer. Keep in sync
+/// with `struct Step` in `shaders/projective.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuStep {
+    /// xyz: gravity + wind; w: substep length h.
+    pub force: [f32; 4],
+    pub head: [[f32; 4]; 4],
+    pub head_inv: [[f32; 4]; 4],
+    pub accel: [[f32; 4]; 4],
+    /// x: 1 when this substep kicks; y: kick bucket.
+    pub kick: [u32; 4],
+    pub _pad: [u32; 8],
+}
+assert_size!(GpuStep, 256);
+
+/// One simulated strand. Keep in sync with `struct DynStrand` in `shaders/projective.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuDynStrand {
+    /// strand, first vertex, state offset, simulated segments.
+    pub ids: [u32; 4],
+    /// xyz: pore in head coordinates; w: segment length.
+    pub root: [f32; 4],
+    /// x: scalp inertia factor.
+    pub extra: [f32; 4],
+}
+assert_size!(GpuDynStrand, 48);
+
 /// sRGB component (0..1) to linear.
 pub fn srgb_to_linear(c: f32) -> f32 {
     if c <= 0.04045 {

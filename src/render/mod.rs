@@ -289,3 +289,54 @@ pub fn render_scene(gpu: &Gpu, scene: &Scene, size: (u32, u32)) -> Result<image:
     gpu.queue.submit([enc.finish()]);
     out.read_rgba(gpu)
 }
+
+/// Render frames `first..=last` of a scene's animation offscreen, calling `on_frame` with
+/// each image. The groom and the simulation run on the GPU; only the images come back.
+/// Frame 0 is the groomed rest pose; frame f is after f frames of simulation. Returns the
+/// number of frames whose steps hit the substep cap (the solver clamped and warned).
+pub fn render_animation(
+    gpu: &Gpu,
+    scene: &Scene,
+    size: (u32, u32),
+    frames: std::ops::RangeInclusive<u32>,
+    mut on_frame: impl FnMut(u32, image::RgbaImage) -> Result<()>,
+) -> Result<u32> {
+    check_limits(gpu, scene, size)?;
+    let input = crate::groom::prepare(scene)?;
+    let hair = crate::groom::cantilever::groom_gpu(gpu, &input)?;
+    let mut sim = crate::sim::Simulation::new(gpu, scene, &input, &hair)?;
+    let quality = Quality {
+        msaa: scene.render.msaa,
+        supersample: scene.render.supersample,
+    };
+    let mut renderer = Renderer::new(gpu, target::OUTPUT_FORMAT, quality)?;
+    renderer.set_hair(gpu, &hair, &materials(scene));
+    let out = target::Offscreen::new(gpu, size)?;
+    let mut view = FrameView::from_scene(scene);
+    let center = DVec3::from(scene.head.center);
+    let mut capped = 0;
+    for f in 0..=*frames.end() {
+        let mut enc = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("animation frame"),
+            });
+        if f > 0 {
+            if let Some(sim) = sim.as_mut() {
+                capped += u32::from(sim.record_frame(gpu, &mut enc, &hair).capped);
+            }
+        }
+        if f >= *frames.start() {
+            if let (Some(d), Some(head)) = (&scene.dynamics, view.head.as_mut()) {
+                head.1 = crate::sim::forces::head_at(&d.head_motion, center, f as f64);
+            }
+            renderer.render(gpu, &mut enc, &out.view, size, &view)?;
+            gpu.queue.submit([enc.finish()]);
+            on_frame(f, out.read_rgba(gpu)?)?;
+        } else {
+            gpu.queue.submit([enc.finish()]);
+        }
+    }
+    gpu.take_error()?;
+    Ok(capped)
+}

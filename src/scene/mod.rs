@@ -37,6 +37,10 @@ pub struct Scene {
     pub light: Light,
     #[serde(default)]
     pub render: RenderSettings,
+    /// Hair in motion (Anjyo section 3). Absent: the groom is static and no simulation
+    /// buffers or passes are built.
+    #[serde(default)]
+    pub dynamics: Option<Dynamics>,
 }
 
 fn default_gravity() -> [f64; 3] {
@@ -104,6 +108,10 @@ pub struct HairGroup {
     pub cuts: Vec<Cut>,
     #[serde(default)]
     pub material: Material,
+    /// Simulated when the scene has dynamics; `false` keeps the group still (its strands get
+    /// no simulation state at all).
+    #[serde(default = "yes")]
+    pub dynamic: bool,
 }
 
 /// Pore region: a polar range on the head ellipsoid, or on another ellipsoid (a ponytail's
@@ -490,4 +498,204 @@ impl Scene {
             (h + g.count as u64, s + g.count as u64 * g.segments as u64)
         })
     }
+}
+
+/// Anjyo's projective dynamics (section 3): each segment's zenith and azimuth follow
+/// `theta'' = c_i u_i F_theta`, `phi'' = c_i v_i F_phi`, integrated by the recurrences
+/// (4)' and (5)'. Forces are per segment, in the paper's units (Fig. 10 uses |F| = 200 with
+/// dt = 0.1, d = rho = 1, k = 18).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Dynamics {
+    /// Time step Delta t of the recurrences.
+    #[serde(default = "default_dt")]
+    pub dt: f64,
+    /// Steps per rendered frame.
+    #[serde(default = "one_u32")]
+    pub steps_per_frame: u32,
+    /// Line density rho (mass per unit length); inertia I_i = rho k^3 d^2 / (3 i).
+    #[serde(default = "one")]
+    pub density: f64,
+    /// Velocity damping per step, 0..1 (0 is the paper's undamped recurrence).
+    #[serde(default)]
+    pub damping: f64,
+    /// Constant force on every segment (gravity, in force units).
+    #[serde(default)]
+    pub gravity: [f64; 3],
+    /// Uniform wind force over time; empty means none.
+    #[serde(default)]
+    pub wind: Vec<WindKey>,
+    /// Rigid head motion over time; empty means the head stays still. Roots follow the
+    /// head, the collision ellipsoid moves with it, and hair feels the roots' acceleration.
+    #[serde(default)]
+    pub head_motion: Vec<HeadKey>,
+    #[serde(default)]
+    pub inertia: Inertia,
+    /// The pseudo-force field (3.2.2); absent means off.
+    #[serde(default)]
+    pub pseudo_force: Option<PseudoForce>,
+    #[serde(default)]
+    pub stiffness: Stiffness,
+    /// Random fluctuation of "gently blowing" hair (3.2.3); absent means off.
+    #[serde(default)]
+    pub fluctuation: Option<Fluctuation>,
+    /// Hard collision: after each step a node inside the head is moved out as in grooming.
+    /// Our addition to the paper (whose pseudo-force only discourages penetration).
+    #[serde(default = "yes")]
+    pub collision: bool,
+    /// Most substeps per step the solver may take to stay stable; beyond that it clamps the
+    /// angular velocity and warns.
+    #[serde(default = "default_max_substeps")]
+    pub max_substeps: u32,
+}
+
+fn default_dt() -> f64 {
+    0.1
+}
+fn one_u32() -> u32 {
+    1
+}
+fn default_max_substeps() -> u32 {
+    64
+}
+
+/// How a keyed value moves from this key to the next.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Interp {
+    /// Hold this value until the next key (the paper's gust is a step).
+    #[default]
+    Step,
+    /// Blend linearly towards the next key.
+    Linear,
+}
+
+/// Wind from frame `frame` on.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WindKey {
+    pub frame: f64,
+    pub force: [f64; 3],
+    #[serde(default)]
+    pub interp: Interp,
+}
+
+/// Head pose at frame `frame`: rotation (degrees about x, then y, then z, about the head's
+/// center) and translation.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HeadKey {
+    pub frame: f64,
+    #[serde(default)]
+    pub rotate: [f64; 3],
+    #[serde(default)]
+    pub translate: [f64; 3],
+    #[serde(default = "linear")]
+    pub interp: Interp,
+}
+
+fn linear() -> Interp {
+    Interp::Linear
+}
+
+/// Inertia arrangement (3.2.1): c_i = 1/I_i scaled along the strand (`root` at the pore to
+/// `tip`, linear) and across the scalp (`top` for pores at `top_height` and above, 1 below
+/// `top_height - top_blend`: the paper's rough friction near the top of the head).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Inertia {
+    #[serde(default = "one")]
+    pub root: f64,
+    #[serde(default = "one")]
+    pub tip: f64,
+    #[serde(default = "one")]
+    pub top: f64,
+    #[serde(default)]
+    pub top_height: f64,
+    #[serde(default = "default_top_blend")]
+    pub top_blend: f64,
+}
+
+fn default_top_blend() -> f64 {
+    4.0
+}
+
+impl Default for Inertia {
+    fn default() -> Self {
+        Inertia {
+            root: 1.0,
+            tip: 1.0,
+            top: 1.0,
+            top_height: 0.0,
+            top_blend: default_top_blend(),
+        }
+    }
+}
+
+/// Pseudo-force (3.2.2): a segment within `near` of the head whose force points into it
+/// (`(D, F) < alpha |D| |F|`, D the hull gradient) feels `epsilon_i F`, epsilon rising
+/// linearly from `epsilon_pore` at the root to `epsilon_tip` at the tip.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PseudoForce {
+    pub alpha: f64,
+    pub epsilon_pore: f64,
+    #[serde(default = "one")]
+    pub epsilon_tip: f64,
+    /// Distance from the head (world units) under which a segment is "near the head".
+    pub near: f64,
+}
+
+/// Joint-angle stiffness (3.2.3): the bend at node i is limited to sigma_i degrees
+/// (180 = free). sigma is `root` up to `start` (fraction of the strand), then falls linearly
+/// to `tip`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Stiffness {
+    #[serde(default = "free_angle")]
+    pub root: f64,
+    #[serde(default = "free_angle")]
+    pub tip: f64,
+    #[serde(default)]
+    pub start: f64,
+}
+
+fn free_angle() -> f64 {
+    180.0
+}
+
+impl Default for Stiffness {
+    fn default() -> Self {
+        Stiffness {
+            root: 180.0,
+            tip: 180.0,
+            start: 0.0,
+        }
+    }
+}
+
+impl Stiffness {
+    /// sigma (degrees) at fraction `t` along the strand.
+    pub fn sigma_at(&self, t: f64) -> f64 {
+        if t <= self.start {
+            self.root
+        } else {
+            let u = ((t - self.start) / (1.0 - self.start).max(1e-9)).clamp(0.0, 1.0);
+            self.root + (self.tip - self.root) * u
+        }
+    }
+}
+
+/// "Gently blowing" fluctuation (3.2.3): every `period` frames each strand's segment angles
+/// get a uniform random kick of up to `amplitude` degrees (scaled by position along the
+/// strand), seeded from the scene seed so runs repeat.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Fluctuation {
+    pub amplitude: f64,
+    #[serde(default = "ten")]
+    pub period: u32,
+}
+
+fn ten() -> u32 {
+    10
 }

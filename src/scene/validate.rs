@@ -175,6 +175,98 @@ pub fn validate(s: &Scene) -> Result<()> {
         ));
     }
     within("render.min_width", r.min_width, 0.25, 8.0)?;
+    if let Some(d) = &s.dynamics {
+        validate_dynamics(d)?;
+    }
+    Ok(())
+}
+
+fn validate_dynamics(d: &Dynamics) -> Result<()> {
+    positive("dynamics.dt", d.dt, 10.0)?;
+    if d.steps_per_frame == 0 || d.steps_per_frame > 1000 {
+        return Err(bad(
+            "dynamics.steps_per_frame",
+            d.steps_per_frame,
+            "must be in [1, 1000]",
+        ));
+    }
+    positive("dynamics.density", d.density, 1e6)?;
+    within("dynamics.damping", d.damping, 0.0, 0.99)?;
+    vec3("dynamics.gravity", d.gravity, 1e9)?;
+    for (i, k) in d.wind.iter().enumerate() {
+        within(&format!("dynamics.wind[{i}].frame"), k.frame, -1e9, 1e9)?;
+        vec3(&format!("dynamics.wind[{i}].force"), k.force, 1e9)?;
+        if i > 0 && k.frame <= d.wind[i - 1].frame {
+            return Err(bad(
+                &format!("dynamics.wind[{i}].frame"),
+                k.frame,
+                "keys must be in increasing frame order",
+            ));
+        }
+    }
+    for (i, k) in d.head_motion.iter().enumerate() {
+        within(
+            &format!("dynamics.head_motion[{i}].frame"),
+            k.frame,
+            -1e9,
+            1e9,
+        )?;
+        vec3(&format!("dynamics.head_motion[{i}].rotate"), k.rotate, 1e5)?;
+        vec3(
+            &format!("dynamics.head_motion[{i}].translate"),
+            k.translate,
+            BIG,
+        )?;
+        if i > 0 && k.frame <= d.head_motion[i - 1].frame {
+            return Err(bad(
+                &format!("dynamics.head_motion[{i}].frame"),
+                k.frame,
+                "keys must be in increasing frame order",
+            ));
+        }
+    }
+    let inr = &d.inertia;
+    positive("dynamics.inertia.root", inr.root, 1e6)?;
+    positive("dynamics.inertia.tip", inr.tip, 1e6)?;
+    positive("dynamics.inertia.top", inr.top, 1e6)?;
+    within("dynamics.inertia.top_height", inr.top_height, -BIG, BIG)?;
+    positive("dynamics.inertia.top_blend", inr.top_blend, BIG)?;
+    if let Some(pf) = &d.pseudo_force {
+        within("dynamics.pseudo_force.alpha", pf.alpha, -1.0, 1.0)?;
+        within(
+            "dynamics.pseudo_force.epsilon_pore",
+            pf.epsilon_pore,
+            0.0,
+            1.0,
+        )?;
+        within(
+            "dynamics.pseudo_force.epsilon_tip",
+            pf.epsilon_tip,
+            0.0,
+            1.0,
+        )?;
+        within("dynamics.pseudo_force.near", pf.near, 0.0, BIG)?;
+    }
+    within("dynamics.stiffness.root", d.stiffness.root, 0.0, 180.0)?;
+    within("dynamics.stiffness.tip", d.stiffness.tip, 0.0, 180.0)?;
+    within("dynamics.stiffness.start", d.stiffness.start, 0.0, 0.99)?;
+    if let Some(f) = &d.fluctuation {
+        within("dynamics.fluctuation.amplitude", f.amplitude, 0.0, 90.0)?;
+        if f.period == 0 || f.period > 100_000 {
+            return Err(bad(
+                "dynamics.fluctuation.period",
+                f.period,
+                "must be in [1, 100000] frames",
+            ));
+        }
+    }
+    if d.max_substeps == 0 || d.max_substeps > 4096 {
+        return Err(bad(
+            "dynamics.max_substeps",
+            d.max_substeps,
+            "must be in [1, 4096]",
+        ));
+    }
     Ok(())
 }
 

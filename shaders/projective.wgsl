@@ -1,0 +1,281 @@
+// Anjyo's projective dynamics, one substep per dispatch, one invocation per simulated
+// strand. The same steps as the f64 reference in src/sim/projective.rs (read its header for
+// the equations and our additions): forces with the pseudo-force field, the theta plane from
+// y and F near the poles, the recurrences (4)' and (5)' with damping and the angular clamp,
+// the fluctuation kick, the joint-angle clamp, the hard collision; root to tip.
+// `init` turns the groomed nodes into angles at rest (theta^0 = theta^-1).
+
+const TAU: f32 = 6.28318530717959;
+const POLE_SIN: f32 = 0.05;
+const MAX_TURN: f32 = 0.5;
+
+// Keep in sync with GpuDynParams in src/gpu/gpu_data.rs.
+struct DynParams {
+    strand_count: u32,
+    row_stride: u32,
+    collision: u32,
+    pseudo: u32,
+    density: f32,
+    damping: f32,
+    seed: u32,
+    fluct_amp: f32,
+    pseudo_alpha: f32,
+    eps_pore: f32,
+    eps_tip: f32,
+    near: f32,
+    sigma_root: f32,
+    sigma_tip: f32,
+    sigma_start: f32,
+    inertia_root: f32,
+    inertia_tip: f32,
+    _p0: f32,
+    _p1: f32,
+    _p2: f32,
+    head_center: vec4<f32>,
+    head_radii: vec4<f32>,
+}
+
+// Keep in sync with GpuStep in src/gpu/gpu_data.rs (one 256-byte slot per substep).
+struct Step {
+    // xyz gravity + wind, w substep length h
+    force: vec4<f32>,
+    head: mat4x4<f32>,
+    head_inv: mat4x4<f32>,
+    accel: mat4x4<f32>,
+    // x: 1 when this substep kicks, y: kick bucket
+    kick: vec4<u32>,
+}
+
+// Keep in sync with GpuDynStrand in src/gpu/gpu_data.rs.
+struct DynStrand {
+    // strand, first vertex, state offset, simulated segments
+    ids: vec4<u32>,
+    // xyz pore in head coordinates, w segment length
+    root: vec4<f32>,
+    // x scalp inertia factor
+    extra: vec4<f32>,
+}
+
+@group(0) @binding(0) var<uniform> params: DynParams;
+@group(0) @binding(1) var<uniform> substep: Step;
+@group(0) @binding(2) var<storage, read> dyn_strands: array<DynStrand>;
+@group(0) @binding(3) var<storage, read_write> state: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read_write> verts: array<vec4<f32>>;
+
+fn hull() -> Hull {
+    return Hull(params.head_center.xyz, params.head_radii.xyz);
+}
+
+fn direction(theta: f32, phi: f32) -> vec3<f32> {
+    return vec3<f32>(sin(theta) * cos(phi), cos(theta), sin(theta) * sin(phi));
+}
+
+fn unwrap_near(a: f32, r: f32) -> f32 {
+    return a + TAU * round((r - a) / TAU);
+}
+
+// Continuing representation of unit dir (see projective::angles_near).
+fn angles_near(dir: vec3<f32>, theta_ref: f32, phi_ref: f32) -> vec2<f32> {
+    let tc = acos(clamp(dir.y, -1.0, 1.0));
+    let horizontal = sqrt(dir.x * dir.x + dir.z * dir.z);
+    if horizontal <= 1e-6 {
+        let a = unwrap_near(tc, theta_ref);
+        let b = unwrap_near(-tc, theta_ref);
+        return vec2<f32>(select(b, a, abs(a - theta_ref) <= abs(b - theta_ref)), phi_ref);
+    }
+    let pc = atan2(dir.z, dir.x);
+    let pa = unwrap_near(pc, phi_ref);
+    let pb = unwrap_near(pc + PI, phi_ref);
+    if abs(pa - phi_ref) <= abs(pb - phi_ref) {
+        return vec2<f32>(unwrap_near(tc, theta_ref), pa);
+    }
+    return vec2<f32>(unwrap_near(-tc, theta_ref), pb);
+}
+
+fn kick_unit(strand: u32, segment: u32, bucket: u32, which: u32) -> f32 {
+    let h = pcg_hash((bucket * 2u + which) ^ pcg_hash(segment ^ pcg_hash(strand ^ pcg_hash(params.seed))));
+    return f32(h >> 8u) / 16777216.0 * 2.0 - 1.0;
+}
+
+fn along(s: DynStrand, i: u32) -> f32 {
+    let k = s.ids.w;
+    if k > 1u {
+        return (f32(i) - 1.0) / (f32(k) - 1.0);
+    }
+    return 1.0;
+}
+
+fn c_of(s: DynStrand, i: u32) -> f32 {
+    let k = f32(s.ids.w);
+    let d = s.root.w;
+    let prof = params.inertia_root + (params.inertia_tip - params.inertia_root) * along(s, i);
+    return 3.0 * f32(i) / (params.density * k * k * k * d * d) * prof * s.extra.x;
+}
+
+fn sigma_at(t: f32) -> f32 {
+    if t <= params.sigma_start {
+        return params.sigma_root;
+    }
+    let u = clamp((t - params.sigma_start) / max(1.0 - params.sigma_start, 1e-9), 0.0, 1.0);
+    return params.sigma_root + (params.sigma_tip - params.sigma_root) * u;
+}
+
+fn xform_point(m: mat4x4<f32>, p: vec3<f32>) -> vec3<f32> {
+    return (m * vec4<f32>(p, 1.0)).xyz;
+}
+
+fn xform_vector(m: mat4x4<f32>, v: vec3<f32>) -> vec3<f32> {
+    return (m * vec4<f32>(v, 0.0)).xyz;
+}
+
+fn strand_index(id: vec3<u32>) -> u32 {
+    return id.x + id.y * params.row_stride;
+}
+
+@compute @workgroup_size(64)
+fn init(@builtin(global_invocation_id) id: vec3<u32>) {
+    let si = strand_index(id);
+    if si >= params.strand_count {
+        return;
+    }
+    let s = dyn_strands[si];
+    let base = s.ids.y;
+    let off = s.ids.z;
+    for (var i = 1u; i <= s.ids.w; i++) {
+        let dir = normalize(verts[base + i].xyz - verts[base + i - 1u].xyz);
+        let a = angles_near(dir, 0.5 * PI, 0.0);
+        state[off + i] = vec4<f32>(a, a);
+    }
+}
+
+@compute @workgroup_size(64)
+fn advance(@builtin(global_invocation_id) id: vec3<u32>) {
+    let si = strand_index(id);
+    if si >= params.strand_count {
+        return;
+    }
+    let s = dyn_strands[si];
+    let k = s.ids.w;
+    let base = s.ids.y;
+    let off = s.ids.z;
+    let d = s.root.w;
+    let h = substep.force.w;
+    let hl = hull();
+    let root = xform_point(substep.head, s.root.xyz);
+    let a_root = xform_point(substep.accel, s.root.xyz);
+    let f_seg = substep.force.xyz - params.density * d * a_root;
+    let keep = 1.0 - params.damping;
+    verts[base] = vec4<f32>(root, 1.0);
+    var prev_p = root;
+    var prev_dir = normalize(xform_vector(substep.head, hull_gradient(hl, s.root.xyz)));
+    for (var i = 1u; i <= k; i++) {
+        let a = state[off + i];
+        var th = a.x;
+        var ph = a.y;
+        var thp = a.z;
+        var php = a.w;
+        let p_old = verts[base + i].xyz;
+        var force = f_seg;
+        if params.pseudo != 0u {
+            let local = xform_point(substep.head_inv, p_old);
+            let g = hull_gradient(hl, local);
+            let dist = hull_eval(hl, local) / max(length(g), 1e-30);
+            let dd = xform_vector(substep.head, g);
+            if dist < params.near && dot(dd, force) < params.pseudo_alpha * length(dd) * length(force) {
+                force *= params.eps_pore + (params.eps_tip - params.eps_pore) * along(s, i);
+            }
+        }
+        if abs(sin(th)) < POLE_SIN {
+            let fh = vec3<f32>(force.x, 0.0, force.z);
+            if length(fh) > 1e-6 * length(force) && length(fh) > 0.0 {
+                let pf = atan2(fh.z, fh.x);
+                let e = vec3<f32>(cos(pf), 0.0, sin(pf));
+                let dn = direction(th, ph);
+                let dp = direction(thp, php);
+                let tn = atan2(dot(dn, e), dn.y);
+                let tp = atan2(dot(dp, e), dp.y);
+                th = tn;
+                // tn + wrap(tp - tn) into [-pi, pi)
+                let w = tp - tn + PI;
+                thp = tn + (w - TAU * floor(w / TAU)) - PI;
+                ph = pf;
+                php = pf;
+            }
+        }
+        let sth = sin(th);
+        let cth = cos(th);
+        let sph = sin(ph);
+        let cph = cos(ph);
+        let v_th = vec3<f32>(cth * cph, -sth, cth * sph);
+        let v_ph = vec3<f32>(-sph, 0.0, cph);
+        let cu = c_of(s, i) * 0.5 * d;
+        var dth = keep * (th - thp) + h * h * cu * dot(force, v_th);
+        var dph = keep * (ph - php) + h * h * cu * sth * dot(force, v_ph);
+        if abs(dth) > MAX_TURN {
+            dth = sign(dth) * MAX_TURN;
+        }
+        if abs(sth * dph) > MAX_TURN {
+            dph = sign(dph) * MAX_TURN / abs(sth);
+        }
+        dph = clamp(dph, -PI, PI);
+        var thn = th + dth;
+        var phn = ph + dph;
+        if substep.kick.x != 0u {
+            let amp = params.fluct_amp * f32(i) / f32(k);
+            thn += amp * kick_unit(s.ids.x, i, substep.kick.y, 0u);
+            phn += amp * kick_unit(s.ids.x, i, substep.kick.y, 1u);
+        }
+        var dir = direction(thn, phn);
+        var moved = false;
+        if i >= 2u {
+            let sigma = sigma_at(f32(i - 1u) / f32(k));
+            let bend = acos(clamp(dot(prev_dir, dir), -1.0, 1.0));
+            if bend > sigma {
+                var axis = cross(prev_dir, dir);
+                if length(axis) > 1e-6 {
+                    axis = normalize(axis);
+                } else {
+                    axis = any_orthonormal(prev_dir);
+                }
+                dir = normalize(rotate_vec(axis * sigma, prev_dir));
+                moved = true;
+            }
+        }
+        var pn = prev_p + dir * d;
+        if params.collision != 0u {
+            let local = xform_point(substep.head_inv, pn);
+            if hull_eval(hl, local) < 0.0 {
+                let lp = xform_point(substep.head_inv, prev_p);
+                let la = normalize(xform_vector(substep.head_inv, prev_dir));
+                let q = hull_push_out(hl, lp, la, local, d);
+                dir = normalize(xform_point(substep.head, q) - prev_p);
+                pn = prev_p + dir * d;
+                moved = true;
+            }
+        }
+        var tho = th;
+        var pho = ph;
+        if moved {
+            let c = angles_near(dir, thn, phn);
+            tho += c.x - thn;
+            pho += c.y - phn;
+            thn = c.x;
+            phn = c.y;
+        }
+        var out = vec4<f32>(thn, phn, tho, pho);
+        if abs(out.x) > TAU {
+            let shift = TAU * round(out.x / TAU);
+            out.x -= shift;
+            out.z -= shift;
+        }
+        if abs(out.y) > TAU {
+            let shift = TAU * round(out.y / TAU);
+            out.y -= shift;
+            out.w -= shift;
+        }
+        state[off + i] = out;
+        verts[base + i] = vec4<f32>(pn, 1.0);
+        prev_p = pn;
+        prev_dir = dir;
+    }
+}

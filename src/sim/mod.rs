@@ -1,0 +1,113 @@
+//! Solvers that move hair every frame. Each has an f64 CPU reference and a GPU pass with the
+//! same semantics (`tests/contract.rs` compares them). `Simulation` drives the GPU pass over
+//! a groom: positions stay on the GPU, the CPU only schedules forces.
+
+pub mod forces;
+pub mod projective;
+
+use crate::error::Result;
+use crate::gpu::strands::StrandBuffers;
+use crate::gpu::Gpu;
+use crate::groom::GroomInput;
+use crate::scene::Scene;
+use projective::{DynSetup, ProjectiveJob, ProjectivePass};
+
+/// The GPU simulation of a groomed scene.
+pub struct Simulation {
+    pub setup: DynSetup,
+    pass: ProjectivePass,
+    job: ProjectiveJob,
+    /// Steps taken since the rest pose.
+    pub steps: u64,
+    /// Steps that needed more than `max_substeps` (the angular clamp was relied on).
+    pub capped_steps: u64,
+}
+
+/// What one frame of simulation did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct FrameInfo {
+    pub substeps: u32,
+    pub capped: bool,
+}
+
+impl Simulation {
+    /// Set up and initialise the simulation for a groom already bent into `hair`; `None`
+    /// when the scene has no dynamics (nothing is allocated then). Reads the groom's drawn
+    /// lengths back once, to size the simulated strands.
+    pub fn new(
+        gpu: &Gpu,
+        scene: &Scene,
+        input: &GroomInput,
+        hair: &StrandBuffers,
+    ) -> Result<Option<Simulation>> {
+        if scene.dynamics.is_none() {
+            return Ok(None);
+        }
+        let visible: Vec<f64> = hair
+            .read_strands(gpu)?
+            .iter()
+            .map(|s| s.visible as f64)
+            .collect();
+        let Some(setup) = DynSetup::new(scene, input, &visible) else {
+            return Ok(None);
+        };
+        let pass = ProjectivePass::new(gpu)?;
+        let job = pass.prepare(gpu, &setup, hair)?;
+        let sim = Simulation {
+            setup,
+            pass,
+            job,
+            steps: 0,
+            capped_steps: 0,
+        };
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        sim.pass.init(&mut enc, &sim.job);
+        gpu.queue.submit([enc.finish()]);
+        Ok(Some(sim))
+    }
+
+    /// Back to the rest pose (the caller re-grooms the nodes first).
+    pub fn reset(&mut self, gpu: &Gpu) {
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        self.pass.init(&mut enc, &self.job);
+        gpu.queue.submit([enc.finish()]);
+        self.steps = 0;
+        self.capped_steps = 0;
+    }
+
+    /// Record one frame (`steps_per_frame` steps and their substeps) into `enc`. Submit
+    /// before recording the next frame.
+    pub fn record_frame(
+        &mut self,
+        gpu: &Gpu,
+        enc: &mut wgpu::CommandEncoder,
+        hair: &StrandBuffers,
+    ) -> FrameInfo {
+        let mut all = Vec::new();
+        let mut info = FrameInfo::default();
+        for _ in 0..self.setup.params.steps_per_frame {
+            let (subs, capped) = self.setup.schedule(self.steps);
+            if capped {
+                self.capped_steps += 1;
+                info.capped = true;
+            }
+            info.substeps += subs.len() as u32;
+            all.extend(subs);
+            self.steps += 1;
+        }
+        self.pass.advance(gpu, enc, &mut self.job, hair, &all);
+        info
+    }
+
+    /// Parameters changed without changing which strands are simulated.
+    pub fn update_params(&mut self, gpu: &Gpu, params: crate::scene::Dynamics) {
+        self.setup.params = params;
+        self.setup.update_max_cu();
+        self.pass.update_params(gpu, &self.job, &self.setup);
+    }
+
+    /// The angle state (tests only).
+    pub fn read_state(&self, gpu: &Gpu) -> Result<Vec<[f32; 4]>> {
+        crate::gpu::read_buffer(gpu, &self.job.state, self.setup.state_len as u64 * 16)
+    }
+}

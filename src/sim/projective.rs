@@ -1,0 +1,780 @@
+//! Anjyo's one-dimensional projective equations (1992, section 3).
+//!
+//! Every segment s_i of a hair has a zenith theta_i (from +y) and an azimuth phi_i (in the zx
+//! plane, from +x towards +z) that follow
+//!
+//! ```text
+//! theta_i'' = c_i u_i F_theta,   phi_i'' = c_i v_i F_phi                       (4), (5)
+//! theta^{n+1} = theta^n + (1 - damping)(theta^n - theta^{n-1}) + h^2 c_i u_i F_theta   (4)'
+//! ```
+//!
+//! with u_i = d/2, v_i = (d/2) sin theta_i (half the segment's shadow on the phi plane),
+//! F_theta = (F, V_theta), F_phi = (F, V_phi), V_theta and V_phi the unit vectors across the
+//! segment in its theta plane (spanned by y and the segment) and in the phi plane (zx). When
+//! a segment is almost parallel to y (|sin theta| < `POLE_SIN`) the theta plane is spanned by
+//! y and the force instead, as the paper says: both time levels are re-expressed in that
+//! plane, which also removes the azimuth's degeneracy (v_i -> 0) for hair hanging straight
+//! down. Positions are rebuilt root to tip every step; the root follows the head.
+//!
+//! - **Inertia (3.2.1)**: I_i proportional to 1/i with I_k = I_S gives
+//!   c_i = 3 i / (rho k^3 d^2) (so h^2 c_i u_i = 3 h^2 i / (2 k^3 rho d), the paper's closed
+//!   form), scaled along the strand and across the scalp by `Inertia`.
+//! - **Pseudo-force (3.2.2)**: within `near` of the head, a segment whose force points into
+//!   the hull ((D, F) < alpha |D| |F|, D the hull gradient at its end node) feels
+//!   epsilon_i F, epsilon rising from the pore to the tip.
+//! - **Joint-angle stiffness (3.2.3)**: after each new node, the bend at the previous node is
+//!   limited to sigma_i (we read the paper's joint angle as the turn between consecutive
+//!   segments, 0 = straight, so sigma = 180 degrees leaves hair free and 10-15 degrees keeps
+//!   it smooth); "gently blowing" random kicks are drawn once per `period` frames from a
+//!   hash of (seed, strand, segment, period index), so runs repeat.
+//! - **Our additions**, each a switch in the scene: velocity damping (the paper's recurrence
+//!   never settles), hard collision after the step (the grooming push-out), head motion as the
+//!   roots' acceleration felt by the segments (-rho d a_root), corrections (stiffness,
+//!   collision) that move a segment without changing its angular velocity (so contact cannot
+//!   inject energy), and stability control:
+//!   substeps so that h * omega <= `OMEGA_H` for the stiffest segment (omega^2 = c u |F|),
+//!   and beyond `max_substeps` a clamp of the angular step to `MAX_TURN` with a warning.
+//!
+//! `shaders/projective.wgsl` implements the same step in f32.
+
+use super::forces::{step_forces, StepForces};
+use crate::groom::GroomInput;
+use crate::rng::pcg_hash;
+use crate::scene::{Dynamics, Ellipsoid, Scene};
+use glam::{DMat4, DVec3};
+use std::f64::consts::{PI, TAU};
+
+/// Below this |sin theta| the theta plane is spanned by y and the force.
+pub const POLE_SIN: f64 = 0.05;
+/// Largest angular step per substep (radians): the safety clamp.
+pub const MAX_TURN: f64 = 0.5;
+/// Substeps are chosen so that h * omega stays below this (Verlet is stable below 2).
+pub const OMEGA_H: f64 = 0.5;
+
+/// One simulated hair.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DynStrand {
+    /// Index in the strand table.
+    pub strand: u32,
+    /// Its root node in the shared vertex array.
+    pub first_vertex: u32,
+    /// Its entries in the angle state (index 0 unused, segments 1..=k).
+    pub state_offset: u32,
+    /// Simulated segments: the drawn (cut) length, rounded up.
+    pub segments: u32,
+    pub seg_len: f64,
+    /// Pore in head coordinates.
+    pub root_local: DVec3,
+    /// Scalp inertia factor (3.2.1's rough friction near the top).
+    pub scalp: f64,
+}
+
+/// What the solver needs besides the state: strands, parameters, the head.
+#[derive(Clone, Debug)]
+pub struct DynSetup {
+    pub params: Dynamics,
+    pub head: Ellipsoid,
+    pub strands: Vec<DynStrand>,
+    pub state_len: u32,
+    /// Largest c_i u_i over all segments: omega^2 = max_cu |F| bounds the stiffest mode.
+    pub max_cu: f64,
+    pub seed: u32,
+}
+
+fn smoothstep(a: f64, b: f64, x: f64) -> f64 {
+    let t = ((x - a) / (b - a)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+impl DynSetup {
+    /// Simulation set-up for the dynamic groups of a groomed scene (`visible`: drawn segments
+    /// per strand from the groom). `None` when the scene has no dynamics or no dynamic group.
+    pub fn new(scene: &Scene, input: &GroomInput, visible: &[f64]) -> Option<DynSetup> {
+        let params = scene.dynamics.clone()?;
+        let offsets = input.vertex_offsets();
+        let mut strands = Vec::new();
+        let mut state_len = 0u32;
+        let inr = &params.inertia;
+        for (i, r) in input.roots.iter().enumerate() {
+            if !scene.groups[r.group as usize].dynamic {
+                continue;
+            }
+            let k = input.groups[r.group as usize].segments;
+            let segments = (visible[i].ceil() as u32).clamp(1, k);
+            let scalp = 1.0
+                + (inr.top - 1.0)
+                    * smoothstep(inr.top_height - inr.top_blend, inr.top_height, r.pos.y);
+            strands.push(DynStrand {
+                strand: i as u32,
+                first_vertex: offsets[i],
+                state_offset: state_len,
+                segments,
+                seg_len: r.seg_len,
+                root_local: r.pos,
+                scalp,
+            });
+            state_len += segments + 1;
+        }
+        if strands.is_empty() {
+            return None;
+        }
+        let mut setup = DynSetup {
+            seed: (scene.seed ^ (scene.seed >> 32)) as u32,
+            params,
+            head: input.head,
+            strands,
+            state_len,
+            max_cu: 0.0,
+        };
+        setup.update_max_cu();
+        Some(setup)
+    }
+
+    /// Recompute the stiffest mode after the inertia parameters changed.
+    pub fn update_max_cu(&mut self) {
+        self.max_cu = self
+            .strands
+            .iter()
+            .flat_map(|s| (1..=s.segments).map(move |i| (s, i)))
+            .map(|(s, i)| self.c(s, i) * 0.5 * s.seg_len)
+            .fold(0.0, f64::max);
+    }
+
+    /// c_i = 1 / I_i with the inertia profile.
+    pub fn c(&self, s: &DynStrand, i: u32) -> f64 {
+        let k = s.segments as f64;
+        let d = s.seg_len;
+        let inr = &self.params.inertia;
+        let t = if s.segments > 1 {
+            (i as f64 - 1.0) / (k - 1.0)
+        } else {
+            1.0
+        };
+        let along = inr.root + (inr.tip - inr.root) * t;
+        3.0 * i as f64 / (self.params.density * k * k * k * d * d) * along * s.scalp
+    }
+
+    /// Largest bend (radians) at node i (between segments i and i + 1).
+    pub fn sigma(&self, s: &DynStrand, i: u32) -> f64 {
+        self.params
+            .stiffness
+            .sigma_at(i as f64 / s.segments as f64)
+            .to_radians()
+    }
+
+    /// Pseudo-force factor of segment i.
+    pub fn epsilon(&self, s: &DynStrand, i: u32) -> f64 {
+        match &self.params.pseudo_force {
+            Some(p) => {
+                let t = if s.segments > 1 {
+                    (i as f64 - 1.0) / (s.segments as f64 - 1.0)
+                } else {
+                    1.0
+                };
+                p.epsilon_pore + (p.epsilon_tip - p.epsilon_pore) * t
+            }
+            None => 1.0,
+        }
+    }
+
+    /// Largest force a segment can feel in step `n` of this many substeps: gravity + wind
+    /// plus the inertial force of the fastest-accelerating root.
+    fn force_bound(&self, f: &StepForces) -> f64 {
+        let rho = self.params.density;
+        let accel = self
+            .strands
+            .iter()
+            .map(|s| rho * s.seg_len * f.accel.transform_point3(s.root_local).length())
+            .fold(0.0, f64::max);
+        f.force.length() + accel
+    }
+
+    /// The substeps of step `n`: as many as stability needs (h omega <= OMEGA_H), at most
+    /// `max_substeps`. Returns the forces of each substep and whether the cap was hit (the
+    /// solver then relies on its angular clamp: say so).
+    pub fn schedule(&self, n: u64) -> (Vec<StepForces>, bool) {
+        let p = &self.params;
+        let center = self.head.center;
+        let probe = step_forces(p, center, n, 1, 0);
+        let omega = (self.max_cu * self.force_bound(&probe)).sqrt();
+        let need = (p.dt * omega / OMEGA_H).ceil().max(1.0);
+        let capped = need > p.max_substeps as f64;
+        let sub = (need as u32).min(p.max_substeps);
+        (
+            (0..sub)
+                .map(|s| step_forces(p, center, n, sub, s))
+                .collect(),
+            capped,
+        )
+    }
+}
+
+/// Direction of (theta, phi).
+pub fn direction(theta: f64, phi: f64) -> DVec3 {
+    let (st, ct) = theta.sin_cos();
+    let (sp, cp) = phi.sin_cos();
+    DVec3::new(st * cp, ct, st * sp)
+}
+
+/// The (theta, phi) of unit `dir` continuing a previous (theta, phi). A direction has two
+/// families of representations, (t, p) and (-t, p + pi) (each up to 2 pi); the one whose
+/// azimuth is closest to the previous one is taken, so hair passing over a pole keeps its
+/// azimuth and lets theta leave [0, pi], and no spurious azimuthal velocity appears.
+pub fn angles_near(dir: DVec3, theta_ref: f64, phi_ref: f64) -> (f64, f64) {
+    let tc = dir.y.clamp(-1.0, 1.0).acos();
+    let horizontal = (dir.x * dir.x + dir.z * dir.z).sqrt();
+    let unwrap = |a: f64, r: f64| a + TAU * ((r - a) / TAU).round();
+    if horizontal <= 1e-6 {
+        // On a pole: the azimuth is free, keep it.
+        let a = unwrap(tc, theta_ref);
+        let b = unwrap(-tc, theta_ref);
+        let t = if (a - theta_ref).abs() <= (b - theta_ref).abs() {
+            a
+        } else {
+            b
+        };
+        return (t, phi_ref);
+    }
+    let pc = dir.z.atan2(dir.x);
+    let pa = unwrap(pc, phi_ref);
+    let pb = unwrap(pc + PI, phi_ref);
+    if (pa - phi_ref).abs() <= (pb - phi_ref).abs() {
+        (unwrap(tc, theta_ref), pa)
+    } else {
+        (unwrap(-tc, theta_ref), pb)
+    }
+}
+
+/// A reproducible uniform number in [-1, 1) for the fluctuation kicks; the same hash runs in
+/// `shaders/projective.wgsl`.
+pub fn kick_unit(seed: u32, strand: u32, segment: u32, bucket: u32, which: u32) -> f64 {
+    let h = pcg_hash(
+        bucket.wrapping_mul(2).wrapping_add(which)
+            ^ pcg_hash(segment ^ pcg_hash(strand ^ pcg_hash(seed))),
+    );
+    ((h >> 8) as f64 / 16_777_216.0) * 2.0 - 1.0
+}
+
+/// Statistics of one step.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StepStats {
+    /// Sum over segments of u^2 (theta'^2 + sin^2 theta phi'^2): the kinetic measure.
+    pub kinetic: f64,
+    /// Angular steps clamped to MAX_TURN.
+    pub clamped: u64,
+}
+
+/// The f64 reference solver: angle state and node positions.
+pub struct CpuSim {
+    pub setup: DynSetup,
+    /// (theta^n, phi^n, theta^{n-1}, phi^{n-1}) per segment.
+    pub angles: Vec<[f64; 4]>,
+    /// All nodes, in the groom's vertex order (static strands are left as they are).
+    pub nodes: Vec<DVec3>,
+    /// Steps taken.
+    pub steps: u64,
+}
+
+impl CpuSim {
+    /// Start at rest in the groomed shape: theta^0 = theta^-1 (Anjyo 3.1).
+    pub fn new(setup: DynSetup, nodes: Vec<DVec3>) -> CpuSim {
+        let mut angles = vec![[0.0; 4]; setup.state_len as usize];
+        for s in &setup.strands {
+            let base = s.first_vertex as usize;
+            for i in 1..=s.segments as usize {
+                let dir = (nodes[base + i] - nodes[base + i - 1]).normalize();
+                let (t, p) = angles_near(dir, 0.5 * PI, 0.0);
+                angles[s.state_offset as usize + i] = [t, p, t, p];
+            }
+        }
+        CpuSim {
+            setup,
+            angles,
+            nodes,
+            steps: 0,
+        }
+    }
+
+    /// Advance one step (with its substeps). Returns the statistics of the last substep
+    /// and whether the substep cap was hit.
+    pub fn step(&mut self) -> (StepStats, bool) {
+        let (subs, capped) = self.setup.schedule(self.steps);
+        let mut stats = StepStats::default();
+        for f in &subs {
+            stats = self.substep(f);
+        }
+        self.steps += 1;
+        (stats, capped)
+    }
+
+    /// Advance one frame (`steps_per_frame` steps).
+    pub fn frame(&mut self) -> (StepStats, bool) {
+        let mut out = (StepStats::default(), false);
+        for _ in 0..self.setup.params.steps_per_frame {
+            let (s, c) = self.step();
+            out = (s, out.1 || c);
+        }
+        out
+    }
+
+    /// One substep of every dynamic strand.
+    pub fn substep(&mut self, f: &StepForces) -> StepStats {
+        let head_inv = f.head.inverse();
+        let mut total = StepStats::default();
+        for si in 0..self.setup.strands.len() {
+            let s = self.setup.strands[si].clone();
+            let st = step_strand(
+                &self.setup,
+                &s,
+                f,
+                &head_inv,
+                &mut self.angles,
+                &mut self.nodes,
+            );
+            total.kinetic += st.kinetic;
+            total.clamped += st.clamped;
+        }
+        total
+    }
+}
+
+/// Keep angles small so f32 keeps its precision on long runs: shift both time levels by
+/// the same multiple of 2 pi.
+pub fn rewrap(a: &mut [f64; 4]) {
+    for (x, xp) in [(0, 2), (1, 3)] {
+        if a[x].abs() > TAU {
+            let shift = TAU * (a[x] / TAU).round();
+            a[x] -= shift;
+            a[xp] -= shift;
+        }
+    }
+}
+
+/// One substep of one strand, root to tip.
+pub fn step_strand(
+    setup: &DynSetup,
+    s: &DynStrand,
+    f: &StepForces,
+    head_inv: &DMat4,
+    angles: &mut [[f64; 4]],
+    nodes: &mut [DVec3],
+) -> StepStats {
+    let p = &setup.params;
+    let h = f.h;
+    let d = s.seg_len;
+    let base = s.first_vertex as usize;
+    let off = s.state_offset as usize;
+    let root = f.head.transform_point3(s.root_local);
+    let a_root = f.accel.transform_point3(s.root_local);
+    let f_seg = f.force - p.density * d * a_root;
+    let keep = 1.0 - p.damping;
+    let mut stats = StepStats::default();
+    nodes[base] = root;
+    let mut prev_p = root;
+    // The first segment's collision plane uses the hull normal at the root.
+    let mut prev_dir = f.head.transform_vector3(setup.head.normal(s.root_local));
+    for i in 1..=s.segments {
+        let [mut th, mut ph, mut thp, mut php] = angles[off + i as usize];
+        let p_old = nodes[base + i as usize];
+        let mut force = f_seg;
+        if let Some(pf) = &p.pseudo_force {
+            let local = head_inv.transform_point3(p_old);
+            let g = setup.head.gradient(local);
+            let dist = setup.head.eval(local) / g.length().max(1e-300);
+            let dd = f.head.transform_vector3(g);
+            if dist < pf.near && dd.dot(force) < pf.alpha * dd.length() * force.length() {
+                force *= setup.epsilon(s, i);
+            }
+        }
+        // Theta plane from y and the force for segments almost parallel to y.
+        if th.sin().abs() < POLE_SIN {
+            let fh = DVec3::new(force.x, 0.0, force.z);
+            if fh.length() > 1e-6 * force.length() && fh.length() > 0.0 {
+                let pf = fh.z.atan2(fh.x);
+                let e = DVec3::new(pf.cos(), 0.0, pf.sin());
+                let (dn, dp) = (direction(th, ph), direction(thp, php));
+                let tn = dn.dot(e).atan2(dn.y);
+                let tp = dp.dot(e).atan2(dp.y);
+                th = tn;
+                thp = tn + (tp - tn + PI).rem_euclid(TAU) - PI;
+                ph = pf;
+                php = pf;
+            }
+        }
+        let (sth, cth) = th.sin_cos();
+        let (sph, cph) = ph.sin_cos();
+        let v_th = DVec3::new(cth * cph, -sth, cth * sph);
+        let v_ph = DVec3::new(-sph, 0.0, cph);
+        let cu = setup.c(s, i) * 0.5 * d;
+        let mut dth = keep * (th - thp) + h * h * cu * force.dot(v_th);
+        let mut dph = keep * (ph - php) + h * h * cu * sth * force.dot(v_ph);
+        if dth.abs() > MAX_TURN {
+            dth = MAX_TURN.copysign(dth);
+            stats.clamped += 1;
+        }
+        if (sth * dph).abs() > MAX_TURN {
+            dph = (MAX_TURN / sth.abs()).copysign(dph);
+            stats.clamped += 1;
+        }
+        dph = dph.clamp(-PI, PI);
+        let mut thn = th + dth;
+        let mut phn = ph + dph;
+        if let (Some(bucket), Some(fl)) = (f.kick, &p.fluctuation) {
+            let amp = fl.amplitude.to_radians() * i as f64 / s.segments as f64;
+            thn += amp * kick_unit(setup.seed, s.strand, i, bucket, 0);
+            phn += amp * kick_unit(setup.seed, s.strand, i, bucket, 1);
+        }
+        let mut dir = direction(thn, phn);
+        let mut moved = false;
+        if i >= 2 {
+            let sigma = setup.sigma(s, i - 1);
+            let bend = prev_dir.angle_between(dir);
+            if bend > sigma {
+                let axis = prev_dir.cross(dir);
+                let axis = if axis.length() > 1e-12 {
+                    axis.normalize()
+                } else {
+                    prev_dir.any_orthonormal_vector()
+                };
+                dir = crate::groom::cantilever::rotate(axis * sigma, prev_dir).normalize();
+                moved = true;
+            }
+        }
+        let mut pn = prev_p + dir * d;
+        if p.collision {
+            let local = head_inv.transform_point3(pn);
+            if setup.head.eval(local) < 0.0 {
+                let lp = head_inv.transform_point3(prev_p);
+                let la = head_inv.transform_vector3(prev_dir).normalize();
+                let q = setup.head.push_out(lp, la, local, d);
+                pn = f.head.transform_point3(q);
+                dir = ((pn - prev_p) / d).normalize();
+                pn = prev_p + dir * d;
+                moved = true;
+            }
+        }
+        // A correction (stiffness clamp, collision) moves the segment but keeps its angular
+        // velocity: the previous angles move with it, so contact does not inject energy.
+        let (mut tho, mut pho) = (th, ph);
+        if moved {
+            let (tc, pc) = angles_near(dir, thn, phn);
+            tho += tc - thn;
+            pho += pc - phn;
+            (thn, phn) = (tc, pc);
+        }
+        let u = 0.5 * d;
+        stats.kinetic += u * u * ((thn - tho).powi(2) + sth * sth * (phn - pho).powi(2)) / (h * h);
+        let mut a = [thn, phn, tho, pho];
+        rewrap(&mut a);
+        angles[off + i as usize] = a;
+        nodes[base + i as usize] = pn;
+        prev_p = pn;
+        prev_dir = dir;
+    }
+    stats
+}
+
+// ---------------------------------------------------------------------------------------
+// GPU pass
+
+use crate::error::Result;
+use crate::gpu::gpu_data::{GpuDynParams, GpuDynStrand, GpuStep};
+use crate::gpu::strands::StrandBuffers;
+use crate::gpu::{self, Gpu};
+use wgpu::util::DeviceExt;
+
+const WORKGROUP: u32 = 64;
+const SLOT: u64 = 256;
+
+/// The projective-dynamics kernel (`shaders/projective.wgsl`).
+pub struct ProjectivePass {
+    init: wgpu::ComputePipeline,
+    advance: wgpu::ComputePipeline,
+    layout: wgpu::BindGroupLayout,
+}
+
+/// Simulation buffers of one groom: parameters, the dynamic strands, the angle state and a
+/// ring of per-substep uniforms. Only strands of dynamic groups get state.
+pub struct ProjectiveJob {
+    params: wgpu::Buffer,
+    strands: wgpu::Buffer,
+    pub state: wgpu::Buffer,
+    steps: wgpu::Buffer,
+    capacity: u32,
+    bind_group: wgpu::BindGroup,
+    dims: (u32, u32),
+}
+
+fn mat(m: DMat4) -> [[f32; 4]; 4] {
+    m.as_mat4().to_cols_array_2d()
+}
+
+/// Pack one substep for the GPU.
+pub fn gpu_step(f: &StepForces) -> GpuStep {
+    GpuStep {
+        force: [
+            f.force.x as f32,
+            f.force.y as f32,
+            f.force.z as f32,
+            f.h as f32,
+        ],
+        head: mat(f.head),
+        head_inv: mat(f.head.inverse()),
+        accel: mat(f.accel),
+        kick: [u32::from(f.kick.is_some()), f.kick.unwrap_or(0), 0, 0],
+        _pad: [0; 8],
+    }
+}
+
+impl ProjectivePass {
+    pub fn new(gpu: &Gpu) -> Result<ProjectivePass> {
+        let device = &gpu.device;
+        let module = gpu::shader_module(device, "projective", crate::shaders::PROJECTIVE)?;
+        let cs = wgpu::ShaderStages::COMPUTE;
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("projective"),
+            entries: &[
+                gpu::uniform_entry(0, cs),
+                wgpu::BindGroupLayoutEntry {
+                    binding: 1,
+                    visibility: cs,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: true,
+                        min_binding_size: wgpu::BufferSize::new(SLOT),
+                    },
+                    count: None,
+                },
+                gpu::storage_entry(2, cs, true),
+                gpu::storage_entry(3, cs, false),
+                gpu::storage_entry(4, cs, false),
+            ],
+        });
+        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("projective"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = |entry: &str| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(&pl),
+                module: &module,
+                entry_point: Some(entry),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+        Ok(ProjectivePass {
+            init: pipeline("init"),
+            advance: pipeline("advance"),
+            layout,
+        })
+    }
+
+    /// Upload the set-up; the angle state is initialised from the nodes by `init`.
+    pub fn prepare(
+        &self,
+        gpu: &Gpu,
+        setup: &DynSetup,
+        hair: &StrandBuffers,
+    ) -> Result<ProjectiveJob> {
+        let device = &gpu.device;
+        let dims = gpu.dispatch_dims(setup.strands.len() as u32, WORKGROUP)?;
+        let records: Vec<GpuDynStrand> = setup
+            .strands
+            .iter()
+            .map(|s| GpuDynStrand {
+                ids: [s.strand, s.first_vertex, s.state_offset, s.segments],
+                root: [
+                    s.root_local.x as f32,
+                    s.root_local.y as f32,
+                    s.root_local.z as f32,
+                    s.seg_len as f32,
+                ],
+                extra: [s.scalp as f32, 0.0, 0.0, 0.0],
+            })
+            .collect();
+        gpu.check_storage_size("the dynamics state", setup.state_len as u64 * 16)?;
+        let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("projective params"),
+            contents: bytemuck::bytes_of(&gpu_params(setup, dims.0 * WORKGROUP)),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        let strands = gpu::storage_buffer(
+            device,
+            "dynamic strands",
+            bytemuck::cast_slice(&records),
+            wgpu::BufferUsages::empty(),
+        );
+        let state = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("angle state"),
+            size: setup.state_len as u64 * 16,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let capacity = 16;
+        let steps = Self::step_ring(device, capacity);
+        let bind_group = self.bind(device, &params, &steps, &strands, &state, hair);
+        Ok(ProjectiveJob {
+            params,
+            strands,
+            state,
+            steps,
+            capacity,
+            bind_group,
+            dims,
+        })
+    }
+
+    fn step_ring(device: &wgpu::Device, capacity: u32) -> wgpu::Buffer {
+        device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("projective substeps"),
+            size: capacity as u64 * SLOT,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    }
+
+    fn bind(
+        &self,
+        device: &wgpu::Device,
+        params: &wgpu::Buffer,
+        steps: &wgpu::Buffer,
+        strands: &wgpu::Buffer,
+        state: &wgpu::Buffer,
+        hair: &StrandBuffers,
+    ) -> wgpu::BindGroup {
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("projective"),
+            layout: &self.layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: params.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: steps,
+                        offset: 0,
+                        size: wgpu::BufferSize::new(SLOT),
+                    }),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 2,
+                    resource: strands.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 3,
+                    resource: state.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 4,
+                    resource: hair.vertices.as_entire_binding(),
+                },
+            ],
+        })
+    }
+
+    /// Update parameters that do not change the layout (tuning from the viewer).
+    pub fn update_params(&self, gpu: &Gpu, job: &ProjectiveJob, setup: &DynSetup) {
+        gpu.queue.write_buffer(
+            &job.params,
+            0,
+            bytemuck::bytes_of(&gpu_params(setup, job.dims.0 * WORKGROUP)),
+        );
+    }
+
+    /// Record the initialisation of the angles from the current nodes (at rest).
+    pub fn init(&self, enc: &mut wgpu::CommandEncoder, job: &ProjectiveJob) {
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("projective init"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.init);
+        pass.set_bind_group(0, &job.bind_group, &[0]);
+        pass.dispatch_workgroups(job.dims.0, job.dims.1, 1);
+    }
+
+    /// Upload `substeps` and record one dispatch for each. Call once per submission: the
+    /// uniforms are written when the queue is submitted.
+    pub fn advance(
+        &self,
+        gpu: &Gpu,
+        enc: &mut wgpu::CommandEncoder,
+        job: &mut ProjectiveJob,
+        hair: &StrandBuffers,
+        substeps: &[StepForces],
+    ) {
+        if substeps.is_empty() {
+            return;
+        }
+        if substeps.len() as u32 > job.capacity {
+            job.capacity = (substeps.len() as u32).next_power_of_two();
+            job.steps = Self::step_ring(&gpu.device, job.capacity);
+            job.bind_group = self.bind(
+                &gpu.device,
+                &job.params,
+                &job.steps,
+                &job.strands,
+                &job.state,
+                hair,
+            );
+        }
+        let mut bytes = Vec::with_capacity(substeps.len() * SLOT as usize);
+        for f in substeps {
+            bytes.extend_from_slice(bytemuck::bytes_of(&gpu_step(f)));
+        }
+        gpu.queue.write_buffer(&job.steps, 0, &bytes);
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("projective advance"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.advance);
+        for i in 0..substeps.len() as u32 {
+            pass.set_bind_group(0, &job.bind_group, &[i * SLOT as u32]);
+            pass.dispatch_workgroups(job.dims.0, job.dims.1, 1);
+        }
+    }
+}
+
+fn gpu_params(setup: &DynSetup, row_stride: u32) -> GpuDynParams {
+    let p = &setup.params;
+    let pf = p.pseudo_force.as_ref();
+    GpuDynParams {
+        strand_count: setup.strands.len() as u32,
+        row_stride,
+        collision: u32::from(p.collision),
+        pseudo: u32::from(pf.is_some()),
+        density: p.density as f32,
+        damping: p.damping as f32,
+        seed: setup.seed,
+        fluct_amp: p
+            .fluctuation
+            .as_ref()
+            .map_or(0.0, |f| f.amplitude.to_radians() as f32),
+        pseudo_alpha: pf.map_or(0.0, |f| f.alpha as f32),
+        eps_pore: pf.map_or(1.0, |f| f.epsilon_pore as f32),
+        eps_tip: pf.map_or(1.0, |f| f.epsilon_tip as f32),
+        near: pf.map_or(0.0, |f| f.near as f32),
+        sigma_root: p.stiffness.root.to_radians() as f32,
+        sigma_tip: p.stiffness.tip.to_radians() as f32,
+        sigma_start: p.stiffness.start as f32,
+        inertia_root: p.inertia.root as f32,
+        inertia_tip: p.inertia.tip as f32,
+        _pad: [0.0; 3],
+        head_center: [
+            setup.head.center.x as f32,
+            setup.head.center.y as f32,
+            setup.head.center.z as f32,
+            0.0,
+        ],
+        head_radii: [
+            setup.head.radii.x as f32,
+            setup.head.radii.y as f32,
+            setup.head.radii.z as f32,
+            0.0,
+        ],
+    }
+}
