@@ -253,14 +253,15 @@ fn advance(@builtin(global_invocation_id) id: vec3<u32>) {
                 moved = true;
             }
         }
+        // Corrections are inelastic: the corrected segment loses its angular velocity.
         var tho = th;
         var pho = ph;
         if moved {
             let c = angles_near(dir, thn, phn);
-            tho += c.x - thn;
-            pho += c.y - phn;
             thn = c.x;
             phn = c.y;
+            tho = c.x;
+            pho = c.y;
         }
         var out = vec4<f32>(thn, phn, tho, pho);
         if abs(out.x) > TAU {

@@ -246,3 +246,75 @@ pub fn groom(gpu: &Gpu, scene_path: &Path, frames: u32) -> Result<Report> {
     }
     Ok(Report { markdown: md, csv })
 }
+
+/// Complete elliptic integral of the first kind K(m = k^2), by the arithmetic-geometric mean.
+pub fn elliptic_k(k: f64) -> f64 {
+    let (mut a, mut b) = (1.0f64, (1.0 - k * k).sqrt());
+    for _ in 0..60 {
+        let (an, bn) = (0.5 * (a + b), (a * b).sqrt());
+        a = an;
+        b = bn;
+        if (a - b).abs() < 1e-16 {
+            break;
+        }
+    }
+    std::f64::consts::PI / (2.0 * a)
+}
+
+/// A one-segment strand is a rigid pendulum: with F = (0, -1, 0), d = rho = 1 its angle from
+/// the vertical follows psi'' = -c u sin psi, c u = 3/2. Released at rest from `amplitude`
+/// (radians), returns (the period measured from the simulation with step `dt`, the exact
+/// period 4 K(sin(amplitude/2)) / omega0).
+pub fn pendulum_periods(amplitude: f64, dt: f64) -> (f64, f64) {
+    use crate::sim::projective::{CpuSim, DynSetup, DynStrand};
+    let params = crate::scene::Dynamics {
+        dt,
+        gravity: [0.0, -1.0, 0.0],
+        collision: false,
+        ..Default::default()
+    };
+    let strand = DynStrand {
+        strand: 0,
+        first_vertex: 0,
+        state_offset: 0,
+        segments: 1,
+        seg_len: 1.0,
+        root_local: DVec3::ZERO,
+        scalp: 1.0,
+    };
+    let mut setup = DynSetup {
+        params,
+        // Far away: no contact.
+        head: crate::scene::Ellipsoid::new([1e6, 0.0, 0.0], [1.0, 1.0, 1.0]),
+        strands: vec![strand],
+        state_len: 2,
+        max_cu: 0.0,
+        seed: 0,
+    };
+    setup.update_max_cu();
+    let omega0 = setup.max_cu.sqrt();
+    let theta0 = std::f64::consts::PI - amplitude;
+    let nodes = vec![DVec3::ZERO, DVec3::new(theta0.sin(), theta0.cos(), 0.0)];
+    let mut sim = CpuSim::new(setup, nodes);
+    // Angle from the downward vertical, signed.
+    let psi = |sim: &CpuSim| sim.nodes[1].x.atan2(-sim.nodes[1].y);
+    let mut crossings = Vec::new();
+    let mut prev = psi(&sim);
+    let mut t = 0.0;
+    let exact = 4.0 * elliptic_k((0.5 * amplitude).sin()) / omega0;
+    while crossings.len() < 3 && t < 20.0 * exact {
+        sim.step();
+        t += dt;
+        let now = psi(&sim);
+        if prev > 0.0 && now <= 0.0 {
+            crossings.push(t - dt * now / (now - prev));
+        }
+        prev = now;
+    }
+    let measured = if crossings.len() >= 3 {
+        crossings[2] - crossings[1]
+    } else {
+        f64::NAN
+    };
+    (measured, exact)
+}

@@ -56,3 +56,21 @@ fn bob_blended_no_msaa() {
     let img = kami::render::render_scene(&gpu, &scene, SIZE).unwrap();
     check_snapshot("bob_msaa1", &img, TOL);
 }
+
+/// The wind gust (Anjyo Fig. 10) at frames 10, 15 and 20: groom, simulation and rendering
+/// all on the GPU.
+#[test]
+fn gust_frames_10_15_20() {
+    let gpu = common::gpu();
+    let mut scene = common::scene("gust");
+    for g in &mut scene.groups {
+        g.count /= 2;
+    }
+    kami::render::render_animation(&gpu, &scene, SIZE, 10..=20, |f, img| {
+        if f % 5 == 0 {
+            check_snapshot(&format!("gust_{f:02}"), &img, TOL);
+        }
+        Ok(())
+    })
+    .unwrap();
+}

@@ -549,6 +549,26 @@ pub struct Dynamics {
     pub max_substeps: u32,
 }
 
+impl Default for Dynamics {
+    fn default() -> Self {
+        Dynamics {
+            dt: default_dt(),
+            steps_per_frame: 1,
+            density: 1.0,
+            damping: 0.0,
+            gravity: [0.0; 3],
+            wind: Vec::new(),
+            head_motion: Vec::new(),
+            inertia: Inertia::default(),
+            pseudo_force: None,
+            stiffness: Stiffness::default(),
+            fluctuation: None,
+            collision: true,
+            max_substeps: default_max_substeps(),
+        }
+    }
+}
+
 fn default_dt() -> f64 {
     0.1
 }

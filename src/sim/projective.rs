@@ -29,9 +29,10 @@
 //!   hash of (seed, strand, segment, period index), so runs repeat.
 //! - **Our additions**, each a switch in the scene: velocity damping (the paper's recurrence
 //!   never settles), hard collision after the step (the grooming push-out), head motion as the
-//!   roots' acceleration felt by the segments (-rho d a_root), corrections (stiffness,
-//!   collision) that move a segment without changing its angular velocity (so contact cannot
-//!   inject energy), and stability control:
+//!   roots' acceleration felt by the segments (-rho d a_root), inelastic corrections (a
+//!   segment moved by the stiffness clamp or the collision loses its angular velocity, so
+//!   constraints neither inject energy nor store a velocity into the head), and stability
+//!   control:
 //!   substeps so that h * omega <= `OMEGA_H` for the stiffest segment (omega^2 = c u |F|),
 //!   and beyond `max_substeps` a clamp of the angular step to `MAX_TURN` with a warning.
 //!
@@ -453,14 +454,13 @@ pub fn step_strand(
                 moved = true;
             }
         }
-        // A correction (stiffness clamp, collision) moves the segment but keeps its angular
-        // velocity: the previous angles move with it, so contact does not inject energy.
+        // A correction (stiffness clamp, collision) is inelastic: the segment keeps the
+        // corrected direction and loses its angular velocity, so a constraint neither injects
+        // energy nor stores a velocity into the head that never happens.
         let (mut tho, mut pho) = (th, ph);
         if moved {
-            let (tc, pc) = angles_near(dir, thn, phn);
-            tho += tc - thn;
-            pho += pc - phn;
-            (thn, phn) = (tc, pc);
+            (thn, phn) = angles_near(dir, thn, phn);
+            (tho, pho) = (thn, phn);
         }
         let u = 0.5 * d;
         stats.kinetic += u * u * ((thn - tho).powi(2) + sth * sth * (phn - pho).powi(2)) / (h * h);

@@ -1,0 +1,515 @@
+//! Stability of the projective dynamics on hard cases. For each: every value finite, segment
+//! lengths kept to 1e-5 (relative), no node inside the head (hard collision on; the
+//! pseudo-force alone is tested for its effect, not as a barrier), and once the forces are
+//! constant the motion settles (the kinetic measure decays). Where stability needs more
+//! substeps than allowed, the solver must say so and stay finite.
+
+mod common;
+use glam::DVec3;
+use kami::groom::{cantilever, prepare};
+use kami::scene::{Direction, Dynamics, HeadKey, Interp, PseudoForce, Roots, Scene, WindKey};
+use kami::sim::projective::{CpuSim, DynSetup};
+
+/// A small scene: one group of `count` hairs of `k` segments from a polar patch.
+fn scene(
+    theta: (f64, f64),
+    phi: (f64, f64),
+    count: u32,
+    k: u32,
+    length: f64,
+    dynamics: Dynamics,
+) -> Scene {
+    let mut s = common::scene("gust");
+    s.groups.truncate(1);
+    let g = &mut s.groups[0];
+    g.roots = Roots {
+        theta,
+        phi,
+        on: None,
+        hairline: None,
+    };
+    g.count = count;
+    g.segments = k;
+    g.length = length;
+    g.length_jitter = 0.0;
+    g.direction = Direction::Normal;
+    g.direction_jitter = 0.0;
+    g.loads.clear();
+    g.cuts.clear();
+    s.dynamics = Some(dynamics);
+    kami::scene::validate(&s).unwrap();
+    s
+}
+
+fn dynamics(force: [f64; 3]) -> Dynamics {
+    let mut d = common::scene("gust").dynamics.unwrap();
+    d.wind = vec![WindKey {
+        frame: 0.0,
+        force,
+        interp: Interp::Step,
+    }];
+    d.damping = 0.1;
+    d.pseudo_force = Some(PseudoForce {
+        alpha: -0.75,
+        epsilon_pore: 0.1,
+        epsilon_tip: 1.0,
+        near: 1.5,
+    });
+    d
+}
+
+struct Run {
+    kinetic: Vec<f64>,
+    capped: bool,
+    clamped: u64,
+    sim: CpuSim,
+    head: kami::scene::Ellipsoid,
+}
+
+fn run(scene: &Scene, frames: u32) -> Run {
+    let input = prepare(scene).unwrap();
+    let groomed = cantilever::bend_all(&input);
+    let setup = DynSetup::new(scene, &input, &groomed.visible).unwrap();
+    let mut sim = CpuSim::new(setup, groomed.nodes.clone());
+    let (mut kinetic, mut capped, mut clamped) = (Vec::new(), false, 0);
+    for _ in 0..frames {
+        let (st, c) = sim.frame();
+        kinetic.push(st.kinetic);
+        capped |= c;
+        clamped += st.clamped;
+        check_invariants(&sim, &input.head);
+    }
+    Run {
+        kinetic,
+        capped,
+        clamped,
+        sim,
+        head: input.head,
+    }
+}
+
+fn check_invariants(sim: &CpuSim, head: &kami::scene::Ellipsoid) {
+    let p = &sim.setup.params;
+    for s in &sim.setup.strands {
+        let base = s.first_vertex as usize;
+        for i in 1..=s.segments as usize {
+            let (a, b) = (sim.nodes[base + i - 1], sim.nodes[base + i]);
+            assert!(b.is_finite(), "strand {} node {i} not finite", s.strand);
+            let l = (b - a).length();
+            assert!(
+                (l / s.seg_len - 1.0).abs() < 1e-5,
+                "strand {} segment {i}: length {l} vs {}",
+                s.strand,
+                s.seg_len
+            );
+            let st = sim.angles[s.state_offset as usize + i];
+            assert!(st.iter().all(|x| x.is_finite()), "angles not finite");
+            if p.collision {
+                // Nodes are tested in head coordinates: the head may be moving.
+                let _ = head;
+            }
+        }
+    }
+}
+
+fn no_node_inside(r: &Run, pose: glam::DMat4) {
+    let inv = pose.inverse();
+    for s in &r.sim.setup.strands {
+        for i in 0..=s.segments as usize {
+            let p = inv.transform_point3(r.sim.nodes[s.first_vertex as usize + i]);
+            let e = r.head.eval(p);
+            assert!(
+                e >= -1e-9,
+                "strand {} node {i} inside the head: E = {e:.3e}",
+                s.strand
+            );
+        }
+    }
+}
+
+/// The motion settles once forces are constant: the kinetic measure at the end is a small
+/// fraction of its peak and still falling (the slowest mode of an over-damped chain decays
+/// slowly but steadily).
+fn settles(r: &Run, fraction: f64) {
+    let peak = r.kinetic.iter().cloned().fold(0.0, f64::max);
+    let n = r.kinetic.len();
+    let last = r.kinetic[n - 1];
+    assert!(
+        last <= fraction * peak.max(1e-300),
+        "kinetic {last:.3e} did not fall below {fraction} of its peak {peak:.3e}"
+    );
+    assert!(
+        last <= r.kinetic[n - 21] || last < 1e-6 * peak,
+        "kinetic still rising at the end: {:.3e} -> {last:.3e} (peak {peak:.3e})",
+        r.kinetic[n - 21]
+    );
+}
+
+#[test]
+fn very_large_dt_is_substepped() {
+    let mut d = dynamics([-200.0, -100.0, 0.0]);
+    d.dt = 5.0;
+    let s = scene((30.0, 90.0), (0.0, 360.0), 60, 18, 18.0, d);
+    let r = run(&s, 60);
+    assert!(!r.capped, "dt = 5 should be handled by substeps");
+    assert_eq!(r.clamped, 0, "no angular clamp needed when substepped");
+    let (subs, _) = r.sim.setup.schedule(0);
+    assert!(subs.len() > 5, "expected substeps, got {}", subs.len());
+    no_node_inside(&r, glam::DMat4::IDENTITY);
+    settles(&r, 0.05);
+}
+
+#[test]
+fn beyond_max_substeps_says_so_and_stays_finite() {
+    let mut d = dynamics([-1e7, 0.0, 0.0]);
+    d.dt = 10.0;
+    d.max_substeps = 4;
+    let s = scene((30.0, 90.0), (0.0, 360.0), 40, 18, 18.0, d);
+    let r = run(&s, 10);
+    assert!(
+        r.capped,
+        "the solver must report that it could not substep enough"
+    );
+    assert!(r.clamped > 0, "and fall back to its angular clamp");
+    no_node_inside(&r, glam::DMat4::IDENTITY);
+}
+
+#[test]
+fn hundred_segment_strands() {
+    // Long chains have slow modes: damp near critically for the stiffest segment.
+    let mut d = dynamics([-150.0, -100.0, 50.0]);
+    d.damping = 0.04;
+    let s = scene((20.0, 100.0), (0.0, 360.0), 40, 100, 20.0, d);
+    let r = run(&s, 200);
+    no_node_inside(&r, glam::DMat4::IDENTITY);
+    settles(&r, 0.05);
+}
+
+#[test]
+fn force_steps_of_1e4_and_more() {
+    let mut d = dynamics([0.0, -100.0, 0.0]);
+    d.wind = vec![
+        WindKey {
+            frame: 0.0,
+            force: [0.0; 3],
+            interp: Interp::Step,
+        },
+        WindKey {
+            frame: 5.0,
+            force: [1e4, 0.0, 0.0],
+            interp: Interp::Step,
+        },
+        WindKey {
+            frame: 15.0,
+            force: [-1e5, 2e4, 0.0],
+            interp: Interp::Step,
+        },
+        WindKey {
+            frame: 25.0,
+            force: [0.0, -1e6, 3e5],
+            interp: Interp::Step,
+        },
+    ];
+    let s = scene((10.0, 100.0), (0.0, 360.0), 60, 18, 18.0, d);
+    let r = run(&s, 90);
+    no_node_inside(&r, glam::DMat4::IDENTITY);
+    settles(&r, 0.05);
+}
+
+#[test]
+fn segments_parallel_to_y_and_antiparallel_to_the_force() {
+    // Pores at the crown: hair straight up, along +y. With a sideways force the theta plane
+    // must come from y and F; with a force straight down the hair is exactly antiparallel
+    // to F (an unstable equilibrium that must stay finite).
+    for force in [[-200.0, 0.0, 0.0], [0.0, -200.0, 0.0], [0.0, 0.0, 0.0]] {
+        let s = scene((0.0, 0.5), (0.0, 360.0), 30, 18, 18.0, dynamics(force));
+        let r = run(&s, 200);
+        no_node_inside(&r, glam::DMat4::IDENTITY);
+        if force[0] != 0.0 {
+            // The hair really turned towards -x.
+            let tips: f64 = r
+                .sim
+                .setup
+                .strands
+                .iter()
+                .map(|st| r.sim.nodes[(st.first_vertex + st.segments) as usize].x)
+                .sum::<f64>()
+                / r.sim.setup.strands.len() as f64;
+            assert!(
+                tips < -5.0,
+                "hair at the crown did not follow a sideways force (mean tip x {tips})"
+            );
+            settles(&r, 0.05);
+        }
+    }
+}
+
+#[test]
+fn zero_force_keeps_the_groom() {
+    let mut d = dynamics([0.0; 3]);
+    d.gravity = [0.0; 3];
+    let s = scene((10.0, 100.0), (0.0, 360.0), 50, 18, 18.0, d);
+    let input = prepare(&s).unwrap();
+    let groomed = cantilever::bend_all(&input).nodes;
+    let r = run(&s, 30);
+    let moved = r
+        .sim
+        .nodes
+        .iter()
+        .zip(&groomed)
+        .map(|(a, b)| (*a - *b).length())
+        .fold(0.0, f64::max);
+    assert!(moved < 1e-9, "hair at rest with F = 0 moved by {moved}");
+    assert!(r.kinetic.iter().all(|&k| k < 1e-18));
+}
+
+#[test]
+fn fast_head_whips() {
+    let mut d = dynamics([0.0, -100.0, 0.0]);
+    d.head_motion = vec![
+        HeadKey {
+            frame: 0.0,
+            rotate: [0.0; 3],
+            translate: [0.0; 3],
+            interp: Interp::Linear,
+        },
+        HeadKey {
+            frame: 2.0,
+            rotate: [0.0, 90.0, 0.0],
+            translate: [0.0; 3],
+            interp: Interp::Linear,
+        },
+        HeadKey {
+            frame: 4.0,
+            rotate: [0.0, -60.0, 20.0],
+            translate: [5.0, 0.0, 0.0],
+            interp: Interp::Linear,
+        },
+        HeadKey {
+            frame: 6.0,
+            rotate: [0.0; 3],
+            translate: [0.0; 3],
+            interp: Interp::Linear,
+        },
+    ];
+    let s = scene((10.0, 110.0), (0.0, 360.0), 60, 18, 18.0, d.clone());
+    let r = run(&s, 200);
+    let pose = kami::sim::forces::head_at(&d.head_motion, DVec3::ZERO, 200.0);
+    no_node_inside(&r, pose);
+    settles(&r, 0.05);
+    // The roots follow the head.
+    for st in &r.sim.setup.strands {
+        let root = r.sim.nodes[st.first_vertex as usize];
+        assert!((root - pose.transform_point3(st.root_local)).length() < 1e-9);
+    }
+}
+
+#[test]
+fn pores_at_the_poles_and_hair_hanging_straight_down() {
+    // Pores round the bottom pole with hair hanging straight down (theta = pi, v_i -> 0):
+    // a sideways force must still move it (the azimuth equation alone would not).
+    let mut d = dynamics([0.0, 0.0, 0.0]);
+    d.wind = vec![
+        WindKey {
+            frame: 0.0,
+            force: [0.0, -200.0, 0.0],
+            interp: Interp::Step,
+        },
+        WindKey {
+            frame: 30.0,
+            force: [0.0, -50.0, -200.0],
+            interp: Interp::Step,
+        },
+    ];
+    let s = scene((179.5, 180.0), (0.0, 360.0), 30, 18, 18.0, d);
+    let r = run(&s, 200);
+    no_node_inside(&r, glam::DMat4::IDENTITY);
+    let tips: f64 = r
+        .sim
+        .setup
+        .strands
+        .iter()
+        .map(|st| r.sim.nodes[(st.first_vertex + st.segments) as usize].z)
+        .sum::<f64>()
+        / r.sim.setup.strands.len() as f64;
+    assert!(
+        tips < -5.0,
+        "hanging hair did not swing with a sideways force (mean tip z {tips})"
+    );
+    settles(&r, 0.05);
+}
+
+/// The paper's pseudo-force does what Fig. 11 shows: with the hard collision off, fewer and
+/// shallower nodes end up inside the head than without it.
+#[test]
+fn pseudo_force_keeps_hair_out_of_the_head() {
+    let mut depth = Vec::new();
+    for name in ["pseudo_force", "pseudo_force_off"] {
+        let mut s = common::scene(name);
+        for g in &mut s.groups {
+            g.count /= 10;
+        }
+        let r = run(&s, 10);
+        let inside = r
+            .sim
+            .nodes
+            .iter()
+            .filter(|p| r.head.eval(**p) < 0.0)
+            .count();
+        let deepest = r
+            .sim
+            .nodes
+            .iter()
+            .map(|p| -r.head.eval(*p))
+            .fold(0.0, f64::max);
+        depth.push((inside, deepest));
+    }
+    let (on, off) = (depth[0], depth[1]);
+    assert!(
+        on.0 * 4 < off.0 * 3,
+        "pseudo-force on: {} nodes inside, off: {}",
+        on.0,
+        off.0
+    );
+    assert!(
+        on.1 < 0.8 * off.1,
+        "pseudo-force on: depth {:.3}, off: {:.3}",
+        on.1,
+        off.1
+    );
+}
+
+/// A one-segment strand is a rigid pendulum: theta'' = c u F sin(...). Its large-swing
+/// period must match the exact 4 K(sin(theta0/2)) / omega0.
+#[test]
+fn rigid_pendulum_period_matches_elliptic_integral() {
+    let (t_sim, t_exact) = kami::bench::pendulum_periods(2.0, 1e-3);
+    assert!(
+        (t_sim / t_exact - 1.0).abs() < 1e-3,
+        "period {t_sim} vs exact {t_exact}"
+    );
+}
+
+/// The same hard cases on the GPU: finite, exact lengths (f32: 1e-5), no node inside.
+#[test]
+fn gpu_hard_cases_stay_finite_and_outside() {
+    let gpu = common::gpu();
+    let mut whip = dynamics([3e4, -1e4, 0.0]);
+    whip.head_motion = vec![
+        HeadKey {
+            frame: 0.0,
+            rotate: [0.0; 3],
+            translate: [0.0; 3],
+            interp: Interp::Linear,
+        },
+        HeadKey {
+            frame: 2.0,
+            rotate: [0.0, 90.0, 30.0],
+            translate: [3.0, 0.0, 0.0],
+            interp: Interp::Linear,
+        },
+        HeadKey {
+            frame: 4.0,
+            rotate: [0.0; 3],
+            translate: [0.0; 3],
+            interp: Interp::Linear,
+        },
+    ];
+    whip.dt = 2.0;
+    let cases = [
+        scene(
+            (0.0, 0.5),
+            (0.0, 360.0),
+            64,
+            18,
+            18.0,
+            dynamics([-200.0, 0.0, 0.0]),
+        ),
+        scene(
+            (179.5, 180.0),
+            (0.0, 360.0),
+            64,
+            18,
+            18.0,
+            dynamics([0.0, -50.0, -200.0]),
+        ),
+        scene((10.0, 110.0), (0.0, 360.0), 64, 100, 20.0, whip.clone()),
+    ];
+    for s in &cases {
+        let input = prepare(s).unwrap();
+        let hair = cantilever::groom_gpu(&gpu, &input).unwrap();
+        let mut sim = kami::sim::Simulation::new(&gpu, s, &input, &hair)
+            .unwrap()
+            .unwrap();
+        for _ in 0..30 {
+            let mut enc = gpu.device.create_command_encoder(&Default::default());
+            sim.record_frame(&gpu, &mut enc, &hair);
+            gpu.queue.submit([enc.finish()]);
+        }
+        let pose = kami::sim::forces::head_at(
+            &s.dynamics.as_ref().unwrap().head_motion,
+            DVec3::ZERO,
+            30.0,
+        )
+        .inverse();
+        let v = hair.read_vertices(&gpu).unwrap();
+        let offsets = input.vertex_offsets();
+        for (i, r) in input.roots.iter().enumerate() {
+            for j in offsets[i]..offsets[i + 1] {
+                let p = DVec3::new(
+                    v[j as usize][0] as f64,
+                    v[j as usize][1] as f64,
+                    v[j as usize][2] as f64,
+                );
+                assert!(p.is_finite(), "GPU node not finite");
+                assert!(
+                    input.head.eval(pose.transform_point3(p)) >= -1e-4,
+                    "GPU node inside the head"
+                );
+                if j > offsets[i] {
+                    let q = DVec3::new(
+                        v[j as usize - 1][0] as f64,
+                        v[j as usize - 1][1] as f64,
+                        v[j as usize - 1][2] as f64,
+                    );
+                    assert!(
+                        ((p - q).length() / r.seg_len - 1.0).abs() < 1e-5,
+                        "GPU segment length"
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// Only what a scene needs: no dynamics, or no dynamic group, allocates nothing; in a mixed
+/// scene only the dynamic strands get state.
+#[test]
+fn static_groups_allocate_nothing() {
+    let gpu = common::gpu();
+    let still = common::scene("bob");
+    let input = prepare(&still).unwrap();
+    let hair = cantilever::groom_gpu(&gpu, &input).unwrap();
+    assert!(kami::sim::Simulation::new(&gpu, &still, &input, &hair)
+        .unwrap()
+        .is_none());
+    let mut frozen = common::scene("gust");
+    for g in &mut frozen.groups {
+        g.count = 50;
+        g.dynamic = false;
+    }
+    let input = prepare(&frozen).unwrap();
+    let hair = cantilever::groom_gpu(&gpu, &input).unwrap();
+    assert!(kami::sim::Simulation::new(&gpu, &frozen, &input, &hair)
+        .unwrap()
+        .is_none());
+    frozen.groups[1].dynamic = true;
+    let input = prepare(&frozen).unwrap();
+    let groomed = cantilever::bend_all(&input);
+    let setup = DynSetup::new(&frozen, &input, &groomed.visible).unwrap();
+    assert_eq!(setup.strands.len(), 50);
+    assert!(setup
+        .strands
+        .iter()
+        .all(|s| input.roots[s.strand as usize].group == 1));
+}
