@@ -164,7 +164,7 @@ fn advance(@builtin(global_invocation_id) id: vec3<u32>) {
     let root = xform_point(substep.head, s.root.xyz);
     let a_root = xform_point(substep.accel, s.root.xyz);
     let f_seg = substep.force.xyz - params.density * d * a_root;
-    let keep = 1.0 - params.damping;
+    let keep = exp(-params.damping * h);
     verts[base] = vec4<f32>(root, 1.0);
     var prev_p = root;
     var prev_dir = normalize(xform_vector(substep.head, hull_gradient(hl, s.root.xyz)));

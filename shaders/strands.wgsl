@@ -21,6 +21,7 @@ struct Material {
 struct VOut {
     @builtin(position) pos: vec4<f32>,
     @location(0) color: vec4<f32>,
+    @location(1) @interpolate(flat) strand: u32,
 }
 
 // Node i of the drawn part of a strand; the last drawn node may be cut part-way.
@@ -88,10 +89,17 @@ fn vs(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -> VOut 
     let intensity = frame.light_dir.w;
     let rgb = mat.color_ks.rgb * (ambient + intensity * diffuse) + frame.light_color.rgb * (intensity * spec);
     out.color = vec4<f32>(rgb, coverage);
+    out.strand = si;
     return out;
 }
 
+// With alpha to coverage, equal alphas give equal sample masks, and sparse thin hair shows
+// the mask's fixed pattern; a per-pixel, per-strand offset of up to half a sample turns it
+// into noise that the supersampling averages away (raster.w: 1/samples, 0 without MSAA).
 @fragment
 fn fs(in: VOut) -> @location(0) vec4<f32> {
-    return in.color;
+    let px = vec2<u32>(in.pos.xy);
+    let n = f32(pcg_hash(px.x * 1973u + px.y * 9277u + in.strand * 26699u) >> 8u) / 16777216.0;
+    let a = clamp(in.color.a + (n - 0.5) * frame.raster.w, 0.0, 1.0);
+    return vec4<f32>(in.color.rgb, a);
 }

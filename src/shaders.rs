@@ -26,7 +26,12 @@ pub const PROJECTIVE: &str = wgsl!(
 );
 
 /// Hair ribbons with Anjyo's anisotropic specular.
-pub const STRANDS: &str = wgsl!("common/strands.wgsl", "common/frame.wgsl", "strands.wgsl");
+pub const STRANDS: &str = wgsl!(
+    "common/strands.wgsl",
+    "common/frame.wgsl",
+    "common/random.wgsl",
+    "strands.wgsl",
+);
 
 /// The head ellipsoid.
 pub const HEAD: &str = wgsl!("common/frame.wgsl", "head.wgsl");

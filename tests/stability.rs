@@ -48,7 +48,7 @@ fn dynamics(force: [f64; 3]) -> Dynamics {
         force,
         interp: Interp::Step,
     }];
-    d.damping = 0.1;
+    d.damping = 1.0;
     d.pseudo_force = Some(PseudoForce {
         alpha: -0.75,
         epsilon_pore: 0.1,
@@ -178,7 +178,7 @@ fn beyond_max_substeps_says_so_and_stays_finite() {
 fn hundred_segment_strands() {
     // Long chains have slow modes: damp near critically for the stiffest segment.
     let mut d = dynamics([-150.0, -100.0, 50.0]);
-    d.damping = 0.04;
+    d.damping = 0.4;
     let s = scene((20.0, 100.0), (0.0, 360.0), 40, 100, 20.0, d);
     let r = run(&s, 200);
     no_node_inside(&r, glam::DMat4::IDENTITY);

@@ -8,7 +8,8 @@ struct Frame {
     light_color: vec4<f32>,
     // width, height (samples), 1/width, 1/height
     viewport: vec4<f32>,
-    // x focal length in samples, y narrowest strand (samples), z 1 if orthographic
+    // x focal length in samples, y narrowest strand (samples), z 1 if orthographic,
+    // w alpha dither (1/MSAA samples)
     raster: vec4<f32>,
 }
 

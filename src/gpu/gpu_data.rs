@@ -118,7 +118,8 @@ pub struct GpuFrame {
     /// (width, height) of the target in samples, then 1/width, 1/height.
     pub viewport: [f32; 4],
     /// x: pixels per world unit at distance 1 (focal length in samples); y: narrowest
-    /// strand drawn, samples; z: 1 for an orthographic camera; w: unused.
+    /// strand drawn, samples; z: 1 for an orthographic camera; w: alpha dither amplitude
+    /// (1/MSAA samples, 0 without MSAA).
     pub raster: [f32; 4],
 }
 assert_size!(GpuFrame, 144);

@@ -8,6 +8,9 @@ use crate::scene::Ellipsoid;
 use glam::{DMat4, Mat4};
 use wgpu::util::DeviceExt;
 
+/// Drawn head radii relative to the collision hull.
+pub const DRAWN_SCALE: f64 = 0.996;
+
 const RINGS: u32 = 48;
 const SECTORS: u32 = 96;
 
@@ -132,12 +135,15 @@ impl HeadPass {
         })
     }
 
-    /// Set the ellipsoid (and its pose) and colour.
+    /// Set the ellipsoid (and its pose) and colour. The head is drawn `DRAWN_SCALE` smaller
+    /// than the collision hull: nodes sit on the hull, so the chord between two of them dips
+    /// below it by d^2/8R (0.01-0.03 cm here) and would vanish into the skin between nodes.
     pub fn prepare(&self, queue: &wgpu::Queue, hull: &Ellipsoid, pose: DMat4, color: [f32; 3]) {
+        let radii = hull.radii * DRAWN_SCALE;
         let model: Mat4 =
-            (pose * DMat4::from_translation(hull.center) * DMat4::from_scale(hull.radii)).as_mat4();
+            (pose * DMat4::from_translation(hull.center) * DMat4::from_scale(radii)).as_mat4();
         let c = linear_rgb(color);
-        let r2 = hull.radii * hull.radii;
+        let r2 = radii * radii;
         let data = GpuHead {
             model: model.to_cols_array_2d(),
             color: [c[0], c[1], c[2], 1.0],

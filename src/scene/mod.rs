@@ -516,7 +516,9 @@ pub struct Dynamics {
     /// Line density rho (mass per unit length); inertia I_i = rho k^3 d^2 / (3 i).
     #[serde(default = "one")]
     pub density: f64,
-    /// Velocity damping per step, 0..1 (0 is the paper's undamped recurrence).
+    /// Velocity damping rate per unit time: each step keeps exp(-damping h) of the angular
+    /// velocity (0 is the paper's undamped recurrence). A rate, so results do not depend on
+    /// the step size beyond discretisation error.
     #[serde(default)]
     pub damping: f64,
     /// Constant force on every segment (gravity, in force units).

@@ -191,7 +191,7 @@ fn validate_dynamics(d: &Dynamics) -> Result<()> {
         ));
     }
     positive("dynamics.density", d.density, 1e6)?;
-    within("dynamics.damping", d.damping, 0.0, 0.99)?;
+    within("dynamics.damping", d.damping, 0.0, 1e4)?;
     vec3("dynamics.gravity", d.gravity, 1e9)?;
     for (i, k) in d.wind.iter().enumerate() {
         within(&format!("dynamics.wind[{i}].frame"), k.frame, -1e9, 1e9)?;

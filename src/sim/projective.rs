@@ -5,7 +5,7 @@
 //!
 //! ```text
 //! theta_i'' = c_i u_i F_theta,   phi_i'' = c_i v_i F_phi                       (4), (5)
-//! theta^{n+1} = theta^n + (1 - damping)(theta^n - theta^{n-1}) + h^2 c_i u_i F_theta   (4)'
+//! theta^{n+1} = theta^n + e^(-damping h)(theta^n - theta^{n-1}) + h^2 c_i u_i F_theta  (4)'
 //! ```
 //!
 //! with u_i = d/2, v_i = (d/2) sin theta_i (half the segment's shadow on the phi plane),
@@ -368,7 +368,7 @@ pub fn step_strand(
     let root = f.head.transform_point3(s.root_local);
     let a_root = f.accel.transform_point3(s.root_local);
     let f_seg = f.force - p.density * d * a_root;
-    let keep = 1.0 - p.damping;
+    let keep = (-p.damping * h).exp();
     let mut stats = StepStats::default();
     nodes[base] = root;
     let mut prev_p = root;
