@@ -42,7 +42,7 @@ struct Step {
     head: mat4x4<f32>,
     head_inv: mat4x4<f32>,
     accel: mat4x4<f32>,
-    // x: 1 when this substep kicks, y: kick bucket
+    // x: 1 when this substep kicks, y: kick bucket, z: 1 for the first step from rest
     kick: vec4<u32>,
 }
 
@@ -164,7 +164,10 @@ fn advance(@builtin(global_invocation_id) id: vec3<u32>) {
     let root = xform_point(substep.head, s.root.xyz);
     let a_root = xform_point(substep.accel, s.root.xyz);
     let f_seg = substep.force.xyz - params.density * d * a_root;
-    let keep = exp(-params.damping * h);
+    let g = 0.5 * params.damping * h;
+    let keep = max((1.0 - g) / (1.0 + g), 0.0);
+    // Half the acceleration in the very first step from rest (kick.z), as in the reference.
+    let push = select(1.0, 0.5, substep.kick.z != 0u) / (1.0 + g);
     verts[base] = vec4<f32>(root, 1.0);
     var prev_p = root;
     var prev_dir = normalize(xform_vector(substep.head, hull_gradient(hl, s.root.xyz)));
@@ -209,8 +212,8 @@ fn advance(@builtin(global_invocation_id) id: vec3<u32>) {
         let v_th = vec3<f32>(cth * cph, -sth, cth * sph);
         let v_ph = vec3<f32>(-sph, 0.0, cph);
         let cu = c_of(s, i) * 0.5 * d;
-        var dth = keep * (th - thp) + h * h * cu * dot(force, v_th);
-        var dph = keep * (ph - php) + h * h * cu * sth * dot(force, v_ph);
+        var dth = keep * (th - thp) + push * h * h * cu * dot(force, v_th);
+        var dph = keep * (ph - php) + push * h * h * cu * sth * dot(force, v_ph);
         if abs(dth) > MAX_TURN {
             dth = sign(dth) * MAX_TURN;
         }

@@ -318,3 +318,409 @@ pub fn pendulum_periods(amplitude: f64, dt: f64) -> (f64, f64) {
     };
     (measured, exact)
 }
+
+// ---------------------------------------------------------------------------------------
+// Dynamics: speed against error
+
+use crate::scene::{HeadKey, Interp, Roots, WindKey};
+use crate::sim::projective::{CpuSim, DynSetup};
+
+/// Simulated time of every run, and the frame length the sweep is built on.
+const T_END: f64 = 3.2;
+const FRAME_TIME: f64 = 0.4;
+/// Reference: steps per frame of the f64 run taken as the truth (dt = 0.4/256 = 0.1/64).
+const REF_SPF: u32 = 256;
+const SWEEP_SPF: [u32; 6] = [1, 2, 4, 8, 16, 32];
+
+/// Re-time a scene written for 0.1-long frames to `FRAME_TIME` frames of `spf` steps: keys
+/// keep their simulated time.
+fn retime(scene: &Scene, spf: u32, frame_time: f64) -> Scene {
+    let mut s = scene.clone();
+    let d = s.dynamics.as_mut().expect("a dynamic scene");
+    let old = d.dt * d.steps_per_frame as f64;
+    let k = old / frame_time;
+    for w in &mut d.wind {
+        w.frame *= k;
+    }
+    for h in &mut d.head_motion {
+        h.frame *= k;
+    }
+    d.steps_per_frame = spf;
+    d.dt = frame_time / spf as f64;
+    s
+}
+
+/// The benchmark's configurations: the gust at four segment counts and the hard cases.
+fn dynamic_cases(gust: &Scene) -> Vec<(String, Scene)> {
+    let mut base = gust.clone();
+    for g in &mut base.groups {
+        g.count = (g.count / 50).max(8);
+    }
+    let d = base.dynamics.as_mut().unwrap();
+    d.fluctuation = None;
+    d.damping = 0.5;
+    let mut cases = Vec::new();
+    for k in [9u32, 18, 36, 72] {
+        let mut s = base.clone();
+        for g in &mut s.groups {
+            g.segments = (k * g.segments / 18).max(2);
+        }
+        cases.push((format!("GUST K={k}"), s));
+    }
+    let single = |theta: (f64, f64), wind: Vec<WindKey>, gravity: [f64; 3]| {
+        let mut s = base.clone();
+        s.groups.truncate(1);
+        let g = &mut s.groups[0];
+        g.roots = Roots {
+            theta,
+            phi: (0.0, 360.0),
+            on: None,
+            hairline: None,
+        };
+        g.count = 150;
+        g.segments = 18;
+        g.length = 18.0;
+        g.direction = crate::scene::Direction::Normal;
+        g.loads.clear();
+        g.cuts.clear();
+        let d = s.dynamics.as_mut().unwrap();
+        d.wind = wind;
+        d.gravity = gravity;
+        s
+    };
+    let key = |frame: f64, force: [f64; 3]| WindKey {
+        frame,
+        force,
+        interp: Interp::Step,
+    };
+    // Smooth: no contact, no clamps, no pole crossings, so the scheme's own order shows.
+    let mut free = single(
+        (60.0, 120.0),
+        vec![key(0.0, [-60.0, 0.0, 40.0])],
+        [0.0, -100.0, 0.0],
+    );
+    {
+        let d = free.dynamics.as_mut().unwrap();
+        d.collision = false;
+        d.pseudo_force = None;
+        free.groups[0].roots.on = Some(crate::scene::EllipsoidDesc {
+            center: [0.0, 40.0, 0.0],
+            radii: [2.0, 2.0, 2.0],
+        });
+        // Stiff groom: straight radial hair on the side the force leans to (azimuth 146
+        // degrees), so no hair swings over a pole of the angle chart on its way.
+        free.groups[0].rigidity = 1e6;
+        free.groups[0].roots.phi = (121.0, 171.0);
+    }
+    cases.insert(0, ("FREE (NO CONTACT)".into(), free));
+    cases.push((
+        "HANGING".into(),
+        single(
+            (170.0, 180.0),
+            vec![key(0.0, [0.0; 3]), key(8.0, [-150.0, 0.0, 80.0])],
+            [0.0, -150.0, 0.0],
+        ),
+    ));
+    cases.push((
+        "CROWN".into(),
+        single((0.0, 8.0), vec![key(0.0, [-200.0, 0.0, 0.0])], [0.0; 3]),
+    ));
+    let mut whip = base.clone();
+    let d = whip.dynamics.as_mut().unwrap();
+    d.wind.clear();
+    d.gravity = [0.0, -150.0, 0.0];
+    d.head_motion = vec![
+        HeadKey {
+            frame: 0.0,
+            rotate: [0.0; 3],
+            translate: [0.0; 3],
+            interp: Interp::Linear,
+        },
+        HeadKey {
+            frame: 4.0,
+            rotate: [0.0, 60.0, 0.0],
+            translate: [0.0; 3],
+            interp: Interp::Linear,
+        },
+        HeadKey {
+            frame: 8.0,
+            rotate: [0.0; 3],
+            translate: [0.0; 3],
+            interp: Interp::Linear,
+        },
+    ];
+    cases.push(("HEAD WHIP".into(), whip));
+    let mut steps = base.clone();
+    steps.dynamics.as_mut().unwrap().wind = vec![
+        key(0.0, [0.0, -100.0, 0.0]),
+        key(5.0, [1e4, 0.0, 0.0]),
+        key(15.0, [-1e4, -2e3, 0.0]),
+    ];
+    cases.push(("FORCE STEPS 1E4".into(), steps));
+    cases
+}
+
+struct DynRun {
+    nodes: Vec<DVec3>,
+    tips: Vec<usize>,
+    lengths: Vec<f64>,
+    seconds: f64,
+    segment_substeps: u64,
+    strands: usize,
+    clamped: u64,
+}
+
+fn run_cpu(scene: &Scene, frames: u32) -> Result<DynRun> {
+    let input = prepare(scene)?;
+    let groomed = cantilever::bend_all(&input);
+    let setup = DynSetup::new(scene, &input, &groomed.visible).expect("dynamic scene");
+    let tips = setup
+        .strands
+        .iter()
+        .map(|s| (s.first_vertex + s.segments) as usize)
+        .collect();
+    let lengths = setup
+        .strands
+        .iter()
+        .map(|s| s.seg_len * s.segments as f64)
+        .collect();
+    let strands = setup.strands.len();
+    let mut sim = CpuSim::new(setup, groomed.nodes);
+    let t = Instant::now();
+    let mut clamped = 0;
+    for _ in 0..frames {
+        for _ in 0..sim.setup.params.steps_per_frame {
+            clamped += sim.step().0.clamped;
+        }
+    }
+    let seconds = t.elapsed().as_secs_f64();
+    Ok(DynRun {
+        nodes: sim.nodes,
+        tips,
+        lengths,
+        seconds,
+        segment_substeps: sim.segment_substeps,
+        strands,
+        clamped,
+    })
+}
+
+/// (RMS node error, RMS tip error), relative to the mean hair length.
+fn errors(run: &DynRun, reference: &DynRun) -> (f64, f64) {
+    let len = run.lengths.iter().sum::<f64>() / run.lengths.len() as f64;
+    let mut sum = 0.0;
+    let mut n = 0usize;
+    for (a, b) in run.nodes.iter().zip(&reference.nodes) {
+        sum += (*a - *b).length_squared();
+        n += 1;
+    }
+    let tip = run
+        .tips
+        .iter()
+        .map(|&i| (run.nodes[i] - reference.nodes[i]).length_squared())
+        .sum::<f64>();
+    (
+        (sum / n as f64).sqrt() / len,
+        (tip / run.tips.len() as f64).sqrt() / len,
+    )
+}
+
+/// Speed against error for the projective dynamics; writes `dynamics.md`, `dynamics.csv`
+/// and `dynamics.png` into `out`.
+pub fn dynamics(gpu: &Gpu, gust_path: &Path, out: &Path) -> Result<Report> {
+    let gust = Scene::load(gust_path)?;
+    let frames = (T_END / FRAME_TIME).round() as u32;
+    let mut md = String::new();
+    let mut csv = String::from("config,dt,steps,rms_error,tip_error,cpu_seconds,us_per_strand_per_time,ns_per_segment_step,clamped\n");
+    let _ = writeln!(md, "### `kami bench dynamics` — {}\n", gust_path.display());
+    let _ = writeln!(
+        md,
+        "CPU: {} (one thread); adapter: {}.\n",
+        cpu_name(),
+        gpu.describe()
+    );
+    let _ = writeln!(md, "Error: RMS node-position error at t = {T_END} against the f64 solver at dt = {:.5} (0.1/64), relative to the hair length. Cost: CPU time per strand per unit of simulated time. Substeps for stability are included in the cost.\n", FRAME_TIME / REF_SPF as f64);
+    let _ = writeln!(
+        md,
+        "| configuration | dt | RMS error | tip error | µs/strand/time | ns/segment-step |"
+    );
+    let _ = writeln!(md, "|---|---:|---:|---:|---:|---:|");
+    let mut series = Vec::new();
+    let mut summary = String::new();
+    let _ = writeln!(summary, "\n| configuration | observed order in dt | largest dt without substeps (no clamp, error < 50 %) | Verlet limit 2/omega | cost to 1 % tip error |");
+    let _ = writeln!(summary, "|---|---:|---:|---:|---:|");
+    for (ci, (name, scene)) in dynamic_cases(&gust).into_iter().enumerate() {
+        let reference = run_cpu(&retime(&scene, REF_SPF, FRAME_TIME), frames)?;
+        let mut points = Vec::new();
+        let mut rows = Vec::new();
+        for spf in SWEEP_SPF {
+            let s = retime(&scene, spf, FRAME_TIME);
+            let run = run_cpu(&s, frames)?;
+            let (err, tip) = errors(&run, &reference);
+            let dt = FRAME_TIME / spf as f64;
+            let cost = run.seconds * 1e6 / run.strands as f64 / T_END;
+            let ns = run.seconds * 1e9 / run.segment_substeps as f64;
+            let _ = writeln!(
+                md,
+                "| {name} | {dt:.4} | {err:.2e} | {tip:.2e} | {cost:.1} | {ns:.1} |"
+            );
+            let _ = writeln!(
+                csv,
+                "{name},{dt},{},{err:.4e},{tip:.4e},{:.4},{cost:.3},{ns:.2},{}",
+                spf * frames,
+                run.seconds,
+                run.clamped
+            );
+            points.push((cost, err));
+            rows.push((dt, err, tip, cost));
+        }
+        // Observed order: least-squares slope of log error against log dt over the three
+        // finest steps (well above the reference's own error).
+        let fine = &rows[rows.len() - 3..];
+        let (mx, my) = fine.iter().fold((0.0, 0.0), |a, r| {
+            (a.0 + r.0.ln() / 3.0, a.1 + r.1.max(1e-300).ln() / 3.0)
+        });
+        let (sxy, sxx) = fine.iter().fold((0.0, 0.0), |a, r| {
+            let dx = r.0.ln() - mx;
+            (a.0 + dx * (r.1.max(1e-300).ln() - my), a.1 + dx * dx)
+        });
+        let order = sxy / sxx;
+        // Largest stable dt without substeps: no angular clamp and bounded error.
+        let mut largest = None;
+        for dt in [0.025, 0.05, 0.1, 0.2, 0.4, 0.8, 1.6] {
+            let mut s = retime(&scene, 1, dt);
+            s.dynamics.as_mut().unwrap().max_substeps = 1;
+            let run = run_cpu(&s, (T_END / dt).round() as u32)?;
+            let (err, _) = errors(&run, &reference);
+            if run.clamped == 0 && err.is_finite() && err < 0.5 {
+                largest = Some(dt);
+            } else {
+                break;
+            }
+        }
+        let theory = {
+            let s = retime(&scene, 1, 0.1);
+            let input = prepare(&s)?;
+            let groomed = cantilever::bend_all(&input);
+            let setup = DynSetup::new(&s, &input, &groomed.visible).unwrap();
+            let fmax = (0..(T_END / 0.1) as u64)
+                .map(|n| {
+                    let f =
+                        crate::sim::forces::step_forces(&setup.params, setup.head.center, n, 1, 0);
+                    f.force.length()
+                })
+                .fold(0.0, f64::max);
+            2.0 / (setup.max_cu * fmax).sqrt()
+        };
+        let to_one = rows
+            .iter()
+            .filter(|r| r.2 <= 0.01)
+            .map(|r| r.3)
+            .fold(f64::INFINITY, f64::min);
+        let _ = writeln!(
+            summary,
+            "| {name} | {order:.2} | {} | {theory:.3} | {} |",
+            largest.map_or("< 0.025".into(), |d| format!("{d}")),
+            if to_one.is_finite() {
+                format!("{to_one:.1} µs/strand/time")
+            } else {
+                "not reached".into()
+            }
+        );
+        series.push(crate::plot::Series {
+            name: name.clone(),
+            color: crate::plot::palette(ci),
+            points,
+        });
+    }
+    md.push_str(&summary);
+
+    // GPU: the paper's size (the full gust, ~10,000 hairs).
+    let input = prepare(&gust)?;
+    let hair = cantilever::groom_gpu(gpu, &input)?;
+    let mut sim = crate::sim::Simulation::new(gpu, &gust, &input, &hair)?.expect("gust is dynamic");
+    let segments: u64 = sim.setup.strands.iter().map(|s| s.segments as u64).sum();
+    let mut substeps = 0u64;
+    let n = 20;
+    let secs = time_mean(n, || {
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        substeps += sim.record_frame(gpu, &mut enc, &hair).substeps as u64;
+        gpu.queue.submit([enc.finish()]);
+        gpu.wait()
+    })?;
+    let per_frame_substeps = substeps as f64 / (n + 1) as f64;
+    let gpu_ns = secs * 1e9 / (segments as f64 * per_frame_substeps);
+    let cpu = run_cpu(&retime(&gust, 1, 0.1), 5)?;
+    let cpu_ns = cpu.seconds * 1e9 / cpu.segment_substeps as f64;
+    let _ = writeln!(md, "\n**At the paper's size** (gust scene, {} hairs, {} simulated segments, dt = 0.1): GPU {:.1} ms per frame ({gpu_ns:.1} ns per segment-step); CPU f64 reference {cpu_ns:.1} ns per segment-step ({:.0} ms per frame). The paper: about 40 s per frame for 20,000 hairs.", sim.setup.strands.len(), segments, secs * 1e3, cpu_ns * segments as f64 * 1e-6);
+    let _ = writeln!(csv, "gpu gust,0.1,,,,{secs:.5},,{gpu_ns:.2},");
+
+    // Rigid pendulum: large-swing period against the exact elliptic integral.
+    let _ = writeln!(
+        md,
+        "\n**One-segment strand = rigid pendulum**: period against 4 K(sin(a/2))/omega0.\n"
+    );
+    let _ = writeln!(
+        md,
+        "| amplitude (rad) | dt | period | exact | relative error |"
+    );
+    let _ = writeln!(md, "|---:|---:|---:|---:|---:|");
+    for amp in [0.5, 1.5, 2.5, 3.0] {
+        for dt in [0.1, 0.05, 0.01] {
+            let (t, exact) = pendulum_periods(amp, dt);
+            let _ = writeln!(
+                md,
+                "| {amp} | {dt} | {t:.5} | {exact:.5} | {:+.2e} |",
+                t / exact - 1.0
+            );
+            let _ = writeln!(csv, "pendulum a={amp},{dt},,{:.4e},,,,,", t / exact - 1.0);
+        }
+    }
+
+    std::fs::create_dir_all(out).map_err(|source| crate::KamiError::Io {
+        path: out.to_path_buf(),
+        source,
+    })?;
+    let plot = crate::plot::loglog(
+        "PROJECTIVE DYNAMICS: ERROR VS COST",
+        "CPU US PER STRAND PER UNIT TIME",
+        "RMS ERROR / HAIR LENGTH",
+        &series,
+        Some((0.01, "1% ERROR")),
+    );
+    let png = out.join("dynamics.png");
+    plot.save(&png).map_err(|e| crate::KamiError::Image {
+        path: png.clone(),
+        message: e.to_string(),
+    })?;
+    for (name, text) in [("dynamics.md", &md), ("dynamics.csv", &csv)] {
+        let p = out.join(name);
+        std::fs::write(&p, text).map_err(|source| crate::KamiError::Io {
+            path: p.clone(),
+            source,
+        })?;
+    }
+    Ok(Report { markdown: md, csv })
+}
+
+/// (dt, RMS error) of one benchmark configuration (by name, e.g. "FREE (NO CONTACT)") for
+/// these steps per frame, against the dt/64 reference. Used by the convergence test.
+pub fn convergence(gust_path: &Path, case: &str, spfs: &[u32]) -> Result<Vec<(f64, f64)>> {
+    let gust = Scene::load(gust_path)?;
+    let (_, scene) = dynamic_cases(&gust)
+        .into_iter()
+        .find(|(n, _)| n == case)
+        .ok_or_else(|| crate::KamiError::Invalid {
+            field: "case".into(),
+            value: case.into(),
+            allowed: "a configuration of `kami bench dynamics`".into(),
+        })?;
+    let frames = (T_END / FRAME_TIME).round() as u32;
+    let reference = run_cpu(&retime(&scene, REF_SPF, FRAME_TIME), frames)?;
+    spfs.iter()
+        .map(|&spf| {
+            let run = run_cpu(&retime(&scene, spf, FRAME_TIME), frames)?;
+            Ok((FRAME_TIME / spf as f64, errors(&run, &reference).0))
+        })
+        .collect()
+}

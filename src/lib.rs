@@ -14,6 +14,7 @@ pub use error::{KamiError, Result};
 pub use scene::Scene;
 pub mod bench;
 pub mod gpu;
+pub mod plot;
 pub mod render;
 pub mod shaders;
 pub mod sim;

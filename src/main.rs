@@ -78,6 +78,18 @@ enum Bench {
         #[arg(long)]
         software: bool,
     },
+    /// Projective dynamics: error against cost over a sweep of dt and segment counts on the
+    /// gust scene and the hard cases, GPU and CPU cost at the paper's size, and the rigid
+    /// pendulum's period; writes dynamics.md, dynamics.csv and dynamics.png.
+    Dynamics {
+        #[arg(long, default_value = "assets/scenes/gust.ron")]
+        scene: PathBuf,
+        /// Directory for the report files.
+        #[arg(long, default_value = "bench_out")]
+        out: PathBuf,
+        #[arg(long)]
+        software: bool,
+    },
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -245,6 +257,19 @@ fn main() -> Result<()> {
                     std::fs::write(&p, &report.csv)
                         .with_context(|| format!("writing {}", p.display()))?;
                 }
+            }
+            Bench::Dynamics {
+                scene,
+                out,
+                software,
+            } => {
+                let gpu = Gpu::headless(preference(software))?;
+                let report = kami::bench::dynamics(&gpu, &scene, &out)?;
+                println!("{}", report.markdown);
+                println!(
+                    "wrote {0}/dynamics.md, {0}/dynamics.csv, {0}/dynamics.png",
+                    out.display()
+                );
             }
         },
     }

@@ -188,7 +188,7 @@ pub struct GpuStep {
     pub head: [[f32; 4]; 4],
     pub head_inv: [[f32; 4]; 4],
     pub accel: [[f32; 4]; 4],
-    /// x: 1 when this substep kicks; y: kick bucket.
+    /// x: 1 when this substep kicks; y: kick bucket; z: 1 for the first step from rest.
     pub kick: [u32; 4],
     pub _pad: [u32; 8],
 }

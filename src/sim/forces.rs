@@ -78,6 +78,9 @@ pub struct StepForces {
     pub accel: DMat4,
     /// Fluctuation bucket to apply at this step, if this step starts one.
     pub kick: Option<u32>,
+    /// The very first substep from rest: Verlet's first step from theta^0 = theta^-1 takes
+    /// half the acceleration, which keeps the start second order (theta(h) = theta0 + a h^2/2).
+    pub first: bool,
 }
 
 /// Forces of step `n` (from t_n to t_n + dt) split into `substeps`, for substep `s`.
@@ -110,5 +113,6 @@ pub fn step_forces(dyn_: &Dynamics, center: DVec3, n: u64, substeps: u32, s: u32
         head,
         accel,
         kick,
+        first: n == 0 && s == 0,
     }
 }
