@@ -179,6 +179,7 @@ fn advance(@builtin(global_invocation_id) id: vec3<u32>) {
         var php = a.w;
         let p_old = verts[base + i].xyz;
         var force = f_seg;
+        var marked = 1.0;
         if params.pseudo != 0u {
             let local = xform_point(substep.head_inv, p_old);
             let g = hull_gradient(hl, local);
@@ -186,6 +187,7 @@ fn advance(@builtin(global_invocation_id) id: vec3<u32>) {
             let dd = xform_vector(substep.head, g);
             if dist < params.near && dot(dd, force) < params.pseudo_alpha * length(dd) * length(force) {
                 force *= params.eps_pore + (params.eps_tip - params.eps_pore) * along(s, i);
+                marked = 2.0;
             }
         }
         if abs(sin(th)) < POLE_SIN {
@@ -278,7 +280,8 @@ fn advance(@builtin(global_invocation_id) id: vec3<u32>) {
             out.w -= shift;
         }
         state[off + i] = out;
-        verts[base + i] = vec4<f32>(pn, 1.0);
+        // w = 2 marks a segment the pseudo-force acted on (the viewer can show them).
+        verts[base + i] = vec4<f32>(pn, marked);
         prev_p = pn;
         prev_dir = dir;
     }

@@ -69,9 +69,9 @@ fn vs(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -> VOut 
 
     // Width: world width tapered root to tip, in samples at this depth.
     let along = f32(n) / f32(max(s.segments, 1u));
-    let width = mat.params.z * mix(1.0, mat.params.w, along);
-    let depth = select(max(clip.w, 1e-6), 1.0, frame.raster.z > 0.5);
-    let width_px = width * frame.raster.x / depth;
+    // raster.z widens hair when only a share of it is drawn (level of detail).
+    let width = mat.params.z * mix(1.0, mat.params.w, along) * frame.raster.z;
+    let width_px = width * frame.raster.x / max(clip.w, 1e-6);
     let drawn_px = max(width_px, frame.raster.y);
     let coverage = width_px / drawn_px;
     let offset = across * (side * drawn_px) * frame.viewport.zw;
@@ -87,7 +87,11 @@ fn vs(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -> VOut 
     let diffuse = mat.params.y * sqrt(max(1.0 - tdl * tdl, 0.0));
     let ambient = frame.light_color.w * s.ka;
     let intensity = frame.light_dir.w;
-    let rgb = mat.color_ks.rgb * (ambient + intensity * diffuse) + frame.light_color.rgb * (intensity * spec);
+    var rgb = mat.color_ks.rgb * (ambient + intensity * diffuse) + frame.light_color.rgb * (intensity * spec);
+    // The dynamics mark nodes whose segment felt the pseudo-force with w = 2.
+    if frame.flags.x > 0.5 && verts[s.first_vertex + n].w > 1.5 {
+        rgb = vec3<f32>(0.9, 0.1, 0.05);
+    }
     out.color = vec4<f32>(rgb, coverage);
     out.strand = si;
     return out;

@@ -59,6 +59,14 @@ pub enum KamiError {
 
     #[error("cannot write image {path}: {message}")]
     Image { path: PathBuf, message: String },
+
+    /// The viewer's window or surface could not be created.
+    #[error("window: {0}")]
+    Window(String),
+
+    /// A viewer option that cannot be applied (`--set` with an unknown key or bad value).
+    #[error("{0}")]
+    Option(String),
 }
 
 pub type Result<T, E = KamiError> = std::result::Result<T, E>;

@@ -12,6 +12,7 @@ pub mod scene;
 
 pub use error::{KamiError, Result};
 pub use scene::Scene;
+pub mod app;
 pub mod bench;
 pub mod gpu;
 pub mod plot;

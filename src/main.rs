@@ -53,6 +53,33 @@ enum Command {
         #[arg(long)]
         software: bool,
     },
+    /// Open the interactive viewer (default scene: the wind gust, hair in motion).
+    View {
+        /// Scene file (RON); without it, the built-in gust scene.
+        scene: Option<PathBuf>,
+        /// Window size (logical pixels) as WIDTHxHEIGHT.
+        #[arg(long, value_parser = parse_size, default_value = "1280x720")]
+        size: (u32, u32),
+        /// Close the window after N frames (scripts and tests).
+        #[arg(long)]
+        exit_after_frames: Option<u64>,
+        /// Write a PNG of the whole window (scene and panels) at the last frame (or frame 60
+        /// without --exit-after-frames).
+        #[arg(long)]
+        screenshot: Option<PathBuf>,
+        /// Write a PNG of the window at frame N: N:FILE (repeatable).
+        #[arg(long, value_parser = parse_frame_path)]
+        screenshot_at: Vec<(u64, PathBuf)>,
+        /// Change a setting while running, through the panels' path: [N:]KEY=VALUE, applied
+        /// at frame N (default 0). Keys: color=r,g,b width ks shininess rigidity wind=x,y,z
+        /// gravity=x,y,z stiffness=root,tip damping pseudo=on|off msaa supersample play=on|off
+        /// lod=share.
+        #[arg(long)]
+        set: Vec<String>,
+        /// Prefer a software adapter even when a GPU is present.
+        #[arg(long)]
+        software: bool,
+    },
     /// Benchmarks: print throughput and accuracy tables.
     Bench {
         #[command(subcommand)]
@@ -111,6 +138,15 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
         ));
     }
     Ok((w, h))
+}
+
+/// "N:FILE".
+fn parse_frame_path(s: &str) -> Result<(u64, PathBuf), String> {
+    let (n, p) = s
+        .split_once(':')
+        .ok_or_else(|| format!("{s:?} must look like 30:shot.png"))?;
+    let n: u64 = n.parse().map_err(|_| format!("bad frame in {s:?}"))?;
+    Ok((n, PathBuf::from(p)))
 }
 
 /// "A..B" (inclusive).
@@ -239,6 +275,38 @@ fn main() -> Result<()> {
                     );
                 }
             }
+        }
+        Command::View {
+            scene,
+            size,
+            exit_after_frames,
+            screenshot,
+            screenshot_at,
+            set,
+            software,
+        } => {
+            let mut screenshots = screenshot_at;
+            if let Some(p) = screenshot {
+                screenshots.push((exit_after_frames.map_or(60, |n| n.saturating_sub(1)), p));
+            }
+            let mut sets = Vec::new();
+            for s in set {
+                let (frame, assignment) = match s.split_once(':') {
+                    Some((n, rest)) if n.chars().all(|c| c.is_ascii_digit()) && !n.is_empty() => {
+                        (n.parse::<u64>()?, rest.to_string())
+                    }
+                    _ => (0, s.clone()),
+                };
+                sets.push((frame, assignment));
+            }
+            kami::app::run(kami::app::ViewerOptions {
+                scene,
+                size,
+                software,
+                exit_after_frames,
+                screenshots,
+                sets,
+            })?;
         }
         Command::Bench { which } => match which {
             Bench::Groom {

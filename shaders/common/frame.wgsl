@@ -8,9 +8,11 @@ struct Frame {
     light_color: vec4<f32>,
     // width, height (samples), 1/width, 1/height
     viewport: vec4<f32>,
-    // x focal length in samples, y narrowest strand (samples), z 1 if orthographic,
-    // w alpha dither (1/MSAA samples)
+    // x focal length in samples, y narrowest strand (samples), z width scale (level of
+    // detail), w alpha dither (1/MSAA samples)
     raster: vec4<f32>,
+    // x: 1 to show the segments the pseudo-force acted on
+    flags: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> frame: Frame;

@@ -118,11 +118,13 @@ pub struct GpuFrame {
     /// (width, height) of the target in samples, then 1/width, 1/height.
     pub viewport: [f32; 4],
     /// x: pixels per world unit at distance 1 (focal length in samples); y: narrowest
-    /// strand drawn, samples; z: 1 for an orthographic camera; w: alpha dither amplitude
-    /// (1/MSAA samples, 0 without MSAA).
+    /// strand drawn, samples; z: width scale (1 / share of hairs drawn, level of detail);
+    /// w: alpha dither amplitude (1/MSAA samples, 0 without MSAA).
     pub raster: [f32; 4],
+    /// x: 1 to show the segments the pseudo-force acted on.
+    pub flags: [f32; 4],
 }
-assert_size!(GpuFrame, 144);
+assert_size!(GpuFrame, 160);
 
 /// Look of a hair group. Keep in sync with `struct Material` in `shaders/strands.wgsl`.
 #[repr(C)]

@@ -50,6 +50,11 @@ pub struct FrameView {
     pub bounds: (DVec3, f64),
     /// Narrowest strand drawn, in samples.
     pub min_width: f64,
+    /// Share of each group's hairs drawn (level of detail); the others are skipped and the
+    /// drawn ones widened to keep the coverage. 1 for full quality.
+    pub hair_fraction: f64,
+    /// Colour the segments the pseudo-force acted on (viewer overlay).
+    pub show_pseudo: bool,
 }
 
 impl FrameView {
@@ -64,6 +69,8 @@ impl FrameView {
                 .then(|| (scene.head_ellipsoid(), DMat4::IDENTITY, scene.head.color)),
             bounds: scene_bounds(scene),
             min_width: scene.render.min_width,
+            hair_fraction: 1.0,
+            show_pseudo: false,
         }
     }
 }
@@ -173,6 +180,24 @@ impl Renderer {
         size: (u32, u32),
         view: &FrameView,
     ) -> Result<()> {
+        self.render_region(gpu, enc, output, size, size, view)
+    }
+
+    /// Record a frame into the left `region` of `output` (`output_size` pixels); the rest is
+    /// cleared to the background (the viewer draws its panels there).
+    pub fn render_region(
+        &mut self,
+        gpu: &Gpu,
+        enc: &mut wgpu::CommandEncoder,
+        output: &wgpu::TextureView,
+        output_size: (u32, u32),
+        region: (u32, u32),
+        view: &FrameView,
+    ) -> Result<()> {
+        let size = (
+            region.0.clamp(1, output_size.0),
+            region.1.clamp(1, output_size.1),
+        );
         let stale = self
             .targets
             .as_ref()
@@ -210,9 +235,15 @@ impl Renderer {
             if view.head.is_some() {
                 self.head.draw(&mut pass);
             }
-            self.strands.draw(&mut pass);
+            self.strands.draw(&mut pass, view.hair_fraction);
         }
-        self.downsample.draw(enc, down_bg, output);
+        let clear = wgpu::Color {
+            r: bg[0] as f64,
+            g: bg[1] as f64,
+            b: bg[2] as f64,
+            a: 1.0,
+        };
+        self.downsample.draw(enc, down_bg, output, size, clear);
         Ok(())
     }
 }
@@ -244,7 +275,15 @@ pub fn frame_uniform(view: &FrameView, size: (u32, u32)) -> GpuFrame {
             1.0 / size.0 as f32,
             1.0 / size.1 as f32,
         ],
-        raster: [cam.focal_px(size.1) as f32, view.min_width as f32, 0.0, 0.0],
+        raster: [
+            cam.focal_px(size.1) as f32,
+            view.min_width as f32,
+            // Full coverage compensation (1/f) turns a sparse preview into paper strips;
+            // 1/sqrt(f) keeps most of the density and still reads as hair.
+            (1.0 / view.hair_fraction.clamp(1e-3, 1.0).sqrt()) as f32,
+            0.0,
+        ],
+        flags: [f32::from(u8::from(view.show_pseudo)), 0.0, 0.0, 0.0],
     }
 }
 

@@ -173,17 +173,21 @@ impl StrandsPass {
         }
     }
 
-    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>) {
+    /// Draw `fraction` of each group's hairs: the first ones, which are a uniform random
+    /// subset because pores are drawn in random order (Van Gelder's creation-order culling).
+    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, fraction: f64) {
         let Some(b) = &self.bound else { return };
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(1, &b.bind_group, &[]);
         for r in &b.ranges {
-            if r.strand_count == 0 {
+            let count = ((r.strand_count as f64 * fraction.clamp(0.0, 1.0)).ceil() as u32)
+                .min(r.strand_count);
+            if count == 0 {
                 continue;
             }
             pass.draw(
                 0..2 * r.nodes_per_strand,
-                r.first_strand..r.first_strand + r.strand_count,
+                r.first_strand..r.first_strand + count,
             );
         }
     }

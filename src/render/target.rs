@@ -125,6 +125,7 @@ pub struct DownsamplePass {
     pipeline: wgpu::RenderPipeline,
     layout: wgpu::BindGroupLayout,
     uniform: wgpu::Buffer,
+    encode_srgb: bool,
 }
 
 impl DownsamplePass {
@@ -183,6 +184,7 @@ impl DownsamplePass {
             pipeline,
             layout,
             uniform,
+            encode_srgb: !output_format.is_srgb(),
         })
     }
 
@@ -191,7 +193,7 @@ impl DownsamplePass {
         gpu.queue.write_buffer(
             &self.uniform,
             0,
-            bytemuck::cast_slice(&[targets.factor, 0, 0, 0]),
+            bytemuck::cast_slice(&[targets.factor, u32::from(self.encode_srgb), 0, 0]),
         );
         gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("downsample"),
@@ -209,11 +211,14 @@ impl DownsamplePass {
         })
     }
 
+    /// Average the scene into the top-left `size` pixels of `output`, clearing the rest.
     pub fn draw(
         &self,
         enc: &mut wgpu::CommandEncoder,
         bind_group: &wgpu::BindGroup,
         output: &wgpu::TextureView,
+        size: (u32, u32),
+        clear: wgpu::Color,
     ) {
         let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("downsample"),
@@ -222,7 +227,7 @@ impl DownsamplePass {
                 depth_slice: None,
                 resolve_target: None,
                 ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                    load: wgpu::LoadOp::Clear(clear),
                     store: wgpu::StoreOp::Store,
                 },
             })],
@@ -231,6 +236,7 @@ impl DownsamplePass {
             occlusion_query_set: None,
             multiview_mask: None,
         });
+        pass.set_viewport(0.0, 0.0, size.0 as f32, size.1 as f32, 0.0, 1.0);
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, bind_group, &[]);
         pass.draw(0..3, 0..1);
@@ -242,12 +248,22 @@ pub struct Offscreen {
     pub texture: wgpu::Texture,
     pub view: wgpu::TextureView,
     pub size: (u32, u32),
+    pub format: wgpu::TextureFormat,
 }
 
 pub const OUTPUT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 
 impl Offscreen {
     pub fn new(gpu: &Gpu, size: (u32, u32)) -> Result<Offscreen> {
+        Self::with_format(gpu, size, OUTPUT_FORMAT)
+    }
+
+    /// An offscreen target of another 8-bit RGBA/BGRA format (a window's, for screenshots).
+    pub fn with_format(
+        gpu: &Gpu,
+        size: (u32, u32),
+        format: wgpu::TextureFormat,
+    ) -> Result<Offscreen> {
         gpu.check_texture_size("the image width", size.0)?;
         gpu.check_texture_size("the image height", size.1)?;
         let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
@@ -260,7 +276,7 @@ impl Offscreen {
             mip_level_count: 1,
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
-            format: OUTPUT_FORMAT,
+            format,
             usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
             view_formats: &[],
         });
@@ -269,6 +285,7 @@ impl Offscreen {
             texture,
             view,
             size,
+            format,
         })
     }
 
@@ -309,6 +326,14 @@ impl Offscreen {
         for y in 0..h as usize {
             let start = y * row as usize;
             out.extend_from_slice(&bytes[start..start + w as usize * 4]);
+        }
+        if matches!(
+            self.format,
+            wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb
+        ) {
+            for px in out.chunks_exact_mut(4) {
+                px.swap(0, 2);
+            }
         }
         image::RgbaImage::from_raw(w, h, out)
             .ok_or_else(|| KamiError::Gpu("image size mismatch".into()))

@@ -1,0 +1,386 @@
+//! The viewer's editable state, kept in plain structs so the panel logic is testable without
+//! a window: the panels edit a `Scene` (and a few viewer-only settings), and `Changes`
+//! classifies an edit into what must be redone — re-groom, new dynamics parameters, new
+//! materials, new anti-aliasing — so static parameters re-groom at once and dynamic ones act
+//! from the next step.
+
+use crate::error::{KamiError, Result};
+use crate::scene::{Dynamics, Interp, Scene, WindKey};
+
+/// What a change to the scene requires.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Changes {
+    /// Pores, lengths, rigidity, loads, cuts, head, gravity, per-strand k_a: bend again
+    /// (and restart the simulation from the new rest pose).
+    pub regroom: bool,
+    /// Dynamics parameters: take effect from the next step.
+    pub dynamics: bool,
+    /// Whether dynamics were switched on or off (the simulation is rebuilt).
+    pub dynamics_toggled: bool,
+    /// Colours, k_s, n, widths, light, background: new uniforms only.
+    pub look: bool,
+    /// MSAA, supersampling, narrowest width: pipelines or targets.
+    pub quality: bool,
+}
+
+impl Changes {
+    pub fn any(&self) -> bool {
+        self.regroom || self.dynamics || self.dynamics_toggled || self.look || self.quality
+    }
+
+    /// Classify the edit from `old` to `new`.
+    pub fn between(old: &Scene, new: &Scene) -> Changes {
+        // Groups with their look-only fields made equal: what is left is the groom.
+        let groom_view = |s: &Scene| {
+            let mut groups = s.groups.clone();
+            for g in &mut groups {
+                let (ka, spread) = (g.material.ka, g.material.ka_spread);
+                g.material = Default::default();
+                g.material.ka = ka;
+                g.material.ka_spread = spread;
+            }
+            (s.seed, s.head.center, s.head.radii, s.gravity, groups)
+        };
+        let look_view = |s: &Scene| {
+            let mats: Vec<_> = s.groups.iter().map(|g| g.material.clone()).collect();
+            (
+                mats,
+                s.light.clone(),
+                s.render.background,
+                s.head.color,
+                s.head.visible,
+            )
+        };
+        Changes {
+            regroom: groom_view(old) != groom_view(new),
+            dynamics: old.dynamics != new.dynamics,
+            dynamics_toggled: old.dynamics.is_some() != new.dynamics.is_some(),
+            look: look_view(old) != look_view(new),
+            quality: (
+                old.render.msaa,
+                old.render.supersample,
+                old.render.min_width,
+            ) != (
+                new.render.msaa,
+                new.render.supersample,
+                new.render.min_width,
+            ),
+        }
+    }
+}
+
+/// Viewer-only settings the panels edit besides the scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ViewSettings {
+    pub playing: bool,
+    /// Simulated frames per displayed frame (fractions accumulate).
+    pub time_scale: f64,
+    pub show_pseudo: bool,
+    /// Adapt the share of hairs drawn to keep the frame time under `frame_budget_ms`.
+    pub adaptive_lod: bool,
+    pub hair_fraction: f64,
+    pub frame_budget_ms: f64,
+    /// Use the scene's supersampling in the viewer too (off: 1x, the interactive default;
+    /// the scene's value still applies to headless renders and is saved).
+    pub full_supersampling: bool,
+    /// Set by the adaptive level of detail when even the fewest hairs miss the budget: draw
+    /// without MSAA in the viewer (the scene's setting is kept for renders and saving).
+    pub msaa_dropped: bool,
+}
+
+impl ViewSettings {
+    /// Anti-aliasing the viewer draws with.
+    pub fn quality(&self, scene: &Scene) -> crate::render::Quality {
+        crate::render::Quality {
+            msaa: if self.msaa_dropped {
+                1
+            } else {
+                scene.render.msaa
+            },
+            supersample: if self.full_supersampling {
+                scene.render.supersample
+            } else {
+                1
+            },
+        }
+    }
+}
+
+impl Default for ViewSettings {
+    fn default() -> Self {
+        ViewSettings {
+            playing: true,
+            time_scale: 1.0,
+            show_pseudo: false,
+            adaptive_lod: true,
+            hair_fraction: 1.0,
+            frame_budget_ms: 80.0,
+            full_supersampling: false,
+            msaa_dropped: false,
+        }
+    }
+}
+
+/// One-shot actions requested by the panels or keys, handled by the window loop.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Request {
+    Open(String),
+    Save(String),
+    Screenshot(String),
+    Step,
+    Reset,
+    FrameScene,
+}
+
+/// Frame statistics shown in the Stats panel.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Stats {
+    pub fps: f64,
+    pub frame_ms: f64,
+    pub sim_ms: f64,
+    /// Scene passes (the share that depends on the hair drawn).
+    pub render_ms: f64,
+    /// egui panels.
+    pub ui_ms: f64,
+    /// Presenting to the window.
+    pub present_ms: f64,
+    pub groom_ms: f64,
+    pub strands: u64,
+    pub segments: u64,
+    pub simulated: u64,
+    pub frame: u64,
+    pub substeps: u32,
+    pub adapter: String,
+    pub size: (u32, u32),
+}
+
+/// Everything the panels edit.
+#[derive(Clone, Debug)]
+pub struct ViewerState {
+    pub scene: Scene,
+    pub view: ViewSettings,
+    /// The path field of the Files panel.
+    pub path: String,
+    /// Head motion keys kept while head motion is switched off.
+    pub parked_head_motion: Vec<crate::scene::HeadKey>,
+    pub requests: Vec<Request>,
+    /// The last error (failed load, bad value), shown in the UI.
+    pub error: Option<String>,
+    pub message: Option<String>,
+    pub stats: Stats,
+    /// Hair group edited by the per-group panels.
+    pub group: usize,
+}
+
+impl ViewerState {
+    pub fn new(scene: Scene, path: String) -> ViewerState {
+        ViewerState {
+            scene,
+            view: ViewSettings::default(),
+            path,
+            parked_head_motion: Vec::new(),
+            requests: Vec::new(),
+            error: None,
+            message: None,
+            stats: Stats::default(),
+            group: 0,
+        }
+    }
+
+    /// Apply a `--set KEY=VALUE` override through the same path as the panels: it edits the
+    /// state, and the window loop classifies and applies the change. Keys: `color=r,g,b`,
+    /// `width=w`, `ks=k`, `shininess=n`, `rigidity=EI` (all groups), `wind=x,y,z`,
+    /// `gravity=x,y,z`, `stiffness=root,tip`, `damping=rate`, `pseudo=on|off`,
+    /// `msaa=1|4`, `supersample=f`, `play=on|off`, `lod=fraction` (fixed, 0..1).
+    pub fn apply_set(&mut self, assignment: &str) -> Result<()> {
+        let bad = |m: String| KamiError::Option(format!("--set {assignment}: {m}"));
+        let (key, value) = assignment
+            .split_once('=')
+            .ok_or_else(|| bad("expected KEY=VALUE".into()))?;
+        let nums = |n: usize| -> Result<Vec<f64>> {
+            let v: Vec<f64> = value
+                .split(',')
+                .map(|x| x.trim().parse::<f64>())
+                .collect::<std::result::Result<_, _>>()
+                .map_err(|_| bad(format!("{value:?} is not {n} number(s)")))?;
+            if v.len() != n || v.iter().any(|x| !x.is_finite()) {
+                return Err(bad(format!("{value:?} is not {n} finite number(s)")));
+            }
+            Ok(v)
+        };
+        let on = || match value {
+            "on" | "true" | "1" => Ok(true),
+            "off" | "false" | "0" => Ok(false),
+            _ => Err(bad("expected on or off".into())),
+        };
+        let mut next = self.scene.clone();
+        match key {
+            "color" => {
+                let c = nums(3)?;
+                for g in &mut next.groups {
+                    g.material.color = [c[0] as f32, c[1] as f32, c[2] as f32];
+                }
+            }
+            "width" => {
+                let w = nums(1)?[0];
+                next.groups.iter_mut().for_each(|g| g.material.width = w);
+            }
+            "ks" => {
+                let k = nums(1)?[0];
+                next.groups.iter_mut().for_each(|g| g.material.ks = k);
+            }
+            "shininess" => {
+                let n = nums(1)?[0];
+                next.groups
+                    .iter_mut()
+                    .for_each(|g| g.material.shininess = n);
+            }
+            "rigidity" => {
+                let e = nums(1)?[0];
+                next.groups.iter_mut().for_each(|g| g.rigidity = e);
+            }
+            "wind" => {
+                let w = nums(3)?;
+                dynamics(&mut next).wind = vec![WindKey {
+                    frame: 0.0,
+                    force: [w[0], w[1], w[2]],
+                    interp: Interp::Step,
+                }];
+            }
+            "gravity" => {
+                let g = nums(3)?;
+                dynamics(&mut next).gravity = [g[0], g[1], g[2]];
+            }
+            "stiffness" => {
+                let s = nums(2)?;
+                let d = dynamics(&mut next);
+                d.stiffness.root = s[0];
+                d.stiffness.tip = s[1];
+            }
+            "damping" => dynamics(&mut next).damping = nums(1)?[0],
+            "pseudo" => {
+                dynamics(&mut next).pseudo_force = on()?.then(|| crate::scene::PseudoForce {
+                    alpha: -0.75,
+                    epsilon_pore: 0.1,
+                    epsilon_tip: 1.0,
+                    near: 1.5,
+                });
+            }
+            "msaa" => next.render.msaa = nums(1)?[0] as u32,
+            "supersample" => next.render.supersample = nums(1)?[0] as u32,
+            "play" => self.view.playing = on()?,
+            "lod" => {
+                let f = nums(1)?[0];
+                if !(0.01..=1.0).contains(&f) {
+                    return Err(bad("the share of hairs must be in [0.01, 1]".into()));
+                }
+                self.view.adaptive_lod = false;
+                self.view.hair_fraction = f;
+            }
+            _ => return Err(bad(format!("unknown key {key:?}"))),
+        }
+        crate::scene::validate(&next).map_err(|e| bad(e.to_string()))?;
+        self.scene = next;
+        Ok(())
+    }
+}
+
+/// The scene's dynamics, created with defaults if absent.
+fn dynamics(scene: &mut Scene) -> &mut Dynamics {
+    scene.dynamics.get_or_insert_with(Dynamics::default)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn gust() -> Scene {
+        Scene::from_ron(include_str!("../../assets/scenes/gust.ron"), "gust.ron").unwrap()
+    }
+
+    #[test]
+    fn edits_are_classified() {
+        let a = gust();
+        let mut b = a.clone();
+        b.groups[0].material.color = [0.9, 0.5, 0.1];
+        b.groups[0].material.width = 0.2;
+        assert_eq!(
+            Changes::between(&a, &b),
+            Changes {
+                look: true,
+                ..Default::default()
+            }
+        );
+        let mut c = a.clone();
+        c.groups[1].rigidity *= 2.0;
+        assert_eq!(
+            Changes::between(&a, &c),
+            Changes {
+                regroom: true,
+                ..Default::default()
+            }
+        );
+        let mut d = a.clone();
+        d.dynamics.as_mut().unwrap().damping = 3.0;
+        assert_eq!(
+            Changes::between(&a, &d),
+            Changes {
+                dynamics: true,
+                ..Default::default()
+            }
+        );
+        let mut e = a.clone();
+        e.dynamics = None;
+        let ch = Changes::between(&a, &e);
+        assert!(ch.dynamics && ch.dynamics_toggled && !ch.regroom);
+        let mut f = a.clone();
+        f.render.msaa = 1;
+        assert_eq!(
+            Changes::between(&a, &f),
+            Changes {
+                quality: true,
+                ..Default::default()
+            }
+        );
+        // k_a spread changes the per-strand draw: a re-groom, and a look change too.
+        let mut g = a.clone();
+        g.groups[0].material.ka_spread = 0.5;
+        let ch = Changes::between(&a, &g);
+        assert!(ch.regroom && ch.look);
+        assert!(!Changes::between(&a, &a).any());
+    }
+
+    #[test]
+    fn set_overrides_edit_the_scene_or_refuse() {
+        let mut s = ViewerState::new(gust(), String::new());
+        s.apply_set("color=0.8,0.6,0.2").unwrap();
+        assert!(s
+            .scene
+            .groups
+            .iter()
+            .all(|g| g.material.color == [0.8, 0.6, 0.2]));
+        s.apply_set("wind=0,0,-300").unwrap();
+        assert_eq!(
+            s.scene.dynamics.as_ref().unwrap().wind[0].force,
+            [0.0, 0.0, -300.0]
+        );
+        s.apply_set("play=off").unwrap();
+        assert!(!s.view.playing);
+        let before = s.scene.clone();
+        for bad in [
+            "color=1,2",
+            "rigidity=-1",
+            "msaa=3",
+            "nope=1",
+            "width",
+            "wind=1,nan,2",
+            "lod=0",
+        ] {
+            assert!(s.apply_set(bad).is_err(), "{bad} should be refused");
+        }
+        assert_eq!(
+            s.scene, before,
+            "a refused --set leaves the scene as it was"
+        );
+    }
+}

@@ -1,0 +1,160 @@
+//! The viewer tested as a person would use it: run `kami view` in a virtual X display
+//! (Xvfb) on the software adapter, take screenshots of the real window, and check that they
+//! show the hair and the panels — and that a change made while it runs (through the panels'
+//! code path, `--set`) changes what is drawn.
+
+mod common;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+struct Xvfb {
+    child: Child,
+    display: String,
+}
+
+impl Drop for Xvfb {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Start Xvfb on a free display. No silent skip: without Xvfb the test fails and says how
+/// to get it.
+fn xvfb() -> Xvfb {
+    let found = Command::new("Xvfb")
+        .arg("-help")
+        .stderr(Stdio::null())
+        .stdout(Stdio::null())
+        .status();
+    assert!(
+        found.is_ok(),
+        "Xvfb is needed for the viewer test: apt-get install -y xvfb"
+    );
+    for n in 150..250u32 {
+        let socket = PathBuf::from(format!("/tmp/.X11-unix/X{n}"));
+        if socket.exists() || Path::new(&format!("/tmp/.X{n}-lock")).exists() {
+            continue;
+        }
+        let child = Command::new("Xvfb")
+            .args([
+                format!(":{n}"),
+                "-screen".into(),
+                "0".into(),
+                "1400x900x24".into(),
+                "-nolisten".into(),
+                "tcp".into(),
+            ])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("starting Xvfb");
+        let start = Instant::now();
+        while !socket.exists() && start.elapsed() < Duration::from_secs(10) {
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        if socket.exists() {
+            return Xvfb {
+                child,
+                display: format!(":{n}"),
+            };
+        }
+    }
+    panic!("no free X display for Xvfb");
+}
+
+fn pixels(path: &Path) -> image::RgbImage {
+    image::open(path)
+        .unwrap_or_else(|e| panic!("screenshot {}: {e}", path.display()))
+        .to_rgb8()
+}
+
+/// Share of pixels in columns [x0, x1) of the image that satisfy `f`.
+fn share(img: &image::RgbImage, x0: f64, x1: f64, f: impl Fn(&image::Rgb<u8>) -> bool) -> f64 {
+    let (a, b) = (
+        (x0 * img.width() as f64) as u32,
+        (x1 * img.width() as f64) as u32,
+    );
+    let mut n = 0u64;
+    let mut hit = 0u64;
+    for y in 0..img.height() {
+        for x in a..b {
+            n += 1;
+            hit += u64::from(f(img.get_pixel(x, y)));
+        }
+    }
+    hit as f64 / n as f64
+}
+
+#[test]
+fn viewer_shows_hair_and_panels_and_reacts_to_changes() {
+    let x = xvfb();
+    let dir = std::env::temp_dir().join(format!("kami-viewer-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (before, after) = (dir.join("before.png"), dir.join("after.png"));
+    let runtime = dir.join("xdg");
+    std::fs::create_dir_all(&runtime).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_kami"))
+        .args([
+            "view",
+            "--software",
+            "--size",
+            "1024x640",
+            "--exit-after-frames",
+            "24",
+        ])
+        .arg("--screenshot-at")
+        .arg(format!("8:{}", before.display()))
+        .args([
+            "--set",
+            "12:play=off",
+            "--set",
+            "12:color=0.95,0.8,0.35",
+            "--set",
+            "12:lod=1",
+        ])
+        .arg("--screenshot-at")
+        .arg(format!("22:{}", after.display()))
+        .env("DISPLAY", &x.display)
+        .env("XDG_RUNTIME_DIR", &runtime)
+        .output()
+        .expect("running kami view");
+    assert!(
+        out.status.success(),
+        "kami view failed:\n{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let a = pixels(&before);
+    let b = pixels(&after);
+    // Not blank: many distinct colours.
+    let distinct: std::collections::HashSet<[u8; 3]> = a.pixels().map(|p| p.0).collect();
+    assert!(
+        distinct.len() > 200,
+        "only {} distinct colours: blank window?",
+        distinct.len()
+    );
+    // The panels: egui's dark panel on the right.
+    let dark = |p: &image::Rgb<u8>| p.0.iter().all(|&c| c < 60);
+    assert!(share(&a, 0.8, 1.0, dark) > 0.5, "no panel on the right");
+    // The hair: dark brown pixels in the scene area (the background there is light).
+    let brown = |p: &image::Rgb<u8>| p[0] < 90 && p[1] < 70 && p[2] < 60 && p[0] >= p[2];
+    let hair_a = share(&a, 0.05, 0.6, brown);
+    assert!(hair_a > 0.03, "no hair in the scene area ({:.3})", hair_a);
+    // After the change: blond hair where there was brown.
+    let blond = |p: &image::Rgb<u8>| p[0] > 140 && p[1] > 100 && p[2] < 150 && p[0] > p[2] + 40;
+    let (blond_a, blond_b) = (share(&a, 0.05, 0.6, blond), share(&b, 0.05, 0.6, blond));
+    assert!(
+        blond_b > 0.02 && blond_b > 5.0 * blond_a,
+        "the colour change did not show: {blond_a:.4} -> {blond_b:.4}"
+    );
+    assert!(
+        share(&b, 0.05, 0.6, brown) < 0.5 * hair_a,
+        "brown hair left after the change"
+    );
+    assert!(
+        share(&b, 0.8, 1.0, dark) > 0.5,
+        "panel gone after the change"
+    );
+}
