@@ -60,6 +60,14 @@ pub enum KamiError {
     #[error("cannot write image {path}: {message}")]
     Image { path: PathBuf, message: String },
 
+    /// A mesh file that cannot be used, with the line where it broke when known.
+    #[error("mesh {path}{}: {message}", line.map(|l| format!(":{l}")).unwrap_or_default())]
+    Mesh {
+        path: String,
+        line: Option<usize>,
+        message: String,
+    },
+
     /// The viewer's window or surface could not be created.
     #[error("window: {0}")]
     Window(String),

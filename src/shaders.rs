@@ -25,6 +25,20 @@ pub const PROJECTIVE: &str = wgsl!(
     "projective.wgsl",
 );
 
+/// Fur generation (Van Gelder & Wilhelms).
+pub const FUR_GEN: &str = wgsl!(
+    "common/ellipsoid.wgsl",
+    "common/random.wgsl",
+    "common/deform.wgsl",
+    "fur_gen.wgsl",
+);
+
+/// Fur drawing: ribbons and tubes with Van Gelder & Wilhelms' shading normals.
+pub const FUR: &str = wgsl!("common/strands.wgsl", "common/frame.wgsl", "fur.wgsl");
+
+/// The fur mesh's skin.
+pub const MESH: &str = wgsl!("common/frame.wgsl", "common/deform.wgsl", "mesh.wgsl");
+
 /// Hair ribbons with Anjyo's anisotropic specular.
 pub const STRANDS: &str = wgsl!(
     "common/strands.wgsl",
@@ -43,6 +57,9 @@ pub const DOWNSAMPLE: &str = wgsl!("downsample.wgsl");
 pub const ALL: &[(&str, &str)] = &[
     ("cantilever", CANTILEVER),
     ("projective", PROJECTIVE),
+    ("fur_gen", FUR_GEN),
+    ("fur", FUR),
+    ("mesh", MESH),
     ("strands", STRANDS),
     ("head", HEAD),
     ("downsample", DOWNSAMPLE),

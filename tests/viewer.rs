@@ -37,29 +37,30 @@ fn xvfb() -> Xvfb {
         if socket.exists() || Path::new(&format!("/tmp/.X{n}-lock")).exists() {
             continue;
         }
-        let child = Command::new("Xvfb")
-            .args([
-                format!(":{n}"),
-                "-screen".into(),
-                "0".into(),
-                "1400x900x24".into(),
-                "-nolisten".into(),
-                "tcp".into(),
-            ])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("starting Xvfb");
+        let xvfb = Xvfb {
+            child: Command::new("Xvfb")
+                .args([
+                    format!(":{n}"),
+                    "-screen".into(),
+                    "0".into(),
+                    "1400x900x24".into(),
+                    "-nolisten".into(),
+                    "tcp".into(),
+                ])
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .spawn()
+                .expect("starting Xvfb"),
+            display: format!(":{n}"),
+        };
         let start = Instant::now();
         while !socket.exists() && start.elapsed() < Duration::from_secs(10) {
             std::thread::sleep(Duration::from_millis(50));
         }
         if socket.exists() {
-            return Xvfb {
-                child,
-                display: format!(":{n}"),
-            };
+            return xvfb;
         }
+        // Dropping `xvfb` kills and reaps it; try the next display.
     }
     panic!("no free X display for Xvfb");
 }

@@ -274,6 +274,14 @@ pub fn storage_buffer(
     })
 }
 
+/// Bind group entry for a whole buffer.
+pub fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry {
+        binding,
+        resource: buffer.as_entire_binding(),
+    }
+}
+
 /// Bind group layout entry for a storage buffer.
 pub fn storage_entry(
     binding: u32,

@@ -82,6 +82,66 @@ impl StrandBuffers {
         })
     }
 
+    /// Buffers for runs of strands of fixed node counts: `(count, segments, group)` per run,
+    /// laid out one after the other (fur: one run per coat).
+    pub fn from_runs(gpu: &Gpu, runs: &[(u32, u32, u32)]) -> Result<StrandBuffers> {
+        let mut records = Vec::new();
+        let mut ranges = Vec::new();
+        let mut vertex = 0u64;
+        for &(count, segments, group) in runs {
+            ranges.push(DrawRange {
+                first_strand: records.len() as u32,
+                strand_count: count,
+                nodes_per_strand: segments + 1,
+            });
+            for _ in 0..count {
+                let i = records.len() as u32;
+                records.push(GpuStrand {
+                    first_vertex: vertex as u32,
+                    segments,
+                    group,
+                    flags: 0,
+                    visible: segments as f32,
+                    ka: 1.0,
+                    seg_len: 0.0,
+                    rand: hash_unit(i),
+                });
+                vertex += segments as u64 + 1;
+            }
+        }
+        gpu.check_storage_size("the fur vertex buffer", vertex * 16)?;
+        gpu.check_storage_size("the fur strand table", records.len() as u64 * 32)?;
+        if vertex > u32::MAX as u64 {
+            return Err(crate::error::KamiError::TooLarge {
+                what: "the fur vertex count".into(),
+                needed: vertex,
+                limit: u32::MAX as u64,
+                hint: "use fewer hairs".into(),
+            });
+        }
+        let strands = storage_buffer(
+            &gpu.device,
+            "fur strands",
+            bytemuck::cast_slice(&records),
+            wgpu::BufferUsages::COPY_SRC,
+        );
+        let vertices = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("fur vertices"),
+            size: (vertex * 16).max(16),
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_SRC
+                | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        Ok(StrandBuffers {
+            strands,
+            vertices,
+            strand_count: records.len() as u32,
+            vertex_count: vertex as u32,
+            ranges,
+        })
+    }
+
     /// Read all node positions back (tests and benchmarks only).
     pub fn read_vertices(&self, gpu: &Gpu) -> Result<Vec<[f32; 4]>> {
         super::read_buffer(gpu, &self.vertices, self.vertex_count as u64 * 16)

@@ -4,7 +4,9 @@
 //! `cantilever::CantileverPass`, with `cantilever::bend_all` as the f64 reference).
 
 pub mod cantilever;
+pub mod critter;
 pub mod elastica;
+pub mod fur;
 
 use crate::error::{KamiError, Result};
 use crate::rng::Rng;

@@ -5,6 +5,7 @@
 //! scene buffers (`target::SceneTargets`), then averaged down into the output.
 
 pub mod camera;
+pub mod fur;
 pub mod head;
 pub mod strands;
 pub mod target;
@@ -55,6 +56,8 @@ pub struct FrameView {
     pub hair_fraction: f64,
     /// Colour the segments the pseudo-force acted on (viewer overlay).
     pub show_pseudo: bool,
+    /// This frame's fur, when the scene has fur.
+    pub fur: Option<crate::groom::fur::FurFrame>,
 }
 
 impl FrameView {
@@ -71,6 +74,7 @@ impl FrameView {
             min_width: scene.render.min_width,
             hair_fraction: 1.0,
             show_pseudo: false,
+            fur: None,
         }
     }
 }
@@ -105,6 +109,10 @@ pub fn materials(scene: &Scene) -> Vec<GpuMaterial> {
 
 pub struct Renderer {
     pub quality: Quality,
+    frame_layout: wgpu::BindGroupLayout,
+    /// Built only for scenes with fur.
+    fur: Option<fur::FurPass>,
+    fur_setup: Option<crate::groom::fur::FurSetup>,
     frame_buffer: wgpu::Buffer,
     frame_bind_group: wgpu::BindGroup,
     head: head::HeadPass,
@@ -141,13 +149,39 @@ impl Renderer {
         let fmt = target::SCENE_FORMAT;
         Ok(Renderer {
             quality,
+            fur: None,
+            fur_setup: None,
             head: head::HeadPass::new(gpu, &frame_layout, fmt, quality.msaa)?,
             strands: strands::StrandsPass::new(gpu, &frame_layout, fmt, quality.msaa)?,
             downsample: DownsamplePass::new(gpu, output_format)?,
             frame_buffer,
             frame_bind_group,
+            frame_layout,
             targets: None,
         })
+    }
+
+    /// Draw this fur from now on (its pipelines are built on first use).
+    pub fn set_fur(&mut self, gpu: &Gpu, fur: &crate::groom::fur::FurSystem) -> Result<()> {
+        if self.fur.is_none() {
+            self.fur = Some(fur::FurPass::new(
+                gpu,
+                &self.frame_layout,
+                target::SCENE_FORMAT,
+                self.quality.msaa,
+            )?);
+        }
+        if let Some(pass) = self.fur.as_mut() {
+            pass.set_fur(gpu, &fur.setup, &fur.gpu);
+        }
+        self.fur_setup = Some(fur.setup.clone());
+        Ok(())
+    }
+
+    /// Stop drawing fur.
+    pub fn clear_fur(&mut self) {
+        self.fur = None;
+        self.fur_setup = None;
     }
 
     /// Change anti-aliasing; pipelines and targets are rebuilt only when needed.
@@ -155,6 +189,9 @@ impl Renderer {
         if quality.msaa != self.quality.msaa {
             self.head.set_samples(gpu, quality.msaa);
             self.strands.set_samples(gpu, quality.msaa);
+            if let Some(f) = self.fur.as_mut() {
+                f.set_samples(gpu, quality.msaa);
+            }
         }
         if quality != self.quality {
             self.targets = None;
@@ -216,6 +253,9 @@ impl Renderer {
         if let Some((hull, pose, color)) = &view.head {
             self.head.prepare(&gpu.queue, hull, *pose, *color);
         }
+        if let (Some(pass), Some(setup), Some(ff)) = (&self.fur, &self.fur_setup, &view.fur) {
+            pass.prepare(gpu, setup, ff.frame, ff.width_scale);
+        }
         let bg = linear_rgb(view.background);
         {
             let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
@@ -236,6 +276,9 @@ impl Renderer {
                 self.head.draw(&mut pass);
             }
             self.strands.draw(&mut pass, view.hair_fraction);
+            if let (Some(f), Some(ff)) = (&self.fur, &view.fur) {
+                f.draw(&mut pass, &ff.drawn);
+            }
         }
         let clear = wgpu::Color {
             r: bg[0] as f64,
@@ -303,30 +346,52 @@ pub fn check_limits(gpu: &Gpu, scene: &Scene, size: (u32, u32)) -> Result<()> {
 /// Groom a scene on the GPU and render it offscreen: the CLI's `render` and the snapshot
 /// tests go through here.
 pub fn render_scene(gpu: &Gpu, scene: &Scene, size: (u32, u32)) -> Result<image::RgbaImage> {
-    check_limits(gpu, scene, size)?;
+    let mut img = None;
+    render_animation(gpu, scene, size, 0..=0, |_, i| {
+        img = Some(i);
+        Ok(())
+    })?;
+    Ok(img.expect("frame 0 is rendered"))
+}
+
+/// Everything drawn in a scene: hair (groomed, maybe simulated) and fur.
+pub struct SceneContent {
+    pub hair: StrandBuffers,
+    pub sim: Option<crate::sim::Simulation>,
+    pub fur: Option<crate::groom::fur::FurSystem>,
+}
+
+/// Groom, set up the simulation and the fur of a scene, and bind them to `renderer`.
+pub fn build_content(gpu: &Gpu, scene: &Scene, renderer: &mut Renderer) -> Result<SceneContent> {
     let input = crate::groom::prepare(scene)?;
     let hair = crate::groom::cantilever::groom_gpu(gpu, &input)?;
-    let quality = Quality {
-        msaa: scene.render.msaa,
-        supersample: scene.render.supersample,
-    };
-    let mut renderer = Renderer::new(gpu, target::OUTPUT_FORMAT, quality)?;
+    let sim = crate::sim::Simulation::new(gpu, scene, &input, &hair)?;
     renderer.set_hair(gpu, &hair, &materials(scene));
-    let out = target::Offscreen::new(gpu, size)?;
-    let mut enc = gpu
-        .device
-        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("render"),
-        });
-    renderer.render(
-        gpu,
-        &mut enc,
-        &out.view,
-        size,
-        &FrameView::from_scene(scene),
-    )?;
-    gpu.queue.submit([enc.finish()]);
-    out.read_rgba(gpu)
+    let fur = crate::groom::fur::FurSystem::new(gpu, scene)?;
+    match &fur {
+        Some(f) => renderer.set_fur(gpu, f)?,
+        None => renderer.clear_fur(),
+    }
+    Ok(SceneContent { hair, sim, fur })
+}
+
+/// The frame view of a scene, with bounds that include its fur.
+pub fn view_with_fur(scene: &Scene, fur: Option<&crate::groom::fur::FurSystem>) -> FrameView {
+    let mut view = FrameView::from_scene(scene);
+    if let Some(f) = fur {
+        let (c, r) = f.setup.bounds();
+        view.bounds = if scene.groups.is_empty() {
+            (c, r)
+        } else {
+            let (hc, hr) = view.bounds;
+            let center = 0.5 * (hc + c);
+            (
+                center,
+                (hc - center).length().max((c - center).length()) + hr.max(r),
+            )
+        };
+    }
+    view
 }
 
 /// Render frames `first..=last` of a scene's animation offscreen, calling `on_frame` with
@@ -341,17 +406,14 @@ pub fn render_animation(
     mut on_frame: impl FnMut(u32, image::RgbaImage) -> Result<()>,
 ) -> Result<u32> {
     check_limits(gpu, scene, size)?;
-    let input = crate::groom::prepare(scene)?;
-    let hair = crate::groom::cantilever::groom_gpu(gpu, &input)?;
-    let mut sim = crate::sim::Simulation::new(gpu, scene, &input, &hair)?;
     let quality = Quality {
         msaa: scene.render.msaa,
         supersample: scene.render.supersample,
     };
     let mut renderer = Renderer::new(gpu, target::OUTPUT_FORMAT, quality)?;
-    renderer.set_hair(gpu, &hair, &materials(scene));
+    let mut content = build_content(gpu, scene, &mut renderer)?;
     let out = target::Offscreen::new(gpu, size)?;
-    let mut view = FrameView::from_scene(scene);
+    let mut view = view_with_fur(scene, content.fur.as_ref());
     let center = DVec3::from(scene.head.center);
     let mut capped = 0;
     for f in 0..=*frames.end() {
@@ -361,13 +423,22 @@ pub fn render_animation(
                 label: Some("animation frame"),
             });
         if f > 0 {
-            if let Some(sim) = sim.as_mut() {
-                capped += u32::from(sim.record_frame(gpu, &mut enc, &hair).capped);
+            if let Some(sim) = content.sim.as_mut() {
+                capped += u32::from(sim.record_frame(gpu, &mut enc, &content.hair).capped);
             }
         }
         if f >= *frames.start() {
             if let (Some(d), Some(head)) = (&scene.dynamics, view.head.as_mut()) {
                 head.1 = crate::sim::forces::head_at(&d.head_motion, center, f as f64);
+            }
+            if let Some(fur) = content.fur.as_mut() {
+                view.fur = Some(fur.record(
+                    gpu,
+                    &mut enc,
+                    f as f64,
+                    view.camera.eye,
+                    view.camera.fov_y,
+                )?);
             }
             renderer.render(gpu, &mut enc, &out.view, size, &view)?;
             gpu.queue.submit([enc.finish()]);

@@ -9,7 +9,9 @@
 //! towards +z, in degrees. Lengths are in centimetres by convention (any unit works: only
 //! ratios matter to the bending).
 
+pub mod fur;
 pub(crate) mod head;
+pub mod mesh;
 mod validate;
 
 pub use head::Ellipsoid;
@@ -26,10 +28,14 @@ pub struct Scene {
     /// Seed of every random draw (pores, lengths, per-strand ambient).
     #[serde(default)]
     pub seed: u64,
+    /// The head hull (a default head when absent: fur scenes need none).
+    #[serde(default)]
     pub head: Head,
     /// Weight of hair per unit length (a load, in the same units as `rigidity`).
     #[serde(default = "default_gravity")]
     pub gravity: [f64; 3],
+    /// Hair groups (Anjyo); may be empty when the scene has fur.
+    #[serde(default)]
     pub groups: Vec<HairGroup>,
     #[serde(default)]
     pub camera: CameraDesc,
@@ -41,6 +47,9 @@ pub struct Scene {
     /// buffers or passes are built.
     #[serde(default)]
     pub dynamics: Option<Dynamics>,
+    /// Fur on a triangle mesh (Van Gelder & Wilhelms).
+    #[serde(default)]
+    pub fur: Option<fur::Fur>,
 }
 
 fn default_gravity() -> [f64; 3] {
@@ -54,6 +63,7 @@ fn default_gravity() -> [f64; 3] {
 pub struct Head {
     #[serde(default)]
     pub center: [f64; 3],
+    #[serde(default = "default_radii")]
     pub radii: [f64; 3],
     /// Skin colour (sRGB, 0..1).
     #[serde(default = "default_skin")]
@@ -61,6 +71,21 @@ pub struct Head {
     /// Draw the ellipsoid (the collision hull is used either way).
     #[serde(default = "yes")]
     pub visible: bool,
+}
+
+fn default_radii() -> [f64; 3] {
+    [9.6, 11.5, 7.8]
+}
+
+impl Default for Head {
+    fn default() -> Self {
+        Head {
+            center: [0.0; 3],
+            radii: default_radii(),
+            color: default_skin(),
+            visible: true,
+        }
+    }
 }
 
 fn default_skin() -> [f32; 3] {
@@ -492,11 +517,24 @@ impl Scene {
         Ellipsoid::new(self.head.center, self.head.radii)
     }
 
-    /// Total hairs and segments over all groups.
+    /// Total hairs and segments over all groups, plus the fur at full density (its count is
+    /// rounded per triangle when groomed, so it is approximate).
     pub fn counts(&self) -> (u64, u64) {
-        self.groups.iter().fold((0, 0), |(h, s), g| {
+        let hair = self.groups.iter().fold((0, 0), |(h, s), g| {
             (h + g.count as u64, s + g.count as u64 * g.segments as u64)
-        })
+        });
+        match &self.fur {
+            None => hair,
+            Some(f) => {
+                let share: f64 = f.coats.iter().map(|c| c.share).sum();
+                let segs: f64 = f
+                    .coats
+                    .iter()
+                    .map(|c| f.hairs as f64 * c.share / share * c.style.segments() as f64)
+                    .sum();
+                (hair.0 + f.hairs as u64, hair.1 + segs.round() as u64)
+            }
+        }
     }
 }
 

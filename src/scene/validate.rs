@@ -105,8 +105,15 @@ pub fn validate(s: &Scene) -> Result<()> {
     color("head.color", s.head.color, 1.0)?;
     vec3("gravity", s.gravity, 1e9)?;
 
-    if s.groups.is_empty() {
-        return Err(bad("groups", "[]", "a scene needs at least one hair group"));
+    if s.groups.is_empty() && s.fur.is_none() {
+        return Err(bad(
+            "groups",
+            "[]",
+            "a scene needs at least one hair group, or fur",
+        ));
+    }
+    if let Some(f) = &s.fur {
+        validate_fur(f)?;
     }
     let (strands, _) = s.counts();
     if strands > MAX_STRANDS {
@@ -430,5 +437,81 @@ fn validate_group(p: &str, g: &HairGroup) -> Result<()> {
     within(&format!("{mp}.kd"), m.kd, 0.0, 10.0)?;
     positive(&format!("{mp}.width"), m.width, 1e3)?;
     within(&format!("{mp}.tip_width"), m.tip_width, 0.0, 1.0)?;
+    Ok(())
+}
+
+fn validate_fur(f: &fur::Fur) -> Result<()> {
+    if let fur::MeshSource::File(p) = &f.mesh {
+        if p.trim().is_empty() {
+            return Err(bad(
+                "fur.mesh",
+                "\"\"",
+                "must name an .obj, .off or .ply file",
+            ));
+        }
+    }
+    if let Some(size) = f.size {
+        positive("fur.size", size, BIG)?;
+    }
+    if f.hairs == 0 || f.hairs > 20_000_000 {
+        return Err(bad("fur.hairs", f.hairs, "must be in [1, 20000000]"));
+    }
+    positive("fur.length", f.length, BIG)?;
+    for (i, r) in f.length_regions.iter().enumerate() {
+        vec3(&format!("fur.length_regions[{i}].center"), r.center, BIG)?;
+        positive(&format!("fur.length_regions[{i}].radius"), r.radius, BIG)?;
+        within(
+            &format!("fur.length_regions[{i}].scale"),
+            r.scale,
+            0.0,
+            100.0,
+        )?;
+    }
+    nonzero("fur.direction", f.direction)?;
+    nonzero("fur.up", f.up)?;
+    if f.coats.is_empty() || f.coats.len() > 4 {
+        return Err(bad("fur.coats", f.coats.len(), "needs 1 to 4 coats"));
+    }
+    for (i, c) in f.coats.iter().enumerate() {
+        let p = format!("fur.coats[{i}]");
+        positive(&format!("{p}.share"), c.share, 1e6)?;
+        positive(&format!("{p}.relative_length"), c.relative_length, 100.0)?;
+        within(&format!("{p}.stiffness"), c.stiffness, 0.0, 1.0)?;
+        within(
+            &format!("{p}.normal_randomize"),
+            c.normal_randomize,
+            0.0,
+            1.0,
+        )?;
+        within(&format!("{p}.end_randomize"), c.end_randomize, 0.0, 2.0)?;
+        within(
+            &format!("{p}.direction_weight"),
+            c.direction_weight,
+            0.0,
+            1.0,
+        )?;
+        let m = &c.material;
+        color(&format!("{p}.material.ambient"), m.ambient, 10.0)?;
+        color(&format!("{p}.material.diffuse"), m.diffuse, 10.0)?;
+        color(&format!("{p}.material.specular"), m.specular, 10.0)?;
+        within(
+            &format!("{p}.material.shininess"),
+            m.shininess,
+            0.0,
+            10000.0,
+        )?;
+        positive(&format!("{p}.material.width"), m.width, BIG)?;
+    }
+    if let Some(d) = f.culling.full_distance {
+        positive("fur.culling.full_distance", d, BIG)?;
+    }
+    if let Some(m) = &f.motion {
+        within("fur.motion.amplitude", m.amplitude, -BIG, BIG)?;
+        positive("fur.motion.wavelength", m.wavelength, BIG)?;
+        positive("fur.motion.period", m.period, 1e9)?;
+        nonzero("fur.motion.axis", m.axis)?;
+        nonzero("fur.motion.direction", m.direction)?;
+    }
+    color("fur.skin", f.skin, 1.0)?;
     Ok(())
 }

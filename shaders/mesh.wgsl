@@ -1,0 +1,40 @@
+// The fur mesh's skin: its triangles read from storage (the same buffers the fur generator
+// reads), moved by the same deformation, lit like the head.
+
+// Keep in sync with GpuSkin in src/gpu/gpu_data.rs.
+struct Skin {
+    color: vec4<f32>,
+    motion: vec4<f32>,
+    motion_axis: vec4<f32>,
+    motion_dir: vec4<f32>,
+}
+
+@group(1) @binding(0) var<uniform> skin: Skin;
+@group(1) @binding(1) var<storage, read> mesh: array<vec4<f32>>;
+@group(1) @binding(2) var<storage, read> tris: array<vec4<u32>>;
+
+struct VOut {
+    @builtin(position) pos: vec4<f32>,
+    @location(0) world: vec3<f32>,
+    @location(1) normal: vec3<f32>,
+}
+
+@vertex
+fn vs(@builtin(vertex_index) vi: u32) -> VOut {
+    var out: VOut;
+    let v = tris[vi / 3u][vi % 3u];
+    let d = deform(skin.motion, skin.motion_axis.xyz, skin.motion_dir.xyz, mesh[2u * v].xyz, mesh[2u * v + 1u].xyz);
+    out.pos = frame.view_proj * vec4<f32>(d.p, 1.0);
+    out.world = d.p;
+    out.normal = d.n;
+    return out;
+}
+
+@fragment
+fn fs(in: VOut) -> @location(0) vec4<f32> {
+    let n = normalize(in.normal);
+    let l = frame.light_dir.xyz;
+    let wrap = max((dot(n, l) + 0.3) / 1.3, 0.0);
+    let rgb = skin.color.rgb * (0.3 * frame.light_color.w + 0.8 * frame.light_dir.w * wrap);
+    return vec4<f32>(rgb, 1.0);
+}

@@ -1,0 +1,649 @@
+//! Van Gelder & Wilhelms' interactive fur: roots, coats, shapes, styles, culling.
+//!
+//! **Roots (3.2).** Each coat allocates `floor(alpha N + u)` hairs to a triangle (alpha: its
+//! share of the skin area, u uniform: random rounding, so small triangles do not go bald).
+//! A hair is stored as nothing but its triangle and its creation index h: its barycentric
+//! coordinates are entry `h mod 2048` of a seeded table of `b1 = 1 - sqrt(u1)`,
+//! `b2 = (1 - b1) u2` — so hairs are regenerated every frame from the (possibly moving)
+//! mesh, as the paper recommends.
+//!
+//! **Shape (3.4, 3.5).** Length and normal are interpolated from the vertices; the weightless
+//! direction blends the skin normal with the body-segment direction; the weightless end
+//! point may be perturbed; floppiness f = max(1 - stiffness, 0.02) subtracts f cos(theta)
+//! from the up component of the direction (theta: between the weightless direction and the
+//! skin normal), which gives the end point.
+//!
+//! **Styles (3.6-3.8).** Line: root to end. Polyline: 8 points of the template
+//! (t, t^2) in the non-orthogonal frame (root -> weightless end, weightless end -> end), so
+//! it leaves the root towards the weightless end and bends towards the end. Curve and tube:
+//! a cubic Bezier in the same plane (leaving along the weightless direction, arriving along
+//! the final one), tessellated into `CURVE_SEGMENTS` on the GPU.
+//!
+//! **Culling (3.3).** Beyond the distance where the model fills the view, a triangle draws
+//! `floor(n c + v)` of its n hairs (c = full distance / distance, v a per-triangle uniform),
+//! the first ones in creation order, so density stays uniform; widths grow as 1/c.
+//!
+//! `shaders/fur_gen.wgsl` does the per-hair part on the GPU each frame; `hair_points` here is
+//! its f64 reference.
+
+use crate::error::{KamiError, Result};
+use crate::rng::{pcg_hash, Rng};
+use crate::scene::fur::{Coat, Fur, FurStyle, MeshMotion, MeshSource, CURVE_SEGMENTS};
+use crate::scene::mesh::Mesh;
+use glam::DVec3;
+
+/// Entries of the barycentric table (the paper's 2048).
+pub const TABLE: usize = 2048;
+
+/// One coat's allocation: per triangle the creation index of its first hair and its hair
+/// count, plus the random number used to round its culled count.
+#[derive(Clone, Debug)]
+pub struct CoatAlloc {
+    pub first: Vec<u32>,
+    pub count: Vec<u32>,
+    pub cull_u: Vec<f32>,
+    pub total: u32,
+    pub seed: u32,
+}
+
+/// Everything the fur generator reads: the mesh with per-vertex lengths, the table, and
+/// each coat's allocation.
+#[derive(Clone, Debug)]
+pub struct FurSetup {
+    pub fur: Fur,
+    pub mesh: Mesh,
+    /// Hair length at each vertex (fur length times the region scales).
+    pub lengths: Vec<f64>,
+    pub table: Vec<[f64; 2]>,
+    pub coats: Vec<CoatAlloc>,
+}
+
+/// Uniform in [0, 1) from a hash of (seed, hair, which); the same function is in
+/// `shaders/fur_gen.wgsl`.
+pub fn hair_random(seed: u32, hair: u32, which: u32) -> f64 {
+    let h = pcg_hash(which ^ pcg_hash(hair ^ pcg_hash(seed)));
+    (h >> 8) as f64 / 16_777_216.0
+}
+
+impl FurSetup {
+    /// Load or generate the mesh and allocate the roots of every coat.
+    pub fn new(fur: &Fur, seed: u64) -> Result<FurSetup> {
+        let mut mesh = match &fur.mesh {
+            MeshSource::Critter => super::critter::critter(),
+            MeshSource::File(path) => Mesh::load(path)?,
+        };
+        if let Some(size) = fur.size {
+            mesh.fit(size);
+        }
+        let lengths = mesh
+            .positions
+            .iter()
+            .map(|p| {
+                fur.length
+                    * fur
+                        .length_regions
+                        .iter()
+                        .filter(|r| (*p - DVec3::from(r.center)).length() <= r.radius)
+                        .map(|r| r.scale)
+                        .product::<f64>()
+            })
+            .collect();
+        let mut rng = Rng::new(seed, 0xF00D);
+        let table = (0..TABLE)
+            .map(|_| {
+                let b1 = 1.0 - rng.uniform().sqrt();
+                let b2 = (1.0 - b1) * rng.uniform();
+                [b1, b2]
+            })
+            .collect();
+        let areas: Vec<f64> = (0..mesh.triangles.len()).map(|t| mesh.area(t)).collect();
+        let total_area: f64 = areas.iter().sum();
+        if total_area.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+            return Err(KamiError::Mesh {
+                path: format!("{:?}", fur.mesh),
+                line: None,
+                message: "the mesh has no area".into(),
+            });
+        }
+        let share_sum: f64 = fur.coats.iter().map(|c| c.share).sum();
+        let coats = fur
+            .coats
+            .iter()
+            .enumerate()
+            .map(|(ci, coat)| {
+                let n = fur.hairs as f64 * coat.share / share_sum;
+                let mut rng = Rng::new(seed, 0xC0A7 + ci as u64);
+                let mut first = Vec::with_capacity(areas.len());
+                let mut count = Vec::with_capacity(areas.len());
+                let mut cull_u = Vec::with_capacity(areas.len());
+                let mut total = 0u32;
+                for a in &areas {
+                    // Random rounding of alpha N.
+                    let k = (a / total_area * n + rng.uniform()).floor() as u32;
+                    first.push(total);
+                    count.push(k);
+                    cull_u.push(rng.uniform() as f32);
+                    total += k;
+                }
+                CoatAlloc {
+                    first,
+                    count,
+                    cull_u,
+                    total,
+                    seed: (rng.next_u32()) ^ ci as u32,
+                }
+            })
+            .collect();
+        Ok(FurSetup {
+            fur: fur.clone(),
+            mesh,
+            lengths,
+            table,
+            coats,
+        })
+    }
+
+    /// Hairs drawn per triangle at culling factor `c` (1 = all): `floor(n c + v)`, capped at
+    /// n. Returns the prefix offsets (one per triangle, then the total).
+    pub fn culled_offsets(&self, coat: usize, c: f64) -> Vec<u32> {
+        let a = &self.coats[coat];
+        let mut off = Vec::with_capacity(a.count.len() + 1);
+        let mut acc = 0u32;
+        for (n, v) in a.count.iter().zip(&a.cull_u) {
+            off.push(acc);
+            let k = if c >= 1.0 {
+                *n
+            } else {
+                ((*n as f64 * c + *v as f64).floor() as u32).min(*n)
+            };
+            acc += k;
+        }
+        off.push(acc);
+        off
+    }
+
+    /// Bounding sphere of the (rest) mesh grown by the longest hair.
+    pub fn bounds(&self) -> (DVec3, f64) {
+        let (c, r) = self.mesh.bounds();
+        let longest = self.lengths.iter().cloned().fold(0.0, f64::max)
+            * self
+                .fur
+                .coats
+                .iter()
+                .map(|c| c.relative_length)
+                .fold(0.0, f64::max);
+        (c, r + longest)
+    }
+}
+
+/// The culling factor at camera distance `distance` from the model: 1 up to the full
+/// distance, then full / distance.
+pub fn culling_factor(fur: &Fur, bounds: (DVec3, f64), fov_y: f64, distance: f64) -> f64 {
+    if !fur.culling.enabled {
+        return 1.0;
+    }
+    let full = fur
+        .culling
+        .full_distance
+        .unwrap_or_else(|| bounds.1 / (0.5 * fov_y).sin());
+    (full / distance.max(1e-9)).min(1.0)
+}
+
+/// Position and normal of a mesh point after the mesh motion at `frame` (a travelling wave
+/// u = A sin(k (p.axis) - w t) along `direction`; normals by the inverse transpose of its
+/// Jacobian). The same function is in `shaders/common/deform.wgsl`.
+pub fn deform(m: Option<&MeshMotion>, p: DVec3, n: DVec3, frame: f64) -> (DVec3, DVec3) {
+    let Some(m) = m else { return (p, n) };
+    let a = DVec3::from(m.axis).normalize();
+    let d = DVec3::from(m.direction).normalize();
+    let k = std::f64::consts::TAU / m.wavelength;
+    let phase = k * p.dot(a) - std::f64::consts::TAU * frame / m.period;
+    let q = p + d * (m.amplitude * phase.sin());
+    // J = I + A k cos(phase) d a^T; J^-T n = n - (A k cos / (1 + A k cos a.d)) a (d.n)
+    let g = m.amplitude * k * phase.cos();
+    let nn = n - a * (g * d.dot(n) / (1.0 + g * a.dot(d)));
+    (q, nn.try_normalize().unwrap_or(n))
+}
+
+/// What the generator produces for one hair: its nodes, skin normal, hair-plane normal and
+/// the random number of its shading normals.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HairPoints {
+    pub nodes: Vec<DVec3>,
+    pub skin_normal: DVec3,
+    pub plane_normal: DVec3,
+    pub rand: f64,
+}
+
+/// Generate hair `h` (creation index in `coat`) of triangle `t` at `frame` (f64 reference of
+/// the GPU kernel).
+pub fn hair_points(s: &FurSetup, coat: usize, t: usize, h: u32, frame: f64) -> HairPoints {
+    let c: &Coat = &s.fur.coats[coat];
+    let alloc = &s.coats[coat];
+    let [b1, b2] = s.table[h as usize % TABLE];
+    let b = [b1, b2, 1.0 - b1 - b2];
+    let tri = s.mesh.triangles[t];
+    let mut root = DVec3::ZERO;
+    let mut normal = DVec3::ZERO;
+    let mut len = 0.0;
+    for k in 0..3 {
+        let v = tri[k] as usize;
+        let (p, n) = deform(
+            s.fur.motion.as_ref(),
+            s.mesh.positions[v],
+            s.mesh.normals[v],
+            frame,
+        );
+        root += b[k] * p;
+        normal += b[k] * n;
+        len += b[k] * s.lengths[v];
+    }
+    let n = normal.try_normalize().unwrap_or(DVec3::Y);
+    let len = len * c.relative_length;
+    let body = DVec3::from(s.fur.direction).normalize();
+    let wdir0 = ((1.0 - c.direction_weight) * n + c.direction_weight * body)
+        .try_normalize()
+        .unwrap_or(n);
+    // Random end perturbation: a direction from the hash, scaled by end_randomize.
+    let r = |which: u32| hair_random(alloc.seed, h, which);
+    let z = 2.0 * r(0) - 1.0;
+    let az = std::f64::consts::TAU * r(1);
+    let rho = (1.0 - z * z).max(0.0).sqrt();
+    let jitter = DVec3::new(rho * az.cos(), z, rho * az.sin()) * (c.end_randomize * r(2));
+    let wend = root + len * (wdir0 + jitter);
+    let wdir = (wend - root).try_normalize().unwrap_or(wdir0);
+    let wend = root + len * wdir;
+    // Floppiness pulls the end down along up by f cos(theta).
+    let up = DVec3::from(s.fur.up).normalize();
+    let f = (1.0 - c.stiffness).max(0.02);
+    let cos_theta = wdir.dot(n);
+    let dir = (wdir - up * (f * cos_theta))
+        .try_normalize()
+        .unwrap_or(wdir);
+    let end = root + len * dir;
+    let plane = wdir.cross(dir);
+    let plane_normal = if plane.length() > 1e-9 {
+        plane.normalize()
+    } else {
+        wdir.any_orthonormal_vector()
+    };
+    let nodes = match c.style {
+        FurStyle::Line => vec![root, end],
+        FurStyle::Polyline => (0..8)
+            .map(|i| {
+                let t = i as f64 / 7.0;
+                root + t * (wend - root) + t * t * (end - wend)
+            })
+            .collect(),
+        FurStyle::Curve | FurStyle::Tube => {
+            let p1 = root + wdir * (len / 3.0);
+            let p2 = end - dir * (len / 3.0);
+            (0..=CURVE_SEGMENTS)
+                .map(|i| {
+                    let t = i as f64 / CURVE_SEGMENTS as f64;
+                    let u = 1.0 - t;
+                    root * (u * u * u)
+                        + p1 * (3.0 * u * u * t)
+                        + p2 * (3.0 * u * t * t)
+                        + end * (t * t * t)
+                })
+                .collect()
+        }
+    };
+    HairPoints {
+        nodes,
+        skin_normal: n,
+        plane_normal,
+        rand: r(3),
+    }
+}
+
+/// The triangle and creation index of drawn slot `slot` given prefix `offsets` (binary
+/// search, as the GPU does) and the coat's `first` table.
+pub fn slot_hair(offsets: &[u32], first: &[u32], slot: u32) -> (usize, u32) {
+    // Largest t with offsets[t] <= slot among triangles (offsets has T + 1 entries).
+    let t = offsets[..offsets.len() - 1].partition_point(|&o| o <= slot) - 1;
+    (t, first[t] + (slot - offsets[t]))
+}
+
+// ---------------------------------------------------------------------------------------
+// GPU pass
+
+use crate::gpu::gpu_data::GpuFurCoat;
+use crate::gpu::strands::StrandBuffers;
+use crate::gpu::{self, Gpu};
+
+const WORKGROUP: u32 = 64;
+const SLOT: u64 = 256;
+
+/// Style code shared with the shaders.
+pub fn style_code(s: FurStyle) -> u32 {
+    match s {
+        FurStyle::Line => 0,
+        FurStyle::Polyline => 1,
+        FurStyle::Curve => 2,
+        FurStyle::Tube => 3,
+    }
+}
+
+/// The fur generator on the GPU (`shaders/fur_gen.wgsl`) and the buffers it fills: one strand
+/// slot per hair a coat may draw, refilled every frame from the root table and the (moving)
+/// mesh. Only `drawn[coat]` slots of each coat are written and drawn.
+pub struct FurGpu {
+    pipeline: wgpu::ComputePipeline,
+    bind_group: wgpu::BindGroup,
+    coats: wgpu::Buffer,
+    offsets: wgpu::Buffer,
+    /// Hair slots: vertices and the strand table (coat = group).
+    pub strands: StrandBuffers,
+    /// Two vec4 per slot: (skin normal, random), (hair-plane normal, 0).
+    pub info: wgpu::Buffer,
+    /// Hairs drawn per coat this frame.
+    pub drawn: Vec<u32>,
+    /// The mesh (two vec4 per vertex) and triangles, shared with the skin pass.
+    pub mesh: wgpu::Buffer,
+    pub tris: wgpu::Buffer,
+    culling: f64,
+    tri_count: u32,
+}
+
+impl FurGpu {
+    pub fn new(gpu: &Gpu, setup: &FurSetup) -> Result<FurGpu> {
+        let device = &gpu.device;
+        let module = gpu::shader_module(device, "fur_gen", crate::shaders::FUR_GEN)?;
+        let cs = wgpu::ShaderStages::COMPUTE;
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("fur_gen"),
+            entries: &[
+                wgpu::BindGroupLayoutEntry {
+                    binding: 0,
+                    visibility: cs,
+                    ty: wgpu::BindingType::Buffer {
+                        ty: wgpu::BufferBindingType::Uniform,
+                        has_dynamic_offset: true,
+                        min_binding_size: wgpu::BufferSize::new(SLOT),
+                    },
+                    count: None,
+                },
+                gpu::storage_entry(1, cs, true),
+                gpu::storage_entry(2, cs, true),
+                gpu::storage_entry(3, cs, true),
+                gpu::storage_entry(4, cs, true),
+                gpu::storage_entry(5, cs, true),
+                gpu::storage_entry(6, cs, false),
+                gpu::storage_entry(7, cs, false),
+            ],
+        });
+        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("fur_gen"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("fur_gen"),
+            layout: Some(&pl),
+            module: &module,
+            entry_point: Some("generate"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        let runs: Vec<(u32, u32, u32)> = setup
+            .fur
+            .coats
+            .iter()
+            .zip(&setup.coats)
+            .enumerate()
+            .map(|(i, (c, a))| (a.total, c.style.segments(), i as u32))
+            .collect();
+        let strands = StrandBuffers::from_runs(gpu, &runs)?;
+        let mesh: Vec<[f32; 4]> = setup
+            .mesh
+            .positions
+            .iter()
+            .zip(&setup.mesh.normals)
+            .zip(&setup.lengths)
+            .flat_map(|((p, n), l)| {
+                [
+                    [p.x as f32, p.y as f32, p.z as f32, *l as f32],
+                    [n.x as f32, n.y as f32, n.z as f32, 0.0],
+                ]
+            })
+            .collect();
+        let tris: Vec<[u32; 4]> = setup
+            .mesh
+            .triangles
+            .iter()
+            .map(|t| [t[0], t[1], t[2], 0])
+            .collect();
+        let first: Vec<u32> = setup
+            .coats
+            .iter()
+            .flat_map(|a| a.first.iter().copied())
+            .collect();
+        let table: Vec<[f32; 2]> = setup
+            .table
+            .iter()
+            .map(|b| [b[0] as f32, b[1] as f32])
+            .collect();
+        let tri_count = setup.mesh.triangles.len() as u32;
+        let none = wgpu::BufferUsages::empty();
+        let mesh = gpu::storage_buffer(device, "fur mesh", bytemuck::cast_slice(&mesh), none);
+        gpu.check_storage_size("the fur mesh", mesh.size())?;
+        let tris_buf =
+            gpu::storage_buffer(device, "fur triangles", bytemuck::cast_slice(&tris), none);
+        let first = gpu::storage_buffer(
+            device,
+            "fur first hairs",
+            bytemuck::cast_slice(&first),
+            none,
+        );
+        let offsets = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("fur drawn offsets"),
+            size: (setup.coats.len() as u64 * (tri_count as u64 + 1) * 4).max(16),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let table = gpu::storage_buffer(
+            device,
+            "fur barycentric table",
+            bytemuck::cast_slice(&table),
+            none,
+        );
+        let info = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("fur strand info"),
+            size: (strands.strand_count as u64 * 32).max(32),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let coats = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("fur coats"),
+            size: setup.coats.len() as u64 * SLOT,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let entry = gpu::entry;
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("fur_gen"),
+            layout: &layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: &coats,
+                        offset: 0,
+                        size: wgpu::BufferSize::new(SLOT),
+                    }),
+                },
+                entry(1, &mesh),
+                entry(2, &tris_buf),
+                entry(3, &first),
+                entry(4, &offsets),
+                entry(5, &table),
+                entry(6, &strands.vertices),
+                entry(7, &info),
+            ],
+        });
+        Ok(FurGpu {
+            pipeline,
+            bind_group,
+            coats,
+            offsets,
+            strands,
+            info,
+            drawn: vec![0; setup.coats.len()],
+            mesh,
+            tris: tris_buf,
+            culling: f64::NAN,
+            tri_count,
+        })
+    }
+
+    /// Record the generation of every coat's drawn hairs at `frame` with culling factor `c`.
+    /// Writes go through the queue: one call per submission.
+    pub fn record(
+        &mut self,
+        gpu: &Gpu,
+        enc: &mut wgpu::CommandEncoder,
+        setup: &FurSetup,
+        frame: f64,
+        c: f64,
+    ) -> Result<()> {
+        let t = self.tri_count as usize;
+        if c != self.culling {
+            let mut all = Vec::with_capacity(setup.coats.len() * (t + 1));
+            for (ci, d) in self.drawn.iter_mut().enumerate() {
+                let off = setup.culled_offsets(ci, c);
+                *d = off[t];
+                all.extend(off);
+            }
+            gpu.queue
+                .write_buffer(&self.offsets, 0, bytemuck::cast_slice(&all));
+            self.culling = c;
+        }
+        let fur = &setup.fur;
+        let (motion, axis, dir) = motion_uniform(fur.motion.as_ref(), frame);
+        let mut bytes = Vec::new();
+        for (ci, (coat, alloc)) in fur.coats.iter().zip(&setup.coats).enumerate() {
+            let range = self.strands.ranges[ci];
+            let first_vertex = self.first_vertex_of(ci);
+            let g = GpuFurCoat {
+                drawn: self.drawn[ci],
+                segments: coat.style.segments(),
+                style: style_code(coat.style),
+                tri_count: self.tri_count,
+                first_vertex: first_vertex as u32,
+                first_strand: range.first_strand,
+                seed: alloc.seed,
+                first_base: (ci * t) as u32,
+                offset_base: (ci * (t + 1)) as u32,
+                rel_length: coat.relative_length as f32,
+                floppiness: (1.0 - coat.stiffness).max(0.02) as f32,
+                end_rand: coat.end_randomize as f32,
+                dir_weight: coat.direction_weight as f32,
+                _pad: [0.0; 3],
+                direction: vec4(DVec3::from(fur.direction).normalize()),
+                up: vec4(DVec3::from(fur.up).normalize()),
+                motion,
+                motion_axis: axis,
+                motion_dir: dir,
+                _slot: [0; 28],
+            };
+            bytes.extend_from_slice(bytemuck::bytes_of(&g));
+        }
+        gpu.queue.write_buffer(&self.coats, 0, &bytes);
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("fur_gen"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.pipeline);
+        for (ci, &n) in self.drawn.iter().enumerate() {
+            if n == 0 {
+                continue;
+            }
+            let (x, y) = gpu.dispatch_dims(n, WORKGROUP)?;
+            pass.set_bind_group(0, &self.bind_group, &[(ci as u64 * SLOT) as u32]);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+        Ok(())
+    }
+
+    /// First vertex of coat `ci`'s slots.
+    fn first_vertex_of(&self, ci: usize) -> u64 {
+        self.strands.ranges[..ci]
+            .iter()
+            .map(|r| r.strand_count as u64 * r.nodes_per_strand as u64)
+            .sum()
+    }
+}
+
+fn vec4(v: DVec3) -> [f32; 4] {
+    [v.x as f32, v.y as f32, v.z as f32, 0.0]
+}
+
+/// The motion uniform (amplitude, k, phase, on), axis and direction.
+pub fn motion_uniform(m: Option<&MeshMotion>, frame: f64) -> ([f32; 4], [f32; 4], [f32; 4]) {
+    match m {
+        None => ([0.0; 4], [1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0]),
+        Some(m) => (
+            [
+                m.amplitude as f32,
+                (std::f64::consts::TAU / m.wavelength) as f32,
+                (std::f64::consts::TAU * (frame / m.period).fract()) as f32,
+                1.0,
+            ],
+            vec4(DVec3::from(m.axis).normalize()),
+            vec4(DVec3::from(m.direction).normalize()),
+        ),
+    }
+}
+
+/// Fur of a scene: the set-up on the CPU and the generator on the GPU.
+pub struct FurSystem {
+    pub setup: FurSetup,
+    pub gpu: FurGpu,
+}
+
+/// What the renderer needs of this frame's fur.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FurFrame {
+    pub drawn: Vec<u32>,
+    pub width_scale: f64,
+    pub frame: f64,
+}
+
+impl FurSystem {
+    /// `None` when the scene has no fur.
+    pub fn new(gpu: &Gpu, scene: &crate::scene::Scene) -> Result<Option<FurSystem>> {
+        let Some(fur) = &scene.fur else {
+            return Ok(None);
+        };
+        let setup = FurSetup::new(fur, scene.seed)?;
+        let g = FurGpu::new(gpu, &setup)?;
+        Ok(Some(FurSystem { setup, gpu: g }))
+    }
+
+    /// Record this frame's generation for a camera at `eye` with vertical field of view
+    /// `fov_y`: culling from the distance to the model.
+    pub fn record(
+        &mut self,
+        gpu: &Gpu,
+        enc: &mut wgpu::CommandEncoder,
+        frame: f64,
+        eye: DVec3,
+        fov_y: f64,
+    ) -> Result<FurFrame> {
+        let bounds = self.setup.bounds();
+        let c = culling_factor(&self.setup.fur, bounds, fov_y, (eye - bounds.0).length());
+        self.gpu.record(gpu, enc, &self.setup, frame, c)?;
+        Ok(FurFrame {
+            drawn: self.gpu.drawn.clone(),
+            width_scale: 1.0 / c,
+            frame,
+        })
+    }
+
+    /// Hairs allocated over all coats.
+    pub fn total(&self) -> u64 {
+        self.setup.coats.iter().map(|c| c.total as u64).sum()
+    }
+}
