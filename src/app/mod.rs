@@ -9,11 +9,9 @@ pub mod panels;
 pub mod params;
 
 use crate::error::{KamiError, Result};
-use crate::gpu::strands::StrandBuffers;
 use crate::gpu::{self, Gpu, Preference};
-use crate::render::{self, target::Offscreen, FrameView, Renderer};
+use crate::render::{self, target::Offscreen, FrameView, Renderer, SceneContent};
 use crate::scene::Scene;
-use crate::sim::Simulation;
 use camera::OrbitCamera;
 use glam::DVec3;
 use params::{Changes, Request, ViewerState};
@@ -95,12 +93,6 @@ pub fn run(options: ViewerOptions) -> Result<()> {
     }
 }
 
-/// The groomed hair and its simulation.
-struct Hair {
-    strands: StrandBuffers,
-    sim: Option<Simulation>,
-}
-
 #[derive(Default)]
 struct Mouse {
     pos: Option<(f64, f64)>,
@@ -117,7 +109,9 @@ struct Gfx {
     renderer: Renderer,
     egui_renderer: egui_wgpu::Renderer,
     egui_state: egui_winit::State,
-    hair: Hair,
+    hair: SceneContent,
+    /// Frames of fur motion shown (advances while playing).
+    fur_frame: f64,
     camera: OrbitCamera,
     mouse: Mouse,
     /// Scene as last applied (to classify the next edit).
@@ -136,13 +130,10 @@ struct App {
     error: Option<KamiError>,
 }
 
-fn build_hair(gpu: &Gpu, scene: &Scene) -> Result<Hair> {
-    let size = scene.render.size;
-    render::check_limits(gpu, scene, size)?;
-    let input = crate::groom::prepare(scene)?;
-    let strands = crate::groom::cantilever::groom_gpu(gpu, &input)?;
-    let sim = Simulation::new(gpu, scene, &input, &strands)?;
-    Ok(Hair { strands, sim })
+/// Groom, simulation and fur of a scene, bound to the renderer.
+fn build(gpu: &Gpu, scene: &Scene, renderer: &mut Renderer) -> Result<SceneContent> {
+    render::check_limits(gpu, scene, scene.render.size)?;
+    render::build_content(gpu, scene, renderer)
 }
 
 impl App {
@@ -203,9 +194,8 @@ impl App {
         let quality = self.state.view.quality(scene);
         let mut renderer = Renderer::new(&gpu, format, quality)?;
         let t = Instant::now();
-        let hair = build_hair(&gpu, scene)?;
+        let hair = build(&gpu, scene, &mut renderer)?;
         self.state.stats.groom_ms = t.elapsed().as_secs_f64() * 1e3;
-        renderer.set_hair(&gpu, &hair.strands, &render::materials(scene));
         let egui_renderer =
             egui_wgpu::Renderer::new(&gpu.device, format, egui_wgpu::RendererOptions::default());
         let egui_state = egui_winit::State::new(
@@ -228,6 +218,7 @@ impl App {
             egui_renderer,
             egui_state,
             hair,
+            fur_frame: 0.0,
             mouse: Mouse::default(),
             zero_size: false,
             frames: 0,
@@ -357,12 +348,9 @@ fn apply(g: &mut Gfx, state: &mut ViewerState) -> Result<()> {
         return Ok(());
     }
     let scene = &state.scene;
-    if ch.regroom || ch.dynamics_toggled {
+    if ch.regroom || ch.dynamics_toggled || ch.fur {
         let t = Instant::now();
-        let hair = build_hair(&g.gpu, scene)?;
-        g.renderer
-            .set_hair(&g.gpu, &hair.strands, &render::materials(scene));
-        g.hair = hair;
+        g.hair = build(&g.gpu, scene, &mut g.renderer)?;
         g.sim_clock = 0.0;
         state.stats.groom_ms = t.elapsed().as_secs_f64() * 1e3;
     } else {
@@ -405,19 +393,17 @@ fn handle_requests(g: &mut Gfx, state: &mut ViewerState, shots: &mut Vec<PathBuf
             Request::Step => {
                 if let Some(sim) = g.hair.sim.as_mut() {
                     let mut enc = g.gpu.device.create_command_encoder(&Default::default());
-                    sim.record_frame(&g.gpu, &mut enc, &g.hair.strands);
+                    sim.record_frame(&g.gpu, &mut enc, &g.hair.hair);
                     g.gpu.queue.submit([enc.finish()]);
                 }
             }
             Request::Reset => {
-                let hair = build_hair(&g.gpu, &state.scene)?;
-                g.renderer
-                    .set_hair(&g.gpu, &hair.strands, &render::materials(&state.scene));
-                g.hair = hair;
+                g.hair = build(&g.gpu, &state.scene, &mut g.renderer)?;
                 g.sim_clock = 0.0;
+                g.fur_frame = 0.0;
             }
             Request::FrameScene => {
-                let (c, r) = render::scene_bounds(&state.scene);
+                let (c, r) = render::view_with_fur(&state.scene, g.hair.fur.as_ref()).bounds;
                 g.camera.frame(c, r);
             }
         }
@@ -501,7 +487,7 @@ fn frame_body(
             if due > 0 {
                 let mut enc = g.gpu.device.create_command_encoder(&Default::default());
                 for _ in 0..due {
-                    substeps += sim.record_frame(&g.gpu, &mut enc, &g.hair.strands).substeps;
+                    substeps += sim.record_frame(&g.gpu, &mut enc, &g.hair.hair).substeps;
                 }
                 g.gpu.queue.submit([enc.finish()]);
                 g.gpu.wait()?;
@@ -545,8 +531,24 @@ fn frame_body(
     };
     let target = surface_tex.texture.create_view(&Default::default());
 
-    let mut view = FrameView::from_scene(&state.scene);
+    let mut view = render::view_with_fur(&state.scene, g.hair.fur.as_ref());
     view.camera = g.camera.camera();
+    if state.view.playing {
+        g.fur_frame += state.view.time_scale;
+    }
+    if let Some(fur) = g.hair.fur.as_mut() {
+        let mut enc = g.gpu.device.create_command_encoder(&Default::default());
+        let lod = state.view.hair_fraction;
+        view.fur = Some(fur.record(
+            &g.gpu,
+            &mut enc,
+            g.fur_frame,
+            view.camera.eye,
+            view.camera.fov_y,
+            lod,
+        )?);
+        g.gpu.queue.submit([enc.finish()]);
+    }
     view.hair_fraction = state.view.hair_fraction;
     view.show_pseudo = state.view.show_pseudo;
     if let (Some(d), Some(head), Some(sim)) =

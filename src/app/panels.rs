@@ -18,6 +18,12 @@ pub const SHIPPED: &[&str] = &[
     "pseudo_force_off",
     "stiffness_smooth",
     "stiffness_free",
+    "fur",
+    "fur_fig9",
+    "fur_line",
+    "fur_polyline",
+    "fur_curve",
+    "fur_tube",
 ];
 
 /// Draw all panels in a right-hand side panel; returns the panel's left edge (points), where
@@ -40,6 +46,7 @@ pub fn show(ui: &mut Ui, s: &mut ViewerState) -> f32 {
                 ui.collapsing("Forces", |ui| forces(ui, s));
                 ui.collapsing("Pseudo-force", |ui| pseudo(ui, s));
                 ui.collapsing("Look", |ui| look(ui, s));
+                ui.collapsing("Fur", |ui| fur(ui, s));
                 egui::CollapsingHeader::new("Simulation").default_open(true).show(ui, |ui| simulation(ui, s));
                 egui::CollapsingHeader::new("Stats").default_open(true).show(ui, |ui| stats(ui, s));
                 ui.separator();
@@ -52,6 +59,9 @@ pub fn show(ui: &mut Ui, s: &mut ViewerState) -> f32 {
 }
 
 fn group_picker(ui: &mut Ui, s: &mut ViewerState) {
+    if s.scene.groups.is_empty() {
+        return;
+    }
     s.group = s.group.min(s.scene.groups.len() - 1);
     let name = |i: usize, s: &ViewerState| {
         let n = &s.scene.groups[i].name;
@@ -101,6 +111,10 @@ fn files(ui: &mut Ui, s: &mut ViewerState) {
 }
 
 fn stiffness(ui: &mut Ui, s: &mut ViewerState) {
+    if s.scene.groups.is_empty() {
+        ui.label("no hair groups (fur stiffness: see Fur)");
+        return;
+    }
     group_picker(ui, s);
     let g = &mut s.scene.groups[s.group];
     ui.add(
@@ -325,6 +339,11 @@ fn pseudo(ui: &mut Ui, s: &mut ViewerState) {
 }
 
 fn look(ui: &mut Ui, s: &mut ViewerState) {
+    if s.scene.groups.is_empty() {
+        ui.label("no hair groups (see Fur)");
+        look_common(ui, s);
+        return;
+    }
     group_picker(ui, s);
     let m = &mut s.scene.groups[s.group].material;
     ui.horizontal(|ui| {
@@ -353,6 +372,11 @@ fn look(ui: &mut Ui, s: &mut ViewerState) {
             .iter_mut()
             .for_each(|g| g.material = m.clone());
     }
+    look_common(ui, s);
+}
+
+/// Light, background and anti-aliasing: shared by hair and fur.
+fn look_common(ui: &mut Ui, s: &mut ViewerState) {
     ui.separator();
     let l = &mut s.scene.light;
     let dir = glam::DVec3::from(l.direction).normalize();
@@ -500,5 +524,142 @@ fn stats(ui: &mut Ui, s: &ViewerState) {
         ui.label("adapter");
         ui.label(&st.adapter);
         ui.end_row();
+    });
+}
+
+fn fur(ui: &mut Ui, s: &mut ViewerState) {
+    use crate::scene::fur::{Coat, FurMaterial, FurStyle};
+    let Some(f) = s.scene.fur.as_mut() else {
+        ui.label("this scene has no fur");
+        if ui.button("Add fur on the critter").clicked() {
+            s.path = "assets/scenes/fur.ron".into();
+            s.requests.push(Request::Open(s.path.clone()));
+        }
+        return;
+    };
+    ui.add(
+        Slider::new(&mut f.hairs, 1000..=500_000)
+            .logarithmic(true)
+            .text("hairs (full density)"),
+    );
+    ui.add(
+        Slider::new(&mut f.length, 0.01..=2.0)
+            .logarithmic(true)
+            .text("length"),
+    );
+    ui.checkbox(&mut f.culling.enabled, "distance-based culling");
+    let mut moving = f.motion.is_some();
+    ui.checkbox(&mut moving, "animated body wave");
+    match (moving, f.motion.is_some()) {
+        (true, false) => {
+            f.motion = Some(crate::scene::fur::MeshMotion {
+                amplitude: 0.18,
+                wavelength: 4.0,
+                period: 24.0,
+                axis: [1.0, 0.0, 0.0],
+                direction: [0.0, 1.0, 0.0],
+            })
+        }
+        (false, true) => f.motion = None,
+        _ => {}
+    }
+    if let Some(m) = f.motion.as_mut() {
+        ui.add(Slider::new(&mut m.amplitude, 0.0..=1.0).text("wave amplitude"));
+        ui.add(Slider::new(&mut m.period, 4.0..=120.0).text("wave period (frames)"));
+    }
+    let mut remove = None;
+    let n = f.coats.len();
+    for (i, c) in f.coats.iter_mut().enumerate() {
+        let title = if c.name.is_empty() {
+            format!("coat {i}")
+        } else {
+            c.name.clone()
+        };
+        egui::CollapsingHeader::new(title)
+            .id_salt(("coat", i))
+            .default_open(i == 0)
+            .show(ui, |ui| {
+                ui.add(Slider::new(&mut c.share, 0.01..=1.0).text("share"));
+                ui.add(Slider::new(&mut c.relative_length, 0.05..=3.0).text("relative length"));
+                ui.add(Slider::new(&mut c.stiffness, 0.0..=1.0).text("stiffness"));
+                ui.add(Slider::new(&mut c.normal_randomize, 0.0..=1.0).text("normal randomize"));
+                ui.add(Slider::new(&mut c.end_randomize, 0.0..=1.0).text("hair end randomize"));
+                ui.add(
+                    Slider::new(&mut c.direction_weight, 0.0..=1.0)
+                        .text("segment direction weight"),
+                );
+                ui.horizontal(|ui| {
+                    ui.label("style");
+                    for (st, name) in [
+                        (FurStyle::Line, "line"),
+                        (FurStyle::Polyline, "polyline"),
+                        (FurStyle::Curve, "curve"),
+                        (FurStyle::Tube, "tube"),
+                    ] {
+                        ui.radio_value(&mut c.style, st, name);
+                    }
+                });
+                let m = &mut c.material;
+                ui.horizontal(|ui| {
+                    ui.label("ambient");
+                    ui.color_edit_button_rgb(&mut m.ambient);
+                    ui.label("diffuse");
+                    ui.color_edit_button_rgb(&mut m.diffuse);
+                    ui.label("specular");
+                    ui.color_edit_button_rgb(&mut m.specular);
+                });
+                ui.add(
+                    Slider::new(&mut m.shininess, 1.0..=200.0)
+                        .logarithmic(true)
+                        .text("shininess"),
+                );
+                ui.add(
+                    Slider::new(&mut m.width, 0.0005..=0.05)
+                        .logarithmic(true)
+                        .text("width"),
+                );
+                if n > 1 && ui.small_button("remove coat").clicked() {
+                    remove = Some(i);
+                }
+            });
+    }
+    if let Some(i) = remove {
+        f.coats.remove(i);
+    }
+    if f.coats.len() < 4 && ui.small_button("add an undercoat").clicked() {
+        f.coats.push(Coat {
+            name: "undercoat".into(),
+            share: 0.4,
+            relative_length: 0.3,
+            stiffness: 0.8,
+            normal_randomize: 0.3,
+            end_randomize: 0.05,
+            direction_weight: 0.1,
+            style: FurStyle::Line,
+            material: FurMaterial::default(),
+        });
+    }
+    ui.label("looks of Figure 2:");
+    ui.horizontal(|ui| {
+        if ui.small_button("Figure 8").clicked() {
+            for c in &mut f.coats {
+                c.stiffness = 0.2;
+                c.normal_randomize = 0.0;
+                c.end_randomize = 0.2;
+                c.direction_weight = 0.2;
+                c.material.ambient = [0.3, 0.14, 0.0];
+                c.material.shininess = 16.0;
+            }
+        }
+        if ui.small_button("Figure 9").clicked() {
+            for c in &mut f.coats {
+                c.stiffness = 0.2;
+                c.normal_randomize = 0.5;
+                c.end_randomize = 0.1;
+                c.direction_weight = 0.3;
+                c.material.ambient = [0.15, 0.07, 0.0];
+                c.material.shininess = 50.0;
+            }
+        }
     });
 }

@@ -21,11 +21,18 @@ pub struct Changes {
     pub look: bool,
     /// MSAA, supersampling, narrowest width: pipelines or targets.
     pub quality: bool,
+    /// Anything about the fur: its roots are re-allocated (fast) and it is regenerated.
+    pub fur: bool,
 }
 
 impl Changes {
     pub fn any(&self) -> bool {
-        self.regroom || self.dynamics || self.dynamics_toggled || self.look || self.quality
+        self.regroom
+            || self.dynamics
+            || self.dynamics_toggled
+            || self.look
+            || self.quality
+            || self.fur
     }
 
     /// Classify the edit from `old` to `new`.
@@ -65,6 +72,7 @@ impl Changes {
                 new.render.supersample,
                 new.render.min_width,
             ),
+            fur: old.fur != new.fur,
         }
     }
 }
@@ -191,7 +199,8 @@ impl ViewerState {
     /// state, and the window loop classifies and applies the change. Keys: `color=r,g,b`,
     /// `width=w`, `ks=k`, `shininess=n`, `rigidity=EI` (all groups), `wind=x,y,z`,
     /// `gravity=x,y,z`, `stiffness=root,tip`, `damping=rate`, `pseudo=on|off`,
-    /// `msaa=1|4`, `supersample=f`, `play=on|off`, `lod=fraction` (fixed, 0..1).
+    /// `msaa=1|4`, `supersample=f`, `play=on|off`, `lod=fraction` (fixed, 0..1),
+    /// `fur.hairs=N`, `fur.stiffness=s` (all coats), `fur.culling=on|off`.
     pub fn apply_set(&mut self, assignment: &str) -> Result<()> {
         let bad = |m: String| KamiError::Option(format!("--set {assignment}: {m}"));
         let (key, value) = assignment
@@ -276,6 +285,20 @@ impl ViewerState {
                 }
                 self.view.adaptive_lod = false;
                 self.view.hair_fraction = f;
+            }
+            "fur.hairs" | "fur.stiffness" | "fur.culling" => {
+                let f = next
+                    .fur
+                    .as_mut()
+                    .ok_or_else(|| bad("the scene has no fur".into()))?;
+                match key {
+                    "fur.hairs" => f.hairs = nums(1)?[0] as u32,
+                    "fur.stiffness" => {
+                        let v = nums(1)?[0];
+                        f.coats.iter_mut().for_each(|c| c.stiffness = v);
+                    }
+                    _ => f.culling.enabled = on()?,
+                }
             }
             _ => return Err(bad(format!("unknown key {key:?}"))),
         }

@@ -623,7 +623,8 @@ impl FurSystem {
     }
 
     /// Record this frame's generation for a camera at `eye` with vertical field of view
-    /// `fov_y`: culling from the distance to the model.
+    /// `fov_y`: culling from the distance to the model, times `lod` (the viewer's level of
+    /// detail, 1 for renders), which widens hair by only 1/sqrt(lod).
     pub fn record(
         &mut self,
         gpu: &Gpu,
@@ -631,13 +632,15 @@ impl FurSystem {
         frame: f64,
         eye: DVec3,
         fov_y: f64,
+        lod: f64,
     ) -> Result<FurFrame> {
         let bounds = self.setup.bounds();
         let c = culling_factor(&self.setup.fur, bounds, fov_y, (eye - bounds.0).length());
-        self.gpu.record(gpu, enc, &self.setup, frame, c)?;
+        let lod = lod.clamp(1e-3, 1.0);
+        self.gpu.record(gpu, enc, &self.setup, frame, c * lod)?;
         Ok(FurFrame {
             drawn: self.gpu.drawn.clone(),
-            width_scale: 1.0 / c,
+            width_scale: 1.0 / (c * lod.sqrt()),
             frame,
         })
     }

@@ -438,6 +438,7 @@ pub fn render_animation(
                     f as f64,
                     view.camera.eye,
                     view.camera.fov_y,
+                    1.0,
                 )?);
             }
             renderer.render(gpu, &mut enc, &out.view, size, &view)?;
