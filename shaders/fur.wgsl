@@ -31,12 +31,6 @@ struct VOut {
     @location(1) @interpolate(flat) strand: u32,
 }
 
-fn hash(v: u32) -> u32 {
-    let state = v * 747796405u + 2891336453u;
-    let word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
-    return (word >> 22u) ^ word;
-}
-
 fn rotate_about(axis: vec3<f32>, v: vec3<f32>, angle: f32) -> vec3<f32> {
     let c = cos(angle);
     let s = sin(angle);
@@ -73,7 +67,7 @@ fn shading_normal(si: u32, s: Strand, m: FurMaterial, n: u32, t: vec3<f32>) -> v
         var nn = cross(info[2u * si + 1u].xyz, t);
         let l = length(nn);
         nn = select(info[2u * si].xyz, nn / l, l > 1e-12);
-        let u = f32(hash(bitcast<u32>(info[2u * si].w) ^ (n * 2654435761u)) >> 8u) / 16777216.0;
+        let u = f32(pcg_hash(bitcast<u32>(info[2u * si].w) ^ (n * 2654435761u)) >> 8u) / 16777216.0;
         return rotate_about(t, nn, (2.0 * u - 1.0) * 3.14159265 * m.extra.x);
     }
     return info[2u * si].xyz;
@@ -141,11 +135,8 @@ fn any_perpendicular(v: vec3<f32>) -> vec3<f32> {
     return normalize(cross(v, a));
 }
 
-// Alpha dither for alpha to coverage, as for Anjyo's hair (see strands.wgsl).
+// Sub-pixel coverage as for Anjyo's hair (common/coverage.wgsl); tubes are opaque.
 @fragment
-fn fs(in: VOut) -> @location(0) vec4<f32> {
-    let px = vec2<u32>(in.pos.xy);
-    let n = f32(hash(px.x * 1973u + px.y * 9277u + in.strand * 26699u) >> 8u) / 16777216.0;
-    let a = clamp(in.color.a + (n - 0.5) * frame.raster.w, 0.0, 1.0);
-    return vec4<f32>(in.color.rgb, a);
+fn fs(in: VOut, @builtin(sample_index) sample: u32) -> @location(0) vec4<f32> {
+    return hair_fragment(in.color, in.pos.xy, in.strand, sample);
 }

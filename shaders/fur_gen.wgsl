@@ -24,7 +24,6 @@ struct Coat {
     _p0: f32,
     _p1: f32,
     _p2: f32,
-    direction: vec4<f32>,
     up: vec4<f32>,
     // x amplitude, y 2 pi / wavelength, z phase offset, w on
     motion: vec4<f32>,
@@ -48,6 +47,8 @@ const POLYLINE: u32 = 1u;
 @group(0) @binding(6) var<storage, read_write> verts: array<vec4<f32>>;
 // Two entries per strand: (skin normal, random), (hair-plane normal, 0).
 @group(0) @binding(7) var<storage, read_write> info: array<vec4<f32>>;
+// Per mesh vertex: the unit body-segment direction (the fur's or its region's).
+@group(0) @binding(8) var<storage, read> dirs: array<vec4<f32>>;
 
 fn hair_random(h: u32, which: u32) -> f32 {
     let x = pcg_hash(which ^ pcg_hash(h ^ pcg_hash(coat.seed)));
@@ -85,16 +86,18 @@ fn generate(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroup
     var root = vec3<f32>(0.0);
     var normal = vec3<f32>(0.0);
     var len = 0.0;
+    var body = vec3<f32>(0.0);
     for (var k = 0u; k < 3u; k++) {
         let v = tri[k];
         let d = deform(coat.motion, coat.motion_axis.xyz, coat.motion_dir.xyz, mesh[2u * v].xyz, mesh[2u * v + 1u].xyz);
         root += b[k] * d.p;
         normal += b[k] * d.n;
         len += b[k] * mesh[2u * v].w;
+        body += b[k] * dirs[v].xyz;
     }
     let n = safe_normalize(normal, vec3<f32>(0.0, 1.0, 0.0));
     len *= coat.rel_length;
-    let wdir0 = safe_normalize((1.0 - coat.dir_weight) * n + coat.dir_weight * coat.direction.xyz, n);
+    let wdir0 = safe_normalize((1.0 - coat.dir_weight) * n + coat.dir_weight * safe_normalize(body, n), n);
     let z = 2.0 * hair_random(h, 0u) - 1.0;
     let az = 6.28318530717959 * hair_random(h, 1u);
     let rho = sqrt(max(1.0 - z * z, 0.0));

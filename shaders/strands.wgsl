@@ -3,8 +3,7 @@
 // strand, drawn as a triangle strip. Shading is Anjyo's eqs 8-9 per node (the paper colours
 // nodes and interpolates): I = I_a k_a C + I_s k_s (1 - (T.H)^2)^(n/2), with k_a per strand.
 // A strand thinner than `frame.raster.y` samples is drawn that wide with alpha equal to its
-// true coverage; with MSAA the alpha becomes a sample mask (alpha to coverage), so sub-pixel
-// hair is smooth and order-independent.
+// true coverage (common/coverage.wgsl), so sub-pixel hair is smooth and order-independent.
 
 // Keep in sync with GpuMaterial in src/gpu/gpu_data.rs.
 struct Material {
@@ -97,13 +96,7 @@ fn vs(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -> VOut 
     return out;
 }
 
-// With alpha to coverage, equal alphas give equal sample masks, and sparse thin hair shows
-// the mask's fixed pattern; a per-pixel, per-strand offset of up to half a sample turns it
-// into noise that the supersampling averages away (raster.w: 1/samples, 0 without MSAA).
 @fragment
-fn fs(in: VOut) -> @location(0) vec4<f32> {
-    let px = vec2<u32>(in.pos.xy);
-    let n = f32(pcg_hash(px.x * 1973u + px.y * 9277u + in.strand * 26699u) >> 8u) / 16777216.0;
-    let a = clamp(in.color.a + (n - 0.5) * frame.raster.w, 0.0, 1.0);
-    return vec4<f32>(in.color.rgb, a);
+fn fs(in: VOut, @builtin(sample_index) sample: u32) -> @location(0) vec4<f32> {
+    return hair_fragment(in.color, in.pos.xy, in.strand, sample);
 }

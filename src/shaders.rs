@@ -34,7 +34,13 @@ pub const FUR_GEN: &str = wgsl!(
 );
 
 /// Fur drawing: ribbons and tubes with Van Gelder & Wilhelms' shading normals.
-pub const FUR: &str = wgsl!("common/strands.wgsl", "common/frame.wgsl", "fur.wgsl");
+pub const FUR: &str = wgsl!(
+    "common/strands.wgsl",
+    "common/frame.wgsl",
+    "common/random.wgsl",
+    "common/coverage.wgsl",
+    "fur.wgsl",
+);
 
 /// The fur mesh's skin.
 pub const MESH: &str = wgsl!("common/frame.wgsl", "common/deform.wgsl", "mesh.wgsl");
@@ -44,6 +50,7 @@ pub const STRANDS: &str = wgsl!(
     "common/strands.wgsl",
     "common/frame.wgsl",
     "common/random.wgsl",
+    "common/coverage.wgsl",
     "strands.wgsl",
 );
 

@@ -8,7 +8,9 @@ fn every_shader_validates() {
         });
         naga::valid::Validator::new(
             naga::valid::ValidationFlags::all(),
-            naga::valid::Capabilities::empty(),
+            // Per-sample shading (sub-pixel hair coverage): Kami requires the adapter to
+            // have it.
+            naga::valid::Capabilities::MULTISAMPLED_SHADING,
         )
         .validate(&module)
         .unwrap_or_else(|e| {

@@ -9,7 +9,7 @@ struct Frame {
     // width, height (samples), 1/width, 1/height
     viewport: vec4<f32>,
     // x focal length in samples, y narrowest strand (samples), z width scale (level of
-    // detail), w alpha dither (1/MSAA samples)
+    // detail), w MSAA samples (1 without)
     raster: vec4<f32>,
     // x: 1 to show the segments the pseudo-force acted on
     flags: vec4<f32>,

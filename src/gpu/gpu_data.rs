@@ -229,13 +229,12 @@ pub struct GpuFurCoat {
     pub end_rand: f32,
     pub dir_weight: f32,
     pub _pad: [f32; 3],
-    pub direction: [f32; 4],
     pub up: [f32; 4],
     /// x amplitude, y 2 pi / wavelength, z phase offset (2 pi frame / period), w on.
     pub motion: [f32; 4],
     pub motion_axis: [f32; 4],
     pub motion_dir: [f32; 4],
-    pub _slot: [u32; 28],
+    pub _slot: [u32; 32],
 }
 assert_size!(GpuFurCoat, 256);
 

@@ -119,17 +119,17 @@ impl Gpu {
             })?;
         let info = adapter.get_info();
         let downlevel = adapter.get_downlevel_capabilities();
-        if !downlevel
-            .flags
-            .contains(wgpu::DownlevelFlags::COMPUTE_SHADERS)
-            || !downlevel
-                .flags
-                .contains(wgpu::DownlevelFlags::VERTEX_STORAGE)
-        {
+        // Compute for the solvers, storage in vertex shaders for hair drawn straight from the
+        // solver's buffers, per-sample shading for sub-pixel hair coverage.
+        let needed = wgpu::DownlevelFlags::COMPUTE_SHADERS
+            | wgpu::DownlevelFlags::VERTEX_STORAGE
+            | wgpu::DownlevelFlags::MULTISAMPLED_SHADING;
+        if !downlevel.flags.contains(needed) {
             return Err(KamiError::Device(format!(
-                "adapter {} ({:?}) lacks compute shaders or storage buffers in vertex shaders, \
-                 which Kami needs; try KAMI_BACKEND=vulkan",
-                info.name, info.backend
+                "adapter {} ({:?}) lacks {:?}, which Kami needs; try KAMI_BACKEND=vulkan",
+                info.name,
+                info.backend,
+                needed - downlevel.flags
             )));
         }
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {

@@ -54,6 +54,8 @@ pub struct FurSetup {
     pub mesh: Mesh,
     /// Hair length at each vertex (fur length times the region scales).
     pub lengths: Vec<f64>,
+    /// Unit body-segment direction at each vertex (the fur's, or its region's).
+    pub directions: Vec<DVec3>,
     pub table: Vec<[f64; 2]>,
     pub coats: Vec<CoatAlloc>,
 }
@@ -68,24 +70,41 @@ pub fn hair_random(seed: u32, hair: u32, which: u32) -> f64 {
 impl FurSetup {
     /// Load or generate the mesh and allocate the roots of every coat.
     pub fn new(fur: &Fur, seed: u64) -> Result<FurSetup> {
-        let mut mesh = match &fur.mesh {
+        let mesh = match &fur.mesh {
             MeshSource::Critter => super::critter::critter(),
             MeshSource::File(path) => Mesh::load(path)?,
+            MeshSource::CgalDemo(name) => {
+                let dir = std::env::temp_dir().join("kami-cgal-data");
+                Mesh::load(crate::scene::mesh::cgal_demo_mesh(name, &dir)?)?
+            }
         };
+        FurSetup::from_mesh(fur, mesh, seed)
+    }
+
+    /// Allocate the roots of every coat on `mesh` (in place of `fur.mesh`).
+    pub fn from_mesh(fur: &Fur, mut mesh: Mesh, seed: u64) -> Result<FurSetup> {
         if let Some(size) = fur.size {
             mesh.fit(size);
         }
+        let inside = |p: DVec3| {
+            fur.regions
+                .iter()
+                .filter(move |r| (p - DVec3::from(r.center)).length() <= r.radius)
+        };
         let lengths = mesh
             .positions
             .iter()
+            .map(|p| fur.length * inside(*p).map(|r| r.length_scale).product::<f64>())
+            .collect();
+        let directions = mesh
+            .positions
+            .iter()
             .map(|p| {
-                fur.length
-                    * fur
-                        .length_regions
-                        .iter()
-                        .filter(|r| (*p - DVec3::from(r.center)).length() <= r.radius)
-                        .map(|r| r.scale)
-                        .product::<f64>()
+                let d = inside(*p)
+                    .filter_map(|r| r.direction)
+                    .next_back()
+                    .unwrap_or(fur.direction);
+                DVec3::from(d).normalize()
             })
             .collect();
         let mut rng = Rng::new(seed, 0xF00D);
@@ -138,6 +157,7 @@ impl FurSetup {
             fur: fur.clone(),
             mesh,
             lengths,
+            directions,
             table,
             coats,
         })
@@ -226,6 +246,7 @@ pub fn hair_points(s: &FurSetup, coat: usize, t: usize, h: u32, frame: f64) -> H
     let mut root = DVec3::ZERO;
     let mut normal = DVec3::ZERO;
     let mut len = 0.0;
+    let mut body = DVec3::ZERO;
     for k in 0..3 {
         let v = tri[k] as usize;
         let (p, n) = deform(
@@ -237,10 +258,11 @@ pub fn hair_points(s: &FurSetup, coat: usize, t: usize, h: u32, frame: f64) -> H
         root += b[k] * p;
         normal += b[k] * n;
         len += b[k] * s.lengths[v];
+        body += b[k] * s.directions[v];
     }
     let n = normal.try_normalize().unwrap_or(DVec3::Y);
     let len = len * c.relative_length;
-    let body = DVec3::from(s.fur.direction).normalize();
+    let body = body.try_normalize().unwrap_or(n);
     let wdir0 = ((1.0 - c.direction_weight) * n + c.direction_weight * body)
         .try_normalize()
         .unwrap_or(n);
@@ -372,6 +394,7 @@ impl FurGpu {
                 gpu::storage_entry(5, cs, true),
                 gpu::storage_entry(6, cs, false),
                 gpu::storage_entry(7, cs, false),
+                gpu::storage_entry(8, cs, true),
             ],
         });
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -425,10 +448,12 @@ impl FurGpu {
             .iter()
             .map(|b| [b[0] as f32, b[1] as f32])
             .collect();
+        let dirs: Vec<[f32; 4]> = setup.directions.iter().map(|d| vec4(*d)).collect();
         let tri_count = setup.mesh.triangles.len() as u32;
         let none = wgpu::BufferUsages::empty();
         let mesh = gpu::storage_buffer(device, "fur mesh", bytemuck::cast_slice(&mesh), none);
         gpu.check_storage_size("the fur mesh", mesh.size())?;
+        let dirs = gpu::storage_buffer(device, "fur directions", bytemuck::cast_slice(&dirs), none);
         let tris_buf =
             gpu::storage_buffer(device, "fur triangles", bytemuck::cast_slice(&tris), none);
         let first = gpu::storage_buffer(
@@ -481,6 +506,7 @@ impl FurGpu {
                 entry(5, &table),
                 entry(6, &strands.vertices),
                 entry(7, &info),
+                entry(8, &dirs),
             ],
         });
         Ok(FurGpu {
@@ -541,12 +567,11 @@ impl FurGpu {
                 end_rand: coat.end_randomize as f32,
                 dir_weight: coat.direction_weight as f32,
                 _pad: [0.0; 3],
-                direction: vec4(DVec3::from(fur.direction).normalize()),
                 up: vec4(DVec3::from(fur.up).normalize()),
                 motion,
                 motion_axis: axis,
                 motion_dir: dir,
-                _slot: [0; 28],
+                _slot: [0; 32],
             };
             bytes.extend_from_slice(bytemuck::bytes_of(&g));
         }

@@ -179,7 +179,7 @@ impl FurPass {
                 multisample: wgpu::MultisampleState {
                     count: samples,
                     mask: !0,
-                    alpha_to_coverage_enabled: msaa && coverage,
+                    alpha_to_coverage_enabled: false,
                 },
                 fragment: Some(wgpu::FragmentState {
                     module,

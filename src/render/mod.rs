@@ -248,7 +248,7 @@ impl Renderer {
         gpu.queue.write_buffer(
             &self.frame_buffer,
             0,
-            bytemuck::bytes_of(&frame_uniform(view, targets.size)),
+            bytemuck::bytes_of(&frame_uniform(view, targets.size, self.quality.msaa)),
         );
         if let Some((hull, pose, color)) = &view.head {
             self.head.prepare(&gpu.queue, hull, *pose, *color);
@@ -291,8 +291,8 @@ impl Renderer {
     }
 }
 
-/// The frame uniform for a target of `size` samples.
-pub fn frame_uniform(view: &FrameView, size: (u32, u32)) -> GpuFrame {
+/// The frame uniform for a target of `size` samples with `msaa` samples per pixel.
+pub fn frame_uniform(view: &FrameView, size: (u32, u32), msaa: u32) -> GpuFrame {
     let cam = &view.camera;
     let (near, far) = cam.clip_planes(view.bounds.0, view.bounds.1);
     let vp = cam.view_proj(size.0 as f64 / size.1 as f64, near, far);
@@ -324,7 +324,7 @@ pub fn frame_uniform(view: &FrameView, size: (u32, u32)) -> GpuFrame {
             // Full coverage compensation (1/f) turns a sparse preview into paper strips;
             // 1/sqrt(f) keeps most of the density and still reads as hair.
             (1.0 / view.hair_fraction.clamp(1e-3, 1.0).sqrt()) as f32,
-            0.0,
+            msaa.max(1) as f32,
         ],
         flags: [f32::from(u8::from(view.show_pseudo)), 0.0, 0.0, 0.0],
     }

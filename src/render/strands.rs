@@ -116,7 +116,7 @@ impl StrandsPass {
             multisample: wgpu::MultisampleState {
                 count: samples,
                 mask: !0,
-                alpha_to_coverage_enabled: msaa,
+                alpha_to_coverage_enabled: false,
             },
             fragment: Some(wgpu::FragmentState {
                 module,

@@ -18,12 +18,14 @@ pub struct Fur {
     pub hairs: u32,
     /// Hair length (world units) before per-region and per-coat scaling.
     pub length: f64,
-    /// Length scales for selected regions (spheres); the product of those containing a
-    /// vertex applies there, interpolated over triangles.
+    /// Selected regions (spheres) with their own length scale and direction vector: the
+    /// product of the length scales of the regions containing a vertex applies there, and
+    /// the direction of the last one listed that has one; both are interpolated over
+    /// triangles.
     #[serde(default)]
-    pub length_regions: Vec<LengthRegion>,
-    /// The body-segment direction vector (3.4), blended with the skin normal by each coat's
-    /// `direction_weight`.
+    pub regions: Vec<Region>,
+    /// The body-segment direction vector (3.4) where no region sets one, blended with the
+    /// skin normal by each coat's `direction_weight`.
     #[serde(default = "back")]
     pub direction: [f64; 3],
     /// Up, for gravity (3.5: the paper's Z).
@@ -55,16 +57,24 @@ fn skin() -> [f32; 3] {
 pub enum MeshSource {
     /// Kami's own furry critter (no download needed).
     Critter,
-    /// An OBJ, OFF or PLY file, relative to the working directory.
+    /// An OBJ, OFF or PLY file; a relative path is taken from the scene file's folder.
     File(String),
+    /// A mesh of the CGAL demo data in Debian's `libcgal-demo` (e.g. "lion-head.off"),
+    /// extracted on first use into the system's temporary folder.
+    CgalDemo(String),
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct LengthRegion {
+pub struct Region {
     pub center: [f64; 3],
     pub radius: f64,
-    pub scale: f64,
+    /// Hair length scale inside the region.
+    #[serde(default = "one")]
+    pub length_scale: f64,
+    /// The body-segment direction inside the region (for instance down the legs).
+    #[serde(default)]
+    pub direction: Option<[f64; 3]>,
 }
 
 /// One coat (3.1): its share of the hairs and how they look.

@@ -6,7 +6,7 @@
 
 use crate::error::{KamiError, Result};
 use glam::DVec3;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// An indexed triangle mesh with per-vertex normals.
 #[derive(Clone, Debug, PartialEq)]
@@ -128,6 +128,13 @@ impl Mesh {
             for t in mesh.indices.chunks_exact(3) {
                 triangles.push([base + t[0], base + t[1], base + t[2]]);
             }
+        }
+        if positions.iter().any(|p| !p.is_finite()) {
+            return Err(err(
+                name,
+                obj_error_line(text),
+                "a vertex coordinate is not a finite number",
+            ));
         }
         Mesh::new(positions, triangles, has_normals.then_some(normals), name)
     }
@@ -251,7 +258,7 @@ impl Mesh {
         let parser = Parser::<DefaultElement>::new();
         let ply = parser
             .read_ply(&mut std::io::Cursor::new(bytes))
-            .map_err(|e| err(name, None, format!("{e}")))?;
+            .map_err(|e| ply_error(name, &e.to_string()))?;
         let num = |p: &Property| -> Option<f64> {
             match p {
                 Property::Float(v) => Some(*v as f64),
@@ -358,6 +365,76 @@ impl Mesh {
     }
 }
 
+/// Where Debian's `libcgal-demo` puts the CGAL demo data (meshes in `data/meshes/`).
+pub const CGAL_DATA: &str = "/usr/share/doc/libcgal-dev/data.tar.gz";
+
+/// Real meshes for tests and examples come from a Debian package, never from the repository:
+/// extract `data/meshes/{name}` of the CGAL demo data into `dir` (once) and return its path.
+pub fn cgal_demo_mesh(name: &str, dir: &Path) -> Result<PathBuf> {
+    let path = dir.join("data/meshes").join(name);
+    if path.exists() {
+        return Ok(path);
+    }
+    let missing = |why: String| {
+        err(
+            &path.display().to_string(),
+            None,
+            format!(
+                "{why}; the CGAL demo meshes come with Debian's libcgal-demo: \
+                 apt-get install --no-install-recommends libcgal-demo"
+            ),
+        )
+    };
+    if !Path::new(CGAL_DATA).exists() {
+        return Err(missing(format!("{CGAL_DATA} is missing")));
+    }
+    // Extract beside the target and rename, so concurrent callers never read half a file.
+    let tmp = dir.join(format!(
+        ".extract-{}-{:?}",
+        std::process::id(),
+        std::thread::current().id()
+    ));
+    let io = |source| KamiError::Io {
+        path: dir.to_path_buf(),
+        source,
+    };
+    std::fs::create_dir_all(&tmp).map_err(io)?;
+    std::fs::create_dir_all(path.parent().unwrap_or(dir)).map_err(io)?;
+    let out = std::process::Command::new("tar")
+        .arg("xzf")
+        .arg(CGAL_DATA)
+        .arg("-C")
+        .arg(&tmp)
+        .arg(format!("data/meshes/{name}"))
+        .output()
+        .map_err(|e| missing(format!("cannot run tar: {e}")))?;
+    let extracted = tmp.join("data/meshes").join(name);
+    let result = if out.status.success() && extracted.exists() {
+        std::fs::rename(&extracted, &path).map_err(io)
+    } else {
+        let why = String::from_utf8_lossy(&out.stderr);
+        Err(missing(format!(
+            "{name} is not in {CGAL_DATA} ({})",
+            why.lines().next().unwrap_or("tar failed")
+        )))
+    };
+    std::fs::remove_dir_all(&tmp).ok();
+    result.map(|_| path)
+}
+
+/// ply-rs reports "Line N: what. String: 'text' Error: (parser dump)": keep the line as the
+/// error's place and the first two parts as its message.
+fn ply_error(name: &str, text: &str) -> KamiError {
+    let flat = text.split_whitespace().collect::<Vec<_>>().join(" ");
+    let (line, rest) = match flat.strip_prefix("Line ").and_then(|r| r.split_once(": ")) {
+        Some((n, rest)) => (n.parse().ok(), rest),
+        None => (None, flat.as_str()),
+    };
+    let short = rest.split(" Error: ").next().unwrap_or(rest);
+    let short: String = short.chars().take(200).collect();
+    err(name, line, short)
+}
+
 /// Area-weighted vertex normals; vertices no triangle gives a normal point up.
 pub fn vertex_normals(positions: &[DVec3], triangles: &[[u32; 3]]) -> Vec<DVec3> {
     let mut n = vec![DVec3::ZERO; positions.len()];
@@ -374,26 +451,42 @@ pub fn vertex_normals(positions: &[DVec3], triangles: &[[u32; 3]]) -> Vec<DVec3>
         .collect()
 }
 
-/// The line of the first OBJ statement that cannot be parsed (tobj reports no lines).
+/// The line of the first OBJ statement that cannot be parsed or that points past the
+/// vertices (tobj reports no lines).
 fn obj_error_line(text: &str) -> Option<usize> {
+    let total = text
+        .lines()
+        .filter(|l| l.split_whitespace().next() == Some("v"))
+        .count() as i64;
+    let mut seen = 0i64;
     for (i, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
         let Some(key) = words.next() else { continue };
         let nums = |n: usize, words: std::str::SplitWhitespace| {
             let v: Vec<&str> = words.collect();
-            v.len() < n || v.iter().take(n).any(|w| w.parse::<f64>().is_err())
+            v.len() < n
+                || v.iter()
+                    .take(n)
+                    .any(|w| w.parse::<f64>().map_or(true, |x| !x.is_finite()))
+        };
+        // Positive indices count from the file's first vertex, negative ones back from the
+        // last vertex read so far.
+        let bad_index = |w: &str| {
+            w.split('/')
+                .next()
+                .and_then(|i| i.parse::<i64>().ok())
+                .is_none_or(|i| i == 0 || i > total || i < -seen)
         };
         let bad = match key {
-            "v" | "vn" => nums(3, words),
+            "v" => {
+                seen += 1;
+                nums(3, words)
+            }
+            "vn" => nums(3, words),
             "vt" => nums(1, words),
             "f" => {
                 let v: Vec<&str> = words.collect();
-                v.len() < 3
-                    || v.iter().any(|w| {
-                        w.split('/')
-                            .next()
-                            .is_none_or(|i| i.parse::<i64>().map_or(true, |i| i == 0))
-                    })
+                v.len() < 3 || v.iter().any(|w| bad_index(w))
             }
             _ => false,
         };

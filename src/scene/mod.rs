@@ -501,7 +501,19 @@ impl Scene {
             path: path.to_path_buf(),
             source,
         })?;
-        Scene::from_ron(&text, &path.display().to_string())
+        let mut scene = Scene::from_ron(&text, &path.display().to_string())?;
+        // A fur mesh named relative to the scene file.
+        if let Some(fur::Fur {
+            mesh: fur::MeshSource::File(m),
+            ..
+        }) = scene.fur.as_mut()
+        {
+            let dir = path.parent().unwrap_or(Path::new(""));
+            if Path::new(m.as_str()).is_relative() && !dir.as_os_str().is_empty() {
+                *m = dir.join(m.as_str()).display().to_string();
+            }
+        }
+        Ok(scene)
     }
 
     /// Pretty RON, for saving a tuned scene.

@@ -441,14 +441,24 @@ fn validate_group(p: &str, g: &HairGroup) -> Result<()> {
 }
 
 fn validate_fur(f: &fur::Fur) -> Result<()> {
-    if let fur::MeshSource::File(p) = &f.mesh {
-        if p.trim().is_empty() {
+    match &f.mesh {
+        fur::MeshSource::File(p) if p.trim().is_empty() => {
             return Err(bad(
                 "fur.mesh",
                 "\"\"",
                 "must name an .obj, .off or .ply file",
             ));
         }
+        fur::MeshSource::CgalDemo(n)
+            if n.is_empty() || n.contains(['/', '\\']) || n.starts_with('.') =>
+        {
+            return Err(bad(
+                "fur.mesh",
+                format!("CgalDemo({n:?})"),
+                "must be a file name in the CGAL demo meshes, e.g. \"lion-head.off\"",
+            ));
+        }
+        _ => {}
     }
     if let Some(size) = f.size {
         positive("fur.size", size, BIG)?;
@@ -457,15 +467,18 @@ fn validate_fur(f: &fur::Fur) -> Result<()> {
         return Err(bad("fur.hairs", f.hairs, "must be in [1, 20000000]"));
     }
     positive("fur.length", f.length, BIG)?;
-    for (i, r) in f.length_regions.iter().enumerate() {
-        vec3(&format!("fur.length_regions[{i}].center"), r.center, BIG)?;
-        positive(&format!("fur.length_regions[{i}].radius"), r.radius, BIG)?;
+    for (i, r) in f.regions.iter().enumerate() {
+        vec3(&format!("fur.regions[{i}].center"), r.center, BIG)?;
+        positive(&format!("fur.regions[{i}].radius"), r.radius, BIG)?;
         within(
-            &format!("fur.length_regions[{i}].scale"),
-            r.scale,
+            &format!("fur.regions[{i}].length_scale"),
+            r.length_scale,
             0.0,
             100.0,
         )?;
+        if let Some(d) = r.direction {
+            nonzero(&format!("fur.regions[{i}].direction"), d)?;
+        }
     }
     nonzero("fur.direction", f.direction)?;
     nonzero("fur.up", f.up)?;
