@@ -137,6 +137,11 @@ fn any_perpendicular(v: vec3<f32>) -> vec3<f32> {
 
 // Sub-pixel coverage as for Anjyo's hair (common/coverage.wgsl); tubes are opaque.
 @fragment
-fn fs(in: VOut, @builtin(sample_index) sample: u32) -> @location(0) vec4<f32> {
-    return hair_fragment(in.color, in.pos.xy, in.strand, sample);
+fn fs(in: VOut) -> HairFragment {
+    return hair_fragment(in.color, in.pos.xy, in.strand);
+}
+
+@fragment
+fn fs_per_sample(in: VOut, @builtin(sample_index) sample: u32) -> @location(0) vec4<f32> {
+    return hair_fragment_per_sample(in.color, in.pos.xy, in.strand, sample);
 }

@@ -97,6 +97,11 @@ fn vs(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -> VOut 
 }
 
 @fragment
-fn fs(in: VOut, @builtin(sample_index) sample: u32) -> @location(0) vec4<f32> {
-    return hair_fragment(in.color, in.pos.xy, in.strand, sample);
+fn fs(in: VOut) -> HairFragment {
+    return hair_fragment(in.color, in.pos.xy, in.strand);
+}
+
+@fragment
+fn fs_per_sample(in: VOut, @builtin(sample_index) sample: u32) -> @location(0) vec4<f32> {
+    return hair_fragment_per_sample(in.color, in.pos.xy, in.strand, sample);
 }

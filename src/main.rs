@@ -117,6 +117,23 @@ enum Bench {
         #[arg(long)]
         software: bool,
     },
+    /// Van Gelder & Wilhelms' fur: hairs/s per style at 900x900 against the paper's rates,
+    /// the Figure 9 image at 500,000 hairs, and distance-based culling (image error against
+    /// the full-density render versus hairs drawn and time); writes fur.md, fur.csv and
+    /// fur_culling.png.
+    Fur {
+        /// Folder holding the shipped fur scenes (fur_line.ron ... fur_fig9.ron).
+        #[arg(long, default_value = "assets/scenes")]
+        scenes: PathBuf,
+        /// Frames to time per figure.
+        #[arg(long, default_value_t = 5)]
+        frames: u32,
+        /// Directory for the report files.
+        #[arg(long, default_value = "bench_out")]
+        out: PathBuf,
+        #[arg(long)]
+        software: bool,
+    },
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -336,6 +353,23 @@ fn main() -> Result<()> {
                 println!("{}", report.markdown);
                 println!(
                     "wrote {0}/dynamics.md, {0}/dynamics.csv, {0}/dynamics.png",
+                    out.display()
+                );
+            }
+            Bench::Fur {
+                scenes,
+                frames,
+                out,
+                software,
+            } => {
+                if frames == 0 {
+                    bail!("--frames must be at least 1");
+                }
+                let gpu = Gpu::headless(preference(software))?;
+                let report = kami::bench::fur::run(&gpu, &scenes, &out, frames)?;
+                println!("{}", report.markdown);
+                println!(
+                    "wrote {0}/fur.md, {0}/fur.csv, {0}/fur_culling.png",
                     out.display()
                 );
             }

@@ -527,6 +527,70 @@ fn stats(ui: &mut Ui, s: &ViewerState) {
     });
 }
 
+/// Three drag values for a direction vector (normalised where it is used).
+fn vector(ui: &mut Ui, label: &str, v: &mut [f64; 3]) {
+    ui.horizontal(|ui| {
+        ui.label(label);
+        for (c, axis) in v.iter_mut().zip(["x", "y", "z"]) {
+            ui.add(
+                egui::DragValue::new(c)
+                    .speed(0.02)
+                    .range(-1.0..=1.0)
+                    .prefix(format!("{axis} ")),
+            );
+        }
+    });
+}
+
+/// The body-segment direction and the regions with their own length and direction.
+fn fur_regions(ui: &mut Ui, f: &mut crate::scene::fur::Fur) {
+    vector(ui, "direction", &mut f.direction);
+    let mut remove = None;
+    for (i, r) in f.regions.iter_mut().enumerate() {
+        ui.separator();
+        ui.horizontal(|ui| {
+            ui.label(format!("region {i} centre"));
+            for c in r.center.iter_mut() {
+                ui.add(egui::DragValue::new(c).speed(0.02));
+            }
+            if ui.small_button("remove").clicked() {
+                remove = Some(i);
+            }
+        });
+        ui.add(
+            Slider::new(&mut r.radius, 0.01..=5.0)
+                .logarithmic(true)
+                .text("radius"),
+        );
+        ui.add(
+            Slider::new(&mut r.length_scale, 0.05..=5.0)
+                .logarithmic(true)
+                .text("length scale"),
+        );
+        let mut own = r.direction.is_some();
+        ui.checkbox(&mut own, "own direction");
+        match (own, r.direction.is_some()) {
+            (true, false) => r.direction = Some(f.direction),
+            (false, true) => r.direction = None,
+            _ => {}
+        }
+        if let Some(d) = r.direction.as_mut() {
+            vector(ui, "direction", d);
+        }
+    }
+    if let Some(i) = remove {
+        f.regions.remove(i);
+    }
+    if ui.small_button("add a region").clicked() {
+        f.regions.push(crate::scene::fur::Region {
+            center: [0.0; 3],
+            radius: 0.5,
+            length_scale: 1.0,
+            direction: None,
+        });
+    }
+}
+
 fn fur(ui: &mut Ui, s: &mut ViewerState) {
     use crate::scene::fur::{Coat, FurMaterial, FurStyle};
     let Some(f) = s.scene.fur.as_mut() else {
@@ -548,6 +612,9 @@ fn fur(ui: &mut Ui, s: &mut ViewerState) {
             .text("length"),
     );
     ui.checkbox(&mut f.culling.enabled, "distance-based culling");
+    egui::CollapsingHeader::new(format!("direction and regions ({})", f.regions.len()))
+        .id_salt("fur regions")
+        .show(ui, |ui| fur_regions(ui, f));
     let mut moving = f.motion.is_some();
     ui.checkbox(&mut moving, "animated body wave");
     match (moving, f.motion.is_some()) {
@@ -635,7 +702,7 @@ fn fur(ui: &mut Ui, s: &mut ViewerState) {
             normal_randomize: 0.3,
             end_randomize: 0.05,
             direction_weight: 0.1,
-            style: FurStyle::Line,
+            style: FurStyle::Polyline,
             material: FurMaterial::default(),
         });
     }

@@ -120,10 +120,13 @@ impl Gpu {
         let info = adapter.get_info();
         let downlevel = adapter.get_downlevel_capabilities();
         // Compute for the solvers, storage in vertex shaders for hair drawn straight from the
-        // solver's buffers, per-sample shading for sub-pixel hair coverage.
-        let needed = wgpu::DownlevelFlags::COMPUTE_SHADERS
-            | wgpu::DownlevelFlags::VERTEX_STORAGE
-            | wgpu::DownlevelFlags::MULTISAMPLED_SHADING;
+        // solver's buffers; on GL, per-sample shading for sub-pixel hair coverage
+        // (render::hair_fragment_entry).
+        let mut needed =
+            wgpu::DownlevelFlags::COMPUTE_SHADERS | wgpu::DownlevelFlags::VERTEX_STORAGE;
+        if info.backend == wgpu::Backend::Gl {
+            needed |= wgpu::DownlevelFlags::MULTISAMPLED_SHADING;
+        }
         if !downlevel.flags.contains(needed) {
             return Err(KamiError::Device(format!(
                 "adapter {} ({:?}) lacks {:?}, which Kami needs; try KAMI_BACKEND=vulkan",

@@ -113,6 +113,7 @@ impl FurPass {
             &mesh_pipeline_layout,
             format,
             samples,
+            super::hair_fragment_entry(gpu),
         );
         Ok(FurPass {
             module,
@@ -139,6 +140,7 @@ impl FurPass {
             &self.mesh_pipeline_layout,
             self.format,
             samples,
+            super::hair_fragment_entry(gpu),
         );
     }
 
@@ -150,6 +152,7 @@ impl FurPass {
         mesh_pl: &wgpu::PipelineLayout,
         format: wgpu::TextureFormat,
         samples: u32,
+        hair_fs: &str,
     ) -> (
         wgpu::RenderPipeline,
         wgpu::RenderPipeline,
@@ -159,6 +162,7 @@ impl FurPass {
         let make = |module: &wgpu::ShaderModule,
                     layout: &wgpu::PipelineLayout,
                     entry: &str,
+                    fs: &str,
                     topology,
                     coverage: bool| {
             device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
@@ -183,7 +187,7 @@ impl FurPass {
                 },
                 fragment: Some(wgpu::FragmentState {
                     module,
-                    entry_point: Some("fs"),
+                    entry_point: Some(fs),
                     compilation_options: Default::default(),
                     targets: &[Some(wgpu::ColorTargetState {
                         format,
@@ -200,6 +204,7 @@ impl FurPass {
                 module,
                 pl,
                 "vs_ribbon",
+                hair_fs,
                 wgpu::PrimitiveTopology::TriangleStrip,
                 true,
             ),
@@ -207,6 +212,7 @@ impl FurPass {
                 module,
                 pl,
                 "vs_tube",
+                hair_fs,
                 wgpu::PrimitiveTopology::TriangleList,
                 false,
             ),
@@ -214,6 +220,7 @@ impl FurPass {
                 mesh_module,
                 mesh_pl,
                 "vs",
+                "fs",
                 wgpu::PrimitiveTopology::TriangleList,
                 false,
             ),

@@ -291,6 +291,17 @@ impl Renderer {
     }
 }
 
+/// The fragment entry point of the hair and fur shaders on this adapter: both make the same
+/// per-sample coverage decisions (`shaders/common/coverage.wgsl`); the GL backend gets the
+/// per-sample one because naga cannot write a sample mask in GLSL.
+pub fn hair_fragment_entry(gpu: &Gpu) -> &'static str {
+    if gpu.info.backend == wgpu::Backend::Gl {
+        "fs_per_sample"
+    } else {
+        "fs"
+    }
+}
+
 /// The frame uniform for a target of `size` samples with `msaa` samples per pixel.
 pub fn frame_uniform(view: &FrameView, size: (u32, u32), msaa: u32) -> GpuFrame {
     let cam = &view.camera;

@@ -63,7 +63,8 @@ impl StrandsPass {
             bind_group_layouts: &[Some(frame_layout), Some(&layout)],
             immediate_size: 0,
         });
-        let pipeline = Self::pipeline(device, &module, &pl, color_format, samples);
+        let fs = super::hair_fragment_entry(gpu);
+        let pipeline = Self::pipeline(device, &module, &pl, color_format, samples, fs);
         Ok(StrandsPass {
             module,
             pipeline_layout: pl,
@@ -82,6 +83,7 @@ impl StrandsPass {
             &self.pipeline_layout,
             self.format,
             samples,
+            super::hair_fragment_entry(gpu),
         );
     }
 
@@ -91,6 +93,7 @@ impl StrandsPass {
         pl: &wgpu::PipelineLayout,
         color_format: wgpu::TextureFormat,
         samples: u32,
+        fs: &str,
     ) -> wgpu::RenderPipeline {
         let msaa = samples > 1;
         let blend = if msaa {
@@ -120,7 +123,7 @@ impl StrandsPass {
             },
             fragment: Some(wgpu::FragmentState {
                 module,
-                entry_point: Some("fs"),
+                entry_point: Some(fs),
                 compilation_options: Default::default(),
                 targets: &[Some(wgpu::ColorTargetState {
                     format: color_format,

@@ -1,6 +1,8 @@
 //! Benchmarks behind `kami bench`. Speed is measured here, never in tests. Each report is
 //! Markdown (for the README) plus CSV, and says which adapter and CPU produced it.
 
+pub mod fur;
+
 use crate::error::Result;
 use crate::gpu::Gpu;
 use crate::groom::cantilever::{self, Beam, CantileverPass};
