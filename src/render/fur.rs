@@ -106,14 +106,13 @@ impl FurPass {
             immediate_size: 0,
         });
         let (ribbon, tube, skin) = Self::pipelines(
-            device,
+            gpu,
             &module,
             &mesh_module,
             &pipeline_layout,
             &mesh_pipeline_layout,
             format,
             samples,
-            super::hair_fragment_entry(gpu),
         );
         Ok(FurPass {
             module,
@@ -133,31 +132,31 @@ impl FurPass {
     /// Rebuild the pipelines for another MSAA sample count.
     pub fn set_samples(&mut self, gpu: &Gpu, samples: u32) {
         (self.ribbon, self.tube, self.skin) = Self::pipelines(
-            &gpu.device,
+            gpu,
             &self.module,
             &self.mesh_module,
             &self.pipeline_layout,
             &self.mesh_pipeline_layout,
             self.format,
             samples,
-            super::hair_fragment_entry(gpu),
         );
     }
 
     fn pipelines(
-        device: &wgpu::Device,
+        gpu: &Gpu,
         module: &wgpu::ShaderModule,
         mesh_module: &wgpu::ShaderModule,
         pl: &wgpu::PipelineLayout,
         mesh_pl: &wgpu::PipelineLayout,
         format: wgpu::TextureFormat,
         samples: u32,
-        hair_fs: &str,
     ) -> (
         wgpu::RenderPipeline,
         wgpu::RenderPipeline,
         wgpu::RenderPipeline,
     ) {
+        let device = &gpu.device;
+        let hair_fs = super::hair_fragment_entry(gpu);
         let msaa = samples > 1;
         let make = |module: &wgpu::ShaderModule,
                     layout: &wgpu::PipelineLayout,
