@@ -8,21 +8,30 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-struct Xvfb {
-    child: Child,
-    display: String,
-}
+/// A running Xvfb server; killed and reaped on drop.
+struct Server(Child);
 
-impl Drop for Xvfb {
+impl Drop for Server {
     fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
+        let _ = self.0.kill();
+        let _ = self.0.wait();
     }
 }
+
+struct Xvfb {
+    _server: Server,
+    display: String,
+    /// The viewer tests run one at a time (two software-rendered windows on a small machine
+    /// only slow each other down, and they would race for display numbers).
+    _turn: std::sync::MutexGuard<'static, ()>,
+}
+
+static TURN: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
 /// Start Xvfb on a free display. No silent skip: without Xvfb the test fails and says how
 /// to get it.
 fn xvfb() -> Xvfb {
+    let turn = TURN.lock().unwrap_or_else(|e| e.into_inner());
     let found = Command::new("Xvfb")
         .arg("-help")
         .stderr(Stdio::null())
@@ -37,8 +46,8 @@ fn xvfb() -> Xvfb {
         if socket.exists() || Path::new(&format!("/tmp/.X{n}-lock")).exists() {
             continue;
         }
-        let xvfb = Xvfb {
-            child: Command::new("Xvfb")
+        let mut server = Server(
+            Command::new("Xvfb")
                 .args([
                     format!(":{n}"),
                     "-screen".into(),
@@ -51,16 +60,20 @@ fn xvfb() -> Xvfb {
                 .stderr(Stdio::null())
                 .spawn()
                 .expect("starting Xvfb"),
-            display: format!(":{n}"),
-        };
+        );
         let start = Instant::now();
         while !socket.exists() && start.elapsed() < Duration::from_secs(10) {
             std::thread::sleep(Duration::from_millis(50));
         }
-        if socket.exists() {
-            return xvfb;
+        // Another process may have taken the display first: then our Xvfb has exited.
+        if socket.exists() && matches!(server.0.try_wait(), Ok(None)) {
+            return Xvfb {
+                _server: server,
+                display: format!(":{n}"),
+                _turn: turn,
+            };
         }
-        // Dropping `xvfb` kills and reaps it; try the next display.
+        // Dropping `server` kills and reaps it; try the next display.
     }
     panic!("no free X display for Xvfb");
 }
@@ -158,4 +171,72 @@ fn viewer_shows_hair_and_panels_and_reacts_to_changes() {
         share(&b, 0.8, 1.0, dark) > 0.5,
         "panel gone after the change"
     );
+}
+
+/// The fur scene in the viewer: the Fur panel's stiffness set at frame 12 (through the same
+/// code path as the slider) makes the hair stand out; with playback off and a fixed level of
+/// detail nothing else changes between frames.
+#[test]
+fn viewer_shows_fur_and_reacts_to_the_fur_panel() {
+    let x = xvfb();
+    let dir = std::env::temp_dir().join(format!("kami-viewer-fur-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let shots = [8, 11, 22].map(|f| (f, dir.join(format!("fur_{f}.png"))));
+    let runtime = dir.join("xdg");
+    std::fs::create_dir_all(&runtime).unwrap();
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_kami"));
+    cmd.args([
+        "view",
+        "assets/scenes/fur.ron",
+        "--software",
+        "--size",
+        "1024x640",
+        "--exit-after-frames",
+        "24",
+        "--set",
+        "play=off",
+        "--set",
+        "lod=0.3",
+        "--set",
+        "12:fur.stiffness=1",
+    ]);
+    for (f, p) in &shots {
+        cmd.arg("--screenshot-at").arg(format!("{f}:{}", p.display()));
+    }
+    let out = cmd
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .env("DISPLAY", &x.display)
+        .env("XDG_RUNTIME_DIR", &runtime)
+        .output()
+        .expect("running kami view");
+    assert!(
+        out.status.success(),
+        "kami view failed:\n{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let [a, a2, b] = shots.map(|(_, p)| pixels(&p));
+    let brown = |p: &image::Rgb<u8>| p[0] < 150 && p[0] as i32 > p[2] as i32 + 20;
+    let fur = share(&a, 0.0, 0.6, brown);
+    assert!(fur > 0.2, "no fur in the scene area ({fur:.3})");
+    let dark = |p: &image::Rgb<u8>| p.0.iter().all(|&c| c < 60);
+    assert!(share(&a, 0.8, 1.0, dark) > 0.5, "no panel on the right");
+    // Share of scene-area pixels that moved by more than 40 levels.
+    let changed = |x: &image::RgbImage, y: &image::RgbImage| {
+        let w = (x.width() as f64 * 0.6) as u32;
+        let mut n = 0;
+        for yy in 0..x.height() {
+            for xx in 0..w {
+                let (p, q) = (x.get_pixel(xx, yy), y.get_pixel(xx, yy));
+                if (0..3).any(|c| p[c].abs_diff(q[c]) > 40) {
+                    n += 1;
+                }
+            }
+        }
+        n as f64 / (w * x.height()) as f64
+    };
+    let still = changed(&a, &a2);
+    assert!(still < 0.01, "the fur changed on its own: {still:.4}");
+    let moved = changed(&a, &b);
+    assert!(moved > 0.08, "the stiffness change did not show: {moved:.4}");
 }

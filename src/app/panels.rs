@@ -1,5 +1,6 @@
 //! The viewer's egui panels, grouped the way an artist thinks: Files, Stiffness, Forces,
-//! Pseudo-force, Look, Simulation, Stats. They only edit `ViewerState`; the window loop
+//! Pseudo-force, Look, Fur, Simulation, Stats (the hair panels open for a hair scene, Fur for
+//! a fur scene). They only edit `ViewerState`; the window loop
 //! classifies the edit (`params::Changes`) and applies it. Later features add their panels
 //! here.
 
@@ -24,6 +25,7 @@ pub const SHIPPED: &[&str] = &[
     "fur_polyline",
     "fur_curve",
     "fur_tube",
+    "fur_lion_head",
 ];
 
 /// Draw all panels in a right-hand side panel; returns the panel's left edge (points), where
@@ -42,11 +44,13 @@ pub fn show(ui: &mut Ui, s: &mut ViewerState) -> f32 {
                     ui.label(m);
                 }
                 ui.collapsing("Files", |ui| files(ui, s));
-                egui::CollapsingHeader::new("Stiffness").default_open(true).show(ui, |ui| stiffness(ui, s));
+                let hair = !s.scene.groups.is_empty();
+                let fur_scene = s.scene.fur.is_some();
+                egui::CollapsingHeader::new("Stiffness").default_open(hair).show(ui, |ui| stiffness(ui, s));
                 ui.collapsing("Forces", |ui| forces(ui, s));
                 ui.collapsing("Pseudo-force", |ui| pseudo(ui, s));
                 ui.collapsing("Look", |ui| look(ui, s));
-                ui.collapsing("Fur", |ui| fur(ui, s));
+                egui::CollapsingHeader::new("Fur").default_open(fur_scene).show(ui, |ui| fur(ui, s));
                 egui::CollapsingHeader::new("Simulation").default_open(true).show(ui, |ui| simulation(ui, s));
                 egui::CollapsingHeader::new("Stats").default_open(true).show(ui, |ui| stats(ui, s));
                 ui.separator();
