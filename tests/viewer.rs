@@ -201,7 +201,8 @@ fn viewer_shows_fur_and_reacts_to_the_fur_panel() {
         "12:fur.stiffness=1",
     ]);
     for (f, p) in &shots {
-        cmd.arg("--screenshot-at").arg(format!("{f}:{}", p.display()));
+        cmd.arg("--screenshot-at")
+            .arg(format!("{f}:{}", p.display()));
     }
     let out = cmd
         .current_dir(env!("CARGO_MANIFEST_DIR"))
@@ -238,5 +239,8 @@ fn viewer_shows_fur_and_reacts_to_the_fur_panel() {
     let still = changed(&a, &a2);
     assert!(still < 0.01, "the fur changed on its own: {still:.4}");
     let moved = changed(&a, &b);
-    assert!(moved > 0.08, "the stiffness change did not show: {moved:.4}");
+    assert!(
+        moved > 0.08,
+        "the stiffness change did not show: {moved:.4}"
+    );
 }
