@@ -101,37 +101,12 @@ fn share(img: &image::RgbImage, x0: f64, x1: f64, f: impl Fn(&image::Rgb<u8>) ->
     hit as f64 / n as f64
 }
 
-#[test]
-fn viewer_shows_hair_and_panels_and_reacts_to_changes() {
-    let x = xvfb();
-    let dir = std::env::temp_dir().join(format!("kami-viewer-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let (before, after) = (dir.join("before.png"), dir.join("after.png"));
-    let runtime = dir.join("xdg");
-    std::fs::create_dir_all(&runtime).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_kami"))
-        .args([
-            "view",
-            "--software",
-            "--size",
-            "1024x640",
-            "--exit-after-frames",
-            "24",
-        ])
-        .arg("--screenshot-at")
-        .arg(format!("8:{}", before.display()))
-        .args([
-            "--set",
-            "12:play=off",
-            "--set",
-            "12:color=0.95,0.8,0.35",
-            "--set",
-            "12:lod=1",
-        ])
-        .arg("--screenshot-at")
-        .arg(format!("22:{}", after.display()))
+/// Run `kami view` with `cmd`'s arguments in the virtual display; fails with its output.
+fn run_viewer(mut cmd: Command, x: &Xvfb, runtime: &Path) {
+    let out = cmd
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
         .env("DISPLAY", &x.display)
-        .env("XDG_RUNTIME_DIR", &runtime)
+        .env("XDG_RUNTIME_DIR", runtime)
         .output()
         .expect("running kami view");
     assert!(
@@ -140,6 +115,38 @@ fn viewer_shows_hair_and_panels_and_reacts_to_changes() {
         String::from_utf8_lossy(&out.stdout),
         String::from_utf8_lossy(&out.stderr)
     );
+}
+
+#[test]
+fn viewer_shows_hair_and_panels_and_reacts_to_changes() {
+    let x = xvfb();
+    let dir = std::env::temp_dir().join(format!("kami-viewer-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (before, after) = (dir.join("before.png"), dir.join("after.png"));
+    let runtime = dir.join("xdg");
+    std::fs::create_dir_all(&runtime).unwrap();
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_kami"));
+    cmd.args([
+        "view",
+        "--software",
+        "--size",
+        "1024x640",
+        "--exit-after-frames",
+        "24",
+    ])
+    .arg("--screenshot-at")
+    .arg(format!("8:{}", before.display()))
+    .args([
+        "--set",
+        "12:play=off",
+        "--set",
+        "12:color=0.95,0.8,0.35",
+        "--set",
+        "12:lod=1",
+    ])
+    .arg("--screenshot-at")
+    .arg(format!("22:{}", after.display()));
+    run_viewer(cmd, &x, &runtime);
     let a = pixels(&before);
     let b = pixels(&after);
     // Not blank: many distinct colours.
@@ -204,18 +211,7 @@ fn viewer_shows_fur_and_reacts_to_the_fur_panel() {
         cmd.arg("--screenshot-at")
             .arg(format!("{f}:{}", p.display()));
     }
-    let out = cmd
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .env("DISPLAY", &x.display)
-        .env("XDG_RUNTIME_DIR", &runtime)
-        .output()
-        .expect("running kami view");
-    assert!(
-        out.status.success(),
-        "kami view failed:\n{}\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
+    run_viewer(cmd, &x, &runtime);
     let [a, a2, b] = shots.map(|(_, p)| pixels(&p));
     let brown = |p: &image::Rgb<u8>| p[0] < 150 && p[0] as i32 > p[2] as i32 + 20;
     let fur = share(&a, 0.0, 0.6, brown);

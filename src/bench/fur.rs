@@ -6,6 +6,7 @@
 use super::{cpu_name, time_mean, Report};
 use crate::error::Result;
 use crate::gpu::Gpu;
+use crate::groom::fur::FurFrame;
 use crate::render::{self, target, FrameView, Quality, Renderer, SceneContent};
 use crate::scene::fur::FurStyle;
 use crate::scene::Scene;
@@ -55,19 +56,24 @@ impl Stage {
         })
     }
 
-    /// Generate and draw one frame; `compensate: false` keeps the culled hairs' width (to
-    /// show what the compensation buys). Returns the hairs drawn.
-    fn frame(&mut self, gpu: &Gpu, compensate: bool) -> Result<u64> {
-        let mut enc = gpu.device.create_command_encoder(&Default::default());
+    /// Record this frame's fur generation (the compute pass).
+    fn record(&mut self, gpu: &Gpu, enc: &mut wgpu::CommandEncoder) -> Result<FurFrame> {
         let fur = self.content.fur.as_mut().expect("a fur scene");
-        let mut ff = fur.record(
+        fur.record(
             gpu,
-            &mut enc,
+            enc,
             0.0,
             self.view.camera.eye,
             self.view.camera.fov_y,
             1.0,
-        )?;
+        )
+    }
+
+    /// Generate and draw one frame; `compensate: false` keeps the culled hairs' width (to
+    /// show what the compensation buys). Returns the hairs drawn.
+    fn frame(&mut self, gpu: &Gpu, compensate: bool) -> Result<u64> {
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        let mut ff = self.record(gpu, &mut enc)?;
         if !compensate {
             ff.width_scale = 1.0;
         }
@@ -80,18 +86,10 @@ impl Stage {
         Ok(drawn)
     }
 
-    /// Generation alone (the compute pass), for the cost of regenerating every frame.
+    /// Generation alone, for the cost of regenerating every frame.
     fn generate(&mut self, gpu: &Gpu) -> Result<()> {
         let mut enc = gpu.device.create_command_encoder(&Default::default());
-        let fur = self.content.fur.as_mut().expect("a fur scene");
-        fur.record(
-            gpu,
-            &mut enc,
-            0.0,
-            self.view.camera.eye,
-            self.view.camera.fov_y,
-            1.0,
-        )?;
+        self.record(gpu, &mut enc)?;
         gpu.queue.submit([enc.finish()]);
         gpu.wait()
     }
