@@ -28,7 +28,7 @@ struct DynParams {
     sigma_start: f32,
     inertia_root: f32,
     inertia_tip: f32,
-    _p0: f32,
+    sigma_end: f32,
     _p1: f32,
     _p2: f32,
     head_center: vec4<f32>,
@@ -116,7 +116,7 @@ fn sigma_at(t: f32) -> f32 {
     if t <= params.sigma_start {
         return params.sigma_root;
     }
-    let u = clamp((t - params.sigma_start) / max(1.0 - params.sigma_start, 1e-9), 0.0, 1.0);
+    let u = clamp((t - params.sigma_start) / max(params.sigma_end - params.sigma_start, 1e-9), 0.0, 1.0);
     return params.sigma_root + (params.sigma_tip - params.sigma_root) * u;
 }
 

@@ -127,6 +127,16 @@ fn scene_level_values_are_checked() {
         ("    ],\n    render: RenderSettings(supersample: 9),\n)", "render.supersample"),
         ("    ],\n    render: RenderSettings(size: (0, 100)),\n)", "render.size.0"),
         ("    ],\n    gravity: (0.0, NaN, 0.0),\n)", "gravity[1]"),
+        ("    ],\n    dynamics: Some(Dynamics(dt: 0.0)),\n)", "dynamics.dt"),
+        ("    ],\n    dynamics: Some(Dynamics(dt: NaN)),\n)", "dynamics.dt"),
+        ("    ],\n    dynamics: Some(Dynamics(damping: -1.0)),\n)", "dynamics.damping"),
+        ("    ],\n    dynamics: Some(Dynamics(wind: [WindKey(frame: 5.0, force: (1.0, 0.0, 0.0)), WindKey(frame: 5.0, force: (0.0, 1.0, 0.0))])),\n)", "dynamics.wind[1].frame"),
+        ("    ],\n    dynamics: Some(Dynamics(wind: [WindKey(frame: 0.0, force: (inf, 0.0, 0.0))])),\n)", "dynamics.wind[0].force[0]"),
+        ("    ],\n    dynamics: Some(Dynamics(head_motion: [HeadKey(frame: 0.0, rotate: (0.0, NaN, 0.0))])),\n)", "dynamics.head_motion[0].rotate[1]"),
+        ("    ],\n    dynamics: Some(Dynamics(pseudo_force: Some(PseudoForce(alpha: -2.0, epsilon_pore: 0.1, near: 1.0)))),\n)", "dynamics.pseudo_force.alpha"),
+        ("    ],\n    dynamics: Some(Dynamics(stiffness: Stiffness(tip: 200.0))),\n)", "dynamics.stiffness.tip"),
+        ("    ],\n    dynamics: Some(Dynamics(stiffness: Stiffness(start: 0.5, end: 0.5))),\n)", "dynamics.stiffness.end"),
+        ("    ],\n    dynamics: Some(Dynamics(fluctuation: Some(Fluctuation(amplitude: 5.0, period: 0)))),\n)", "dynamics.fluctuation.period"),
     ];
     for (replacement, field) in cases {
         let text = GOOD.replacen(tail, replacement, 1);

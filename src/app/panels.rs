@@ -155,6 +155,11 @@ fn stiffness(ui: &mut Ui, s: &mut ViewerState) {
     ui.add(Slider::new(&mut d.stiffness.root, 0.0..=180.0).text("σ at the root"));
     ui.add(Slider::new(&mut d.stiffness.tip, 0.0..=180.0).text("σ at the tip"));
     ui.add(Slider::new(&mut d.stiffness.start, 0.0..=0.95).text("falls from (fraction)"));
+    ui.add(Slider::new(&mut d.stiffness.end, 0.05..=1.0).text("reaches the tip value at"));
+    // Keep the ramp non-empty while either end is dragged past the other.
+    if d.stiffness.end <= d.stiffness.start {
+        d.stiffness.end = (d.stiffness.start + 0.05).min(1.0);
+    }
     profile_plot(
         ui,
         |t| d.stiffness.sigma_at(t) / 180.0,

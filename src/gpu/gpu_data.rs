@@ -168,13 +168,14 @@ pub struct GpuDynParams {
     pub eps_pore: f32,
     pub eps_tip: f32,
     pub near: f32,
-    /// Joint-angle limits, radians, and where the fall starts (fraction).
+    /// Joint-angle limits, radians, and where the fall starts and ends (fractions).
     pub sigma_root: f32,
     pub sigma_tip: f32,
     pub sigma_start: f32,
     pub inertia_root: f32,
     pub inertia_tip: f32,
-    pub _pad: [f32; 3],
+    pub sigma_end: f32,
+    pub _pad: [f32; 2],
     pub head_center: [f32; 4],
     pub head_radii: [f32; 4],
 }

@@ -718,8 +718,10 @@ pub struct PseudoForce {
 }
 
 /// Joint-angle stiffness (3.2.3): the bend at node i is limited to sigma_i degrees
-/// (180 = free). sigma is `root` up to `start` (fraction of the strand), then falls linearly
-/// to `tip`.
+/// (180 = free). sigma is `root` up to `start` (fraction of the strand), falls linearly to
+/// `tip` at `end`, and stays there: the paper keeps 180 degrees near the pore and 10-15
+/// degrees "for the nodes far from a pore", so the small value must hold over most of the
+/// strand, not only at its tip.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Stiffness {
@@ -729,6 +731,9 @@ pub struct Stiffness {
     pub tip: f64,
     #[serde(default)]
     pub start: f64,
+    /// Where sigma reaches `tip` (fraction; default 1, the tip).
+    #[serde(default = "one")]
+    pub end: f64,
 }
 
 fn free_angle() -> f64 {
@@ -741,6 +746,7 @@ impl Default for Stiffness {
             root: 180.0,
             tip: 180.0,
             start: 0.0,
+            end: 1.0,
         }
     }
 }
@@ -751,7 +757,7 @@ impl Stiffness {
         if t <= self.start {
             self.root
         } else {
-            let u = ((t - self.start) / (1.0 - self.start).max(1e-9)).clamp(0.0, 1.0);
+            let u = ((t - self.start) / (self.end - self.start).max(1e-9)).clamp(0.0, 1.0);
             self.root + (self.tip - self.root) * u
         }
     }

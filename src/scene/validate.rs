@@ -257,6 +257,17 @@ fn validate_dynamics(d: &Dynamics) -> Result<()> {
     within("dynamics.stiffness.root", d.stiffness.root, 0.0, 180.0)?;
     within("dynamics.stiffness.tip", d.stiffness.tip, 0.0, 180.0)?;
     within("dynamics.stiffness.start", d.stiffness.start, 0.0, 0.99)?;
+    within("dynamics.stiffness.end", d.stiffness.end, 0.01, 1.0)?;
+    if d.stiffness.end <= d.stiffness.start {
+        return Err(bad(
+            "dynamics.stiffness.end",
+            d.stiffness.end,
+            &format!(
+                "must be greater than dynamics.stiffness.start ({})",
+                d.stiffness.start
+            ),
+        ));
+    }
     if let Some(f) = &d.fluctuation {
         within("dynamics.fluctuation.amplitude", f.amplitude, 0.0, 90.0)?;
         if f.period == 0 || f.period > 100_000 {

@@ -779,7 +779,8 @@ fn gpu_params(setup: &DynSetup, row_stride: u32) -> GpuDynParams {
         sigma_start: p.stiffness.start as f32,
         inertia_root: p.inertia.root as f32,
         inertia_tip: p.inertia.tip as f32,
-        _pad: [0.0; 3],
+        sigma_end: p.stiffness.end as f32,
+        _pad: [0.0; 2],
         head_center: [
             setup.head.center.x as f32,
             setup.head.center.y as f32,
