@@ -112,6 +112,25 @@ fn check_invariants(sim: &CpuSim, head: &kami::scene::Ellipsoid) {
     }
 }
 
+/// Groom `scene` and run `frames` frames of its dynamics on the GPU; the node positions.
+fn run_gpu(
+    gpu: &kami::gpu::Gpu,
+    scene: &Scene,
+    input: &kami::groom::GroomInput,
+    frames: u32,
+) -> Vec<[f32; 4]> {
+    let hair = cantilever::groom_gpu(gpu, input).unwrap();
+    let mut sim = kami::sim::Simulation::new(gpu, scene, input, &hair)
+        .unwrap()
+        .unwrap();
+    for _ in 0..frames {
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        sim.record_frame(gpu, &mut enc, &hair);
+        gpu.queue.submit([enc.finish()]);
+    }
+    hair.read_vertices(gpu).unwrap()
+}
+
 fn no_node_inside(r: &Run, pose: glam::DMat4) {
     let inv = pose.inverse();
     for s in &r.sim.setup.strands {
@@ -437,16 +456,7 @@ fn joint_angle_stiffness_holds_under_kicks() {
             .sum::<f64>()
             / setup.strands.len() as f64;
 
-        let hair = cantilever::groom_gpu(&gpu, &input).unwrap();
-        let mut gsim = kami::sim::Simulation::new(&gpu, &s, &input, &hair)
-            .unwrap()
-            .unwrap();
-        for _ in 0..25 {
-            let mut enc = gpu.device.create_command_encoder(&Default::default());
-            gsim.record_frame(&gpu, &mut enc, &hair);
-            gpu.queue.submit([enc.finish()]);
-        }
-        let v = hair.read_vertices(&gpu).unwrap();
+        let v = run_gpu(&gpu, &s, &input, 25);
         let gpu_res = measure(&setup, &|i| {
             DVec3::new(v[i][0] as f64, v[i][1] as f64, v[i][2] as f64)
         });
@@ -536,22 +546,13 @@ fn gpu_hard_cases_stay_finite_and_outside() {
     ];
     for s in &cases {
         let input = prepare(s).unwrap();
-        let hair = cantilever::groom_gpu(&gpu, &input).unwrap();
-        let mut sim = kami::sim::Simulation::new(&gpu, s, &input, &hair)
-            .unwrap()
-            .unwrap();
-        for _ in 0..30 {
-            let mut enc = gpu.device.create_command_encoder(&Default::default());
-            sim.record_frame(&gpu, &mut enc, &hair);
-            gpu.queue.submit([enc.finish()]);
-        }
+        let v = run_gpu(&gpu, s, &input, 30);
         let pose = kami::sim::forces::head_at(
             &s.dynamics.as_ref().unwrap().head_motion,
             DVec3::ZERO,
             30.0,
         )
         .inverse();
-        let v = hair.read_vertices(&gpu).unwrap();
         let offsets = input.vertex_offsets();
         for (i, r) in input.roots.iter().enumerate() {
             for j in offsets[i]..offsets[i + 1] {
