@@ -486,9 +486,9 @@ fn frame_body(
             g.sim_clock -= g.sim_clock.floor();
             if due > 0 {
                 let mut enc = g.gpu.device.create_command_encoder(&Default::default());
-                for _ in 0..due {
-                    substeps += sim.record_frame(&g.gpu, &mut enc, &g.hair.hair).substeps;
-                }
+                substeps += sim
+                    .record_frames(&g.gpu, &mut enc, &g.hair.hair, due)
+                    .substeps;
                 g.gpu.queue.submit([enc.finish()]);
                 g.gpu.wait()?;
             }

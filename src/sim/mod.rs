@@ -76,16 +76,28 @@ impl Simulation {
     }
 
     /// Record one frame (`steps_per_frame` steps and their substeps) into `enc`. Submit
-    /// before recording the next frame.
+    /// before recording the next frame: the substeps' uniforms are written at submission.
     pub fn record_frame(
         &mut self,
         gpu: &Gpu,
         enc: &mut wgpu::CommandEncoder,
         hair: &StrandBuffers,
     ) -> FrameInfo {
+        self.record_frames(gpu, enc, hair, 1)
+    }
+
+    /// Record `frames` frames into one submission (the viewer's time scale): their
+    /// substeps share one upload, so each dispatch reads its own forces and head pose.
+    pub fn record_frames(
+        &mut self,
+        gpu: &Gpu,
+        enc: &mut wgpu::CommandEncoder,
+        hair: &StrandBuffers,
+        frames: u32,
+    ) -> FrameInfo {
         let mut all = Vec::new();
         let mut info = FrameInfo::default();
-        for _ in 0..self.setup.params.steps_per_frame {
+        for _ in 0..self.setup.params.steps_per_frame * frames {
             let (subs, capped) = self.setup.schedule(self.steps);
             if capped {
                 self.capped_steps += 1;
