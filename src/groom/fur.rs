@@ -58,6 +58,9 @@ pub struct FurSetup {
     pub directions: Vec<DVec3>,
     pub table: Vec<[f64; 2]>,
     pub coats: Vec<CoatAlloc>,
+    /// Bounding sphere of the rest mesh grown by the longest hair: asked for every frame
+    /// (culling, framing), so computed once.
+    bounds: (DVec3, f64),
 }
 
 /// Uniform in [0, 1) from a hash of (seed, hair, which); the same function is in
@@ -91,7 +94,7 @@ impl FurSetup {
                 .iter()
                 .filter(move |r| (p - DVec3::from(r.center)).length() <= r.radius)
         };
-        let lengths = mesh
+        let lengths: Vec<f64> = mesh
             .positions
             .iter()
             .map(|p| fur.length * inside(*p).map(|r| r.length_scale).product::<f64>())
@@ -153,6 +156,13 @@ impl FurSetup {
                 }
             })
             .collect();
+        let (c, r) = mesh.bounds();
+        let longest = lengths.iter().cloned().fold(0.0, f64::max)
+            * fur
+                .coats
+                .iter()
+                .map(|c| c.relative_length)
+                .fold(0.0, f64::max);
         Ok(FurSetup {
             fur: fur.clone(),
             mesh,
@@ -160,6 +170,7 @@ impl FurSetup {
             directions,
             table,
             coats,
+            bounds: (c, r + longest),
         })
     }
 
@@ -184,15 +195,7 @@ impl FurSetup {
 
     /// Bounding sphere of the (rest) mesh grown by the longest hair.
     pub fn bounds(&self) -> (DVec3, f64) {
-        let (c, r) = self.mesh.bounds();
-        let longest = self.lengths.iter().cloned().fold(0.0, f64::max)
-            * self
-                .fur
-                .coats
-                .iter()
-                .map(|c| c.relative_length)
-                .fold(0.0, f64::max);
-        (c, r + longest)
+        self.bounds
     }
 }
 

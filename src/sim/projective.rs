@@ -183,6 +183,10 @@ impl DynSetup {
     /// Largest force a segment can feel in step `n` of this many substeps: gravity + wind
     /// plus the inertial force of the fastest-accelerating root.
     fn force_bound(&self, f: &StepForces) -> f64 {
+        if f.accel == DMat4::ZERO {
+            // A still head (the common case): no pass over the strands every step.
+            return f.force.length();
+        }
         let rho = self.params.density;
         let accel = self
             .strands
