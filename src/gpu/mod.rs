@@ -317,6 +317,50 @@ pub fn uniform_entry(binding: u32, visibility: wgpu::ShaderStages) -> wgpu::Bind
     }
 }
 
+/// Bind group layout entry for a uniform buffer read at a dynamic offset, one `slot`-byte
+/// record per dispatch (the substeps of a frame, the coats of a fur).
+pub fn dynamic_uniform_entry(
+    binding: u32,
+    visibility: wgpu::ShaderStages,
+    slot: u64,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: true,
+            min_binding_size: wgpu::BufferSize::new(slot),
+        },
+        count: None,
+    }
+}
+
+/// The compute pipelines of `entries` in `module`, all over the one bind group `layout`.
+pub fn compute_pipelines<const N: usize>(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::BindGroupLayout,
+    module: &wgpu::ShaderModule,
+    entries: [&str; N],
+) -> [wgpu::ComputePipeline; N] {
+    let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(label),
+        bind_group_layouts: &[Some(layout)],
+        immediate_size: 0,
+    });
+    entries.map(|entry| {
+        device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some(entry),
+            layout: Some(&pl),
+            module,
+            entry_point: Some(entry),
+            compilation_options: Default::default(),
+            cache: None,
+        })
+    })
+}
+
 /// Read a buffer back to the CPU (tests, benchmarks, screenshots; never in the frame loop).
 pub fn read_buffer<T: bytemuck::Pod>(gpu: &Gpu, src: &wgpu::Buffer, bytes: u64) -> Result<Vec<T>> {
     let staging = gpu.device.create_buffer(&wgpu::BufferDescriptor {

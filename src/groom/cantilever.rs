@@ -442,25 +442,17 @@ impl CantileverPass {
                 gpu::storage_entry(7, cs, false),
             ],
         });
-        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("cantilever"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let pipeline = |entry: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: Some(&pl),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
+        let [bend, iterate, finish] = gpu::compute_pipelines(
+            device,
+            "cantilever",
+            &layout,
+            &module,
+            ["bend", "iterate", "finish"],
+        );
         Ok(CantileverPass {
-            bend: pipeline("bend"),
-            iterate: pipeline("iterate"),
-            finish: pipeline("finish"),
+            bend,
+            iterate,
+            finish,
             layout,
         })
     }

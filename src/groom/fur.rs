@@ -380,16 +380,7 @@ impl FurGpu {
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("fur_gen"),
             entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: cs,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: true,
-                        min_binding_size: wgpu::BufferSize::new(SLOT),
-                    },
-                    count: None,
-                },
+                gpu::dynamic_uniform_entry(0, cs, SLOT),
                 gpu::storage_entry(1, cs, true),
                 gpu::storage_entry(2, cs, true),
                 gpu::storage_entry(3, cs, true),
@@ -400,19 +391,7 @@ impl FurGpu {
                 gpu::storage_entry(8, cs, true),
             ],
         });
-        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("fur_gen"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("fur_gen"),
-            layout: Some(&pl),
-            module: &module,
-            entry_point: Some("generate"),
-            compilation_options: Default::default(),
-            cache: None,
-        });
+        let [pipeline] = gpu::compute_pipelines(device, "fur_gen", &layout, &module, ["generate"]);
         let runs: Vec<(u32, u32, u32)> = setup
             .fur
             .coats

@@ -555,39 +555,17 @@ impl ProjectivePass {
             label: Some("projective"),
             entries: &[
                 gpu::uniform_entry(0, cs),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 1,
-                    visibility: cs,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: true,
-                        min_binding_size: wgpu::BufferSize::new(SLOT),
-                    },
-                    count: None,
-                },
+                gpu::dynamic_uniform_entry(1, cs, SLOT),
                 gpu::storage_entry(2, cs, true),
                 gpu::storage_entry(3, cs, false),
                 gpu::storage_entry(4, cs, false),
             ],
         });
-        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("projective"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
-        let pipeline = |entry: &str| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: Some(&pl),
-                module: &module,
-                entry_point: Some(entry),
-                compilation_options: Default::default(),
-                cache: None,
-            })
-        };
+        let [init, advance] =
+            gpu::compute_pipelines(device, "projective", &layout, &module, ["init", "advance"]);
         Ok(ProjectivePass {
-            init: pipeline("init"),
-            advance: pipeline("advance"),
+            init,
+            advance,
             layout,
         })
     }
