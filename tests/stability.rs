@@ -131,6 +131,16 @@ fn run_gpu(
     hair.read_vertices(gpu).unwrap()
 }
 
+/// Mean tip position over the run's strands.
+fn mean_tip(r: &Run) -> DVec3 {
+    let strands = &r.sim.setup.strands;
+    strands
+        .iter()
+        .map(|st| r.sim.nodes[(st.first_vertex + st.segments) as usize])
+        .sum::<DVec3>()
+        / strands.len() as f64
+}
+
 fn no_node_inside(r: &Run, pose: glam::DMat4) {
     let inv = pose.inverse();
     for s in &r.sim.setup.strands {
@@ -246,14 +256,7 @@ fn segments_parallel_to_y_and_antiparallel_to_the_force() {
         no_node_inside(&r, glam::DMat4::IDENTITY);
         if force[0] != 0.0 {
             // The hair really turned towards -x.
-            let tips: f64 = r
-                .sim
-                .setup
-                .strands
-                .iter()
-                .map(|st| r.sim.nodes[(st.first_vertex + st.segments) as usize].x)
-                .sum::<f64>()
-                / r.sim.setup.strands.len() as f64;
+            let tips = mean_tip(&r).x;
             assert!(
                 tips < -5.0,
                 "hair at the crown did not follow a sideways force (mean tip x {tips})"
@@ -343,14 +346,7 @@ fn pores_at_the_poles_and_hair_hanging_straight_down() {
     let s = scene((179.5, 180.0), (0.0, 360.0), 30, 18, 18.0, d);
     let r = run(&s, 200);
     no_node_inside(&r, glam::DMat4::IDENTITY);
-    let tips: f64 = r
-        .sim
-        .setup
-        .strands
-        .iter()
-        .map(|st| r.sim.nodes[(st.first_vertex + st.segments) as usize].z)
-        .sum::<f64>()
-        / r.sim.setup.strands.len() as f64;
+    let tips = mean_tip(&r).z;
     assert!(
         tips < -5.0,
         "hanging hair did not swing with a sideways force (mean tip z {tips})"
