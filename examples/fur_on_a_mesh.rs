@@ -34,7 +34,7 @@ fn main() -> Result<()> {
     scene.camera.eye = eye.to_array();
     scene.camera.target = [0.0; 3];
     let gpu = Gpu::headless(Preference::Software)?;
-    let image = kami::render::render_scene(&gpu, &scene, (800, 800))?;
+    let image = kami::stage::render_scene(&gpu, &scene, (800, 800))?;
     image.save(&out)?;
     println!("{out} ({})", gpu.describe());
     Ok(())

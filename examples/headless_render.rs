@@ -12,7 +12,7 @@ fn main() -> Result<()> {
     let out = args.next().unwrap_or_else(|| "headless.png".into());
     let scene = kami::Scene::load(&scene)?;
     let gpu = Gpu::headless(Preference::Software)?;
-    let image = kami::render::render_scene(&gpu, &scene, (640, 640))?;
+    let image = kami::stage::render_scene(&gpu, &scene, (640, 640))?;
     image.save(&out)?;
     println!("{out} ({})", gpu.describe());
     Ok(())

@@ -1,21 +1,26 @@
 //! Kami (髪): a GPU viewer and simulator for hair, fur and toon hair.
 //!
-//! The flow of data: a scene file (`scene`) is validated, groomed on the CPU into roots
-//! (`groom::prepare`), bent on the GPU (`groom::cantilever`), and drawn by the passes of
-//! `render` into a window or an offscreen texture. Every GPU kernel has an f64 CPU reference
-//! beside it, used by the tests and the benchmarks.
+//! The flow of data: a scene file (`scene`) is loaded and validated; the `stage` builds the
+//! hair systems it names (`systems::KINDS`: Anjyo's strands, Van Gelder's fur), advances all
+//! of them on one clock with the shared force fields (`forces`), and draws them into one
+//! depth-tested pass, into a window (`app`) or an offscreen texture (the CLI, the tests).
+//! Every GPU kernel has an f64 CPU reference beside it, used by the tests and `bench`.
+//!
+//! Layers point one way: `gpu` is the leaf; `scene` knows no GPU; `forces` reads the scene;
+//! `systems` build on `gpu`, `scene` and `forces`; `stage` knows systems only through the
+//! `HairSystem` interface; `app` and `bench` sit on top.
 
+pub mod app;
+pub mod bench;
 pub mod error;
-pub mod groom;
+pub mod forces;
+pub mod gpu;
+pub mod plot;
 pub mod rng;
 pub mod scene;
+pub mod shaders;
+pub mod stage;
+pub mod systems;
 
 pub use error::{KamiError, Result};
 pub use scene::Scene;
-pub mod app;
-pub mod bench;
-pub mod gpu;
-pub mod plot;
-pub mod render;
-pub mod shaders;
-pub mod sim;

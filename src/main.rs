@@ -79,6 +79,10 @@ enum Command {
         /// Prefer a software adapter even when a GPU is present.
         #[arg(long)]
         software: bool,
+        /// Hide the panels: the scene fills the window (captures to compare with
+        /// `kami render`; drawn frame N at the default time scale shows frame N).
+        #[arg(long)]
+        no_panels: bool,
     },
     /// Benchmarks: print throughput and accuracy tables.
     Bench {
@@ -231,7 +235,7 @@ fn main() -> Result<()> {
                         bail!("--gif and --apng need --frames A..B");
                     }
                     let out = out.unwrap_or_else(|| PathBuf::from("kami.png"));
-                    let img = kami::render::render_scene(&gpu, &s, size)?;
+                    let img = kami::stage::render_scene(&gpu, &s, size)?;
                     img.save(&out)
                         .with_context(|| format!("writing {}", out.display()))?;
                     println!(
@@ -261,7 +265,7 @@ fn main() -> Result<()> {
                         anim::Sinks::new(gif.as_deref(), apng.as_deref(), size, count, fps)?;
                     let mut progress = anim::Progress::new(count);
                     let capped =
-                        kami::render::render_animation(&gpu, &s, size, first..=last, |f, img| {
+                        kami::stage::render_animation(&gpu, &s, size, first..=last, |f, img| {
                             let path = dir.join(format!("frame_{f:04}.png"));
                             img.save(&path).map_err(|e| kami::KamiError::Image {
                                 path: path.clone(),
@@ -301,6 +305,7 @@ fn main() -> Result<()> {
             screenshot_at,
             set,
             software,
+            no_panels,
         } => {
             let mut screenshots = screenshot_at;
             if let Some(p) = screenshot {
@@ -323,6 +328,7 @@ fn main() -> Result<()> {
                 exit_after_frames,
                 screenshots,
                 sets,
+                no_panels,
             })?;
         }
         Command::Bench { which } => match which {

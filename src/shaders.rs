@@ -1,73 +1,32 @@
 //! Every WGSL module, embedded at compile time. WGSL has no includes, so a module is its
-//! `shaders/common/*.wgsl` pieces followed by its own file (same stem as its Rust module).
-//! `tests/shader_validation.rs` runs naga over each entry of `ALL` without a GPU.
+//! `shaders/common/*.wgsl` pieces followed by its own file (`shaders/<owner>/<stem>.wgsl`,
+//! the same stem as the Rust module that runs it). The stage's modules are listed here;
+//! each hair system lists its own in its `Kind`. `tests/shader_validation.rs` runs naga
+//! over every module in `all()` without a GPU, and checks that every file under `shaders/`
+//! is in one.
 
+/// Concatenate shader files (paths under `shaders/`) into one WGSL source.
 macro_rules! wgsl {
     ($($file:literal),+ $(,)?) => {
         concat!($(include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/shaders/", $file)), "\n"),+)
     };
 }
-
-/// Cantilever bending (groom).
-pub const CANTILEVER: &str = wgsl!(
-    "common/strands.wgsl",
-    "common/ellipsoid.wgsl",
-    "common/rotate.wgsl",
-    "common/loads.wgsl",
-    "cantilever.wgsl",
-);
-
-/// Projective dynamics (Anjyo section 3).
-pub const PROJECTIVE: &str = wgsl!(
-    "common/ellipsoid.wgsl",
-    "common/rotate.wgsl",
-    "common/random.wgsl",
-    "projective.wgsl",
-);
-
-/// Fur generation (Van Gelder & Wilhelms).
-pub const FUR_GEN: &str = wgsl!(
-    "common/ellipsoid.wgsl",
-    "common/random.wgsl",
-    "common/deform.wgsl",
-    "fur_gen.wgsl",
-);
-
-/// Fur drawing: ribbons and tubes with Van Gelder & Wilhelms' shading normals.
-pub const FUR: &str = wgsl!(
-    "common/strands.wgsl",
-    "common/frame.wgsl",
-    "common/random.wgsl",
-    "common/coverage.wgsl",
-    "fur.wgsl",
-);
-
-/// The fur mesh's skin.
-pub const MESH: &str = wgsl!("common/frame.wgsl", "common/deform.wgsl", "mesh.wgsl");
-
-/// Hair ribbons with Anjyo's anisotropic specular.
-pub const STRANDS: &str = wgsl!(
-    "common/strands.wgsl",
-    "common/frame.wgsl",
-    "common/random.wgsl",
-    "common/coverage.wgsl",
-    "strands.wgsl",
-);
+pub(crate) use wgsl;
 
 /// The head ellipsoid.
-pub const HEAD: &str = wgsl!("common/frame.wgsl", "head.wgsl");
+pub const HEAD: &str = wgsl!("common/frame.wgsl", "stage/head.wgsl");
 
 /// Supersampling resolve.
-pub const DOWNSAMPLE: &str = wgsl!("downsample.wgsl");
+pub const DOWNSAMPLE: &str = wgsl!("stage/downsample.wgsl");
 
-/// (name, source) of every module, for validation.
-pub const ALL: &[(&str, &str)] = &[
-    ("cantilever", CANTILEVER),
-    ("projective", PROJECTIVE),
-    ("fur_gen", FUR_GEN),
-    ("fur", FUR),
-    ("mesh", MESH),
-    ("strands", STRANDS),
-    ("head", HEAD),
-    ("downsample", DOWNSAMPLE),
-];
+/// The stage's own modules.
+pub const STAGE: &[(&str, &str)] = &[("stage/head", HEAD), ("stage/downsample", DOWNSAMPLE)];
+
+/// (path, source) of every module: the stage's and every hair system's.
+pub fn all() -> Vec<(&'static str, &'static str)> {
+    let mut all = STAGE.to_vec();
+    for kind in crate::systems::KINDS {
+        all.extend_from_slice(kind.shaders);
+    }
+    all
+}

@@ -186,7 +186,7 @@ fn sizes_beyond_the_adapter_are_refused_before_allocating() {
     // 4 million hairs of 256 segments: gigabytes of vertices.
     scene.groups[0].count = 4_000_000;
     scene.groups[0].segments = 256;
-    match kami::render::check_limits(&gpu, &scene, (64, 64)) {
+    match kami::stage::check_limits(&gpu, &scene, (64, 64)) {
         Err(KamiError::TooLarge {
             what,
             needed,
@@ -201,7 +201,7 @@ fn sizes_beyond_the_adapter_are_refused_before_allocating() {
     let mut scene = Scene::from_ron(GOOD, "test.ron").unwrap();
     scene.render.supersample = 4;
     let side = gpu.device.limits().max_texture_dimension_2d;
-    match kami::render::render_scene(&gpu, &scene, (side, 16)) {
+    match kami::stage::render_scene(&gpu, &scene, (side, 16)) {
         Err(KamiError::TooLarge { what, .. }) => assert!(what.contains("width"), "{what}"),
         other => panic!("expected TooLarge, got {:?}", other.map(|_| ())),
     }
@@ -217,14 +217,14 @@ fn extreme_valid_scene_renders_finite_hair() {
     )
     .replacen("    ],\n)", "    ],\n    gravity: (1e9, -1e9, 0.0),\n)", 1);
     let scene = Scene::from_ron(&text, "extreme.ron").unwrap();
-    let input = kami::groom::prepare(&scene).unwrap();
-    let hair = kami::groom::cantilever::groom_gpu(&gpu, &input).unwrap();
+    let input = kami::systems::anjyo::groom::prepare(&scene).unwrap();
+    let hair = kami::systems::anjyo::cantilever_gpu::groom_gpu(&gpu, &input).unwrap();
     let v = hair.read_vertices(&gpu).unwrap();
     assert!(
         v.iter().all(|p| p.iter().all(|c| c.is_finite())),
         "non-finite node"
     );
-    let img = kami::render::render_scene(&gpu, &scene, (64, 64)).unwrap();
+    let img = kami::stage::render_scene(&gpu, &scene, (64, 64)).unwrap();
     assert_eq!(img.dimensions(), (64, 64));
 }
 

@@ -3,7 +3,8 @@
 
 mod common;
 use glam::DVec3;
-use kami::groom::{cantilever, prepare, GroomInput};
+use kami::systems::anjyo::groom::{prepare, GroomInput};
+use kami::systems::anjyo::{cantilever, cantilever_gpu};
 use kami::scene::Bending;
 
 /// Per-strand largest node distance between GPU and CPU, relative to the hair length,
@@ -11,7 +12,7 @@ use kami::scene::Bending;
 fn compare(input: &GroomInput) -> (Vec<f64>, f64, usize, u32) {
     let gpu = common::gpu();
     let reference = cantilever::bend_all(input);
-    let hair = cantilever::groom_gpu(&gpu, input).unwrap();
+    let hair = cantilever_gpu::groom_gpu(&gpu, input).unwrap();
     let verts = hair.read_vertices(&gpu).unwrap();
     let strands = hair.read_strands(&gpu).unwrap();
     let offsets = input.vertex_offsets();
@@ -154,7 +155,7 @@ fn cantilever_converged_free_beam_matches_reference() {
 /// 500-strand gust: median 1.3e-5, 99 % 1.5e-3, one strand beyond 1e-2 at frame 20).
 #[test]
 fn projective_dynamics_matches_reference() {
-    use kami::sim::projective::{CpuSim, DynSetup};
+    use kami::systems::anjyo::projective::{CpuSim, DynSetup};
     let gpu = common::gpu();
     let mut scene = common::scene("gust");
     for g in &mut scene.groups {
@@ -162,8 +163,8 @@ fn projective_dynamics_matches_reference() {
     }
     let input = prepare(&scene).unwrap();
     let groomed = cantilever::bend_all(&input);
-    let hair = cantilever::groom_gpu(&gpu, &input).unwrap();
-    let mut sim = kami::sim::Simulation::new(&gpu, &scene, &input, &hair)
+    let hair = cantilever_gpu::groom_gpu(&gpu, &input).unwrap();
+    let mut sim = kami::systems::anjyo::simulation::Simulation::new(&gpu, &scene, &input, &hair)
         .unwrap()
         .unwrap();
     let mut cpu = CpuSim::new(
@@ -240,8 +241,8 @@ fn several_frames_per_submission_match_one_by_one() {
     let input = prepare(&scene).unwrap();
     let mut runs = Vec::new();
     for per_submit in [1, 3] {
-        let hair = cantilever::groom_gpu(&gpu, &input).unwrap();
-        let mut sim = kami::sim::Simulation::new(&gpu, &scene, &input, &hair)
+        let hair = cantilever_gpu::groom_gpu(&gpu, &input).unwrap();
+        let mut sim = kami::systems::anjyo::simulation::Simulation::new(&gpu, &scene, &input, &hair)
             .unwrap()
             .unwrap();
         for _ in 0..18 / per_submit {

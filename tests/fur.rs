@@ -11,8 +11,9 @@
 mod common;
 
 use glam::DVec3;
-use kami::groom::fur::{
-    culling_factor, deform, hair_points, slot_hair, FurGpu, FurSetup, HairPoints, TABLE,
+use kami::systems::fur::generate::FurGpu;
+use kami::systems::fur::setup::{
+    culling_factor, deform, hair_points, slot_hair, FurSetup, HairPoints, TABLE,
 };
 use kami::scene::fur::{Fur, FurStyle, MeshMotion};
 use kami::scene::mesh::Mesh;
@@ -513,10 +514,10 @@ fn culling_keeps_the_look_as_the_camera_backs_away() {
     scene.camera.eye = (centre + dir * (3.0 * full)).to_array();
     scene.camera.target = centre.to_array();
     let size = (480, 480);
-    let culled = kami::render::render_scene(&gpu, &scene, size).unwrap();
+    let culled = kami::stage::render_scene(&gpu, &scene, size).unwrap();
     let c = culling_factor(scene.fur.as_ref().unwrap(), (centre, r), fov, 3.0 * full);
     scene.fur.as_mut().unwrap().culling.enabled = false;
-    let every = kami::render::render_scene(&gpu, &scene, size).unwrap();
+    let every = kami::stage::render_scene(&gpu, &scene, size).unwrap();
     let (worst, mean) = tile_difference(&culled, &every, 8);
     // KAMI_DEBUG_CULL=1: keep both images and print the differences at other tile sizes.
     if std::env::var("KAMI_DEBUG_CULL").is_ok() {

@@ -178,7 +178,7 @@ fn awkward_meshes_are_accepted() {
         motion: None,
         skin: [0.5; 3],
     };
-    let setup = kami::groom::fur::FurSetup::from_mesh(&fur, m, 1).unwrap();
+    let setup = kami::systems::fur::setup::FurSetup::from_mesh(&fur, m, 1).unwrap();
     let a = &setup.coats[0];
     assert_eq!(a.count[1], 0);
     assert_eq!(a.count[2], 0);
@@ -350,7 +350,7 @@ fn cgal_lion_head_loads_and_takes_fur() {
     fur.mesh = kami::scene::fur::MeshSource::CgalDemo("lion-head.off".into());
     fur.size = Some(1.6);
     fur.hairs = 50_000;
-    let s = kami::groom::fur::FurSetup::new(&fur, 3).unwrap();
+    let s = kami::systems::fur::setup::FurSetup::new(&fur, 3).unwrap();
     assert_eq!(s.mesh.triangles.len(), 16674);
     let (_, r) = s.mesh.bounds();
     assert!((r - 1.6).abs() < 1e-9, "fitted radius {r}");
@@ -383,12 +383,12 @@ fn a_scene_names_its_mesh_relative_to_itself() {
                  hairs: 500, length: 0.1, coats: [Coat(share: 1.0, stiffness: 0.5)])))";
     std::fs::write(dir.join("s.ron"), scene).unwrap();
     let s = kami::Scene::load(dir.join("s.ron")).unwrap();
-    let setup = kami::groom::fur::FurSetup::new(s.fur.as_ref().unwrap(), 1).unwrap();
+    let setup = kami::systems::fur::setup::FurSetup::new(s.fur.as_ref().unwrap(), 1).unwrap();
     check_cube(&setup.mesh);
     // A missing mesh names the file.
     std::fs::write(dir.join("t.ron"), scene.replace("cube.obj", "gone.obj")).unwrap();
     let s = kami::Scene::load(dir.join("t.ron")).unwrap();
-    let e = kami::groom::fur::FurSetup::new(s.fur.as_ref().unwrap(), 1)
+    let e = kami::systems::fur::setup::FurSetup::new(s.fur.as_ref().unwrap(), 1)
         .unwrap_err()
         .to_string();
     assert!(e.contains("gone.obj"), "{e}");
@@ -413,7 +413,7 @@ fn bad_mesh_sources_are_refused_when_the_scene_loads() {
     // A CGAL mesh that does not exist.
     let mut fur = common_fur();
     fur.mesh = kami::scene::fur::MeshSource::CgalDemo("no-such-mesh.off".into());
-    let e = kami::groom::fur::FurSetup::new(&fur, 1)
+    let e = kami::systems::fur::setup::FurSetup::new(&fur, 1)
         .unwrap_err()
         .to_string();
     assert!(e.contains("no-such-mesh.off"), "{e}");

@@ -1,11 +1,13 @@
 //! Numerical tests of the cantilever bending against the exact heavy cantilever (the
-//! elastica, solved here by `kami::groom::elastica`, itself checked against an independent
+//! elastica, solved here by `kami::systems::anjyo::elastica`, itself checked against an independent
 //! shooting solution and the linear limit), and invariants of real grooms.
 
 mod common;
 use glam::DVec3;
-use kami::groom::cantilever::{self, Beam};
-use kami::groom::{elastica, prepare};
+use kami::systems::anjyo::cantilever::{self, Beam};
+use kami::systems::anjyo::cantilever_gpu;
+use kami::systems::anjyo::elastica;
+use kami::systems::anjyo::groom::prepare;
 use kami::scene::Ellipsoid;
 
 /// A unit-length beam clamped along +x under a uniform downward load G (EI = 1).
@@ -200,7 +202,7 @@ fn gpu_grooms_stay_outside_the_head_with_exact_lengths() {
     let gpu = common::gpu();
     for name in common::SCENES {
         let input = prepare(&common::scene(name)).unwrap();
-        let hair = cantilever::groom_gpu(&gpu, &input).unwrap();
+        let hair = cantilever_gpu::groom_gpu(&gpu, &input).unwrap();
         let v = hair.read_vertices(&gpu).unwrap();
         let offsets = input.vertex_offsets();
         for (i, r) in input.roots.iter().enumerate() {

@@ -22,7 +22,7 @@ const TOL: Tolerance = Tolerance {
 fn snapshot(name: &str) {
     let gpu = common::gpu();
     let scene = common::scene(name);
-    let img = kami::render::render_scene(&gpu, &scene, SIZE).unwrap();
+    let img = kami::stage::render_scene(&gpu, &scene, SIZE).unwrap();
     check_snapshot(name, &img, TOL);
 }
 
@@ -54,7 +54,7 @@ fn bob_blended_no_msaa() {
     let mut scene = common::scene("bob");
     scene.render.msaa = 1;
     scene.render.supersample = 1;
-    let img = kami::render::render_scene(&gpu, &scene, SIZE).unwrap();
+    let img = kami::stage::render_scene(&gpu, &scene, SIZE).unwrap();
     check_snapshot("bob_msaa1", &img, TOL);
 }
 
@@ -67,7 +67,7 @@ fn gust_frames_10_15_20() {
     for g in &mut scene.groups {
         g.count /= 2;
     }
-    kami::render::render_animation(&gpu, &scene, SIZE, 10..=20, |f, img| {
+    kami::stage::render_animation(&gpu, &scene, SIZE, 10..=20, |f, img| {
         if f % 5 == 0 {
             check_snapshot(&format!("gust_{f:02}"), &img, TOL);
         }
@@ -83,7 +83,7 @@ fn animated(name: &str, frame: u32, out: &str) {
     for g in &mut scene.groups {
         g.count /= 2;
     }
-    kami::render::render_animation(&gpu, &scene, SIZE, frame..=frame, |_, img| {
+    kami::stage::render_animation(&gpu, &scene, SIZE, frame..=frame, |_, img| {
         check_snapshot(out, &img, TOL);
         Ok(())
     })
@@ -138,7 +138,7 @@ fn fur_fig9() {
 fn fur_moving_frame_6() {
     let gpu = common::gpu();
     let scene = common::scene("fur");
-    kami::render::render_animation(&gpu, &scene, SIZE, 6..=6, |_, img| {
+    kami::stage::render_animation(&gpu, &scene, SIZE, 6..=6, |_, img| {
         check_snapshot("fur_frame_06", &img, TOL);
         Ok(())
     })

@@ -6,9 +6,10 @@
 
 mod common;
 use glam::DVec3;
-use kami::groom::{cantilever, prepare};
+use kami::systems::anjyo::groom::prepare;
+use kami::systems::anjyo::{cantilever, cantilever_gpu};
 use kami::scene::{Direction, Dynamics, HeadKey, Interp, PseudoForce, Roots, Scene, WindKey};
-use kami::sim::projective::{CpuSim, DynSetup};
+use kami::systems::anjyo::projective::{CpuSim, DynSetup};
 
 /// A small scene: one group of `count` hairs of `k` segments from a polar patch.
 fn scene(
@@ -116,11 +117,11 @@ fn check_invariants(sim: &CpuSim, head: &kami::scene::Ellipsoid) {
 fn run_gpu(
     gpu: &kami::gpu::Gpu,
     scene: &Scene,
-    input: &kami::groom::GroomInput,
+    input: &kami::systems::anjyo::groom::GroomInput,
     frames: u32,
 ) -> Vec<[f32; 4]> {
-    let hair = cantilever::groom_gpu(gpu, input).unwrap();
-    let mut sim = kami::sim::Simulation::new(gpu, scene, input, &hair)
+    let hair = cantilever_gpu::groom_gpu(gpu, input).unwrap();
+    let mut sim = kami::systems::anjyo::simulation::Simulation::new(gpu, scene, input, &hair)
         .unwrap()
         .unwrap();
     for _ in 0..frames {
@@ -316,7 +317,7 @@ fn fast_head_whips() {
     ];
     let s = scene((10.0, 110.0), (0.0, 360.0), 60, 18, 18.0, d.clone());
     let r = run(&s, 200);
-    let pose = kami::sim::forces::head_at(&d.head_motion, DVec3::ZERO, 200.0);
+    let pose = kami::forces::head_at(&d.head_motion, DVec3::ZERO, 200.0);
     no_node_inside(&r, pose);
     settles(&r, 0.05);
     // The roots follow the head.
@@ -543,7 +544,7 @@ fn gpu_hard_cases_stay_finite_and_outside() {
     for s in &cases {
         let input = prepare(s).unwrap();
         let v = run_gpu(&gpu, s, &input, 30);
-        let pose = kami::sim::forces::head_at(
+        let pose = kami::forces::head_at(
             &s.dynamics.as_ref().unwrap().head_motion,
             DVec3::ZERO,
             30.0,
@@ -585,8 +586,8 @@ fn static_groups_allocate_nothing() {
     let gpu = common::gpu();
     let still = common::scene("bob");
     let input = prepare(&still).unwrap();
-    let hair = cantilever::groom_gpu(&gpu, &input).unwrap();
-    assert!(kami::sim::Simulation::new(&gpu, &still, &input, &hair)
+    let hair = cantilever_gpu::groom_gpu(&gpu, &input).unwrap();
+    assert!(kami::systems::anjyo::simulation::Simulation::new(&gpu, &still, &input, &hair)
         .unwrap()
         .is_none());
     let mut frozen = common::scene("gust");
@@ -595,8 +596,8 @@ fn static_groups_allocate_nothing() {
         g.dynamic = false;
     }
     let input = prepare(&frozen).unwrap();
-    let hair = cantilever::groom_gpu(&gpu, &input).unwrap();
-    assert!(kami::sim::Simulation::new(&gpu, &frozen, &input, &hair)
+    let hair = cantilever_gpu::groom_gpu(&gpu, &input).unwrap();
+    assert!(kami::systems::anjyo::simulation::Simulation::new(&gpu, &frozen, &input, &hair)
         .unwrap()
         .is_none());
     frozen.groups[1].dynamic = true;

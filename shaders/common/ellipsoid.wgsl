@@ -2,7 +2,9 @@
 
 const PI: f32 = 3.14159265358979;
 // Pushed nodes end this far outside, in units of the quadric form.
-const EPS_OUT: f32 = 2e-4;
+// How far outside the hull a pushed-out node lands (`scene::head::EPS_OUT`, passed by the
+// Rust side as a pipeline-overridable constant).
+override EPS_OUT: f32;
 
 struct Hull {
     center: vec3<f32>,

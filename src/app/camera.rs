@@ -1,7 +1,7 @@
 //! Orbit camera for the viewer: orbit about a target, pan, zoom, and frame the scene. Starts
 //! from the scene file's camera and can be written back into it when saving.
 
-use crate::render::camera::Camera;
+use crate::stage::camera::Camera;
 use crate::scene::CameraDesc;
 use glam::DVec3;
 

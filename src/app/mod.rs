@@ -1,8 +1,13 @@
 //! The interactive viewer: a winit window drawn with wgpu, egui panels beside the scene.
-//! The scene is drawn by the same `Renderer` as the headless renders (one path, two
-//! targets); egui is drawn on top in the same frame. The panels edit `params::ViewerState`;
-//! each frame the edit is classified (`params::Changes`) and applied: re-groom for static
-//! parameters, new parameters for the next simulation step, new uniforms for the look.
+//! The scene is a `Stage`, advanced and drawn exactly as the headless renders do it (one
+//! clock, one render path, two targets); egui is drawn on top in the same frame. The panels
+//! edit `params::ViewerState`; each frame the stage takes the edited scene and each hair
+//! system classifies the edit (`systems::Change`): rebuild for its shape, new parameters for
+//! the next step, new uniforms for the look.
+//!
+//! The clock: the first frame drawn is frame 0 (the rest pose); while playing, each drawn
+//! frame advances `time_scale` frames (fractions accumulate), so drawn frame k of a run at
+//! time scale 1 shows frame k, the same pose `kami render --frames k..k` writes.
 
 pub mod camera;
 pub mod panels;
@@ -10,11 +15,10 @@ pub mod params;
 
 use crate::error::{KamiError, Result};
 use crate::gpu::{self, Gpu, Preference};
-use crate::render::{self, target::Offscreen, FrameView, Renderer, SceneContent};
 use crate::scene::Scene;
+use crate::stage::{self, target::Offscreen, Look, Stage};
 use camera::OrbitCamera;
-use glam::DVec3;
-use params::{Changes, Request, ViewerState};
+use params::{Request, ViewerState};
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Instant;
@@ -44,6 +48,9 @@ pub struct ViewerOptions {
     pub screenshots: Vec<(u64, PathBuf)>,
     /// `--set` overrides applied at a frame, through the panels' path: (frame, KEY=VALUE).
     pub sets: Vec<(u64, String)>,
+    /// Hide the panels: the scene fills the window (clean captures, comparisons with
+    /// `kami render`).
+    pub no_panels: bool,
 }
 
 /// Open the viewer and run until the window closes.
@@ -74,8 +81,9 @@ pub fn run(options: ViewerOptions) -> Result<()> {
     let st = &app.state.stats;
     if app.gfx.is_some() {
         println!(
-            "viewer: {} frames, {:.1} fps; sim {:.1} ms, scene {:.1} ms, panels {:.1} ms, present {:.1} ms; {:.0} % of hairs drawn, {}x{} on {}",
+            "viewer: {} frames drawn (clock at frame {}), {:.1} fps; sim {:.1} ms, scene {:.1} ms, panels {:.1} ms, present {:.1} ms; {:.0} % of hairs drawn, {}x{} on {}",
             app.gfx.as_ref().map_or(0, |g| g.frames),
+            st.frame,
             st.fps,
             st.sim_ms,
             st.render_ms,
@@ -106,19 +114,16 @@ struct Gfx {
     surface: wgpu::Surface<'static>,
     config: wgpu::SurfaceConfiguration,
     gpu: Gpu,
-    renderer: Renderer,
+    stage: Stage,
     egui_renderer: egui_wgpu::Renderer,
     egui_state: egui_winit::State,
-    hair: SceneContent,
-    /// Frames of fur motion shown (advances while playing).
-    fur_frame: f64,
+    /// Fractions of a frame the clock owes (time scales below 1).
+    clock_debt: f64,
     camera: OrbitCamera,
     mouse: Mouse,
-    /// Scene as last applied (to classify the next edit).
-    applied: Scene,
     zero_size: bool,
+    /// Frames drawn (the `--exit-after-frames`, `--screenshot-at` and `--set` count).
     frames: u64,
-    sim_clock: f64,
     last_frame: Instant,
 }
 
@@ -130,10 +135,15 @@ struct App {
     error: Option<KamiError>,
 }
 
-/// Groom, simulation and fur of a scene, bound to the renderer.
-fn build(gpu: &Gpu, scene: &Scene, renderer: &mut Renderer) -> Result<SceneContent> {
-    render::check_limits(gpu, scene, scene.render.size)?;
-    render::build_content(gpu, scene, renderer)
+/// The stage of a scene for the window's output format.
+fn build(
+    gpu: &Gpu,
+    scene: &Scene,
+    format: wgpu::TextureFormat,
+    quality: stage::Quality,
+) -> Result<Stage> {
+    stage::check_limits(gpu, scene, scene.render.size)?;
+    Stage::new(gpu, scene, format, quality)
 }
 
 impl App {
@@ -192,9 +202,8 @@ impl App {
         gpu.take_error()?;
         let scene = &self.state.scene;
         let quality = self.state.view.quality(scene);
-        let mut renderer = Renderer::new(&gpu, format, quality)?;
         let t = Instant::now();
-        let hair = build(&gpu, scene, &mut renderer)?;
+        let stage = build(&gpu, scene, format, quality)?;
         self.state.stats.groom_ms = t.elapsed().as_secs_f64() * 1e3;
         let egui_renderer =
             egui_wgpu::Renderer::new(&gpu.device, format, egui_wgpu::RendererOptions::default());
@@ -209,20 +218,17 @@ impl App {
         self.state.stats.adapter = gpu.describe();
         self.gfx = Some(Gfx {
             camera: OrbitCamera::from_desc(&scene.camera),
-            applied: scene.clone(),
             window,
             surface,
             config,
             gpu,
-            renderer,
+            stage,
             egui_renderer,
             egui_state,
-            hair,
-            fur_frame: 0.0,
+            clock_debt: 0.0,
             mouse: Mouse::default(),
             zero_size: false,
             frames: 0,
-            sim_clock: 0.0,
             last_frame: Instant::now(),
         });
         Ok(())
@@ -332,39 +338,27 @@ impl ApplicationHandler for App {
     }
 }
 
-/// Apply an edit classified by `Changes`.
+/// Hand the edited scene to the stage, which classifies the edit per hair system and
+/// rebuilds, re-simulates or re-draws what it must.
 fn apply(g: &mut Gfx, state: &mut ViewerState) -> Result<()> {
     let quality = state.view.quality(&state.scene);
-    if quality != g.renderer.quality {
-        g.renderer.set_quality(&g.gpu, quality);
+    if quality != g.stage.quality {
+        g.stage.set_quality(&g.gpu, quality);
+    }
+    if state.scene == *g.stage.scene() {
+        return Ok(());
     }
     if let Err(e) = crate::scene::validate(&state.scene) {
         // Keep what is drawn; say what is wrong.
         state.error = Some(e.to_string());
         return Ok(());
     }
-    let ch = Changes::between(&g.applied, &state.scene);
-    if !ch.any() {
-        return Ok(());
-    }
-    let scene = &state.scene;
-    if ch.regroom || ch.dynamics_toggled || ch.fur {
-        let t = Instant::now();
-        g.hair = build(&g.gpu, scene, &mut g.renderer)?;
-        g.sim_clock = 0.0;
+    let t = Instant::now();
+    let applied = g.stage.apply(&g.gpu, &state.scene)?;
+    if applied.restarted {
+        g.clock_debt = 0.0;
         state.stats.groom_ms = t.elapsed().as_secs_f64() * 1e3;
-    } else {
-        if ch.dynamics {
-            if let (Some(sim), Some(d)) = (g.hair.sim.as_mut(), &scene.dynamics) {
-                sim.update_params(&g.gpu, d.clone());
-            }
-        }
-        if ch.look {
-            g.renderer
-                .update_materials(&g.gpu, &render::materials(scene));
-        }
     }
-    g.applied = scene.clone();
     state.error = None;
     Ok(())
 }
@@ -391,19 +385,21 @@ fn handle_requests(g: &mut Gfx, state: &mut ViewerState, shots: &mut Vec<PathBuf
             }
             Request::Screenshot(path) => shots.push(PathBuf::from(path)),
             Request::Step => {
-                if let Some(sim) = g.hair.sim.as_mut() {
-                    let mut enc = g.gpu.device.create_command_encoder(&Default::default());
-                    sim.record_frame(&g.gpu, &mut enc, &g.hair.hair);
-                    g.gpu.queue.submit([enc.finish()]);
-                }
+                let mut enc = g
+                    .gpu
+                    .device
+                    .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                        label: Some("viewer step"),
+                    });
+                g.stage.advance(&g.gpu, &mut enc, 1)?;
+                g.gpu.queue.submit([enc.finish()]);
             }
             Request::Reset => {
-                g.hair = build(&g.gpu, &state.scene, &mut g.renderer)?;
-                g.sim_clock = 0.0;
-                g.fur_frame = 0.0;
+                g.stage.reset(&g.gpu)?;
+                g.clock_debt = 0.0;
             }
             Request::FrameScene => {
-                let (c, r) = render::view_with_fur(&state.scene, g.hair.fur.as_ref()).bounds;
+                let (c, r) = g.stage.bounds();
                 g.camera.frame(c, r);
             }
         }
@@ -422,12 +418,7 @@ fn frame(
     g.last_frame = now;
     if dt > 0.0 && g.frames > 0 {
         // Frame rate from the mean frame time (an average of rates would overweight fast frames).
-        let ms = dt * 1e3;
-        state.stats.frame_ms = if state.stats.frame_ms == 0.0 {
-            ms
-        } else {
-            0.9 * state.stats.frame_ms + 0.1 * ms
-        };
+        state.stats.frame_ms = state.stats.frame_ema.add(dt * 1e3);
         state.stats.fps = 1e3 / state.stats.frame_ms;
     }
     for (at, set) in &options.sets {
@@ -445,7 +436,12 @@ fn frame(
     // Panels first: their edits apply to this frame.
     let raw = g.egui_state.take_egui_input(&g.window);
     let mut panel_left = f32::MAX;
-    let mut output = ctx.run_ui(raw, |ui| panel_left = panels::show(ui, state));
+    let no_panels = options.no_panels;
+    let mut output = ctx.run_ui(raw, |ui| {
+        if !no_panels {
+            panel_left = panels::show(ui, state);
+        }
+    });
     g.egui_state
         .handle_platform_output(&g.window, std::mem::take(&mut output.platform_output));
     // egui's texture changes are applied now, whatever happens to this frame.
@@ -464,7 +460,6 @@ fn frame(
     result
 }
 
-#[allow(clippy::too_many_arguments)]
 fn frame_body(
     g: &mut Gfx,
     state: &mut ViewerState,
@@ -476,40 +471,36 @@ fn frame_body(
     handle_requests(g, state, &mut shots)?;
     apply(g, state)?;
 
-    // Simulation: `time_scale` frames per drawn frame.
+    // The clock: `time_scale` frames per drawn frame, from the second drawn frame on.
     let t = Instant::now();
-    let mut substeps = 0;
-    if let Some(sim) = g.hair.sim.as_mut() {
-        if state.view.playing {
-            g.sim_clock += state.view.time_scale;
-            let due = (g.sim_clock.floor() as u32).min(4);
-            g.sim_clock -= g.sim_clock.floor();
-            if due > 0 {
-                let mut enc = g.gpu.device.create_command_encoder(&Default::default());
-                substeps += sim
-                    .record_frames(&g.gpu, &mut enc, &g.hair.hair, due)
-                    .substeps;
-                g.gpu.queue.submit([enc.finish()]);
-                g.gpu.wait()?;
+    if state.view.playing && g.frames > 0 {
+        g.clock_debt += state.view.time_scale;
+        let due = (g.clock_debt.floor() as u32).min(4);
+        g.clock_debt -= g.clock_debt.floor();
+        if due > 0 {
+            let mut enc = g
+                .gpu
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("viewer advance"),
+                });
+            let info = g.stage.advance(&g.gpu, &mut enc, due)?;
+            g.gpu.queue.submit([enc.finish()]);
+            g.gpu.wait()?;
+            if info.substeps > 0 {
+                state.stats.substeps = info.substeps;
             }
         }
-        state.stats.simulated = sim.setup.strands.len() as u64;
-        state.stats.frame = sim.steps / sim.setup.params.steps_per_frame as u64;
-    } else {
-        state.stats.simulated = 0;
     }
-    let sim_ms = t.elapsed().as_secs_f64() * 1e3;
-    state.stats.sim_ms = if state.stats.sim_ms == 0.0 {
-        sim_ms
-    } else {
-        0.8 * state.stats.sim_ms + 0.2 * sim_ms
-    };
-    if substeps > 0 {
-        state.stats.substeps = substeps;
-    }
-    let (strands, segments) = state.scene.counts();
-    state.stats.strands = strands;
-    state.stats.segments = segments;
+    state.stats.sim_ms = state
+        .stats
+        .sim_ema
+        .add(t.elapsed().as_secs_f64() * 1e3);
+    let counts = g.stage.stats();
+    state.stats.simulated = counts.simulated;
+    state.stats.frame = g.stage.frame();
+    state.stats.strands = counts.strands;
+    state.stats.segments = counts.segments;
 
     // A minimised window has no surface to draw into.
     let (w, h) = (g.config.width, g.config.height);
@@ -531,36 +522,11 @@ fn frame_body(
     };
     let target = surface_tex.texture.create_view(&Default::default());
 
-    let mut view = render::view_with_fur(&state.scene, g.hair.fur.as_ref());
-    view.camera = g.camera.camera();
-    if state.view.playing {
-        g.fur_frame += state.view.time_scale;
-    }
-    if let Some(fur) = g.hair.fur.as_mut() {
-        let mut enc = g.gpu.device.create_command_encoder(&Default::default());
-        let lod = state.view.hair_fraction;
-        view.fur = Some(fur.record(
-            &g.gpu,
-            &mut enc,
-            g.fur_frame,
-            view.camera.eye,
-            view.camera.fov_y,
-            lod,
-        )?);
-        g.gpu.queue.submit([enc.finish()]);
-    }
-    view.hair_fraction = state.view.hair_fraction;
-    view.show_pseudo = state.view.show_pseudo;
-    if let (Some(d), Some(head), Some(sim)) =
-        (&state.scene.dynamics, view.head.as_mut(), &g.hair.sim)
-    {
-        let frame = sim.steps as f64 / d.steps_per_frame as f64;
-        head.1 = crate::sim::forces::head_at(
-            &d.head_motion,
-            DVec3::from(state.scene.head.center),
-            frame,
-        );
-    }
+    let look = Look {
+        camera: g.camera.camera(),
+        lod: state.view.hair_fraction,
+        overlay: state.view.overlay,
+    };
     // Scene width: the window minus the panel egui reserved on the right.
     let scene_w = ((panel_left * output.pixels_per_point).round().max(1.0) as u32).min(w);
 
@@ -570,26 +536,21 @@ fn frame_body(
         pixels_per_point: output.pixels_per_point,
     };
 
-    let (scene_ms, ui_ms) = draw(g, &target, (w, h), scene_w, &view, &paint, &screen)?;
+    let (scene_ms, ui_ms) = draw(g, &target, (w, h), scene_w, &look, &paint, &screen)?;
     let t = Instant::now();
     g.gpu.queue.present(surface_tex);
     g.gpu.wait()?;
     let present_ms = t.elapsed().as_secs_f64() * 1e3;
-    let ema = |old: f64, new: f64| {
-        if old == 0.0 {
-            new
-        } else {
-            0.8 * old + 0.2 * new
-        }
-    };
-    state.stats.render_ms = ema(state.stats.render_ms, scene_ms);
-    state.stats.ui_ms = ema(state.stats.ui_ms, ui_ms);
-    state.stats.present_ms = ema(state.stats.present_ms, present_ms);
+    let st = &mut state.stats;
+    st.render_ms = st.render_ema.add(scene_ms);
+    st.ui_ms = st.ui_ema.add(ui_ms);
+    st.present_ms = st.present_ema.add(present_ms);
+    st.drawn = g.stage.stats().drawn;
     let render_ms = scene_ms;
 
     for path in shots {
         let shot = Offscreen::with_format(&g.gpu, (w, h), g.config.format)?;
-        draw(g, &shot.view, (w, h), scene_w, &view, &paint, &screen)?;
+        draw(g, &shot.view, (w, h), scene_w, &look, &paint, &screen)?;
         let img = shot.read_rgba(&g.gpu)?;
         match img.save(&path) {
             Ok(()) => state.message = Some(format!("screenshot {}", path.display())),
@@ -630,7 +591,7 @@ fn draw(
     target: &wgpu::TextureView,
     size: (u32, u32),
     scene_w: u32,
-    view: &FrameView,
+    look: &Look,
     paint: &[egui::ClippedPrimitive],
     screen: &egui_wgpu::ScreenDescriptor,
 ) -> Result<(f64, f64)> {
@@ -643,8 +604,8 @@ fn draw(
         .create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("viewer scene"),
         });
-    g.renderer
-        .render_region(&g.gpu, &mut enc, target, size, (scene_w, size.1), view)?;
+    g.stage
+        .render_region(&g.gpu, &mut enc, target, size, (scene_w, size.1), look)?;
     g.gpu.queue.submit([enc.finish()]);
     g.gpu.wait()?;
     let scene_ms = t.elapsed().as_secs_f64() * 1e3;

@@ -1,32 +1,27 @@
-//! The viewer's egui panels, grouped the way an artist thinks: Files, Stiffness, Forces,
-//! Pseudo-force, Look, Fur, Simulation, Stats (the hair panels open for a hair scene, Fur for
-//! a fur scene). They only edit `ViewerState`; the window loop
-//! classifies the edit (`params::Changes`) and applies it. Later features add their panels
-//! here.
+//! The viewer's egui panels. The shell draws the stage's own panels — Files, Forces (the
+//! shared force fields), Look (light, background, anti-aliasing, level of detail),
+//! Simulation (the clock: play, step, reset, time scale) and Stats — around the panels each
+//! hair system brings (`systems::Kind::panels`, in `KINDS` order). Every panel only edits
+//! `ViewerState`; the window loop hands the edited scene to the stage, which classifies the
+//! edit per system (`systems::Change`) and applies it.
 
 use super::params::{Request, ViewerState};
-use crate::scene::{Bending, Dynamics, Fluctuation, Interp, PseudoForce, WindKey};
+use crate::scene::{Dynamics, Interp, WindKey};
+use crate::systems::KINDS;
 use egui::{Color32, Slider, Ui};
 
-/// Shipped scenes offered by the Files panel.
-pub const SHIPPED: &[&str] = &[
-    "gust",
-    "bob",
-    "swept_back",
-    "ponytail",
-    "short_cut",
-    "pseudo_force",
-    "pseudo_force_off",
-    "stiffness_smooth",
-    "stiffness_free",
-    "fur",
-    "fur_fig9",
-    "fur_line",
-    "fur_polyline",
-    "fur_curve",
-    "fur_tube",
-    "fur_lion_head",
-];
+/// Shipped scenes offered by the Files panel: every kind's, in `KINDS` order.
+pub fn shipped() -> Vec<&'static str> {
+    let mut all: Vec<&'static str> = Vec::new();
+    for kind in KINDS {
+        for name in kind.scenes {
+            if !all.contains(name) {
+                all.push(name);
+            }
+        }
+    }
+    all
+}
 
 /// Draw all panels in a right-hand side panel; returns the panel's left edge (points), where
 /// the scene view ends.
@@ -44,14 +39,18 @@ pub fn show(ui: &mut Ui, s: &mut ViewerState) -> f32 {
                     ui.label(m);
                 }
                 ui.collapsing("Files", |ui| files(ui, s));
-                let hair = !s.scene.groups.is_empty();
-                let fur_scene = s.scene.fur.is_some();
-                egui::CollapsingHeader::new("Stiffness").default_open(hair).show(ui, |ui| stiffness(ui, s));
+                for kind in KINDS {
+                    for panel in kind.panels {
+                        let open = (panel.open)(&s.scene);
+                        egui::CollapsingHeader::new(panel.title)
+                            .id_salt((kind.name, panel.title))
+                            .default_open(open)
+                            .show(ui, |ui| (panel.show)(ui, s));
+                    }
+                }
                 ui.collapsing("Forces", |ui| forces(ui, s));
-                ui.collapsing("Pseudo-force", |ui| pseudo(ui, s));
-                ui.collapsing("Look", |ui| look(ui, s));
-                egui::CollapsingHeader::new("Fur").default_open(fur_scene).show(ui, |ui| fur(ui, s));
-                egui::CollapsingHeader::new("Simulation").default_open(true).show(ui, |ui| simulation(ui, s));
+                ui.collapsing("Look", |ui| look_common(ui, s));
+                egui::CollapsingHeader::new("Simulation").default_open(true).show(ui, |ui| playback(ui, s));
                 egui::CollapsingHeader::new("Stats").default_open(true).show(ui, |ui| stats(ui, s));
                 ui.separator();
                 ui.small("Drag: orbit · right/middle or shift-drag: pan · wheel: zoom · F: frame · Space: play · N: step · R: reset · S: screenshot");
@@ -62,28 +61,27 @@ pub fn show(ui: &mut Ui, s: &mut ViewerState) -> f32 {
         .left()
 }
 
-fn group_picker(ui: &mut Ui, s: &mut ViewerState) {
-    if s.scene.groups.is_empty() {
-        return;
-    }
-    s.group = s.group.min(s.scene.groups.len() - 1);
-    let name = |i: usize, s: &ViewerState| {
-        let n = &s.scene.groups[i].name;
-        if n.is_empty() {
-            format!("group {i}")
-        } else {
-            n.clone()
+/// The clock: play, step and reset every system together, and how many frames pass per
+/// drawn frame.
+fn playback(ui: &mut Ui, s: &mut ViewerState) {
+    ui.horizontal(|ui| {
+        let label = if s.view.playing { "Pause" } else { "Play" };
+        if ui.button(label).clicked() {
+            s.view.playing = !s.view.playing;
         }
-    };
-    let current = name(s.group, s);
-    egui::ComboBox::from_label("group")
-        .selected_text(current)
-        .show_ui(ui, |ui| {
-            for i in 0..s.scene.groups.len() {
-                let n = name(i, s);
-                ui.selectable_value(&mut s.group, i, n);
-            }
-        });
+        if ui.button("Step").clicked() {
+            s.requests.push(Request::Step);
+        }
+        if ui.button("Reset").clicked() {
+            s.requests.push(Request::Reset);
+        }
+    });
+    ui.add(
+        Slider::new(&mut s.view.time_scale, 0.05..=4.0)
+            .logarithmic(true)
+            .text("time scale (frames per draw)"),
+    );
+    ui.label(format!("frame {}", s.stats.frame));
 }
 
 fn files(ui: &mut Ui, s: &mut ViewerState) {
@@ -105,8 +103,8 @@ fn files(ui: &mut Ui, s: &mut ViewerState) {
     });
     ui.label("shipped scenes:");
     ui.horizontal_wrapped(|ui| {
-        for name in SHIPPED {
-            if ui.small_button(*name).clicked() {
+        for name in shipped() {
+            if ui.small_button(name).clicked() {
                 s.path = format!("assets/scenes/{name}.ron");
                 s.requests.push(Request::Open(s.path.clone()));
             }
@@ -114,116 +112,9 @@ fn files(ui: &mut Ui, s: &mut ViewerState) {
     });
 }
 
-fn stiffness(ui: &mut Ui, s: &mut ViewerState) {
-    if s.scene.groups.is_empty() {
-        ui.label("no hair groups (fur stiffness: see Fur)");
-        return;
-    }
-    group_picker(ui, s);
-    let g = &mut s.scene.groups[s.group];
-    ui.add(
-        Slider::new(&mut g.rigidity, 1.0..=5000.0)
-            .logarithmic(true)
-            .text("EI (flexural rigidity)"),
-    );
-    let mut converged = matches!(g.bending, Bending::Converged { .. });
-    ui.horizontal(|ui| {
-        ui.label("bending");
-        ui.radio_value(&mut converged, false, "paper");
-        ui.radio_value(&mut converged, true, "converged");
-    });
-    match (&g.bending, converged) {
-        (Bending::Paper, true) => {
-            g.bending = Bending::Converged {
-                max_iterations: 400,
-                tolerance: 1e-5,
-            }
-        }
-        (Bending::Converged { .. }, false) => g.bending = Bending::Paper,
-        _ => {}
-    }
-    if ui.small_button("use this EI for every group").clicked() {
-        let e = g.rigidity;
-        s.scene.groups.iter_mut().for_each(|g| g.rigidity = e);
-    }
-    let Some(d) = s.scene.dynamics.as_mut() else {
-        ui.label("joint-angle stiffness and inertia act in dynamics (Simulation panel)");
-        return;
-    };
-    ui.separator();
-    ui.label("joint-angle stiffness σ (degrees; 180 = free)");
-    ui.add(Slider::new(&mut d.stiffness.root, 0.0..=180.0).text("σ at the root"));
-    ui.add(Slider::new(&mut d.stiffness.tip, 0.0..=180.0).text("σ at the tip"));
-    ui.add(Slider::new(&mut d.stiffness.start, 0.0..=0.95).text("falls from (fraction)"));
-    ui.add(Slider::new(&mut d.stiffness.end, 0.05..=1.0).text("reaches the tip value at"));
-    // Keep the ramp non-empty while either end is dragged past the other.
-    if d.stiffness.end <= d.stiffness.start {
-        d.stiffness.end = (d.stiffness.start + 0.05).min(1.0);
-    }
-    profile_plot(
-        ui,
-        |t| d.stiffness.sigma_at(t) / 180.0,
-        "σ along the strand (0..180°)",
-    );
-    ui.separator();
-    ui.label("inertia profile (c_i scale)");
-    ui.add(
-        Slider::new(&mut d.inertia.root, 0.05..=5.0)
-            .logarithmic(true)
-            .text("root"),
-    );
-    ui.add(
-        Slider::new(&mut d.inertia.tip, 0.05..=5.0)
-            .logarithmic(true)
-            .text("tip"),
-    );
-    ui.add(
-        Slider::new(&mut d.inertia.top, 0.05..=5.0)
-            .logarithmic(true)
-            .text("top of head"),
-    );
-    ui.add(Slider::new(&mut d.inertia.top_height, -12.0..=12.0).text("top from height"));
-    let (r, t) = (d.inertia.root, d.inertia.tip);
-    let most = r.max(t).max(1e-9);
-    profile_plot(
-        ui,
-        |x| (r + (t - r) * x) / most,
-        "inertia factor along the strand",
-    );
-}
 
-/// A small plot of `f(t)` in [0, 1] for t in [0, 1].
-fn profile_plot(ui: &mut Ui, f: impl Fn(f64) -> f64, label: &str) {
-    let (rect, painter) = ui.allocate_painter(
-        egui::vec2(ui.available_width().min(300.0), 60.0),
-        egui::Sense::hover(),
-    );
-    let r = rect.rect;
-    painter.rect_filled(r, 2.0, Color32::from_gray(30));
-    let pts: Vec<egui::Pos2> = (0..=40)
-        .map(|i| {
-            let t = i as f64 / 40.0;
-            let v = f(t).clamp(0.0, 1.0);
-            egui::pos2(
-                r.left() + t as f32 * r.width(),
-                r.bottom() - 4.0 - v as f32 * (r.height() - 8.0),
-            )
-        })
-        .collect();
-    painter.add(egui::Shape::line(
-        pts,
-        egui::Stroke::new(2.0, Color32::from_rgb(120, 200, 255)),
-    ));
-    painter.text(
-        r.left_top() + egui::vec2(4.0, 2.0),
-        egui::Align2::LEFT_TOP,
-        label,
-        egui::FontId::proportional(11.0),
-        Color32::GRAY,
-    );
-}
 
-fn need_dynamics(ui: &mut Ui, s: &mut ViewerState) -> bool {
+pub fn need_dynamics(ui: &mut Ui, s: &mut ViewerState) -> bool {
     if s.scene.dynamics.is_none() {
         ui.label("this scene is static");
         if ui.button("Enable dynamics").clicked() {
@@ -319,70 +210,7 @@ fn default_head_motion() -> Vec<crate::scene::HeadKey> {
     ]
 }
 
-fn pseudo(ui: &mut Ui, s: &mut ViewerState) {
-    if !need_dynamics(ui, s) {
-        return;
-    }
-    let d = s.scene.dynamics.as_mut().unwrap();
-    let mut on = d.pseudo_force.is_some();
-    ui.checkbox(&mut on, "pseudo-force field (Anjyo 3.2.2)");
-    match (on, d.pseudo_force.is_some()) {
-        (true, false) => {
-            d.pseudo_force = Some(PseudoForce {
-                alpha: -0.75,
-                epsilon_pore: 0.1,
-                epsilon_tip: 1.0,
-                near: 1.5,
-            })
-        }
-        (false, true) => d.pseudo_force = None,
-        _ => {}
-    }
-    if let Some(p) = d.pseudo_force.as_mut() {
-        ui.add(Slider::new(&mut p.alpha, -1.0..=1.0).text("α (facing threshold)"));
-        ui.add(Slider::new(&mut p.epsilon_pore, 0.0..=1.0).text("ε near the pore"));
-        ui.add(Slider::new(&mut p.epsilon_tip, 0.0..=1.0).text("ε at the tip"));
-        ui.add(Slider::new(&mut p.near, 0.0..=10.0).text("near the head (distance)"));
-    }
-    ui.checkbox(&mut s.view.show_pseudo, "show affected segments (red)");
-}
 
-fn look(ui: &mut Ui, s: &mut ViewerState) {
-    if s.scene.groups.is_empty() {
-        ui.label("no hair groups (see Fur)");
-        look_common(ui, s);
-        return;
-    }
-    group_picker(ui, s);
-    let m = &mut s.scene.groups[s.group].material;
-    ui.horizontal(|ui| {
-        ui.label("hair colour");
-        ui.color_edit_button_rgb(&mut m.color);
-    });
-    ui.add(
-        Slider::new(&mut m.width, 0.005..=0.5)
-            .logarithmic(true)
-            .text("width"),
-    );
-    ui.add(Slider::new(&mut m.tip_width, 0.0..=1.0).text("tip width (× root)"));
-    ui.add(Slider::new(&mut m.ks, 0.0..=1.0).text("k_s (specular)"));
-    ui.add(
-        Slider::new(&mut m.shininess, 1.0..=1000.0)
-            .logarithmic(true)
-            .text("n (shininess)"),
-    );
-    ui.add(Slider::new(&mut m.kd, 0.0..=1.0).text("k_d (diffuse)"));
-    ui.add(Slider::new(&mut m.ka, 0.0..=3.0).text("k_a mean"));
-    ui.add(Slider::new(&mut m.ka_spread, 0.0..=1.0).text("k_a spread (per strand)"));
-    if ui.small_button("use this look for every group").clicked() {
-        let m = m.clone();
-        s.scene
-            .groups
-            .iter_mut()
-            .for_each(|g| g.material = m.clone());
-    }
-    look_common(ui, s);
-}
 
 /// Light, background and anti-aliasing: shared by hair and fur.
 fn look_common(ui: &mut Ui, s: &mut ViewerState) {
@@ -434,66 +262,6 @@ fn look_common(ui: &mut Ui, s: &mut ViewerState) {
     }
 }
 
-fn simulation(ui: &mut Ui, s: &mut ViewerState) {
-    if !need_dynamics(ui, s) {
-        return;
-    }
-    ui.horizontal(|ui| {
-        let label = if s.view.playing { "Pause" } else { "Play" };
-        if ui.button(label).clicked() {
-            s.view.playing = !s.view.playing;
-        }
-        if ui.button("Step").clicked() {
-            s.requests.push(Request::Step);
-        }
-        if ui.button("Reset").clicked() {
-            s.requests.push(Request::Reset);
-        }
-    });
-    ui.add(
-        Slider::new(&mut s.view.time_scale, 0.05..=4.0)
-            .logarithmic(true)
-            .text("time scale (frames per draw)"),
-    );
-    let d = s.scene.dynamics.as_mut().unwrap();
-    ui.add(
-        Slider::new(&mut d.dt, 0.005..=2.0)
-            .logarithmic(true)
-            .text("dt"),
-    );
-    ui.add(Slider::new(&mut d.steps_per_frame, 1..=20).text("steps per frame"));
-    ui.add(
-        Slider::new(&mut d.max_substeps, 1..=256)
-            .logarithmic(true)
-            .text("max substeps"),
-    );
-    ui.add(Slider::new(&mut d.damping, 0.0..=10.0).text("damping (per time)"));
-    ui.add(
-        Slider::new(&mut d.density, 0.05..=20.0)
-            .logarithmic(true)
-            .text("density ρ"),
-    );
-    ui.checkbox(&mut d.collision, "hard collision with the head");
-    let mut fl = d.fluctuation.is_some();
-    ui.checkbox(&mut fl, "gently blowing (random kicks)");
-    match (fl, d.fluctuation.is_some()) {
-        (true, false) => {
-            d.fluctuation = Some(Fluctuation {
-                amplitude: 5.0,
-                period: 10,
-            })
-        }
-        (false, true) => d.fluctuation = None,
-        _ => {}
-    }
-    if let Some(f) = d.fluctuation.as_mut() {
-        ui.add(Slider::new(&mut f.amplitude, 0.0..=45.0).text("kick amplitude (°)"));
-        ui.add(Slider::new(&mut f.period, 1..=60).text("every (frames)"));
-    }
-    if ui.small_button("Disable dynamics").clicked() {
-        s.scene.dynamics = None;
-    }
-}
 
 fn stats(ui: &mut Ui, s: &ViewerState) {
     let st = &s.stats;
@@ -536,206 +304,5 @@ fn stats(ui: &mut Ui, s: &ViewerState) {
     });
 }
 
-/// Three drag values for a direction vector (normalised where it is used).
-fn vector(ui: &mut Ui, label: &str, v: &mut [f64; 3]) {
-    ui.horizontal(|ui| {
-        ui.label(label);
-        for (c, axis) in v.iter_mut().zip(["x", "y", "z"]) {
-            ui.add(
-                egui::DragValue::new(c)
-                    .speed(0.02)
-                    .range(-1.0..=1.0)
-                    .prefix(format!("{axis} ")),
-            );
-        }
-    });
-}
 
-/// The body-segment direction and the regions with their own length and direction.
-fn fur_regions(ui: &mut Ui, f: &mut crate::scene::fur::Fur) {
-    vector(ui, "direction", &mut f.direction);
-    let mut remove = None;
-    for (i, r) in f.regions.iter_mut().enumerate() {
-        ui.separator();
-        ui.horizontal(|ui| {
-            ui.label(format!("region {i} centre"));
-            for c in r.center.iter_mut() {
-                ui.add(egui::DragValue::new(c).speed(0.02));
-            }
-            if ui.small_button("remove").clicked() {
-                remove = Some(i);
-            }
-        });
-        ui.add(
-            Slider::new(&mut r.radius, 0.01..=5.0)
-                .logarithmic(true)
-                .text("radius"),
-        );
-        ui.add(
-            Slider::new(&mut r.length_scale, 0.05..=5.0)
-                .logarithmic(true)
-                .text("length scale"),
-        );
-        let mut own = r.direction.is_some();
-        ui.checkbox(&mut own, "own direction");
-        match (own, r.direction.is_some()) {
-            (true, false) => r.direction = Some(f.direction),
-            (false, true) => r.direction = None,
-            _ => {}
-        }
-        if let Some(d) = r.direction.as_mut() {
-            vector(ui, "direction", d);
-        }
-    }
-    if let Some(i) = remove {
-        f.regions.remove(i);
-    }
-    if ui.small_button("add a region").clicked() {
-        f.regions.push(crate::scene::fur::Region {
-            center: [0.0; 3],
-            radius: 0.5,
-            length_scale: 1.0,
-            direction: None,
-        });
-    }
-}
 
-fn fur(ui: &mut Ui, s: &mut ViewerState) {
-    use crate::scene::fur::{Coat, FurMaterial, FurStyle};
-    let Some(f) = s.scene.fur.as_mut() else {
-        ui.label("this scene has no fur");
-        if ui.button("Add fur on the critter").clicked() {
-            s.path = "assets/scenes/fur.ron".into();
-            s.requests.push(Request::Open(s.path.clone()));
-        }
-        return;
-    };
-    ui.add(
-        Slider::new(&mut f.hairs, 1000..=500_000)
-            .logarithmic(true)
-            .text("hairs (full density)"),
-    );
-    ui.add(
-        Slider::new(&mut f.length, 0.01..=2.0)
-            .logarithmic(true)
-            .text("length"),
-    );
-    ui.checkbox(&mut f.culling.enabled, "distance-based culling");
-    egui::CollapsingHeader::new(format!("direction and regions ({})", f.regions.len()))
-        .id_salt("fur regions")
-        .show(ui, |ui| fur_regions(ui, f));
-    let mut moving = f.motion.is_some();
-    ui.checkbox(&mut moving, "animated body wave");
-    match (moving, f.motion.is_some()) {
-        (true, false) => {
-            f.motion = Some(crate::scene::fur::MeshMotion {
-                amplitude: 0.18,
-                wavelength: 4.0,
-                period: 24.0,
-                axis: [1.0, 0.0, 0.0],
-                direction: [0.0, 1.0, 0.0],
-            })
-        }
-        (false, true) => f.motion = None,
-        _ => {}
-    }
-    if let Some(m) = f.motion.as_mut() {
-        ui.add(Slider::new(&mut m.amplitude, 0.0..=1.0).text("wave amplitude"));
-        ui.add(Slider::new(&mut m.period, 4.0..=120.0).text("wave period (frames)"));
-    }
-    let mut remove = None;
-    let n = f.coats.len();
-    for (i, c) in f.coats.iter_mut().enumerate() {
-        let title = if c.name.is_empty() {
-            format!("coat {i}")
-        } else {
-            c.name.clone()
-        };
-        egui::CollapsingHeader::new(title)
-            .id_salt(("coat", i))
-            .default_open(i == 0)
-            .show(ui, |ui| {
-                ui.add(Slider::new(&mut c.share, 0.01..=1.0).text("share"));
-                ui.add(Slider::new(&mut c.relative_length, 0.05..=3.0).text("relative length"));
-                ui.add(Slider::new(&mut c.stiffness, 0.0..=1.0).text("stiffness"));
-                ui.add(Slider::new(&mut c.normal_randomize, 0.0..=1.0).text("normal randomize"));
-                ui.add(Slider::new(&mut c.end_randomize, 0.0..=1.0).text("hair end randomize"));
-                ui.add(
-                    Slider::new(&mut c.direction_weight, 0.0..=1.0)
-                        .text("segment direction weight"),
-                );
-                ui.horizontal(|ui| {
-                    ui.label("style");
-                    for (st, name) in [
-                        (FurStyle::Line, "line"),
-                        (FurStyle::Polyline, "polyline"),
-                        (FurStyle::Curve, "curve"),
-                        (FurStyle::Tube, "tube"),
-                    ] {
-                        ui.radio_value(&mut c.style, st, name);
-                    }
-                });
-                let m = &mut c.material;
-                ui.horizontal(|ui| {
-                    ui.label("ambient");
-                    ui.color_edit_button_rgb(&mut m.ambient);
-                    ui.label("diffuse");
-                    ui.color_edit_button_rgb(&mut m.diffuse);
-                    ui.label("specular");
-                    ui.color_edit_button_rgb(&mut m.specular);
-                });
-                ui.add(
-                    Slider::new(&mut m.shininess, 1.0..=200.0)
-                        .logarithmic(true)
-                        .text("shininess"),
-                );
-                ui.add(
-                    Slider::new(&mut m.width, 0.0005..=0.05)
-                        .logarithmic(true)
-                        .text("width"),
-                );
-                if n > 1 && ui.small_button("remove coat").clicked() {
-                    remove = Some(i);
-                }
-            });
-    }
-    if let Some(i) = remove {
-        f.coats.remove(i);
-    }
-    if f.coats.len() < 4 && ui.small_button("add an undercoat").clicked() {
-        f.coats.push(Coat {
-            name: "undercoat".into(),
-            share: 0.4,
-            relative_length: 0.3,
-            stiffness: 0.8,
-            normal_randomize: 0.3,
-            end_randomize: 0.05,
-            direction_weight: 0.1,
-            style: FurStyle::Polyline,
-            material: FurMaterial::default(),
-        });
-    }
-    ui.label("looks of Figure 2:");
-    ui.horizontal(|ui| {
-        if ui.small_button("Figure 8").clicked() {
-            for c in &mut f.coats {
-                c.stiffness = 0.2;
-                c.normal_randomize = 0.0;
-                c.end_randomize = 0.2;
-                c.direction_weight = 0.2;
-                c.material.ambient = [0.3, 0.14, 0.0];
-                c.material.shininess = 16.0;
-            }
-        }
-        if ui.small_button("Figure 9").clicked() {
-            for c in &mut f.coats {
-                c.stiffness = 0.2;
-                c.normal_randomize = 0.5;
-                c.end_randomize = 0.1;
-                c.direction_weight = 0.3;
-                c.material.ambient = [0.15, 0.07, 0.0];
-                c.material.shininess = 50.0;
-            }
-        }
-    });
-}

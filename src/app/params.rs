@@ -1,79 +1,29 @@
 //! The viewer's editable state, kept in plain structs so the panel logic is testable without
-//! a window: the panels edit a `Scene` (and a few viewer-only settings), and `Changes`
-//! classifies an edit into what must be redone — re-groom, new dynamics parameters, new
-//! materials, new anti-aliasing — so static parameters re-groom at once and dynamic ones act
-//! from the next step.
+//! a window: the panels edit a `Scene` (and a few viewer-only settings); the stage then
+//! classifies the edit per hair system (`systems::Change`) and applies it, so static
+//! parameters re-groom at once and dynamic ones act from the next step.
 
 use crate::error::{KamiError, Result};
 use crate::scene::{Dynamics, Interp, Scene, WindKey};
 
-/// What a change to the scene requires.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct Changes {
-    /// Pores, lengths, rigidity, loads, cuts, head, gravity, per-strand k_a: bend again
-    /// (and restart the simulation from the new rest pose).
-    pub regroom: bool,
-    /// Dynamics parameters: take effect from the next step.
-    pub dynamics: bool,
-    /// Whether dynamics were switched on or off (the simulation is rebuilt).
-    pub dynamics_toggled: bool,
-    /// Colours, k_s, n, widths, light, background: new uniforms only.
-    pub look: bool,
-    /// MSAA, supersampling, narrowest width: pipelines or targets.
-    pub quality: bool,
-    /// Anything about the fur: its roots are re-allocated (fast) and it is regenerated.
-    pub fur: bool,
+/// An exponential moving average of a frame-time measurement, for the Stats panel.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Ema {
+    value: Option<f64>,
 }
 
-impl Changes {
-    pub fn any(&self) -> bool {
-        self.regroom
-            || self.dynamics
-            || self.dynamics_toggled
-            || self.look
-            || self.quality
-            || self.fur
-    }
+impl Ema {
+    /// Weight of a new sample.
+    const NEW: f64 = 0.2;
 
-    /// Classify the edit from `old` to `new`.
-    pub fn between(old: &Scene, new: &Scene) -> Changes {
-        // Groups with their look-only fields made equal: what is left is the groom.
-        let groom_view = |s: &Scene| {
-            let mut groups = s.groups.clone();
-            for g in &mut groups {
-                let (ka, spread) = (g.material.ka, g.material.ka_spread);
-                g.material = Default::default();
-                g.material.ka = ka;
-                g.material.ka_spread = spread;
-            }
-            (s.seed, s.head.center, s.head.radii, s.gravity, groups)
+    /// Take a sample and return the new average (the first sample is taken as is).
+    pub fn add(&mut self, sample: f64) -> f64 {
+        let v = match self.value {
+            None => sample,
+            Some(old) => (1.0 - Self::NEW) * old + Self::NEW * sample,
         };
-        let look_view = |s: &Scene| {
-            let mats: Vec<_> = s.groups.iter().map(|g| g.material.clone()).collect();
-            (
-                mats,
-                s.light.clone(),
-                s.render.background,
-                s.head.color,
-                s.head.visible,
-            )
-        };
-        Changes {
-            regroom: groom_view(old) != groom_view(new),
-            dynamics: old.dynamics != new.dynamics,
-            dynamics_toggled: old.dynamics.is_some() != new.dynamics.is_some(),
-            look: look_view(old) != look_view(new),
-            quality: (
-                old.render.msaa,
-                old.render.supersample,
-                old.render.min_width,
-            ) != (
-                new.render.msaa,
-                new.render.supersample,
-                new.render.min_width,
-            ),
-            fur: old.fur != new.fur,
-        }
+        self.value = Some(v);
+        v
     }
 }
 
@@ -83,7 +33,8 @@ pub struct ViewSettings {
     pub playing: bool,
     /// Simulated frames per displayed frame (fractions accumulate).
     pub time_scale: f64,
-    pub show_pseudo: bool,
+    /// Hair systems' diagnostic overlays (Anjyo: segments the pseudo-force acted on).
+    pub overlay: bool,
     /// Adapt the share of hairs drawn to keep the frame time under `frame_budget_ms`.
     pub adaptive_lod: bool,
     pub hair_fraction: f64,
@@ -98,8 +49,8 @@ pub struct ViewSettings {
 
 impl ViewSettings {
     /// Anti-aliasing the viewer draws with.
-    pub fn quality(&self, scene: &Scene) -> crate::render::Quality {
-        crate::render::Quality {
+    pub fn quality(&self, scene: &Scene) -> crate::stage::Quality {
+        crate::stage::Quality {
             msaa: if self.msaa_dropped {
                 1
             } else {
@@ -119,7 +70,7 @@ impl Default for ViewSettings {
         ViewSettings {
             playing: true,
             time_scale: 1.0,
-            show_pseudo: false,
+            overlay: false,
             adaptive_lod: true,
             hair_fraction: 1.0,
             frame_budget_ms: 80.0,
@@ -160,6 +111,13 @@ pub struct Stats {
     pub substeps: u32,
     pub adapter: String,
     pub size: (u32, u32),
+    /// Strands drawn in the last frame, over every system.
+    pub drawn: u64,
+    pub frame_ema: Ema,
+    pub sim_ema: Ema,
+    pub render_ema: Ema,
+    pub ui_ema: Ema,
+    pub present_ema: Ema,
 }
 
 /// Everything the panels edit.
@@ -322,55 +280,14 @@ mod tests {
     }
 
     #[test]
-    fn edits_are_classified() {
-        let a = gust();
-        let mut b = a.clone();
-        b.groups[0].material.color = [0.9, 0.5, 0.1];
-        b.groups[0].material.width = 0.2;
-        assert_eq!(
-            Changes::between(&a, &b),
-            Changes {
-                look: true,
-                ..Default::default()
-            }
-        );
-        let mut c = a.clone();
-        c.groups[1].rigidity *= 2.0;
-        assert_eq!(
-            Changes::between(&a, &c),
-            Changes {
-                regroom: true,
-                ..Default::default()
-            }
-        );
-        let mut d = a.clone();
-        d.dynamics.as_mut().unwrap().damping = 3.0;
-        assert_eq!(
-            Changes::between(&a, &d),
-            Changes {
-                dynamics: true,
-                ..Default::default()
-            }
-        );
-        let mut e = a.clone();
-        e.dynamics = None;
-        let ch = Changes::between(&a, &e);
-        assert!(ch.dynamics && ch.dynamics_toggled && !ch.regroom);
-        let mut f = a.clone();
-        f.render.msaa = 1;
-        assert_eq!(
-            Changes::between(&a, &f),
-            Changes {
-                quality: true,
-                ..Default::default()
-            }
-        );
-        // k_a spread changes the per-strand draw: a re-groom, and a look change too.
-        let mut g = a.clone();
-        g.groups[0].material.ka_spread = 0.5;
-        let ch = Changes::between(&a, &g);
-        assert!(ch.regroom && ch.look);
-        assert!(!Changes::between(&a, &a).any());
+    fn moving_average_starts_at_the_first_sample_and_follows() {
+        let mut e = Ema::default();
+        assert_eq!(e.add(10.0), 10.0);
+        assert!((e.add(20.0) - 12.0).abs() < 1e-12);
+        for _ in 0..100 {
+            e.add(20.0);
+        }
+        assert!((e.add(20.0) - 20.0).abs() < 1e-6);
     }
 
     #[test]

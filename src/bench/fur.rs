@@ -5,10 +5,12 @@
 
 use super::{cpu_name, time_mean, Report};
 use crate::error::Result;
+use crate::forces::Forces;
 use crate::gpu::Gpu;
-use crate::groom::fur::FurFrame;
-use crate::render::{self, target, FrameView, Quality, Renderer, SceneContent};
 use crate::scene::fur::FurStyle;
+use crate::stage::{self, target, Look, Quality, Stage};
+use crate::systems::fur::FurSystem;
+use crate::systems::{FrameCtx, HairSystem, View};
 use crate::scene::Scene;
 use glam::DVec3;
 use image::RgbaImage;
@@ -34,62 +36,71 @@ pub const SIZE: (u32, u32) = (900, 900);
 /// Distances, in multiples of the distance at which the model fills the view.
 pub const DISTANCES: [f64; 6] = [1.0, 1.5, 2.0, 3.0, 4.0, 6.0];
 
-/// A fur scene set up for timing: renderer, content, target and view.
-struct Stage {
-    renderer: Renderer,
-    content: SceneContent,
+/// A fur scene set up for timing: its stage, an offscreen target and the scene's look.
+struct Timed {
+    stage: Stage,
     out: target::Offscreen,
-    view: FrameView,
+    look: Look,
 }
 
-impl Stage {
-    fn new(gpu: &Gpu, scene: &Scene, quality: Quality) -> Result<Stage> {
-        render::check_limits(gpu, scene, SIZE)?;
-        let mut renderer = Renderer::new(gpu, target::OUTPUT_FORMAT, quality)?;
-        let content = render::build_content(gpu, scene, &mut renderer)?;
-        let view = render::view_with_fur(scene, content.fur.as_ref());
-        Ok(Stage {
-            renderer,
-            content,
+impl Timed {
+    fn new(gpu: &Gpu, scene: &Scene, quality: Quality) -> Result<Timed> {
+        stage::check_limits(gpu, scene, SIZE)?;
+        let stage = Stage::new(gpu, scene, target::OUTPUT_FORMAT, quality)?;
+        let look = stage.look();
+        Ok(Timed {
+            stage,
             out: target::Offscreen::new(gpu, SIZE)?,
-            view,
+            look,
         })
     }
 
-    /// Record this frame's fur generation (the compute pass).
-    fn record(&mut self, gpu: &Gpu, enc: &mut wgpu::CommandEncoder) -> Result<FurFrame> {
-        let fur = self.content.fur.as_mut().expect("a fur scene");
-        fur.record(
-            gpu,
-            enc,
-            0.0,
-            self.view.camera.eye,
-            self.view.camera.fov_y,
-            1.0,
-        )
+    fn fur(&mut self) -> Result<&mut FurSystem> {
+        self.stage
+            .system_mut::<FurSystem>()
+            .ok_or_else(|| crate::KamiError::Invalid {
+                field: "fur".into(),
+                value: "None".into(),
+                allowed: "a fur scene".into(),
+            })
     }
 
     /// Generate and draw one frame; `compensate: false` keeps the culled hairs' width (to
     /// show what the compensation buys). Returns the hairs drawn.
     fn frame(&mut self, gpu: &Gpu, compensate: bool) -> Result<u64> {
-        let mut enc = gpu.device.create_command_encoder(&Default::default());
-        let mut ff = self.record(gpu, &mut enc)?;
-        if !compensate {
-            ff.width_scale = 1.0;
-        }
-        let drawn = ff.drawn.iter().map(|&d| d as u64).sum();
-        self.view.fur = Some(ff);
-        self.renderer
-            .render(gpu, &mut enc, &self.out.view, SIZE, &self.view)?;
+        self.fur()?.compensate_width = compensate;
+        let mut enc = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("bench fur frame"),
+            });
+        self.stage
+            .render(gpu, &mut enc, &self.out.view, SIZE, &self.look)?;
         gpu.queue.submit([enc.finish()]);
         gpu.wait()?;
-        Ok(drawn)
+        Ok(self.fur()?.drawn.iter().map(|&d| d as u64).sum())
     }
 
     /// Generation alone, for the cost of regenerating every frame.
     fn generate(&mut self, gpu: &Gpu) -> Result<()> {
-        let mut enc = gpu.device.create_command_encoder(&Default::default());
-        self.record(gpu, &mut enc)?;
+        let forces = Forces::from_scene(self.stage.scene());
+        let ctx = FrameCtx {
+            frame: self.stage.frame(),
+            forces: &forces,
+            head: glam::DMat4::IDENTITY,
+        };
+        let view = View {
+            eye: self.look.camera.eye,
+            fov_y: self.look.camera.fov_y,
+            lod: 1.0,
+            overlay: false,
+        };
+        let mut enc = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("bench fur generation"),
+            });
+        self.fur()?.prepare(gpu, &mut enc, &ctx, &view)?;
         gpu.queue.submit([enc.finish()]);
         gpu.wait()
     }
@@ -128,7 +139,7 @@ pub fn run(gpu: &Gpu, scenes: &Path, out: &Path, frames: u32) -> Result<Report> 
             .as_ref()
             .is_some_and(|f| f.coats.iter().all(|c| c.style == style)));
         for (label, quality) in qualities(&scene) {
-            let mut stage = Stage::new(gpu, &scene, quality)?;
+            let mut stage = Timed::new(gpu, &scene, quality)?;
             let mut drawn = 0;
             let secs = time_mean(frames, || {
                 drawn = stage.frame(gpu, true)?;
@@ -163,7 +174,7 @@ pub fn run(gpu: &Gpu, scenes: &Path, out: &Path, frames: u32) -> Result<Report> 
     let _ = writeln!(md, "| quality | hairs | s/frame | fps | vs paper |");
     let _ = writeln!(md, "|---|---:|---:|---:|---:|");
     for (label, quality) in qualities(&fig9) {
-        let mut stage = Stage::new(gpu, &fig9, quality)?;
+        let mut stage = Timed::new(gpu, &fig9, quality)?;
         let mut drawn = 0;
         let secs = time_mean(frames.min(3), || {
             drawn = stage.frame(gpu, true)?;
@@ -202,7 +213,7 @@ pub fn run(gpu: &Gpu, scenes: &Path, out: &Path, frames: u32) -> Result<Report> 
         let at = |mut s: Scene, culling: bool, seed: u64| -> Result<Scene> {
             let fur = s.fur.as_mut().expect("a fur scene");
             fur.culling.enabled = culling;
-            let setup = crate::groom::fur::FurSetup::new(fur, s.seed)?;
+            let setup = crate::systems::fur::setup::FurSetup::new(fur, s.seed)?;
             let (centre, r) = setup.bounds();
             let full = r / (0.5 * s.camera.fov_y.to_radians()).sin();
             let eye = DVec3::from(s.camera.eye);
@@ -213,7 +224,7 @@ pub fn run(gpu: &Gpu, scenes: &Path, out: &Path, frames: u32) -> Result<Report> 
             Ok(s)
         };
         let measure = |scene: Scene, compensate: bool| -> Result<(u64, f64, RgbaImage)> {
-            let mut stage = Stage::new(gpu, &scene, quality)?;
+            let mut stage = Timed::new(gpu, &scene, quality)?;
             let mut drawn = 0;
             let secs = time_mean(frames.min(3), || {
                 drawn = stage.frame(gpu, compensate)?;

@@ -5,10 +5,12 @@ pub mod fur;
 
 use crate::error::Result;
 use crate::gpu::Gpu;
-use crate::groom::cantilever::{self, Beam, CantileverPass};
-use crate::groom::{elastica, prepare};
-use crate::render::{self, target, FrameView, Quality, Renderer};
 use crate::scene::{Bending, Scene};
+use crate::stage::{target, Quality, Stage};
+use crate::systems::anjyo::cantilever::{self, Beam};
+use crate::systems::anjyo::cantilever_gpu::CantileverPass;
+use crate::systems::anjyo::elastica;
+use crate::systems::anjyo::groom::prepare;
 use glam::DVec3;
 use std::fmt::Write;
 use std::path::Path;
@@ -86,12 +88,16 @@ pub fn groom(gpu: &Gpu, scene_path: &Path, frames: u32) -> Result<Report> {
         let reference = cantilever::bend_all(&input);
         let cpu = t.elapsed().as_secs_f64();
 
-        let strands = crate::gpu::strands::StrandBuffers::new(gpu, &input)?;
+        let strands = input.strand_buffers(gpu)?;
         let pass = CantileverPass::new(gpu)?;
         let job = pass.prepare(gpu, &input, &strands)?;
         let runs = if converged { 2 } else { 5 };
         let gpu_t = time_mean(runs, || {
-            let mut enc = gpu.device.create_command_encoder(&Default::default());
+            let mut enc = gpu
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("bench groom"),
+                });
             pass.dispatch(&mut enc, &job);
             gpu.queue.submit([enc.finish()]);
             gpu.wait()
@@ -137,25 +143,24 @@ pub fn groom(gpu: &Gpu, scene_path: &Path, frames: u32) -> Result<Report> {
 
     // Render time per frame at 1280x720.
     let size = (1280, 720);
-    let input = prepare(&scene)?;
-    let hair = cantilever::groom_gpu(gpu, &input)?;
     let _ = writeln!(md, "\n| render 1280x720 | ms/frame | fps |");
     let _ = writeln!(md, "|---|---:|---:|");
     for (msaa, ss) in [(1, 1), (4, 1), (4, 2)] {
-        let mut r = Renderer::new(
-            gpu,
-            target::OUTPUT_FORMAT,
-            Quality {
-                msaa,
-                supersample: ss,
-            },
-        )?;
-        r.set_hair(gpu, &hair, &render::materials(&scene));
+        let quality = Quality {
+            msaa,
+            supersample: ss,
+        };
+        crate::stage::check_limits(gpu, &scene, size)?;
+        let mut stage = Stage::new(gpu, &scene, target::OUTPUT_FORMAT, quality)?;
         let out = target::Offscreen::new(gpu, size)?;
-        let view = FrameView::from_scene(&scene);
+        let look = stage.look();
         let secs = time_mean(frames, || {
-            let mut enc = gpu.device.create_command_encoder(&Default::default());
-            r.render(gpu, &mut enc, &out.view, size, &view)?;
+            let mut enc = gpu
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("bench render"),
+                });
+            stage.render(gpu, &mut enc, &out.view, size, &look)?;
             gpu.queue.submit([enc.finish()]);
             gpu.wait()
         })?;
@@ -268,7 +273,7 @@ pub fn elliptic_k(k: f64) -> f64 {
 /// (radians), returns (the period measured from the simulation with step `dt`, the exact
 /// period 4 K(sin(amplitude/2)) / omega0).
 pub fn pendulum_periods(amplitude: f64, dt: f64) -> (f64, f64) {
-    use crate::sim::projective::{CpuSim, DynSetup, DynStrand};
+    use crate::systems::anjyo::projective::{CpuSim, DynSetup, DynStrand};
     let params = crate::scene::Dynamics {
         dt,
         gravity: [0.0, -1.0, 0.0],
@@ -285,6 +290,12 @@ pub fn pendulum_periods(amplitude: f64, dt: f64) -> (f64, f64) {
         scalp: 1.0,
     };
     let mut setup = DynSetup {
+        forces: crate::forces::Forces {
+            gravity: DVec3::from(params.gravity),
+            wind: Vec::new(),
+            head_motion: Vec::new(),
+            center: DVec3::ZERO,
+        },
         params,
         // Far away: no contact.
         head: crate::scene::Ellipsoid::new([1e6, 0.0, 0.0], [1.0, 1.0, 1.0]),
@@ -325,7 +336,8 @@ pub fn pendulum_periods(amplitude: f64, dt: f64) -> (f64, f64) {
 // Dynamics: speed against error
 
 use crate::scene::{HeadKey, Interp, Roots, WindKey};
-use crate::sim::projective::{CpuSim, DynSetup};
+use crate::systems::anjyo::projective::{step_forces, CpuSim, DynSetup};
+use crate::systems::anjyo::AnjyoSystem;
 
 /// Simulated time of every run, and the frame length the sweep is built on.
 const T_END: f64 = 3.2;
@@ -531,6 +543,7 @@ fn errors(run: &DynRun, reference: &DynRun) -> (f64, f64) {
 /// and `dynamics.png` into `out`.
 pub fn dynamics(gpu: &Gpu, gust_path: &Path, out: &Path) -> Result<Report> {
     let gust = Scene::load(gust_path)?;
+    require_dynamics(&gust, gust_path)?;
     let frames = (T_END / FRAME_TIME).round() as u32;
     let mut md = String::new();
     let mut csv = String::from("config,dt,steps,rms_error,tip_error,cpu_seconds,us_per_strand_per_time,ns_per_segment_step,clamped\n");
@@ -607,8 +620,7 @@ pub fn dynamics(gpu: &Gpu, gust_path: &Path, out: &Path) -> Result<Report> {
             let setup = DynSetup::new(&s, &input, &groomed.visible).unwrap();
             let fmax = (0..(T_END / 0.1) as u64)
                 .map(|n| {
-                    let f =
-                        crate::sim::forces::step_forces(&setup.params, setup.head.center, n, 1, 0);
+                    let f = step_forces(&setup.forces, &setup.params, n, 1, 0);
                     f.force.length()
                 })
                 .fold(0.0, f64::max);
@@ -637,16 +649,27 @@ pub fn dynamics(gpu: &Gpu, gust_path: &Path, out: &Path) -> Result<Report> {
     }
     md.push_str(&summary);
 
-    // GPU: the paper's size (the full gust, ~10,000 hairs).
-    let input = prepare(&gust)?;
-    let hair = cantilever::groom_gpu(gpu, &input)?;
-    let mut sim = crate::sim::Simulation::new(gpu, &gust, &input, &hair)?.expect("gust is dynamic");
-    let segments: u64 = sim.setup.strands.iter().map(|s| s.segments as u64).sum();
+    // GPU: the paper's size (the full gust, ~10,000 hairs), advanced through the stage.
+    let mut stage = Stage::new(gpu, &gust, target::OUTPUT_FORMAT, Quality::of(&gust))?;
+    let (strands, segments) = {
+        let sim = stage
+            .system::<AnjyoSystem>()
+            .and_then(|a| a.sim.as_ref())
+            .ok_or_else(|| no_dynamics(gust_path))?;
+        (
+            sim.setup.strands.len(),
+            sim.setup.strands.iter().map(|s| s.segments as u64).sum::<u64>(),
+        )
+    };
     let mut substeps = 0u64;
     let n = 20;
     let secs = time_mean(n, || {
-        let mut enc = gpu.device.create_command_encoder(&Default::default());
-        substeps += sim.record_frame(gpu, &mut enc, &hair).substeps as u64;
+        let mut enc = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("bench dynamics"),
+            });
+        substeps += stage.advance(gpu, &mut enc, 1)?.substeps as u64;
         gpu.queue.submit([enc.finish()]);
         gpu.wait()
     })?;
@@ -654,7 +677,7 @@ pub fn dynamics(gpu: &Gpu, gust_path: &Path, out: &Path) -> Result<Report> {
     let gpu_ns = secs * 1e9 / (segments as f64 * per_frame_substeps);
     let cpu = run_cpu(&retime(&gust, 1, 0.1), 5)?;
     let cpu_ns = cpu.seconds * 1e9 / cpu.segment_substeps as f64;
-    let _ = writeln!(md, "\n**At the paper's size** (gust scene, {} hairs, {} simulated segments, dt = 0.1): GPU {:.1} ms per frame ({gpu_ns:.1} ns per segment-step); CPU f64 reference {cpu_ns:.1} ns per segment-step ({:.0} ms per frame). The paper: about 40 s per frame for 20,000 hairs.", sim.setup.strands.len(), segments, secs * 1e3, cpu_ns * segments as f64 * 1e-6);
+    let _ = writeln!(md, "\n**At the paper's size** (gust scene, {} hairs, {} simulated segments, dt = 0.1): GPU {:.1} ms per frame ({gpu_ns:.1} ns per segment-step); CPU f64 reference {cpu_ns:.1} ns per segment-step ({:.0} ms per frame). The paper: about 40 s per frame for 20,000 hairs.", strands, segments, secs * 1e3, cpu_ns * segments as f64 * 1e-6);
     let _ = writeln!(csv, "gpu gust,0.1,,,,{secs:.5},,{gpu_ns:.2},");
 
     // Rigid pendulum: large-swing period against the exact elliptic integral.
@@ -705,10 +728,28 @@ pub fn dynamics(gpu: &Gpu, gust_path: &Path, out: &Path) -> Result<Report> {
     Ok(Report { markdown: md, csv })
 }
 
+/// The error for a benchmark scene without a dynamic hair group.
+fn no_dynamics(path: &Path) -> crate::KamiError {
+    crate::KamiError::Invalid {
+        field: format!("{}: dynamics", path.display()),
+        value: "none".into(),
+        allowed: "a scene with a `dynamics: Some(Dynamics(...))` block and a dynamic hair group (e.g. assets/scenes/gust.ron)".into(),
+    }
+}
+
+/// Refuse a scene the dynamics benchmark cannot run (no dynamics, no hair).
+fn require_dynamics(scene: &Scene, path: &Path) -> Result<()> {
+    if scene.dynamics.is_none() || !scene.groups.iter().any(|g| g.dynamic) {
+        return Err(no_dynamics(path));
+    }
+    Ok(())
+}
+
 /// (dt, RMS error) of one benchmark configuration (by name, e.g. "FREE (NO CONTACT)") for
 /// these steps per frame, against the dt/64 reference. Used by the convergence test.
 pub fn convergence(gust_path: &Path, case: &str, spfs: &[u32]) -> Result<Vec<(f64, f64)>> {
     let gust = Scene::load(gust_path)?;
+    require_dynamics(&gust, gust_path)?;
     let (_, scene) = dynamic_cases(&gust)
         .into_iter()
         .find(|(n, _)| n == case)

@@ -33,7 +33,7 @@ pub struct GpuStrand {
 }
 assert_size!(GpuStrand, 32);
 
-/// Groom input per strand. Keep in sync with `struct Root` in `shaders/cantilever.wgsl`.
+/// Groom input per strand. Keep in sync with `struct Root` in `shaders/anjyo/cantilever.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuRoot {
@@ -44,7 +44,7 @@ pub struct GpuRoot {
 }
 assert_size!(GpuRoot, 32);
 
-/// Bending parameters per group. Keep in sync with `struct Group` in `shaders/cantilever.wgsl`.
+/// Bending parameters per group. Keep in sync with `struct Group` in `shaders/anjyo/cantilever.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuGroomGroup {
@@ -77,7 +77,7 @@ pub struct GpuLoad {
 }
 assert_size!(GpuLoad, 96);
 
-/// A cut rule. Keep in sync with `struct Cut` in `shaders/cantilever.wgsl`.
+/// A cut rule. Keep in sync with `struct Cut` in `shaders/anjyo/cantilever.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuCut {
@@ -89,7 +89,7 @@ pub struct GpuCut {
 }
 assert_size!(GpuCut, 32);
 
-/// Groom dispatch parameters. Keep in sync with `struct Params` in `shaders/cantilever.wgsl`.
+/// Groom dispatch parameters. Keep in sync with `struct Params` in `shaders/anjyo/cantilever.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuGroomParams {
@@ -118,15 +118,16 @@ pub struct GpuFrame {
     /// (width, height) of the target in samples, then 1/width, 1/height.
     pub viewport: [f32; 4],
     /// x: pixels per world unit at distance 1 (focal length in samples); y: narrowest
-    /// strand drawn, samples; z: width scale (1 / share of hairs drawn, level of detail);
-    /// w: alpha dither amplitude (1/MSAA samples, 0 without MSAA).
+    /// strand drawn, samples; z: width scale of strand hair drawn at a level of detail
+    /// (1/sqrt(share of hairs drawn)); w: MSAA samples per pixel (1 without MSAA), for the
+    /// per-sample coverage of `shaders/common/coverage.wgsl`.
     pub raster: [f32; 4],
     /// x: 1 to show the segments the pseudo-force acted on.
     pub flags: [f32; 4],
 }
 assert_size!(GpuFrame, 160);
 
-/// Look of a hair group. Keep in sync with `struct Material` in `shaders/strands.wgsl`.
+/// Look of a hair group. Keep in sync with `struct Material` in `shaders/anjyo/draw.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
@@ -137,7 +138,7 @@ pub struct GpuMaterial {
 }
 assert_size!(GpuMaterial, 32);
 
-/// The head mesh's uniform. Keep in sync with `struct Head` in `shaders/head.wgsl`.
+/// The head mesh's uniform. Keep in sync with `struct Head` in `shaders/stage/head.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuHead {
@@ -151,7 +152,7 @@ pub struct GpuHead {
 assert_size!(GpuHead, 96);
 
 /// Projective-dynamics parameters. Keep in sync with `struct DynParams` in
-/// `shaders/projective.wgsl`.
+/// `shaders/anjyo/projective.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuDynParams {
@@ -182,7 +183,7 @@ pub struct GpuDynParams {
 assert_size!(GpuDynParams, 112);
 
 /// One substep's forces, in a 256-byte slot of a dynamic-offset uniform buffer. Keep in sync
-/// with `struct Step` in `shaders/projective.wgsl`.
+/// with `struct Step` in `shaders/anjyo/projective.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuStep {
@@ -197,7 +198,7 @@ pub struct GpuStep {
 }
 assert_size!(GpuStep, 256);
 
-/// One simulated strand. Keep in sync with `struct DynStrand` in `shaders/projective.wgsl`.
+/// One simulated strand. Keep in sync with `struct DynStrand` in `shaders/anjyo/projective.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuDynStrand {
@@ -211,7 +212,7 @@ pub struct GpuDynStrand {
 assert_size!(GpuDynStrand, 48);
 
 /// One fur coat's generation parameters, in a 256-byte slot of a dynamic-offset uniform
-/// buffer. Keep in sync with `struct Coat` in `shaders/fur_gen.wgsl`.
+/// buffer. Keep in sync with `struct Coat` in `shaders/fur/generate.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct GpuFurCoat {
@@ -240,7 +241,7 @@ pub struct GpuFurCoat {
 assert_size!(GpuFurCoat, 256);
 
 /// A fur coat's look (Van Gelder & Wilhelms Figure 2). Keep in sync with
-/// `struct FurMaterial` in `shaders/fur.wgsl`.
+/// `struct FurMaterial` in `shaders/fur/draw.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuFurMaterial {
@@ -255,7 +256,7 @@ pub struct GpuFurMaterial {
 }
 assert_size!(GpuFurMaterial, 64);
 
-/// The fur mesh's skin. Keep in sync with `struct Skin` in `shaders/mesh.wgsl`.
+/// The fur mesh's skin. Keep in sync with `struct Skin` in `shaders/fur/skin.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuSkin {

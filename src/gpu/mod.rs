@@ -6,10 +6,15 @@
 //! images are deterministic, `Preference::Hardware` (the CLI and viewer) a real GPU first.
 
 pub mod gpu_data;
+pub mod pipeline;
 pub mod strands;
 
 use crate::error::{KamiError, Result};
 use std::sync::{Arc, Mutex};
+
+/// Invocations per workgroup of every compute kernel (one invocation per strand or hair;
+/// passed to the shaders as the pipeline-overridable constant `WORKGROUP`).
+pub const WORKGROUP: u32 = 64;
 
 /// Which kind of adapter to look for first.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -336,13 +341,16 @@ pub fn dynamic_uniform_entry(
     }
 }
 
-/// The compute pipelines of `entries` in `module`, all over the one bind group `layout`.
+/// The compute pipelines of `entries` in `module`, all over the one bind group `layout`,
+/// with the module's pipeline-overridable `constants` (numbers shared with the Rust side,
+/// such as the workgroup size, are passed here rather than typed in both languages).
 pub fn compute_pipelines<const N: usize>(
     device: &wgpu::Device,
     label: &str,
     layout: &wgpu::BindGroupLayout,
     module: &wgpu::ShaderModule,
     entries: [&str; N],
+    constants: &[(&str, f64)],
 ) -> [wgpu::ComputePipeline; N] {
     let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some(label),
@@ -355,7 +363,10 @@ pub fn compute_pipelines<const N: usize>(
             layout: Some(&pl),
             module,
             entry_point: Some(entry),
-            compilation_options: Default::default(),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants,
+                ..Default::default()
+            },
             cache: None,
         })
     })

@@ -4,9 +4,12 @@
 
 use super::gpu_data::GpuStrand;
 use super::{storage_buffer, Gpu};
-use crate::error::Result;
-use crate::groom::GroomInput;
+use crate::error::{KamiError, Result};
 use crate::rng::hash_unit;
+
+/// Bytes of one node (`vec4<f32>`) and of one strand record.
+pub const NODE: u64 = std::mem::size_of::<[f32; 4]>() as u64;
+pub const RECORD: u64 = std::mem::size_of::<GpuStrand>() as u64;
 
 /// A run of strands drawn with one instanced call: same node count.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -25,66 +28,58 @@ pub struct StrandBuffers {
 }
 
 impl StrandBuffers {
-    /// Allocate for a prepared groom (nodes are written by the groom kernel).
-    pub fn new(gpu: &Gpu, input: &GroomInput) -> Result<StrandBuffers> {
-        let offsets = input.vertex_offsets();
-        let vertex_count = *offsets.last().unwrap();
-        let records: Vec<GpuStrand> = input
-            .roots
-            .iter()
-            .enumerate()
-            .map(|(i, r)| {
-                let k = input.groups[r.group as usize].segments;
-                GpuStrand {
-                    first_vertex: offsets[i],
-                    segments: k,
-                    group: r.group,
-                    flags: 0,
-                    visible: k as f32,
-                    ka: r.ka as f32,
-                    seg_len: r.seg_len as f32,
-                    rand: hash_unit(i as u32),
-                }
-            })
-            .collect();
-        let vbytes = vertex_count as u64 * 16;
-        gpu.check_storage_size("the hair vertex buffer", vbytes)?;
-        gpu.check_storage_size("the strand table", records.len() as u64 * 32)?;
+    /// Allocate for these strand records (`label` names the buffers, e.g. "hair" or "fur");
+    /// the nodes are written by a solver or generator. Records must be laid out one after
+    /// the other (`first_vertex` increasing), `ranges` covering them.
+    pub fn new(
+        gpu: &Gpu,
+        label: &str,
+        records: &[GpuStrand],
+        ranges: Vec<DrawRange>,
+    ) -> Result<StrandBuffers> {
+        let vertex_count: u64 = records
+            .last()
+            .map_or(0, |r| r.first_vertex as u64 + r.segments as u64 + 1);
+        if vertex_count > u32::MAX as u64 {
+            return Err(KamiError::TooLarge {
+                what: format!("the {label} vertex count"),
+                needed: vertex_count,
+                limit: u32::MAX as u64,
+                hint: "use fewer hairs or segments".into(),
+            });
+        }
+        let vbytes = vertex_count * NODE;
+        gpu.check_storage_size(&format!("the {label} vertex buffer"), vbytes)?;
+        gpu.check_storage_size(
+            &format!("the {label} strand table"),
+            records.len() as u64 * RECORD,
+        )?;
         let strands = storage_buffer(
             &gpu.device,
-            "strands",
-            bytemuck::cast_slice(&records),
+            &format!("{label} strands"),
+            bytemuck::cast_slice(records),
             wgpu::BufferUsages::COPY_SRC,
         );
         let vertices = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("strand vertices"),
-            size: vbytes.max(16),
+            label: Some(&format!("{label} vertices")),
+            size: vbytes.max(NODE),
             usage: wgpu::BufferUsages::STORAGE
                 | wgpu::BufferUsages::COPY_SRC
                 | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let ranges = input
-            .groups
-            .iter()
-            .map(|g| DrawRange {
-                first_strand: g.first_strand,
-                strand_count: g.strand_count,
-                nodes_per_strand: g.segments + 1,
-            })
-            .collect();
         Ok(StrandBuffers {
             strands,
             vertices,
             strand_count: records.len() as u32,
-            vertex_count,
+            vertex_count: vertex_count as u32,
             ranges,
         })
     }
 
     /// Buffers for runs of strands of fixed node counts: `(count, segments, group)` per run,
     /// laid out one after the other (fur: one run per coat).
-    pub fn from_runs(gpu: &Gpu, runs: &[(u32, u32, u32)]) -> Result<StrandBuffers> {
+    pub fn from_runs(gpu: &Gpu, label: &str, runs: &[(u32, u32, u32)]) -> Result<StrandBuffers> {
         let mut records = Vec::new();
         let mut ranges = Vec::new();
         let mut vertex = 0u64;
@@ -95,6 +90,14 @@ impl StrandBuffers {
                 nodes_per_strand: segments + 1,
             });
             for _ in 0..count {
+                if vertex > u32::MAX as u64 {
+                    return Err(KamiError::TooLarge {
+                        what: format!("the {label} vertex count"),
+                        needed: vertex,
+                        limit: u32::MAX as u64,
+                        hint: "use fewer hairs".into(),
+                    });
+                }
                 let i = records.len() as u32;
                 records.push(GpuStrand {
                     first_vertex: vertex as u32,
@@ -109,46 +112,16 @@ impl StrandBuffers {
                 vertex += segments as u64 + 1;
             }
         }
-        gpu.check_storage_size("the fur vertex buffer", vertex * 16)?;
-        gpu.check_storage_size("the fur strand table", records.len() as u64 * 32)?;
-        if vertex > u32::MAX as u64 {
-            return Err(crate::error::KamiError::TooLarge {
-                what: "the fur vertex count".into(),
-                needed: vertex,
-                limit: u32::MAX as u64,
-                hint: "use fewer hairs".into(),
-            });
-        }
-        let strands = storage_buffer(
-            &gpu.device,
-            "fur strands",
-            bytemuck::cast_slice(&records),
-            wgpu::BufferUsages::COPY_SRC,
-        );
-        let vertices = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("fur vertices"),
-            size: (vertex * 16).max(16),
-            usage: wgpu::BufferUsages::STORAGE
-                | wgpu::BufferUsages::COPY_SRC
-                | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        Ok(StrandBuffers {
-            strands,
-            vertices,
-            strand_count: records.len() as u32,
-            vertex_count: vertex as u32,
-            ranges,
-        })
+        Self::new(gpu, label, &records, ranges)
     }
 
     /// Read all node positions back (tests and benchmarks only).
     pub fn read_vertices(&self, gpu: &Gpu) -> Result<Vec<[f32; 4]>> {
-        super::read_buffer(gpu, &self.vertices, self.vertex_count as u64 * 16)
+        super::read_buffer(gpu, &self.vertices, self.vertex_count as u64 * NODE)
     }
 
     /// Read the strand records back (tests and benchmarks only).
     pub fn read_strands(&self, gpu: &Gpu) -> Result<Vec<GpuStrand>> {
-        super::read_buffer(gpu, &self.strands, self.strand_count as u64 * 32)
+        super::read_buffer(gpu, &self.strands, self.strand_count as u64 * RECORD)
     }
 }

@@ -90,7 +90,7 @@ impl Ellipsoid {
         let at = |phi: f64| pivot + d * (phi.cos() * a0 + phi.sin() * v);
         let outside = |phi: f64| self.eval(at(phi)) >= EPS_OUT;
         // Coarse search then bisection; the WGSL twin uses the same steps (and fewer
-        // bisections, f32). Loop counts matter on llvmpipe (see shaders/cantilever.wgsl).
+        // bisections, f32). Loop counts matter on llvmpipe (see shaders/anjyo/cantilever.wgsl).
         const STEPS: u32 = 32;
         let step = PI / STEPS as f64;
         for n in 1..=STEPS {

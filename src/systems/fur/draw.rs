@@ -1,11 +1,13 @@
-//! Fur drawing (`shaders/fur.wgsl`) and the fur mesh's skin (`shaders/mesh.wgsl`): ribbons
-//! for line, polyline and curve hairs, 6-sided tubes for tube hairs, one instanced draw per
-//! coat over the hairs the generator wrote this frame.
+//! Fur drawing (`shaders/fur/draw.wgsl`) and the fur mesh's skin (`shaders/fur/skin.wgsl`):
+//! ribbons for line, polyline and curve hairs, 6-sided tubes for tube hairs, one instanced
+//! draw per coat over the hairs the generator wrote this frame.
 
+use super::generate::{motion_uniform, style_code, FurGpu};
+use super::setup::FurSetup;
 use crate::error::Result;
 use crate::gpu::gpu_data::{linear_rgb, GpuFurMaterial, GpuSkin};
+use crate::gpu::pipeline::{self, DrawPipeline};
 use crate::gpu::{self, Gpu};
-use crate::groom::fur::{motion_uniform, style_code, FurGpu, FurSetup};
 use crate::scene::fur::FurStyle;
 
 pub struct FurPass {
@@ -75,36 +77,31 @@ impl FurPass {
         samples: u32,
     ) -> Result<FurPass> {
         let device = &gpu.device;
-        let module = gpu::shader_module(device, "fur", crate::shaders::FUR)?;
-        let mesh_module = gpu::shader_module(device, "mesh", crate::shaders::MESH)?;
+        let module = gpu::shader_module(device, "fur draw", super::DRAW)?;
+        let mesh_module = gpu::shader_module(device, "fur skin", super::SKIN)?;
         let vs = wgpu::ShaderStages::VERTEX;
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("fur"),
-            entries: &[
+        let layout = pipeline::layout(
+            device,
+            "fur",
+            &[
                 gpu::storage_entry(0, vs, true),
                 gpu::storage_entry(1, vs, true),
                 gpu::storage_entry(2, vs, true),
                 gpu::storage_entry(3, vs, true),
             ],
-        });
-        let mesh_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("fur skin"),
-            entries: &[
+        );
+        let mesh_layout = pipeline::layout(
+            device,
+            "fur skin",
+            &[
                 gpu::uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT),
                 gpu::storage_entry(1, vs, true),
                 gpu::storage_entry(2, vs, true),
             ],
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("fur"),
-            bind_group_layouts: &[Some(frame_layout), Some(&layout)],
-            immediate_size: 0,
-        });
-        let mesh_pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("fur skin"),
-            bind_group_layouts: &[Some(frame_layout), Some(&mesh_layout)],
-            immediate_size: 0,
-        });
+        );
+        let pipeline_layout = pipeline::pipeline_layout(device, "fur", &[frame_layout, &layout]);
+        let mesh_pipeline_layout =
+            pipeline::pipeline_layout(device, "fur skin", &[frame_layout, &mesh_layout]);
         let (ribbon, tube, skin) = Self::pipelines(
             gpu,
             &module,
@@ -155,80 +152,44 @@ impl FurPass {
         wgpu::RenderPipeline,
         wgpu::RenderPipeline,
     ) {
-        let device = &gpu.device;
-        let hair_fs = super::hair_fragment_entry(gpu);
-        let msaa = samples > 1;
-        let make = |module: &wgpu::ShaderModule,
-                    layout: &wgpu::PipelineLayout,
-                    entry: &str,
-                    fs: &str,
-                    topology,
-                    coverage: bool| {
-            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                label: Some(entry),
-                layout: Some(layout),
-                vertex: wgpu::VertexState {
-                    module,
-                    entry_point: Some(entry),
-                    compilation_options: Default::default(),
-                    buffers: &[],
-                },
-                primitive: wgpu::PrimitiveState {
-                    topology,
-                    cull_mode: None,
-                    ..Default::default()
-                },
-                depth_stencil: Some(super::depth_state(true)),
-                multisample: wgpu::MultisampleState {
-                    count: samples,
-                    mask: !0,
-                    alpha_to_coverage_enabled: false,
-                },
-                fragment: Some(wgpu::FragmentState {
-                    module,
-                    entry_point: Some(fs),
-                    compilation_options: Default::default(),
-                    targets: &[Some(wgpu::ColorTargetState {
-                        format,
-                        blend: (!msaa && coverage).then_some(wgpu::BlendState::ALPHA_BLENDING),
-                        write_mask: wgpu::ColorWrites::ALL,
-                    })],
-                }),
-                multiview_mask: None,
-                cache: None,
-            })
+        let hair_fs = pipeline::hair_fragment_entry(gpu);
+        let base = DrawPipeline {
+            label: "vs_ribbon",
+            layout: pl,
+            module,
+            vertex_entry: "vs_ribbon",
+            fragment_entry: hair_fs,
+            topology: wgpu::PrimitiveTopology::TriangleStrip,
+            cull_mode: None,
+            vertex_buffers: &[],
+            // Sub-pixel ribbons blend their coverage without MSAA; tubes are real geometry.
+            blend: (samples <= 1).then_some(wgpu::BlendState::ALPHA_BLENDING),
+            format,
+            samples,
         };
-        (
-            make(
-                module,
-                pl,
-                "vs_ribbon",
-                hair_fs,
-                wgpu::PrimitiveTopology::TriangleStrip,
-                true,
-            ),
-            make(
-                module,
-                pl,
-                "vs_tube",
-                hair_fs,
-                wgpu::PrimitiveTopology::TriangleList,
-                false,
-            ),
-            make(
-                mesh_module,
-                mesh_pl,
-                "vs",
-                "fs",
-                wgpu::PrimitiveTopology::TriangleList,
-                false,
-            ),
-        )
+        let tube = DrawPipeline {
+            label: "vs_tube",
+            vertex_entry: "vs_tube",
+            topology: wgpu::PrimitiveTopology::TriangleList,
+            blend: None,
+            ..base
+        };
+        let skin = DrawPipeline {
+            label: "fur skin",
+            layout: mesh_pl,
+            module: mesh_module,
+            vertex_entry: "vs",
+            fragment_entry: "fs",
+            topology: wgpu::PrimitiveTopology::TriangleList,
+            blend: None,
+            ..base
+        };
+        let device = &gpu.device;
+        (base.build(device), tube.build(device), skin.build(device))
     }
 
     /// Bind a fur generator's buffers (after it is built).
     pub fn set_fur(&mut self, gpu: &Gpu, setup: &FurSetup, fur: &FurGpu) {
-        let (mesh, tris) = (&fur.mesh, &fur.tris);
         let device = &gpu.device;
         let materials = gpu::storage_buffer(
             device,
@@ -242,22 +203,23 @@ impl FurPass {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let e = gpu::entry;
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("fur"),
-            layout: &self.layout,
-            entries: &[
-                e(0, &fur.strands.strands),
-                e(1, &fur.strands.vertices),
-                e(2, &fur.info),
-                e(3, &materials),
+        let bind_group = pipeline::bind_buffers(
+            device,
+            "fur",
+            &self.layout,
+            &[
+                &fur.strands.strands,
+                &fur.strands.vertices,
+                &fur.info,
+                &materials,
             ],
-        });
-        let mesh_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("fur skin"),
-            layout: &self.mesh_layout,
-            entries: &[e(0, &skin), e(1, mesh), e(2, tris)],
-        });
+        );
+        let mesh_bind_group = pipeline::bind_buffers(
+            device,
+            "fur skin",
+            &self.mesh_layout,
+            &[&skin, &fur.mesh, &fur.tris],
+        );
         let coats = setup
             .fur
             .coats
@@ -296,12 +258,17 @@ impl FurPass {
         }
     }
 
-    /// Draw the skin and `drawn[coat]` hairs of each coat.
-    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, drawn: &[u32]) {
+    /// Draw the skin (opaque).
+    pub fn draw_skin(&self, pass: &mut wgpu::RenderPass<'_>) {
         let Some(b) = &self.bound else { return };
         pass.set_pipeline(&self.skin);
         pass.set_bind_group(1, &b.mesh_bind_group, &[]);
         pass.draw(0..b.mesh_vertices, 0..1);
+    }
+
+    /// Draw `drawn[coat]` hairs of each coat.
+    pub fn draw_hairs(&self, pass: &mut wgpu::RenderPass<'_>, drawn: &[u32]) {
+        let Some(b) = &self.bound else { return };
         pass.set_bind_group(1, &b.bind_group, &[]);
         for (&(first, tube, verts), &n) in b.coats.iter().zip(drawn) {
             if n == 0 {

@@ -1,13 +1,15 @@
 // Anjyo's projective dynamics, one substep per dispatch, one invocation per simulated
-// strand. The same steps as the f64 reference in src/sim/projective.rs (read its header for
+// strand. The same steps as the f64 reference in src/systems/anjyo/projective.rs (read its header for
 // the equations and our additions): forces with the pseudo-force field, the theta plane from
 // y and F near the poles, the recurrences (4)' and (5)' with damping and the angular clamp,
 // the fluctuation kick, the joint-angle clamp, the hard collision; root to tip.
 // `init` turns the groomed nodes into angles at rest (theta^0 = theta^-1).
 
 const TAU: f32 = 6.28318530717959;
-const POLE_SIN: f32 = 0.05;
-const MAX_TURN: f32 = 0.5;
+// Passed by the Rust side (`projective::POLE_SIN`, `projective::MAX_TURN`, `gpu::WORKGROUP`).
+override POLE_SIN: f32;
+override MAX_TURN: f32;
+override WORKGROUP: u32;
 
 // Keep in sync with GpuDynParams in src/gpu/gpu_data.rs.
 struct DynParams {
@@ -132,7 +134,7 @@ fn strand_index(id: vec3<u32>) -> u32 {
     return id.x + id.y * params.row_stride;
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn init(@builtin(global_invocation_id) id: vec3<u32>) {
     let si = strand_index(id);
     if si >= params.strand_count {
@@ -148,7 +150,7 @@ fn init(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn advance(@builtin(global_invocation_id) id: vec3<u32>) {
     let si = strand_index(id);
     if si >= params.strand_count {

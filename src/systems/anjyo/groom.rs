@@ -1,14 +1,13 @@
 //! Grooming: rest shapes of hair, computed once per scene. `prepare` turns a scene into a
 //! deterministic table of roots (pores, initial directions, segment lengths, per-strand
 //! ambient) and resolved group parameters; the cantilever solver bends them (on the GPU in
-//! `cantilever::CantileverPass`, with `cantilever::bend_all` as the f64 reference).
-
-pub mod cantilever;
-pub mod critter;
-pub mod elastica;
-pub mod fur;
+//! `cantilever_gpu::CantileverPass`, with `cantilever::bend_all` as the f64 reference).
 
 use crate::error::{KamiError, Result};
+use crate::gpu::gpu_data::GpuStrand;
+use crate::gpu::strands::{DrawRange, StrandBuffers};
+use crate::gpu::Gpu;
+use crate::rng::hash_unit;
 use crate::rng::Rng;
 use crate::scene::{head::phi_in_range, Bending, CutRule, Direction, Ellipsoid, Load, Scene};
 use glam::DVec3;
@@ -120,6 +119,40 @@ impl GroomInput {
         }
         off.push(acc);
         off
+    }
+
+    /// The strand buffers for this groom: one record per strand (offset, segments, group,
+    /// per-strand look), one draw range per group; the nodes are written by the groom kernel.
+    pub fn strand_buffers(&self, gpu: &Gpu) -> Result<StrandBuffers> {
+        let offsets = self.vertex_offsets();
+        let records: Vec<GpuStrand> = self
+            .roots
+            .iter()
+            .enumerate()
+            .map(|(i, r)| {
+                let k = self.groups[r.group as usize].segments;
+                GpuStrand {
+                    first_vertex: offsets[i],
+                    segments: k,
+                    group: r.group,
+                    flags: 0,
+                    visible: k as f32,
+                    ka: r.ka as f32,
+                    seg_len: r.seg_len as f32,
+                    rand: hash_unit(i as u32),
+                }
+            })
+            .collect();
+        let ranges = self
+            .groups
+            .iter()
+            .map(|g| DrawRange {
+                first_strand: g.first_strand,
+                strand_count: g.strand_count,
+                nodes_per_strand: g.segments + 1,
+            })
+            .collect();
+        StrandBuffers::new(gpu, "hair", &records, ranges)
     }
 
     pub fn total_vertices(&self) -> u64 {

@@ -1,16 +1,15 @@
-//! Solvers that move hair every frame. Each has an f64 CPU reference and a GPU pass with the
-//! same semantics (`tests/contract.rs` compares them). `Simulation` drives the GPU pass over
-//! a groom: positions stay on the GPU, the CPU only schedules forces.
+//! `Simulation` drives the projective-dynamics kernel over a groom: positions stay on the
+//! GPU, the CPU only schedules forces (`projective::DynSetup::schedule`). The f64 reference
+//! of the same step is `projective::CpuSim` (`tests/contract.rs` compares them).
 
-pub mod forces;
-pub mod projective;
-
+use super::groom::GroomInput;
+use super::projective::DynSetup;
+use super::projective_gpu::{ProjectiveJob, ProjectivePass};
 use crate::error::Result;
 use crate::gpu::strands::StrandBuffers;
 use crate::gpu::Gpu;
-use crate::groom::GroomInput;
 use crate::scene::Scene;
-use projective::{DynSetup, ProjectiveJob, ProjectivePass};
+use crate::systems::StepInfo;
 
 /// The GPU simulation of a groomed scene.
 pub struct Simulation {
@@ -21,13 +20,6 @@ pub struct Simulation {
     pub steps: u64,
     /// Steps that needed more than `max_substeps` (the angular clamp was relied on).
     pub capped_steps: u64,
-}
-
-/// What one frame of simulation did.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct FrameInfo {
-    pub substeps: u32,
-    pub capped: bool,
 }
 
 impl Simulation {
@@ -60,7 +52,11 @@ impl Simulation {
             steps: 0,
             capped_steps: 0,
         };
-        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        let mut enc = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("projective init"),
+            });
         sim.pass.init(&mut enc, &sim.job);
         gpu.queue.submit([enc.finish()]);
         Ok(Some(sim))
@@ -68,7 +64,11 @@ impl Simulation {
 
     /// Back to the rest pose (the caller re-grooms the nodes first).
     pub fn reset(&mut self, gpu: &Gpu) {
-        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        let mut enc = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("projective reset"),
+            });
         self.pass.init(&mut enc, &self.job);
         gpu.queue.submit([enc.finish()]);
         self.steps = 0;
@@ -82,7 +82,7 @@ impl Simulation {
         gpu: &Gpu,
         enc: &mut wgpu::CommandEncoder,
         hair: &StrandBuffers,
-    ) -> FrameInfo {
+    ) -> StepInfo {
         self.record_frames(gpu, enc, hair, 1)
     }
 
@@ -94,9 +94,9 @@ impl Simulation {
         enc: &mut wgpu::CommandEncoder,
         hair: &StrandBuffers,
         frames: u32,
-    ) -> FrameInfo {
+    ) -> StepInfo {
         let mut all = Vec::new();
-        let mut info = FrameInfo::default();
+        let mut info = StepInfo::default();
         for _ in 0..self.setup.params.steps_per_frame * frames {
             let (subs, capped) = self.setup.schedule(self.steps);
             if capped {
@@ -120,6 +120,6 @@ impl Simulation {
 
     /// The angle state (tests only).
     pub fn read_state(&self, gpu: &Gpu) -> Result<Vec<[f32; 4]>> {
-        crate::gpu::read_buffer(gpu, &self.job.state, self.setup.state_len as u64 * 16)
+        crate::gpu::read_buffer(gpu, &self.job.state, self.setup.state_len as u64 * std::mem::size_of::<[f32; 4]>() as u64)
     }
 }

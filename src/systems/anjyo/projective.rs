@@ -38,10 +38,10 @@
 //!   substeps so that h * omega <= `OMEGA_H` for the stiffest segment (omega^2 = c u |F|),
 //!   and beyond `max_substeps` a clamp of the angular step to `MAX_TURN` with a warning.
 //!
-//! `shaders/projective.wgsl` implements the same step in f32.
+//! `shaders/anjyo/projective.wgsl` implements the same step in f32.
 
-use super::forces::{step_forces, StepForces};
-use crate::groom::GroomInput;
+use super::groom::GroomInput;
+use crate::forces::Forces;
 use crate::rng::pcg_hash;
 use crate::scene::{Dynamics, Ellipsoid, Scene};
 use glam::{DMat4, DVec3};
@@ -53,6 +53,58 @@ pub const POLE_SIN: f64 = 0.05;
 pub const MAX_TURN: f64 = 0.5;
 /// Substeps are chosen so that h * omega stays below this (Verlet is stable below 2).
 pub const OMEGA_H: f64 = 0.5;
+
+/// Everything a single step needs, uniform over the scene.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StepForces {
+    /// Step length (dt / substeps).
+    pub h: f64,
+    /// Gravity plus wind.
+    pub force: DVec3,
+    /// Head pose at the end of the step (roots and hull follow it).
+    pub head: DMat4,
+    /// Root acceleration operator: a_root = accel * (root_local, 1).
+    pub accel: DMat4,
+    /// Fluctuation bucket to apply at this step, if this step starts one.
+    pub kick: Option<u32>,
+    /// The very first substep from rest: Verlet's first step from theta^0 = theta^-1 takes
+    /// half the acceleration, which keeps the start second order (theta(h) = theta0 + a h^2/2).
+    pub first: bool,
+}
+
+/// Forces of step `n` (from t_n to t_n + dt) split into `substeps`, for substep `s`.
+pub fn step_forces(forces: &Forces, dyn_: &Dynamics, n: u64, substeps: u32, s: u32) -> StepForces {
+    let spf = dyn_.steps_per_frame as f64;
+    let h = dyn_.dt / substeps as f64;
+    // Time in frames at the start of this substep.
+    let frame = (n as f64 + s as f64 / substeps as f64) / spf;
+    let df = 1.0 / (spf * substeps as f64);
+    let force = forces.uniform_at(frame);
+    // Root acceleration at the start of the step (central difference), like the force.
+    let before = forces.head_at(frame - df);
+    let now = forces.head_at(frame);
+    let head = forces.head_at(frame + df);
+    let accel = DMat4::from_cols(
+        (head.x_axis - 2.0 * now.x_axis + before.x_axis) / (h * h),
+        (head.y_axis - 2.0 * now.y_axis + before.y_axis) / (h * h),
+        (head.z_axis - 2.0 * now.z_axis + before.z_axis) / (h * h),
+        (head.w_axis - 2.0 * now.w_axis + before.w_axis) / (h * h),
+    );
+    let kick = dyn_.fluctuation.as_ref().and_then(|f| {
+        let first_step_of_frame = n % dyn_.steps_per_frame as u64 == 0 && s == 0;
+        let f_index = n / dyn_.steps_per_frame as u64;
+        (first_step_of_frame && f_index % f.period as u64 == 0)
+            .then_some((f_index / f.period as u64) as u32)
+    });
+    StepForces {
+        h,
+        force,
+        head,
+        accel,
+        kick,
+        first: n == 0 && s == 0,
+    }
+}
 
 /// One simulated hair.
 #[derive(Clone, Debug, PartialEq)]
@@ -76,6 +128,8 @@ pub struct DynStrand {
 #[derive(Clone, Debug)]
 pub struct DynSetup {
     pub params: Dynamics,
+    /// The shared force fields (gravity, wind, head motion) the steps are scheduled from.
+    pub forces: Forces,
     pub head: Ellipsoid,
     pub strands: Vec<DynStrand>,
     pub state_len: u32,
@@ -124,6 +178,7 @@ impl DynSetup {
         let mut setup = DynSetup {
             seed: (scene.seed ^ (scene.seed >> 32)) as u32,
             params,
+            forces: Forces::from_scene(scene),
             head: input.head,
             strands,
             state_len,
@@ -201,15 +256,14 @@ impl DynSetup {
     /// solver then relies on its angular clamp: say so).
     pub fn schedule(&self, n: u64) -> (Vec<StepForces>, bool) {
         let p = &self.params;
-        let center = self.head.center;
-        let probe = step_forces(p, center, n, 1, 0);
+        let probe = step_forces(&self.forces, p, n, 1, 0);
         let omega = (self.max_cu * self.force_bound(&probe)).sqrt();
         let need = (p.dt * omega / OMEGA_H).ceil().max(1.0);
         let capped = need > p.max_substeps as f64;
         let sub = (need as u32).min(p.max_substeps);
         (
             (0..sub)
-                .map(|s| step_forces(p, center, n, sub, s))
+                .map(|s| step_forces(&self.forces, p, n, sub, s))
                 .collect(),
             capped,
         )
@@ -253,7 +307,7 @@ pub fn angles_near(dir: DVec3, theta_ref: f64, phi_ref: f64) -> (f64, f64) {
 }
 
 /// A reproducible uniform number in [-1, 1) for the fluctuation kicks; the same hash runs in
-/// `shaders/projective.wgsl`.
+/// `shaders/anjyo/projective.wgsl`.
 pub fn kick_unit(seed: u32, strand: u32, segment: u32, bucket: u32, which: u32) -> f64 {
     let h = pcg_hash(
         bucket.wrapping_mul(2).wrapping_add(which)
@@ -452,7 +506,7 @@ pub fn step_strand(
                 } else {
                     prev_dir.any_orthonormal_vector()
                 };
-                dir = crate::groom::cantilever::rotate(axis * sigma, prev_dir).normalize();
+                dir = super::cantilever::rotate(axis * sigma, prev_dir).normalize();
                 moved = true;
             }
         }
@@ -489,291 +543,3 @@ pub fn step_strand(
     stats
 }
 
-// ---------------------------------------------------------------------------------------
-// GPU pass
-
-use crate::error::Result;
-use crate::gpu::gpu_data::{GpuDynParams, GpuDynStrand, GpuStep};
-use crate::gpu::strands::StrandBuffers;
-use crate::gpu::{self, Gpu};
-use wgpu::util::DeviceExt;
-
-const WORKGROUP: u32 = 64;
-const SLOT: u64 = 256;
-
-/// The projective-dynamics kernel (`shaders/projective.wgsl`).
-pub struct ProjectivePass {
-    init: wgpu::ComputePipeline,
-    advance: wgpu::ComputePipeline,
-    layout: wgpu::BindGroupLayout,
-}
-
-/// Simulation buffers of one groom: parameters, the dynamic strands, the angle state and a
-/// ring of per-substep uniforms. Only strands of dynamic groups get state.
-pub struct ProjectiveJob {
-    params: wgpu::Buffer,
-    strands: wgpu::Buffer,
-    pub state: wgpu::Buffer,
-    steps: wgpu::Buffer,
-    capacity: u32,
-    bind_group: wgpu::BindGroup,
-    dims: (u32, u32),
-}
-
-fn mat(m: DMat4) -> [[f32; 4]; 4] {
-    m.as_mat4().to_cols_array_2d()
-}
-
-/// Pack one substep for the GPU.
-pub fn gpu_step(f: &StepForces) -> GpuStep {
-    GpuStep {
-        force: [
-            f.force.x as f32,
-            f.force.y as f32,
-            f.force.z as f32,
-            f.h as f32,
-        ],
-        head: mat(f.head),
-        head_inv: mat(f.head.inverse()),
-        accel: mat(f.accel),
-        kick: [
-            u32::from(f.kick.is_some()),
-            f.kick.unwrap_or(0),
-            u32::from(f.first),
-            0,
-        ],
-        _pad: [0; 8],
-    }
-}
-
-impl ProjectivePass {
-    pub fn new(gpu: &Gpu) -> Result<ProjectivePass> {
-        let device = &gpu.device;
-        let module = gpu::shader_module(device, "projective", crate::shaders::PROJECTIVE)?;
-        let cs = wgpu::ShaderStages::COMPUTE;
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("projective"),
-            entries: &[
-                gpu::uniform_entry(0, cs),
-                gpu::dynamic_uniform_entry(1, cs, SLOT),
-                gpu::storage_entry(2, cs, true),
-                gpu::storage_entry(3, cs, false),
-                gpu::storage_entry(4, cs, false),
-            ],
-        });
-        let [init, advance] =
-            gpu::compute_pipelines(device, "projective", &layout, &module, ["init", "advance"]);
-        Ok(ProjectivePass {
-            init,
-            advance,
-            layout,
-        })
-    }
-
-    /// Upload the set-up; the angle state is initialised from the nodes by `init`.
-    pub fn prepare(
-        &self,
-        gpu: &Gpu,
-        setup: &DynSetup,
-        hair: &StrandBuffers,
-    ) -> Result<ProjectiveJob> {
-        let device = &gpu.device;
-        let dims = gpu.dispatch_dims(setup.strands.len() as u32, WORKGROUP)?;
-        let records: Vec<GpuDynStrand> = setup
-            .strands
-            .iter()
-            .map(|s| GpuDynStrand {
-                ids: [s.strand, s.first_vertex, s.state_offset, s.segments],
-                root: [
-                    s.root_local.x as f32,
-                    s.root_local.y as f32,
-                    s.root_local.z as f32,
-                    s.seg_len as f32,
-                ],
-                extra: [s.scalp as f32, 0.0, 0.0, 0.0],
-            })
-            .collect();
-        gpu.check_storage_size("the dynamics state", setup.state_len as u64 * 16)?;
-        let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("projective params"),
-            contents: bytemuck::bytes_of(&gpu_params(setup, dims.0 * WORKGROUP)),
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-        });
-        let strands = gpu::storage_buffer(
-            device,
-            "dynamic strands",
-            bytemuck::cast_slice(&records),
-            wgpu::BufferUsages::empty(),
-        );
-        let state = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("angle state"),
-            size: setup.state_len as u64 * 16,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-            mapped_at_creation: false,
-        });
-        let capacity = 16;
-        let steps = Self::step_ring(device, capacity);
-        let bind_group = self.bind(device, &params, &steps, &strands, &state, hair);
-        Ok(ProjectiveJob {
-            params,
-            strands,
-            state,
-            steps,
-            capacity,
-            bind_group,
-            dims,
-        })
-    }
-
-    fn step_ring(device: &wgpu::Device, capacity: u32) -> wgpu::Buffer {
-        device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("projective substeps"),
-            size: capacity as u64 * SLOT,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        })
-    }
-
-    fn bind(
-        &self,
-        device: &wgpu::Device,
-        params: &wgpu::Buffer,
-        steps: &wgpu::Buffer,
-        strands: &wgpu::Buffer,
-        state: &wgpu::Buffer,
-        hair: &StrandBuffers,
-    ) -> wgpu::BindGroup {
-        device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("projective"),
-            layout: &self.layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: params.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                        buffer: steps,
-                        offset: 0,
-                        size: wgpu::BufferSize::new(SLOT),
-                    }),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: strands.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: state.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: hair.vertices.as_entire_binding(),
-                },
-            ],
-        })
-    }
-
-    /// Update parameters that do not change the layout (tuning from the viewer).
-    pub fn update_params(&self, gpu: &Gpu, job: &ProjectiveJob, setup: &DynSetup) {
-        gpu.queue.write_buffer(
-            &job.params,
-            0,
-            bytemuck::bytes_of(&gpu_params(setup, job.dims.0 * WORKGROUP)),
-        );
-    }
-
-    /// Record the initialisation of the angles from the current nodes (at rest).
-    pub fn init(&self, enc: &mut wgpu::CommandEncoder, job: &ProjectiveJob) {
-        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("projective init"),
-            timestamp_writes: None,
-        });
-        pass.set_pipeline(&self.init);
-        pass.set_bind_group(0, &job.bind_group, &[0]);
-        pass.dispatch_workgroups(job.dims.0, job.dims.1, 1);
-    }
-
-    /// Upload `substeps` and record one dispatch for each. Call once per submission: the
-    /// uniforms are written when the queue is submitted.
-    pub fn advance(
-        &self,
-        gpu: &Gpu,
-        enc: &mut wgpu::CommandEncoder,
-        job: &mut ProjectiveJob,
-        hair: &StrandBuffers,
-        substeps: &[StepForces],
-    ) {
-        if substeps.is_empty() {
-            return;
-        }
-        if substeps.len() as u32 > job.capacity {
-            job.capacity = (substeps.len() as u32).next_power_of_two();
-            job.steps = Self::step_ring(&gpu.device, job.capacity);
-            job.bind_group = self.bind(
-                &gpu.device,
-                &job.params,
-                &job.steps,
-                &job.strands,
-                &job.state,
-                hair,
-            );
-        }
-        let mut bytes = Vec::with_capacity(substeps.len() * SLOT as usize);
-        for f in substeps {
-            bytes.extend_from_slice(bytemuck::bytes_of(&gpu_step(f)));
-        }
-        gpu.queue.write_buffer(&job.steps, 0, &bytes);
-        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-            label: Some("projective advance"),
-            timestamp_writes: None,
-        });
-        pass.set_pipeline(&self.advance);
-        for i in 0..substeps.len() as u32 {
-            pass.set_bind_group(0, &job.bind_group, &[i * SLOT as u32]);
-            pass.dispatch_workgroups(job.dims.0, job.dims.1, 1);
-        }
-    }
-}
-
-fn gpu_params(setup: &DynSetup, row_stride: u32) -> GpuDynParams {
-    let p = &setup.params;
-    let pf = p.pseudo_force.as_ref();
-    GpuDynParams {
-        strand_count: setup.strands.len() as u32,
-        row_stride,
-        collision: u32::from(p.collision),
-        pseudo: u32::from(pf.is_some()),
-        density: p.density as f32,
-        damping: p.damping as f32,
-        seed: setup.seed,
-        fluct_amp: p
-            .fluctuation
-            .as_ref()
-            .map_or(0.0, |f| f.amplitude.to_radians() as f32),
-        pseudo_alpha: pf.map_or(0.0, |f| f.alpha as f32),
-        eps_pore: pf.map_or(1.0, |f| f.epsilon_pore as f32),
-        eps_tip: pf.map_or(1.0, |f| f.epsilon_tip as f32),
-        near: pf.map_or(0.0, |f| f.near as f32),
-        sigma_root: p.stiffness.root.to_radians() as f32,
-        sigma_tip: p.stiffness.tip.to_radians() as f32,
-        sigma_start: p.stiffness.start as f32,
-        inertia_root: p.inertia.root as f32,
-        inertia_tip: p.inertia.tip as f32,
-        sigma_end: p.stiffness.end as f32,
-        _pad: [0.0; 2],
-        head_center: [
-            setup.head.center.x as f32,
-            setup.head.center.y as f32,
-            setup.head.center.z as f32,
-            0.0,
-        ],
-        head_radii: [
-            setup.head.radii.x as f32,
-            setup.head.radii.y as f32,
-            setup.head.radii.z as f32,
-            0.0,
-        ],
-    }
-}

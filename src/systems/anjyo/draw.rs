@@ -1,13 +1,22 @@
-//! Hair ribbons (`shaders/strands.wgsl`): one instanced triangle strip per group, each
+//! Hair ribbons (`shaders/anjyo/draw.wgsl`): one instanced triangle strip per group, each
 //! instance a strand, its vertices built from the strand storage buffers in the vertex
-//! shader. With MSAA, sub-pixel coverage becomes a sample mask (alpha to coverage, order
-//! independent); without, it is alpha-blended.
+//! shader. With MSAA, sub-pixel coverage becomes a per-sample stochastic sample mask
+//! (`shaders/common/coverage.wgsl`: hashed from pixel, strand and sample, so thin hairs add
+//! up as real coverage does, in any order); without MSAA it is alpha-blended.
 
 use crate::error::Result;
 use crate::gpu::gpu_data::{linear_rgb, GpuMaterial};
+use crate::gpu::pipeline::{self, DrawPipeline};
 use crate::gpu::strands::StrandBuffers;
 use crate::gpu::{self, Gpu};
 use crate::scene::Material;
+
+/// Strands of a group of `count` drawn at level of detail `fraction`: the first ones, a
+/// uniform random subset because pores are drawn in random order (Van Gelder's
+/// creation-order culling).
+pub fn drawn_count(count: u32, fraction: f64) -> u32 {
+    ((count as f64 * fraction.clamp(0.0, 1.0)).ceil() as u32).min(count)
+}
 
 pub struct StrandsPass {
     module: wgpu::ShaderModule,
@@ -48,23 +57,19 @@ impl StrandsPass {
         samples: u32,
     ) -> Result<StrandsPass> {
         let device = &gpu.device;
-        let module = gpu::shader_module(device, "strands", crate::shaders::STRANDS)?;
+        let module = gpu::shader_module(device, "anjyo draw", super::DRAW)?;
         let vs = wgpu::ShaderStages::VERTEX;
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("strands"),
-            entries: &[
+        let layout = pipeline::layout(
+            device,
+            "strands",
+            &[
                 gpu::storage_entry(0, vs, true),
                 gpu::storage_entry(1, vs, true),
                 gpu::storage_entry(2, vs, true),
             ],
-        });
-        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("strands"),
-            bind_group_layouts: &[Some(frame_layout), Some(&layout)],
-            immediate_size: 0,
-        });
-        let fs = super::hair_fragment_entry(gpu);
-        let pipeline = Self::pipeline(device, &module, &pl, color_format, samples, fs);
+        );
+        let pl = pipeline::pipeline_layout(device, "strands", &[frame_layout, &layout]);
+        let pipeline = Self::pipeline(gpu, &module, &pl, color_format, samples);
         Ok(StrandsPass {
             module,
             pipeline_layout: pl,
@@ -78,62 +83,35 @@ impl StrandsPass {
     /// Rebuild the pipeline for another MSAA sample count (the bound hair stays).
     pub fn set_samples(&mut self, gpu: &Gpu, samples: u32) {
         self.pipeline = Self::pipeline(
-            &gpu.device,
+            gpu,
             &self.module,
             &self.pipeline_layout,
             self.format,
             samples,
-            super::hair_fragment_entry(gpu),
         );
     }
 
     fn pipeline(
-        device: &wgpu::Device,
+        gpu: &Gpu,
         module: &wgpu::ShaderModule,
         pl: &wgpu::PipelineLayout,
-        color_format: wgpu::TextureFormat,
+        format: wgpu::TextureFormat,
         samples: u32,
-        fs: &str,
     ) -> wgpu::RenderPipeline {
-        let msaa = samples > 1;
-        let blend = if msaa {
-            None
-        } else {
-            Some(wgpu::BlendState::ALPHA_BLENDING)
-        };
-        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("strands"),
-            layout: Some(pl),
-            vertex: wgpu::VertexState {
-                module,
-                entry_point: Some("vs"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState {
-                topology: wgpu::PrimitiveTopology::TriangleStrip,
-                cull_mode: None,
-                ..Default::default()
-            },
-            depth_stencil: Some(super::depth_state(true)),
-            multisample: wgpu::MultisampleState {
-                count: samples,
-                mask: !0,
-                alpha_to_coverage_enabled: false,
-            },
-            fragment: Some(wgpu::FragmentState {
-                module,
-                entry_point: Some(fs),
-                compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format: color_format,
-                    blend,
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: None,
-            cache: None,
-        })
+        DrawPipeline {
+            label: "strands",
+            layout: pl,
+            module,
+            vertex_entry: "vs",
+            fragment_entry: pipeline::hair_fragment_entry(gpu),
+            topology: wgpu::PrimitiveTopology::TriangleStrip,
+            cull_mode: None,
+            vertex_buffers: &[],
+            blend: (samples <= 1).then_some(wgpu::BlendState::ALPHA_BLENDING),
+            format,
+            samples,
+        }
+        .build(&gpu.device)
     }
 
     /// Bind the hair to draw (after a groom) and its group materials.
@@ -144,24 +122,12 @@ impl StrandsPass {
             bytemuck::cast_slice(materials),
             wgpu::BufferUsages::empty(),
         );
-        let bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("strands"),
-            layout: &self.layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: hair.strands.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: hair.vertices.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 2,
-                    resource: materials.as_entire_binding(),
-                },
-            ],
-        });
+        let bind_group = pipeline::bind_buffers(
+            &gpu.device,
+            "strands",
+            &self.layout,
+            &[&hair.strands, &hair.vertices, &materials],
+        );
         self.bound = Some(Bound {
             bind_group,
             materials,
@@ -176,15 +142,13 @@ impl StrandsPass {
         }
     }
 
-    /// Draw `fraction` of each group's hairs: the first ones, which are a uniform random
-    /// subset because pores are drawn in random order (Van Gelder's creation-order culling).
+    /// Draw `fraction` of each group's hairs (`drawn_count`).
     pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, fraction: f64) {
         let Some(b) = &self.bound else { return };
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(1, &b.bind_group, &[]);
         for r in &b.ranges {
-            let count = ((r.strand_count as f64 * fraction.clamp(0.0, 1.0)).ceil() as u32)
-                .min(r.strand_count);
+            let count = drawn_count(r.strand_count, fraction);
             if count == 0 {
                 continue;
             }

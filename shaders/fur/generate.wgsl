@@ -31,7 +31,9 @@ struct Coat {
     motion_dir: vec4<f32>,
 }
 
-const TABLE: u32 = 2048u;
+// Passed by the Rust side (`setup::TABLE`, `gpu::WORKGROUP`).
+override TABLE: u32;
+override WORKGROUP: u32;
 const LINE: u32 = 0u;
 const POLYLINE: u32 = 1u;
 
@@ -60,7 +62,7 @@ fn safe_normalize(v: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
     return select(fallback, v / l, l > 1e-20);
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn generate(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
     let slot = id.x + id.y * groups.x * 64u;
     if slot >= coat.drawn {

@@ -3,6 +3,7 @@
 
 use crate::error::Result;
 use crate::gpu::gpu_data::{linear_rgb, GpuHead};
+use crate::gpu::pipeline::{self, DrawPipeline};
 use crate::gpu::{self, Gpu};
 use crate::scene::Ellipsoid;
 use glam::{DMat4, Mat4};
@@ -36,15 +37,12 @@ impl HeadPass {
     ) -> Result<HeadPass> {
         let device = &gpu.device;
         let module = gpu::shader_module(device, "head", crate::shaders::HEAD)?;
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("head"),
-            entries: &[gpu::uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT)],
-        });
-        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("head"),
-            bind_group_layouts: &[Some(frame_layout), Some(&layout)],
-            immediate_size: 0,
-        });
+        let layout = pipeline::layout(
+            device,
+            "head",
+            &[gpu::uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT)],
+        );
+        let pl = pipeline::pipeline_layout(device, "head", &[frame_layout, &layout]);
         let pipeline = Self::pipeline(device, &module, &pl, color_format, samples);
         let (verts, idx) = unit_sphere();
         let vertices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -63,14 +61,7 @@ impl HeadPass {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("head"),
-            layout: &layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: uniform.as_entire_binding(),
-            }],
-        });
+        let bind_group = pipeline::bind_buffers(device, "head", &layout, &[&uniform]);
         Ok(HeadPass {
             module,
             pipeline_layout: pl,
@@ -99,40 +90,27 @@ impl HeadPass {
         device: &wgpu::Device,
         module: &wgpu::ShaderModule,
         pl: &wgpu::PipelineLayout,
-        color_format: wgpu::TextureFormat,
+        format: wgpu::TextureFormat,
         samples: u32,
     ) -> wgpu::RenderPipeline {
-        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("head"),
-            layout: Some(pl),
-            vertex: wgpu::VertexState {
-                module,
-                entry_point: Some("vs"),
-                compilation_options: Default::default(),
-                buffers: &[Some(wgpu::VertexBufferLayout {
-                    array_stride: 12,
-                    step_mode: wgpu::VertexStepMode::Vertex,
-                    attributes: &wgpu::vertex_attr_array![0 => Float32x3],
-                })],
-            },
-            primitive: wgpu::PrimitiveState {
-                cull_mode: Some(wgpu::Face::Back),
-                ..Default::default()
-            },
-            depth_stencil: Some(super::depth_state(true)),
-            multisample: wgpu::MultisampleState {
-                count: samples,
-                ..Default::default()
-            },
-            fragment: Some(wgpu::FragmentState {
-                module,
-                entry_point: Some("fs"),
-                compilation_options: Default::default(),
-                targets: &[Some(color_format.into())],
-            }),
-            multiview_mask: None,
-            cache: None,
-        })
+        DrawPipeline {
+            label: "head",
+            layout: pl,
+            module,
+            vertex_entry: "vs",
+            fragment_entry: "fs",
+            topology: wgpu::PrimitiveTopology::TriangleList,
+            cull_mode: Some(wgpu::Face::Back),
+            vertex_buffers: &[Some(wgpu::VertexBufferLayout {
+                array_stride: std::mem::size_of::<[f32; 3]>() as u64,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &wgpu::vertex_attr_array![0 => Float32x3],
+            })],
+            blend: None,
+            format,
+            samples,
+        }
+        .build(device)
     }
 
     /// Set the ellipsoid (and its pose) and colour. The head is drawn `DRAWN_SCALE` smaller

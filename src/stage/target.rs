@@ -7,10 +7,7 @@
 use crate::error::{KamiError, Result};
 use crate::gpu::{self, Gpu};
 
-/// Format of the internal scene buffers: linear values stored as sRGB, so resolving and
-/// averaging happen in linear light.
-pub const SCENE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
-pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+pub use crate::gpu::pipeline::{DEPTH_FORMAT, SCENE_FORMAT};
 
 /// The supersampled, multisampled scene buffers for one output size.
 pub struct SceneTargets {
@@ -132,9 +129,10 @@ impl DownsamplePass {
     pub fn new(gpu: &Gpu, output_format: wgpu::TextureFormat) -> Result<DownsamplePass> {
         let device = &gpu.device;
         let module = gpu::shader_module(device, "downsample", crate::shaders::DOWNSAMPLE)?;
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("downsample"),
-            entries: &[
+        let layout = gpu::pipeline::layout(
+            device,
+            "downsample",
+            &[
                 wgpu::BindGroupLayoutEntry {
                     binding: 0,
                     visibility: wgpu::ShaderStages::FRAGMENT,
@@ -147,12 +145,8 @@ impl DownsamplePass {
                 },
                 gpu::uniform_entry(1, wgpu::ShaderStages::FRAGMENT),
             ],
-        });
-        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("downsample"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
+        );
+        let pl = gpu::pipeline::pipeline_layout(device, "downsample", &[&layout]);
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("downsample"),
             layout: Some(&pl),
@@ -176,7 +170,7 @@ impl DownsamplePass {
         });
         let uniform = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("downsample uniform"),
-            size: 16,
+            size: std::mem::size_of::<[u32; 4]>() as u64,
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
@@ -203,10 +197,7 @@ impl DownsamplePass {
                     binding: 0,
                     resource: wgpu::BindingResource::TextureView(&targets.resolved),
                 },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: self.uniform.as_entire_binding(),
-                },
+                gpu::entry(1, &self.uniform),
             ],
         })
     }

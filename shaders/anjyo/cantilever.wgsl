@@ -1,5 +1,5 @@
 // Anjyo's cantilever bending on the GPU, one invocation per strand. The same steps as the
-// f64 reference in src/groom/cantilever.rs (read its header for the equations):
+// f64 reference in src/systems/anjyo/cantilever.rs (read its header for the equations):
 //   paper mode      one root-to-tip pass, straight-beam lever arms (eqs 1-3);
 //   converged mode  fixed point of true-lever-arm moments, relaxed with heavy-ball momentum;
 //   both            the hull collision of each new node, then the cuts (drawn length).
@@ -51,7 +51,9 @@ struct Cut {
 }
 
 // Nodes this close outside the hull (units of the quadric) rest on it.
-const CONTACT_BAND: f32 = 4.0 * EPS_OUT;
+// Passed by the Rust side (`cantilever::CONTACT_BAND`, `gpu::WORKGROUP`).
+override CONTACT_BAND: f32;
+override WORKGROUP: u32;
 
 // strands[].flags: bit 0 a converged-mode strand that fell back to the paper's shape, bit 1
 // converged, bits 8.. iterations used.
@@ -237,7 +239,7 @@ fn strand_index(id: vec3<u32>) -> u32 {
     return id.x + id.y * params.row_stride;
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn bend(@builtin(global_invocation_id) id: vec3<u32>) {
     let s = strand_index(id);
     if s >= params.strand_count {
@@ -253,7 +255,7 @@ fn bend(@builtin(global_invocation_id) id: vec3<u32>) {
     strands[s].flags = 0u;
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn iterate(@builtin(global_invocation_id) id: vec3<u32>) {
     let s = strand_index(id);
     if s >= params.strand_count {
@@ -275,7 +277,7 @@ fn iterate(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 }
 
-@compute @workgroup_size(64)
+@compute @workgroup_size(WORKGROUP)
 fn finish(@builtin(global_invocation_id) id: vec3<u32>) {
     let s = strand_index(id);
     if s >= params.strand_count {

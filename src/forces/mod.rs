@@ -1,0 +1,116 @@
+//! The force fields every hair system samples, in one place: gravity, keyed uniform wind (a
+//! step key is Anjyo's gust) and a keyed rigid head motion. The stage builds one `Forces`
+//! from the scene and hands it to every system each frame with the clock (`FrameCtx`); the
+//! head pass and the systems' roots take the head pose from here, so everything in a frame
+//! agrees on where the head is. Everything here is uniform in space and evaluated on the CPU
+//! once per step; the per-root acceleration of a moving head is linear in the root's
+//! head-local position, so one matrix carries it to the GPU.
+
+use crate::scene::{HeadKey, Interp, Scene, WindKey};
+use glam::{DMat4, DQuat, DVec3, EulerRot};
+
+/// Wind force at `frame` (fractional).
+pub fn wind_at(keys: &[WindKey], frame: f64) -> DVec3 {
+    keyed(
+        keys,
+        frame,
+        |k| k.frame,
+        |k| k.interp,
+        |k| DVec3::from(k.force),
+        |a, b, t| a.lerp(b, t),
+    )
+    .unwrap_or(DVec3::ZERO)
+}
+
+/// Head pose at `frame`: rotation about `center` then translation. Identity without keys.
+pub fn head_at(keys: &[HeadKey], center: DVec3, frame: f64) -> DMat4 {
+    let pose = keyed(
+        keys,
+        frame,
+        |k| k.frame,
+        |k| k.interp,
+        |k| (DVec3::from(k.rotate), DVec3::from(k.translate)),
+        |a, b, t| (a.0.lerp(b.0, t), a.1.lerp(b.1, t)),
+    );
+    match pose {
+        None => DMat4::IDENTITY,
+        Some((rot, tr)) => {
+            let r = rot * (std::f64::consts::PI / 180.0);
+            let q = DQuat::from_euler(EulerRot::ZYX, r.z, r.y, r.x);
+            DMat4::from_translation(center + tr)
+                * DMat4::from_quat(q)
+                * DMat4::from_translation(-center)
+        }
+    }
+}
+
+/// Piecewise evaluation of sorted keys; before the first key its value holds.
+fn keyed<K, V: Copy>(
+    keys: &[K],
+    frame: f64,
+    at: impl Fn(&K) -> f64,
+    interp: impl Fn(&K) -> Interp,
+    value: impl Fn(&K) -> V,
+    lerp: impl Fn(V, V, f64) -> V,
+) -> Option<V> {
+    let first = keys.first()?;
+    if frame <= at(first) {
+        return Some(value(first));
+    }
+    let i = keys.partition_point(|k| at(k) <= frame) - 1;
+    let k = &keys[i];
+    match (interp(k), keys.get(i + 1)) {
+        (Interp::Linear, Some(next)) => {
+            let t = (frame - at(k)) / (at(next) - at(k));
+            Some(lerp(value(k), value(next), t))
+        }
+        _ => Some(value(k)),
+    }
+}
+
+/// The scene's shared force fields. Today they are read from the scene's `dynamics` block
+/// (where the scene format keeps them); a scene without dynamics has no forces besides a
+/// still head.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Forces {
+    pub gravity: DVec3,
+    pub wind: Vec<WindKey>,
+    pub head_motion: Vec<HeadKey>,
+    /// The head's centre: keyed rotations turn about it.
+    pub center: DVec3,
+}
+
+impl Forces {
+    pub fn from_scene(scene: &Scene) -> Forces {
+        let center = DVec3::from(scene.head.center);
+        match &scene.dynamics {
+            Some(d) => Forces {
+                gravity: DVec3::from(d.gravity),
+                wind: d.wind.clone(),
+                head_motion: d.head_motion.clone(),
+                center,
+            },
+            None => Forces {
+                gravity: DVec3::ZERO,
+                wind: Vec::new(),
+                head_motion: Vec::new(),
+                center,
+            },
+        }
+    }
+
+    /// Gravity plus wind at `frame` (fractional): uniform over space.
+    pub fn uniform_at(&self, frame: f64) -> DVec3 {
+        self.gravity + wind_at(&self.wind, frame)
+    }
+
+    /// The head pose at `frame` (fractional).
+    pub fn head_at(&self, frame: f64) -> DMat4 {
+        head_at(&self.head_motion, self.center, frame)
+    }
+
+    /// Whether the head moves at all.
+    pub fn head_moves(&self) -> bool {
+        !self.head_motion.is_empty()
+    }
+}

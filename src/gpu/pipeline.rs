@@ -1,0 +1,136 @@
+//! Render-pipeline and bind-group helpers shared by every draw pass (the stage's head and
+//! resolve passes, each hair system's draw): the scene's formats, the depth test, and one
+//! descriptor builder, so a pass states only what differs (shader entries, topology,
+//! blending, vertex buffers).
+
+use super::Gpu;
+
+/// Format of the internal scene buffers: linear values stored as sRGB, so resolving and
+/// averaging happen in linear light.
+pub const SCENE_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+pub const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
+
+/// Depth test shared by the scene passes (everything drawn into the scene composites by
+/// depth in one pass).
+pub fn depth_state(write: bool) -> wgpu::DepthStencilState {
+    wgpu::DepthStencilState {
+        format: DEPTH_FORMAT,
+        depth_write_enabled: Some(write),
+        depth_compare: Some(wgpu::CompareFunction::Less),
+        stencil: Default::default(),
+        bias: Default::default(),
+    }
+}
+
+/// The fragment entry point of the hair shaders on this adapter: every hair pass makes the
+/// same per-sample coverage decisions (`shaders/common/coverage.wgsl`); the GL backend gets
+/// the per-sample-shading one because naga cannot write a sample mask in GLSL
+/// (gfx-rs/wgpu#6085).
+pub fn hair_fragment_entry(gpu: &Gpu) -> &'static str {
+    if gpu.info.backend == wgpu::Backend::Gl {
+        "fs_per_sample"
+    } else {
+        "fs"
+    }
+}
+
+/// What distinguishes one scene render pipeline from another.
+#[derive(Clone, Copy)]
+pub struct DrawPipeline<'a> {
+    pub label: &'a str,
+    pub layout: &'a wgpu::PipelineLayout,
+    pub module: &'a wgpu::ShaderModule,
+    pub vertex_entry: &'a str,
+    pub fragment_entry: &'a str,
+    pub topology: wgpu::PrimitiveTopology,
+    pub cull_mode: Option<wgpu::Face>,
+    pub vertex_buffers: &'a [Option<wgpu::VertexBufferLayout<'a>>],
+    /// Blend the colour over what is there (sub-pixel hair without MSAA).
+    pub blend: Option<wgpu::BlendState>,
+    pub format: wgpu::TextureFormat,
+    pub samples: u32,
+}
+
+impl DrawPipeline<'_> {
+    /// A depth-tested, depth-writing pipeline into the scene targets.
+    pub fn build(&self, device: &wgpu::Device) -> wgpu::RenderPipeline {
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(self.label),
+            layout: Some(self.layout),
+            vertex: wgpu::VertexState {
+                module: self.module,
+                entry_point: Some(self.vertex_entry),
+                compilation_options: Default::default(),
+                buffers: self.vertex_buffers,
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: self.topology,
+                cull_mode: self.cull_mode,
+                ..Default::default()
+            },
+            depth_stencil: Some(depth_state(true)),
+            multisample: wgpu::MultisampleState {
+                count: self.samples,
+                mask: !0,
+                alpha_to_coverage_enabled: false,
+            },
+            fragment: Some(wgpu::FragmentState {
+                module: self.module,
+                entry_point: Some(self.fragment_entry),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: self.format,
+                    blend: self.blend,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        })
+    }
+}
+
+/// A pipeline layout over these bind group layouts (group 0 first).
+pub fn pipeline_layout(
+    device: &wgpu::Device,
+    label: &str,
+    groups: &[&wgpu::BindGroupLayout],
+) -> wgpu::PipelineLayout {
+    let groups: Vec<Option<&wgpu::BindGroupLayout>> = groups.iter().map(|g| Some(*g)).collect();
+    device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(label),
+        bind_group_layouts: &groups,
+        immediate_size: 0,
+    })
+}
+
+/// A bind group of whole buffers at bindings 0, 1, 2, … in order.
+pub fn bind_buffers(
+    device: &wgpu::Device,
+    label: &str,
+    layout: &wgpu::BindGroupLayout,
+    buffers: &[&wgpu::Buffer],
+) -> wgpu::BindGroup {
+    let entries: Vec<wgpu::BindGroupEntry> = buffers
+        .iter()
+        .enumerate()
+        .map(|(i, b)| super::entry(i as u32, b))
+        .collect();
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some(label),
+        layout,
+        entries: &entries,
+    })
+}
+
+/// A bind group layout of these entries.
+pub fn layout(
+    device: &wgpu::Device,
+    label: &str,
+    entries: &[wgpu::BindGroupLayoutEntry],
+) -> wgpu::BindGroupLayout {
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some(label),
+        entries,
+    })
+}

@@ -1,0 +1,550 @@
+//! The stage: one orchestrator for everything a scene shows. It owns the scene's hair
+//! systems (built through `systems::KINDS`, only those the scene names), the head pass, the
+//! frame uniform, the render targets and **one clock**. The CLI's renders, the viewer, the
+//! benches and the tests all advance and draw through it, so frame N is the same pose
+//! whoever asks for it.
+//!
+//! Per frame: `advance` records every system's motion for the next frame(s) (the forces and
+//! head pose of the clock go to every system in a `FrameCtx`); `render` lets each system
+//! prepare (view-dependent compute, uniforms), then draws the head, every system's opaque
+//! parts and every system's hair z-buffered into one supersampled, multisampled scene pass
+//! (`target::SceneTargets`), then averages it down into the output. The stage knows systems
+//! only through `systems::HairSystem`.
+
+pub mod camera;
+pub mod head;
+pub mod target;
+
+use crate::error::Result;
+use crate::forces::Forces;
+use crate::gpu::gpu_data::{linear_rgb, GpuFrame};
+use crate::gpu::{self, Gpu};
+use crate::scene::Scene;
+use crate::systems::{
+    Change, DrawSetup, FrameCtx, HairSystem, StepInfo, SystemStats, View, KINDS,
+};
+use camera::Camera;
+use glam::DVec3;
+use target::{DownsamplePass, SceneTargets};
+
+/// Anti-aliasing settings.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Quality {
+    /// MSAA samples: 1 or 4.
+    pub msaa: u32,
+    /// Supersampling factor per axis, 1..=4.
+    pub supersample: u32,
+}
+
+impl Quality {
+    /// The scene's own anti-aliasing (headless renders).
+    pub fn of(scene: &Scene) -> Quality {
+        Quality {
+            msaa: scene.render.msaa,
+            supersample: scene.render.supersample,
+        }
+    }
+}
+
+/// How the caller looks at the stage this frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Look {
+    pub camera: Camera,
+    /// Share of the hairs drawn (level of detail); 1 for full quality.
+    pub lod: f64,
+    /// Systems' diagnostic overlays (Anjyo: segments the pseudo-force acted on).
+    pub overlay: bool,
+}
+
+/// What `Stage::apply` did with an edit, per kind (kinds not in either scene are left out).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Applied {
+    pub changes: Vec<(&'static str, Change)>,
+    /// Some system was built, rebuilt or removed: the clock went back to frame 0.
+    pub restarted: bool,
+}
+
+pub struct Stage {
+    scene: Scene,
+    forces: Forces,
+    /// The clock: frames since the rest pose.
+    frame: u64,
+    systems: Vec<Box<dyn HairSystem>>,
+    pub quality: Quality,
+    frame_layout: wgpu::BindGroupLayout,
+    frame_buffer: wgpu::Buffer,
+    frame_bind_group: wgpu::BindGroup,
+    /// Built only while the scene shows the head.
+    head: Option<head::HeadPass>,
+    downsample: DownsamplePass,
+    targets: Option<(SceneTargets, wgpu::BindGroup)>,
+}
+
+/// Check, before anything is allocated, that a scene rendered at `size` fits the adapter:
+/// every system's buffers within the storage-binding limit, supersampled targets within the
+/// texture limit.
+pub fn check_limits(gpu: &Gpu, scene: &Scene, size: (u32, u32)) -> Result<()> {
+    for kind in KINDS {
+        if (kind.in_scene)(scene) {
+            (kind.check_limits)(gpu, scene)?;
+        }
+    }
+    let f = scene.render.supersample;
+    gpu.check_texture_size("the supersampled image width", size.0.saturating_mul(f))?;
+    gpu.check_texture_size("the supersampled image height", size.1.saturating_mul(f))?;
+    Ok(())
+}
+
+/// The smallest sphere of the two centred between their centres (the clip planes only need
+/// a sphere holding both).
+fn merge(a: (DVec3, f64), b: (DVec3, f64)) -> (DVec3, f64) {
+    let center = 0.5 * (a.0 + b.0);
+    (
+        center,
+        (a.0 - center).length().max((b.0 - center).length()) + a.1.max(b.1),
+    )
+}
+
+impl Stage {
+    /// Build every system the scene names and the passes around them. `output_format` is
+    /// the format of what `render` draws into (a window's surface or an offscreen texture).
+    pub fn new(
+        gpu: &Gpu,
+        scene: &Scene,
+        output_format: wgpu::TextureFormat,
+        quality: Quality,
+    ) -> Result<Stage> {
+        let device = &gpu.device;
+        let frame_layout = gpu::pipeline::layout(
+            device,
+            "frame",
+            &[gpu::uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT)],
+        );
+        let frame_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("frame uniform"),
+            size: std::mem::size_of::<GpuFrame>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let frame_bind_group =
+            gpu::pipeline::bind_buffers(device, "frame", &frame_layout, &[&frame_buffer]);
+        let mut stage = Stage {
+            forces: Forces::from_scene(scene),
+            scene: scene.clone(),
+            frame: 0,
+            systems: Vec::new(),
+            quality,
+            head: None,
+            downsample: DownsamplePass::new(gpu, output_format)?,
+            frame_buffer,
+            frame_bind_group,
+            frame_layout,
+            targets: None,
+        };
+        stage.ensure_head(gpu)?;
+        for kind in KINDS {
+            if (kind.in_scene)(scene) {
+                (kind.check_limits)(gpu, scene)?;
+                let system = (kind.build)(gpu, scene, &stage.draw_setup())?;
+                stage.systems.push(system);
+            }
+        }
+        gpu.take_error()?;
+        Ok(stage)
+    }
+
+    fn draw_setup(&self) -> DrawSetup<'_> {
+        DrawSetup {
+            frame_layout: &self.frame_layout,
+            format: gpu::pipeline::SCENE_FORMAT,
+            samples: self.quality.msaa,
+        }
+    }
+
+    /// The head pass exists exactly while the scene shows the head.
+    fn ensure_head(&mut self, gpu: &Gpu) -> Result<()> {
+        match (self.scene.head.visible, self.head.is_some()) {
+            (true, false) => {
+                self.head = Some(head::HeadPass::new(
+                    gpu,
+                    &self.frame_layout,
+                    gpu::pipeline::SCENE_FORMAT,
+                    self.quality.msaa,
+                )?)
+            }
+            (false, true) => self.head = None,
+            _ => {}
+        }
+        Ok(())
+    }
+
+    pub fn scene(&self) -> &Scene {
+        &self.scene
+    }
+
+    /// The clock: frames since the rest pose.
+    pub fn frame(&self) -> u64 {
+        self.frame
+    }
+
+    /// The clock with its forces and head pose, as every system sees it.
+    pub fn ctx(&self) -> FrameCtx<'_> {
+        FrameCtx {
+            frame: self.frame,
+            forces: &self.forces,
+            head: self.forces.head_at(self.frame as f64),
+        }
+    }
+
+    pub fn systems(&self) -> &[Box<dyn HairSystem>] {
+        &self.systems
+    }
+
+    /// The system of type `T`, if the scene has one (tests and benches).
+    pub fn system<T: 'static>(&self) -> Option<&T> {
+        self.systems
+            .iter()
+            .find_map(|s| s.as_any().downcast_ref::<T>())
+    }
+
+    pub fn system_mut<T: 'static>(&mut self) -> Option<&mut T> {
+        self.systems
+            .iter_mut()
+            .find_map(|s| s.as_any_mut().downcast_mut::<T>())
+    }
+
+    /// Every system's counts added up.
+    pub fn stats(&self) -> SystemStats {
+        self.systems
+            .iter()
+            .map(|s| s.stats())
+            .fold(SystemStats::default(), |a, b| SystemStats {
+                strands: a.strands + b.strands,
+                segments: a.segments + b.segments,
+                simulated: a.simulated + b.simulated,
+                drawn: a.drawn + b.drawn,
+            })
+    }
+
+    /// A sphere holding the whole scene: every system's, or the head's when there is none.
+    pub fn bounds(&self) -> (DVec3, f64) {
+        let mut all = self.systems.iter().map(|s| s.bounds());
+        match all.next() {
+            Some(first) => all.fold(first, merge),
+            None => (
+                DVec3::from(self.scene.head.center),
+                self.scene.head.radii.iter().cloned().fold(0.0, f64::max),
+            ),
+        }
+    }
+
+    /// The scene's own camera at full detail (headless renders).
+    pub fn look(&self) -> Look {
+        Look {
+            camera: Camera::from_desc(&self.scene.camera),
+            lod: 1.0,
+            overlay: false,
+        }
+    }
+
+    /// Record `frames` frames of motion of every system into `enc` and move the clock on.
+    /// Submit `enc` before the next `advance`: solvers upload their step uniforms with the
+    /// queue, which writes them at submission.
+    pub fn advance(
+        &mut self,
+        gpu: &Gpu,
+        enc: &mut wgpu::CommandEncoder,
+        frames: u32,
+    ) -> Result<StepInfo> {
+        let mut info = StepInfo::default();
+        if frames == 0 {
+            return Ok(info);
+        }
+        let ctx = FrameCtx {
+            frame: self.frame,
+            forces: &self.forces,
+            head: self.forces.head_at(self.frame as f64),
+        };
+        for s in &mut self.systems {
+            info = info.merge(s.step(gpu, enc, &ctx, frames)?);
+        }
+        self.frame += frames as u64;
+        Ok(info)
+    }
+
+    /// Every system back to its rest pose, the clock to frame 0.
+    pub fn reset(&mut self, gpu: &Gpu) -> Result<()> {
+        for s in &mut self.systems {
+            s.reset(gpu)?;
+        }
+        self.frame = 0;
+        Ok(())
+    }
+
+    /// Change anti-aliasing; pipelines and targets are rebuilt only when needed.
+    pub fn set_quality(&mut self, gpu: &Gpu, quality: Quality) {
+        if quality.msaa != self.quality.msaa {
+            if let Some(h) = self.head.as_mut() {
+                h.set_samples(gpu, quality.msaa);
+            }
+            for s in &mut self.systems {
+                s.set_samples(gpu, quality.msaa);
+            }
+        }
+        if quality != self.quality {
+            self.targets = None;
+        }
+        self.quality = quality;
+    }
+
+    /// Take an edited scene (already validated): each kind classifies the edit and the
+    /// system is rebuilt, re-simulated or re-drawn accordingly; systems the new scene adds
+    /// are built, those it drops are freed. When any system gets a new rest pose, the clock
+    /// and every other system go back to frame 0, so all stay on one clock.
+    pub fn apply(&mut self, gpu: &Gpu, new: &Scene) -> Result<Applied> {
+        let mut applied = Applied::default();
+        let mut systems = std::mem::take(&mut self.systems);
+        let mut next: Vec<Box<dyn HairSystem>> = Vec::with_capacity(KINDS.len());
+        let result = (|| -> Result<()> {
+            for kind in KINDS {
+                let at = systems.iter().position(|s| s.kind() == kind.name);
+                let old = at.map(|i| systems.remove(i));
+                match (old, (kind.in_scene)(new)) {
+                    (None, false) => {}
+                    (Some(_), false) => {
+                        applied.changes.push((kind.name, Change::Rebuild));
+                        applied.restarted = true;
+                    }
+                    (None, true) => {
+                        (kind.check_limits)(gpu, new)?;
+                        next.push((kind.build)(gpu, new, &self.draw_setup())?);
+                        applied.changes.push((kind.name, Change::Rebuild));
+                        applied.restarted = true;
+                    }
+                    (Some(mut s), true) => {
+                        let change = (kind.classify)(&self.scene, new);
+                        match change {
+                            Change::Rebuild => {
+                                drop(s);
+                                (kind.check_limits)(gpu, new)?;
+                                next.push((kind.build)(gpu, new, &self.draw_setup())?);
+                                applied.restarted = true;
+                            }
+                            Change::None => next.push(s),
+                            _ => {
+                                s.update(gpu, new, change)?;
+                                next.push(s);
+                            }
+                        }
+                        applied.changes.push((kind.name, change));
+                    }
+                }
+            }
+            Ok(())
+        })();
+        self.systems = next;
+        result?;
+        self.scene = new.clone();
+        self.forces = Forces::from_scene(new);
+        self.ensure_head(gpu)?;
+        if applied.restarted {
+            for s in &mut self.systems {
+                s.reset(gpu)?;
+            }
+            self.frame = 0;
+        }
+        Ok(applied)
+    }
+
+    /// Record a frame of the clock's current pose into `output` (of the output format,
+    /// `size` pixels).
+    pub fn render(
+        &mut self,
+        gpu: &Gpu,
+        enc: &mut wgpu::CommandEncoder,
+        output: &wgpu::TextureView,
+        size: (u32, u32),
+        look: &Look,
+    ) -> Result<()> {
+        self.render_region(gpu, enc, output, size, size, look)
+    }
+
+    /// Record a frame into the left `region` of `output` (`output_size` pixels); the rest is
+    /// cleared to the background (the viewer draws its panels there).
+    pub fn render_region(
+        &mut self,
+        gpu: &Gpu,
+        enc: &mut wgpu::CommandEncoder,
+        output: &wgpu::TextureView,
+        output_size: (u32, u32),
+        region: (u32, u32),
+        look: &Look,
+    ) -> Result<()> {
+        let size = (
+            region.0.clamp(1, output_size.0),
+            region.1.clamp(1, output_size.1),
+        );
+        let stale = self
+            .targets
+            .as_ref()
+            .is_none_or(|(t, _)| t.output_size != size);
+        if stale {
+            let t = SceneTargets::new(gpu, size, self.quality.msaa, self.quality.supersample)?;
+            let bg = self.downsample.bind(gpu, &t);
+            self.targets = Some((t, bg));
+        }
+        let view = View {
+            eye: look.camera.eye,
+            fov_y: look.camera.fov_y,
+            lod: look.lod,
+            overlay: look.overlay,
+        };
+        let ctx = FrameCtx {
+            frame: self.frame,
+            forces: &self.forces,
+            head: self.forces.head_at(self.frame as f64),
+        };
+        for s in &mut self.systems {
+            s.prepare(gpu, enc, &ctx, &view)?;
+        }
+        let bounds = self.bounds();
+        let Some((targets, down_bg)) = self.targets.as_ref() else {
+            return Err(crate::KamiError::Gpu("scene targets missing".into()));
+        };
+        let uniform = frame_uniform(
+            &self.scene,
+            look,
+            bounds,
+            targets.size,
+            self.quality.msaa,
+        );
+        gpu.queue
+            .write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&uniform));
+        if let Some(h) = &self.head {
+            h.prepare(
+                &gpu.queue,
+                &self.scene.head_ellipsoid(),
+                ctx.head,
+                self.scene.head.color,
+            );
+        }
+        let bg = linear_rgb(self.scene.render.background);
+        let clear = wgpu::Color {
+            r: bg[0] as f64,
+            g: bg[1] as f64,
+            b: bg[2] as f64,
+            a: 1.0,
+        };
+        {
+            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: Some("scene"),
+                color_attachments: &[Some(targets.color_attachment(clear))],
+                depth_stencil_attachment: Some(targets.depth_attachment()),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            pass.set_bind_group(0, &self.frame_bind_group, &[]);
+            // Opaque first (head, skins), then every system's hair with its coverage.
+            if let Some(h) = &self.head {
+                h.draw(&mut pass);
+            }
+            for s in &self.systems {
+                s.draw_opaque(&mut pass);
+            }
+            for s in &self.systems {
+                s.draw(&mut pass, &view);
+            }
+        }
+        self.downsample.draw(enc, down_bg, output, size, clear);
+        Ok(())
+    }
+}
+
+/// The frame uniform for a target of `size` samples with `msaa` samples per pixel.
+pub fn frame_uniform(
+    scene: &Scene,
+    look: &Look,
+    bounds: (DVec3, f64),
+    size: (u32, u32),
+    msaa: u32,
+) -> GpuFrame {
+    let cam = &look.camera;
+    let light = &scene.light;
+    let (near, far) = cam.clip_planes(bounds.0, bounds.1);
+    let vp = cam.view_proj(size.0 as f64 / size.1 as f64, near, far);
+    let l = DVec3::from(light.direction).normalize();
+    GpuFrame {
+        view_proj: vp.to_cols_array_2d(),
+        eye: [cam.eye.x as f32, cam.eye.y as f32, cam.eye.z as f32, 1.0],
+        light_dir: [l.x as f32, l.y as f32, l.z as f32, light.intensity as f32],
+        light_color: [
+            light.color[0],
+            light.color[1],
+            light.color[2],
+            light.ambient as f32,
+        ],
+        viewport: [
+            size.0 as f32,
+            size.1 as f32,
+            1.0 / size.0 as f32,
+            1.0 / size.1 as f32,
+        ],
+        raster: [
+            cam.focal_px(size.1) as f32,
+            scene.render.min_width as f32,
+            // Full coverage compensation (1/f) turns a sparse preview into paper strips;
+            // 1/sqrt(f) keeps most of the density and still reads as hair.
+            (1.0 / look.lod.clamp(1e-3, 1.0).sqrt()) as f32,
+            msaa.max(1) as f32,
+        ],
+        flags: [f32::from(u8::from(look.overlay)), 0.0, 0.0, 0.0],
+    }
+}
+
+/// Render frame 0 (the rest pose) of a scene offscreen.
+pub fn render_scene(gpu: &Gpu, scene: &Scene, size: (u32, u32)) -> Result<image::RgbaImage> {
+    let mut img = None;
+    render_animation(gpu, scene, size, 0..=0, |_, i| {
+        img = Some(i);
+        Ok(())
+    })?;
+    img.ok_or_else(|| crate::KamiError::Gpu("frame 0 was not rendered".into()))
+}
+
+/// Render frames `first..=last` of a scene's animation offscreen with the scene's camera
+/// and anti-aliasing, calling `on_frame` with each image: the CLI's `render` and the
+/// snapshot tests. Frame f is the stage's clock at f (after f frames of motion). Returns
+/// the number of frames whose steps hit the substep cap (the solver clamped and warned).
+pub fn render_animation(
+    gpu: &Gpu,
+    scene: &Scene,
+    size: (u32, u32),
+    frames: std::ops::RangeInclusive<u32>,
+    mut on_frame: impl FnMut(u32, image::RgbaImage) -> Result<()>,
+) -> Result<u32> {
+    check_limits(gpu, scene, size)?;
+    let mut stage = Stage::new(gpu, scene, target::OUTPUT_FORMAT, Quality::of(scene))?;
+    let out = target::Offscreen::new(gpu, size)?;
+    let look = stage.look();
+    let mut capped = 0;
+    for f in 0..=*frames.end() {
+        let mut enc = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("animation frame"),
+            });
+        if f > 0 {
+            capped += u32::from(stage.advance(gpu, &mut enc, 1)?.capped);
+        }
+        if f >= *frames.start() {
+            stage.render(gpu, &mut enc, &out.view, size, &look)?;
+            gpu.queue.submit([enc.finish()]);
+            on_frame(f, out.read_rgba(gpu)?)?;
+        } else {
+            gpu.queue.submit([enc.finish()]);
+        }
+    }
+    gpu.take_error()?;
+    Ok(capped)
+}

@@ -1,0 +1,300 @@
+//! Anjyo, Usami & Kurihara 1992: cantilever-beam hairstyles on an ellipsoid head
+//! (`groom`, `cantilever` + `cantilever_gpu`), one-dimensional projective dynamics
+//! (`projective` + `projective_gpu`, driven by `simulation`), and ribbons with Anjyo's
+//! anisotropic shading (`draw`). Every GPU kernel has its f64 CPU reference beside it.
+//!
+//! Per scene: the pores are drawn on the CPU (`groom::prepare`), bent once on the GPU into
+//! the strand buffers, and — when the scene has `dynamics` — moved every frame by the
+//! projective kernel from the forces of the stage's clock. A copy of the rest pose is kept
+//! (only for dynamic scenes) so `reset` needs no re-groom.
+
+pub mod cantilever;
+pub mod cantilever_gpu;
+pub mod draw;
+pub mod elastica;
+pub mod groom;
+pub mod panel;
+pub mod projective;
+pub mod projective_gpu;
+pub mod simulation;
+
+use super::{Change, DrawSetup, FrameCtx, HairSystem, Kind, StepInfo, SystemStats, View};
+use crate::error::Result;
+use crate::gpu::gpu_data::GpuMaterial;
+use crate::gpu::strands::{StrandBuffers, NODE, RECORD};
+use crate::gpu::Gpu;
+use crate::scene::Scene;
+use crate::shaders::wgsl;
+use glam::DVec3;
+use groom::GroomInput;
+use simulation::Simulation;
+
+/// Cantilever bending (groom).
+pub const CANTILEVER: &str = wgsl!(
+    "common/strands.wgsl",
+    "common/ellipsoid.wgsl",
+    "common/rotate.wgsl",
+    "common/loads.wgsl",
+    "anjyo/cantilever.wgsl",
+);
+
+/// Projective dynamics (Anjyo section 3).
+pub const PROJECTIVE: &str = wgsl!(
+    "common/ellipsoid.wgsl",
+    "common/rotate.wgsl",
+    "common/random.wgsl",
+    "anjyo/projective.wgsl",
+);
+
+/// Hair ribbons with Anjyo's anisotropic specular.
+pub const DRAW: &str = wgsl!(
+    "common/strands.wgsl",
+    "common/frame.wgsl",
+    "common/random.wgsl",
+    "common/coverage.wgsl",
+    "anjyo/draw.wgsl",
+);
+
+pub const KIND: Kind = Kind {
+    name: "anjyo",
+    in_scene: |s| !s.groups.is_empty(),
+    check_limits,
+    build,
+    classify,
+    panels: panel::PANELS,
+    scenes: &[
+        "gust",
+        "bob",
+        "swept_back",
+        "ponytail",
+        "short_cut",
+        "pseudo_force",
+        "pseudo_force_off",
+        "stiffness_smooth",
+        "stiffness_free",
+    ],
+    shaders: &[
+        ("anjyo/cantilever", CANTILEVER),
+        ("anjyo/projective", PROJECTIVE),
+        ("anjyo/draw", DRAW),
+    ],
+};
+
+/// Anjyo hair of one scene: the groom, its simulation if the scene has dynamics, the draw.
+pub struct AnjyoSystem {
+    pub input: GroomInput,
+    pub hair: StrandBuffers,
+    pub sim: Option<Simulation>,
+    /// The groomed rest pose, for `reset` (dynamic scenes only).
+    rest: Option<wgpu::Buffer>,
+    draw: draw::StrandsPass,
+    bounds: (DVec3, f64),
+    counts: (u64, u64),
+    lod: f64,
+}
+
+/// Check the hair buffers against the storage-binding limit before allocating them.
+fn check_limits(gpu: &Gpu, scene: &Scene) -> Result<()> {
+    let (strands, segments) = scene.counts();
+    gpu.check_storage_size("the hair vertex buffer", (segments + strands) * NODE)?;
+    gpu.check_storage_size("the hair strand table", strands * RECORD)?;
+    Ok(())
+}
+
+fn build(gpu: &Gpu, scene: &Scene, setup: &DrawSetup) -> Result<Box<dyn HairSystem>> {
+    Ok(Box::new(AnjyoSystem::new(gpu, scene, setup)?))
+}
+
+/// A sphere around the head and the longest possible hair of every group.
+pub fn scene_bounds(scene: &Scene) -> (DVec3, f64) {
+    let c = DVec3::from(scene.head.center);
+    let head_r = scene.head.radii.iter().cloned().fold(0.0, f64::max);
+    let mut r = head_r;
+    for g in &scene.groups {
+        let (hc, hr) = match &g.roots.on {
+            Some(e) => (
+                DVec3::from(e.center),
+                e.radii.iter().cloned().fold(0.0, f64::max),
+            ),
+            None => (c, head_r),
+        };
+        let reach = (hc - c).length() + hr + g.length * (1.0 + g.length_jitter);
+        r = r.max(reach);
+    }
+    (c, r)
+}
+
+/// Group materials of a scene, in group order.
+pub fn materials(scene: &Scene) -> Vec<GpuMaterial> {
+    scene
+        .groups
+        .iter()
+        .map(|g| GpuMaterial::from_material(&g.material))
+        .collect()
+}
+
+/// What an edit asks of the strands: pores, lengths, rigidity, loads, cuts, head, grooming
+/// gravity or per-strand k_a re-groom (and restart the motion from the new rest pose);
+/// dynamics switched on or off rebuild; dynamics parameters act from the next step;
+/// colours, k_s, n and widths are new uniforms.
+pub fn classify(old: &Scene, new: &Scene) -> Change {
+    // Groups with their look-only fields made equal: what is left is the groom.
+    let groom_view = |s: &Scene| {
+        let mut groups = s.groups.clone();
+        for g in &mut groups {
+            let (ka, spread) = (g.material.ka, g.material.ka_spread);
+            g.material = Default::default();
+            g.material.ka = ka;
+            g.material.ka_spread = spread;
+        }
+        (s.seed, s.head.center, s.head.radii, s.gravity, groups)
+    };
+    let looks = |s: &Scene| -> Vec<_> { s.groups.iter().map(|g| g.material.clone()).collect() };
+    if groom_view(old) != groom_view(new) || old.dynamics.is_some() != new.dynamics.is_some() {
+        Change::Rebuild
+    } else if old.dynamics != new.dynamics {
+        Change::Resimulate
+    } else if looks(old) != looks(new) {
+        Change::Redraw
+    } else {
+        Change::None
+    }
+}
+
+impl AnjyoSystem {
+    /// Groom the scene's hair on the GPU and set up its simulation and draw.
+    pub fn new(gpu: &Gpu, scene: &Scene, setup: &DrawSetup) -> Result<AnjyoSystem> {
+        let input = groom::prepare(scene)?;
+        let hair = cantilever_gpu::groom_gpu(gpu, &input)?;
+        let sim = Simulation::new(gpu, scene, &input, &hair)?;
+        let rest = if sim.is_some() {
+            let bytes = hair.vertex_count as u64 * NODE;
+            let rest = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("hair rest pose"),
+                size: bytes.max(NODE),
+                usage: wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            let mut enc = gpu
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("hair rest pose"),
+                });
+            enc.copy_buffer_to_buffer(&hair.vertices, 0, &rest, 0, bytes);
+            gpu.queue.submit([enc.finish()]);
+            Some(rest)
+        } else {
+            None
+        };
+        let mut draw = draw::StrandsPass::new(gpu, setup.frame_layout, setup.format, setup.samples)?;
+        draw.set_hair(gpu, &hair, &materials(scene));
+        Ok(AnjyoSystem {
+            input,
+            hair,
+            sim,
+            rest,
+            draw,
+            bounds: scene_bounds(scene),
+            counts: scene.counts(),
+            lod: 1.0,
+        })
+    }
+}
+
+impl HairSystem for AnjyoSystem {
+    fn kind(&self) -> &'static str {
+        KIND.name
+    }
+
+    fn bounds(&self) -> (DVec3, f64) {
+        self.bounds
+    }
+
+    fn step(
+        &mut self,
+        gpu: &Gpu,
+        enc: &mut wgpu::CommandEncoder,
+        ctx: &FrameCtx,
+        frames: u32,
+    ) -> Result<StepInfo> {
+        let Some(sim) = self.sim.as_mut() else {
+            return Ok(StepInfo::default());
+        };
+        // The clock is the truth: forces from the stage, steps from its frame.
+        if sim.setup.forces != *ctx.forces {
+            sim.setup.forces = ctx.forces.clone();
+        }
+        sim.steps = ctx.frame * sim.setup.params.steps_per_frame as u64;
+        Ok(sim.record_frames(gpu, enc, &self.hair, frames))
+    }
+
+    fn prepare(
+        &mut self,
+        _gpu: &Gpu,
+        _enc: &mut wgpu::CommandEncoder,
+        _ctx: &FrameCtx,
+        view: &View,
+    ) -> Result<()> {
+        self.lod = view.lod;
+        Ok(())
+    }
+
+    fn draw(&self, pass: &mut wgpu::RenderPass<'_>, view: &View) {
+        self.draw.draw(pass, view.lod);
+    }
+
+    fn reset(&mut self, gpu: &Gpu) -> Result<()> {
+        if let (Some(sim), Some(rest)) = (self.sim.as_mut(), &self.rest) {
+            let mut enc = gpu
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("hair reset"),
+                });
+            enc.copy_buffer_to_buffer(rest, 0, &self.hair.vertices, 0, rest.size());
+            gpu.queue.submit([enc.finish()]);
+            sim.reset(gpu);
+        }
+        Ok(())
+    }
+
+    fn set_samples(&mut self, gpu: &Gpu, samples: u32) {
+        self.draw.set_samples(gpu, samples);
+    }
+
+    fn update(&mut self, gpu: &Gpu, scene: &Scene, change: Change) -> Result<()> {
+        match change {
+            Change::Redraw => self.draw.update_materials(&gpu.queue, &materials(scene)),
+            Change::Resimulate => {
+                if let (Some(sim), Some(d)) = (self.sim.as_mut(), &scene.dynamics) {
+                    sim.update_params(gpu, d.clone());
+                }
+                self.draw.update_materials(&gpu.queue, &materials(scene));
+            }
+            Change::None | Change::Rebuild => {}
+        }
+        Ok(())
+    }
+
+    fn stats(&self) -> SystemStats {
+        let drawn = self
+            .hair
+            .ranges
+            .iter()
+            .map(|r| draw::drawn_count(r.strand_count, self.lod) as u64)
+            .sum();
+        SystemStats {
+            strands: self.counts.0,
+            segments: self.counts.1,
+            simulated: self.sim.as_ref().map_or(0, |s| s.setup.strands.len() as u64),
+            drawn,
+        }
+    }
+
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
+    fn as_any_mut(&mut self) -> &mut dyn std::any::Any {
+        self
+    }
+}

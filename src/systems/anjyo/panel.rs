@@ -1,0 +1,271 @@
+//! Anjyo's panels in the viewer: Stiffness (EI, bending mode, joint-angle stiffness and
+//! inertia profiles), Pseudo-force, Hair look (per group) and Dynamics. They only edit
+//! `ViewerState`; the stage classifies the edit with `super::classify` and applies it.
+
+use crate::app::panels::need_dynamics;
+use crate::app::params::ViewerState;
+use crate::scene::{Bending, Fluctuation, PseudoForce};
+use crate::systems::Panel;
+use egui::{Color32, Slider, Ui};
+
+pub const PANELS: &[Panel] = &[
+    Panel {
+        title: "Stiffness",
+        open: |s| !s.groups.is_empty(),
+        show: stiffness,
+    },
+    Panel {
+        title: "Pseudo-force",
+        open: |_| false,
+        show: pseudo,
+    },
+    Panel {
+        title: "Hair look",
+        open: |_| false,
+        show: look,
+    },
+    Panel {
+        title: "Dynamics",
+        open: |s| s.dynamics.is_some() && !s.groups.is_empty(),
+        show: dynamics,
+    },
+];
+
+fn group_picker(ui: &mut Ui, s: &mut ViewerState) {
+    if s.scene.groups.is_empty() {
+        return;
+    }
+    s.group = s.group.min(s.scene.groups.len() - 1);
+    let name = |i: usize, s: &ViewerState| {
+        let n = &s.scene.groups[i].name;
+        if n.is_empty() {
+            format!("group {i}")
+        } else {
+            n.clone()
+        }
+    };
+    let current = name(s.group, s);
+    egui::ComboBox::from_label("group")
+        .selected_text(current)
+        .show_ui(ui, |ui| {
+            for i in 0..s.scene.groups.len() {
+                let n = name(i, s);
+                ui.selectable_value(&mut s.group, i, n);
+            }
+        });
+}
+
+fn stiffness(ui: &mut Ui, s: &mut ViewerState) {
+    if s.scene.groups.is_empty() {
+        ui.label("no hair groups (fur stiffness: see Fur)");
+        return;
+    }
+    group_picker(ui, s);
+    let g = &mut s.scene.groups[s.group];
+    ui.add(
+        Slider::new(&mut g.rigidity, 1.0..=5000.0)
+            .logarithmic(true)
+            .text("EI (flexural rigidity)"),
+    );
+    let mut converged = matches!(g.bending, Bending::Converged { .. });
+    ui.horizontal(|ui| {
+        ui.label("bending");
+        ui.radio_value(&mut converged, false, "paper");
+        ui.radio_value(&mut converged, true, "converged");
+    });
+    match (&g.bending, converged) {
+        (Bending::Paper, true) => {
+            g.bending = Bending::Converged {
+                max_iterations: 400,
+                tolerance: 1e-5,
+            }
+        }
+        (Bending::Converged { .. }, false) => g.bending = Bending::Paper,
+        _ => {}
+    }
+    if ui.small_button("use this EI for every group").clicked() {
+        let e = g.rigidity;
+        s.scene.groups.iter_mut().for_each(|g| g.rigidity = e);
+    }
+    let Some(d) = s.scene.dynamics.as_mut() else {
+        ui.label("joint-angle stiffness and inertia act in dynamics (Simulation panel)");
+        return;
+    };
+    ui.separator();
+    ui.label("joint-angle stiffness σ (degrees; 180 = free)");
+    ui.add(Slider::new(&mut d.stiffness.root, 0.0..=180.0).text("σ at the root"));
+    ui.add(Slider::new(&mut d.stiffness.tip, 0.0..=180.0).text("σ at the tip"));
+    ui.add(Slider::new(&mut d.stiffness.start, 0.0..=0.95).text("falls from (fraction)"));
+    ui.add(Slider::new(&mut d.stiffness.end, 0.05..=1.0).text("reaches the tip value at"));
+    // Keep the ramp non-empty while either end is dragged past the other.
+    if d.stiffness.end <= d.stiffness.start {
+        d.stiffness.end = (d.stiffness.start + 0.05).min(1.0);
+    }
+    profile_plot(
+        ui,
+        |t| d.stiffness.sigma_at(t) / 180.0,
+        "σ along the strand (0..180°)",
+    );
+    ui.separator();
+    ui.label("inertia profile (c_i scale)");
+    ui.add(
+        Slider::new(&mut d.inertia.root, 0.05..=5.0)
+            .logarithmic(true)
+            .text("root"),
+    );
+    ui.add(
+        Slider::new(&mut d.inertia.tip, 0.05..=5.0)
+            .logarithmic(true)
+            .text("tip"),
+    );
+    ui.add(
+        Slider::new(&mut d.inertia.top, 0.05..=5.0)
+            .logarithmic(true)
+            .text("top of head"),
+    );
+    ui.add(Slider::new(&mut d.inertia.top_height, -12.0..=12.0).text("top from height"));
+    let (r, t) = (d.inertia.root, d.inertia.tip);
+    let most = r.max(t).max(1e-9);
+    profile_plot(
+        ui,
+        |x| (r + (t - r) * x) / most,
+        "inertia factor along the strand",
+    );
+}
+
+/// A small plot of `f(t)` in [0, 1] for t in [0, 1].
+fn profile_plot(ui: &mut Ui, f: impl Fn(f64) -> f64, label: &str) {
+    let (rect, painter) = ui.allocate_painter(
+        egui::vec2(ui.available_width().min(300.0), 60.0),
+        egui::Sense::hover(),
+    );
+    let r = rect.rect;
+    painter.rect_filled(r, 2.0, Color32::from_gray(30));
+    let pts: Vec<egui::Pos2> = (0..=40)
+        .map(|i| {
+            let t = i as f64 / 40.0;
+            let v = f(t).clamp(0.0, 1.0);
+            egui::pos2(
+                r.left() + t as f32 * r.width(),
+                r.bottom() - 4.0 - v as f32 * (r.height() - 8.0),
+            )
+        })
+        .collect();
+    painter.add(egui::Shape::line(
+        pts,
+        egui::Stroke::new(2.0, Color32::from_rgb(120, 200, 255)),
+    ));
+    painter.text(
+        r.left_top() + egui::vec2(4.0, 2.0),
+        egui::Align2::LEFT_TOP,
+        label,
+        egui::FontId::proportional(11.0),
+        Color32::GRAY,
+    );
+}
+
+fn pseudo(ui: &mut Ui, s: &mut ViewerState) {
+    if !need_dynamics(ui, s) {
+        return;
+    }
+    let d = s.scene.dynamics.as_mut().unwrap();
+    let mut on = d.pseudo_force.is_some();
+    ui.checkbox(&mut on, "pseudo-force field (Anjyo 3.2.2)");
+    match (on, d.pseudo_force.is_some()) {
+        (true, false) => {
+            d.pseudo_force = Some(PseudoForce {
+                alpha: -0.75,
+                epsilon_pore: 0.1,
+                epsilon_tip: 1.0,
+                near: 1.5,
+            })
+        }
+        (false, true) => d.pseudo_force = None,
+        _ => {}
+    }
+    if let Some(p) = d.pseudo_force.as_mut() {
+        ui.add(Slider::new(&mut p.alpha, -1.0..=1.0).text("α (facing threshold)"));
+        ui.add(Slider::new(&mut p.epsilon_pore, 0.0..=1.0).text("ε near the pore"));
+        ui.add(Slider::new(&mut p.epsilon_tip, 0.0..=1.0).text("ε at the tip"));
+        ui.add(Slider::new(&mut p.near, 0.0..=10.0).text("near the head (distance)"));
+    }
+    ui.checkbox(&mut s.view.overlay, "show affected segments (red)");
+}
+
+fn look(ui: &mut Ui, s: &mut ViewerState) {
+    if s.scene.groups.is_empty() {
+        return;
+    }
+    group_picker(ui, s);
+    let m = &mut s.scene.groups[s.group].material;
+    ui.horizontal(|ui| {
+        ui.label("hair colour");
+        ui.color_edit_button_rgb(&mut m.color);
+    });
+    ui.add(
+        Slider::new(&mut m.width, 0.005..=0.5)
+            .logarithmic(true)
+            .text("width"),
+    );
+    ui.add(Slider::new(&mut m.tip_width, 0.0..=1.0).text("tip width (× root)"));
+    ui.add(Slider::new(&mut m.ks, 0.0..=1.0).text("k_s (specular)"));
+    ui.add(
+        Slider::new(&mut m.shininess, 1.0..=1000.0)
+            .logarithmic(true)
+            .text("n (shininess)"),
+    );
+    ui.add(Slider::new(&mut m.kd, 0.0..=1.0).text("k_d (diffuse)"));
+    ui.add(Slider::new(&mut m.ka, 0.0..=3.0).text("k_a mean"));
+    ui.add(Slider::new(&mut m.ka_spread, 0.0..=1.0).text("k_a spread (per strand)"));
+    if ui.small_button("use this look for every group").clicked() {
+        let m = m.clone();
+        s.scene
+            .groups
+            .iter_mut()
+            .for_each(|g| g.material = m.clone());
+    }
+}
+
+fn dynamics(ui: &mut Ui, s: &mut ViewerState) {
+    if !need_dynamics(ui, s) {
+        return;
+    }
+    let d = s.scene.dynamics.as_mut().unwrap();
+    ui.add(
+        Slider::new(&mut d.dt, 0.005..=2.0)
+            .logarithmic(true)
+            .text("dt"),
+    );
+    ui.add(Slider::new(&mut d.steps_per_frame, 1..=20).text("steps per frame"));
+    ui.add(
+        Slider::new(&mut d.max_substeps, 1..=256)
+            .logarithmic(true)
+            .text("max substeps"),
+    );
+    ui.add(Slider::new(&mut d.damping, 0.0..=10.0).text("damping (per time)"));
+    ui.add(
+        Slider::new(&mut d.density, 0.05..=20.0)
+            .logarithmic(true)
+            .text("density ρ"),
+    );
+    ui.checkbox(&mut d.collision, "hard collision with the head");
+    let mut fl = d.fluctuation.is_some();
+    ui.checkbox(&mut fl, "gently blowing (random kicks)");
+    match (fl, d.fluctuation.is_some()) {
+        (true, false) => {
+            d.fluctuation = Some(Fluctuation {
+                amplitude: 5.0,
+                period: 10,
+            })
+        }
+        (false, true) => d.fluctuation = None,
+        _ => {}
+    }
+    if let Some(f) = d.fluctuation.as_mut() {
+        ui.add(Slider::new(&mut f.amplitude, 0.0..=45.0).text("kick amplitude (°)"));
+        ui.add(Slider::new(&mut f.period, 1..=60).text("every (frames)"));
+    }
+    if ui.small_button("Disable dynamics").clicked() {
+        s.scene.dynamics = None;
+    }
+}

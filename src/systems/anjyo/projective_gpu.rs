@@ -1,0 +1,290 @@
+//! The projective-dynamics kernel (`shaders/anjyo/projective.wgsl`): the f32 twin of the f64
+//! reference in `projective.rs`, one invocation per strand and one substep per dispatch;
+//! `tests/contract.rs` compares them.
+
+use crate::error::Result;
+use crate::gpu::gpu_data::{GpuDynParams, GpuDynStrand, GpuStep};
+use crate::gpu::strands::StrandBuffers;
+use crate::gpu::{self, Gpu, WORKGROUP};
+use super::projective::{DynSetup, StepForces, MAX_TURN, POLE_SIN};
+use glam::DMat4;
+use wgpu::util::DeviceExt;
+
+const SLOT: u64 = 256;
+
+/// The projective-dynamics kernel (`shaders/anjyo/projective.wgsl`).
+pub struct ProjectivePass {
+    init: wgpu::ComputePipeline,
+    advance: wgpu::ComputePipeline,
+    layout: wgpu::BindGroupLayout,
+}
+
+/// Simulation buffers of one groom: parameters, the dynamic strands, the angle state and a
+/// ring of per-substep uniforms. Only strands of dynamic groups get state.
+pub struct ProjectiveJob {
+    params: wgpu::Buffer,
+    strands: wgpu::Buffer,
+    pub state: wgpu::Buffer,
+    steps: wgpu::Buffer,
+    capacity: u32,
+    bind_group: wgpu::BindGroup,
+    dims: (u32, u32),
+}
+
+fn mat(m: DMat4) -> [[f32; 4]; 4] {
+    m.as_mat4().to_cols_array_2d()
+}
+
+/// Pack one substep for the GPU.
+pub fn gpu_step(f: &StepForces) -> GpuStep {
+    GpuStep {
+        force: [
+            f.force.x as f32,
+            f.force.y as f32,
+            f.force.z as f32,
+            f.h as f32,
+        ],
+        head: mat(f.head),
+        head_inv: mat(f.head.inverse()),
+        accel: mat(f.accel),
+        kick: [
+            u32::from(f.kick.is_some()),
+            f.kick.unwrap_or(0),
+            u32::from(f.first),
+            0,
+        ],
+        _pad: [0; 8],
+    }
+}
+
+impl ProjectivePass {
+    pub fn new(gpu: &Gpu) -> Result<ProjectivePass> {
+        let device = &gpu.device;
+        let module = gpu::shader_module(device, "projective", super::PROJECTIVE)?;
+        let cs = wgpu::ShaderStages::COMPUTE;
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("projective"),
+            entries: &[
+                gpu::uniform_entry(0, cs),
+                gpu::dynamic_uniform_entry(1, cs, SLOT),
+                gpu::storage_entry(2, cs, true),
+                gpu::storage_entry(3, cs, false),
+                gpu::storage_entry(4, cs, false),
+            ],
+        });
+        let [init, advance] = gpu::compute_pipelines(
+            device,
+            "projective",
+            &layout,
+            &module,
+            ["init", "advance"],
+            &[
+                ("WORKGROUP", WORKGROUP as f64),
+                ("EPS_OUT", crate::scene::head::EPS_OUT),
+                ("POLE_SIN", POLE_SIN),
+                ("MAX_TURN", MAX_TURN),
+            ],
+        );
+        Ok(ProjectivePass {
+            init,
+            advance,
+            layout,
+        })
+    }
+
+    /// Upload the set-up; the angle state is initialised from the nodes by `init`.
+    pub fn prepare(
+        &self,
+        gpu: &Gpu,
+        setup: &DynSetup,
+        hair: &StrandBuffers,
+    ) -> Result<ProjectiveJob> {
+        let device = &gpu.device;
+        let dims = gpu.dispatch_dims(setup.strands.len() as u32, WORKGROUP)?;
+        let records: Vec<GpuDynStrand> = setup
+            .strands
+            .iter()
+            .map(|s| GpuDynStrand {
+                ids: [s.strand, s.first_vertex, s.state_offset, s.segments],
+                root: [
+                    s.root_local.x as f32,
+                    s.root_local.y as f32,
+                    s.root_local.z as f32,
+                    s.seg_len as f32,
+                ],
+                extra: [s.scalp as f32, 0.0, 0.0, 0.0],
+            })
+            .collect();
+        let state_bytes = setup.state_len as u64 * std::mem::size_of::<[f32; 4]>() as u64;
+        gpu.check_storage_size("the dynamics state", state_bytes)?;
+        let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("projective params"),
+            contents: bytemuck::bytes_of(&gpu_params(setup, dims.0 * WORKGROUP)),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        let strands = gpu::storage_buffer(
+            device,
+            "dynamic strands",
+            bytemuck::cast_slice(&records),
+            wgpu::BufferUsages::empty(),
+        );
+        let state = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("angle state"),
+            size: state_bytes,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let capacity = 16;
+        let steps = Self::step_ring(device, capacity);
+        let bind_group = self.bind(device, &params, &steps, &strands, &state, hair);
+        Ok(ProjectiveJob {
+            params,
+            strands,
+            state,
+            steps,
+            capacity,
+            bind_group,
+            dims,
+        })
+    }
+
+    fn step_ring(device: &wgpu::Device, capacity: u32) -> wgpu::Buffer {
+        device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("projective substeps"),
+            size: capacity as u64 * SLOT,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    }
+
+    fn bind(
+        &self,
+        device: &wgpu::Device,
+        params: &wgpu::Buffer,
+        steps: &wgpu::Buffer,
+        strands: &wgpu::Buffer,
+        state: &wgpu::Buffer,
+        hair: &StrandBuffers,
+    ) -> wgpu::BindGroup {
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("projective"),
+            layout: &self.layout,
+            entries: &[
+                gpu::entry(0, params),
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                        buffer: steps,
+                        offset: 0,
+                        size: wgpu::BufferSize::new(SLOT),
+                    }),
+                },
+                gpu::entry(2, strands),
+                gpu::entry(3, state),
+                gpu::entry(4, &hair.vertices),
+            ],
+        })
+    }
+
+    /// Update parameters that do not change the layout (tuning from the viewer).
+    pub fn update_params(&self, gpu: &Gpu, job: &ProjectiveJob, setup: &DynSetup) {
+        gpu.queue.write_buffer(
+            &job.params,
+            0,
+            bytemuck::bytes_of(&gpu_params(setup, job.dims.0 * WORKGROUP)),
+        );
+    }
+
+    /// Record the initialisation of the angles from the current nodes (at rest).
+    pub fn init(&self, enc: &mut wgpu::CommandEncoder, job: &ProjectiveJob) {
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("projective init"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.init);
+        pass.set_bind_group(0, &job.bind_group, &[0]);
+        pass.dispatch_workgroups(job.dims.0, job.dims.1, 1);
+    }
+
+    /// Upload `substeps` and record one dispatch for each. Call once per submission: the
+    /// uniforms are written when the queue is submitted.
+    pub fn advance(
+        &self,
+        gpu: &Gpu,
+        enc: &mut wgpu::CommandEncoder,
+        job: &mut ProjectiveJob,
+        hair: &StrandBuffers,
+        substeps: &[StepForces],
+    ) {
+        if substeps.is_empty() {
+            return;
+        }
+        if substeps.len() as u32 > job.capacity {
+            job.capacity = (substeps.len() as u32).next_power_of_two();
+            job.steps = Self::step_ring(&gpu.device, job.capacity);
+            job.bind_group = self.bind(
+                &gpu.device,
+                &job.params,
+                &job.steps,
+                &job.strands,
+                &job.state,
+                hair,
+            );
+        }
+        let mut bytes = Vec::with_capacity(substeps.len() * SLOT as usize);
+        for f in substeps {
+            bytes.extend_from_slice(bytemuck::bytes_of(&gpu_step(f)));
+        }
+        gpu.queue.write_buffer(&job.steps, 0, &bytes);
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("projective advance"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.advance);
+        for i in 0..substeps.len() as u32 {
+            pass.set_bind_group(0, &job.bind_group, &[i * SLOT as u32]);
+            pass.dispatch_workgroups(job.dims.0, job.dims.1, 1);
+        }
+    }
+}
+
+fn gpu_params(setup: &DynSetup, row_stride: u32) -> GpuDynParams {
+    let p = &setup.params;
+    let pf = p.pseudo_force.as_ref();
+    GpuDynParams {
+        strand_count: setup.strands.len() as u32,
+        row_stride,
+        collision: u32::from(p.collision),
+        pseudo: u32::from(pf.is_some()),
+        density: p.density as f32,
+        damping: p.damping as f32,
+        seed: setup.seed,
+        fluct_amp: p
+            .fluctuation
+            .as_ref()
+            .map_or(0.0, |f| f.amplitude.to_radians() as f32),
+        pseudo_alpha: pf.map_or(0.0, |f| f.alpha as f32),
+        eps_pore: pf.map_or(1.0, |f| f.epsilon_pore as f32),
+        eps_tip: pf.map_or(1.0, |f| f.epsilon_tip as f32),
+        near: pf.map_or(0.0, |f| f.near as f32),
+        sigma_root: p.stiffness.root.to_radians() as f32,
+        sigma_tip: p.stiffness.tip.to_radians() as f32,
+        sigma_start: p.stiffness.start as f32,
+        inertia_root: p.inertia.root as f32,
+        inertia_tip: p.inertia.tip as f32,
+        sigma_end: p.stiffness.end as f32,
+        _pad: [0.0; 2],
+        head_center: [
+            setup.head.center.x as f32,
+            setup.head.center.y as f32,
+            setup.head.center.z as f32,
+            0.0,
+        ],
+        head_radii: [
+            setup.head.radii.x as f32,
+            setup.head.radii.y as f32,
+            setup.head.radii.z as f32,
+            0.0,
+        ],
+    }
+}

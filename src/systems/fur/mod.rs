@@ -1,0 +1,246 @@
+//! Van Gelder & Wilhelms: interactive fur on triangle meshes. Roots, coats and the shape
+//! rules are set up once on the CPU (`setup`, with `setup::hair_points` as the f64
+//! reference of a hair); every frame the GPU regenerates the hairs a coat draws from the
+//! root table on the (possibly moving) mesh (`generate`), with distance culling and the
+//! viewer's level of detail, and draws the skin and the hairs (`draw`).
+//!
+//! The fur has no state between frames: its hairs are a function of the clock's frame and
+//! the camera, so `step` and `reset` have nothing to do.
+
+pub mod critter;
+pub mod draw;
+pub mod generate;
+pub mod panel;
+pub mod setup;
+
+use super::{Change, DrawSetup, FrameCtx, HairSystem, Kind, StepInfo, SystemStats, View};
+use crate::error::Result;
+use crate::gpu::Gpu;
+use crate::scene::Scene;
+use crate::shaders::wgsl;
+use glam::DVec3;
+use setup::{culling_factor, FurSetup};
+
+/// Fur generation (Van Gelder & Wilhelms).
+pub const GENERATE: &str = wgsl!(
+    "common/ellipsoid.wgsl",
+    "common/random.wgsl",
+    "common/deform.wgsl",
+    "fur/generate.wgsl",
+);
+
+/// Fur drawing: ribbons and tubes with Van Gelder & Wilhelms' shading normals.
+pub const DRAW: &str = wgsl!(
+    "common/strands.wgsl",
+    "common/frame.wgsl",
+    "common/random.wgsl",
+    "common/coverage.wgsl",
+    "fur/draw.wgsl",
+);
+
+/// The fur mesh's skin.
+pub const SKIN: &str = wgsl!("common/frame.wgsl", "common/deform.wgsl", "fur/skin.wgsl");
+
+pub const KIND: Kind = Kind {
+    name: "fur",
+    in_scene: |s| s.fur.is_some(),
+    check_limits,
+    build,
+    classify,
+    panels: panel::PANELS,
+    scenes: &[
+        "fur",
+        "fur_fig9",
+        "fur_line",
+        "fur_polyline",
+        "fur_curve",
+        "fur_tube",
+        "fur_lion_head",
+        "hair_and_fur",
+    ],
+    shaders: &[
+        ("fur/generate", GENERATE),
+        ("fur/draw", DRAW),
+        ("fur/skin", SKIN),
+    ],
+};
+
+/// The fur's buffers are checked as they are made (`StrandBuffers::from_runs`, the mesh):
+/// their sizes depend on the mesh, which is read only when the system is built.
+fn check_limits(_gpu: &Gpu, _scene: &Scene) -> Result<()> {
+    Ok(())
+}
+
+fn build(gpu: &Gpu, scene: &Scene, setup: &DrawSetup) -> Result<Box<dyn HairSystem>> {
+    Ok(Box::new(FurSystem::new(gpu, scene, setup)?))
+}
+
+/// Colours, shininess and widths are uniforms written every frame: only they change without
+/// a rebuild. Anything else (hairs, lengths, regions, coats, mesh, motion, seed) allocates
+/// the roots again (fast) and regenerates.
+pub fn classify(old: &Scene, new: &Scene) -> Change {
+    let shape = |s: &Scene| {
+        s.fur.clone().map(|mut f| {
+            f.skin = [0.0; 3];
+            for c in &mut f.coats {
+                c.material = Default::default();
+            }
+            (s.seed, f)
+        })
+    };
+    if shape(old) != shape(new) {
+        Change::Rebuild
+    } else if old.fur != new.fur {
+        Change::Redraw
+    } else {
+        Change::None
+    }
+}
+
+/// Fur of a scene: the set-up on the CPU, the generator and the draw on the GPU.
+pub struct FurSystem {
+    pub setup: FurSetup,
+    pub generator: generate::FurGpu,
+    draw: draw::FurPass,
+    /// Hairs drawn per coat this frame.
+    pub drawn: Vec<u32>,
+    /// Width factor of this frame's hairs (culling and level of detail draw fewer, wider).
+    pub width_scale: f64,
+    /// Widen culled hair to keep the coverage (off only to measure what it buys).
+    pub compensate_width: bool,
+}
+
+impl FurSystem {
+    pub fn new(gpu: &Gpu, scene: &Scene, draw_setup: &DrawSetup) -> Result<FurSystem> {
+        let fur = scene.fur.as_ref().ok_or_else(|| crate::KamiError::Invalid {
+            field: "fur".into(),
+            value: "None".into(),
+            allowed: "a fur block (the fur system is built only for scenes with fur)".into(),
+        })?;
+        let setup = FurSetup::new(fur, scene.seed)?;
+        let generator = generate::FurGpu::new(gpu, &setup)?;
+        let mut draw = draw::FurPass::new(
+            gpu,
+            draw_setup.frame_layout,
+            draw_setup.format,
+            draw_setup.samples,
+        )?;
+        draw.set_fur(gpu, &setup, &generator);
+        Ok(FurSystem {
+            drawn: vec![0; setup.coats.len()],
+            setup,
+            generator,
+            draw,
+            width_scale: 1.0,
+            compensate_width: true,
+        })
+    }
+
+    /// Hairs allocated over all coats.
+    pub fn total(&self) -> u64 {
+        self.setup.coats.iter().map(|c| c.total as u64).sum()
+    }
+}
+
+impl HairSystem for FurSystem {
+    fn kind(&self) -> &'static str {
+        KIND.name
+    }
+
+    fn bounds(&self) -> (DVec3, f64) {
+        self.setup.bounds()
+    }
+
+    fn step(
+        &mut self,
+        _gpu: &Gpu,
+        _enc: &mut wgpu::CommandEncoder,
+        _ctx: &FrameCtx,
+        _frames: u32,
+    ) -> Result<StepInfo> {
+        Ok(StepInfo::default())
+    }
+
+    /// Generate this frame's hairs: culling from the camera's distance to the model, times
+    /// the level of detail, which widens hair by only 1/sqrt(lod).
+    fn prepare(
+        &mut self,
+        gpu: &Gpu,
+        enc: &mut wgpu::CommandEncoder,
+        ctx: &FrameCtx,
+        view: &View,
+    ) -> Result<()> {
+        let bounds = self.setup.bounds();
+        let c = culling_factor(
+            &self.setup.fur,
+            bounds,
+            view.fov_y,
+            (view.eye - bounds.0).length(),
+        );
+        let lod = view.lod.clamp(1e-3, 1.0);
+        let frame = ctx.time();
+        self.generator
+            .record(gpu, enc, &self.setup, frame, c * lod)?;
+        self.drawn.clone_from(&self.generator.drawn);
+        self.width_scale = if self.compensate_width {
+            1.0 / (c * lod.sqrt())
+        } else {
+            1.0
+        };
+        self.draw
+            .prepare(gpu, &self.setup, frame, self.width_scale);
+        Ok(())
+    }
+
+    fn draw_opaque(&self, pass: &mut wgpu::RenderPass<'_>) {
+        self.draw.draw_skin(pass);
+    }
+
+    fn draw(&self, pass: &mut wgpu::RenderPass<'_>, _view: &View) {
+        self.draw.draw_hairs(pass, &self.drawn);
+    }
+
+    fn reset(&mut self, _gpu: &Gpu) -> Result<()> {
+        Ok(())
+    }
+
+    fn set_samples(&mut self, gpu: &Gpu, samples: u32) {
+        self.draw.set_samples(gpu, samples);
+    }
+
+    /// A `Redraw`: new materials and skin colour (written with the next frame's uniforms).
+    fn update(&mut self, _gpu: &Gpu, scene: &Scene, change: Change) -> Result<()> {
+        if let (Change::Redraw, Some(f)) = (change, &scene.fur) {
+            for (mine, new) in self.setup.fur.coats.iter_mut().zip(&f.coats) {
+                mine.material = new.material.clone();
+            }
+            self.setup.fur.skin = f.skin;
+        }
+        Ok(())
+    }
+
+    fn stats(&self) -> SystemStats {
+        let segments = self
+            .setup
+            .fur
+            .coats
+            .iter()
+            .zip(&self.setup.coats)
+            .map(|(c, a)| a.total as u64 * c.style.segments() as u64)
+            .sum();
+        SystemStats {
+            strands: self.total(),
+            segments,
+            simulated: 0,
+            drawn: self.drawn.iter().map(|&d| d as u64).sum(),
+        }
+    }
+
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
+    fn as_any_mut(&mut self) -> &mut dyn std::any::Any {
+        self
+    }
+}

@@ -1,0 +1,175 @@
+//! Hair systems: each kind of hair (Anjyo's strands, Van Gelder's fur, and the kinds to
+//! come) is one self-contained module behind the `HairSystem` interface, listed once in
+//! `KINDS`. The stage (`crate::stage`) knows systems only through this module: it asks each
+//! kind the scene names to build itself, hands every system the same clock (`FrameCtx`)
+//! each frame, and draws them all into one depth-tested pass. The viewer's panels, its Files
+//! list, the limits check and the scene bounds iterate `KINDS` too, so adding a kind is a
+//! new folder plus one line in `KINDS`.
+//!
+//! A system owns everything of its kind: CPU references, GPU passes, draw pipelines, its
+//! shaders (`shaders/<kind>/`) and its egui panels. It knows no window.
+
+pub mod anjyo;
+pub mod fur;
+
+use crate::error::Result;
+use crate::forces::Forces;
+use crate::gpu::Gpu;
+use crate::scene::Scene;
+use glam::{DMat4, DVec3};
+
+/// The one clock of a frame, handed to every system: frames since the rest pose, the shared
+/// force fields and the head pose at that frame.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameCtx<'a> {
+    /// Frames since the rest pose: 0 is the groomed rest pose, f is after f frames of
+    /// simulation. Keyed forces, head motion and mesh motion are all read at this frame.
+    pub frame: u64,
+    pub forces: &'a Forces,
+    /// Head pose at `frame` (roots ride it; the head pass draws it).
+    pub head: DMat4,
+}
+
+impl FrameCtx<'_> {
+    /// The clock as a time in frames (for keyed and periodic motion).
+    pub fn time(&self) -> f64 {
+        self.frame as f64
+    }
+}
+
+/// How the frame is looked at: what a system needs to choose its level of detail.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct View {
+    pub eye: DVec3,
+    /// Vertical field of view, radians.
+    pub fov_y: f64,
+    /// Share of the hairs to draw (the viewer's level of detail); 1 for full quality.
+    pub lod: f64,
+    /// Show the system's diagnostic overlay (Anjyo: segments the pseudo-force acted on).
+    pub overlay: bool,
+}
+
+/// What a system's draw pipelines are built for: the shared frame bind group (group 0,
+/// `shaders/common/frame.wgsl`), the scene target format and its MSAA sample count.
+pub struct DrawSetup<'a> {
+    pub frame_layout: &'a wgpu::BindGroupLayout,
+    pub format: wgpu::TextureFormat,
+    pub samples: u32,
+}
+
+/// What an edit of the scene asks of one system, least to most work.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Change {
+    /// Nothing of this system changed.
+    #[default]
+    None,
+    /// Only how it looks: new uniforms, same shape and motion.
+    Redraw,
+    /// Motion parameters: they act from the next step, the current pose stays.
+    Resimulate,
+    /// Its shape or its set-up: build the system again (a new rest pose).
+    Rebuild,
+}
+
+/// What one frame of stepping did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct StepInfo {
+    pub substeps: u32,
+    /// Some step needed more substeps than allowed (the solver clamped and warned).
+    pub capped: bool,
+}
+
+impl StepInfo {
+    pub fn merge(self, other: StepInfo) -> StepInfo {
+        StepInfo {
+            substeps: self.substeps + other.substeps,
+            capped: self.capped || other.capped,
+        }
+    }
+}
+
+/// Counts for the Stats panel and the CLI.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SystemStats {
+    pub strands: u64,
+    pub segments: u64,
+    /// Strands the solver moves (0 for a still groom).
+    pub simulated: u64,
+    /// Strands drawn in the last frame (after level of detail and culling).
+    pub drawn: u64,
+}
+
+/// One hair system, built for one scene.
+pub trait HairSystem {
+    /// The kind's name (as in `KINDS`).
+    fn kind(&self) -> &'static str;
+    /// A sphere holding everything the system may draw.
+    fn bounds(&self) -> (DVec3, f64);
+    /// Record `frames` frames of motion from `ctx.frame` on (compute work only; positions
+    /// stay on the GPU). Systems without dynamics do nothing.
+    fn step(
+        &mut self,
+        gpu: &Gpu,
+        enc: &mut wgpu::CommandEncoder,
+        ctx: &FrameCtx,
+        frames: u32,
+    ) -> Result<StepInfo>;
+    /// Before drawing `ctx.frame` for `view`: write per-frame uniforms and record any
+    /// view-dependent compute work (regeneration, culling).
+    fn prepare(
+        &mut self,
+        gpu: &Gpu,
+        enc: &mut wgpu::CommandEncoder,
+        ctx: &FrameCtx,
+        view: &View,
+    ) -> Result<()>;
+    /// Opaque geometry (a skin), drawn before any hair of any system.
+    fn draw_opaque(&self, _pass: &mut wgpu::RenderPass<'_>) {}
+    /// The hair, with per-sample coverage; group 0 (the frame) is bound.
+    fn draw(&self, pass: &mut wgpu::RenderPass<'_>, view: &View);
+    /// Back to the rest pose.
+    fn reset(&mut self, gpu: &Gpu) -> Result<()>;
+    /// Rebuild draw pipelines for another MSAA sample count.
+    fn set_samples(&mut self, gpu: &Gpu, samples: u32);
+    /// Take an edit classified as `Redraw` or `Resimulate` by the kind's `classify`.
+    fn update(&mut self, gpu: &Gpu, scene: &Scene, change: Change) -> Result<()>;
+    fn stats(&self) -> SystemStats;
+    /// For tests and benches that look inside one kind.
+    fn as_any(&self) -> &dyn std::any::Any;
+    fn as_any_mut(&mut self) -> &mut dyn std::any::Any;
+}
+
+/// An egui panel a kind brings to the viewer.
+pub struct Panel {
+    pub title: &'static str,
+    /// Open when the viewer starts with this scene.
+    pub open: fn(&Scene) -> bool,
+    pub show: fn(&mut egui::Ui, &mut crate::app::params::ViewerState),
+}
+
+/// A kind of hair: how to find it in a scene, build it, classify edits of it, and what it
+/// brings to the viewer and the shader registry.
+pub struct Kind {
+    pub name: &'static str,
+    /// Whether the scene names hair of this kind (only those systems are built).
+    pub in_scene: fn(&Scene) -> bool,
+    /// Check, before anything is allocated, that the scene's hair of this kind fits the
+    /// adapter's limits.
+    pub check_limits: fn(&Gpu, &Scene) -> Result<()>,
+    pub build: fn(&Gpu, &Scene, &DrawSetup) -> Result<Box<dyn HairSystem>>,
+    /// What an edit from the first scene to the second asks of this kind.
+    pub classify: fn(&Scene, &Scene) -> Change,
+    pub panels: &'static [Panel],
+    /// Shipped scenes (stems under `assets/scenes/`) offered by the viewer's Files panel.
+    pub scenes: &'static [&'static str],
+    /// (path under `shaders/` without `.wgsl`, composed source) of every WGSL module.
+    pub shaders: &'static [(&'static str, &'static str)],
+}
+
+/// Every kind of hair Kami knows, in drawing order.
+pub const KINDS: &[&Kind] = &[&anjyo::KIND, &fur::KIND];
+
+/// The kind called `name`.
+pub fn kind(name: &str) -> Option<&'static Kind> {
+    KINDS.iter().copied().find(|k| k.name == name)
+}
