@@ -254,3 +254,32 @@ fn cli_reports_errors() {
     let out = run(&["render", "/nonexistent.ron"]);
     assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("nonexistent"));
 }
+
+/// `kami bench dynamics` on a scene without dynamics says so and exits non-zero (it used to
+/// panic on an `expect`).
+#[test]
+fn bench_dynamics_on_a_still_scene_is_a_clear_error() {
+    let out_dir = std::env::temp_dir().join(format!("kami-bench-bob-{}", std::process::id()));
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_kami"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args([
+            "bench",
+            "dynamics",
+            "--software",
+            "--scene",
+            "assets/scenes/bob.ron",
+            "--out",
+        ])
+        .arg(&out_dir)
+        .env("RUST_BACKTRACE", "0")
+        .output()
+        .expect("running kami bench dynamics");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "bench dynamics on bob succeeded");
+    assert!(!err.contains("panicked"), "it panicked:\n{err}");
+    assert!(
+        err.contains("bob.ron") && err.contains("dynamics"),
+        "the error does not name the file and the missing block:\n{err}"
+    );
+    assert!(!out_dir.exists(), "nothing is written for a refused scene");
+}

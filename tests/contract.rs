@@ -3,9 +3,9 @@
 
 mod common;
 use glam::DVec3;
+use kami::scene::Bending;
 use kami::systems::anjyo::groom::{prepare, GroomInput};
 use kami::systems::anjyo::{cantilever, cantilever_gpu};
-use kami::scene::Bending;
 
 /// Per-strand largest node distance between GPU and CPU, relative to the hair length,
 /// sorted; and the largest difference in drawn length (segments).
@@ -242,9 +242,10 @@ fn several_frames_per_submission_match_one_by_one() {
     let mut runs = Vec::new();
     for per_submit in [1, 3] {
         let hair = cantilever_gpu::groom_gpu(&gpu, &input).unwrap();
-        let mut sim = kami::systems::anjyo::simulation::Simulation::new(&gpu, &scene, &input, &hair)
-            .unwrap()
-            .unwrap();
+        let mut sim =
+            kami::systems::anjyo::simulation::Simulation::new(&gpu, &scene, &input, &hair)
+                .unwrap()
+                .unwrap();
         for _ in 0..18 / per_submit {
             let mut enc = gpu.device.create_command_encoder(&Default::default());
             sim.record_frames(&gpu, &mut enc, &hair, per_submit);

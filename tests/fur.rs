@@ -11,12 +11,12 @@
 mod common;
 
 use glam::DVec3;
+use kami::scene::fur::{Fur, FurStyle, MeshMotion};
+use kami::scene::mesh::Mesh;
 use kami::systems::fur::generate::FurGpu;
 use kami::systems::fur::setup::{
     culling_factor, deform, hair_points, slot_hair, FurSetup, HairPoints, TABLE,
 };
-use kami::scene::fur::{Fur, FurStyle, MeshMotion};
-use kami::scene::mesh::Mesh;
 
 const SIGMAS: f64 = 4.5;
 

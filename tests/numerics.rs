@@ -4,11 +4,11 @@
 
 mod common;
 use glam::DVec3;
+use kami::scene::Ellipsoid;
 use kami::systems::anjyo::cantilever::{self, Beam};
 use kami::systems::anjyo::cantilever_gpu;
 use kami::systems::anjyo::elastica;
 use kami::systems::anjyo::groom::prepare;
-use kami::scene::Ellipsoid;
 
 /// A unit-length beam clamped along +x under a uniform downward load G (EI = 1).
 fn tip_drop(g: f64, k: u32, converged: bool) -> (f64, Vec<DVec3>) {

@@ -150,3 +150,16 @@ fn fur_moving_frame_6() {
 fn fur_lion_head() {
     snapshot("fur_lion_head");
 }
+
+/// Two hair systems in one scene on one clock, composited by depth in one pass: Anjyo hair
+/// in a gust on the head, fur on a waving critter in front of it, at frame 6 (both moved).
+#[test]
+fn hair_and_fur_frame_6() {
+    let gpu = common::gpu();
+    let scene = common::scene("hair_and_fur");
+    kami::stage::render_animation(&gpu, &scene, SIZE, 6..=6, |_, img| {
+        check_snapshot("hair_and_fur_06", &img, TOL);
+        Ok(())
+    })
+    .unwrap();
+}

@@ -6,10 +6,10 @@
 
 mod common;
 use glam::DVec3;
-use kami::systems::anjyo::groom::prepare;
-use kami::systems::anjyo::{cantilever, cantilever_gpu};
 use kami::scene::{Direction, Dynamics, HeadKey, Interp, PseudoForce, Roots, Scene, WindKey};
+use kami::systems::anjyo::groom::prepare;
 use kami::systems::anjyo::projective::{CpuSim, DynSetup};
+use kami::systems::anjyo::{cantilever, cantilever_gpu};
 
 /// A small scene: one group of `count` hairs of `k` segments from a polar patch.
 fn scene(
@@ -544,12 +544,9 @@ fn gpu_hard_cases_stay_finite_and_outside() {
     for s in &cases {
         let input = prepare(s).unwrap();
         let v = run_gpu(&gpu, s, &input, 30);
-        let pose = kami::forces::head_at(
-            &s.dynamics.as_ref().unwrap().head_motion,
-            DVec3::ZERO,
-            30.0,
-        )
-        .inverse();
+        let pose =
+            kami::forces::head_at(&s.dynamics.as_ref().unwrap().head_motion, DVec3::ZERO, 30.0)
+                .inverse();
         let offsets = input.vertex_offsets();
         for (i, r) in input.roots.iter().enumerate() {
             for j in offsets[i]..offsets[i + 1] {
@@ -587,9 +584,11 @@ fn static_groups_allocate_nothing() {
     let still = common::scene("bob");
     let input = prepare(&still).unwrap();
     let hair = cantilever_gpu::groom_gpu(&gpu, &input).unwrap();
-    assert!(kami::systems::anjyo::simulation::Simulation::new(&gpu, &still, &input, &hair)
-        .unwrap()
-        .is_none());
+    assert!(
+        kami::systems::anjyo::simulation::Simulation::new(&gpu, &still, &input, &hair)
+            .unwrap()
+            .is_none()
+    );
     let mut frozen = common::scene("gust");
     for g in &mut frozen.groups {
         g.count = 50;
@@ -597,9 +596,11 @@ fn static_groups_allocate_nothing() {
     }
     let input = prepare(&frozen).unwrap();
     let hair = cantilever_gpu::groom_gpu(&gpu, &input).unwrap();
-    assert!(kami::systems::anjyo::simulation::Simulation::new(&gpu, &frozen, &input, &hair)
-        .unwrap()
-        .is_none());
+    assert!(
+        kami::systems::anjyo::simulation::Simulation::new(&gpu, &frozen, &input, &hair)
+            .unwrap()
+            .is_none()
+    );
     frozen.groups[1].dynamic = true;
     let input = prepare(&frozen).unwrap();
     let groomed = cantilever::bend_all(&input);

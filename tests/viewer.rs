@@ -240,3 +240,82 @@ fn viewer_shows_fur_and_reacts_to_the_fur_panel() {
         "the stiffness change did not show: {moved:.4}"
     );
 }
+
+/// One clock: frame N reached in the viewer (playing from the rest pose at time scale 1, no
+/// panels, full detail) is the pose `kami render --frames N..N` writes, for a scene with
+/// both hair systems (Anjyo hair in a gust and fur on a waving critter): same camera, same
+/// size, same anti-aliasing (the viewer does not supersample; the render is told not to),
+/// images equal within the snapshot tolerance. A viewer one frame ahead or behind, or a
+/// system on its own clock, differs far more (checked against frame N + 1 below).
+#[test]
+fn viewer_frame_n_is_the_rendered_frame_n() {
+    const N: u64 = 7;
+    let x = xvfb();
+    let dir = std::env::temp_dir().join(format!("kami-viewer-clock-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let runtime = dir.join("xdg");
+    std::fs::create_dir_all(&runtime).unwrap();
+    let shot = dir.join("viewer.png");
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_kami"));
+    cmd.args([
+        "view",
+        "assets/scenes/hair_and_fur.ron",
+        "--software",
+        "--no-panels",
+        "--size",
+        "320x240",
+        "--set",
+        "lod=1",
+        "--exit-after-frames",
+        &(N + 1).to_string(),
+    ])
+    .arg("--screenshot-at")
+    .arg(format!("{N}:{}", shot.display()));
+    run_viewer(cmd, &x, &runtime);
+    let frames = dir.join("frames");
+    let out = Command::new(env!("CARGO_BIN_EXE_kami"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args([
+            "render",
+            "assets/scenes/hair_and_fur.ron",
+            "--software",
+            "--size",
+            "320x240",
+            "--supersample",
+            "1",
+            "--frames",
+            &format!("{N}..{}", N + 1),
+            "--out",
+        ])
+        .arg(&frames)
+        .env("XDG_RUNTIME_DIR", &runtime)
+        .output()
+        .expect("running kami render");
+    assert!(
+        out.status.success(),
+        "kami render failed:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let viewer = image::open(&shot).unwrap().to_rgba8();
+    let rendered = |f: u64| {
+        image::open(frames.join(format!("frame_{f:04}.png")))
+            .unwrap()
+            .to_rgba8()
+    };
+    let (same, next) = (rendered(N), rendered(N + 1));
+    assert_eq!(viewer.dimensions(), same.dimensions());
+    let (mean, share, _) = common::compare(&viewer, &same, 24);
+    assert!(
+        mean <= 0.5 && share <= 0.002,
+        "viewer frame {N} differs from kami render frame {N}: mean {mean:.3}, {:.3}% of pixels off by more than 24",
+        share * 100.0
+    );
+    // The check can fail: the next frame is visibly another pose.
+    let (mean_next, share_next, _) = common::compare(&viewer, &next, 24);
+    assert!(
+        mean_next > 4.0 * mean.max(0.1) && share_next > 0.01,
+        "frame {} looks like frame {N} (mean {mean_next:.3}, {:.3}%): the test could not tell poses apart",
+        N + 1,
+        share_next * 100.0
+    );
+}

@@ -1,8 +1,8 @@
 //! Orbit camera for the viewer: orbit about a target, pan, zoom, and frame the scene. Starts
 //! from the scene file's camera and can be written back into it when saving.
 
-use crate::stage::camera::Camera;
 use crate::scene::CameraDesc;
+use crate::stage::camera::Camera;
 use glam::DVec3;
 
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -385,12 +385,12 @@ fn handle_requests(g: &mut Gfx, state: &mut ViewerState, shots: &mut Vec<PathBuf
             }
             Request::Screenshot(path) => shots.push(PathBuf::from(path)),
             Request::Step => {
-                let mut enc = g
-                    .gpu
-                    .device
-                    .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                        label: Some("viewer step"),
-                    });
+                let mut enc =
+                    g.gpu
+                        .device
+                        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                            label: Some("viewer step"),
+                        });
                 g.stage.advance(&g.gpu, &mut enc, 1)?;
                 g.gpu.queue.submit([enc.finish()]);
             }
@@ -492,10 +492,7 @@ fn frame_body(
             }
         }
     }
-    state.stats.sim_ms = state
-        .stats
-        .sim_ema
-        .add(t.elapsed().as_secs_f64() * 1e3);
+    state.stats.sim_ms = state.stats.sim_ema.add(t.elapsed().as_secs_f64() * 1e3);
     let counts = g.stage.stats();
     state.stats.simulated = counts.simulated;
     state.stats.frame = g.stage.frame();

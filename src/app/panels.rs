@@ -112,8 +112,6 @@ fn files(ui: &mut Ui, s: &mut ViewerState) {
     });
 }
 
-
-
 pub fn need_dynamics(ui: &mut Ui, s: &mut ViewerState) -> bool {
     if s.scene.dynamics.is_none() {
         ui.label("this scene is static");
@@ -210,8 +208,6 @@ fn default_head_motion() -> Vec<crate::scene::HeadKey> {
     ]
 }
 
-
-
 /// Light, background and anti-aliasing: shared by hair and fur.
 fn look_common(ui: &mut Ui, s: &mut ViewerState) {
     ui.separator();
@@ -262,7 +258,6 @@ fn look_common(ui: &mut Ui, s: &mut ViewerState) {
     }
 }
 
-
 fn stats(ui: &mut Ui, s: &ViewerState) {
     let st = &s.stats;
     egui::Grid::new("stats").num_columns(2).show(ui, |ui| {
@@ -303,6 +298,3 @@ fn stats(ui: &mut Ui, s: &ViewerState) {
         ui.end_row();
     });
 }
-
-
-

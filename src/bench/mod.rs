@@ -658,7 +658,11 @@ pub fn dynamics(gpu: &Gpu, gust_path: &Path, out: &Path) -> Result<Report> {
             .ok_or_else(|| no_dynamics(gust_path))?;
         (
             sim.setup.strands.len(),
-            sim.setup.strands.iter().map(|s| s.segments as u64).sum::<u64>(),
+            sim.setup
+                .strands
+                .iter()
+                .map(|s| s.segments as u64)
+                .sum::<u64>(),
         )
     };
     let mut substeps = 0u64;

@@ -20,9 +20,7 @@ use crate::forces::Forces;
 use crate::gpu::gpu_data::{linear_rgb, GpuFrame};
 use crate::gpu::{self, Gpu};
 use crate::scene::Scene;
-use crate::systems::{
-    Change, DrawSetup, FrameCtx, HairSystem, StepInfo, SystemStats, View, KINDS,
-};
+use crate::systems::{Change, DrawSetup, FrameCtx, HairSystem, StepInfo, SystemStats, View, KINDS};
 use camera::Camera;
 use glam::DVec3;
 use target::{DownsamplePass, SceneTargets};
@@ -180,6 +178,11 @@ impl Stage {
 
     pub fn scene(&self) -> &Scene {
         &self.scene
+    }
+
+    /// Whether the head pass is built (only while the scene shows the head).
+    pub fn has_head(&self) -> bool {
+        self.head.is_some()
     }
 
     /// The clock: frames since the rest pose.
@@ -411,13 +414,7 @@ impl Stage {
         let Some((targets, down_bg)) = self.targets.as_ref() else {
             return Err(crate::KamiError::Gpu("scene targets missing".into()));
         };
-        let uniform = frame_uniform(
-            &self.scene,
-            look,
-            bounds,
-            targets.size,
-            self.quality.msaa,
-        );
+        let uniform = frame_uniform(&self.scene, look, bounds, targets.size, self.quality.msaa);
         gpu.queue
             .write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&uniform));
         if let Some(h) = &self.head {

@@ -385,4 +385,3 @@ pub fn bend_all(input: &GroomInput) -> GroomOutput {
         max_iterations,
     }
 }
-

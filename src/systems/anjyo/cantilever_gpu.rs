@@ -2,13 +2,12 @@
 //! reference in `cantilever.rs`, one invocation per strand; `tests/contract.rs` compares them.
 
 use super::groom::{BendMode, GroomInput, LoadField, ResolvedLoad};
-use crate::scene::CutRule;
 use crate::error::Result;
 use crate::gpu::gpu_data::{GpuCut, GpuGroomGroup, GpuGroomParams, GpuLoad, GpuRoot};
 use crate::gpu::strands::StrandBuffers;
 use crate::gpu::{self, Gpu, WORKGROUP};
+use crate::scene::CutRule;
 use wgpu::util::DeviceExt;
-
 
 /// The cantilever kernel (`shaders/anjyo/cantilever.wgsl`): long-lived pipelines and layout.
 pub struct CantileverPass {

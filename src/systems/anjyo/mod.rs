@@ -186,7 +186,8 @@ impl AnjyoSystem {
         } else {
             None
         };
-        let mut draw = draw::StrandsPass::new(gpu, setup.frame_layout, setup.format, setup.samples)?;
+        let mut draw =
+            draw::StrandsPass::new(gpu, setup.frame_layout, setup.format, setup.samples)?;
         draw.set_hair(gpu, &hair, &materials(scene));
         Ok(AnjyoSystem {
             input,
@@ -285,7 +286,10 @@ impl HairSystem for AnjyoSystem {
         SystemStats {
             strands: self.counts.0,
             segments: self.counts.1,
-            simulated: self.sim.as_ref().map_or(0, |s| s.setup.strands.len() as u64),
+            simulated: self
+                .sim
+                .as_ref()
+                .map_or(0, |s| s.setup.strands.len() as u64),
             drawn,
         }
     }

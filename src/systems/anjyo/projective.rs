@@ -542,4 +542,3 @@ pub fn step_strand(
     }
     stats
 }
-

@@ -2,11 +2,11 @@
 //! reference in `projective.rs`, one invocation per strand and one substep per dispatch;
 //! `tests/contract.rs` compares them.
 
+use super::projective::{DynSetup, StepForces, MAX_TURN, POLE_SIN};
 use crate::error::Result;
 use crate::gpu::gpu_data::{GpuDynParams, GpuDynStrand, GpuStep};
 use crate::gpu::strands::StrandBuffers;
 use crate::gpu::{self, Gpu, WORKGROUP};
-use super::projective::{DynSetup, StepForces, MAX_TURN, POLE_SIN};
 use glam::DMat4;
 use wgpu::util::DeviceExt;
 

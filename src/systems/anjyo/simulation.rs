@@ -120,6 +120,10 @@ impl Simulation {
 
     /// The angle state (tests only).
     pub fn read_state(&self, gpu: &Gpu) -> Result<Vec<[f32; 4]>> {
-        crate::gpu::read_buffer(gpu, &self.job.state, self.setup.state_len as u64 * std::mem::size_of::<[f32; 4]>() as u64)
+        crate::gpu::read_buffer(
+            gpu,
+            &self.job.state,
+            self.setup.state_len as u64 * std::mem::size_of::<[f32; 4]>() as u64,
+        )
     }
 }

@@ -2,7 +2,6 @@
 //! reference `setup::hair_points`, one invocation per hair slot, refilled every frame from
 //! the root table and the (moving) mesh; `tests/fur.rs` compares them.
 
-
 use super::setup::{FurSetup, TABLE};
 use crate::error::Result;
 use crate::gpu::gpu_data::GpuFurCoat;

@@ -112,11 +112,14 @@ pub struct FurSystem {
 
 impl FurSystem {
     pub fn new(gpu: &Gpu, scene: &Scene, draw_setup: &DrawSetup) -> Result<FurSystem> {
-        let fur = scene.fur.as_ref().ok_or_else(|| crate::KamiError::Invalid {
-            field: "fur".into(),
-            value: "None".into(),
-            allowed: "a fur block (the fur system is built only for scenes with fur)".into(),
-        })?;
+        let fur = scene
+            .fur
+            .as_ref()
+            .ok_or_else(|| crate::KamiError::Invalid {
+                field: "fur".into(),
+                value: "None".into(),
+                allowed: "a fur block (the fur system is built only for scenes with fur)".into(),
+            })?;
         let setup = FurSetup::new(fur, scene.seed)?;
         let generator = generate::FurGpu::new(gpu, &setup)?;
         let mut draw = draw::FurPass::new(
@@ -187,8 +190,7 @@ impl HairSystem for FurSystem {
         } else {
             1.0
         };
-        self.draw
-            .prepare(gpu, &self.setup, frame, self.width_scale);
+        self.draw.prepare(gpu, &self.setup, frame, self.width_scale);
         Ok(())
     }
 

@@ -330,4 +330,3 @@ pub fn slot_hair(offsets: &[u32], first: &[u32], slot: u32) -> (usize, u32) {
     let t = offsets[..offsets.len() - 1].partition_point(|&o| o <= slot) - 1;
     (t, first[t] + (slot - offsets[t]))
 }
-
