@@ -19,6 +19,19 @@ pub struct DrawRange {
     pub nodes_per_strand: u32,
 }
 
+/// Node indices are `u32` on the GPU.
+fn check_vertex_count(label: &str, count: u64) -> Result<()> {
+    if count > u32::MAX as u64 {
+        return Err(KamiError::TooLarge {
+            what: format!("the {label} vertex count"),
+            needed: count,
+            limit: u32::MAX as u64,
+            hint: "use fewer hairs or segments".into(),
+        });
+    }
+    Ok(())
+}
+
 pub struct StrandBuffers {
     pub strands: wgpu::Buffer,
     pub vertices: wgpu::Buffer,
@@ -40,14 +53,7 @@ impl StrandBuffers {
         let vertex_count: u64 = records
             .last()
             .map_or(0, |r| r.first_vertex as u64 + r.segments as u64 + 1);
-        if vertex_count > u32::MAX as u64 {
-            return Err(KamiError::TooLarge {
-                what: format!("the {label} vertex count"),
-                needed: vertex_count,
-                limit: u32::MAX as u64,
-                hint: "use fewer hairs or segments".into(),
-            });
-        }
+        check_vertex_count(label, vertex_count)?;
         let vbytes = vertex_count * NODE;
         gpu.check_storage_size(&format!("the {label} vertex buffer"), vbytes)?;
         gpu.check_storage_size(
@@ -90,14 +96,7 @@ impl StrandBuffers {
                 nodes_per_strand: segments + 1,
             });
             for _ in 0..count {
-                if vertex > u32::MAX as u64 {
-                    return Err(KamiError::TooLarge {
-                        what: format!("the {label} vertex count"),
-                        needed: vertex,
-                        limit: u32::MAX as u64,
-                        hint: "use fewer hairs".into(),
-                    });
-                }
+                check_vertex_count(label, vertex)?;
                 let i = records.len() as u32;
                 records.push(GpuStrand {
                     first_vertex: vertex as u32,
