@@ -15,6 +15,7 @@ pub mod setup;
 
 use super::{Change, DrawSetup, FrameCtx, HairSystem, Kind, StepInfo, SystemStats, View};
 use crate::error::Result;
+use crate::gpu::strands::{NODE, RECORD};
 use crate::gpu::Gpu;
 use crate::scene::Scene;
 use crate::shaders::wgsl;
@@ -65,10 +66,21 @@ pub const KIND: Kind = Kind {
     ],
 };
 
-/// The fur's buffers are checked as they are made (`StrandBuffers::from_runs`, the mesh):
-/// their sizes depend on the mesh, which is read only when the system is built.
-fn check_limits(_gpu: &Gpu, _scene: &Scene) -> Result<()> {
-    Ok(())
+/// The hair slots at full density against the storage-binding limit, before the mesh is
+/// read. Random rounding adds at most one hair per triangle and coat, which only the mesh
+/// knows: `StrandBuffers::from_runs` checks the exact sizes again when they are allocated.
+fn check_limits(gpu: &Gpu, scene: &Scene) -> Result<()> {
+    let Some(f) = &scene.fur else { return Ok(()) };
+    let shares: f64 = f.coats.iter().map(|c| c.share).sum();
+    let (mut strands, mut nodes) = (0u64, 0u64);
+    for c in &f.coats {
+        let n = (f.hairs as f64 * c.share / shares).ceil() as u64;
+        strands += n;
+        nodes += n * (c.style.segments() as u64 + 1);
+    }
+    gpu.check_storage_size("the fur vertex buffer", nodes * NODE)?;
+    gpu.check_storage_size("the fur strand table", strands * RECORD)?;
+    gpu.check_storage_size("the fur strand info", strands * generate::INFO)
 }
 
 fn build(gpu: &Gpu, scene: &Scene, setup: &DrawSetup) -> Result<Box<dyn HairSystem>> {
