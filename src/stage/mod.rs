@@ -93,6 +93,15 @@ pub fn check_limits(gpu: &Gpu, scene: &Scene, size: (u32, u32)) -> Result<()> {
     Ok(())
 }
 
+/// The clock at `frame`: the forces and the head pose there.
+fn clock(frame: u64, forces: &Forces) -> FrameCtx<'_> {
+    FrameCtx {
+        frame,
+        forces,
+        head: forces.head_at(frame as f64),
+    }
+}
+
 /// The smallest sphere of the two centred between their centres (the clip planes only need
 /// a sphere holding both).
 fn merge(a: (DVec3, f64), b: (DVec3, f64)) -> (DVec3, f64) {
@@ -192,11 +201,7 @@ impl Stage {
 
     /// The clock with its forces and head pose, as every system sees it.
     pub fn ctx(&self) -> FrameCtx<'_> {
-        FrameCtx {
-            frame: self.frame,
-            forces: &self.forces,
-            head: self.forces.head_at(self.frame as f64),
-        }
+        clock(self.frame, &self.forces)
     }
 
     pub fn systems(&self) -> &[Box<dyn HairSystem>] {
@@ -263,11 +268,7 @@ impl Stage {
         if frames == 0 {
             return Ok(info);
         }
-        let ctx = FrameCtx {
-            frame: self.frame,
-            forces: &self.forces,
-            head: self.forces.head_at(self.frame as f64),
-        };
+        let ctx = clock(self.frame, &self.forces);
         for s in &mut self.systems {
             info = info.merge(s.step(gpu, enc, &ctx, frames)?);
         }
@@ -402,11 +403,7 @@ impl Stage {
             lod: look.lod,
             overlay: look.overlay,
         };
-        let ctx = FrameCtx {
-            frame: self.frame,
-            forces: &self.forces,
-            head: self.forces.head_at(self.frame as f64),
-        };
+        let ctx = clock(self.frame, &self.forces);
         for s in &mut self.systems {
             s.prepare(gpu, enc, &ctx, &view)?;
         }
