@@ -290,6 +290,14 @@ fn stats(ui: &mut Ui, s: &ViewerState) {
         };
         ui.label(format!("{:.0} %{msaa}", s.view.hair_fraction * 100.0));
         ui.end_row();
+        for (kind, c) in &st.systems {
+            ui.label(*kind);
+            ui.label(format!(
+                "{} drawn of {} ({} simulated)",
+                c.drawn, c.strands, c.simulated
+            ));
+            ui.end_row();
+        }
         ui.label("image");
         ui.label(format!("{}x{}", st.size.0, st.size.1));
         ui.end_row();

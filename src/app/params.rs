@@ -111,8 +111,8 @@ pub struct Stats {
     pub substeps: u32,
     pub adapter: String,
     pub size: (u32, u32),
-    /// Strands drawn in the last frame, over every system.
-    pub drawn: u64,
+    /// Each hair system's counts after the last frame (drawn: after level of detail).
+    pub systems: Vec<(&'static str, crate::systems::SystemStats)>,
     pub frame_ema: Ema,
     pub sim_ema: Ema,
     pub render_ema: Ema,
