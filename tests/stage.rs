@@ -178,3 +178,33 @@ fn each_kind_classifies_its_own_edits() {
         "the seed draws the pores too"
     );
 }
+
+/// An edit the stage refuses (here fur beyond the adapter's limits, together with a hair
+/// edit that would rebuild the hair) leaves the stage as it was: both systems, the clock,
+/// the scene. It used to keep only the kinds handled before the failing one.
+#[test]
+fn a_refused_edit_keeps_what_was_drawn() {
+    let gpu = common::gpu();
+    let mut scene = small_gust();
+    scene.fur = common::scene("fur").fur;
+    let mut s = stage(&gpu, &scene);
+    advance(&gpu, &mut s, 2);
+    let before = vertices(&gpu, &s);
+    let mut bad = scene.clone();
+    bad.groups[1].rigidity *= 2.0;
+    bad.fur.as_mut().unwrap().hairs = 3_900_000;
+    kami::scene::validate(&bad).unwrap();
+    assert!(
+        s.apply(&gpu, &bad).is_err(),
+        "3.9 M fur hairs should be refused"
+    );
+    assert_eq!(kinds(&s), ["anjyo", "fur"]);
+    assert_eq!(s.frame(), 2);
+    assert_eq!(*s.scene(), scene);
+    assert_eq!(vertices(&gpu, &s), before, "the hair kept its pose");
+    // And the stage still takes a good edit afterwards.
+    let mut good = scene.clone();
+    good.groups[1].rigidity *= 2.0;
+    assert!(s.apply(&gpu, &good).unwrap().restarted);
+    assert_eq!(kinds(&s), ["anjyo", "fur"]);
+}

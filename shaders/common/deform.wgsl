@@ -1,5 +1,5 @@
 // Mesh motion: a travelling wave u = A sin(k (p.axis) - 2 pi frame / period) along `dir`.
-// Keep in step with kami::groom::fur::deform. `motion`: x amplitude, y k = 2 pi / wavelength,
+// Keep in step with kami::systems::fur::setup::deform. `motion`: x amplitude, y k = 2 pi / wavelength,
 // z phase offset (2 pi frame / period), w 1 when on.
 struct Deformed {
     p: vec3<f32>,

@@ -1,5 +1,5 @@
 // Load fields limited to half-spaces. Keep in sync with GpuLoad in src/gpu/gpu_data.rs and
-// ResolvedLoad in src/groom/mod.rs. Needs `loads: array<Load>` bound by the including shader.
+// ResolvedLoad in src/systems/anjyo/groom.rs. Needs `loads: array<Load>` bound by the including shader.
 struct Load {
     // xyz: force (uniform) or point (toward); w: 0 uniform, 1 toward.
     field: vec4<f32>,

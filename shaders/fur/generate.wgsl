@@ -1,5 +1,5 @@
 // Van Gelder & Wilhelms' fur, generated every frame from the root table: one invocation per
-// drawn hair slot of a coat. The same steps as kami::groom::fur::hair_points (read its header):
+// drawn hair slot of a coat. The same steps as kami::systems::fur::setup::hair_points (read its header):
 // find the slot's triangle and creation index (binary search over the culled prefix
 // offsets), barycentrics from the 2048-entry table, root/normal/length from the (moving)
 // mesh, weightless direction and end point, floppiness, then the style's control points.
@@ -64,7 +64,7 @@ fn safe_normalize(v: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
 
 @compute @workgroup_size(WORKGROUP)
 fn generate(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
-    let slot = id.x + id.y * groups.x * 64u;
+    let slot = id.x + id.y * groups.x * WORKGROUP;
     if slot >= coat.drawn {
         return;
     }

@@ -119,6 +119,8 @@ struct Gfx {
     egui_state: egui_winit::State,
     /// Fractions of a frame the clock owes (time scales below 1).
     clock_debt: f64,
+    /// The last edited scene the stage refused (not retried every frame; shown in red).
+    refused: Option<Scene>,
     camera: OrbitCamera,
     mouse: Mouse,
     zero_size: bool,
@@ -226,6 +228,7 @@ impl App {
             egui_renderer,
             egui_state,
             clock_debt: 0.0,
+            refused: None,
             mouse: Mouse::default(),
             zero_size: false,
             frames: 0,
@@ -345,7 +348,7 @@ fn apply(g: &mut Gfx, state: &mut ViewerState) -> Result<()> {
     if quality != g.stage.quality {
         g.stage.set_quality(&g.gpu, quality);
     }
-    if state.scene == *g.stage.scene() {
+    if state.scene == *g.stage.scene() || g.refused.as_ref() == Some(&state.scene) {
         return Ok(());
     }
     if let Err(e) = crate::scene::validate(&state.scene) {
@@ -354,7 +357,15 @@ fn apply(g: &mut Gfx, state: &mut ViewerState) -> Result<()> {
         return Ok(());
     }
     let t = Instant::now();
-    let applied = g.stage.apply(&g.gpu, &state.scene)?;
+    // A refused edit leaves the stage drawing what it had; the error shows in the panel.
+    let applied = match g.stage.apply(&g.gpu, &state.scene) {
+        Ok(a) => a,
+        Err(e) => {
+            g.refused = Some(state.scene.clone());
+            return Err(e);
+        }
+    };
+    g.refused = None;
     if applied.restarted {
         g.clock_debt = 0.0;
         state.stats.groom_ms = t.elapsed().as_secs_f64() * 1e3;

@@ -5,7 +5,6 @@
 
 use super::{cpu_name, time_mean, Report};
 use crate::error::Result;
-use crate::forces::Forces;
 use crate::gpu::Gpu;
 use crate::scene::fur::FurStyle;
 use crate::scene::Scene;
@@ -83,11 +82,15 @@ impl Timed {
 
     /// Generation alone, for the cost of regenerating every frame.
     fn generate(&mut self, gpu: &Gpu) -> Result<()> {
-        let forces = Forces::from_scene(self.stage.scene());
+        // The stage's clock, owned here so the fur can be borrowed mutably beside it.
+        let (frame, forces, head) = {
+            let c = self.stage.ctx();
+            (c.frame, c.forces.clone(), c.head)
+        };
         let ctx = FrameCtx {
-            frame: self.stage.frame(),
+            frame,
             forces: &forces,
-            head: glam::DMat4::IDENTITY,
+            head,
         };
         let view = View {
             eye: self.look.camera.eye,

@@ -126,7 +126,7 @@ impl Gpu {
         let downlevel = adapter.get_downlevel_capabilities();
         // Compute for the solvers, storage in vertex shaders for hair drawn straight from the
         // solver's buffers; on GL, per-sample shading for sub-pixel hair coverage
-        // (render::hair_fragment_entry).
+        // (pipeline::hair_fragment_entry).
         let mut needed =
             wgpu::DownlevelFlags::COMPUTE_SHADERS | wgpu::DownlevelFlags::VERTEX_STORAGE;
         if info.backend == wgpu::Backend::Gl {

@@ -93,6 +93,9 @@ pub fn check_limits(gpu: &Gpu, scene: &Scene, size: (u32, u32)) -> Result<()> {
     Ok(())
 }
 
+/// A kind's part of an edit: its index in `KINDS`, the change, the system built for it.
+type Planned = (usize, Change, Option<Box<dyn HairSystem>>);
+
 /// The clock at `frame`: the forces and the head pose there.
 fn clock(frame: u64, forces: &Forces) -> FrameCtx<'_> {
     FrameCtx {
@@ -303,57 +306,65 @@ impl Stage {
 
     /// Take an edited scene (already validated): each kind classifies the edit and the
     /// system is rebuilt, re-simulated or re-drawn accordingly; systems the new scene adds
-    /// are built, those it drops are freed. When any system gets a new rest pose, the clock
-    /// and every other system go back to frame 0, so all stay on one clock.
+    /// are built, those it drops are freed. When any system is built, rebuilt or freed, the
+    /// clock and every other system go back to frame 0, so all stay on one clock.
+    ///
+    /// Everything new is built before anything old is touched: when a build fails (a limit,
+    /// an unreadable mesh) the error is returned and the stage keeps drawing the scene it had.
     pub fn apply(&mut self, gpu: &Gpu, new: &Scene) -> Result<Applied> {
         let mut applied = Applied::default();
-        let mut systems = std::mem::take(&mut self.systems);
-        let mut next: Vec<Box<dyn HairSystem>> = Vec::with_capacity(KINDS.len());
-        let result = (|| -> Result<()> {
-            for kind in KINDS {
-                let at = systems.iter().position(|s| s.kind() == kind.name);
-                let old = at.map(|i| systems.remove(i));
-                match (old, (kind.in_scene)(new)) {
-                    (None, false) => {}
-                    (Some(_), false) => {
-                        applied.changes.push((kind.name, Change::Rebuild));
-                        applied.restarted = true;
-                    }
-                    (None, true) => {
-                        (kind.check_limits)(gpu, new)?;
-                        next.push((kind.build)(gpu, new, &self.draw_setup())?);
-                        applied.changes.push((kind.name, Change::Rebuild));
-                        applied.restarted = true;
-                    }
-                    (Some(mut s), true) => {
-                        let change = (kind.classify)(&self.scene, new);
-                        match change {
-                            Change::Rebuild => {
-                                drop(s);
-                                (kind.check_limits)(gpu, new)?;
-                                next.push((kind.build)(gpu, new, &self.draw_setup())?);
-                                applied.restarted = true;
-                            }
-                            Change::None => next.push(s),
-                            _ => {
-                                s.update(gpu, new, change)?;
-                                next.push(s);
-                            }
-                        }
-                        applied.changes.push((kind.name, change));
-                    }
+        // First pass: classify, and build what must be built.
+        let mut plan: Vec<Planned> = Vec::new();
+        for (k, kind) in KINDS.iter().enumerate() {
+            let had = self.systems.iter().any(|s| s.kind() == kind.name);
+            let change = match (had, (kind.in_scene)(new)) {
+                (false, false) => continue,
+                (true, false) => Change::Rebuild,
+                (false, true) => Change::Rebuild,
+                (true, true) => (kind.classify)(&self.scene, new),
+            };
+            let built = if change == Change::Rebuild && (kind.in_scene)(new) {
+                (kind.check_limits)(gpu, new)?;
+                Some((kind.build)(gpu, new, &self.draw_setup())?)
+            } else {
+                None
+            };
+            applied.changes.push((kind.name, change));
+            applied.restarted |= change == Change::Rebuild;
+            plan.push((k, change, built));
+        }
+        // Second pass: swap in what was built, update the rest in place, free what left.
+        let mut old = std::mem::take(&mut self.systems);
+        let mut fresh = Vec::new();
+        for (k, change, built) in plan {
+            let name = KINDS[k].name;
+            let mine = old
+                .iter()
+                .position(|s| s.kind() == name)
+                .map(|i| old.remove(i));
+            match (built, mine) {
+                (Some(b), _) => {
+                    fresh.push(self.systems.len());
+                    self.systems.push(b);
                 }
+                (None, Some(mut s)) if change != Change::Rebuild => {
+                    if change != Change::None {
+                        s.update(gpu, new, change)?;
+                    }
+                    self.systems.push(s);
+                }
+                _ => {}
             }
-            Ok(())
-        })();
-        self.systems = next;
-        result?;
+        }
         self.scene = new.clone();
         self.forces = Forces::from_scene(new);
         self.ensure_head(gpu)?;
         if applied.restarted {
-            for s in &mut self.systems {
-                s.reset(gpu)?;
+            // Systems built just now are at rest already.
+            for (i, s) in self.systems.iter_mut().enumerate() {
+                if !fresh.contains(&i) {
+                    s.reset(gpu)?;
+                }
             }
             self.frame = 0;
         }

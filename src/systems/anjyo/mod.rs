@@ -95,7 +95,7 @@ pub struct AnjyoSystem {
 
 /// Check the hair buffers against the storage-binding limit before allocating them.
 fn check_limits(gpu: &Gpu, scene: &Scene) -> Result<()> {
-    let (strands, segments) = scene.counts();
+    let (strands, segments) = counts(scene);
     gpu.check_storage_size("the hair vertex buffer", (segments + strands) * NODE)?;
     gpu.check_storage_size("the hair strand table", strands * RECORD)?;
     Ok(())
@@ -122,6 +122,13 @@ pub fn scene_bounds(scene: &Scene) -> (DVec3, f64) {
         r = r.max(reach);
     }
     (c, r)
+}
+
+/// Strands and segments of the scene's hair groups (not its fur).
+pub fn counts(scene: &Scene) -> (u64, u64) {
+    scene.groups.iter().fold((0, 0), |(h, s), g| {
+        (h + g.count as u64, s + g.count as u64 * g.segments as u64)
+    })
 }
 
 /// Group materials of a scene, in group order.
@@ -196,7 +203,7 @@ impl AnjyoSystem {
             rest,
             draw,
             bounds: scene_bounds(scene),
-            counts: scene.counts(),
+            counts: counts(scene),
             lod: 1.0,
         })
     }

@@ -88,7 +88,7 @@ fn stiffness(ui: &mut Ui, s: &mut ViewerState) {
         s.scene.groups.iter_mut().for_each(|g| g.rigidity = e);
     }
     let Some(d) = s.scene.dynamics.as_mut() else {
-        ui.label("joint-angle stiffness and inertia act in dynamics (Simulation panel)");
+        ui.label("joint-angle stiffness and inertia act in dynamics (Dynamics panel)");
         return;
     };
     ui.separator();
