@@ -186,18 +186,7 @@ fn sizes_beyond_the_adapter_are_refused_before_allocating() {
     // 4 million hairs of 256 segments: gigabytes of vertices.
     scene.groups[0].count = 4_000_000;
     scene.groups[0].segments = 256;
-    match kami::stage::check_limits(&gpu, &scene, (64, 64)) {
-        Err(KamiError::TooLarge {
-            what,
-            needed,
-            limit,
-            ..
-        }) => {
-            assert!(what.contains("vertex"), "{what}");
-            assert!(needed > limit);
-        }
-        other => panic!("expected TooLarge, got {other:?}"),
-    }
+    refused_as_too_large(&gpu, &scene, "vertex");
     let mut scene = Scene::from_ron(GOOD, "test.ron").unwrap();
     scene.render.supersample = 4;
     let side = gpu.device.limits().max_texture_dimension_2d;
@@ -293,14 +282,19 @@ fn fur_beyond_the_adapter_is_refused_before_allocating() {
     let mut scene = common::scene("fur");
     scene.fur.as_mut().unwrap().hairs = 4_000_000;
     kami::scene::validate(&scene).unwrap();
-    match kami::stage::check_limits(&gpu, &scene, (64, 64)) {
+    refused_as_too_large(&gpu, &scene, "fur");
+}
+
+/// `check_limits` refuses `scene` with a `TooLarge` naming `what`, needing more than allowed.
+fn refused_as_too_large(gpu: &kami::gpu::Gpu, scene: &Scene, what: &str) {
+    match kami::stage::check_limits(gpu, scene, (64, 64)) {
         Err(KamiError::TooLarge {
-            what,
+            what: w,
             needed,
             limit,
             ..
         }) => {
-            assert!(what.contains("fur"), "{what}");
+            assert!(w.contains(what), "{w}");
             assert!(needed > limit);
         }
         other => panic!("expected TooLarge, got {other:?}"),
