@@ -7,19 +7,45 @@ use kami::scene::Bending;
 use kami::systems::anjyo::groom::{prepare, GroomInput};
 use kami::systems::anjyo::{cantilever, cantilever_gpu};
 
-/// Per-strand largest node distance between GPU and CPU, relative to the hair length,
-/// sorted; and the largest difference in drawn length (segments).
-fn compare(input: &GroomInput) -> (Vec<f64>, f64, usize, u32) {
+/// GPU against CPU, strand by strand.
+struct Comparison {
+    /// Per strand: largest node distance relative to the hair length, and whether the GPU
+    /// and the CPU reference disagree on falling back (one converged, the other did not).
+    strands: Vec<(f64, bool)>,
+    /// Sorted relative errors of every strand.
+    errs: Vec<f64>,
+    /// Largest difference in drawn length (segments).
+    vis: f64,
+    gpu_fallbacks: usize,
+    cpu_fallbacks: u32,
+}
+
+impl Comparison {
+    /// The worst strand among those where GPU and CPU made the same fallback decision.
+    fn worst_agreeing(&self) -> f64 {
+        self.strands
+            .iter()
+            .filter(|s| !s.1)
+            .map(|s| s.0)
+            .fold(0.0, f64::max)
+    }
+    fn disagreeing(&self) -> usize {
+        self.strands.iter().filter(|s| s.1).count()
+    }
+}
+
+fn compare(input: &GroomInput) -> Comparison {
     let gpu = common::gpu();
     let reference = cantilever::bend_all(input);
     let hair = cantilever_gpu::groom_gpu(&gpu, input).unwrap();
     let verts = hair.read_vertices(&gpu).unwrap();
     let strands = hair.read_strands(&gpu).unwrap();
     let offsets = input.vertex_offsets();
-    let mut errs = Vec::new();
+    let mut per = Vec::new();
     let mut vis = 0.0f64;
     for (i, r) in input.roots.iter().enumerate() {
-        let len = r.seg_len * input.groups[r.group as usize].segments as f64;
+        let g = &input.groups[r.group as usize];
+        let len = r.seg_len * g.segments as f64;
         let mut e = 0.0f64;
         for (v, p) in verts
             .iter()
@@ -27,16 +53,31 @@ fn compare(input: &GroomInput) -> (Vec<f64>, f64, usize, u32) {
             .take(offsets[i + 1] as usize)
             .skip(offsets[i] as usize)
         {
-            let g = DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
-            assert!(g.is_finite(), "GPU node {v} is not finite");
-            e = e.max((g - reference.nodes[v]).length() / len);
+            let q = DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
+            assert!(q.is_finite(), "GPU node {v} is not finite");
+            e = e.max((q - reference.nodes[v]).length() / len);
         }
-        errs.push(e);
+        let cpu_fell_back = !cantilever::bend_strand(&input.head, g, r).1.converged;
+        per.push((e, (strands[i].flags & 1 != 0) != cpu_fell_back));
         vis = vis.max((strands[i].visible as f64 - reference.visible[i]).abs());
     }
+    let mut errs: Vec<f64> = per.iter().map(|s| s.0).collect();
     errs.sort_by(f64::total_cmp);
-    let gpu_fallbacks = strands.iter().filter(|s| s.flags & 1 != 0).count();
-    (errs, vis, gpu_fallbacks, reference.fallbacks)
+    Comparison {
+        strands: per,
+        errs,
+        vis,
+        gpu_fallbacks: strands.iter().filter(|s| s.flags & 1 != 0).count(),
+        cpu_fallbacks: reference.fallbacks,
+    }
+}
+
+/// |a| up to whole turns: the GPU and the CPU may rewrap an angle by 2 pi at different
+/// steps (`projective::rewrap`), which is the same direction.
+fn wrapped(a: f64) -> f64 {
+    let t = std::f64::consts::TAU;
+    let r = a.rem_euclid(t);
+    r.min(t - r)
 }
 
 fn quantile(sorted: &[f64], q: f64) -> f64 {
@@ -54,7 +95,8 @@ fn cantilever_paper_mode_matches_reference() {
     for g in &mut scene.groups {
         g.count /= 6;
     }
-    let (errs, vis, _, _) = compare(&prepare(&scene).unwrap());
+    let c = compare(&prepare(&scene).unwrap());
+    let (errs, vis) = (&c.errs, c.vis);
     assert!(
         quantile(&errs, 0.999) < 1e-5,
         "99.9% quantile {:.2e}",
@@ -70,8 +112,10 @@ fn cantilever_paper_mode_matches_reference() {
 
 /// Converged mode, with contact and a singular `Toward` field (ponytail) and without.
 /// The f32 iteration can stop an iteration earlier or later than f64, or fall back on a
-/// strand that f64 just converged: 99 % of strands within 1e-5 of their length, every strand
-/// within 0.1, fallback counts within 1 % of the strands.
+/// strand that f64 just converged: 99 % of strands within 1e-5 of their length; every strand
+/// where both made the same fallback decision within 1e-3 (measured worst 1.2e-4 on the
+/// ponytail, lavapipe and llvmpipe); those where they differ (one kept the paper's shape) at
+/// most 1 % of the strands, each within 0.1 (measured: none differ).
 #[test]
 fn cantilever_converged_mode_matches_reference() {
     for name in ["short_cut", "ponytail"] {
@@ -84,11 +128,17 @@ fn cantilever_converged_mode_matches_reference() {
             };
         }
         let input = prepare(&scene).unwrap();
-        let (errs, vis, gpu_fb, cpu_fb) = compare(&input);
+        let c = compare(&input);
+        let (errs, vis, gpu_fb, cpu_fb) = (&c.errs, c.vis, c.gpu_fallbacks, c.cpu_fallbacks);
         assert!(
             quantile(&errs, 0.99) < 1e-5,
             "{name}: 99% quantile {:.2e}",
             quantile(&errs, 0.99)
+        );
+        assert!(
+            c.worst_agreeing() < 1e-3,
+            "{name}: worst strand with the same fallback decision {:.2e}",
+            c.worst_agreeing()
         );
         assert!(
             *errs.last().unwrap() < 0.1,
@@ -96,6 +146,11 @@ fn cantilever_converged_mode_matches_reference() {
             errs.last().unwrap()
         );
         let n = input.roots.len() as f64;
+        assert!(
+            c.disagreeing() as f64 <= 0.01 * n + 1.0,
+            "{name}: {} strands fell back on one side only",
+            c.disagreeing()
+        );
         assert!(
             (gpu_fb as f64 - cpu_fb as f64).abs() <= 0.01 * n + 1.0,
             "{name}: fallbacks GPU {gpu_fb} CPU {cpu_fb}"
@@ -133,7 +188,8 @@ fn cantilever_converged_free_beam_matches_reference() {
     scene.groups = vec![g];
     for rigidity in [1000.0 / 0.1, 1000.0 / 10.0, 1000.0 / 100.0] {
         scene.groups[0].rigidity = rigidity;
-        let (errs, _, gpu_fb, cpu_fb) = compare(&prepare(&scene).unwrap());
+        let c = compare(&prepare(&scene).unwrap());
+        let (errs, gpu_fb, cpu_fb) = (&c.errs, c.gpu_fallbacks, c.cpu_fallbacks);
         assert_eq!(
             (gpu_fb, cpu_fb),
             (0, 0),
@@ -151,8 +207,10 @@ fn cantilever_converged_free_beam_matches_reference() {
 /// scene (wind, a step change, pseudo-force, collision). Decisions with thresholds (pole
 /// switch, contact) can make single strands part ways after many steps, so the tolerance is
 /// on quantiles of the per-strand largest node distance, relative to the hair length:
-/// median <= 1e-4, 99 % <= 1e-2, and at most 2 % of strands beyond 1e-2 (measured on a
-/// 500-strand gust: median 1.3e-5, 99 % 1.5e-3, one strand beyond 1e-2 at frame 20).
+/// median <= 1e-4, 99 % <= 1e-2, at most 2 % of strands beyond 1e-2 and none beyond 5e-2
+/// (measured on the 500-strand gust: median 1.3e-5, 99 % 1.5e-3, worst 3.8e-3). Angle
+/// states, compared up to whole turns: 99 % within 1e-3 rad, none beyond 0.25 rad (measured
+/// worst 0.064: the azimuth of a segment near its pole is ill-conditioned).
 #[test]
 fn projective_dynamics_matches_reference() {
     use kami::systems::anjyo::projective::{CpuSim, DynSetup};
@@ -213,16 +271,27 @@ fn projective_dynamics_matches_reference() {
         beyond as f64 <= 0.02 * n as f64,
         "{beyond} of {n} strands beyond 1e-2"
     );
+    assert!(errs[n - 1] < 5e-2, "worst strand {:.2e}", errs[n - 1]);
     // The angle state agrees too (same representation choices).
     let state = sim.read_state(&gpu).unwrap();
+    let worst_angle = cpu
+        .angles
+        .iter()
+        .zip(&state)
+        .map(|(c, g)| wrapped(c[0] - g[0] as f64).max(wrapped(c[2] - g[2] as f64)))
+        .fold(0.0, f64::max);
+    assert!(
+        worst_angle < 0.25,
+        "an angle differs by {worst_angle:.3} rad"
+    );
     let close = cpu
         .angles
         .iter()
         .zip(&state)
-        .filter(|(c, g)| (c[0] - g[0] as f64).abs() < 1e-3 && (c[2] - g[2] as f64).abs() < 1e-3)
+        .filter(|(c, g)| wrapped(c[0] - g[0] as f64) < 1e-3 && wrapped(c[2] - g[2] as f64) < 1e-3)
         .count();
     assert!(
-        close as f64 >= 0.95 * state.len() as f64,
+        close as f64 >= 0.99 * state.len() as f64,
         "only {close} of {} angle entries agree",
         state.len()
     );

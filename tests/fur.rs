@@ -514,10 +514,16 @@ fn culling_keeps_the_look_as_the_camera_backs_away() {
     scene.camera.eye = (centre + dir * (3.0 * full)).to_array();
     scene.camera.target = centre.to_array();
     let size = (480, 480);
-    let culled = kami::stage::render_scene(&gpu, &scene, size).unwrap();
+    let (culled, drawn_culled) = render_counting(&gpu, &scene, size);
     let c = culling_factor(scene.fur.as_ref().unwrap(), (centre, r), fov, 3.0 * full);
     scene.fur.as_mut().unwrap().culling.enabled = false;
-    let every = kami::stage::render_scene(&gpu, &scene, size).unwrap();
+    let (every, drawn_every) = render_counting(&gpu, &scene, size);
+    // Culling really dropped hairs: about two thirds of them (random rounding per triangle).
+    let share = drawn_culled as f64 / drawn_every as f64;
+    assert!(
+        (share - 1.0 / 3.0).abs() < 0.05,
+        "culled frame drew {drawn_culled} of {drawn_every} hairs ({share:.3}); expected about 1/3"
+    );
     let (worst, mean) = tile_difference(&culled, &every, 8);
     // KAMI_DEBUG_CULL=1: keep both images and print the differences at other tile sizes.
     if std::env::var("KAMI_DEBUG_CULL").is_ok() {
@@ -535,6 +541,24 @@ fn culling_keeps_the_look_as_the_camera_backs_away() {
         worst < 16.0 && mean < 5.0,
         "culled fur looks different: tile means differ by up to {worst:.1} (mean {mean:.2})"
     );
-    // And the count did fall: a third of the hairs (random rounding per triangle).
     assert!((c - 1.0 / 3.0).abs() < 1e-9);
+}
+
+/// Frame 0 of `scene` rendered through a stage, with the hairs the fur system drew.
+fn render_counting(
+    gpu: &kami::gpu::Gpu,
+    scene: &kami::Scene,
+    size: (u32, u32),
+) -> (image::RgbaImage, u64) {
+    use kami::stage::{target, Quality, Stage};
+    let mut stage = Stage::new(gpu, scene, target::OUTPUT_FORMAT, Quality::of(scene)).unwrap();
+    let out = target::Offscreen::new(gpu, size).unwrap();
+    let mut enc = gpu.device.create_command_encoder(&Default::default());
+    stage
+        .render(gpu, &mut enc, &out.view, size, &stage.look())
+        .unwrap();
+    gpu.queue.submit([enc.finish()]);
+    let img = out.read_rgba(gpu).unwrap();
+    let drawn = stage.systems().iter().map(|s| s.stats().drawn).sum();
+    (img, drawn)
 }

@@ -123,6 +123,13 @@ impl Gpu {
                 },
             })?;
         let info = adapter.get_info();
+        if pref == Preference::Software && info.device_type != wgpu::DeviceType::Cpu {
+            log::warn!(
+                "no software adapter found; using {} ({:?}) instead",
+                info.name,
+                info.backend
+            );
+        }
         let downlevel = adapter.get_downlevel_capabilities();
         // Compute for the solvers, storage in vertex shaders for hair drawn straight from the
         // solver's buffers; on GL, per-sample shading for sub-pixel hair coverage
@@ -392,6 +399,16 @@ pub fn read_buffer<T: bytemuck::Pod>(gpu: &Gpu, src: &wgpu::Buffer, bytes: u64) 
 
 /// Map a MAP_READ buffer and copy it out.
 pub fn map_read<T: bytemuck::Pod>(gpu: &Gpu, staging: &wgpu::Buffer) -> Result<Vec<T>> {
+    let mut data = Vec::new();
+    map_read_with(gpu, staging, |bytes| {
+        data = bytemuck::cast_slice::<u8, T>(bytes).to_vec()
+    })?;
+    Ok(data)
+}
+
+/// Map `staging` for reading, hand its bytes to `read`, and unmap it again so the buffer can
+/// be reused (the offscreen readback keeps one for every frame).
+pub fn map_read_with(gpu: &Gpu, staging: &wgpu::Buffer, read: impl FnOnce(&[u8])) -> Result<()> {
     let (tx, rx) = std::sync::mpsc::channel();
     staging.slice(..).map_async(wgpu::MapMode::Read, move |r| {
         let _ = tx.send(r);
@@ -400,14 +417,13 @@ pub fn map_read<T: bytemuck::Pod>(gpu: &Gpu, staging: &wgpu::Buffer) -> Result<V
     rx.recv()
         .map_err(|_| KamiError::Gpu("readback was dropped".into()))?
         .map_err(|e| KamiError::Gpu(format!("readback failed: {e}")))?;
-    let data = {
+    {
         let view = staging
             .slice(..)
             .get_mapped_range()
             .map_err(|e| KamiError::Gpu(format!("readback mapping: {e}")))?;
-        bytemuck::cast_slice::<u8, T>(&view).to_vec()
-    };
+        read(&view);
+    }
     staging.unmap();
-    gpu.take_error()?;
-    Ok(data)
+    gpu.take_error()
 }

@@ -234,12 +234,16 @@ impl DownsamplePass {
     }
 }
 
-/// An offscreen RGBA8 (sRGB) output texture that can be read back.
+/// An offscreen RGBA8 (sRGB) output texture that can be read back. The readback buffer is
+/// made once with the texture, so `render --frames` and the viewer's screenshots reuse it
+/// instead of allocating an image-sized buffer per frame.
 pub struct Offscreen {
     pub texture: wgpu::Texture,
     pub view: wgpu::TextureView,
     pub size: (u32, u32),
     pub format: wgpu::TextureFormat,
+    /// Rows padded to 256 bytes, as texture-to-buffer copies need.
+    staging: wgpu::Buffer,
 }
 
 pub const OUTPUT_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
@@ -272,24 +276,30 @@ impl Offscreen {
             view_formats: &[],
         });
         let view = texture.create_view(&Default::default());
+        let staging = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("image readback"),
+            size: Self::row_bytes(size.0) as u64 * size.1 as u64,
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
+        });
         Ok(Offscreen {
             texture,
             view,
             size,
             format,
+            staging,
         })
     }
 
-    /// Copy the image back (tests, CLI renders, screenshots).
+    fn row_bytes(width: u32) -> u32 {
+        (width * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
+            * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT
+    }
+
+    /// Copy the image back (tests, CLI renders, screenshots) through the one staging buffer.
     pub fn read_rgba(&self, gpu: &Gpu) -> Result<image::RgbaImage> {
         let (w, h) = self.size;
-        let row = (w * 4).div_ceil(256) * 256;
-        let staging = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("image readback"),
-            size: row as u64 * h as u64,
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
+        let row = Self::row_bytes(w);
         let mut enc = gpu
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
@@ -298,7 +308,7 @@ impl Offscreen {
         enc.copy_texture_to_buffer(
             self.texture.as_image_copy(),
             wgpu::TexelCopyBufferInfo {
-                buffer: &staging,
+                buffer: &self.staging,
                 layout: wgpu::TexelCopyBufferLayout {
                     offset: 0,
                     bytes_per_row: Some(row),
@@ -312,12 +322,13 @@ impl Offscreen {
             },
         );
         gpu.queue.submit([enc.finish()]);
-        let bytes: Vec<u8> = gpu::map_read(gpu, &staging)?;
         let mut out = Vec::with_capacity((w * h * 4) as usize);
-        for y in 0..h as usize {
-            let start = y * row as usize;
-            out.extend_from_slice(&bytes[start..start + w as usize * 4]);
-        }
+        gpu::map_read_with(gpu, &self.staging, |bytes| {
+            for y in 0..h as usize {
+                let start = y * row as usize;
+                out.extend_from_slice(&bytes[start..start + w as usize * 4]);
+            }
+        })?;
         if matches!(
             self.format,
             wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb

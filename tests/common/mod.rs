@@ -7,14 +7,37 @@ use std::path::{Path, PathBuf};
 
 /// A device on a software adapter (llvmpipe or lavapipe; `KAMI_BACKEND` picks the backend).
 /// There is no silent skip: without an adapter the test fails and says how to get one.
+/// Without a software adapter, wgpu would hand over a hardware one, whose images and f32
+/// rounding differ from those the snapshot tolerances were measured on: that fails too,
+/// unless `KAMI_TEST_HARDWARE=1` asks for it, and then every test binary says so on stderr.
 pub fn gpu() -> Gpu {
-    match Gpu::headless(Preference::Software) {
+    let gpu = match Gpu::headless(Preference::Software) {
         Ok(g) => g,
         Err(e) => panic!(
             "no GPU adapter for the tests: {e}\nOn Debian: apt-get install -y mesa-vulkan-drivers \
              libegl-mesa0 libgl1-mesa-dri (then KAMI_BACKEND=vulkan or gl)"
         ),
+    };
+    if gpu.info.device_type != wgpu::DeviceType::Cpu {
+        let allowed = std::env::var("KAMI_TEST_HARDWARE").is_ok_and(|v| v == "1");
+        assert!(
+            allowed,
+            "the tests found no software adapter and would run on {}: the snapshot \
+             tolerances were measured on llvmpipe and lavapipe. Install Mesa's software \
+             drivers (apt-get install -y mesa-vulkan-drivers libegl-mesa0 libgl1-mesa-dri), or \
+             set KAMI_TEST_HARDWARE=1 to run on this adapter anyway",
+            gpu.describe()
+        );
+        static ONCE: std::sync::Once = std::sync::Once::new();
+        ONCE.call_once(|| {
+            eprintln!(
+                "\n*** WARNING: KAMI_TEST_HARDWARE=1: these tests run on {}, not on a software \
+                 adapter; snapshot differences may be the adapter's ***\n",
+                gpu.describe()
+            )
+        });
     }
+    gpu
 }
 
 pub fn root() -> PathBuf {
