@@ -4,14 +4,17 @@
 use anyhow::{Context, Result};
 use std::fs::File;
 use std::io::{BufWriter, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// The optional GIF and APNG files of an animation.
+/// The optional GIF and APNG files of an animation, written under `.partial` names and
+/// renamed by `finish`; dropped unfinished (a failed render), they remove their files.
 pub struct Sinks {
     gif: Option<image::codecs::gif::GifEncoder<BufWriter<File>>>,
     apng: Option<png::Writer<BufWriter<File>>>,
     fps: u32,
+    /// (temporary, final) names of the files being written.
+    files: Vec<(PathBuf, PathBuf)>,
 }
 
 impl Sinks {
@@ -22,9 +25,16 @@ impl Sinks {
         frames: u32,
         fps: u32,
     ) -> Result<Sinks> {
+        let mut files = Vec::new();
+        let mut create = |p: &Path| -> Result<File> {
+            let tmp = crate::output::partial(p);
+            let f = File::create(&tmp).with_context(|| format!("creating {}", p.display()))?;
+            files.push((tmp, p.to_path_buf()));
+            Ok(f)
+        };
         let gif = match gif {
             Some(p) => {
-                let f = File::create(p).with_context(|| format!("creating {}", p.display()))?;
+                let f = create(p)?;
                 let mut e = image::codecs::gif::GifEncoder::new_with_speed(BufWriter::new(f), 10);
                 e.set_repeat(image::codecs::gif::Repeat::Infinite)?;
                 Some(e)
@@ -33,7 +43,7 @@ impl Sinks {
         };
         let apng = match apng {
             Some(p) => {
-                let f = File::create(p).with_context(|| format!("creating {}", p.display()))?;
+                let f = create(p)?;
                 let mut e = png::Encoder::new(BufWriter::new(f), size.0, size.1);
                 e.set_color(png::ColorType::Rgba);
                 e.set_depth(png::BitDepth::Eight);
@@ -43,7 +53,12 @@ impl Sinks {
             }
             None => None,
         };
-        Ok(Sinks { gif, apng, fps })
+        Ok(Sinks {
+            gif,
+            apng,
+            fps,
+            files,
+        })
     }
 
     pub fn push(&mut self, img: &image::RgbaImage) -> Result<()> {
@@ -57,12 +72,24 @@ impl Sinks {
         Ok(())
     }
 
-    pub fn finish(self) -> Result<()> {
-        if let Some(a) = self.apng {
+    pub fn finish(mut self) -> Result<()> {
+        if let Some(a) = self.apng.take() {
             a.finish()?;
         }
-        drop(self.gif);
+        // Dropping the GIF encoder writes its trailer and flushes the file.
+        drop(self.gif.take());
+        for (tmp, path) in std::mem::take(&mut self.files) {
+            std::fs::rename(&tmp, &path).with_context(|| format!("writing {}", path.display()))?;
+        }
         Ok(())
+    }
+}
+
+impl Drop for Sinks {
+    fn drop(&mut self) {
+        for (tmp, _) in &self.files {
+            let _ = std::fs::remove_file(tmp);
+        }
     }
 }
 

@@ -6,6 +6,7 @@ use kami::gpu::{Gpu, Preference};
 use std::path::PathBuf;
 
 mod anim;
+mod output;
 
 #[derive(Parser)]
 #[command(
@@ -38,16 +39,16 @@ enum Command {
         #[arg(long)]
         apng: Option<PathBuf>,
         /// Playback rate of --gif and --apng, frames per second.
-        #[arg(long, default_value_t = 10)]
+        #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=1000))]
         fps: u32,
         /// Image size as WIDTHxHEIGHT (default: the scene's render.size).
         #[arg(long, value_parser = parse_size)]
         size: Option<(u32, u32)>,
         /// MSAA samples, 1 or 4 (default: the scene's render.msaa).
-        #[arg(long)]
+        #[arg(long, value_parser = parse_msaa)]
         msaa: Option<u32>,
         /// Supersampling factor per axis, 1 to 4 (default: the scene's render.supersample).
-        #[arg(long)]
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4))]
         supersample: Option<u32>,
         /// Prefer a software adapter (llvmpipe/lavapipe) even when a GPU is present.
         #[arg(long)]
@@ -61,7 +62,7 @@ enum Command {
         #[arg(long, value_parser = parse_size, default_value = "1280x720")]
         size: (u32, u32),
         /// Close the window after N frames (scripts and tests).
-        #[arg(long)]
+        #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
         exit_after_frames: Option<u64>,
         /// Write a PNG of the whole window (scene and panels) at the last frame (or frame 60
         /// without --exit-after-frames).
@@ -166,8 +167,23 @@ fn parse_frame_path(s: &str) -> Result<(u64, PathBuf), String> {
     let (n, p) = s
         .split_once(':')
         .ok_or_else(|| format!("{s:?} must look like 30:shot.png"))?;
-    let n: u64 = n.parse().map_err(|_| format!("bad frame in {s:?}"))?;
+    let n: u64 = n
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad frame {n:?} in {s:?}: must look like 30:shot.png"))?;
+    if p.trim().is_empty() {
+        return Err(format!("no file name in {s:?}: must look like 30:shot.png"));
+    }
     Ok((n, PathBuf::from(p)))
+}
+
+/// 1 or 4: the sample counts every adapter Kami runs on supports.
+fn parse_msaa(s: &str) -> Result<u32, String> {
+    match s.trim() {
+        "1" => Ok(1),
+        "4" => Ok(4),
+        _ => Err(format!("{s:?} is not a sample count Kami uses: use 1 or 4")),
+    }
 }
 
 /// "A..B" (inclusive).
@@ -226,18 +242,33 @@ fn main() -> Result<()> {
             }
             kami::scene::validate(&s)?;
             let size = size.unwrap_or(s.render.size);
-            let gpu = Gpu::headless(preference(software))?;
-            let t = std::time::Instant::now();
-            let (hairs, segs) = s.counts();
+            // Every output is checked before the GPU work, so a typo costs nothing.
             match frames {
                 None => {
                     if gif.is_some() || apng.is_some() {
                         bail!("--gif and --apng need --frames A..B");
                     }
+                    let path = out.clone().unwrap_or_else(|| PathBuf::from("kami.png"));
+                    output::check_file("--out", &path, &["png"])?;
+                }
+                Some(_) => {
+                    output::prepare_dir("--out", out.as_deref().unwrap_or("frames".as_ref()))?;
+                    if let Some(g) = &gif {
+                        output::check_file("--gif", g, &["gif"])?;
+                    }
+                    if let Some(a) = &apng {
+                        output::check_file("--apng", a, &["png", "apng"])?;
+                    }
+                }
+            }
+            let gpu = Gpu::headless(preference(software))?;
+            let t = std::time::Instant::now();
+            let (hairs, segs) = s.counts();
+            match frames {
+                None => {
                     let out = out.unwrap_or_else(|| PathBuf::from("kami.png"));
                     let img = kami::stage::render_scene(&gpu, &s, size)?;
-                    img.save(&out)
-                        .with_context(|| format!("writing {}", out.display()))?;
+                    output::save_png(&img, &out)?;
                     println!(
                         "{}: {hairs} hairs, {segs} segments, {}x{} on {} in {:.2} s",
                         out.display(),
@@ -248,9 +279,6 @@ fn main() -> Result<()> {
                     );
                 }
                 Some((first, last)) => {
-                    if fps == 0 || fps > 1000 {
-                        bail!("--fps must be between 1 and 1000");
-                    }
                     if s.dynamics.is_none() {
                         log::warn!(
                             "{} has no dynamics: every frame is the same still",
@@ -258,8 +286,6 @@ fn main() -> Result<()> {
                         );
                     }
                     let dir = out.unwrap_or_else(|| PathBuf::from("frames"));
-                    std::fs::create_dir_all(&dir)
-                        .with_context(|| format!("creating {}", dir.display()))?;
                     let count = last - first + 1;
                     let mut sinks =
                         anim::Sinks::new(gif.as_deref(), apng.as_deref(), size, count, fps)?;
@@ -267,9 +293,9 @@ fn main() -> Result<()> {
                     let capped =
                         kami::stage::render_animation(&gpu, &s, size, first..=last, |f, img| {
                             let path = dir.join(format!("frame_{f:04}.png"));
-                            img.save(&path).map_err(|e| kami::KamiError::Image {
+                            output::save_png(&img, &path).map_err(|e| kami::KamiError::Image {
                                 path: path.clone(),
-                                message: e.to_string(),
+                                message: format!("{e:#}"),
                             })?;
                             sinks.push(&img).map_err(|e| kami::KamiError::Image {
                                 path: path.clone(),
@@ -310,6 +336,16 @@ fn main() -> Result<()> {
             let mut screenshots = screenshot_at;
             if let Some(p) = screenshot {
                 screenshots.push((exit_after_frames.map_or(60, |n| n.saturating_sub(1)), p));
+            }
+            for (frame, path) in &screenshots {
+                output::check_file("--screenshot", path, &["png"])?;
+                if let Some(n) = exit_after_frames.filter(|&n| *frame >= n) {
+                    bail!(
+                        "--screenshot-at {frame}:{}: the window closes after {n} frames \
+                         (--exit-after-frames), so frame {frame} is never drawn",
+                        path.display()
+                    );
+                }
             }
             let mut sets = Vec::new();
             for s in set {

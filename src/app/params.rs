@@ -175,6 +175,13 @@ impl ViewerState {
             }
             Ok(v)
         };
+        // Counts (samples, factors, hairs) are whole numbers: 4.5 is a typo, not 4.
+        let int = || -> Result<u32> {
+            value
+                .trim()
+                .parse::<u32>()
+                .map_err(|_| bad(format!("{value:?} is not a whole number")))
+        };
         let on = || match value {
             "on" | "true" | "1" => Ok(true),
             "off" | "false" | "0" => Ok(false),
@@ -233,8 +240,8 @@ impl ViewerState {
                     near: 1.5,
                 });
             }
-            "msaa" => next.render.msaa = nums(1)?[0] as u32,
-            "supersample" => next.render.supersample = nums(1)?[0] as u32,
+            "msaa" => next.render.msaa = int()?,
+            "supersample" => next.render.supersample = int()?,
             "play" => self.view.playing = on()?,
             "lod" => {
                 let f = nums(1)?[0];
@@ -250,7 +257,7 @@ impl ViewerState {
                     .as_mut()
                     .ok_or_else(|| bad("the scene has no fur".into()))?;
                 match key {
-                    "fur.hairs" => f.hairs = nums(1)?[0] as u32,
+                    "fur.hairs" => f.hairs = int()?,
                     "fur.stiffness" => {
                         let v = nums(1)?[0];
                         f.coats.iter_mut().for_each(|c| c.stiffness = v);
@@ -315,6 +322,10 @@ mod tests {
             "width",
             "wind=1,nan,2",
             "lod=0",
+            "msaa=4.5",
+            "supersample=two",
+            "colour=1,1,1",
+            "Wind=0,0,1",
         ] {
             assert!(s.apply_set(bad).is_err(), "{bad} should be refused");
         }
