@@ -84,6 +84,14 @@ enum Command {
         /// `kami render`; drawn frame N at the default time scale shows frame N).
         #[arg(long)]
         no_panels: bool,
+        /// Reload the scene file from scratch every N frames (long-run leak checks; the
+        /// built-in scene reloads from assets/scenes/gust.ron).
+        #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
+        reload_every: Option<u64>,
+        /// Write resident memory every 50 frames to this CSV; the summary line at exit says
+        /// how it moved.
+        #[arg(long)]
+        memory_log: Option<PathBuf>,
     },
     /// Benchmarks: print throughput and accuracy tables.
     Bench {
@@ -332,10 +340,15 @@ fn main() -> Result<()> {
             set,
             software,
             no_panels,
+            reload_every,
+            memory_log,
         } => {
             let mut screenshots = screenshot_at;
             if let Some(p) = screenshot {
                 screenshots.push((exit_after_frames.map_or(60, |n| n.saturating_sub(1)), p));
+            }
+            if let Some(p) = &memory_log {
+                output::check_file("--memory-log", p, &["csv"])?;
             }
             for (frame, path) in &screenshots {
                 output::check_file("--screenshot", path, &["png"])?;
@@ -365,6 +378,8 @@ fn main() -> Result<()> {
                 screenshots,
                 sets,
                 no_panels,
+                reload_every,
+                memory_log,
             })?;
         }
         Command::Bench { which } => match which {

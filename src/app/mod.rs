@@ -51,6 +51,22 @@ pub struct ViewerOptions {
     /// Hide the panels: the scene fills the window (clean captures, comparisons with
     /// `kami render`).
     pub no_panels: bool,
+    /// Reload the scene file from scratch every N drawn frames (long-run leak checks).
+    pub reload_every: Option<u64>,
+    /// Write the resident memory every `MEMORY_EVERY` frames here, as CSV (leak checks).
+    pub memory_log: Option<PathBuf>,
+}
+
+/// Frames between two resident-memory samples.
+pub const MEMORY_EVERY: u64 = 50;
+
+/// The process's resident memory in MiB (Linux: `/proc/self/status`); None elsewhere. On a
+/// software adapter this includes every GPU buffer and texture.
+pub fn resident_mib() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmRSS:"))?;
+    let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib / 1024.0)
 }
 
 /// Open the viewer and run until the window closes.
@@ -95,10 +111,44 @@ pub fn run(options: ViewerOptions) -> Result<()> {
             st.adapter
         );
     }
+    if let Some(g) = &app.gfx {
+        report_memory(g, app.options.memory_log.as_deref())?;
+    }
     match app.error {
         Some(e) => Err(e),
         None => Ok(()),
     }
+}
+
+/// Print how resident memory moved over the run (from the first sample after a tenth of the
+/// frames, so start-up allocations do not count as growth) and write the samples as CSV.
+fn report_memory(g: &Gfx, log: Option<&std::path::Path>) -> Result<()> {
+    let m = &g.memory;
+    let (Some(first), Some(last)) = (m.iter().find(|s| s.0 >= g.frames / 10), m.last()) else {
+        return Ok(());
+    };
+    let peak = m.iter().map(|s| s.1).fold(0.0, f64::max);
+    println!(
+        "memory: {:.1} MiB resident at frame {}, {:.1} MiB at frame {} ({:+.1} MiB), peak {:.1} MiB; {} reloads",
+        first.1,
+        first.0,
+        last.1,
+        last.0,
+        last.1 - first.1,
+        peak,
+        g.reloads
+    );
+    if let Some(path) = log {
+        let mut csv = String::from("frame,resident_mib,reloads\n");
+        for (f, mib, r) in m {
+            csv.push_str(&format!("{f},{mib:.2},{r}\n"));
+        }
+        std::fs::write(path, csv).map_err(|source| KamiError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    }
+    Ok(())
 }
 
 #[derive(Default)]
@@ -127,6 +177,10 @@ struct Gfx {
     /// Frames drawn (the `--exit-after-frames`, `--screenshot-at` and `--set` count).
     frames: u64,
     last_frame: Instant,
+    /// Scene files loaded from scratch (Open, `--reload-every`).
+    reloads: u64,
+    /// (frame, resident MiB, reloads so far) every `MEMORY_EVERY` frames.
+    memory: Vec<(u64, f64, u64)>,
 }
 
 struct App {
@@ -233,6 +287,8 @@ impl App {
             zero_size: false,
             frames: 0,
             last_frame: Instant::now(),
+            reloads: 0,
+            memory: Vec::new(),
         });
         Ok(())
     }
@@ -377,15 +433,31 @@ fn apply(g: &mut Gfx, state: &mut ViewerState) -> Result<()> {
 fn handle_requests(g: &mut Gfx, state: &mut ViewerState, shots: &mut Vec<PathBuf>) -> Result<()> {
     for req in std::mem::take(&mut state.requests) {
         match req {
-            Request::Open(path) => match Scene::load(&path) {
-                Ok(scene) => {
-                    g.camera = OrbitCamera::from_desc(&scene.camera);
-                    state.scene = scene;
-                    state.group = 0;
-                    state.message = Some(format!("opened {path}"));
+            // Open builds a fresh stage (also when the file did not change: "reload" means
+            // from scratch); a scene that fails to load or build leaves the old one drawn.
+            Request::Open(path) => {
+                let built = Scene::load(&path).and_then(|scene| {
+                    let quality = state.view.quality(&scene);
+                    let t = Instant::now();
+                    let stage = build(&g.gpu, &scene, g.config.format, quality)?;
+                    Ok((scene, stage, t.elapsed()))
+                });
+                match built {
+                    Ok((scene, stage, took)) => {
+                        g.stage = stage;
+                        g.refused = None;
+                        g.clock_debt = 0.0;
+                        g.reloads += 1;
+                        g.camera = OrbitCamera::from_desc(&scene.camera);
+                        state.stats.groom_ms = took.as_secs_f64() * 1e3;
+                        state.scene = scene;
+                        state.group = 0;
+                        state.error = None;
+                        state.message = Some(format!("opened {path}"));
+                    }
+                    Err(e) => state.error = Some(e.to_string()),
                 }
-                Err(e) => state.error = Some(e.to_string()),
-            },
+            }
             Request::Save(path) => {
                 let mut scene = state.scene.clone();
                 scene.camera = g.camera.desc();
@@ -435,6 +507,17 @@ fn frame(
     for (at, set) in &options.sets {
         if *at == g.frames {
             state.apply_set(set)?;
+        }
+    }
+    if options
+        .reload_every
+        .is_some_and(|n| g.frames > 0 && g.frames % n == 0)
+    {
+        state.requests.push(Request::Open(state.path.clone()));
+    }
+    if g.frames % MEMORY_EVERY == 0 {
+        if let Some(mib) = resident_mib() {
+            g.memory.push((g.frames, mib, g.reloads));
         }
     }
     let shots: Vec<PathBuf> = options

@@ -90,7 +90,11 @@ fn files(ui: &mut Ui, s: &mut ViewerState) {
         ui.text_edit_singleline(&mut s.path);
     });
     ui.horizontal(|ui| {
-        if ui.button("Open").clicked() {
+        if ui
+            .button("Open")
+            .on_hover_text("load the file from scratch (also reloads an unchanged file)")
+            .clicked()
+        {
             s.requests.push(Request::Open(s.path.clone()));
         }
         if ui.button("Save").clicked() {
