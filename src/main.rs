@@ -1,6 +1,6 @@
 //! The `kami` command line: render scenes to PNG and run the benchmarks.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use clap::{Parser, Subcommand};
 use kami::gpu::{Gpu, Preference};
 use std::path::PathBuf;
@@ -112,11 +112,22 @@ enum Bench {
         /// Frames to time for the render figure.
         #[arg(long, default_value_t = 10)]
         frames: u32,
-        /// Also write the accuracy table as CSV here.
-        #[arg(long)]
-        csv: Option<PathBuf>,
+        /// Directory for the report files (groom.md, groom.csv).
+        #[arg(long, default_value = "bench_out")]
+        out: PathBuf,
         #[arg(long)]
         software: bool,
+    },
+    /// Every shipped scene rendered on both software adapters (lavapipe over Vulkan, llvmpipe
+    /// over GL) and compared pixel by pixel: the margin under the snapshot tolerances; writes
+    /// backends.md and backends.csv.
+    Backends {
+        /// Folder holding the shipped scenes.
+        #[arg(long, default_value = "assets/scenes")]
+        scenes: PathBuf,
+        /// Directory for the report files.
+        #[arg(long, default_value = "bench_out")]
+        out: PathBuf,
     },
     /// Projective dynamics: error against cost over a sweep of dt and segment counts on the
     /// gust scene and the hard cases, GPU and CPU cost at the paper's size, and the rigid
@@ -386,19 +397,21 @@ fn main() -> Result<()> {
             Bench::Groom {
                 scene,
                 frames,
-                csv,
+                out,
                 software,
             } => {
                 if frames == 0 {
                     bail!("--frames must be at least 1");
                 }
                 let gpu = Gpu::headless(preference(software))?;
-                let report = kami::bench::groom(&gpu, &scene, frames)?;
+                let report = kami::bench::groom(&gpu, &scene, frames, &out)?;
                 println!("{}", report.markdown);
-                if let Some(p) = csv {
-                    std::fs::write(&p, &report.csv)
-                        .with_context(|| format!("writing {}", p.display()))?;
-                }
+                println!("wrote {0}/groom.md, {0}/groom.csv", out.display());
+            }
+            Bench::Backends { scenes, out } => {
+                let report = kami::bench::backends::run(&scenes, &out)?;
+                println!("{}", report.markdown);
+                println!("wrote {0}/backends.md, {0}/backends.csv", out.display());
             }
             Bench::Dynamics {
                 scene,

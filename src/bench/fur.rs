@@ -119,6 +119,7 @@ pub fn run(gpu: &Gpu, scenes: &Path, out: &Path, frames: u32) -> Result<Report> 
     let mut md = String::new();
     let mut csv = String::from("table,case,quality,hairs_drawn,ms_per_frame,hairs_per_s,ratio_to_paper,gen_ms,tile_error,pixel_error\n");
     let _ = writeln!(md, "### `kami bench fur`\n");
+    let _ = writeln!(md, "{}\n", super::provenance());
     let _ = writeln!(
         md,
         "Adapter: {}; CPU: {}. Image {}x{}; each figure is the mean of {frames} frames after one warm-up, generation + drawing + wait, image left on the GPU.\n",

@@ -1,6 +1,7 @@
 //! Benchmarks behind `kami bench`. Speed is measured here, never in tests. Each report is
 //! Markdown (for the README) plus CSV, and says which adapter and CPU produced it.
 
+pub mod backends;
 pub mod fur;
 
 use crate::error::Result;
@@ -38,6 +39,33 @@ fn cpu_name() -> String {
         .unwrap_or_else(|| "unknown CPU".into())
 }
 
+/// The first line of every report: the command line and the machine that wrote it, so a
+/// figure quoted from the file carries its device.
+pub fn provenance() -> String {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    format!(
+        "Written by `kami {}` on {} ({} threads).",
+        args.join(" "),
+        cpu_name(),
+        std::thread::available_parallelism()
+            .map(|n| n.get())
+            .unwrap_or(1)
+    )
+}
+
+/// Write `<stem>.md` and `<stem>.csv` into `out` (created if missing).
+pub fn write_report(out: &Path, stem: &str, md: &str, csv: &str) -> Result<()> {
+    std::fs::create_dir_all(out).map_err(|source| crate::KamiError::Io {
+        path: out.to_path_buf(),
+        source,
+    })?;
+    for (ext, text) in [("md", md), ("csv", csv)] {
+        let p = out.join(format!("{stem}.{ext}"));
+        std::fs::write(&p, text).map_err(|source| crate::KamiError::Io { path: p, source })?;
+    }
+    Ok(())
+}
+
 /// Time `f` `n` times after one warm-up run; mean seconds.
 fn time_mean(n: u32, mut f: impl FnMut() -> Result<()>) -> Result<f64> {
     f()?;
@@ -48,15 +76,18 @@ fn time_mean(n: u32, mut f: impl FnMut() -> Result<()>) -> Result<f64> {
     Ok(t.elapsed().as_secs_f64() / n as f64)
 }
 
-/// Groom throughput (CPU reference, GPU kernel, both bending modes), render time per frame
-/// at 1280x720, and the bending accuracy table against the exact elastica.
-pub fn groom(gpu: &Gpu, scene_path: &Path, frames: u32) -> Result<Report> {
+/// Groom throughput (CPU reference, GPU kernel, both bending modes), what the converged mode
+/// costs on this groom and how many of its strands fall back, render time per frame at
+/// 1280x720, and the bending accuracy table against the exact elastica; writes `groom.md`
+/// and `groom.csv` to `out`.
+pub fn groom(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Report> {
     let scene = Scene::load(scene_path)?;
     let mut md = String::new();
     let mut csv =
         String::from("table,G,k,mode,tip_drop,exact,rel_error,iterations,us_per_strand\n");
     let (hairs, segs) = scene.counts();
     let _ = writeln!(md, "### `kami bench groom` — {}\n", scene_path.display());
+    let _ = writeln!(md, "{}\n", provenance());
     let _ = writeln!(
         md,
         "Adapter: {}; CPU: {} ({} threads available; the reference runs on one).\n",
@@ -73,6 +104,8 @@ pub fn groom(gpu: &Gpu, scene_path: &Path, frames: u32) -> Result<Report> {
     );
     let _ = writeln!(md, "|---|---|---:|---:|---:|---:|");
 
+    // (GPU seconds, CPU fallbacks, GPU fallbacks) per bending mode.
+    let mut modes = Vec::new();
     for (label, converged) in [("paper", false), ("converged", true)] {
         let mut s = scene.clone();
         if converged {
@@ -139,7 +172,28 @@ pub fn groom(gpu: &Gpu, scene_path: &Path, frames: u32) -> Result<Report> {
             "| {label} | GPU vs CPU | max node difference {:.2e} of hair length | | | |",
             worst
         );
+        let gpu_fallbacks = strands
+            .read_strands(gpu)?
+            .iter()
+            .filter(|s| s.flags & 1 != 0)
+            .count();
+        modes.push((gpu_t, reference.fallbacks as usize, gpu_fallbacks));
     }
+    let (paper, conv) = (modes[0], modes[1]);
+    let _ = writeln!(
+        md,
+        "\n**The converged mode on this groom** costs {:.0}x the paper mode on the GPU; {:.1} % of its strands (CPU reference; GPU {:.1} %) do not converge and keep the paper's shape.",
+        conv.0 / paper.0,
+        100.0 * conv.1 as f64 / hairs as f64,
+        100.0 * conv.2 as f64 / hairs as f64
+    );
+    let _ = writeln!(
+        csv,
+        "converged_vs_paper,,,gpu time ratio {:.2} fallbacks cpu {} gpu {} of {hairs},,,,,",
+        conv.0 / paper.0,
+        conv.1,
+        conv.2
+    );
 
     // Render time per frame at 1280x720.
     let size = (1280, 720);
@@ -148,7 +202,7 @@ pub fn groom(gpu: &Gpu, scene_path: &Path, frames: u32) -> Result<Report> {
     // One stage (one groom); the anti-aliasing is switched as the viewer does it.
     crate::stage::check_limits(gpu, &scene, size)?;
     let mut stage = Stage::new(gpu, &scene, target::OUTPUT_FORMAT, Quality::of(&scene))?;
-    let out = target::Offscreen::new(gpu, size)?;
+    let image = target::Offscreen::new(gpu, size)?;
     let look = stage.look();
     for (msaa, ss) in [(1, 1), (4, 1), (4, 2)] {
         stage.set_quality(
@@ -164,7 +218,7 @@ pub fn groom(gpu: &Gpu, scene_path: &Path, frames: u32) -> Result<Report> {
                 .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                     label: Some("bench render"),
                 });
-            stage.render(gpu, &mut enc, &out.view, size, &look)?;
+            stage.render(gpu, &mut enc, &image.view, size, &look)?;
             gpu.queue.submit([enc.finish()]);
             gpu.wait()
         })?;
@@ -255,6 +309,7 @@ pub fn groom(gpu: &Gpu, scene_path: &Path, frames: u32) -> Result<Report> {
             }
         }
     }
+    write_report(out, "groom", &md, &csv)?;
     Ok(Report { markdown: md, csv })
 }
 
@@ -552,6 +607,7 @@ pub fn dynamics(gpu: &Gpu, gust_path: &Path, out: &Path) -> Result<Report> {
     let mut md = String::new();
     let mut csv = String::from("config,dt,steps,rms_error,tip_error,cpu_seconds,us_per_strand_per_time,ns_per_segment_step,clamped\n");
     let _ = writeln!(md, "### `kami bench dynamics` — {}\n", gust_path.display());
+    let _ = writeln!(md, "{}\n", provenance());
     let _ = writeln!(
         md,
         "CPU: {} (one thread); adapter: {}.\n",
