@@ -461,7 +461,14 @@ fn handle_requests(g: &mut Gfx, state: &mut ViewerState, shots: &mut Vec<PathBuf
             Request::Save(path) => {
                 let mut scene = state.scene.clone();
                 scene.camera = g.camera.desc();
-                match std::fs::write(&path, scene.to_ron()) {
+                // Through a temporary file and a rename: a failed save keeps the old file.
+                let tmp = format!("{path}.partial");
+                let saved = std::fs::write(&tmp, scene.to_ron())
+                    .and_then(|()| std::fs::rename(&tmp, &path))
+                    .inspect_err(|_| {
+                        let _ = std::fs::remove_file(&tmp);
+                    });
+                match saved {
                     Ok(()) => state.message = Some(format!("saved {path}")),
                     Err(e) => state.error = Some(format!("cannot save {path}: {e}")),
                 }
