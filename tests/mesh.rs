@@ -3,7 +3,42 @@
 
 use glam::DVec3;
 use kami::error::KamiError;
-use kami::scene::mesh::Mesh;
+use kami::scene::mesh::{vertex_normals, Mesh};
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+/// Records the largest single allocation made on the current thread, so a test can prove a
+/// loader never reserved what a lying header asked for (other tests run on other threads).
+struct LargestAllocation;
+
+thread_local! {
+    static LARGEST: Cell<usize> = const { Cell::new(0) };
+}
+
+fn note(size: usize) {
+    let _ = LARGEST.try_with(|l| l.set(l.get().max(size)));
+}
+
+unsafe impl GlobalAlloc for LargestAllocation {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        note(layout.size());
+        System.alloc(layout)
+    }
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        note(layout.size());
+        System.alloc_zeroed(layout)
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        note(new_size);
+        System.realloc(ptr, layout, new_size)
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        System.dealloc(ptr, layout)
+    }
+}
+
+#[global_allocator]
+static ALLOCATOR: LargestAllocation = LargestAllocation;
 
 /// A unit cube as text in each format, outward-facing triangles, no normals.
 const CUBE_V: [[f64; 3]; 8] = [
@@ -417,4 +452,641 @@ fn bad_mesh_sources_are_refused_when_the_scene_loads() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("no-such-mesh.off"), "{e}");
+}
+
+/// A unique, empty temporary folder for one test.
+fn temp_dir(what: &str) -> std::path::PathBuf {
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(format!("mesh-{what}-{}", std::process::id()));
+    std::fs::remove_dir_all(&dir).ok();
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+#[test]
+fn a_directory_or_an_unreadable_file_is_named() {
+    let dir = temp_dir("unreadable");
+    let d = dir.join("looks-like.obj");
+    std::fs::create_dir_all(&d).unwrap();
+    let e = Mesh::load(&d).unwrap_err();
+    let msg = e.to_string();
+    assert!(
+        msg.contains("looks-like.obj") && msg.contains("is a directory"),
+        "{msg}"
+    );
+    assert!(matches!(e, KamiError::Mesh { .. }), "{e:?}");
+
+    let f = dir.join("locked.off");
+    std::fs::write(&f, cube_off()).unwrap();
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(&f, std::fs::Permissions::from_mode(0o000)).unwrap();
+    // Root (as in many CI containers) reads a mode-000 file anyway: nothing to refuse then.
+    if std::fs::read(&f).is_err() {
+        let e = Mesh::load(&f).unwrap_err();
+        let msg = e.to_string();
+        assert!(msg.contains("locked.off"), "{msg}");
+        assert!(matches!(e, KamiError::Io { .. }), "{e:?}");
+    } else {
+        check_cube(&Mesh::load(&f).unwrap());
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Largest single allocation on this thread while `f` runs.
+fn largest_allocation<T>(f: impl FnOnce() -> T) -> (T, usize) {
+    LARGEST.with(|l| l.set(0));
+    let out = f();
+    (out, LARGEST.with(|l| l.get()))
+}
+
+#[test]
+fn huge_headers_over_short_bodies_fail_before_allocating() {
+    const LIMIT: usize = 256 << 20;
+    let body = "0 0 0\n1 0 0\n0 1 0\n";
+    let off = format!("OFF\n49999999 1 0\n{body}3 0 1 2\n");
+    let (r, peak) = largest_allocation(|| Mesh::from_off(&off, "huge.off"));
+    broken(r, Some(2), &["huge.off:2", "49999999 vertices"]);
+    assert!(
+        peak < LIMIT,
+        "the OFF loader allocated {peak} bytes at once"
+    );
+
+    let header = |format: &str, nv: &str| {
+        format!(
+            "ply\nformat {format} 1.0\nelement vertex {nv}\nproperty float x\n\
+             property float y\nproperty float z\nelement face 1\n\
+             property list uchar int vertex_indices\nend_header\n"
+        )
+    };
+    let ply = header("ascii", "49999999") + body + "3 0 1 2\n";
+    let (r, peak) = largest_allocation(|| Mesh::from_ply(ply.as_bytes(), "huge.ply"));
+    broken(r, Some(3), &["huge.ply:3", "49999999 vertex"]);
+    assert!(
+        peak < LIMIT,
+        "the ascii PLY loader allocated {peak} bytes at once"
+    );
+
+    let mut ply = header("binary_little_endian", "49999999").into_bytes();
+    for c in [0f32, 0., 0., 1., 0., 0., 0., 1., 0.] {
+        ply.extend_from_slice(&c.to_le_bytes());
+    }
+    let (r, peak) = largest_allocation(|| Mesh::from_ply(&ply, "huge.ply"));
+    broken(r, Some(3), &["49999999 vertex", "bytes"]);
+    assert!(
+        peak < LIMIT,
+        "the binary PLY loader allocated {peak} bytes at once"
+    );
+
+    // Beyond the cap whatever the body.
+    let ply = header("ascii", "4000000000") + body;
+    broken(
+        Mesh::from_ply(ply.as_bytes(), "huge.ply"),
+        Some(3),
+        &["50 million"],
+    );
+}
+
+#[test]
+fn meshes_without_area_are_refused() {
+    let words = ["every triangle has zero area", "no surface to grow fur on"];
+    // Collinear, all vertices equal, and collinear with rounding in the coordinates.
+    broken(
+        Mesh::from_off("OFF\n3 1 0\n0 0 0\n1 1 1\n2 2 2\n3 0 1 2\n", "flat.off"),
+        None,
+        &words,
+    );
+    broken(
+        Mesh::from_off(
+            "OFF\n4 2 0\n1 1 1\n1 1 1\n1 1 1\n1 1 1\n3 0 1 2\n3 1 2 3\n",
+            "point.off",
+        ),
+        None,
+        &words,
+    );
+    broken(
+        Mesh::from_obj(
+            "v 0.1 0.2 0.3\nv 0.2 0.4 0.6\nv 0.7 1.4 2.1\nf 1 2 3\nf 3 2 1\n",
+            "line.obj",
+        ),
+        None,
+        &words,
+    );
+    // Tiny but real triangles are a surface.
+    let m = Mesh::from_off(
+        "OFF\n3 1 0\n0 0 0\n1e-90 0 0\n0 1e-90 0\n3 0 1 2\n",
+        "t.off",
+    );
+    assert!(m.unwrap().normals.iter().all(|n| n.z > 0.99));
+    // Coordinates whose products would overflow.
+    broken(
+        Mesh::from_off("OFF\n3 1 0\n0 0 0\n1e200 0 0\n0 1 0\n3 0 1 2\n", "far.off"),
+        None,
+        &["vertex 1", "overflow"],
+    );
+}
+
+#[test]
+fn isolated_degenerate_triangles_never_give_nan_normals() {
+    let p = vec![
+        DVec3::ZERO,
+        DVec3::X,
+        DVec3::Y,
+        // A collinear triangle and a point triangle, sharing nothing with the real one.
+        DVec3::new(5.0, 0.0, 0.0),
+        DVec3::new(6.0, 0.0, 0.0),
+        DVec3::new(7.0, 0.0, 0.0),
+        DVec3::splat(9.0),
+        DVec3::splat(9.0),
+        DVec3::splat(9.0),
+    ];
+    let t = vec![[0, 1, 2], [3, 4, 5], [6, 7, 8]];
+    for n in vertex_normals(&p, &t[1..]) {
+        assert!(n.is_finite() && (n.length() - 1.0).abs() < 1e-12, "{n}");
+    }
+    let m = Mesh::new(p, t, None, "isolated").unwrap();
+    for n in &m.normals {
+        assert!(n.is_finite() && (n.length() - 1.0).abs() < 1e-12, "{n}");
+    }
+    assert!(m.normals[..3].iter().all(|n| n.z > 0.99));
+}
+
+/// Each triangle as its three positions, in order.
+fn corners(m: &Mesh) -> Vec<[DVec3; 3]> {
+    m.triangles
+        .iter()
+        .map(|t| t.map(|i| m.positions[i as usize]))
+        .collect()
+}
+
+fn total_area(m: &Mesh) -> f64 {
+    (0..m.triangles.len()).map(|t| m.area(t)).sum()
+}
+
+#[test]
+fn obj_relative_indices_count_back_from_the_last_vertex() {
+    let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\n\
+               v 5 0 0\nv 6 0 0\nv 5 1 0\nf -3 -2 -1\nf 1 -2 -1\n";
+    let m = Mesh::from_obj(obj, "rel.obj").unwrap();
+    let v = DVec3::new;
+    assert_eq!(
+        corners(&m),
+        vec![
+            [v(0., 0., 0.), v(1., 0., 0.), v(0., 1., 0.)],
+            [v(5., 0., 0.), v(6., 0., 0.), v(5., 1., 0.)],
+            [v(0., 0., 0.), v(6., 0., 0.), v(5., 1., 0.)],
+        ]
+    );
+    // Counting back past the first vertex is refused with its line.
+    broken(
+        Mesh::from_obj("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -4 -2 -1\n", "rel.obj"),
+        Some(4),
+        &["rel.obj:4"],
+    );
+}
+
+/// A convex pentagon in z = 0, counter-clockwise, and its area (shoelace).
+const PENTAGON: [[f64; 2]; 5] = [[0., 0.], [2., 0.], [3., 2.], [1., 3.], [-1., 2.]];
+
+fn pentagon_area() -> f64 {
+    (0..5)
+        .map(|i| {
+            let (a, b) = (PENTAGON[i], PENTAGON[(i + 1) % 5]);
+            a[0] * b[1] - a[1] * b[0]
+        })
+        .sum::<f64>()
+        / 2.0
+}
+
+/// A 2x2 quad beside the pentagon: 2 + 3 triangles of total area 4 + the pentagon's, all
+/// facing +z.
+fn check_polygons(m: &Mesh) {
+    assert_eq!(
+        m.triangles.len(),
+        5,
+        "a quad makes 2 triangles, a pentagon 3"
+    );
+    let want = 4.0 + pentagon_area();
+    assert!((total_area(m) - want).abs() < 1e-9, "{}", total_area(m));
+    for t in corners(m) {
+        assert!(
+            (t[1] - t[0]).cross(t[2] - t[0]).z > 0.0,
+            "{t:?} is wound the wrong way"
+        );
+    }
+    assert!(m.normals.iter().all(|n| n.z > 0.999));
+    assert_eq!(m.reoriented, 0, "an open mesh is left as it is");
+}
+
+#[test]
+fn quads_and_polygons_fan_into_triangles_in_every_format() {
+    let quad = [[10., 0.], [12., 0.], [12., 2.], [10., 2.]];
+    let verts: Vec<[f64; 2]> = quad.iter().chain(&PENTAGON).copied().collect();
+    let mut obj = String::new();
+    let mut off = format!("OFF\n{} 2 0\n", verts.len());
+    for v in &verts {
+        obj += &format!("v {} {} 0\n", v[0], v[1]);
+        off += &format!("{} {} 0\n", v[0], v[1]);
+    }
+    obj += "f 1 2 3 4\nf 5 6 7 8 9\n";
+    off += "4 0 1 2 3\n5 4 5 6 7 8\n";
+    check_polygons(&Mesh::from_obj(&obj, "poly.obj").unwrap());
+    check_polygons(&Mesh::from_off(&off, "poly.off").unwrap());
+    let mut ply = format!(
+        "ply\nformat ascii 1.0\nelement vertex {}\nproperty double x\nproperty double y\n\
+         property double z\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n",
+        verts.len()
+    );
+    for v in &verts {
+        ply += &format!("{} {} 0\n", v[0], v[1]);
+    }
+    ply += "4 0 1 2 3\n5 4 5 6 7 8\n";
+    check_polygons(&Mesh::from_ply(ply.as_bytes(), "poly.ply").unwrap());
+}
+
+#[derive(Clone, Copy)]
+enum Ply {
+    Ascii,
+    Little,
+    Big,
+}
+
+/// The cube as PLY with what real scanners write besides positions: normals, colours,
+/// confidence, an edge element, and texture coordinates per face.
+fn cube_ply_extra(enc: Ply) -> Vec<u8> {
+    let format = match enc {
+        Ply::Ascii => "ascii",
+        Ply::Little => "binary_little_endian",
+        Ply::Big => "binary_big_endian",
+    };
+    let mut b = format!(
+        "ply\nformat {format} 1.0\ncomment written by a test\nelement vertex 8\n\
+         property float x\nproperty float y\nproperty float z\nproperty float nx\n\
+         property float ny\nproperty float nz\nproperty uchar red\nproperty uchar green\n\
+         property uchar blue\nproperty uchar alpha\nproperty float confidence\n\
+         element face 6\nproperty list uchar int vertex_indices\n\
+         property list uchar float texcoord\nelement edge 2\nproperty int vertex1\n\
+         property int vertex2\nend_header\n"
+    )
+    .into_bytes();
+    let f32s = |b: &mut Vec<u8>, xs: &[f32]| {
+        for x in xs {
+            match enc {
+                Ply::Ascii => b.extend_from_slice(format!("{x} ").as_bytes()),
+                Ply::Little => b.extend_from_slice(&x.to_le_bytes()),
+                Ply::Big => b.extend_from_slice(&x.to_be_bytes()),
+            }
+        }
+    };
+    let i32s = |b: &mut Vec<u8>, xs: &[i32]| {
+        for x in xs {
+            match enc {
+                Ply::Ascii => b.extend_from_slice(format!("{x} ").as_bytes()),
+                Ply::Little => b.extend_from_slice(&x.to_le_bytes()),
+                Ply::Big => b.extend_from_slice(&x.to_be_bytes()),
+            }
+        }
+    };
+    let u8s = |b: &mut Vec<u8>, xs: &[u8]| {
+        for &x in xs {
+            match enc {
+                Ply::Ascii => b.extend_from_slice(format!("{x} ").as_bytes()),
+                _ => b.push(x),
+            }
+        }
+    };
+    let eol = |b: &mut Vec<u8>| {
+        if let Ply::Ascii = enc {
+            b.push(b'\n')
+        }
+    };
+    for v in CUBE_V {
+        let p = v.map(|c| c as f32);
+        let n = v.map(|c| (c as f32 - 0.5) / 0.75f32.sqrt());
+        f32s(&mut b, &p);
+        f32s(&mut b, &n);
+        u8s(&mut b, &[200, 100, 50, 255]);
+        f32s(&mut b, &[0.9]);
+        eol(&mut b);
+    }
+    for f in CUBE_F {
+        u8s(&mut b, &[4]);
+        i32s(&mut b, &f.map(|i| i as i32));
+        u8s(&mut b, &[8]);
+        f32s(&mut b, &[0., 0., 1., 0., 1., 1., 0., 1.]);
+        eol(&mut b);
+    }
+    for e in [[0, 1], [1, 2]] {
+        i32s(&mut b, &e);
+        eol(&mut b);
+    }
+    b
+}
+
+#[test]
+fn ply_of_every_encoding_with_extra_properties_loads_the_same_cube() {
+    let mut be = b"ply\nformat binary_big_endian 1.0\nelement vertex 8\nproperty float x\n\
+property float y\nproperty float z\nelement face 6\nproperty list uchar uint vertex_indices\n\
+end_header\n"
+        .to_vec();
+    for v in CUBE_V {
+        for c in v {
+            be.extend_from_slice(&(c as f32).to_be_bytes());
+        }
+    }
+    for f in CUBE_F {
+        be.push(4);
+        for i in f {
+            be.extend_from_slice(&i.to_be_bytes());
+        }
+    }
+    let ascii = Mesh::from_ply(cube_ply_ascii().as_bytes(), "a.ply").unwrap();
+    let little = Mesh::from_ply(&cube_ply_binary(), "le.ply").unwrap();
+    let big = Mesh::from_ply(&be, "be.ply").unwrap();
+    check_cube(&big);
+    assert_eq!(ascii, little);
+    assert_eq!(ascii, big);
+    for enc in [Ply::Ascii, Ply::Little, Ply::Big] {
+        let m = Mesh::from_ply(&cube_ply_extra(enc), "extra.ply").unwrap();
+        check_cube(&m);
+        assert_eq!(m.triangles, ascii.triangles);
+        // The file's normals (the corners' diagonals) are the ones used.
+        for (p, n) in m.positions.iter().zip(&m.normals) {
+            assert!((*n - (*p - DVec3::splat(0.5)).normalize()).length() < 1e-6);
+        }
+    }
+}
+
+#[test]
+fn ply_faces_with_bad_indices_are_named() {
+    let name = "bad.ply";
+    let s = cube_ply_ascii().replace("4 2 3 7 6", "4 2 -3 7 6");
+    broken(
+        Mesh::from_ply(s.as_bytes(), name),
+        None,
+        &[name, "face 3", "vertex -3"],
+    );
+    let s = cube_ply_ascii().replace("4 2 3 7 6", "4 2 3 7 60");
+    broken(
+        Mesh::from_ply(s.as_bytes(), name),
+        None,
+        &["face 3", "vertex 60", "8 vertices"],
+    );
+    let s = cube_ply_ascii().replace("4 2 3 7 6", "2 2 3");
+    broken(
+        Mesh::from_ply(s.as_bytes(), name),
+        None,
+        &["face 3", "2 vertices"],
+    );
+}
+
+// Winding: closed components are turned outwards, open ones left alone.
+
+/// A UV sphere with one vertex per pole, counter-clockwise seen from outside.
+fn sphere(centre: DVec3, r: f64, rings: u32, sectors: u32) -> (Vec<DVec3>, Vec<[u32; 3]>) {
+    let mut p = vec![centre + DVec3::Y * r];
+    for i in 1..rings {
+        let theta = std::f64::consts::PI * i as f64 / rings as f64;
+        for j in 0..sectors {
+            let phi = std::f64::consts::TAU * j as f64 / sectors as f64;
+            let u = DVec3::new(
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin(),
+            );
+            p.push(centre + u * r);
+        }
+    }
+    p.push(centre - DVec3::Y * r);
+    let south = p.len() as u32 - 1;
+    let at = |i: u32, j: u32| 1 + (i - 1) * sectors + j % sectors;
+    let mut t = Vec::new();
+    for j in 0..sectors {
+        t.push([0, at(1, j + 1), at(1, j)]);
+        t.push([south, at(rings - 1, j), at(rings - 1, j + 1)]);
+        for i in 1..rings - 1 {
+            t.push([at(i, j), at(i, j + 1), at(i + 1, j)]);
+            t.push([at(i, j + 1), at(i + 1, j + 1), at(i + 1, j)]);
+        }
+    }
+    for tri in &t {
+        let [a, b, c] = tri.map(|i| p[i as usize]);
+        assert!(
+            (b - a).cross(c - a).dot(a - centre) > 0.0,
+            "the test sphere is inside out"
+        );
+    }
+    (p, t)
+}
+
+/// Every triangle reversed, rotated too (`[c, b, a]`), so a fix that only swaps two corners
+/// back is not what makes the sets equal.
+fn reversed(t: &[[u32; 3]]) -> Vec<[u32; 3]> {
+    t.iter().map(|&[a, b, c]| [c, b, a]).collect()
+}
+
+fn off(p: &[DVec3], t: &[[u32; 3]]) -> String {
+    let mut s = format!("OFF\n{} {} 0\n", p.len(), t.len());
+    for v in p {
+        s += &format!("{} {} {}\n", v.x, v.y, v.z);
+    }
+    for f in t {
+        s += &format!("3 {} {} {}\n", f[0], f[1], f[2]);
+    }
+    s
+}
+
+/// Triangles as sets of oriented corner triples, each rotated to start at its smallest
+/// corner: equal for two meshes with the same faces wound the same way.
+fn triangle_set(m: &Mesh) -> Vec<[[i64; 3]; 3]> {
+    let mut set: Vec<[[i64; 3]; 3]> = corners(m)
+        .into_iter()
+        .map(|t| {
+            let q = t.map(|p| (p * 1e9).round().as_i64vec3().to_array());
+            let k = (0..3).min_by_key(|&k| q[k]).unwrap();
+            [q[k], q[(k + 1) % 3], q[(k + 2) % 3]]
+        })
+        .collect();
+    set.sort();
+    set
+}
+
+/// Every vertex normal points away from `centre` (the nearest of them).
+fn outward(m: &Mesh, centres: &[DVec3]) {
+    for (p, n) in m.positions.iter().zip(&m.normals) {
+        let c = centres
+            .iter()
+            .min_by(|a, b| (*p - **a).length().total_cmp(&(*p - **b).length()))
+            .unwrap();
+        assert!(n.dot(*p - *c) > 0.0, "normal {n} at {p} points in");
+    }
+    for t in corners(m) {
+        let c = centres
+            .iter()
+            .min_by(|a, b| (t[0] - **a).length().total_cmp(&(t[0] - **b).length()))
+            .unwrap();
+        let f = (t[1] - t[0]).cross(t[2] - t[0]);
+        assert!(f.dot(t[0] - *c) > 0.0, "triangle {t:?} faces in");
+    }
+}
+
+#[test]
+fn a_sphere_wound_inside_out_loads_like_the_right_one() {
+    let (p, t) = sphere(DVec3::new(0.3, -0.2, 0.1), 1.5, 12, 24);
+    let right = Mesh::from_off(&off(&p, &t), "s.off").unwrap();
+    let wrong = Mesh::from_off(&off(&p, &reversed(&t)), "r.off").unwrap();
+    assert_eq!(right.reoriented, 0);
+    assert_eq!(wrong.reoriented, t.len());
+    assert!(
+        triangle_set(&right) == triangle_set(&wrong),
+        "OFF triangles differ"
+    );
+    outward(&right, &[DVec3::new(0.3, -0.2, 0.1)]);
+    outward(&wrong, &[DVec3::new(0.3, -0.2, 0.1)]);
+    // Through OBJ (tobj renumbers vertices) and PLY too.
+    let obj = |t: &[[u32; 3]]| {
+        let mut s = String::new();
+        for v in &p {
+            s += &format!("v {} {} {}\n", v.x, v.y, v.z);
+        }
+        for f in t {
+            s += &format!("f {} {} {}\n", f[0] + 1, f[1] + 1, f[2] + 1);
+        }
+        s
+    };
+    // (Compared with the right sphere through OBJ too: tobj keeps f32 coordinates.)
+    let right = Mesh::from_obj(&obj(&t), "s.obj").unwrap();
+    let m = Mesh::from_obj(&obj(&reversed(&t)), "r.obj").unwrap();
+    assert_eq!(m.reoriented, t.len());
+    assert!(
+        triangle_set(&m) == triangle_set(&right),
+        "OBJ triangles differ"
+    );
+}
+
+#[test]
+fn each_closed_component_is_turned_on_its_own() {
+    let (c1, c2) = (DVec3::ZERO, DVec3::new(4.0, 0.0, 0.0));
+    let (mut p, mut t) = sphere(c1, 1.0, 8, 16);
+    let (p2, t2) = sphere(c2, 1.0, 10, 12);
+    let base = p.len() as u32;
+    p.extend(p2);
+    t.extend(reversed(&t2).iter().map(|f| f.map(|i| i + base)));
+    let m = Mesh::from_off(&off(&p, &t), "two.off").unwrap();
+    assert_eq!(m.reoriented, t2.len(), "only the second sphere is reversed");
+    outward(&m, &[c1, c2]);
+}
+
+#[test]
+fn a_sphere_split_into_obj_groups_is_still_closed() {
+    // tobj gives each `o` its own copy of the vertices it uses: welding by position closes
+    // the sphere again.
+    let (p, t) = sphere(DVec3::ZERO, 1.0, 8, 16);
+    let mut s = String::new();
+    for v in &p {
+        s += &format!("v {} {} {}\n", v.x, v.y, v.z);
+    }
+    for (k, f) in reversed(&t).iter().enumerate() {
+        if k % 40 == 0 {
+            s += &format!("o part{k}\n");
+        }
+        s += &format!("f {} {} {}\n", f[0] + 1, f[1] + 1, f[2] + 1);
+    }
+    let m = Mesh::from_obj(&s, "split.obj").unwrap();
+    assert_eq!(m.reoriented, t.len());
+    outward(&m, &[DVec3::ZERO]);
+}
+
+#[test]
+fn a_cube_with_one_face_flipped_is_made_consistent() {
+    let mut s = String::from("OFF\n8 6 0\n");
+    for v in CUBE_V {
+        s += &format!("{} {} {}\n", v[0], v[1], v[2]);
+    }
+    for (k, f) in CUBE_F.iter().enumerate() {
+        let f = if k == 3 { [f[3], f[2], f[1], f[0]] } else { *f };
+        s += &format!("4 {} {} {} {}\n", f[0], f[1], f[2], f[3]);
+    }
+    let m = Mesh::from_off(&s, "flipped.off").unwrap();
+    assert_eq!(m.reoriented, 2, "the flipped quad's two triangles");
+    check_cube(&m);
+    // Consistent: every edge is run once each way.
+    let mut directed: Vec<(u32, u32)> = m
+        .triangles
+        .iter()
+        .flat_map(|t| (0..3).map(move |k| (t[k], t[(k + 1) % 3])))
+        .collect();
+    directed.sort();
+    for &(a, b) in &directed {
+        assert!(
+            directed.binary_search(&(b, a)).is_ok(),
+            "edge {a}-{b} runs one way only"
+        );
+    }
+    directed.dedup();
+    assert_eq!(directed.len(), 36);
+}
+
+#[test]
+fn an_open_hemisphere_is_left_as_the_file_winds_it() {
+    let (p, t) = sphere(DVec3::ZERO, 1.0, 8, 16);
+    // The northern half: triangles whose corners all lie at y >= 0.
+    let north: Vec<[u32; 3]> = t
+        .iter()
+        .filter(|f| f.iter().all(|&i| p[i as usize].y >= -1e-12))
+        .copied()
+        .collect();
+    let inward = reversed(&north);
+    let m = Mesh::from_off(&off(&p, &inward), "bowl.off").unwrap();
+    assert_eq!(m.reoriented, 0);
+    assert_eq!(m.triangles, inward);
+    let used: std::collections::HashSet<u32> = inward.iter().flatten().copied().collect();
+    for &i in &used {
+        let (p, n) = (m.positions[i as usize], m.normals[i as usize]);
+        assert!(
+            n.dot(p) < 0.0,
+            "normal {n} at {p}: the file's winding must be kept"
+        );
+    }
+}
+
+#[test]
+fn file_normals_on_a_closed_mesh_follow_its_outward_faces() {
+    let (p, t) = sphere(DVec3::ZERO, 1.0, 8, 16);
+    let obj = |t: &[[u32; 3]], sign: f64| {
+        let mut s = String::new();
+        for v in &p {
+            s += &format!(
+                "v {} {} {}\nvn {} {} {}\n",
+                v.x,
+                v.y,
+                v.z,
+                sign * v.x,
+                sign * v.y,
+                sign * v.z
+            );
+        }
+        for f in t {
+            s += &format!(
+                "f {0}//{0} {1}//{1} {2}//{2}\n",
+                f[0] + 1,
+                f[1] + 1,
+                f[2] + 1
+            );
+        }
+        s
+    };
+    // Outward faces, inward normals: the normals are turned.
+    let m = Mesh::from_obj(&obj(&t, -1.0), "in.obj").unwrap();
+    assert_eq!(m.reoriented, 0);
+    outward(&m, &[DVec3::ZERO]);
+    // Inward faces, outward normals: the faces are turned, the normals kept.
+    let m = Mesh::from_obj(&obj(&reversed(&t), 1.0), "out.obj").unwrap();
+    assert_eq!(m.reoriented, t.len());
+    outward(&m, &[DVec3::ZERO]);
+    for (p, n) in m.positions.iter().zip(&m.normals) {
+        assert!(
+            (*n - p.normalize()).length() < 1e-6,
+            "the file's normal at {p} was changed"
+        );
+    }
 }

@@ -2,10 +2,22 @@
 //! lines of parsing). Vertex normals are taken from the file or computed (area-weighted);
 //! degenerate triangles are kept (they get no hair: zero area), unreferenced vertices are
 //! ignored, non-manifold edges are fine. A file that cannot be used is refused with the line
-//! where it broke.
+//! (or element) where it broke; a mesh whose every triangle has zero area is refused too.
+//! Headers are checked against the size of the body before anything is reserved, so a
+//! header that announces millions of vertices over a three-line body costs nothing.
+//!
+//! Winding: fur grows along the normals, so a closed mesh wound inside out would grow its fur
+//! inside the body. Every closed component (each edge shared by exactly two triangles, after
+//! welding vertices at bit-identical positions, so UV seams and OBJ groups do not open it) is
+//! made consistent across its edges and turned so its signed volume is positive; a warning
+//! says how many faces were reversed ([`Mesh::reoriented`]). Normals from the file are kept,
+//! but on a closed component one that points against its oriented faces is negated. Open
+//! meshes (with boundary edges), non-manifold and non-orientable components are left as the
+//! file winds them: there is no inside to point away from.
 
 use crate::error::{KamiError, Result};
 use glam::DVec3;
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 /// An indexed triangle mesh with per-vertex normals.
@@ -14,7 +26,17 @@ pub struct Mesh {
     pub positions: Vec<DVec3>,
     pub normals: Vec<DVec3>,
     pub triangles: Vec<[u32; 3]>,
+    /// Triangles that were reversed so closed components face outwards (0 when the file
+    /// already wound them so).
+    pub reoriented: usize,
 }
+
+/// The most vertices, faces or PLY elements Kami loads (its buffers are indexed by u32, and
+/// a few GB of mesh is beyond a fur viewer).
+const MAX_COUNT: usize = 50_000_000;
+
+/// Coordinates beyond this would overflow areas and normals (products of three).
+const MAX_COORD: f64 = 1e100;
 
 fn err(path: &str, line: Option<usize>, message: impl Into<String>) -> KamiError {
     KamiError::Mesh {
@@ -29,10 +51,19 @@ impl Mesh {
     pub fn load(path: impl AsRef<Path>) -> Result<Mesh> {
         let path = path.as_ref();
         let name = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|source| KamiError::Io {
+        let io = |source| KamiError::Io {
             path: path.to_path_buf(),
             source,
-        })?;
+        };
+        // `read` on a directory fails with a bare OS error on some systems: say what it is.
+        if std::fs::metadata(path).map_err(io)?.is_dir() {
+            return Err(err(
+                &name,
+                None,
+                "is a directory, not a mesh file (.obj, .off or .ply)",
+            ));
+        }
+        let bytes = std::fs::read(path).map_err(io)?;
         let ext = path
             .extension()
             .and_then(|e| e.to_str())
@@ -51,21 +82,42 @@ impl Mesh {
     }
 
     /// Build from positions, triangles and optional normals: checks indices and values,
-    /// computes missing normals.
+    /// refuses a mesh without area, orients closed components outwards and computes missing
+    /// normals. Every loader ends here.
     pub fn new(
         positions: Vec<DVec3>,
-        triangles: Vec<[u32; 3]>,
+        mut triangles: Vec<[u32; 3]>,
         normals: Option<Vec<DVec3>>,
         name: &str,
     ) -> Result<Mesh> {
         if positions.is_empty() || triangles.is_empty() {
             return Err(err(name, None, "the mesh has no triangles"));
         }
+        if triangles.len() > u32::MAX as usize / 4 {
+            return Err(err(
+                name,
+                None,
+                format!("{} triangles is beyond what Kami loads", triangles.len()),
+            ));
+        }
         if let Some(i) = positions.iter().position(|p| !p.is_finite()) {
             return Err(err(
                 name,
                 None,
                 format!("vertex {i} is not finite: {:?}", positions[i]),
+            ));
+        }
+        if let Some(i) = positions
+            .iter()
+            .position(|p| p.abs().max_element() > MAX_COORD)
+        {
+            return Err(err(
+                name,
+                None,
+                format!(
+                    "vertex {i} is {}: coordinates beyond 1e100 would overflow areas and normals",
+                    positions[i]
+                ),
             ));
         }
         for (ti, t) in triangles.iter().enumerate() {
@@ -80,19 +132,60 @@ impl Mesh {
                 ));
             }
         }
+        if !has_area(&positions, &triangles) {
+            return Err(err(
+                name,
+                None,
+                "every triangle has zero area: no surface to grow fur on",
+            ));
+        }
+        let closed = orient(&positions, &mut triangles);
+        let computed = vertex_normals(&positions, &triangles);
+        let mut flipped_normals = 0;
         let normals = match normals {
             Some(n)
                 if n.len() == positions.len()
                     && n.iter().all(|v| v.is_finite() && v.length() > 1e-12) =>
             {
-                n.into_iter().map(|v| v.normalize()).collect()
+                // The file's normals keep their smoothing, but on a closed component they
+                // must agree with the outward faces, or the fur would grow inwards.
+                n.into_iter()
+                    .zip(&computed)
+                    .zip(&closed.vertices)
+                    .map(|((v, c), &on_closed)| {
+                        let v = v.normalize();
+                        if on_closed && v.dot(*c) < 0.0 {
+                            flipped_normals += 1;
+                            -v
+                        } else {
+                            v
+                        }
+                    })
+                    .collect()
             }
-            _ => vertex_normals(&positions, &triangles),
+            _ => computed,
         };
+        if closed.reversed > 0 || flipped_normals > 0 {
+            log::warn!(
+                "mesh {name}: {} of {} closed components wound inwards: reversed {} triangles \
+                 and flipped {flipped_normals} normals from the file, so fur grows outwards",
+                closed.components_reversed,
+                closed.components,
+                closed.reversed,
+            );
+        }
+        if closed.non_orientable > 0 {
+            log::warn!(
+                "mesh {name}: {} closed components are not orientable (one-sided); their \
+                 winding is left as the file has it",
+                closed.non_orientable
+            );
+        }
         Ok(Mesh {
             positions,
             normals,
             triangles,
+            reoriented: closed.reversed,
         })
     }
 
@@ -100,6 +193,10 @@ impl Mesh {
         let opts = tobj::LoadOptions {
             triangulate: true,
             single_index: true,
+            // `p` and `l` statements are not surfaces (tobj would make them zero-area
+            // triangles).
+            ignore_points: true,
+            ignore_lines: true,
             ..Default::default()
         };
         let (models, _) = tobj::load_obj_buf(&mut text.as_bytes(), &opts, |_| {
@@ -176,19 +273,35 @@ impl Mesh {
                 .next()
                 .ok_or_else(|| err(name, None, format!("the file ends before {what}")))
         };
-        let mut count = |what: &str| -> Result<usize> {
+        let mut count = |what: &str| -> Result<(usize, usize)> {
             let (l, t) = next(what)?;
-            t.parse::<usize>()
-                .map_err(|_| err(name, Some(l), format!("{what}: {t:?} is not a count")))
+            let n = t
+                .parse::<usize>()
+                .map_err(|_| err(name, Some(l), format!("{what}: {t:?} is not a count")))?;
+            Ok((l, n))
         };
-        let nv = count("the vertex count")?;
-        let nf = count("the face count")?;
-        let _ne = count("the edge count")?;
-        if nv > 50_000_000 || nf > 50_000_000 {
+        let (_, nv) = count("the vertex count")?;
+        let (_, nf) = count("the face count")?;
+        let (counts_line, _) = count("the edge count")?;
+        if nv > MAX_COUNT || nf > MAX_COUNT {
             return Err(err(
                 name,
                 None,
                 format!("{nv} vertices and {nf} faces is beyond what Kami loads (50 million)"),
+            ));
+        }
+        // A vertex takes at least 3 tokens and a face 4, each a character and a separator:
+        // a header that promises more than the file can hold is refused before anything is
+        // reserved for it.
+        let least = 6 * nv + 8 * nf;
+        if least > text.len() + 1 {
+            return Err(err(
+                name,
+                Some(counts_line),
+                format!(
+                    "the header announces {nv} vertices and {nf} faces, but the whole file is                      {} bytes (they need at least {least})",
+                    text.len()
+                ),
             ));
         }
         let mut positions = Vec::with_capacity(nv);
@@ -250,11 +363,14 @@ impl Mesh {
         Mesh::new(positions, triangles, None, name)
     }
 
+    /// PLY, ascii or binary of either byte order, faces fanned into triangles; extra
+    /// properties and elements are read and ignored.
     pub fn from_ply(bytes: &[u8], name: &str) -> Result<Mesh> {
         use ply_rs_bw::{
             parser::Parser,
             ply::{DefaultElement, Property},
         };
+        ply_header_fits(bytes, name)?;
         let parser = Parser::<DefaultElement>::new();
         let ply = parser
             .read_ply(&mut std::io::Cursor::new(bytes))
@@ -314,11 +430,28 @@ impl Mesh {
                     ))
                 }
             };
-            if idx.len() < 3 || idx.iter().any(|&i| i < 0) {
+            if idx.len() < 3 {
                 return Err(err(
                     name,
                     None,
-                    format!("face {fi} has {} vertices or a negative index", idx.len()),
+                    format!(
+                        "face {fi} has {} vertices (at least 3 make a face)",
+                        idx.len()
+                    ),
+                ));
+            }
+            if let Some(&i) = idx
+                .iter()
+                .find(|&&i| i < 0 || i as usize >= positions.len())
+            {
+                return Err(err(
+                    name,
+                    None,
+                    format!(
+                        "face {fi} uses vertex {i}, but there are {} vertices (0 to {})",
+                        positions.len(),
+                        positions.len() as i64 - 1
+                    ),
                 ));
             }
             for k in 1..idx.len() - 1 {
@@ -422,6 +555,83 @@ pub fn cgal_demo_mesh(name: &str, dir: &Path) -> Result<PathBuf> {
     result.map(|_| path)
 }
 
+/// Refuse a PLY header whose element counts the body cannot hold (each binary record takes
+/// at least its fixed-size properties and its lists' counts, each ascii record a line), or
+/// that are beyond [`MAX_COUNT`], naming the element's header line. ply-rs-bw caps what it
+/// reserves itself; this gives the error its place and keeps a huge count from being read
+/// element by element. A header this cannot follow is left to ply-rs-bw to report.
+fn ply_header_fits(bytes: &[u8], name: &str) -> Result<()> {
+    let size = |t: &str| match t {
+        "char" | "uchar" | "int8" | "uint8" => Some(1u128),
+        "short" | "ushort" | "int16" | "uint16" => Some(2),
+        "int" | "uint" | "int32" | "uint32" | "float" | "float32" => Some(4),
+        "double" | "float64" => Some(8),
+        _ => None,
+    };
+    let mut binary = None;
+    // (name, count, header line, least bytes per record)
+    let mut elements: Vec<(String, u128, usize, u128)> = Vec::new();
+    let mut at = 0;
+    let mut line_no = 0;
+    loop {
+        let Some(len) = bytes[at..].iter().position(|&b| b == b'\n') else {
+            return Ok(());
+        };
+        let line = String::from_utf8_lossy(&bytes[at..at + len]);
+        at += len + 1;
+        line_no += 1;
+        let words: Vec<&str> = line.split_whitespace().collect();
+        match words.as_slice() {
+            ["end_header"] => break,
+            ["format", f, ..] => binary = Some(*f != "ascii"),
+            ["element", e, n] => match n.parse::<u128>() {
+                Ok(n) => elements.push((e.to_string(), n, line_no, 0)),
+                Err(_) => return Ok(()),
+            },
+            ["property", "list", c, _, _] => match (size(c), elements.last_mut()) {
+                (Some(c), Some(e)) => e.3 += c,
+                _ => return Ok(()),
+            },
+            ["property", t, _] => match (size(t), elements.last_mut()) {
+                (Some(t), Some(e)) => e.3 += t,
+                _ => return Ok(()),
+            },
+            _ => {}
+        }
+    }
+    let Some(binary) = binary else { return Ok(()) };
+    let body = &bytes[at..];
+    let room = if binary {
+        body.len() as u128
+    } else {
+        // Every line, blank or not: ply-rs-bw reads a line per record.
+        (body.iter().filter(|&&b| b == b'\n').count() + usize::from(!body.ends_with(b"\n"))) as u128
+    };
+    let mut need = 0u128;
+    for (element, count, line, least) in elements {
+        if count > MAX_COUNT as u128 {
+            return Err(err(
+                name,
+                Some(line),
+                format!("element {element} {count}: beyond what Kami loads (50 million)"),
+            ));
+        }
+        need += count * if binary { least } else { 1 };
+        if need > room {
+            let unit = if binary { "bytes" } else { "lines" };
+            return Err(err(
+                name,
+                Some(line),
+                format!(
+                    "the header announces {count} {element} elements, but only {room} {unit} \
+                     follow the header (they and the elements before them need at least {need})"
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// ply-rs reports "Line N: what. String: 'text' Error: (parser dump)": keep the line as the
 /// error's place and the first two parts as its message.
 fn ply_error(name: &str, text: &str) -> KamiError {
@@ -435,11 +645,26 @@ fn ply_error(name: &str, text: &str) -> KamiError {
     err(name, line, short)
 }
 
-/// Area-weighted vertex normals; vertices no triangle gives a normal point up.
+/// Area-weighted vertex normals; vertices no triangle gives a normal point up (never NaN).
+/// Computed on the mesh scaled to a unit box, so tiny or huge meshes neither underflow nor
+/// overflow.
 pub fn vertex_normals(positions: &[DVec3], triangles: &[[u32; 3]]) -> Vec<DVec3> {
+    let origin = triangles
+        .first()
+        .map_or(DVec3::ZERO, |t| positions[t[0] as usize]);
+    let extent = triangles
+        .iter()
+        .flatten()
+        .map(|&i| (positions[i as usize] - origin).abs().max_element())
+        .fold(0.0, f64::max);
+    let scale = if extent > 0.0 && extent.is_finite() {
+        1.0 / extent
+    } else {
+        1.0
+    };
     let mut n = vec![DVec3::ZERO; positions.len()];
     for t in triangles {
-        let [a, b, c] = t.map(|i| positions[i as usize]);
+        let [a, b, c] = t.map(|i| (positions[i as usize] - origin) * scale);
         // The cross product's length is twice the area: area weighting for free.
         let f = (b - a).cross(c - a);
         for &i in t {
@@ -449,6 +674,195 @@ pub fn vertex_normals(positions: &[DVec3], triangles: &[[u32; 3]]) -> Vec<DVec3>
     n.into_iter()
         .map(|v| v.try_normalize().unwrap_or(DVec3::Y))
         .collect()
+}
+
+/// Whether some triangle has area. Measured by its shape (height over longest edge), so
+/// that neither tiny nor huge coordinates fool it, and with room for the f32 rounding OBJ
+/// files go through: points on a line in the file stay "on a line" (height ~1e-7).
+fn has_area(positions: &[DVec3], triangles: &[[u32; 3]]) -> bool {
+    triangles.iter().any(|t| {
+        let [a, b, c] = t.map(|i| positions[i as usize]);
+        let long = (b - a).length().max((c - a).length()).max((c - b).length());
+        long > 0.0 && ((b - a) / long).cross((c - a) / long).length() > 1e-6
+    })
+}
+
+/// What [`orient`] found and did.
+struct Closed {
+    /// Closed, orientable components (the ones that can be turned outwards).
+    components: usize,
+    components_reversed: usize,
+    /// Closed components with no consistent orientation (a Klein bottle), left as they are.
+    non_orientable: usize,
+    /// Triangles reversed.
+    reversed: usize,
+    /// Per vertex: on a closed, oriented component.
+    vertices: Vec<bool>,
+}
+
+/// Make every closed manifold component consistently wound across its edges (breadth-first,
+/// flipping neighbours) with positive signed volume, reversing triangles (`[a, c, b]`) in
+/// place. Connectivity is by edges between vertices welded at bit-identical positions;
+/// triangles with a repeated (welded) vertex have no area and take no part.
+fn orient(positions: &[DVec3], triangles: &mut [[u32; 3]]) -> Closed {
+    let mut closed = Closed {
+        components: 0,
+        components_reversed: 0,
+        non_orientable: 0,
+        reversed: 0,
+        vertices: vec![false; positions.len()],
+    };
+    // Weld: the first vertex at each position stands for all (-0.0 counts as 0.0).
+    let mut first = HashMap::with_capacity(positions.len().min(triangles.len() * 3));
+    let weld: Vec<u32> = (0..positions.len())
+        .map(|i| {
+            let key = (positions[i] + DVec3::ZERO).to_array().map(f64::to_bits);
+            *first.entry(key).or_insert(i as u32)
+        })
+        .collect();
+    drop(first);
+    // Edges as (undirected key, triangle, whether the triangle runs from low to high).
+    let mut edges: Vec<(u64, u32, bool)> = Vec::with_capacity(triangles.len() * 3);
+    for (t, tri) in triangles.iter().enumerate() {
+        let w = tri.map(|i| weld[i as usize]);
+        if w[0] == w[1] || w[1] == w[2] || w[2] == w[0] {
+            continue;
+        }
+        for k in 0..3 {
+            let (a, b) = (w[k], w[(k + 1) % 3]);
+            let key = (a.min(b) as u64) << 32 | a.max(b) as u64;
+            edges.push((key, t as u32, a < b));
+        }
+    }
+    edges.sort_unstable_by_key(|e| e.0);
+    // Runs of equal keys are the undirected edges; union their triangles.
+    let mut runs = Vec::new();
+    let mut s = 0;
+    while s < edges.len() {
+        let mut e = s + 1;
+        while e < edges.len() && edges[e].0 == edges[s].0 {
+            e += 1;
+        }
+        runs.push((s, e));
+        s = e;
+    }
+    let mut parent: Vec<u32> = (0..triangles.len() as u32).collect();
+    fn find(parent: &mut [u32], mut x: u32) -> u32 {
+        while parent[x as usize] != x {
+            parent[x as usize] = parent[parent[x as usize] as usize];
+            x = parent[x as usize];
+        }
+        x
+    }
+    for &(s, e) in &runs {
+        let a = find(&mut parent, edges[s].1);
+        for edge in &edges[s + 1..e] {
+            let b = find(&mut parent, edge.1);
+            parent[b as usize] = a;
+        }
+    }
+    // A component with an edge used once (boundary) or thrice (non-manifold) is open.
+    let mut open = vec![false; triangles.len()];
+    let mut in_edges = vec![false; triangles.len()];
+    // Per triangle, the other triangle across each of its edges, with their directions.
+    let mut across: Vec<[(u32, bool, bool); 3]> =
+        vec![[(u32::MAX, false, false); 3]; triangles.len()];
+    let mut slot = vec![0u8; triangles.len()];
+    for &(s, e) in &runs {
+        let root = find(&mut parent, edges[s].1);
+        for edge in &edges[s..e] {
+            in_edges[edge.1 as usize] = true;
+        }
+        if e - s != 2 {
+            open[root as usize] = true;
+            continue;
+        }
+        let (x, y) = (edges[s], edges[s + 1]);
+        for (me, other) in [(x, y), (y, x)] {
+            let t = me.1 as usize;
+            across[t][slot[t] as usize] = (other.1, me.2, other.2);
+            slot[t] += 1;
+        }
+    }
+    // Breadth-first over each closed component: flip[t] says whether t is reversed.
+    let mut flip: Vec<Option<bool>> = vec![None; triangles.len()];
+    let mut queue = std::collections::VecDeque::new();
+    let mut members = Vec::new();
+    for seed in 0..triangles.len() {
+        let root = find(&mut parent, seed as u32) as usize;
+        if !in_edges[seed] || open[root] || flip[seed].is_some() {
+            continue;
+        }
+        members.clear();
+        flip[seed] = Some(false);
+        queue.push_back(seed);
+        let mut orientable = true;
+        while let Some(t) = queue.pop_front() {
+            members.push(t);
+            let ft = flip[t].unwrap_or(false);
+            for &(u, mine, theirs) in &across[t][..slot[t] as usize] {
+                // Consistent neighbours run a shared edge in opposite directions.
+                let want = !(theirs ^ mine ^ ft);
+                match flip[u as usize] {
+                    None => {
+                        flip[u as usize] = Some(want);
+                        queue.push_back(u as usize);
+                    }
+                    Some(f) if f != want => orientable = false,
+                    Some(_) => {}
+                }
+            }
+        }
+        if !orientable {
+            closed.non_orientable += 1;
+            continue;
+        }
+        let tri = |[a, b, c]: [u32; 3], f: bool| {
+            if f {
+                [a, c, b]
+            } else {
+                [a, b, c]
+            }
+        };
+        // Signed volume (sum of p0 . (p1 x p2) / 6) about a vertex of the component.
+        let o = positions[triangles[seed][0] as usize];
+        let extent = members
+            .iter()
+            .flat_map(|&t| triangles[t])
+            .map(|i| (positions[i as usize] - o).abs().max_element())
+            .fold(0.0, f64::max);
+        let volume: f64 = members
+            .iter()
+            .map(|&t| {
+                let [a, b, c] =
+                    tri(triangles[t], flip[t] == Some(true)).map(|i| positions[i as usize] - o);
+                a.dot(b.cross(c))
+            })
+            .sum::<f64>()
+            / 6.0;
+        if volume.abs() <= 1e-12 * extent.powi(3) {
+            // Flat (a double-sided sheet): no inside to choose.
+            continue;
+        }
+        closed.components += 1;
+        let outward_flips = volume < 0.0;
+        let mut reversed = 0;
+        for &t in &members {
+            let f = (flip[t] == Some(true)) ^ outward_flips;
+            if f {
+                triangles[t] = tri(triangles[t], true);
+                reversed += 1;
+            }
+            for &v in &triangles[t] {
+                closed.vertices[v as usize] = true;
+            }
+        }
+        if reversed > 0 {
+            closed.components_reversed += 1;
+            closed.reversed += reversed;
+        }
+    }
+    closed
 }
 
 /// The line of the first OBJ statement that cannot be parsed or that points past the
