@@ -325,7 +325,7 @@ fn viewer_frame_n_is_the_rendered_frame_n() {
 /// memory — on a software adapter that includes every GPU buffer — grows by less than
 /// 16 MiB from frame 100 to the end. One leaked stage is far more than that: a build that
 /// forgot the old stage on reload failed here by hundreds of MiB. The 10,000-frame,
-/// 100-reload run is in docs/long_run.md.
+/// 100-reload run is `scripts/long-run.sh` (docs/long_run/).
 #[test]
 fn viewer_memory_stays_flat_over_reloads() {
     let x = xvfb();
