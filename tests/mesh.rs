@@ -505,11 +505,11 @@ fn huge_headers_over_short_bodies_fail_before_allocating() {
     let body = "0 0 0\n1 0 0\n0 1 0\n";
     let off = format!("OFF\n49999999 1 0\n{body}3 0 1 2\n");
     let (r, peak) = largest_allocation(|| Mesh::from_off(&off, "huge.off"));
-    broken(r, Some(2), &["huge.off:2", "49999999 vertices"]);
     assert!(
         peak < LIMIT,
         "the OFF loader allocated {peak} bytes at once"
     );
+    broken(r, Some(2), &["huge.off:2", "49999999 vertices"]);
 
     let header = |format: &str, nv: &str| {
         format!(
@@ -520,22 +520,22 @@ fn huge_headers_over_short_bodies_fail_before_allocating() {
     };
     let ply = header("ascii", "49999999") + body + "3 0 1 2\n";
     let (r, peak) = largest_allocation(|| Mesh::from_ply(ply.as_bytes(), "huge.ply"));
-    broken(r, Some(3), &["huge.ply:3", "49999999 vertex"]);
     assert!(
         peak < LIMIT,
         "the ascii PLY loader allocated {peak} bytes at once"
     );
+    broken(r, Some(3), &["huge.ply:3", "49999999 vertex"]);
 
     let mut ply = header("binary_little_endian", "49999999").into_bytes();
     for c in [0f32, 0., 0., 1., 0., 0., 0., 1., 0.] {
         ply.extend_from_slice(&c.to_le_bytes());
     }
     let (r, peak) = largest_allocation(|| Mesh::from_ply(&ply, "huge.ply"));
-    broken(r, Some(3), &["49999999 vertex", "bytes"]);
     assert!(
         peak < LIMIT,
         "the binary PLY loader allocated {peak} bytes at once"
     );
+    broken(r, Some(3), &["49999999 vertex", "bytes"]);
 
     // Beyond the cap whatever the body.
     let ply = header("ascii", "4000000000") + body;
@@ -934,14 +934,14 @@ fn a_sphere_wound_inside_out_loads_like_the_right_one() {
     let (p, t) = sphere(DVec3::new(0.3, -0.2, 0.1), 1.5, 12, 24);
     let right = Mesh::from_off(&off(&p, &t), "s.off").unwrap();
     let wrong = Mesh::from_off(&off(&p, &reversed(&t)), "r.off").unwrap();
-    assert_eq!(right.reoriented, 0);
-    assert_eq!(wrong.reoriented, t.len());
     assert!(
         triangle_set(&right) == triangle_set(&wrong),
         "OFF triangles differ"
     );
     outward(&right, &[DVec3::new(0.3, -0.2, 0.1)]);
     outward(&wrong, &[DVec3::new(0.3, -0.2, 0.1)]);
+    assert_eq!(right.reoriented, 0);
+    assert_eq!(wrong.reoriented, t.len());
     // Through OBJ (tobj renumbers vertices) and PLY too.
     let obj = |t: &[[u32; 3]]| {
         let mut s = String::new();
@@ -956,11 +956,11 @@ fn a_sphere_wound_inside_out_loads_like_the_right_one() {
     // (Compared with the right sphere through OBJ too: tobj keeps f32 coordinates.)
     let right = Mesh::from_obj(&obj(&t), "s.obj").unwrap();
     let m = Mesh::from_obj(&obj(&reversed(&t)), "r.obj").unwrap();
-    assert_eq!(m.reoriented, t.len());
     assert!(
         triangle_set(&m) == triangle_set(&right),
         "OBJ triangles differ"
     );
+    assert_eq!(m.reoriented, t.len());
 }
 
 #[test]
@@ -972,8 +972,8 @@ fn each_closed_component_is_turned_on_its_own() {
     p.extend(p2);
     t.extend(reversed(&t2).iter().map(|f| f.map(|i| i + base)));
     let m = Mesh::from_off(&off(&p, &t), "two.off").unwrap();
-    assert_eq!(m.reoriented, t2.len(), "only the second sphere is reversed");
     outward(&m, &[c1, c2]);
+    assert_eq!(m.reoriented, t2.len(), "only the second sphere is reversed");
 }
 
 #[test]
@@ -992,8 +992,8 @@ fn a_sphere_split_into_obj_groups_is_still_closed() {
         s += &format!("f {} {} {}\n", f[0] + 1, f[1] + 1, f[2] + 1);
     }
     let m = Mesh::from_obj(&s, "split.obj").unwrap();
-    assert_eq!(m.reoriented, t.len());
     outward(&m, &[DVec3::ZERO]);
+    assert_eq!(m.reoriented, t.len());
 }
 
 #[test]
@@ -1007,8 +1007,8 @@ fn a_cube_with_one_face_flipped_is_made_consistent() {
         s += &format!("4 {} {} {} {}\n", f[0], f[1], f[2], f[3]);
     }
     let m = Mesh::from_off(&s, "flipped.off").unwrap();
-    assert_eq!(m.reoriented, 2, "the flipped quad's two triangles");
     check_cube(&m);
+    assert_eq!(m.reoriented, 2, "the flipped quad's two triangles");
     // Consistent: every edge is run once each way.
     let mut directed: Vec<(u32, u32)> = m
         .triangles
@@ -1077,12 +1077,12 @@ fn file_normals_on_a_closed_mesh_follow_its_outward_faces() {
     };
     // Outward faces, inward normals: the normals are turned.
     let m = Mesh::from_obj(&obj(&t, -1.0), "in.obj").unwrap();
-    assert_eq!(m.reoriented, 0);
     outward(&m, &[DVec3::ZERO]);
+    assert_eq!(m.reoriented, 0);
     // Inward faces, outward normals: the faces are turned, the normals kept.
     let m = Mesh::from_obj(&obj(&reversed(&t), 1.0), "out.obj").unwrap();
-    assert_eq!(m.reoriented, t.len());
     outward(&m, &[DVec3::ZERO]);
+    assert_eq!(m.reoriented, t.len());
     for (p, n) in m.positions.iter().zip(&m.normals) {
         assert!(
             (*n - p.normalize()).length() < 1e-6,
