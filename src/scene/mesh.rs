@@ -197,7 +197,6 @@ impl Mesh {
             // triangles).
             ignore_points: true,
             ignore_lines: true,
-            ..Default::default()
         };
         let (models, _) = tobj::load_obj_buf(&mut text.as_bytes(), &opts, |_| {
             Err(tobj::LoadError::OpenFileFailed)
