@@ -1090,3 +1090,68 @@ fn file_normals_on_a_closed_mesh_follow_its_outward_faces() {
         );
     }
 }
+
+/// A binary PLY element with no properties takes no bytes per record, so no body bounds its
+/// count: refused from the header (ply-rs-bw built a 3.4 GB map list for 50 M of them).
+#[test]
+fn binary_ply_elements_without_properties_are_refused() {
+    let mut ply = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\n\
+property float y\nproperty float z\nelement junk 49999999\nelement face 1\n\
+property list uchar int vertex_indices\nend_header\n"
+        .to_vec();
+    for v in [[0f32, 0., 0.], [1., 0., 0.], [0., 1., 0.]] {
+        for c in v {
+            ply.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    ply.push(3);
+    for i in [0i32, 1, 2] {
+        ply.extend_from_slice(&i.to_le_bytes());
+    }
+    let (r, peak) = largest_allocation(|| Mesh::from_ply(&ply, "junk.ply"));
+    let e = r.expect_err("an element of 49999999 empty records must be refused");
+    assert!(peak < 256 << 20, "allocated {peak} bytes at once");
+    let msg = e.to_string();
+    assert!(
+        msg.contains("junk.ply:7") && msg.contains("no properties"),
+        "{msg}"
+    );
+}
+
+/// OBJ polylines (`l`) of any length are not surfaces: no triangles come from them.
+#[test]
+fn obj_polylines_are_not_surfaces() {
+    let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 0 0 1\nf 1 2 3\nl 1 2 4 3\nl 2 5 3\n";
+    let m = Mesh::from_obj(obj, "lines.obj").unwrap();
+    assert_eq!(m.triangles.len(), 1, "polylines became triangles");
+}
+
+/// What `Mesh::load` refuses before reading: an unknown extension, and anything that is not a
+/// regular file (a FIFO would block the read; `/dev/zero` would never end).
+#[cfg(unix)]
+#[test]
+fn special_files_are_refused_before_reading() {
+    let dir = std::env::temp_dir().join(format!("kami-mesh-special-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let zero = dir.join("zero.obj");
+    let _ = std::fs::remove_file(&zero);
+    std::os::unix::fs::symlink("/dev/zero", &zero).unwrap();
+    let msg = Mesh::load(&zero).unwrap_err().to_string();
+    assert!(
+        msg.contains("zero.obj") && msg.contains("not a regular file"),
+        "{msg}"
+    );
+    let msg = Mesh::load(dir.join("mesh.stl")).unwrap_err().to_string();
+    assert!(msg.contains("unknown mesh format \"stl\""), "{msg}");
+}
+
+/// The OFF size check's message reads as one sentence (no run of spaces from a broken
+/// string continuation).
+#[test]
+fn off_size_message_is_one_sentence() {
+    let msg = Mesh::from_off("OFF\n49999999 1 0\n0 0 0\n", "huge.off")
+        .unwrap_err()
+        .to_string();
+    assert!(msg.contains("the whole file is 2"), "{msg}");
+    assert!(!msg.contains("  "), "{msg}");
+}

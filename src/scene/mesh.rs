@@ -35,6 +35,9 @@ pub struct Mesh {
 /// a few GB of mesh is beyond a fur viewer).
 const MAX_COUNT: usize = 50_000_000;
 
+/// The largest mesh file read (50 million vertices and twice the faces as binary PLY fit).
+const MAX_FILE_BYTES: u64 = 4 << 30;
+
 /// Coordinates beyond this would overflow areas and normals (products of three).
 const MAX_COORD: f64 = 1e100;
 
@@ -55,20 +58,46 @@ impl Mesh {
             path: path.to_path_buf(),
             source,
         };
-        // `read` on a directory fails with a bare OS error on some systems: say what it is.
-        if std::fs::metadata(path).map_err(io)?.is_dir() {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase())
+            .unwrap_or_default();
+        if !matches!(ext.as_str(), "obj" | "off" | "ply") {
+            return Err(err(
+                &name,
+                None,
+                format!("unknown mesh format {ext:?}: use .obj, .off or .ply"),
+            ));
+        }
+        // `read` on a directory fails with a bare OS error on some systems, and on a FIFO or
+        // a device (`/dev/zero` behind a symlink) it blocks or never ends: say what it is.
+        let meta = std::fs::metadata(path).map_err(io)?;
+        if meta.is_dir() {
             return Err(err(
                 &name,
                 None,
                 "is a directory, not a mesh file (.obj, .off or .ply)",
             ));
         }
+        if !meta.is_file() {
+            return Err(err(
+                &name,
+                None,
+                "is not a regular file (a pipe, socket or device?)",
+            ));
+        }
+        if meta.len() > MAX_FILE_BYTES {
+            return Err(err(
+                &name,
+                None,
+                format!(
+                    "the file is {} bytes; Kami loads meshes up to {MAX_FILE_BYTES} bytes",
+                    meta.len()
+                ),
+            ));
+        }
         let bytes = std::fs::read(path).map_err(io)?;
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(|e| e.to_ascii_lowercase())
-            .unwrap_or_default();
         match ext.as_str() {
             "obj" => Mesh::from_obj(&String::from_utf8_lossy(&bytes), &name),
             "off" => Mesh::from_off(&String::from_utf8_lossy(&bytes), &name),
@@ -198,7 +227,22 @@ impl Mesh {
             ignore_points: true,
             ignore_lines: true,
         };
-        let (models, _) = tobj::load_obj_buf(&mut text.as_bytes(), &opts, |_| {
+        // tobj reads `l` like `f`, and `ignore_lines` drops only two-point lines: a polyline
+        // of three or more points would become triangles and grow fur. Blank every `l` line
+        // (line numbers stay for errors).
+        let surfaces: String = text
+            .lines()
+            .map(|l| {
+                let t = l.trim_start();
+                if t.starts_with("l ") || t.starts_with("l\t") {
+                    ""
+                } else {
+                    l
+                }
+            })
+            .collect::<Vec<_>>()
+            .join("\n");
+        let (models, _) = tobj::load_obj_buf(&mut surfaces.as_bytes(), &opts, |_| {
             Err(tobj::LoadError::OpenFileFailed)
         })
         .map_err(|e| err(name, obj_error_line(text), format!("{e}")))?;
@@ -298,7 +342,8 @@ impl Mesh {
                 name,
                 Some(counts_line),
                 format!(
-                    "the header announces {nv} vertices and {nf} faces, but the whole file is                      {} bytes (they need at least {least})",
+                    "the header announces {nv} vertices and {nf} faces, but the whole file is \
+                     {} bytes (they need at least {least})",
                     text.len()
                 ),
             ));
@@ -608,6 +653,15 @@ fn ply_header_fits(bytes: &[u8], name: &str) -> Result<()> {
     };
     let mut need = 0u128;
     for (element, count, line, least) in elements {
+        // A binary record without properties takes no bytes, so no body can bound its count,
+        // and ply-rs-bw still builds one map per record.
+        if binary && least == 0 && count > 0 {
+            return Err(err(
+                name,
+                Some(line),
+                format!("element {element} announces {count} records but has no properties"),
+            ));
+        }
         if count > MAX_COUNT as u128 {
             return Err(err(
                 name,
