@@ -98,9 +98,9 @@ fn cantilever_paper_mode_matches_reference() {
     let c = compare(&prepare(&scene).unwrap());
     let (errs, vis) = (&c.errs, c.vis);
     assert!(
-        quantile(&errs, 0.999) < 1e-5,
+        quantile(errs, 0.999) < 1e-5,
         "99.9% quantile {:.2e}",
-        quantile(&errs, 0.999)
+        quantile(errs, 0.999)
     );
     assert!(
         *errs.last().unwrap() < 1e-3,
@@ -131,9 +131,9 @@ fn cantilever_converged_mode_matches_reference() {
         let c = compare(&input);
         let (errs, vis, gpu_fb, cpu_fb) = (&c.errs, c.vis, c.gpu_fallbacks, c.cpu_fallbacks);
         assert!(
-            quantile(&errs, 0.99) < 1e-5,
+            quantile(errs, 0.99) < 1e-5,
             "{name}: 99% quantile {:.2e}",
-            quantile(&errs, 0.99)
+            quantile(errs, 0.99)
         );
         assert!(
             c.worst_agreeing() < 1e-3,
