@@ -15,6 +15,7 @@ pub mod app;
 pub mod bench;
 pub mod error;
 pub mod forces;
+pub mod fuzz;
 pub mod gpu;
 pub mod plot;
 pub mod rng;

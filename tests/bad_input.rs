@@ -300,3 +300,271 @@ fn refused_as_too_large(gpu: &kami::gpu::Gpu, scene: &Scene, what: &str) {
         other => panic!("expected TooLarge, got {other:?}"),
     }
 }
+
+/// A scratch folder for one test, emptied first.
+fn scratch(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("kami-bad-{name}-{}", std::process::id()));
+    std::fs::remove_dir_all(&dir).ok();
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// A folder given as the scene says it is a folder (it used to be a bare "Is a directory").
+#[test]
+fn a_directory_as_scene_says_so() {
+    let dir = scratch("dir");
+    let e = Scene::load(&dir).unwrap_err();
+    assert!(matches!(e, KamiError::Io { .. }), "{e:?}");
+    let shown = e.to_string();
+    assert!(
+        shown.contains(&dir.display().to_string()) && shown.contains("it is a directory"),
+        "{shown}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A file we may not read is an I/O error naming it and the reason.
+#[test]
+fn an_unreadable_scene_names_the_file() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = scratch("perm");
+    let path = dir.join("locked.ron");
+    std::fs::write(&path, GOOD).unwrap();
+    std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o000)).unwrap();
+    // Root (as in many CI containers) reads a mode-000 file anyway: nothing to check then.
+    if std::fs::File::open(&path).is_err() {
+        let e = Scene::load(&path).unwrap_err();
+        match &e {
+            KamiError::Io { source, .. } => {
+                assert_eq!(source.kind(), std::io::ErrorKind::PermissionDenied, "{e}")
+            }
+            other => panic!("expected Io, got {other:?}"),
+        }
+        assert!(e.to_string().contains("locked.ron"), "{e}");
+    } else {
+        eprintln!("running as root: a mode-000 file is readable, permission check skipped");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A scene that is not UTF-8 names the file, line, column and offset of the first bad byte.
+#[test]
+fn non_utf8_scene_names_the_first_bad_byte() {
+    let dir = scratch("utf8");
+    let path = dir.join("latin1.ron");
+    // Line 6 is `            count: 100,`: the bad byte goes where `100` starts, after
+    // a valid two-byte character so that columns count characters, not bytes.
+    let text = with("count: 100,", "count: \u{e9}\u{ff}100,");
+    let mut bytes = text.into_bytes();
+    let at = bytes
+        .windows(2)
+        .position(|w| w == "\u{ff}".as_bytes())
+        .unwrap();
+    bytes.splice(at..at + 2, [0xff]);
+    std::fs::write(&path, &bytes).unwrap();
+    match Scene::load(&path) {
+        Err(KamiError::Parse {
+            path: p,
+            line,
+            col,
+            message,
+        }) => {
+            assert!(p.ends_with("latin1.ron"), "{p}");
+            assert_eq!((line, col), (6, 21), "{message}");
+            assert!(
+                message.contains("0xff") && message.contains(&format!("offset {at}")),
+                "{message}"
+            );
+        }
+        other => panic!("expected a parse error, got {other:?}"),
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// 100,000 nested brackets are a parse error, not a stack overflow; run on a 256 KiB stack so
+/// the test does not lean on the main thread's large one.
+#[test]
+fn deep_nesting_is_an_error_not_a_stack_overflow() {
+    const N: usize = 100_000;
+    let deep = |open: &str| open.repeat(N);
+    let cases = [
+        deep("("),
+        deep("["),
+        deep("{"),
+        format!("Scene({}", deep("(")),
+        GOOD.replacen(
+            "    ],\n)",
+            &format!("    ],\n    dynamics: {}", deep("Some(")),
+            1,
+        ),
+        with("phi: (-180.0, 180.0)", &format!("phi: {}", deep("("))),
+        with("rigidity: 50.0,", &format!("rigidity: {}", deep("["))),
+        with(
+            "rigidity: 50.0,",
+            &format!(
+                "rigidity: 50.0, loads: {}",
+                deep("[Uniform(force: (1.0, 0.0, 0.0), region: ")
+            ),
+        ),
+        // Unknown fields of struct variants were once skipped by parsing any value, the one
+        // place where ron follows nesting that the scene types do not bound.
+        with(
+            "rigidity: 50.0,",
+            &format!(
+                "rigidity: 50.0, direction: Blend(dir: (1.0, 0.0, 0.0), weight: 0.5, x: {}",
+                deep("(")
+            ),
+        ),
+    ];
+    let worker = std::thread::Builder::new()
+        .stack_size(256 * 1024)
+        .spawn(move || {
+            cases
+                .iter()
+                .map(|text| Scene::from_ron(text, "deep.ron"))
+                .collect::<Vec<_>>()
+        })
+        .unwrap();
+    for result in worker.join().expect("the parser thread died") {
+        match result {
+            Err(KamiError::Parse { path, .. }) => assert_eq!(path, "deep.ron"),
+            other => panic!("expected a parse error, got {other:?}"),
+        }
+    }
+}
+
+/// A misspelt optional field of a struct variant is an error, not silently its default.
+#[test]
+fn unknown_fields_of_variants_are_refused() {
+    for (to, name) in [
+        ("bending: Converged(max_iteration: 10),", "max_iteration"),
+        ("direction: Blend(dir: (1.0, 0.0, 0.0), weight: 0.5, wieght: 0.1),", "wieght"),
+        ("loads: [Uniform(force: (1.0, 0.0, 0.0), regions: [Above(0.0)])],", "regions"),
+        ("loads: [Toward(point: (1.0, 0.0, 0.0), strength: 1.0, strenght: 2.0)],", "strenght"),
+        ("loads: [Uniform(force: (1.0, 0.0, 0.0), region: [HalfSpace(normal: (1.0, 0.0, 0.0), offset: 0.0, ofset: 1.0)])],", "ofset"),
+        ("cuts: [Cut(rule: Near(center: (0.0, 0.0, 0.0), radius: 1.0, radus: 2.0))],", "radus"),
+    ] {
+        let text = with("rigidity: 50.0,", &format!("rigidity: 50.0, {to}"));
+        match Scene::from_ron(&text, "typo.ron") {
+            Err(e @ KamiError::Parse { .. }) => assert!(e.to_string().contains(name), "{e}"),
+            other => panic!("expected a parse error for {to}, got {other:?}"),
+        }
+    }
+}
+
+/// A fur scene using every block, each with a valid value to break one at a time.
+const FUR: &str = r#"Scene(
+    fur: Some(Fur(
+        mesh: Critter,
+        size: Some(2.0),
+        hairs: 1000,
+        length: 0.3,
+        regions: [Region(center: (0.0, 0.0, 0.0), radius: 0.5, length_scale: 2.0, direction: Some((0.0, -1.0, 0.0)))],
+        direction: (-1.0, 0.0, 0.0),
+        up: (0.0, 1.0, 0.0),
+        coats: [Coat(share: 1.0, relative_length: 1.0, stiffness: 0.5, normal_randomize: 0.5, end_randomize: 0.1, direction_weight: 0.3, material: FurMaterial(ambient: (0.1, 0.1, 0.1), diffuse: (0.3, 0.1, 0.0), specular: (0.6, 0.6, 0.6), shininess: 16.0, width: 0.004))],
+        culling: Culling(enabled: true, full_distance: Some(5.0)),
+        motion: Some(MeshMotion(amplitude: 0.1, wavelength: 4.0, period: 24.0, axis: (1.0, 0.0, 0.0), direction: (0.0, 1.0, 0.0))),
+        skin: (0.45, 0.33, 0.25),
+    )),
+)"#;
+
+/// Every fur field refuses NaN, infinities, zero, negative or absurd values, naming itself.
+#[test]
+fn every_fur_field_names_itself() {
+    let region = "Region(center: (0.0, 0.0, 0.0), radius: 0.5, length_scale: 2.0, direction: Some((0.0, -1.0, 0.0)))";
+    let coat = "Coat(share: 1.0, relative_length: 1.0, stiffness: 0.5, normal_randomize: 0.5, end_randomize: 0.1, direction_weight: 0.3, material: FurMaterial(ambient: (0.1, 0.1, 0.1), diffuse: (0.3, 0.1, 0.0), specular: (0.6, 0.6, 0.6), shininess: 16.0, width: 0.004))";
+    let many = |item: &str, n: usize| vec![item; n].join(", ");
+    #[rustfmt::skip]
+    let cases: Vec<(&str, String, &str)> = vec![
+        ("mesh: Critter", "mesh: File(\"  \")".into(), "fur.mesh"),
+        ("mesh: Critter", "mesh: CgalDemo(\"../x.off\")".into(), "fur.mesh"),
+        ("size: Some(2.0)", "size: Some(0.0)".into(), "fur.size"),
+        ("size: Some(2.0)", "size: Some(NaN)".into(), "fur.size"),
+        ("size: Some(2.0)", "size: Some(1e300)".into(), "fur.size"),
+        ("hairs: 1000", "hairs: 0".into(), "fur.hairs"),
+        ("hairs: 1000", "hairs: 4000001".into(), "fur.hairs"),
+        ("hairs: 1000", "hairs: 4294967295".into(), "fur.hairs"),
+        ("length: 0.3", "length: 0.0".into(), "fur.length"),
+        ("length: 0.3", "length: -0.3".into(), "fur.length"),
+        ("length: 0.3", "length: NaN".into(), "fur.length"),
+        ("length: 0.3", "length: inf".into(), "fur.length"),
+        ("length: 0.3", "length: 1e7".into(), "fur.length"),
+        ("center: (0.0, 0.0, 0.0)", "center: (NaN, 0.0, 0.0)".into(), "fur.regions[0].center[0]"),
+        ("center: (0.0, 0.0, 0.0)", "center: (0.0, 0.0, -1e9)".into(), "fur.regions[0].center[2]"),
+        ("radius: 0.5", "radius: 0.0".into(), "fur.regions[0].radius"),
+        ("radius: 0.5", "radius: -1.0".into(), "fur.regions[0].radius"),
+        ("radius: 0.5", "radius: NaN".into(), "fur.regions[0].radius"),
+        ("length_scale: 2.0", "length_scale: -1.0".into(), "fur.regions[0].length_scale"),
+        ("length_scale: 2.0", "length_scale: 101.0".into(), "fur.regions[0].length_scale"),
+        ("length_scale: 2.0", "length_scale: NaN".into(), "fur.regions[0].length_scale"),
+        ("direction: Some((0.0, -1.0, 0.0))", "direction: Some((0.0, 0.0, 0.0))".into(), "fur.regions[0].direction"),
+        ("direction: Some((0.0, -1.0, 0.0))", "direction: Some((0.0, inf, 0.0))".into(), "fur.regions[0].direction[1]"),
+        // Scale 1, so that only the count refuses them.
+        (region, many(&region.replace("length_scale: 2.0", "length_scale: 1.0"), 65), "fur.regions"),
+        // Overlapping regions multiply: 0.3 x 100^4 is 3e7.
+        (region, many(&region.replace("length_scale: 2.0", "length_scale: 100.0").replace(", direction: Some((0.0, -1.0, 0.0))", ""), 4), "fur.regions"),
+        ("direction: (-1.0, 0.0, 0.0)", "direction: (0.0, 0.0, 0.0)".into(), "fur.direction"),
+        ("direction: (-1.0, 0.0, 0.0)", "direction: (NaN, 0.0, 0.0)".into(), "fur.direction[0]"),
+        ("up: (0.0, 1.0, 0.0)", "up: (0.0, 0.0, 0.0)".into(), "fur.up"),
+        ("up: (0.0, 1.0, 0.0)", "up: (0.0, 1e10, 0.0)".into(), "fur.up[1]"),
+        (coat, String::new(), "fur.coats"),
+        (coat, many(coat, 5), "fur.coats"),
+        ("share: 1.0", "share: 0.0".into(), "fur.coats[0].share"),
+        ("share: 1.0", "share: -1.0".into(), "fur.coats[0].share"),
+        ("share: 1.0", "share: NaN".into(), "fur.coats[0].share"),
+        ("relative_length: 1.0", "relative_length: 0.0".into(), "fur.coats[0].relative_length"),
+        ("relative_length: 1.0", "relative_length: 101.0".into(), "fur.coats[0].relative_length"),
+        ("stiffness: 0.5", "stiffness: 1.5".into(), "fur.coats[0].stiffness"),
+        ("stiffness: 0.5", "stiffness: NaN".into(), "fur.coats[0].stiffness"),
+        ("normal_randomize: 0.5", "normal_randomize: -0.1".into(), "fur.coats[0].normal_randomize"),
+        ("end_randomize: 0.1", "end_randomize: 3.0".into(), "fur.coats[0].end_randomize"),
+        ("direction_weight: 0.3", "direction_weight: 2.0".into(), "fur.coats[0].direction_weight"),
+        ("ambient: (0.1, 0.1, 0.1)", "ambient: (-1.0, 0.1, 0.1)".into(), "fur.coats[0].material.ambient[0]"),
+        ("diffuse: (0.3, 0.1, 0.0)", "diffuse: (0.3, 11.0, 0.0)".into(), "fur.coats[0].material.diffuse[1]"),
+        ("specular: (0.6, 0.6, 0.6)", "specular: (0.6, 0.6, NaN)".into(), "fur.coats[0].material.specular[2]"),
+        ("shininess: 16.0", "shininess: -1.0".into(), "fur.coats[0].material.shininess"),
+        ("shininess: 16.0", "shininess: 1e5".into(), "fur.coats[0].material.shininess"),
+        ("width: 0.004", "width: 0.0".into(), "fur.coats[0].material.width"),
+        ("width: 0.004", "width: inf".into(), "fur.coats[0].material.width"),
+        ("full_distance: Some(5.0)", "full_distance: Some(0.0)".into(), "fur.culling.full_distance"),
+        ("full_distance: Some(5.0)", "full_distance: Some(-5.0)".into(), "fur.culling.full_distance"),
+        ("full_distance: Some(5.0)", "full_distance: Some(NaN)".into(), "fur.culling.full_distance"),
+        ("full_distance: Some(5.0)", "full_distance: Some(inf)".into(), "fur.culling.full_distance"),
+        ("amplitude: 0.1", "amplitude: NaN".into(), "fur.motion.amplitude"),
+        ("amplitude: 0.1", "amplitude: -1e7".into(), "fur.motion.amplitude"),
+        ("wavelength: 4.0", "wavelength: 0.0".into(), "fur.motion.wavelength"),
+        ("wavelength: 4.0", "wavelength: 1e-300".into(), "fur.motion.wavelength"),
+        ("wavelength: 4.0", "wavelength: NaN".into(), "fur.motion.wavelength"),
+        ("period: 24.0", "period: 0.0".into(), "fur.motion.period"),
+        ("period: 24.0", "period: -24.0".into(), "fur.motion.period"),
+        ("period: 24.0", "period: inf".into(), "fur.motion.period"),
+        ("axis: (1.0, 0.0, 0.0)", "axis: (0.0, 0.0, 0.0)".into(), "fur.motion.axis"),
+        ("direction: (0.0, 1.0, 0.0))", "direction: (0.0, 0.0, 0.0))".into(), "fur.motion.direction"),
+        ("skin: (0.45, 0.33, 0.25)", "skin: (2.0, 0.33, 0.25)".into(), "fur.skin[0]"),
+    ];
+    Scene::from_ron(FUR, "fur.ron").expect("the fur template is valid");
+    for (from, to, field) in &cases {
+        assert!(FUR.contains(from), "{from} not in the fur template");
+        let text = FUR.replacen(from, to, 1);
+        let (f, value, allowed) = invalid(&text);
+        assert_eq!(&f, field, "for {to}");
+        assert!(!value.is_empty() && !allowed.is_empty(), "for {to}");
+    }
+    // Fur and hair together beyond the strand cap: the error names both.
+    let both = FUR.replacen("hairs: 1000", "hairs: 4000000", 1).replacen(
+        "    fur: Some(",
+        "    groups: [HairGroup(roots: Roots(theta: (3.0, 60.0), phi: (-180.0, 180.0)), count: 100, segments: 10, length: 12.0, rigidity: 50.0)],\n    fur: Some(",
+        1,
+    );
+    assert_eq!(invalid(&both).0, "groups[..].count + fur.hairs");
+    // Culling and motion are plain values too: a wrong type is a parse error naming the place.
+    for to in [
+        "culling: Culling(enabled: 1,",
+        "culling: Culling(enabld: true,",
+    ] {
+        let text = FUR.replacen("culling: Culling(enabled: true,", to, 1);
+        let e = Scene::from_ron(&text, "fur.ron").unwrap_err();
+        assert!(matches!(e, KamiError::Parse { line: 11, .. }), "{e}");
+    }
+}

@@ -1,7 +1,9 @@
 //! Scene files: what to show. A scene is a RON file (`assets/scenes/*.ron`) naming the head
 //! ellipsoid, the hair groups with their pores, loads, cuts and looks, and the camera and
 //! light. `load` parses it and `validate` checks every number before anything reaches the GPU,
-//! so a bad file fails with the field, the value and the allowed range.
+//! so a bad file fails with the field, the value and the allowed range. Every struct and
+//! struct variant denies unknown fields: a misspelt optional field is an error, not silently
+//! its default.
 //!
 //! Coordinates follow Anjyo's Fig. 5(a): the face looks along +x, y is up, z is to the
 //! head's left. Polar angles on an ellipsoid: the zenith `theta` is measured from +y (0 at
@@ -188,6 +190,7 @@ pub struct EllipsoidDesc {
 
 /// The unloaded hair direction at the pore.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum Direction {
     /// Along the hull normal: hair "stands radially" (Anjyo Fig. 4a).
     #[default]
@@ -198,6 +201,7 @@ pub enum Direction {
 
 /// How the cantilever is bent.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum Bending {
     /// Anjyo's eqs 1-3: one root-to-tip pass, moments from straight-beam lever arms.
     #[default]
@@ -222,6 +226,7 @@ fn default_tolerance() -> f64 {
 
 /// A combing force per unit length, applied to segments inside all of its regions.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum Load {
     /// The same force everywhere in the region.
     Uniform {
@@ -249,6 +254,7 @@ impl Load {
 /// A half-space. `Above(y)` is the paper's "higher than the eyes"; `HalfSpace` the
 /// "positive z region" (normal (0,0,1), offset 0).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum Region {
     Above(f64),
     Below(f64),
@@ -289,6 +295,7 @@ pub struct Cut {
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum CutRule {
     /// Hide nodes lower than `y` (the paper's threshold along the vertical).
     Below(f64),
@@ -484,24 +491,36 @@ impl Default for RenderSettings {
 impl Scene {
     /// Parse and validate a scene from RON text; `origin` names it in errors.
     pub fn from_ron(text: &str, origin: &str) -> Result<Scene> {
-        let scene: Scene = ron::from_str(text).map_err(|e| KamiError::Parse {
-            path: origin.to_string(),
-            line: e.span.start.line,
-            col: e.span.start.col,
-            message: e.code.to_string(),
-        })?;
+        let scene: Scene = ron_options()
+            .from_str(text)
+            .map_err(|e| parse_error(e, origin))?;
         validate(&scene)?;
         Ok(scene)
+    }
+
+    /// `from_ron` on raw bytes: text that is not UTF-8 is refused with the place of the first
+    /// bad byte.
+    pub fn from_bytes(bytes: &[u8], origin: &str) -> Result<Scene> {
+        let text = std::str::from_utf8(bytes).map_err(|e| utf8_error(bytes, e, origin))?;
+        Scene::from_ron(text, origin)
     }
 
     /// Read, parse and validate a scene file.
     pub fn load(path: impl AsRef<Path>) -> Result<Scene> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|source| KamiError::Io {
+        let io = |source| KamiError::Io {
             path: path.to_path_buf(),
             source,
-        })?;
-        let mut scene = Scene::from_ron(&text, &path.display().to_string())?;
+        };
+        // Reading a directory fails only at the first read, as a bare "Is a directory".
+        if std::fs::metadata(path).is_ok_and(|m| m.is_dir()) {
+            return Err(io(std::io::Error::new(
+                std::io::ErrorKind::IsADirectory,
+                "it is a directory, not a scene file",
+            )));
+        }
+        let bytes = std::fs::read(path).map_err(io)?;
+        let mut scene = Scene::from_bytes(&bytes, &path.display().to_string())?;
         // A fur mesh named relative to the scene file.
         if let Some(fur::Fur {
             mesh: fur::MeshSource::File(m),
@@ -547,6 +566,49 @@ impl Scene {
                 (hair.0 + f.hairs as u64, hair.1 + segs.round() as u64)
             }
         }
+    }
+}
+
+/// Deepest bracket nesting a scene may use (the deepest real one is about 8).
+pub const MAX_NESTING: usize = 64;
+
+/// ron as scenes are read. The nesting limit is set here, not left to ron's default, because
+/// deep nesting must stay an error and never become a stack overflow (tests/bad_input.rs nests
+/// 100,000 deep on a small stack).
+fn ron_options() -> ron::Options {
+    ron::Options::default().with_recursion_limit(MAX_NESTING)
+}
+
+/// A ron error with its place; ron's advice on its recursion limit is for programmers.
+fn parse_error(e: ron::error::SpannedError, origin: &str) -> KamiError {
+    KamiError::Parse {
+        path: origin.to_string(),
+        line: e.span.start.line,
+        col: e.span.start.col,
+        message: match e.code {
+            ron::Error::ExceededRecursionLimit => {
+                format!("brackets nested deeper than {MAX_NESTING} levels")
+            }
+            code => code.to_string(),
+        },
+    }
+}
+
+/// A scene that is not UTF-8: the place of the first bad byte (std says only "stream did not
+/// contain valid UTF-8"). Columns count characters, as ron's do.
+fn utf8_error(bytes: &[u8], e: std::str::Utf8Error, origin: &str) -> KamiError {
+    let at = e.valid_up_to();
+    // The prefix is valid by definition.
+    let before = std::str::from_utf8(&bytes[..at]).unwrap_or_default();
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    KamiError::Parse {
+        path: origin.to_string(),
+        line: before.matches('\n').count() + 1,
+        col: before[line_start..].chars().count() + 1,
+        message: format!(
+            "byte 0x{:02x} at byte offset {at} is not valid UTF-8: scene files are UTF-8 text",
+            bytes[at]
+        ),
     }
 }
 
@@ -776,4 +838,30 @@ pub struct Fluctuation {
 
 fn ten() -> u32 {
     10
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The scene types bound their own nesting, so ron's limit is reached only through
+    /// untyped values: parse one to see the limit hold and the message name it.
+    #[test]
+    fn the_nesting_limit_is_a_parse_error_with_a_plain_message() {
+        let deep = "[".repeat(100_000);
+        let e = ron_options().from_str::<ron::Value>(&deep).unwrap_err();
+        match parse_error(e, "deep.ron") {
+            KamiError::Parse {
+                path,
+                line,
+                col,
+                message,
+            } => {
+                assert_eq!((path.as_str(), line), ("deep.ron", 1));
+                assert!(col > 1 && col <= MAX_NESTING + 2, "{col}: {message}");
+                assert!(message.contains("nested deeper than 64"), "{message}");
+            }
+            other => panic!("expected a parse error, got {other:?}"),
+        }
+    }
 }

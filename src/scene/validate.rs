@@ -96,6 +96,9 @@ fn phi_range(field: &str, r: (f64, f64)) -> Result<()> {
 
 const BIG: f64 = 1e6;
 
+/// Most fur regions: each vertex is tested against every region.
+const MAX_FUR_REGIONS: usize = 64;
+
 /// Check every field of a parsed scene.
 pub fn validate(s: &Scene) -> Result<()> {
     vec3("head.center", s.head.center, BIG)?;
@@ -118,7 +121,11 @@ pub fn validate(s: &Scene) -> Result<()> {
     let (strands, _) = s.counts();
     if strands > MAX_STRANDS {
         return Err(bad(
-            "groups[..].count",
+            if s.fur.is_some() {
+                "groups[..].count + fur.hairs"
+            } else {
+                "groups[..].count"
+            },
             strands,
             &format!("the total must be at most {MAX_STRANDS} hairs"),
         ));
@@ -474,10 +481,22 @@ fn validate_fur(f: &fur::Fur) -> Result<()> {
     if let Some(size) = f.size {
         positive("fur.size", size, BIG)?;
     }
-    if f.hairs == 0 || f.hairs > 20_000_000 {
-        return Err(bad("fur.hairs", f.hairs, "must be in [1, 20000000]"));
+    // Above the scene's strand cap the total check would blame the hair groups instead.
+    if f.hairs == 0 || u64::from(f.hairs) > MAX_STRANDS {
+        return Err(bad(
+            "fur.hairs",
+            f.hairs,
+            &format!("must be in [1, {MAX_STRANDS}]"),
+        ));
     }
     positive("fur.length", f.length, BIG)?;
+    if f.regions.len() > MAX_FUR_REGIONS {
+        return Err(bad(
+            "fur.regions",
+            f.regions.len(),
+            &format!("at most {MAX_FUR_REGIONS} regions"),
+        ));
+    }
     for (i, r) in f.regions.iter().enumerate() {
         vec3(&format!("fur.regions[{i}].center"), r.center, BIG)?;
         positive(&format!("fur.regions[{i}].radius"), r.radius, BIG)?;
@@ -526,12 +545,32 @@ fn validate_fur(f: &fur::Fur) -> Result<()> {
         )?;
         positive(&format!("{p}.material.width"), m.width, BIG)?;
     }
+    // Overlapping regions multiply their length scales: bound the longest hair that can
+    // result, or it overflows f32 on the GPU (64 regions of scale 100 alone give 1e128).
+    let grow: f64 = f.regions.iter().map(|r| r.length_scale.max(1.0)).product();
+    let coat_len = f
+        .coats
+        .iter()
+        .map(|c| c.relative_length)
+        .fold(0.0, f64::max);
+    let longest = f.length * grow * coat_len;
+    if longest > BIG {
+        return Err(bad(
+            "fur.regions",
+            format!("a longest hair of {longest:e}"),
+            &format!(
+                "fur.length x the regions' length_scale (multiplied where they overlap) x the \
+                 largest coat relative_length must be at most {BIG:e}"
+            ),
+        ));
+    }
     if let Some(d) = f.culling.full_distance {
         positive("fur.culling.full_distance", d, BIG)?;
     }
     if let Some(m) = &f.motion {
         within("fur.motion.amplitude", m.amplitude, -BIG, BIG)?;
-        positive("fur.motion.wavelength", m.wavelength, BIG)?;
+        // The GPU gets 2 pi / wavelength as f32: below ~1e-38 that is infinite.
+        within("fur.motion.wavelength", m.wavelength, 1e-6, BIG)?;
         positive("fur.motion.period", m.period, 1e9)?;
         nonzero("fur.motion.axis", m.axis)?;
         nonzero("fur.motion.direction", m.direction)?;
