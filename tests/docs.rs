@@ -2,8 +2,8 @@
 //! blocks marked `<!-- quote FILE -->` … `<!-- end quote -->`, and each such block must appear
 //! line for line, in order and unbroken, in FILE (a report under `docs/` that a bench wrote,
 //! whose first lines name the command and the machine). Regenerate a report with the command
-//! in its first line, then copy the changed lines into the README; this test says which block
-//! no longer matches.
+//! in its first line, then `scripts/quote-docs.py` copies the changed lines into the README;
+//! this test says which block no longer matches.
 
 mod common;
 
@@ -63,8 +63,8 @@ fn readme_quotes_match_the_reports() {
             .any(|w| w.iter().zip(&body).all(|(a, b)| a == b));
         assert!(
             found,
-            "README.md:{at}: the quoted block is not in {file} as written (regenerated? copy \
-             the new lines):\n{}",
+            "README.md:{at}: the quoted block is not in {file} as written (regenerated? run \
+             scripts/quote-docs.py):\n{}",
             body.join("\n")
         );
     }

@@ -1155,3 +1155,43 @@ fn off_size_message_is_one_sentence() {
     assert!(msg.contains("the whole file is 2"), "{msg}");
     assert!(!msg.contains("  "), "{msg}");
 }
+
+/// Normals from a file are unit vectors whatever their scale: (0, 0, 1e308) squares to
+/// infinity and used to come out as zero (found by the fuzzer).
+#[test]
+fn huge_file_normals_keep_their_direction() {
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty double x\nproperty double y\n\
+property double z\nproperty double nx\nproperty double ny\nproperty double nz\nelement face 1\n\
+property list char int vertex_index\nend_header\n0 0 0 0 0 1\n1 0 0 0 0 1e308\n0 1 0 0 0 1\n3 0 1 2\n";
+    let m = Mesh::from_ply(ply.as_bytes(), "huge_normal.ply").unwrap();
+    for n in &m.normals {
+        assert!((*n - DVec3::Z).length() < 1e-12, "normal {n}");
+    }
+}
+
+/// Texture and normal indices that refer to nothing are refused with the line (tobj 4.0.5
+/// overflowed on them: a panic in debug builds; found by the fuzzer).
+#[test]
+fn obj_texture_and_normal_indices_out_of_range_are_refused() {
+    for (obj, says) in [
+        ("v 1 0 1\nvn 0 0 1\nf 1//-7 1 3\n", "normal index -7"),
+        (
+            "v 1 1 0\nv 1 1 0\nv 1 1 0\nvt 0 1\nf 1 2 3/-4\n",
+            "texture coordinate index -4",
+        ),
+        ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n", "vertex index 9"),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//9223372036854775807\n",
+            "normal index 9223372036854775807",
+        ),
+    ] {
+        let msg = Mesh::from_obj(obj, "bad.obj").unwrap_err().to_string();
+        assert!(
+            msg.contains("bad.obj:") && msg.contains(says),
+            "{obj:?}: {msg}"
+        );
+    }
+    // Relative indices that exist, and texture indices in a file without any, still load.
+    let ok = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf -3//-1 -2//-1 -1//-1\nf 1/5 2/5 3/5\n";
+    assert_eq!(Mesh::from_obj(ok, "ok.obj").unwrap().triangles.len(), 2);
+}

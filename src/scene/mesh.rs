@@ -41,6 +41,16 @@ const MAX_FILE_BYTES: u64 = 4 << 30;
 /// Coordinates beyond this would overflow areas and normals (products of three).
 const MAX_COORD: f64 = 1e100;
 
+/// `v` as a unit vector, scaled by its largest component first so that neither 1e308 (whose
+/// squared length overflows) nor 1e-200 (which underflows) loses its direction; None for a
+/// zero or non-finite vector.
+fn unit(v: DVec3) -> Option<DVec3> {
+    let m = v.abs().max_element();
+    (m.is_finite() && m > 0.0)
+        .then(|| (v / m).normalize())
+        .filter(|u| u.is_finite())
+}
+
 fn err(path: &str, line: Option<usize>, message: impl Into<String>) -> KamiError {
     KamiError::Mesh {
         path: path.to_string(),
@@ -172,17 +182,14 @@ impl Mesh {
         let computed = vertex_normals(&positions, &triangles);
         let mut flipped_normals = 0;
         let normals = match normals {
-            Some(n)
-                if n.len() == positions.len()
-                    && n.iter().all(|v| v.is_finite() && v.length() > 1e-12) =>
-            {
+            Some(n) if n.len() == positions.len() && n.iter().all(|v| unit(*v).is_some()) => {
                 // The file's normals keep their smoothing, but on a closed component they
                 // must agree with the outward faces, or the fur would grow inwards.
                 n.into_iter()
                     .zip(&computed)
                     .zip(&closed.vertices)
                     .map(|((v, c), &on_closed)| {
-                        let v = v.normalize();
+                        let v = unit(v).unwrap_or(*c);
                         if on_closed && v.dot(*c) < 0.0 {
                             flipped_normals += 1;
                             -v
@@ -242,6 +249,7 @@ impl Mesh {
             })
             .collect::<Vec<_>>()
             .join("\n");
+        obj_indices_in_range(&surfaces, name)?;
         let (models, _) = tobj::load_obj_buf(&mut surfaces.as_bytes(), &opts, |_| {
             Err(tobj::LoadError::OpenFileFailed)
         })
@@ -680,6 +688,62 @@ fn ply_header_fits(bytes: &[u8], name: &str) -> Result<()> {
                      follow the header (they and the elements before them need at least {need})"
                 ),
             ));
+        }
+    }
+    Ok(())
+}
+
+/// Every face index (vertex, texture, normal) refers to an element that exists: tobj 4.0.5
+/// multiplies huge or far-relative texture and normal indices before checking them, which
+/// panics on overflow (debug builds) or reads the wrong element. Relative (negative) indices
+/// count back from the elements defined so far; absolute ones may point anywhere in the file.
+fn obj_indices_in_range(text: &str, name: &str) -> Result<()> {
+    let mut totals = [0i64; 3];
+    for line in text.lines() {
+        match line.split_whitespace().next() {
+            Some("v") => totals[0] += 1,
+            Some("vt") => totals[1] += 1,
+            Some("vn") => totals[2] += 1,
+            _ => {}
+        }
+    }
+    let mut seen = [0i64; 3];
+    for (i, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("v") => seen[0] += 1,
+            Some("vt") => seen[1] += 1,
+            Some("vn") => seen[2] += 1,
+            Some("f") => {
+                for corner in words {
+                    for (k, part) in corner.split('/').enumerate().take(3) {
+                        let Ok(idx) = part.parse::<i64>() else {
+                            continue; // empty (v//vn) or malformed: tobj names those
+                        };
+                        if k > 0 && totals[k] == 0 {
+                            continue; // tobj ignores texture and normal indices then
+                        }
+                        let ok = if idx < 0 {
+                            idx.checked_neg().is_some_and(|b| b <= seen[k])
+                        } else {
+                            idx >= 1 && idx <= totals[k]
+                        };
+                        if !ok {
+                            let what = ["vertex", "texture coordinate", "normal"][k];
+                            return Err(err(
+                                name,
+                                Some(i + 1),
+                                format!(
+                                    "face corner {corner:?}: {what} index {idx} refers to no {what} \
+                                     ({} defined before this line, {} in the file)",
+                                    seen[k], totals[k]
+                                ),
+                            ));
+                        }
+                    }
+                }
+            }
+            _ => {}
         }
     }
     Ok(())
