@@ -23,9 +23,14 @@ pub enum KamiError {
         message: String,
     },
 
-    /// A value that parsed but is not allowed.
-    #[error("invalid scene: `{field}` = {value}: {allowed}")]
+    /// A value that parsed but is not allowed; `file` names the scene file when it came
+    /// from one (empty for scenes built in code).
+    #[error(
+        "invalid scene{}: `{field}` = {value}: {allowed}",
+        if file.is_empty() { String::new() } else { format!(" {file}") }
+    )]
     Invalid {
+        file: String,
         field: String,
         value: String,
         allowed: String,

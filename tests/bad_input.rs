@@ -20,10 +20,14 @@ const GOOD: &str = r#"Scene(
 fn invalid(text: &str) -> (String, String, String) {
     match Scene::from_ron(text, "test.ron") {
         Err(KamiError::Invalid {
+            file,
             field,
             value,
             allowed,
-        }) => (field, value, allowed),
+        }) => {
+            assert_eq!(file, "test.ron", "a validation error names the scene file");
+            (field, value, allowed)
+        }
         other => panic!("expected Invalid, got {other:?}"),
     }
 }
@@ -106,6 +110,7 @@ fn out_of_range_values_name_the_field() {
         assert_eq!(f, field, "for {to}");
         assert!(!value.is_empty() && !allowed.is_empty());
         let shown = KamiError::Invalid {
+            file: String::new(),
             field: f,
             value,
             allowed,

@@ -58,6 +58,7 @@ impl Timed {
         self.stage
             .system_mut::<FurSystem>()
             .ok_or_else(|| crate::KamiError::Invalid {
+                file: String::new(),
                 field: "fur".into(),
                 value: "None".into(),
                 allowed: "a fur scene".into(),

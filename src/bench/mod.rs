@@ -795,6 +795,7 @@ pub fn dynamics(gpu: &Gpu, gust_path: &Path, out: &Path) -> Result<Report> {
 /// The error for a benchmark scene without a dynamic hair group.
 fn no_dynamics(path: &Path) -> crate::KamiError {
     crate::KamiError::Invalid {
+        file: String::new(),
         field: format!("{}: dynamics", path.display()),
         value: "none".into(),
         allowed: "a scene with a `dynamics: Some(Dynamics(...))` block and a dynamic hair group (e.g. assets/scenes/gust.ron)".into(),
@@ -818,6 +819,7 @@ pub fn convergence(gust_path: &Path, case: &str, spfs: &[u32]) -> Result<Vec<(f6
         .into_iter()
         .find(|(n, _)| n == case)
         .ok_or_else(|| crate::KamiError::Invalid {
+            file: String::new(),
             field: "case".into(),
             value: case.into(),
             allowed: "a configuration of `kami bench dynamics`".into(),

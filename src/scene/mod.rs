@@ -494,7 +494,20 @@ impl Scene {
         let scene: Scene = ron_options()
             .from_str(text)
             .map_err(|e| parse_error(e, origin))?;
-        validate(&scene)?;
+        validate(&scene).map_err(|e| match e {
+            KamiError::Invalid {
+                field,
+                value,
+                allowed,
+                ..
+            } => KamiError::Invalid {
+                file: origin.to_string(),
+                field,
+                value,
+                allowed,
+            },
+            other => other,
+        })?;
         Ok(scene)
     }
 

@@ -14,6 +14,7 @@ pub const MAX_SIZE: u32 = 16384;
 
 fn bad(field: &str, value: impl std::fmt::Display, allowed: &str) -> KamiError {
     KamiError::Invalid {
+        file: String::new(),
         field: field.to_string(),
         value: value.to_string(),
         allowed: allowed.to_string(),

@@ -203,6 +203,7 @@ pub fn prepare(scene: &Scene) -> Result<GroomInput> {
                 tries += 1;
                 if tries > 1_000_000 {
                     return Err(KamiError::Invalid {
+                        file: String::new(),
                         field: format!("groups[{gi}].roots"),
                         value: format!("{:?}", g.roots.theta),
                         allowed: "the polar range and hairline leave (almost) no area for pores"

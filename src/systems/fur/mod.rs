@@ -128,6 +128,7 @@ impl FurSystem {
             .fur
             .as_ref()
             .ok_or_else(|| crate::KamiError::Invalid {
+                file: String::new(),
                 field: "fur".into(),
                 value: "None".into(),
                 allowed: "a fur block (the fur system is built only for scenes with fur)".into(),
