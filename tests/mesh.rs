@@ -1,6 +1,9 @@
 //! Mesh loading for fur: OBJ, OFF and PLY, normals computed where missing, awkward but valid
 //! meshes accepted, malformed files refused with the place they broke (never a panic).
 
+mod common;
+
+use common::{off_text as off, uv_sphere as sphere};
 use glam::DVec3;
 use kami::error::KamiError;
 use kami::scene::mesh::{vertex_normals, Mesh};
@@ -841,58 +844,10 @@ fn ply_faces_with_bad_indices_are_named() {
 
 // Winding: closed components are turned outwards, open ones left alone.
 
-/// A UV sphere with one vertex per pole, counter-clockwise seen from outside.
-fn sphere(centre: DVec3, r: f64, rings: u32, sectors: u32) -> (Vec<DVec3>, Vec<[u32; 3]>) {
-    let mut p = vec![centre + DVec3::Y * r];
-    for i in 1..rings {
-        let theta = std::f64::consts::PI * i as f64 / rings as f64;
-        for j in 0..sectors {
-            let phi = std::f64::consts::TAU * j as f64 / sectors as f64;
-            let u = DVec3::new(
-                theta.sin() * phi.cos(),
-                theta.cos(),
-                theta.sin() * phi.sin(),
-            );
-            p.push(centre + u * r);
-        }
-    }
-    p.push(centre - DVec3::Y * r);
-    let south = p.len() as u32 - 1;
-    let at = |i: u32, j: u32| 1 + (i - 1) * sectors + j % sectors;
-    let mut t = Vec::new();
-    for j in 0..sectors {
-        t.push([0, at(1, j + 1), at(1, j)]);
-        t.push([south, at(rings - 1, j), at(rings - 1, j + 1)]);
-        for i in 1..rings - 1 {
-            t.push([at(i, j), at(i, j + 1), at(i + 1, j)]);
-            t.push([at(i, j + 1), at(i + 1, j + 1), at(i + 1, j)]);
-        }
-    }
-    for tri in &t {
-        let [a, b, c] = tri.map(|i| p[i as usize]);
-        assert!(
-            (b - a).cross(c - a).dot(a - centre) > 0.0,
-            "the test sphere is inside out"
-        );
-    }
-    (p, t)
-}
-
 /// Every triangle reversed, rotated too (`[c, b, a]`), so a fix that only swaps two corners
 /// back is not what makes the sets equal.
 fn reversed(t: &[[u32; 3]]) -> Vec<[u32; 3]> {
     t.iter().map(|&[a, b, c]| [c, b, a]).collect()
-}
-
-fn off(p: &[DVec3], t: &[[u32; 3]]) -> String {
-    let mut s = format!("OFF\n{} {} 0\n", p.len(), t.len());
-    for v in p {
-        s += &format!("{} {} {}\n", v.x, v.y, v.z);
-    }
-    for f in t {
-        s += &format!("3 {} {} {}\n", f[0], f[1], f[2]);
-    }
-    s
 }
 
 /// Triangles as sets of oriented corner triples, each rotated to start at its smallest

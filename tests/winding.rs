@@ -8,41 +8,11 @@ mod common;
 use glam::DVec3;
 use kami::scene::fur::MeshSource;
 
-/// A UV sphere with one vertex per pole, counter-clockwise seen from outside, as OFF.
+/// The unit UV sphere of the mesh tests as OFF, every face passed through `reverse`.
 fn sphere_off(rings: u32, sectors: u32, reverse: impl Fn([u32; 3]) -> [u32; 3]) -> String {
-    let mut p = vec![DVec3::Y];
-    for i in 1..rings {
-        let theta = std::f64::consts::PI * i as f64 / rings as f64;
-        for j in 0..sectors {
-            let phi = std::f64::consts::TAU * j as f64 / sectors as f64;
-            p.push(DVec3::new(
-                theta.sin() * phi.cos(),
-                theta.cos(),
-                theta.sin() * phi.sin(),
-            ));
-        }
-    }
-    p.push(-DVec3::Y);
-    let south = p.len() as u32 - 1;
-    let at = |i: u32, j: u32| 1 + (i - 1) * sectors + j % sectors;
-    let mut t = Vec::new();
-    for j in 0..sectors {
-        t.push([0, at(1, j + 1), at(1, j)]);
-        t.push([south, at(rings - 1, j), at(rings - 1, j + 1)]);
-        for i in 1..rings - 1 {
-            t.push([at(i, j), at(i, j + 1), at(i + 1, j)]);
-            t.push([at(i, j + 1), at(i + 1, j + 1), at(i + 1, j)]);
-        }
-    }
-    let mut s = format!("OFF\n{} {} 0\n", p.len(), t.len());
-    for v in &p {
-        s += &format!("{} {} {}\n", v.x, v.y, v.z);
-    }
-    for f in t {
-        let [a, b, c] = reverse(f);
-        s += &format!("3 {a} {b} {c}\n");
-    }
-    s
+    let (p, t) = common::uv_sphere(DVec3::ZERO, 1.0, rings, sectors);
+    let t: Vec<[u32; 3]> = t.into_iter().map(reverse).collect();
+    common::off_text(&p, &t)
 }
 
 /// Share of pixels that are not background (the corner's colour): the sphere and its coat.

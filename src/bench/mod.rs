@@ -27,7 +27,8 @@ pub struct Report {
 pub const PAPER_GROOM_SECONDS: f64 = 50.0;
 pub const PAPER_GROOM_HAIRS: f64 = 20_000.0;
 
-fn cpu_name() -> String {
+/// The CPU model, for reports.
+pub fn cpu_name() -> String {
     std::fs::read_to_string("/proc/cpuinfo")
         .ok()
         .and_then(|s| {

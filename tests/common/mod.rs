@@ -2,6 +2,7 @@
 //! loading, and snapshot comparison with written-down tolerances.
 #![allow(dead_code)]
 
+use glam::DVec3;
 use kami::gpu::{Gpu, Preference};
 use std::path::{Path, PathBuf};
 
@@ -126,4 +127,53 @@ pub fn compare(
 /// Is a path under the repository (for messages).
 pub fn rel(p: &Path) -> String {
     p.strip_prefix(root()).unwrap_or(p).display().to_string()
+}
+
+/// A UV sphere (mesh and winding tests) with one vertex per pole, counter-clockwise seen from outside.
+pub fn uv_sphere(centre: DVec3, r: f64, rings: u32, sectors: u32) -> (Vec<DVec3>, Vec<[u32; 3]>) {
+    let mut p = vec![centre + DVec3::Y * r];
+    for i in 1..rings {
+        let theta = std::f64::consts::PI * i as f64 / rings as f64;
+        for j in 0..sectors {
+            let phi = std::f64::consts::TAU * j as f64 / sectors as f64;
+            let u = DVec3::new(
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin(),
+            );
+            p.push(centre + u * r);
+        }
+    }
+    p.push(centre - DVec3::Y * r);
+    let south = p.len() as u32 - 1;
+    let at = |i: u32, j: u32| 1 + (i - 1) * sectors + j % sectors;
+    let mut t = Vec::new();
+    for j in 0..sectors {
+        t.push([0, at(1, j + 1), at(1, j)]);
+        t.push([south, at(rings - 1, j), at(rings - 1, j + 1)]);
+        for i in 1..rings - 1 {
+            t.push([at(i, j), at(i, j + 1), at(i + 1, j)]);
+            t.push([at(i, j + 1), at(i + 1, j + 1), at(i + 1, j)]);
+        }
+    }
+    for tri in &t {
+        let [a, b, c] = tri.map(|i| p[i as usize]);
+        assert!(
+            (b - a).cross(c - a).dot(a - centre) > 0.0,
+            "the test sphere is inside out"
+        );
+    }
+    (p, t)
+}
+
+/// Positions and triangles as OFF text.
+pub fn off_text(p: &[DVec3], t: &[[u32; 3]]) -> String {
+    let mut s = format!("OFF\n{} {} 0\n", p.len(), t.len());
+    for v in p {
+        s += &format!("{} {} {}\n", v.x, v.y, v.z);
+    }
+    for f in t {
+        s += &format!("3 {} {} {}\n", f[0], f[1], f[2]);
+    }
+    s
 }
