@@ -15,6 +15,7 @@ pub mod fur;
 pub(crate) mod head;
 pub mod mesh;
 mod validate;
+pub mod wisps;
 
 pub use head::Ellipsoid;
 pub use validate::{validate, MAX_SEGMENTS, MAX_SIZE, MAX_STRANDS};
@@ -52,6 +53,9 @@ pub struct Scene {
     /// Fur on a triangle mesh (Van Gelder & Wilhelms).
     #[serde(default)]
     pub fur: Option<fur::Fur>,
+    /// Toon wisps (Sakai): skeletons drawn as a ray-marched blobby surface.
+    #[serde(default)]
+    pub wisps: Option<wisps::Wisps>,
 }
 
 fn default_gravity() -> [f64; 3] {

@@ -109,15 +109,18 @@ pub fn validate(s: &Scene) -> Result<()> {
     color("head.color", s.head.color, 1.0)?;
     vec3("gravity", s.gravity, 1e9)?;
 
-    if s.groups.is_empty() && s.fur.is_none() {
+    if s.groups.is_empty() && s.fur.is_none() && s.wisps.is_none() {
         return Err(bad(
             "groups",
             "[]",
-            "a scene needs at least one hair group, or fur",
+            "a scene needs at least one hair group, fur or wisps",
         ));
     }
     if let Some(f) = &s.fur {
         validate_fur(f)?;
+    }
+    if let Some(w) = &s.wisps {
+        validate_wisps(w)?;
     }
     let (strands, _) = s.counts();
     if strands > MAX_STRANDS {
@@ -577,5 +580,141 @@ fn validate_fur(f: &fur::Fur) -> Result<()> {
         nonzero("fur.motion.direction", m.direction)?;
     }
     color("fur.skin", f.skin, 1.0)?;
+    Ok(())
+}
+
+/// Most wisps in a scene and nodes per skeleton (the GPU keeps a wisp's spline solve in one
+/// invocation's registers).
+pub const MAX_WISPS: usize = 4096;
+pub const MAX_WISP_NODES: usize = 64;
+
+fn validate_wisps(w: &wisps::Wisps) -> Result<()> {
+    use wisps::Distance;
+    if w.skeletons.is_empty() {
+        return Err(bad("wisps.skeletons", "[]", "needs at least one skeleton"));
+    }
+    if w.skeletons.len() > MAX_WISPS {
+        return Err(bad(
+            "wisps.skeletons",
+            format!("{} skeletons", w.skeletons.len()),
+            &format!("at most {MAX_WISPS}"),
+        ));
+    }
+    positive("wisps.threshold", w.threshold, 1e3)?;
+    for (si, sk) in w.skeletons.iter().enumerate() {
+        let f = format!("wisps.skeletons[{si}].nodes");
+        if sk.nodes.len() < 2 {
+            return Err(bad(
+                &f,
+                format!("{} node(s)", sk.nodes.len()),
+                "a skeleton needs at least 2 nodes (a root and a tip)",
+            ));
+        }
+        if sk.nodes.len() > MAX_WISP_NODES {
+            return Err(bad(
+                &f,
+                format!("{} nodes", sk.nodes.len()),
+                &format!("at most {MAX_WISP_NODES}"),
+            ));
+        }
+        for (ni, n) in sk.nodes.iter().enumerate() {
+            vec3(&format!("{f}[{ni}].p"), n.p, BIG)?;
+            positive(&format!("{f}[{ni}].r"), n.r, BIG)?;
+            positive(&format!("{f}[{ni}].w"), n.w, BIG)?;
+            if ni > 0 {
+                let q = sk.nodes[ni - 1].p;
+                let d2: f64 = (0..3).map(|k| (n.p[k] - q[k]).powi(2)).sum();
+                let scale = n.r.min(sk.nodes[ni - 1].r);
+                if d2.sqrt() <= 1e-6 * scale.max(1e-9) {
+                    return Err(bad(
+                        &format!("{f}[{ni}].p"),
+                        format!("{:?}", n.p),
+                        &format!(
+                            "coincides with node {}: neighbouring nodes must differ",
+                            ni - 1
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    let t = &w.toon;
+    for (name, c) in [
+        ("diffuse", t.diffuse),
+        ("shade", t.shade),
+        ("dark", t.dark),
+        ("specular", t.specular),
+        ("outline", t.outline),
+    ] {
+        color(&format!("wisps.toon.{name}"), c, 1.0)?;
+    }
+    within("wisps.toon.t_diffuse", t.t_diffuse, 0.0, 1.0)?;
+    within("wisps.toon.t_dark", t.t_dark, 0.0, 1.0)?;
+    within("wisps.toon.t_specular", t.t_specular, -1.0, 1.0)?;
+    within("wisps.toon.outline_width", t.outline_width, 0.0, 32.0)?;
+    let m = &w.march;
+    if m.max_steps == 0 || m.max_steps > 4096 {
+        return Err(bad(
+            "wisps.march.max_steps",
+            m.max_steps,
+            "must be in [1, 4096]",
+        ));
+    }
+    if m.refine > 32 {
+        return Err(bad("wisps.march.refine", m.refine, "must be in [0, 32]"));
+    }
+    within("wisps.march.step_scale", m.step_scale, 0.05, 8.0)?;
+    if let Distance::Polyline { pieces } = m.distance {
+        if pieces == 0 || pieces > 64 {
+            return Err(bad(
+                "wisps.march.distance.pieces",
+                pieces,
+                "must be in [1, 64]",
+            ));
+        }
+    }
+    if let Some(sp) = &w.springs {
+        positive("wisps.springs.mass", sp.mass, BIG)?;
+        positive("wisps.springs.sub_mass", sp.sub_mass, BIG)?;
+        positive("wisps.springs.stiffness", sp.stiffness, 1e12)?;
+        within("wisps.springs.damping", sp.damping, 0.0, 1e9)?;
+        vec3("wisps.springs.gravity", sp.gravity, 1e9)?;
+        positive("wisps.springs.frame_time", sp.frame_time, 10.0)?;
+        if sp.substeps == 0 || sp.substeps > 1000 {
+            return Err(bad(
+                "wisps.springs.substeps",
+                sp.substeps,
+                "must be in [1, 1000]",
+            ));
+        }
+    }
+    for (bi, b) in w.bundles.iter().enumerate() {
+        if b.wisps.len() < 2 {
+            return Err(bad(
+                &format!("wisps.bundles[{bi}].wisps"),
+                format!("{:?}", b.wisps),
+                "a bundle joins at least 2 wisps",
+            ));
+        }
+        for (k, &i) in b.wisps.iter().enumerate() {
+            let Some(sk) = w.skeletons.get(i) else {
+                return Err(bad(
+                    &format!("wisps.bundles[{bi}].wisps[{k}]"),
+                    i,
+                    &format!("must name a skeleton (0..{})", w.skeletons.len()),
+                ));
+            };
+            if b.release_from > sk.nodes.len() {
+                return Err(bad(
+                    &format!("wisps.bundles[{bi}].release_from"),
+                    b.release_from,
+                    &format!(
+                        "must be at most the node count of skeleton {i} ({})",
+                        sk.nodes.len()
+                    ),
+                ));
+            }
+        }
+    }
     Ok(())
 }

@@ -1,0 +1,294 @@
+//! Toon wisps (Sakai): the scene part. Each wisp is a skeleton, a chain of nodes with a
+//! radius of influence r_e and an effective weight w_e (section 4.1); the hair surface is the
+//! iso-surface of the blobby density summed over the wisps (eqs 8-9), ray-marched and
+//! toon-shaded (section 5), and, when `springs` is present, animated by a mass-spring
+//! lattice integrated with RK4 (section 7) whose natural lengths hold the drawn shape under
+//! gravity (7.1).
+//!
+//! Coordinates are world units (the head's, centimetres in the shipped scenes); spring
+//! time is seconds.
+
+use serde::{Deserialize, Serialize};
+
+/// Toon wisps of a scene.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Wisps {
+    /// One skeleton per wisp; the first node of each is the root, fixed to the head.
+    pub skeletons: Vec<Skeleton>,
+    /// r_threshold of eq 8: the surface is where the summed density equals it.
+    #[serde(default = "default_threshold")]
+    pub threshold: f64,
+    #[serde(default)]
+    pub toon: Toon,
+    #[serde(default)]
+    pub march: March,
+    /// Mass-spring motion (section 7); absent: the wisps stay as drawn (no buffers, no pass).
+    #[serde(default)]
+    pub springs: Option<Springs>,
+    /// Wisps held together node to node (one thick wisp made of thin ones) until the
+    /// connections are released (Fig. 10 bottom; Fig. 12).
+    #[serde(default)]
+    pub bundles: Vec<Bundle>,
+}
+
+fn default_threshold() -> f64 {
+    0.5
+}
+
+/// A hair skeleton: a chain of nodes, root first.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Skeleton {
+    #[serde(default)]
+    pub name: String,
+    pub nodes: Vec<Node>,
+}
+
+/// A skeleton node (Fig. 3).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Node {
+    /// Position, in the head's rest frame.
+    pub p: [f64; 3],
+    /// Radius of influence r_e (> 0).
+    pub r: f64,
+    /// Effective weight w_e (> 0): with the threshold, sets the wisp's width (radius
+    /// `r * (1 - sqrt(threshold / (1.5 w)))` where `threshold/w > 1/6`).
+    #[serde(default = "one")]
+    pub w: f64,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+/// Distance from a ray point to a skeleton's spline (section 5.1).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Distance {
+    /// The paper's: minimise the sixth-degree |S(t) - v|^2 per segment by quadratic
+    /// minimisation then Newton (Wang, Kearney & Atkinson).
+    #[default]
+    Newton,
+    /// Cheaper: each segment as a polyline of `pieces` chords, closed-form distance to each.
+    Polyline { pieces: u32 },
+}
+
+/// Ray marching (section 5).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct March {
+    #[serde(default)]
+    pub distance: Distance,
+    /// Most sphere-tracing steps per ray and proxy (llvmpipe stops loops past 65,535).
+    #[serde(default = "default_max_steps")]
+    pub max_steps: u32,
+    /// Bisection steps refining a hit.
+    #[serde(default = "default_refine")]
+    pub refine: u32,
+    /// Fraction of the Lipschitz-safe step taken (1 = the full safe step; below 1 is slower
+    /// and no more accurate, above 1 may skip thin wisps: for benches only).
+    #[serde(default = "one")]
+    pub step_scale: f64,
+}
+
+fn default_max_steps() -> u32 {
+    256
+}
+fn default_refine() -> u32 {
+    8
+}
+
+impl Default for March {
+    fn default() -> Self {
+        March {
+            distance: Distance::Newton,
+            max_steps: default_max_steps(),
+            refine: default_refine(),
+            step_scale: 1.0,
+        }
+    }
+}
+
+/// Two or three tones (eqs 20-22; three tones split the shade once more).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Tones {
+    Two,
+    #[default]
+    Three,
+}
+
+/// Toon shading in the head's frame (eqs 14-22). Intensities are in [0, 1].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Toon {
+    #[serde(default)]
+    pub tones: Tones,
+    /// c_diffuse: the lit tone (sRGB, 0..1).
+    #[serde(default = "default_lit")]
+    pub diffuse: [f32; 3],
+    /// c_shade: the shaded tone.
+    #[serde(default = "default_shade")]
+    pub shade: [f32; 3],
+    /// The darkest tone (three tones only).
+    #[serde(default = "default_dark")]
+    pub dark: [f32; 3],
+    /// c_specular: added where the specular intensity passes its threshold (the angel halo).
+    #[serde(default = "default_specular")]
+    pub specular: [f32; 3],
+    /// t_diffuse.
+    #[serde(default = "default_t_diffuse")]
+    pub t_diffuse: f64,
+    /// Below this diffuse intensity the dark tone is used (three tones; < t_diffuse).
+    #[serde(default = "default_t_dark")]
+    pub t_dark: f64,
+    /// t_specular: close to 1 gives a thin halo band.
+    #[serde(default = "default_t_specular")]
+    pub t_specular: f64,
+    /// Silhouette outline colour.
+    #[serde(default = "default_outline")]
+    pub outline: [f32; 3],
+    /// Outline width in pixels (0: none).
+    #[serde(default = "default_outline_width")]
+    pub outline_width: f64,
+}
+
+fn default_lit() -> [f32; 3] {
+    [0.36, 0.42, 0.78]
+}
+fn default_shade() -> [f32; 3] {
+    [0.22, 0.25, 0.55]
+}
+fn default_dark() -> [f32; 3] {
+    [0.13, 0.14, 0.34]
+}
+fn default_specular() -> [f32; 3] {
+    [0.45, 0.45, 0.4]
+}
+fn default_t_diffuse() -> f64 {
+    0.45
+}
+fn default_t_dark() -> f64 {
+    0.2
+}
+fn default_t_specular() -> f64 {
+    0.97
+}
+fn default_outline() -> [f32; 3] {
+    [0.06, 0.05, 0.12]
+}
+fn default_outline_width() -> f64 {
+    1.5
+}
+
+impl Default for Toon {
+    fn default() -> Self {
+        Toon {
+            tones: Tones::Three,
+            diffuse: default_lit(),
+            shade: default_shade(),
+            dark: default_dark(),
+            specular: default_specular(),
+            t_diffuse: default_t_diffuse(),
+            t_dark: default_t_dark(),
+            t_specular: default_t_specular(),
+            outline: default_outline(),
+            outline_width: default_outline_width(),
+        }
+    }
+}
+
+/// Time integration of the mass springs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Integrator {
+    /// The paper's classical fourth-order Runge-Kutta.
+    #[default]
+    Rk4,
+    /// Semi-implicit (symplectic) Euler: one force evaluation per step, first order.
+    SemiImplicitEuler,
+}
+
+/// Mass springs (section 7): one primary and eight sub mass points per node.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Springs {
+    /// Mass of a primary point; each sub point has `sub_mass` of it.
+    #[serde(default = "one")]
+    pub mass: f64,
+    #[serde(default = "default_sub_mass")]
+    pub sub_mass: f64,
+    /// Spring constant k_s of every spring (force per unit stretch).
+    #[serde(default = "default_stiffness")]
+    pub stiffness: f64,
+    /// c_damp of eq 23 (force per unit velocity).
+    #[serde(default = "default_damping")]
+    pub damping: f64,
+    /// Gravity acceleration g (world units / s^2).
+    #[serde(default = "default_g")]
+    pub gravity: [f64; 3],
+    /// Seconds per rendered frame.
+    #[serde(default = "default_frame_time")]
+    pub frame_time: f64,
+    /// Integration steps per frame.
+    #[serde(default = "default_substeps")]
+    pub substeps: u32,
+    #[serde(default)]
+    pub integrator: Integrator,
+    /// Solve the natural lengths so the drawn shape holds under gravity (7.1, eq 24);
+    /// `false` uses the drawn lengths (the wisps sag).
+    #[serde(default = "yes")]
+    pub hold_shape: bool,
+    /// Push mass points out of the head ellipsoid after each step (not in the paper, whose
+    /// future work asks for it).
+    #[serde(default = "yes")]
+    pub collide: bool,
+}
+
+fn default_sub_mass() -> f64 {
+    0.25
+}
+fn default_stiffness() -> f64 {
+    400.0
+}
+fn default_damping() -> f64 {
+    0.6
+}
+fn default_g() -> [f64; 3] {
+    [0.0, -980.0, 0.0]
+}
+fn default_frame_time() -> f64 {
+    1.0 / 30.0
+}
+fn default_substeps() -> u32 {
+    8
+}
+fn yes() -> bool {
+    true
+}
+
+impl Default for Springs {
+    fn default() -> Self {
+        Springs {
+            mass: 1.0,
+            sub_mass: default_sub_mass(),
+            stiffness: default_stiffness(),
+            damping: default_damping(),
+            gravity: default_g(),
+            frame_time: default_frame_time(),
+            substeps: default_substeps(),
+            integrator: Integrator::Rk4,
+            hold_shape: true,
+            collide: true,
+        }
+    }
+}
+
+/// Wisps joined node to node by springs (primary to primary) from the root up to, not
+/// including, node `release_from`; past it they move apart (the wisp divides).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Bundle {
+    /// Indices into `skeletons`.
+    pub wisps: Vec<usize>,
+    pub release_from: usize,
+}
