@@ -11,7 +11,7 @@ struct Frame {
     // x focal length in samples, y narrowest strand (samples), z width scale (level of
     // detail), w MSAA samples (1 without)
     raster: vec4<f32>,
-    // x: 1 to show the segments the pseudo-force acted on
+    // x: 1 to show the segments the pseudo-force acted on; y: samples per output pixel
     flags: vec4<f32>,
 }
 

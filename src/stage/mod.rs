@@ -422,7 +422,9 @@ impl Stage {
         let Some((targets, down_bg)) = self.targets.as_ref() else {
             return Err(crate::KamiError::Gpu("scene targets missing".into()));
         };
-        let uniform = frame_uniform(&self.scene, look, bounds, targets.size, self.quality.msaa);
+        let mut uniform = frame_uniform(&self.scene, look, bounds, targets.size, self.quality.msaa);
+        // Samples per output pixel (widths given in pixels, such as the wisps' outline).
+        uniform.flags[1] = targets.size.1 as f32 / size.1 as f32;
         gpu.queue
             .write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&uniform));
         if let Some(h) = &self.head {

@@ -168,7 +168,7 @@ pub struct Kind {
 }
 
 /// Every kind of hair Kami knows, in drawing order.
-pub const KINDS: &[&Kind] = &[&anjyo::KIND, &fur::KIND];
+pub const KINDS: &[&Kind] = &[&anjyo::KIND, &fur::KIND, &wisps::KIND];
 
 /// The kind called `name`.
 pub fn kind(name: &str) -> Option<&'static Kind> {

@@ -1,11 +1,204 @@
 //! Sakai's toon wisps: skeletons (`crate::scene::wisps`) interpolated by natural cubic
-//! splines and converted to Bézier segments (`curve`), the blobby density around them
-//! (`field`, the f64 reference of the ray march), mass springs with RK4 (`springs`, on the
-//! GPU in `springs_gpu`) and the depth-camera fingertip tracker that draws skeletons
-//! (`fingers`).
+//! splines and converted to Bézier segments (`curve`, on the GPU in `march::CurvePass`), the
+//! blobby density around them (`field`, the f64 reference of the ray march in
+//! `shaders/wisps/march.wgsl`), mass springs with RK4 (`springs`, on the GPU in
+//! `springs_gpu`), the depth-camera fingertip tracker that draws skeletons (`fingers`) and
+//! the Toon and Skeleton panels (`panel`).
+//!
+//! Every frame the curve kernels rebuild the segments from the node positions (the springs'
+//! primaries, or the drawn nodes under the head pose), and the march draws the surface as
+//! opaque geometry with depth, before any strand hair or fur.
 
 pub mod curve;
 pub mod field;
 pub mod fingers;
+pub mod march;
+pub mod panel;
 pub mod springs;
 pub mod springs_gpu;
+
+use super::{Change, DrawSetup, FrameCtx, HairSystem, Kind, StepInfo, SystemStats, View};
+use crate::error::{KamiError, Result};
+use crate::gpu::Gpu;
+use crate::scene::wisps::Wisps;
+use crate::scene::Scene;
+use glam::{DMat4, DVec3};
+use march::{CurvePass, MarchPass};
+
+pub const KIND: Kind = Kind {
+    name: "wisps",
+    in_scene: |s| s.wisps.is_some(),
+    check_limits: |gpu, scene| match &scene.wisps {
+        Some(w) => march::check_limits(gpu, w),
+        None => Ok(()),
+    },
+    build,
+    classify,
+    panels: panel::PANELS,
+    scenes: &["toon", "toon_divide", "toon_shake"],
+    shaders: &[
+        ("wisps/curves", march::CURVES),
+        ("wisps/march", march::MARCH),
+    ],
+};
+
+fn build(gpu: &Gpu, scene: &Scene, setup: &DrawSetup) -> Result<Box<dyn HairSystem>> {
+    Ok(Box::new(WispsSystem::new(gpu, scene, setup)?))
+}
+
+/// Toon colours, thresholds and march settings are uniforms: a `Redraw`. Skeletons, springs
+/// and the head (collision, rest lengths) build the system again.
+pub fn classify(old: &Scene, new: &Scene) -> Change {
+    let shape = |s: &Scene| {
+        s.wisps.clone().map(|mut w| {
+            w.toon = Default::default();
+            w.march = Default::default();
+            w.threshold = 0.0;
+            (w, s.head.center, s.head.radii)
+        })
+    };
+    if shape(old) != shape(new) {
+        Change::Rebuild
+    } else if old.wisps != new.wisps {
+        Change::Redraw
+    } else {
+        Change::None
+    }
+}
+
+/// Where the node positions come from.
+enum Nodes {
+    /// The drawn skeletons, posed by the head each frame.
+    Still(wgpu::Buffer),
+}
+
+/// Toon wisps of one scene.
+pub struct WispsSystem {
+    pub wisps: Wisps,
+    nodes: Nodes,
+    pub curves: CurvePass,
+    draw: MarchPass,
+}
+
+impl WispsSystem {
+    pub fn new(gpu: &Gpu, scene: &Scene, setup: &DrawSetup) -> Result<WispsSystem> {
+        let wisps = scene.wisps.clone().ok_or_else(|| KamiError::Invalid {
+            file: String::new(),
+            field: "wisps".into(),
+            value: "None".into(),
+            allowed: "a wisps block (the wisps system is built only for scenes with wisps)".into(),
+        })?;
+        march::check_limits(gpu, &wisps)?;
+        let positions = crate::gpu::storage_buffer(
+            &gpu.device,
+            "wisp drawn nodes",
+            bytemuck::cast_slice(&march::drawn_positions(&wisps)),
+            wgpu::BufferUsages::empty(),
+        );
+        let curves = CurvePass::new(gpu, &wisps, &positions)?;
+        let draw = MarchPass::new(
+            gpu,
+            &curves,
+            setup.frame_layout,
+            setup.format,
+            setup.samples,
+        )?;
+        Ok(WispsSystem {
+            wisps,
+            nodes: Nodes::Still(positions),
+            curves,
+            draw,
+        })
+    }
+
+    fn moving(&self) -> bool {
+        self.wisps.springs.is_some()
+    }
+}
+
+impl HairSystem for WispsSystem {
+    fn kind(&self) -> &'static str {
+        KIND.name
+    }
+
+    fn bounds(&self) -> (DVec3, f64) {
+        march::bounds(&self.wisps, self.moving())
+    }
+
+    fn step(
+        &mut self,
+        _gpu: &Gpu,
+        _enc: &mut wgpu::CommandEncoder,
+        _ctx: &FrameCtx,
+        _frames: u32,
+    ) -> Result<StepInfo> {
+        match &self.nodes {
+            Nodes::Still(_) => Ok(StepInfo::default()),
+        }
+    }
+
+    fn prepare(
+        &mut self,
+        gpu: &Gpu,
+        enc: &mut wgpu::CommandEncoder,
+        ctx: &FrameCtx,
+        _view: &View,
+    ) -> Result<()> {
+        let model = match &self.nodes {
+            Nodes::Still(_) => ctx.head,
+        };
+        self.curves.record(gpu, enc, model, self.moving());
+        self.draw.write(
+            gpu,
+            &march::draw_uniform(&self.wisps, ctx.head, self.curves.segment_count),
+        );
+        Ok(())
+    }
+
+    fn draw_opaque(&self, pass: &mut wgpu::RenderPass<'_>) {
+        self.draw.draw(pass);
+    }
+
+    fn draw(&self, _pass: &mut wgpu::RenderPass<'_>, _view: &View) {}
+
+    fn reset(&mut self, _gpu: &Gpu) -> Result<()> {
+        self.curves.invalidate();
+        Ok(())
+    }
+
+    fn set_samples(&mut self, gpu: &Gpu, samples: u32) {
+        self.draw.set_samples(gpu, samples);
+    }
+
+    /// A `Redraw`: toon colours, thresholds and march settings.
+    fn update(&mut self, _gpu: &Gpu, scene: &Scene, change: Change) -> Result<()> {
+        if let (Change::Redraw, Some(w)) = (change, &scene.wisps) {
+            self.wisps.toon = w.toon.clone();
+            self.wisps.march = w.march;
+            self.wisps.threshold = w.threshold;
+        }
+        Ok(())
+    }
+
+    fn stats(&self) -> SystemStats {
+        let n = self.wisps.skeletons.len() as u64;
+        SystemStats {
+            strands: n,
+            segments: self.curves.segment_count as u64,
+            simulated: if self.moving() { n } else { 0 },
+            drawn: n,
+        }
+    }
+
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
+    fn as_any_mut(&mut self) -> &mut dyn std::any::Any {
+        self
+    }
+}
+
+/// Identity for nodes the springs already place in world space.
+#[allow(dead_code)]
+const WORLD: DMat4 = DMat4::IDENTITY;

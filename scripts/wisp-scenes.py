@@ -1,0 +1,180 @@
+#!/usr/bin/env python3
+"""Writes the skeletons of the shipped toon scenes (assets/scenes/toon*.ron): wisps laid on
+an offset shell of the head ellipsoid, hanging below it, tapering to pointed tips. Run from
+the repository root; the scenes' other blocks are written here too, so edit this file, not
+the scenes."""
+import math
+
+A, B, C = 9.6, 11.5, 7.8  # head radii (x front, y up, z side)
+# Weight of every node: with the threshold 0.5 the visible radius is 0.67 r (eq 9), so the
+# influence (and the ray march's work) reaches only half as far again as the surface.
+W = 2.5
+
+
+def shell(theta, phi, off):
+    t, p = math.radians(theta), math.radians(phi)
+    return ((A + off) * math.sin(t) * math.cos(p), (B + off) * math.cos(t),
+            (C + off) * math.sin(t) * math.sin(p))
+
+
+def wisp(phi, thetas, drop, r0, r1, off=1.0, out=0.0, curl=0.0):
+    """Nodes on the shell at `thetas`, then `drop` straight below the last, tapering."""
+    pts = [shell(th, phi, off if i else 0.3) for i, th in enumerate(thetas)]
+    last = pts[-1]
+    p = math.radians(phi)
+    for k, d in enumerate(drop):
+        s = (k + 1) / len(drop)
+        pts.append((last[0] + math.cos(p) * (out * s + curl * s * s),
+                    last[1] - d, last[2] + math.sin(p) * (out * s + curl * s * s)))
+    n = len(pts)
+    nodes = []
+    for i, q in enumerate(pts):
+        s = i / (n - 1)
+        r = r0 + (r1 - r0) * s ** 1.3
+        nodes.append(f"Node(p: ({q[0]:.3f}, {q[1]:.3f}, {q[2]:.3f}), r: {r:.3f}, w: {W})")
+    return nodes
+
+
+def skel(name, nodes):
+    inner = ",\n                ".join(nodes)
+    return f"""        Skeleton(
+            name: "{name}",
+            nodes: [
+                {inner},
+            ],
+        ),"""
+
+
+def toon_wisps():
+    out = []
+    # Bangs over the forehead (the face looks along +x), pointed tips at eye level.
+    for i, phi in enumerate([-38, -19, 0, 19, 38]):
+        out.append(skel(f"bang {i}", wisp(phi, [8, 35, 58, 74], [], 2.3, 0.3, off=1.4)))
+    # Sides and back: over the ears and down to the nape and below.
+    side = [62, 84, 106, 128, 150, 172, 194, 216, 238, 260, 282, 298]
+    for i, phi in enumerate(side):
+        drop = [4.0, 4.0, 3.5] if 100 < phi < 260 else [3.5, 3.0]
+        out.append(skel(f"back {i}", wisp(phi, [10, 40, 70, 98], drop, 2.5, 0.3,
+                                          off=1.5, out=0.8, curl=1.2)))
+    # A tuft at the crown (ahoge-like), standing up and curling forward.
+    out.append(skel("crown tuft", [
+        f"Node(p: (-1.500, 11.700, 0.000), r: 1.100, w: {W})",
+        f"Node(p: (-1.200, 14.300, 0.000), r: 0.800, w: {W})",
+        f"Node(p: (0.800, 16.200, 0.000), r: 0.500, w: {W})",
+        f"Node(p: (3.000, 16.000, 0.000), r: 0.250, w: {W})",
+    ]))
+    return out
+
+
+TOON_HEAD = """    head: Head(radii: (9.6, 11.5, 7.8), color: (0.98, 0.86, 0.78)),"""
+TOON_LOOK = """    camera: CameraDesc(eye: (40.0, 8.0, 27.0), target: (0.0, -2.0, 0.0), fov_y: 40.0),
+    light: Light(direction: (0.55, 0.75, 0.35), intensity: 1.0, ambient: 1.0),
+    render: RenderSettings(size: (512, 512), supersample: 2, msaa: 1, background: (0.97, 0.95, 0.92)),"""
+
+
+def write(path, header, body):
+    with open(path, "w") as f:
+        f.write(header + body)
+
+
+def toon():
+    sk = "\n".join(toon_wisps())
+    return f"""Scene(
+{TOON_HEAD}
+    wisps: Some(Wisps(
+        threshold: 0.5,
+        skeletons: [
+{sk}
+        ],
+        toon: Toon(
+            tones: Three,
+            diffuse: (0.42, 0.45, 0.86),
+            shade: (0.27, 0.28, 0.62),
+            dark: (0.17, 0.16, 0.40),
+            specular: (0.50, 0.50, 0.42),
+            t_diffuse: 0.45,
+            t_dark: 0.2,
+            t_specular: 0.985,
+            outline: (0.08, 0.06, 0.16),
+            outline_width: 1.5,
+        ),
+    )),
+{TOON_LOOK}
+)
+"""
+
+
+def toon_shake():
+    sk = "\n".join(toon_wisps())
+    return f"""Scene(
+{TOON_HEAD}
+    wisps: Some(Wisps(
+        threshold: 0.5,
+        skeletons: [
+{sk}
+        ],
+        springs: Some(Springs(stiffness: 400.0, damping: 0.6, substeps: 8)),
+    )),
+    // The head shakes side to side (Fig. 13): a turn of 30 degrees each way about the
+    // vertical every 16 frames, then rests.
+    dynamics: Some(Dynamics(
+        head_motion: [
+            HeadKey(frame: 0.0, rotate: (0.0, 0.0, 0.0), interp: Linear),
+            HeadKey(frame: 8.0, rotate: (0.0, 30.0, 0.0), interp: Linear),
+            HeadKey(frame: 24.0, rotate: (0.0, -30.0, 0.0), interp: Linear),
+            HeadKey(frame: 40.0, rotate: (0.0, 30.0, 0.0), interp: Linear),
+            HeadKey(frame: 56.0, rotate: (0.0, -30.0, 0.0), interp: Linear),
+            HeadKey(frame: 64.0, rotate: (0.0, 0.0, 0.0), interp: Linear),
+        ],
+    )),
+{TOON_LOOK}
+)
+"""
+
+
+def toon_divide():
+    # One thick wisp made of five thin ones: together down to node 3, then fanning apart.
+    nodes = []
+    for k in range(5):
+        spread = (k - 2) * 1.0
+        pts = []
+        for i in range(8):
+            y = 10.0 - 3.2 * i
+            fan = spread * max(0.0, i - 2.5) ** 1.25 * 0.9
+            bend = 0.05 * i * i
+            pts.append((bend + 0.15 * spread * 0.3, y, fan + spread * 0.35))
+        rs = [1.5, 1.45, 1.4, 1.3, 1.1, 0.9, 0.65, 0.35]
+        ns = [f"Node(p: ({p[0]:.3f}, {p[1]:.3f}, {p[2]:.3f}), r: {r:.3f})" for p, r in zip(pts, rs)]
+        nodes.append(skel(f"strand {k}", ns))
+    sk = "\n".join(nodes)
+    return f"""Scene(
+    head: Head(center: (-6.0, 14.0, 0.0), radii: (5.0, 5.0, 5.0), visible: false),
+    wisps: Some(Wisps(
+        threshold: 0.5,
+        skeletons: [
+{sk}
+        ],
+    )),
+    camera: CameraDesc(eye: (60.0, 0.0, 0.0), target: (0.0, -2.0, 0.0), fov_y: 36.0),
+    light: Light(direction: (0.7, 0.6, 0.3), intensity: 1.0, ambient: 1.0),
+    render: RenderSettings(size: (384, 512), supersample: 2, msaa: 1, background: (0.97, 0.95, 0.92)),
+)
+"""
+
+
+HEAD = {
+    "toon": "// Sakai's default look: an anime head with seventeen toon wisps (bangs, sides and\n"
+    "// back, a crown tuft), three-tone toon shading in the head's frame with the angel halo\n"
+    "// (the horizontal specular band), silhouette outlines. Written by scripts/wisp-scenes.py.\n",
+    "toon_shake": "// Fig. 13: the toon wisps on mass springs (RK4), the head shaking side to side; the\n"
+    "// natural lengths are solved so the drawn shape holds under gravity. Written by\n"
+    "// scripts/wisp-scenes.py.\n",
+    "toon_divide": "// Fig. 12: one thick wisp dividing into thin ones. Five thin skeletons run together\n"
+    "// from the root and fan apart below; the blobby sum makes them one wisp where they meet.\n"
+    "// Written by scripts/wisp-scenes.py.\n",
+}
+
+if __name__ == "__main__":
+    write("assets/scenes/toon.ron", HEAD["toon"], toon())
+    write("assets/scenes/toon_shake.ron", HEAD["toon_shake"], toon_shake())
+    write("assets/scenes/toon_divide.ron", HEAD["toon_divide"], toon_divide())

@@ -1,0 +1,423 @@
+//! The wisps' GPU passes: `shaders/wisps/curves.wgsl` turns node positions into Bézier
+//! segments with their bounds and neighbour lists (compute), `shaders/wisps/march.wgsl`
+//! ray-marches and toon-shades the blobby surface inside each segment's influence box (a
+//! render pipeline writing depth). The f64 references are `curve.rs` and `field.rs`.
+
+use crate::error::{KamiError, Result};
+use crate::gpu::gpu_data::linear_rgb;
+use crate::gpu::pipeline::{self, DrawPipeline};
+use crate::gpu::{self, Gpu};
+use crate::scene::wisps::{Distance, Tones, Wisps};
+use crate::shaders::wgsl;
+use bytemuck::{Pod, Zeroable};
+use glam::{DMat4, DVec3};
+
+/// Spline and neighbour kernels.
+pub const CURVES: &str = wgsl!("wisps/curves.wgsl");
+
+/// The ray march and toon shading.
+pub const MARCH: &str = wgsl!("common/frame.wgsl", "wisps/march.wgsl");
+
+/// Neighbour slots per segment: a segment's box sees at most this many segments (the crown,
+/// where every wisp starts, is the crowded place; the shipped scenes stay far below).
+pub const SLOTS: u32 = 64;
+
+const WORKGROUP: u32 = 64;
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct GpuWispParams {
+    pub model: [[f32; 4]; 4],
+    /// wisps, segments, neighbour slots, nodes
+    pub counts: [u32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuSegment {
+    /// xyz control points; w: r0, r1, w0, w1
+    pub c: [[f32; 4]; 4],
+    /// Control-point AABB; lo.w the Lipschitz bound, hi.w the wisp
+    pub lo: [f32; 4],
+    pub hi: [f32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct GpuWispDraw {
+    pub head: [[f32; 4]; 3],
+    pub diffuse: [f32; 4],
+    pub shade: [f32; 4],
+    pub dark: [f32; 4],
+    pub specular: [f32; 4],
+    pub outline: [f32; 4],
+    pub march: [f32; 4],
+    pub method: [u32; 4],
+}
+
+/// The draw uniform for `wisps` with the head pose `head`.
+pub fn draw_uniform(wisps: &Wisps, head: DMat4, segments: u32) -> GpuWispDraw {
+    let t = &wisps.toon;
+    let rgb = |c: [f32; 3], w: f64| {
+        let l = linear_rgb(c);
+        [l[0], l[1], l[2], w as f32]
+    };
+    let col = |i: usize| {
+        let c = head.col(i).truncate().normalize_or_zero();
+        [c.x as f32, c.y as f32, c.z as f32, 0.0]
+    };
+    let (method, pieces) = match wisps.march.distance {
+        Distance::Newton => (0, 0),
+        Distance::Polyline { pieces } => (1, pieces),
+    };
+    GpuWispDraw {
+        head: [col(0), col(1), col(2)],
+        diffuse: rgb(t.diffuse, t.t_diffuse),
+        shade: rgb(t.shade, t.t_dark),
+        dark: rgb(t.dark, t.t_specular),
+        specular: rgb(t.specular, f64::from(u8::from(t.tones == Tones::Three))),
+        outline: rgb(t.outline, t.outline_width),
+        march: [
+            wisps.threshold as f32,
+            wisps.march.step_scale as f32,
+            wisps.march.max_steps as f32,
+            wisps.march.refine as f32,
+        ],
+        method: [method, pieces, SLOTS, segments],
+    }
+}
+
+/// Segments of a scene's wisps (one fewer than the nodes of each skeleton).
+pub fn segment_count(wisps: &Wisps) -> u32 {
+    wisps
+        .skeletons
+        .iter()
+        .map(|s| s.nodes.len() as u32 - 1)
+        .sum()
+}
+
+/// Node count of a scene's wisps.
+pub fn node_count(wisps: &Wisps) -> u32 {
+    wisps.skeletons.iter().map(|s| s.nodes.len() as u32).sum()
+}
+
+/// The spline and neighbour kernels over one set of node positions.
+pub struct CurvePass {
+    spline: wgpu::ComputePipeline,
+    neighbours: wgpu::ComputePipeline,
+    params: wgpu::Buffer,
+    pub segments: wgpu::Buffer,
+    pub neighbour_lists: wgpu::Buffer,
+    pub neighbour_counts: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+    pub wisps: u32,
+    pub segment_count: u32,
+    nodes: u32,
+    /// The model matrix of the last recorded run (still wisps under a still head need no
+    /// second run).
+    last: Option<DMat4>,
+}
+
+impl CurvePass {
+    /// Kernels over `positions` (xyz per node, the skeletons' nodes one after the other):
+    /// the springs' buffer, or the drawn nodes when the wisps do not move by themselves.
+    pub fn new(gpu: &Gpu, wisps: &Wisps, positions: &wgpu::Buffer) -> Result<CurvePass> {
+        let device = &gpu.device;
+        let n_wisps = wisps.skeletons.len() as u32;
+        let n_seg = segment_count(wisps);
+        let n_nodes = node_count(wisps);
+        gpu.check_storage_size("the wisp neighbour lists", n_seg as u64 * SLOTS as u64 * 4)?;
+        let mut rw = Vec::with_capacity(n_nodes as usize);
+        let mut ranges = Vec::with_capacity(n_wisps as usize);
+        for s in &wisps.skeletons {
+            ranges.push([rw.len() as u32, s.nodes.len() as u32]);
+            for n in &s.nodes {
+                rw.push([n.r as f32, n.w as f32, 0.0, 0.0]);
+            }
+        }
+        let cs = wgpu::ShaderStages::COMPUTE;
+        let layout = pipeline::layout(
+            device,
+            "wisp curves",
+            &[
+                gpu::uniform_entry(0, cs),
+                gpu::storage_entry(1, cs, true),
+                gpu::storage_entry(2, cs, true),
+                gpu::storage_entry(3, cs, true),
+                gpu::storage_entry(4, cs, false),
+                gpu::storage_entry(5, cs, false),
+                gpu::storage_entry(6, cs, false),
+            ],
+        );
+        let module = gpu::shader_module(device, "wisps/curves", CURVES)?;
+        let [spline, neighbours] = gpu::compute_pipelines(
+            device,
+            "wisp curves",
+            &layout,
+            &module,
+            ["spline", "neighbours_of"],
+            &[],
+        );
+        let params = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("wisp curve params"),
+            size: std::mem::size_of::<GpuWispParams>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let empty = wgpu::BufferUsages::empty();
+        let node_rw =
+            gpu::storage_buffer(device, "wisp node r,w", bytemuck::cast_slice(&rw), empty);
+        let ranges =
+            gpu::storage_buffer(device, "wisp ranges", bytemuck::cast_slice(&ranges), empty);
+        let zeros = |label, bytes: u64| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes.max(256),
+                usage: wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::COPY_SRC
+                    | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        };
+        let segments = zeros(
+            "wisp segments",
+            n_seg as u64 * std::mem::size_of::<GpuSegment>() as u64,
+        );
+        let neighbour_lists = zeros("wisp neighbours", n_seg as u64 * SLOTS as u64 * 4);
+        let neighbour_counts = zeros("wisp neighbour counts", n_seg as u64 * 4);
+        let bind_group = pipeline::bind_buffers(
+            device,
+            "wisp curves",
+            &layout,
+            &[
+                &params,
+                positions,
+                &node_rw,
+                &ranges,
+                &segments,
+                &neighbour_lists,
+                &neighbour_counts,
+            ],
+        );
+        Ok(CurvePass {
+            spline,
+            neighbours,
+            params,
+            segments,
+            neighbour_lists,
+            neighbour_counts,
+            bind_group,
+            wisps: n_wisps,
+            segment_count: n_seg,
+            nodes: n_nodes,
+            last: None,
+        })
+    }
+
+    /// Record the two kernels with node positions mapped by `model`, unless the last run had
+    /// the same model and `moved` is false.
+    pub fn record(&mut self, gpu: &Gpu, enc: &mut wgpu::CommandEncoder, model: DMat4, moved: bool) {
+        if !moved && self.last == Some(model) {
+            return;
+        }
+        self.last = Some(model);
+        let p = GpuWispParams {
+            model: model.as_mat4().to_cols_array_2d(),
+            counts: [self.wisps, self.segment_count, SLOTS, self.nodes],
+        };
+        gpu.queue
+            .write_buffer(&self.params, 0, bytemuck::bytes_of(&p));
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("wisp curves"),
+            timestamp_writes: None,
+        });
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.set_pipeline(&self.spline);
+        pass.dispatch_workgroups(self.wisps.div_ceil(WORKGROUP), 1, 1);
+        pass.set_pipeline(&self.neighbours);
+        pass.dispatch_workgroups(self.segment_count.div_ceil(WORKGROUP), 1, 1);
+    }
+
+    /// Forget the last run (the positions changed behind the pass's back: a reset).
+    pub fn invalidate(&mut self) {
+        self.last = None;
+    }
+
+    /// The segments and neighbour counts the kernels wrote (tests, benches).
+    pub fn read(&self, gpu: &Gpu) -> Result<(Vec<GpuSegment>, Vec<u32>)> {
+        let n = self.segment_count as u64;
+        let segs = gpu::read_buffer::<GpuSegment>(
+            gpu,
+            &self.segments,
+            n * std::mem::size_of::<GpuSegment>() as u64,
+        )?;
+        let counts = gpu::read_buffer::<u32>(gpu, &self.neighbour_counts, n * 4)?;
+        Ok((segs, counts))
+    }
+}
+
+/// The ray-march draw.
+pub struct MarchPass {
+    module: wgpu::ShaderModule,
+    pipeline_layout: wgpu::PipelineLayout,
+    format: wgpu::TextureFormat,
+    pipeline: wgpu::RenderPipeline,
+    uniform: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+    segments: u32,
+}
+
+impl MarchPass {
+    pub fn new(
+        gpu: &Gpu,
+        curves: &CurvePass,
+        frame_layout: &wgpu::BindGroupLayout,
+        format: wgpu::TextureFormat,
+        samples: u32,
+    ) -> Result<MarchPass> {
+        let device = &gpu.device;
+        let vf = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
+        let layout = pipeline::layout(
+            device,
+            "wisp march",
+            &[
+                gpu::uniform_entry(0, vf),
+                gpu::storage_entry(1, vf, true),
+                gpu::storage_entry(2, vf, true),
+                gpu::storage_entry(3, vf, true),
+            ],
+        );
+        let module = gpu::shader_module(device, "wisps/march", MARCH)?;
+        let pipeline_layout =
+            pipeline::pipeline_layout(device, "wisp march", &[frame_layout, &layout]);
+        let uniform = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("wisp draw"),
+            size: std::mem::size_of::<GpuWispDraw>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let bind_group = pipeline::bind_buffers(
+            device,
+            "wisp march",
+            &layout,
+            &[
+                &uniform,
+                &curves.segments,
+                &curves.neighbour_lists,
+                &curves.neighbour_counts,
+            ],
+        );
+        let pipeline = Self::pipeline(device, &module, &pipeline_layout, format, samples);
+        Ok(MarchPass {
+            module,
+            pipeline_layout,
+            format,
+            pipeline,
+            uniform,
+            bind_group,
+            segments: curves.segment_count,
+        })
+    }
+
+    fn pipeline(
+        device: &wgpu::Device,
+        module: &wgpu::ShaderModule,
+        layout: &wgpu::PipelineLayout,
+        format: wgpu::TextureFormat,
+        samples: u32,
+    ) -> wgpu::RenderPipeline {
+        DrawPipeline {
+            label: "wisp march",
+            layout,
+            module,
+            vertex_entry: "vs",
+            fragment_entry: "fs",
+            topology: wgpu::PrimitiveTopology::TriangleList,
+            // Back faces: a box the eye is inside still covers its pixels.
+            cull_mode: Some(wgpu::Face::Front),
+            vertex_buffers: &[],
+            blend: None,
+            format,
+            samples,
+        }
+        .build(device)
+    }
+
+    pub fn set_samples(&mut self, gpu: &Gpu, samples: u32) {
+        self.pipeline = Self::pipeline(
+            &gpu.device,
+            &self.module,
+            &self.pipeline_layout,
+            self.format,
+            samples,
+        );
+    }
+
+    pub fn write(&self, gpu: &Gpu, uniform: &GpuWispDraw) {
+        gpu.queue
+            .write_buffer(&self.uniform, 0, bytemuck::bytes_of(uniform));
+    }
+
+    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>) {
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(1, &self.bind_group, &[]);
+        pass.draw(0..36, 0..self.segments);
+    }
+}
+
+/// Node positions of the drawn skeletons, one `[x, y, z, 1]` per node.
+pub fn drawn_positions(wisps: &Wisps) -> Vec<[f32; 4]> {
+    wisps
+        .skeletons
+        .iter()
+        .flat_map(|s| s.nodes.iter())
+        .map(|n| [n.p[0] as f32, n.p[1] as f32, n.p[2] as f32, 1.0])
+        .collect()
+}
+
+/// A sphere holding every node's influence: the drawn skeletons grown by their reach when
+/// they move (a chain can swing as far as its length round its root).
+pub fn bounds(wisps: &Wisps, moving: bool) -> (DVec3, f64) {
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for s in &wisps.skeletons {
+        let root = DVec3::from(s.nodes[0].p);
+        let reach: f64 = if moving {
+            s.nodes
+                .windows(2)
+                .map(|w| (DVec3::from(w[1].p) - DVec3::from(w[0].p)).length())
+                .sum::<f64>()
+                * 1.3
+        } else {
+            0.0
+        };
+        for n in &s.nodes {
+            let p = DVec3::from(n.p);
+            let r = n.r;
+            lo = lo.min(p - DVec3::splat(r));
+            hi = hi.max(p + DVec3::splat(r));
+        }
+        let r_max = s.nodes.iter().map(|n| n.r).fold(0.0, f64::max);
+        lo = lo.min(root - DVec3::splat(reach + r_max));
+        hi = hi.max(root + DVec3::splat(reach + r_max));
+    }
+    let c = 0.5 * (lo + hi);
+    (c, (0.5 * (hi - lo)).length())
+}
+
+/// A clear error when the scene's wisps do not fit the adapter.
+pub fn check_limits(gpu: &Gpu, wisps: &Wisps) -> Result<()> {
+    let n_seg = segment_count(wisps) as u64;
+    gpu.check_storage_size(
+        "the wisp segments",
+        n_seg * std::mem::size_of::<GpuSegment>() as u64,
+    )?;
+    gpu.check_storage_size("the wisp neighbour lists", n_seg * SLOTS as u64 * 4)?;
+    if n_seg > 60_000 {
+        // The neighbour kernel loops over every segment; llvmpipe stops loops past 65,535.
+        return Err(KamiError::Gpu(format!(
+            "{n_seg} wisp segments: at most 60000 fit the neighbour search"
+        )));
+    }
+    Ok(())
+}
