@@ -283,13 +283,22 @@ fn main() -> Result<()> {
             let gpu = Gpu::headless(preference(software))?;
             let t = std::time::Instant::now();
             let (hairs, segs) = s.counts();
+            // Toon wisps are skeletons, not strands: named on their own.
+            let segs = match &s.wisps {
+                Some(w) => format!(
+                    "{segs} segments, {} toon wisps ({} spline segments)",
+                    w.skeletons.len(),
+                    kami::systems::wisps::march::segment_count(w)
+                ),
+                None => format!("{segs} segments"),
+            };
             match frames {
                 None => {
                     let out = out.unwrap_or_else(|| PathBuf::from("kami.png"));
                     let img = kami::stage::render_scene(&gpu, &s, size)?;
                     output::save_png(&img, &out)?;
                     println!(
-                        "{}: {hairs} hairs, {segs} segments, {}x{} on {} in {:.2} s",
+                        "{}: {hairs} hairs, {segs}, {}x{} on {} in {:.2} s",
                         out.display(),
                         size.0,
                         size.1,
@@ -332,7 +341,7 @@ fn main() -> Result<()> {
                         );
                     }
                     println!(
-                        "{}: frames {first}..{last} ({hairs} hairs, {segs} segments, {}x{}) on {} in {:.2} s",
+                        "{}: frames {first}..{last} ({hairs} hairs, {segs}, {}x{}) on {} in {:.2} s",
                         dir.display(),
                         size.0,
                         size.1,
