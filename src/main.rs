@@ -158,6 +158,21 @@ enum Bench {
         #[arg(long)]
         software: bool,
     },
+    /// Sakai's toon wisps: ray-march ms per frame against wisp count and image size, image
+    /// error against step size and distance method, and the mass springs' work-precision
+    /// table; writes wisps.md, wisps.csv, wisps_cost.png and wisps_error.png.
+    Wisps {
+        #[arg(long, default_value = "assets/scenes/toon.ron")]
+        scene: PathBuf,
+        /// Frames to time per figure.
+        #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=1000))]
+        frames: u32,
+        /// Directory for the report files.
+        #[arg(long, default_value = "bench_out")]
+        out: PathBuf,
+        #[arg(long)]
+        software: bool,
+    },
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -449,6 +464,20 @@ fn main() -> Result<()> {
                 println!("{}", report.markdown);
                 println!(
                     "wrote {0}/fur.md, {0}/fur.csv, {0}/fur_culling.png",
+                    out.display()
+                );
+            }
+            Bench::Wisps {
+                scene,
+                frames,
+                out,
+                software,
+            } => {
+                let gpu = Gpu::headless(preference(software))?;
+                let report = kami::bench::wisps::run(&gpu, &scene, frames, &out)?;
+                println!("{}", report.markdown);
+                println!(
+                    "wrote {0}/wisps.md, {0}/wisps.csv, {0}/wisps_cost.png, {0}/wisps_error.png",
                     out.display()
                 );
             }

@@ -3,6 +3,7 @@
 
 pub mod backends;
 pub mod fur;
+pub mod wisps;
 
 use crate::error::Result;
 use crate::gpu::Gpu;

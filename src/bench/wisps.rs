@@ -1,0 +1,261 @@
+//! `kami bench wisps`: Sakai's toon wisps. The ray march's cost per frame against wisp count
+//! and image size; its image error against the step size and the distance method (against
+//! the march at a quarter of the safe step with Newton's distance and 16 bisections); and
+//! the mass springs' work–precision table (`springs::work_precision`). Writes wisps.md,
+//! wisps.csv, wisps_cost.png and wisps_error.png.
+
+use super::{provenance, time_mean, write_report, Report};
+use crate::error::Result;
+use crate::gpu::Gpu;
+use crate::plot::{self, Series};
+use crate::scene::wisps::{Distance, Skeleton};
+use crate::scene::Scene;
+use crate::stage::{self, target, Quality, Stage};
+use crate::systems::wisps::WispsSystem;
+use glam::{DQuat, DVec3};
+use image::RgbaImage;
+use std::fmt::Write;
+use std::path::Path;
+
+/// Image sides of the cost sweep (square images, one sample per pixel).
+pub const SIDES: [u32; 3] = [128, 256, 512];
+
+/// Wisp counts of the cost sweep, as multiples of the scene's own.
+pub const COPIES: [usize; 4] = [1, 2, 4, 8];
+
+/// `copies` times the scene's wisps: each copy turned about the vertical by a few degrees and
+/// thinned by 1/sqrt(copies), so the hairstyle keeps its volume with more, thinner wisps.
+pub fn multiplied(scene: &Scene, copies: usize) -> Scene {
+    let mut s = scene.clone();
+    let Some(w) = s.wisps.as_mut() else {
+        return s;
+    };
+    let base: Vec<Skeleton> = w.skeletons.clone();
+    let thin = 1.0 / (copies as f64).sqrt();
+    w.skeletons.clear();
+    for k in 0..copies {
+        let angle = (k as f64 - (copies as f64 - 1.0) / 2.0) * 4.0_f64.to_radians();
+        let q = DQuat::from_rotation_y(angle);
+        for sk in &base {
+            let mut sk = sk.clone();
+            for n in &mut sk.nodes {
+                n.p = (q * DVec3::from(n.p)).to_array();
+                n.r *= thin.max(0.45);
+            }
+            w.skeletons.push(sk);
+        }
+    }
+    s
+}
+
+struct Timed {
+    stage: Stage,
+    out: target::Offscreen,
+    size: (u32, u32),
+}
+
+impl Timed {
+    fn new(gpu: &Gpu, scene: &Scene, side: u32) -> Result<Timed> {
+        let size = (side, side);
+        stage::check_limits(gpu, scene, size)?;
+        let quality = Quality {
+            msaa: 1,
+            supersample: 1,
+        };
+        Ok(Timed {
+            stage: Stage::new(gpu, scene, target::OUTPUT_FORMAT, quality)?,
+            out: target::Offscreen::new(gpu, size)?,
+            size,
+        })
+    }
+
+    fn frame(&mut self, gpu: &Gpu) -> Result<()> {
+        let look = self.stage.look();
+        let mut enc = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("bench wisps frame"),
+            });
+        self.stage
+            .render(gpu, &mut enc, &self.out.view, self.size, &look)?;
+        gpu.queue.submit([enc.finish()]);
+        gpu.wait()
+    }
+
+    fn image(&mut self, gpu: &Gpu) -> Result<RgbaImage> {
+        self.frame(gpu)?;
+        self.out.read_rgba(gpu)
+    }
+
+    /// Most neighbours any segment's box has (a list longer than the slots drops some).
+    fn most_neighbours(&self, gpu: &Gpu) -> Result<u32> {
+        let w = self
+            .stage
+            .system::<WispsSystem>()
+            .ok_or_else(|| crate::KamiError::Gpu("no wisps in the scene".into()))?;
+        let (_, counts) = w.curves.read(gpu)?;
+        Ok(counts.into_iter().max().unwrap_or(0))
+    }
+}
+
+/// Mean absolute difference (0..255 over RGB) and the share of pixels off by more than 24.
+pub fn image_error(a: &RgbaImage, b: &RgbaImage) -> (f64, f64) {
+    let mut sum = 0u64;
+    let mut over = 0u64;
+    for (pa, pb) in a.pixels().zip(b.pixels()) {
+        let mut worst = 0;
+        for c in 0..3 {
+            let d = pa[c].abs_diff(pb[c]);
+            sum += d as u64;
+            worst = worst.max(d);
+        }
+        over += u64::from(worst > 24);
+    }
+    let n = (a.width() * a.height()) as f64;
+    (sum as f64 / (3.0 * n), over as f64 / n)
+}
+
+/// Run the whole bench on `scene_path` (the toon scene) and write the report into `out`.
+pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Report> {
+    let scene = Scene::load(scene_path)?;
+    if scene.wisps.is_none() {
+        return Err(crate::KamiError::Invalid {
+            file: scene_path.display().to_string(),
+            field: "wisps".into(),
+            value: "None".into(),
+            allowed: "a scene with toon wisps (assets/scenes/toon.ron)".into(),
+        });
+    }
+    let mut md = String::new();
+    let mut csv = String::from("table,wisps,segments,side,variant,ms_per_frame,mean_error,share_over_24,most_neighbours\n");
+    writeln!(md, "# Toon wisps (Sakai)\n\n{}\n", provenance()).ok();
+    writeln!(
+        md,
+        "Adapter: {}. One sample per pixel, the scene's camera; mean of {frames} frames after \
+         one warm-up. Still wisps: the spline kernels run once, so a frame is the ray march.\n",
+        gpu.describe()
+    )
+    .ok();
+
+    // 1. Cost against wisp count and image size.
+    writeln!(md, "## Ray march cost per frame\n").ok();
+    writeln!(md, "| wisps | segments | most neighbours | {} |", SIDES.map(|s| format!("{s}² ms")).join(" | ")).ok();
+    writeln!(md, "|---|---|---|{}", "---|".repeat(SIDES.len())).ok();
+    let mut cost_series = Vec::new();
+    for (i, &copies) in COPIES.iter().enumerate() {
+        let s = multiplied(&scene, copies);
+        let w = s.wisps.as_ref().map(|w| w.skeletons.len()).unwrap_or(0);
+        let segs = s
+            .wisps
+            .as_ref()
+            .map(crate::systems::wisps::march::segment_count)
+            .unwrap_or(0);
+        let mut row = Vec::new();
+        let mut pts = Vec::new();
+        let mut most = 0;
+        for &side in &SIDES {
+            let mut t = Timed::new(gpu, &s, side)?;
+            let secs = time_mean(frames, || t.frame(gpu))?;
+            most = t.most_neighbours(gpu)?;
+            row.push(format!("{:.1}", secs * 1e3));
+            pts.push(((side * side) as f64, secs * 1e3));
+            writeln!(csv, "cost,{w},{segs},{side},newton,{:.3},,,{most}", secs * 1e3).ok();
+        }
+        writeln!(md, "| {w} | {segs} | {most} | {} |", row.join(" | ")).ok();
+        cost_series.push(Series {
+            name: format!("{w} wisps"),
+            color: plot::palette(i),
+            points: pts,
+        });
+    }
+    let cost_plot = plot::loglog(
+        "Toon wisps: ray march per frame",
+        "pixels",
+        "ms per frame",
+        &cost_series,
+        None,
+    );
+
+    // 2. Image error against step size and distance method, at 256x256.
+    let side = 256;
+    let mut fine = scene.clone();
+    if let Some(w) = fine.wisps.as_mut() {
+        w.march.step_scale = 0.25;
+        w.march.refine = 16;
+        w.march.max_steps = 2048;
+        w.march.distance = Distance::Newton;
+    }
+    let mut t = Timed::new(gpu, &fine, side)?;
+    let reference = t.image(gpu)?;
+    let ref_ms = time_mean(frames, || t.frame(gpu))? * 1e3;
+    writeln!(
+        md,
+        "\n## Ray march error against step and distance ({side}², against the reference: \
+         Newton distance, 0.25 of the safe step, 16 bisections, {ref_ms:.1} ms)\n"
+    )
+    .ok();
+    writeln!(md, "| distance | step scale | ms per frame | mean error (of 255) | pixels off by > 24 |").ok();
+    writeln!(md, "|---|---|---|---|---|").ok();
+    let mut variants: Vec<(String, Distance, f64)> = Vec::new();
+    for step in [0.5, 1.0, 2.0, 4.0] {
+        variants.push(("Newton".into(), Distance::Newton, step));
+    }
+    for pieces in [1, 2, 4, 8] {
+        variants.push((format!("polyline {pieces}"), Distance::Polyline { pieces }, 1.0));
+    }
+    let mut newton_pts = Vec::new();
+    let mut poly_pts = Vec::new();
+    for (name, distance, step) in variants {
+        let mut s = scene.clone();
+        if let Some(w) = s.wisps.as_mut() {
+            w.march.distance = distance;
+            w.march.step_scale = step;
+        }
+        let mut t = Timed::new(gpu, &s, side)?;
+        let img = t.image(gpu)?;
+        let ms = time_mean(frames, || t.frame(gpu))? * 1e3;
+        let (mean, over) = image_error(&reference, &img);
+        writeln!(md, "| {name} | {step} | {ms:.1} | {mean:.3} | {:.3} % |", over * 100.0).ok();
+        writeln!(csv, "error,,,{side},{name} step {step},{ms:.3},{mean:.5},{over:.6},").ok();
+        let p = (ms, mean.max(1e-4));
+        if matches!(distance, Distance::Newton) {
+            newton_pts.push(p);
+        } else {
+            poly_pts.push(p);
+        }
+    }
+    let error_plot = plot::loglog(
+        "Toon wisps: image error against cost",
+        "ms per frame",
+        "mean error (of 255)",
+        &[
+            Series {
+                name: "Newton, step 0.5-4".into(),
+                color: plot::palette(0),
+                points: newton_pts,
+            },
+            Series {
+                name: "polyline 1-8, step 1".into(),
+                color: plot::palette(1),
+                points: poly_pts,
+            },
+        ],
+        None,
+    );
+    writeln!(
+        md,
+        "\nSteps above 1 leave the Lipschitz-safe bound and may skip thin wisps; they are \
+         here to show what the bound buys.\n"
+    )
+    .ok();
+
+    write_report(out, "wisps", &md, &csv)?;
+    for (name, img) in [("wisps_cost.png", cost_plot), ("wisps_error.png", error_plot)] {
+        let p = out.join(name);
+        img.save(&p).map_err(|e| crate::KamiError::Io {
+            path: p.clone(),
+            source: std::io::Error::other(e),
+        })?;
+    }
+    Ok(Report { markdown: md, csv })
+}
