@@ -5,7 +5,7 @@
 
 use glam::{DMat3, DMat4, DVec3};
 use kami::rng::Rng;
-use kami::scene::wisps::{Distance, March, Toon};
+use kami::scene::wisps::{Distance, March, Tones, Toon};
 use kami::systems::wisps::curve::{self, Segment};
 use kami::systems::wisps::field::{self, Hit, Ray};
 
@@ -214,10 +214,18 @@ fn polyline_distance_converges_quadratically() {
 
 /// Worst |∇ρ_e| (central differences) over the segment's bound, at points with ρ_e > 0.
 fn worst_lipschitz_ratio(pts: &[(Segment, DVec3)]) -> (f64, usize) {
+    worst_gradient_ratio(pts, Distance::Newton, |s| s.lipschitz)
+}
+
+fn worst_gradient_ratio(
+    pts: &[(Segment, DVec3)],
+    method: Distance,
+    bound: impl Fn(&Segment) -> f64,
+) -> (f64, usize) {
     let h = 1e-6;
     let (mut worst, mut n_pos) = (0.0f64, 0);
     for (seg, v) in pts {
-        let rho = |p: DVec3| field::segment_density(seg, p, Distance::Newton).rho;
+        let rho = |p: DVec3| field::segment_density(seg, p, method).rho;
         if rho(*v) <= 0.0 {
             continue;
         }
@@ -227,7 +235,7 @@ fn worst_lipschitz_ratio(pts: &[(Segment, DVec3)]) -> (f64, usize) {
             rho(*v + DVec3::Y * h) - rho(*v - DVec3::Y * h),
             rho(*v + DVec3::Z * h) - rho(*v - DVec3::Z * h),
         ) / (2.0 * h);
-        worst = worst.max(g.length() / seg.lipschitz);
+        worst = worst.max(g.length() / bound(seg));
     }
     (worst, n_pos)
 }
@@ -244,7 +252,63 @@ fn lipschitz_bound_holds_for_curved_tapering_wisps() {
         );
         assert!(n_pos > 10_000);
         assert!(worst <= 1.0, "bound exceeded at bend {bend}: {worst}");
+        // The polyline density (a different function) stays under the same bound.
+        for pieces in [2, 4, 8] {
+            let method = Distance::Polyline { pieces };
+            let (worst, _) = worst_gradient_ratio(&pts, method, |s| s.lipschitz);
+            println!("  {method:?}: {worst:.4}");
+            assert!(
+                worst <= 1.0,
+                "bound exceeded at bend {bend}, {pieces} pieces: {worst}"
+            );
+        }
     }
+    // Steep tapers, where the taper terms of the bound matter: a whole wisp's r range over one
+    // edge (r 1.0-1.4 down to 0.2-0.3 in 2 units), w rising towards the thin end.
+    let mut pts = Vec::new();
+    for _ in 0..3000 {
+        let d = rand_unit(&mut rng);
+        let p0 = rand_vec(&mut rng, 5.0);
+        let p1 = p0 + d * 2.0;
+        let p2 = p1 + (d + rand_unit(&mut rng) * 0.6).normalize() * 2.0;
+        let nodes = [
+            (p0, rng.range(1.0, 1.4), rng.range(1.0, 1.2)),
+            (p1, rng.range(0.2, 0.3), rng.range(1.8, 2.0)),
+            (p2, 0.2, 2.0),
+        ];
+        let seg = curve::segments(&nodes)[0];
+        for _ in 0..20 {
+            let t = rng.range(0.0, 1.0);
+            let v = seg.point(t) + rand_unit(&mut rng) * rng.range(0.0, 1.0) * seg.radius(t);
+            pts.push((seg, v));
+        }
+    }
+    let (worst, n_pos) = worst_lipschitz_ratio(&pts);
+    println!("steep tapers: worst |grad rho_e| / lipschitz over {n_pos} points: {worst:.4}");
+    assert!(worst <= 1.0, "bound exceeded on steep tapers: {worst}");
+    // Where the taper terms are needed: constant w, x = D/r = 1/3 (|fd'| = 2) just before the
+    // thin end, where 2 w/r(t) is nearly 2 w_max/r_min and moving t* adds a tangential part.
+    let mut pts = Vec::new();
+    for _ in 0..200 {
+        let d = rand_unit(&mut rng);
+        let p0 = rand_vec(&mut rng, 5.0);
+        let p1 = p0 + d * 2.0;
+        let p2 = p1 + (d + rand_unit(&mut rng) * 0.3).normalize() * 2.0;
+        let nodes = [(p0, 1.2, 2.0), (p1, 0.3, 2.0), (p2, 0.3, 2.0)];
+        let seg = curve::segments(&nodes)[0];
+        for k in 1..=100 {
+            let t = 1.0 - k as f64 * 2e-4;
+            let side = seg.derivative(t).cross(rand_unit(&mut rng)).normalize();
+            pts.push((seg, seg.point(t) + side * (seg.radius(t) / 3.0)));
+        }
+    }
+    let (worst, _) = worst_lipschitz_ratio(&pts);
+    let (plain, _) = worst_gradient_ratio(&pts, Distance::Newton, |s| {
+        2.0 * s.w[0].max(s.w[1]) / s.r[0].min(s.r[1])
+    });
+    println!("tapered thin ends: worst ratio {worst:.4} (against 2 w_max/r_min alone: {plain:.4})");
+    assert!(plain > 1.0, "the taper terms were not needed here");
+    assert!(worst <= 1.0, "bound exceeded at thin ends: {worst}");
 }
 
 /// Within the shipped envelope (turns up to 0.7 rad per node) the closest point moves
@@ -277,6 +341,46 @@ fn closest_point_is_continuous_in_the_envelope() {
     println!("{walks} walks of 100 steps: {jumps} jumps of t, {wrong} local minima");
     assert!(walks > 5000);
     assert_eq!((jumps, wrong), (0, 0));
+}
+
+/// The step's Lipschitz sum covers the whole field where wisps blend: four wisps a radius
+/// apart, |∇f| (central differences) ≤ L_near at random points around them.
+#[test]
+fn field_gradient_is_within_the_near_lipschitz_sum() {
+    let mut rng = Rng::new(9, 0);
+    let base = skeleton(&mut rng, 0.5);
+    let wisps: Vec<Vec<Segment>> = (0..4)
+        .map(|k| {
+            let off = DVec3::new(0.4 * (k % 2) as f64, 0.0, 0.4 * (k / 2) as f64);
+            curve::segments(
+                &base
+                    .iter()
+                    .map(|&(p, r, w)| (p + off, r, w))
+                    .collect::<Vec<_>>(),
+            )
+        })
+        .collect();
+    let h = 1e-6;
+    let (mut worst, mut n) = (0.0f64, 0);
+    for _ in 0..20_000 {
+        let seg = &wisps[0][(rng.next_u32() as usize) % wisps[0].len()];
+        let v = seg.point(rng.uniform()) + rand_vec(&mut rng, 1.5);
+        let pr = field::probe(&wisps, 0.5, v, Distance::Newton);
+        if pr.f.rho <= -0.5 {
+            continue;
+        }
+        n += 1;
+        let f = |p: DVec3| field::field(&wisps, 0.5, p, Distance::Newton).rho;
+        let g = DVec3::new(
+            f(v + DVec3::X * h) - f(v - DVec3::X * h),
+            f(v + DVec3::Y * h) - f(v - DVec3::Y * h),
+            f(v + DVec3::Z * h) - f(v - DVec3::Z * h),
+        ) / (2.0 * h);
+        worst = worst.max(g.length() / pr.l_near);
+    }
+    println!("blended wisps: worst |grad f| / L_near over {n} points: {worst:.4}");
+    assert!(n > 5000);
+    assert!(worst <= 1.0, "{worst}");
 }
 
 #[test]
@@ -542,8 +646,19 @@ fn angel_halo_is_a_band_of_latitude() {
                 let lon = (j as f64 * 5.0).to_radians();
                 let n_loc = DVec3::new(lat.cos() * lon.sin(), lat.sin(), lat.cos() * lon.cos());
                 let (i_spec, i_diff, i_lat, i_lon) = field::intensities(head * n_loc, light, head);
+                // Eqs 17-19: latitude of the normal, longitude difference to the light (at
+                // longitude 0); at the poles no longitude.
                 assert!((i_diff - i_lat * i_lon).abs() < 1e-12);
-                assert!((0.0..=1.0).contains(&i_diff));
+                assert!((i_lat - 0.5 * (lat.sin() + 1.0)).abs() < 1e-12);
+                let want_lon = if lat.cos() < 1e-6 {
+                    0.5
+                } else {
+                    0.5 * (lon.cos() + 1.0)
+                };
+                assert!(
+                    (i_lon - want_lon).abs() < 1e-9,
+                    "I_lon {i_lon} vs {want_lon}"
+                );
                 specs.push(i_spec);
                 // The colour is a tone, plus the specular colour exactly in the band.
                 let c = field::shade(head * n_loc, light, head, &toon);
@@ -568,6 +683,93 @@ fn angel_halo_is_a_band_of_latitude() {
                 assert_eq!(in_band, expect, "lat {:.1}°", lat.to_degrees());
             }
             assert!((specs[0] - (lat - elev).cos()).abs() < 1e-12);
+        }
+    }
+}
+
+/// Eqs 20-22: the tone by the diffuse thresholds (two or three tones), specular added and
+/// clamped. Normals sweep the latitude at the light's longitude, so I_diff = I_lat.
+#[test]
+fn toon_tones_follow_the_thresholds() {
+    let light = DVec3::new(0.0, 0.2, 1.0).normalize();
+    let lin = field::linear;
+    for tones in [Tones::Two, Tones::Three] {
+        let toon = Toon {
+            tones,
+            specular: [1.0, 1.0, 1.0],
+            ..Toon::default()
+        };
+        let mut seen = [0; 3];
+        for i in 0..=180 {
+            let lat = (-90.0 + i as f64).to_radians();
+            let n = DVec3::new(0.0, lat.sin(), lat.cos());
+            let (i_spec, i_diff, _, _) = field::intensities(n, light, DMat3::IDENTITY);
+            let tone = if i_diff > toon.t_diffuse {
+                seen[0] += 1;
+                lin(toon.diffuse)
+            } else if tones == Tones::Two || i_diff > toon.t_dark {
+                seen[1] += 1;
+                lin(toon.shade)
+            } else {
+                seen[2] += 1;
+                lin(toon.dark)
+            };
+            let want = if i_spec > toon.t_specular {
+                DVec3::ONE // white specular saturates
+            } else {
+                tone
+            };
+            assert_eq!(
+                field::shade(n, light, DMat3::IDENTITY, &toon),
+                want,
+                "lat {i}"
+            );
+        }
+        println!("{tones:?}: diffuse/shade/dark over the sweep: {seen:?}");
+        assert!(seen[0] > 0 && seen[1] > 0 && (seen[2] > 0) == (tones == Tones::Three));
+    }
+}
+
+/// The silhouette shell: a ray grazing a front wisp within the outline width is an outline
+/// even though it goes on to hit a wisp behind; further out it hits the back wisp.
+#[test]
+fn outline_shell_stops_grazing_rays() {
+    let line = |y: f64, z: f64, r: f64| {
+        curve::segments(&[-6.0, 0.0, 6.0].map(|x| (DVec3::new(x, y, z), r, 1.0)))
+    };
+    let wisps = vec![line(0.0, 0.0, 1.0), line(0.0, -8.0, 3.0)];
+    let iso = 1.0 - (0.5f64 / 1.5).sqrt();
+    let eps_per_t = 0.015; // eps = 0.3 at the front wisp, 20 away
+    let m = march_default();
+    let shoot = |y: f64| {
+        let ray = Ray {
+            origin: DVec3::new(0.5, y, 20.0),
+            dir: -DVec3::Z,
+            t0: 0.0,
+            t1: 40.0,
+        };
+        field::march(&wisps, 0.5, &m, &ray, eps_per_t).0
+    };
+    let back = 20.0 + 8.0 - 3.0 * iso; // the back wisp's front, roughly (|y| < 1)
+    for (y, want) in [
+        (0.0, "front"),
+        (iso - 0.05, "front"),
+        (iso + 0.1, "outline"),
+        (iso + 0.6, "back"),
+    ] {
+        let hit = shoot(y);
+        println!("y = {y:.3}: {hit:?}");
+        match (want, hit) {
+            ("front", Hit::Surface { t, .. }) => {
+                // Within half the last bracket: eps/4 / 2^(refine + 1) ≈ 1.5e-4.
+                assert!(
+                    (t - (20.0 - (iso * iso - y * y).sqrt())).abs() < 1.5e-4,
+                    "y {y}: t {t}"
+                )
+            }
+            ("outline", Hit::Outline { t }) => assert!(t > 18.5 && t < 20.0, "y {y}: t {t}"),
+            ("back", Hit::Surface { t, .. }) => assert!(t > back - 0.5, "y {y}: t {t}"),
+            _ => panic!("y {y}: wanted {want}, got {hit:?}"),
         }
     }
 }
