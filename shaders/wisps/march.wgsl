@@ -170,9 +170,11 @@ fn closest_newton(s: Segment, v: vec3<f32>) -> f32 {
     return t_best;
 }
 
-// Closest parameter on a segment taken as `pieces` chords (closed form per chord).
-fn closest_polyline(s: Segment, v: vec3<f32>, pieces: u32) -> f32 {
+// Closest point on a segment taken as `pieces` chords (closed form per chord): xyz the point
+// on the chord, w its parameter interpolated along the chord (for r and w).
+fn closest_polyline(s: Segment, v: vec3<f32>, pieces: u32) -> vec4<f32> {
     var best_t = 0.0;
+    var best_p = s.c0.xyz;
     var best_g = 1e30;
     var a = s.c0.xyz;
     for (var k = 0u; k < pieces; k++) {
@@ -189,10 +191,11 @@ fn closest_polyline(s: Segment, v: vec3<f32>, pieces: u32) -> f32 {
         if (g < best_g) {
             best_g = g;
             best_t = (f32(k) + u) / f32(pieces);
+            best_p = a + u * ab;
         }
         a = b;
     }
-    return best_t;
+    return vec4<f32>(best_p, best_t);
 }
 
 // Eq 9 and its derivative.
@@ -292,12 +295,16 @@ fn field(list: ptr<function, array<u32, 64>>, count: u32, v: vec3<f32>) -> Sampl
             continue;
         }
         var t = 0.0;
+        var cp = vec3<f32>(0.0);
         if (draw.method.x == 0u) {
             t = closest_newton(s, v);
+            cp = bez(s, t);
         } else {
-            t = closest_polyline(s, v, draw.method.y);
+            let c = closest_polyline(s, v, draw.method.y);
+            t = c.w;
+            cp = c.xyz;
         }
-        let off = v - bez(s, t);
+        let off = v - cp;
         let d = length(off);
         if (d >= r_max) {
             far_gap = min(far_gap, d - r_max);

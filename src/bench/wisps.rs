@@ -127,7 +127,9 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
         });
     }
     let mut md = String::new();
-    let mut csv = String::from("table,wisps,segments,side,variant,ms_per_frame,mean_error,share_over_24,most_neighbours\n");
+    let mut csv = String::from(
+        "table,wisps,segments,side,variant,ms_per_frame,mean_error,share_over_24,most_neighbours\n",
+    );
     writeln!(md, "# Toon wisps (Sakai)\n\n{}\n", provenance()).ok();
     writeln!(
         md,
@@ -139,7 +141,12 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
 
     // 1. Cost against wisp count and image size.
     writeln!(md, "## Ray march cost per frame\n").ok();
-    writeln!(md, "| wisps | segments | most neighbours | {} |", SIDES.map(|s| format!("{s}² ms")).join(" | ")).ok();
+    writeln!(
+        md,
+        "| wisps | segments | most neighbours | {} |",
+        SIDES.map(|s| format!("{s}² ms")).join(" | ")
+    )
+    .ok();
     writeln!(md, "|---|---|---|{}", "---|".repeat(SIDES.len())).ok();
     let mut cost_series = Vec::new();
     for (i, &copies) in COPIES.iter().enumerate() {
@@ -159,7 +166,12 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
             most = t.most_neighbours(gpu)?;
             row.push(format!("{:.1}", secs * 1e3));
             pts.push(((side * side) as f64, secs * 1e3));
-            writeln!(csv, "cost,{w},{segs},{side},newton,{:.3},,,{most}", secs * 1e3).ok();
+            writeln!(
+                csv,
+                "cost,{w},{segs},{side},newton,{:.3},,,{most}",
+                secs * 1e3
+            )
+            .ok();
         }
         writeln!(md, "| {w} | {segs} | {most} | {} |", row.join(" | ")).ok();
         cost_series.push(Series {
@@ -194,14 +206,22 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
          Newton distance, 0.25 of the safe step, 16 bisections, {ref_ms:.1} ms)\n"
     )
     .ok();
-    writeln!(md, "| distance | step scale | ms per frame | mean error (of 255) | pixels off by > 24 |").ok();
+    writeln!(
+        md,
+        "| distance | step scale | ms per frame | mean error (of 255) | pixels off by > 24 |"
+    )
+    .ok();
     writeln!(md, "|---|---|---|---|---|").ok();
     let mut variants: Vec<(String, Distance, f64)> = Vec::new();
     for step in [0.5, 1.0, 2.0, 4.0] {
         variants.push(("Newton".into(), Distance::Newton, step));
     }
     for pieces in [1, 2, 4, 8] {
-        variants.push((format!("polyline {pieces}"), Distance::Polyline { pieces }, 1.0));
+        variants.push((
+            format!("polyline {pieces}"),
+            Distance::Polyline { pieces },
+            1.0,
+        ));
     }
     let mut newton_pts = Vec::new();
     let mut poly_pts = Vec::new();
@@ -215,8 +235,17 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
         let img = t.image(gpu)?;
         let ms = time_mean(frames, || t.frame(gpu))? * 1e3;
         let (mean, over) = image_error(&reference, &img);
-        writeln!(md, "| {name} | {step} | {ms:.1} | {mean:.3} | {:.3} % |", over * 100.0).ok();
-        writeln!(csv, "error,,,{side},{name} step {step},{ms:.3},{mean:.5},{over:.6},").ok();
+        writeln!(
+            md,
+            "| {name} | {step} | {ms:.1} | {mean:.3} | {:.3} % |",
+            over * 100.0
+        )
+        .ok();
+        writeln!(
+            csv,
+            "error,,,{side},{name} step {step},{ms:.3},{mean:.5},{over:.6},"
+        )
+        .ok();
         let p = (ms, mean.max(1e-4));
         if matches!(distance, Distance::Newton) {
             newton_pts.push(p);
@@ -250,7 +279,10 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
     .ok();
 
     write_report(out, "wisps", &md, &csv)?;
-    for (name, img) in [("wisps_cost.png", cost_plot), ("wisps_error.png", error_plot)] {
+    for (name, img) in [
+        ("wisps_cost.png", cost_plot),
+        ("wisps_error.png", error_plot),
+    ] {
         let p = out.join(name);
         img.save(&p).map_err(|e| crate::KamiError::Io {
             path: p.clone(),

@@ -110,19 +110,60 @@ pub fn normal(grad: DVec3, fallback: DVec3) -> DVec3 {
     }
 }
 
-/// One march sample: the field over the near segments only, their Lipschitz sum, and how far
-/// the point can move before a far segment can matter.
+/// One march sample: the field over the near segments only, and how far the point may move
+/// in any direction without reaching the surface.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Probe {
     /// f and ∇f (as `field`: far segments are exactly 0).
     pub f: Density,
+    /// Sum of the near segments' Lipschitz bounds.
     pub l_near: f64,
-    /// min over far segments of (box distance − r_max); +∞ when none.
+    /// min over far segments of (distance − r_max); +∞ when none.
     pub far_gap: f64,
+    /// The safe step (before `step_scale`): `min(max(-f / l_near, distance_step), far_gap)`
+    /// where some segment is near, `far_gap` where none is.
+    pub step: f64,
 }
 
-/// Step 1-2 of the march at `p`. A segment whose control-point box is at least r_max away is
-/// far: every curve point is then ≥ r(t) away, so its density is 0 within `far_gap` of p.
+/// Bisection steps of `distance_step` (the shader's too).
+pub const DISTANCE_STEP_ITERATIONS: u32 = 6;
+
+/// The largest s (by bisection below `s_hi`, keeping the safe lower end) such that no point
+/// within s of the sample can be inside, from the near segments' (D, r_max, w_max, wisp): a
+/// segment's density there is at most w_max·fd(max(D − s, 0)/r_max), since D shrinks by at
+/// most s, fd falls with distance and r, w are at most their largest along the segment; the
+/// field stays below the threshold while the sum over wisps of the largest bound does. It
+/// lets rays approach a wisp in long strides where the Lipschitz step (which must hold
+/// everywhere in the thin tip's influence) would crawl.
+pub fn distance_step(near: &[(f64, f64, f64, usize)], threshold: f64, s_hi: f64) -> f64 {
+    let (mut lo, mut hi) = (0.0, s_hi);
+    for _ in 0..DISTANCE_STEP_ITERATIONS {
+        let s = 0.5 * (lo + hi);
+        let mut sum = 0.0;
+        let mut wisp = usize::MAX;
+        let mut wisp_max: f64 = 0.0;
+        for &(d, rm, wm, wi) in near {
+            if wi != wisp {
+                sum += wisp_max;
+                wisp = wi;
+                wisp_max = 0.0;
+            }
+            wisp_max = wisp_max.max(wm * fd((d - s).max(0.0) / rm));
+        }
+        sum += wisp_max;
+        if sum < threshold {
+            lo = s;
+        } else {
+            hi = s;
+        }
+    }
+    lo
+}
+
+/// Steps 1-2 of the march at `p`. A segment whose control-point box is at least r_max away
+/// is far (every curve point is then ≥ r(t) away, so its density is 0 within `far_gap`); so
+/// is one whose curve, by the distance method, is at least r_max away (gap D − r_max). Only
+/// near segments add to the Lipschitz sum and to the distance step.
 pub fn probe(wisps: &[Vec<Segment>], threshold: f64, p: DVec3, method: Distance) -> Probe {
     let mut out = Probe {
         f: Density {
@@ -131,8 +172,11 @@ pub fn probe(wisps: &[Vec<Segment>], threshold: f64, p: DVec3, method: Distance)
         },
         l_near: 0.0,
         far_gap: f64::INFINITY,
+        step: f64::INFINITY,
     };
-    for w in wisps {
+    let mut near = Vec::new();
+    let mut s_hi = f64::INFINITY;
+    for (wi, w) in wisps.iter().enumerate() {
         let mut best = Density::default();
         for s in w {
             let a = s.box_distance(p);
@@ -141,14 +185,27 @@ pub fn probe(wisps: &[Vec<Segment>], threshold: f64, p: DVec3, method: Distance)
                 out.far_gap = out.far_gap.min(a - rm);
                 continue;
             }
+            let (d, _) = curve::distance(s, p, method);
+            if d >= rm {
+                out.far_gap = out.far_gap.min(d - rm);
+                continue;
+            }
             out.l_near += s.lipschitz;
-            let d = segment_density(s, p, method);
-            if d.rho > best.rho {
-                best = d;
+            near.push((d, rm, s.w[0].max(s.w[1]), wi));
+            s_hi = s_hi.min(d);
+            let dens = segment_density(s, p, method);
+            if dens.rho > best.rho {
+                best = dens;
             }
         }
         out.f.rho += best.rho;
         out.f.grad += best.grad;
+    }
+    out.step = out.far_gap;
+    if !near.is_empty() && out.f.rho < 0.0 {
+        let s_lip = -out.f.rho / out.l_near;
+        let s_dist = distance_step(&near, threshold, s_hi.min(out.far_gap));
+        out.step = s_lip.max(s_dist).min(out.far_gap);
     }
     out
 }
@@ -248,12 +305,7 @@ pub fn march(
         } else if in_shell {
             entry = Some(t);
         }
-        let base = if s.l_near > 0.0 {
-            -s.f.rho / s.l_near
-        } else {
-            f64::INFINITY
-        };
-        let mut step = base.min(s.far_gap) * m.step_scale;
+        let mut step = s.step * m.step_scale;
         if step == f64::INFINITY {
             return (Hit::Miss, steps); // no segments at all
         }
