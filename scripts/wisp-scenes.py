@@ -48,13 +48,13 @@ def skel(name, nodes):
 def toon_wisps():
     out = []
     # Bangs over the forehead (the face looks along +x), pointed tips at eye level.
-    for i, phi in enumerate([-38, -19, 0, 19, 38]):
-        out.append(skel(f"bang {i}", wisp(phi, [8, 35, 58, 74], [], 2.3, 0.3, off=1.4)))
+    for i, phi in enumerate([-42, -28, -14, 0, 14, 28, 42]):
+        out.append(skel(f"bang {i}", wisp(phi, [8, 35, 58, 74], [], 2.9, 0.3, off=1.4)))
     # Sides and back: over the ears and down to the nape and below.
-    side = [62, 84, 106, 128, 150, 172, 194, 216, 238, 260, 282, 298]
+    side = [60, 78, 96, 114, 132, 150, 168, 186, 204, 222, 240, 258, 276, 294]
     for i, phi in enumerate(side):
         drop = [4.0, 4.0, 3.5] if 100 < phi < 260 else [3.5, 3.0]
-        out.append(skel(f"back {i}", wisp(phi, [10, 40, 70, 98], drop, 2.5, 0.3,
+        out.append(skel(f"back {i}", wisp(phi, [10, 40, 70, 98], drop, 3.0, 0.3,
                                           off=1.5, out=0.8, curl=1.2)))
     # A tuft at the crown (ahoge-like), standing up and curling forward.
     out.append(skel("crown tuft", [
@@ -67,8 +67,8 @@ def toon_wisps():
 
 
 TOON_HEAD = """    head: Head(radii: (9.6, 11.5, 7.8), color: (0.98, 0.86, 0.78)),"""
-TOON_LOOK = """    camera: CameraDesc(eye: (40.0, 8.0, 27.0), target: (0.0, -2.0, 0.0), fov_y: 40.0),
-    light: Light(direction: (0.55, 0.75, 0.35), intensity: 1.0, ambient: 1.0),
+TOON_LOOK = """    camera: CameraDesc(eye: (40.0, 9.0, 27.0), target: (0.0, -0.5, 0.0), fov_y: 42.0),
+    light: Light(direction: (0.75, 0.5, 0.3), intensity: 1.0, ambient: 1.0),
     render: RenderSettings(size: (512, 512), supersample: 2, msaa: 1, background: (0.97, 0.95, 0.92)),"""
 
 
@@ -94,7 +94,7 @@ def toon():
             specular: (0.50, 0.50, 0.42),
             t_diffuse: 0.45,
             t_dark: 0.2,
-            t_specular: 0.985,
+            t_specular: 0.97,
             outline: (0.08, 0.06, 0.16),
             outline_width: 1.5,
         ),
@@ -163,7 +163,7 @@ def toon_divide():
 
 
 HEAD = {
-    "toon": "// Sakai's default look: an anime head with seventeen toon wisps (bangs, sides and\n"
+    "toon": "// Sakai's default look: an anime head with twenty-two toon wisps (bangs, sides and\n"
     "// back, a crown tuft), three-tone toon shading in the head's frame with the angel halo\n"
     "// (the horizontal specular band), silhouette outlines. Written by scripts/wisp-scenes.py.\n",
     "toon_shake": "// Fig. 13: the toon wisps on mass springs (RK4), the head shaking side to side; the\n"
