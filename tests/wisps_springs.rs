@@ -629,6 +629,20 @@ fn gpu_matches_cpu() {
         let gpu_time = t.elapsed();
         springs::run_frames(&lat, &m, &f, &mut st, 0, frame as u32);
         let len = chain_length(&bang).max(chain_length(&back));
+        // The root rings sit exactly on the head pose (up to f32).
+        let h = f.head_at(frame as f64);
+        let pinned = got
+            .iter()
+            .zip(&lat.points)
+            .filter(|(_, p)| p.pinned)
+            .map(|(g, p)| {
+                (Vec3::new(g[0], g[1], g[2]).as_dvec3() - h.transform_point3(p.rest)).length()
+            })
+            .fold(0.0, f64::max);
+        assert!(
+            pinned < 1e-5,
+            "GPU root rings off the head pose by {pinned}"
+        );
         let mut worst: f64 = 0.0;
         let mut moved: f64 = 0.0;
         for (i, g) in got.iter().enumerate() {
@@ -637,7 +651,7 @@ fn gpu_matches_cpu() {
             moved = moved.max((st.x[i] - lat.points[i].rest).length());
         }
         eprintln!(
-            "{integrator:?}: {} points, {frame} frames: worst |GPU - CPU| {worst:.3e} = {:.2e} of the wisp length (points moved up to {moved:.2}); GPU {gpu_time:?}",
+            "{integrator:?}: {} points, {frame} frames: worst |GPU - CPU| {worst:.3e} = {:.2e} of the wisp length (points moved up to {moved:.2}); root rings off the pose by {pinned:.1e}; GPU {gpu_time:?}",
             got.len(),
             worst / len
         );
