@@ -1,0 +1,266 @@
+// Sakai's mass springs (section 7), the f32 twin of src/systems/wisps/springs.rs (read its
+// header for the lattice, eq 23 and our collision). One invocation per mass point; forces
+// are gathered over each point's CSR list of springs (no atomics). One substep is four
+// dispatches for RK4 (rk1..rk4, stage states ping-ponged between scratch regions A and B so
+// no dispatch writes what its neighbours read) or two for semi-implicit Euler (kick, drift).
+// Kinematic points (inverse mass 0) take the head pose of the stage time.
+
+// Passed by the Rust side (`gpu::WORKGROUP`, `springs::NEWTON`).
+override WORKGROUP: u32;
+override NEWTON: u32;
+
+// Keep in sync with GpuSpringParams in src/systems/wisps/springs_gpu.rs.
+struct Params {
+    count: u32,
+    row_stride: u32,
+    collide: u32,
+    _p0: u32,
+    // xyz gravity, w step length (seconds)
+    gravity: vec4<f32>,
+    // xyz hull centre, w c_damp
+    hull_center: vec4<f32>,
+    hull_radii: vec4<f32>,
+}
+
+// One 256-byte slot per substep: x is the substep's index in this recording; its head poses
+// are heads[2x] (start), heads[2x + 1] (middle) and heads[2x + 2] (end).
+struct Substep {
+    index: vec4<u32>,
+}
+
+// Keep in sync with GpuMassPoint.
+struct MassPoint {
+    // xyz rest position (head rest frame), w inverse mass (0: kinematic)
+    rest: vec4<f32>,
+    // x first spring, y one past the last
+    edges: vec4<u32>,
+}
+
+// Keep in sync with GpuEdge.
+struct Edge {
+    other: u32,
+    rest: f32,
+    k: f32,
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<uniform> substep: Substep;
+@group(0) @binding(2) var<storage, read> points: array<MassPoint>;
+@group(0) @binding(3) var<storage, read> edges: array<Edge>;
+@group(0) @binding(4) var<storage, read> heads: array<mat4x4<f32>>;
+// xyz world position; primaries first (the renderer reads them).
+@group(0) @binding(5) var<storage, read_write> pos: array<vec4<f32>>;
+// Regions of `count` entries: 0 velocity, 1 A.x, 2 A.v, 3 B.x, 4 B.v, 5 sum of k_x,
+// 6 sum of k_v.
+@group(0) @binding(6) var<storage, read_write> scratch: array<vec4<f32>>;
+
+const VEL: u32 = 0u;
+const AX: u32 = 1u;
+const AV: u32 = 2u;
+const BX: u32 = 3u;
+const BV: u32 = 4u;
+const SX: u32 = 5u;
+const SV: u32 = 6u;
+
+fn at(region: u32, p: u32) -> u32 {
+    return region * params.count + p;
+}
+
+fn head(k: u32) -> mat4x4<f32> {
+    return heads[2u * substep.index.x + k];
+}
+
+fn point_index(id: vec3<u32>) -> u32 {
+    return id.x + id.y * params.row_stride;
+}
+
+fn posed(p: u32, m: mat4x4<f32>) -> vec4<f32> {
+    return vec4<f32>((m * vec4<f32>(points[p].rest.xyz, 1.0)).xyz, 1.0);
+}
+
+// Neighbours' positions come from `pos` (src 0) or a scratch region.
+fn neighbour(src: u32, o: u32) -> vec3<f32> {
+    if src == 0u {
+        return pos[o].xyz;
+    }
+    return scratch[at(src, o)].xyz;
+}
+
+// Eq 23 over the mass: spring forces, damping, gravity.
+fn accel(p: u32, xp: vec3<f32>, vp: vec3<f32>, src: u32) -> vec3<f32> {
+    let pt = points[p];
+    var f = vec3<f32>(0.0);
+    for (var e = pt.edges.x; e < pt.edges.y; e++) {
+        let ed = edges[e];
+        let d = neighbour(src, ed.other) - xp;
+        let l = length(d);
+        if l > 0.0 {
+            f += d * (ed.k * (l - ed.rest) / l);
+        }
+    }
+    return (f - params.hull_center.w * vp) * pt.rest.w + params.gravity.xyz;
+}
+
+// Head-local point of a rigid pose.
+fn unpose(m: mat4x4<f32>, x: vec3<f32>) -> vec3<f32> {
+    let r = mat3x3<f32>(m[0].xyz, m[1].xyz, m[2].xyz);
+    return transpose(r) * (x - m[3].xyz);
+}
+
+// Ours (see springs::collide): out of the posed hull by Newton steps along the gradient,
+// without velocity into the surface relative to the moving head.
+fn collide(x: ptr<function, vec3<f32>>, v: ptr<function, vec3<f32>>) {
+    if params.collide == 0u {
+        return;
+    }
+    let h0 = head(0u);
+    let h1 = head(2u);
+    let hl = Hull(params.hull_center.xyz, params.hull_radii.xyz);
+    var q = unpose(h1, *x);
+    if hull_eval(hl, q) >= 0.0 {
+        return;
+    }
+    let goal = 1.5 * EPS_OUT;
+    for (var i = 0u; i < NEWTON; i++) {
+        let e = hull_eval(hl, q);
+        if e >= EPS_OUT && e <= 2.0 * EPS_OUT {
+            break;
+        }
+        let g = hull_gradient(hl, q);
+        let g2 = dot(g, g);
+        if g2 < 1e-24 {
+            q = hl.center + vec3<f32>(0.0, hl.radii.y, 0.0);
+            continue;
+        }
+        q -= g * ((e - goal) / g2);
+    }
+    let e = hull_eval(hl, q);
+    if e < EPS_OUT {
+        q = hl.center + (q - hl.center) * sqrt((1.0 + goal) / max(e + 1.0, 1e-12));
+    }
+    *x = (h1 * vec4<f32>(q, 1.0)).xyz;
+    let n = normalize((h1 * vec4<f32>(hull_gradient(hl, q), 0.0)).xyz);
+    let surface = ((h1 - h0) * vec4<f32>(q, 1.0)).xyz / params.gravity.w;
+    let into = dot(*v - surface, n);
+    if into < 0.0 {
+        *v -= into * n;
+    }
+}
+
+// Kinematic points to the pose at the start of the recording's first substep.
+@compute @workgroup_size(WORKGROUP)
+fn pin(@builtin(global_invocation_id) id: vec3<u32>) {
+    let p = point_index(id);
+    if p >= params.count || points[p].rest.w != 0.0 {
+        return;
+    }
+    pos[p] = posed(p, head(0u));
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn rk1(@builtin(global_invocation_id) id: vec3<u32>) {
+    let p = point_index(id);
+    if p >= params.count {
+        return;
+    }
+    if points[p].rest.w == 0.0 {
+        scratch[at(AX, p)] = posed(p, head(1u));
+        return;
+    }
+    let h = params.gravity.w;
+    let x0 = pos[p].xyz;
+    let v0 = scratch[at(VEL, p)].xyz;
+    let a = accel(p, x0, v0, 0u);
+    scratch[at(SX, p)] = vec4<f32>(v0, 0.0);
+    scratch[at(SV, p)] = vec4<f32>(a, 0.0);
+    scratch[at(AX, p)] = vec4<f32>(x0 + 0.5 * h * v0, 1.0);
+    scratch[at(AV, p)] = vec4<f32>(v0 + 0.5 * h * a, 0.0);
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn rk2(@builtin(global_invocation_id) id: vec3<u32>) {
+    let p = point_index(id);
+    if p >= params.count {
+        return;
+    }
+    if points[p].rest.w == 0.0 {
+        scratch[at(BX, p)] = posed(p, head(1u));
+        return;
+    }
+    let h = params.gravity.w;
+    let vs = scratch[at(AV, p)].xyz;
+    let a = accel(p, scratch[at(AX, p)].xyz, vs, AX);
+    scratch[at(SX, p)] += vec4<f32>(2.0 * vs, 0.0);
+    scratch[at(SV, p)] += vec4<f32>(2.0 * a, 0.0);
+    scratch[at(BX, p)] = vec4<f32>(pos[p].xyz + 0.5 * h * vs, 1.0);
+    scratch[at(BV, p)] = vec4<f32>(scratch[at(VEL, p)].xyz + 0.5 * h * a, 0.0);
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn rk3(@builtin(global_invocation_id) id: vec3<u32>) {
+    let p = point_index(id);
+    if p >= params.count {
+        return;
+    }
+    if points[p].rest.w == 0.0 {
+        scratch[at(AX, p)] = posed(p, head(2u));
+        return;
+    }
+    let h = params.gravity.w;
+    let vs = scratch[at(BV, p)].xyz;
+    let a = accel(p, scratch[at(BX, p)].xyz, vs, BX);
+    scratch[at(SX, p)] += vec4<f32>(2.0 * vs, 0.0);
+    scratch[at(SV, p)] += vec4<f32>(2.0 * a, 0.0);
+    scratch[at(AX, p)] = vec4<f32>(pos[p].xyz + h * vs, 1.0);
+    scratch[at(AV, p)] = vec4<f32>(scratch[at(VEL, p)].xyz + h * a, 0.0);
+}
+
+@compute @workgroup_size(WORKGROUP)
+fn rk4(@builtin(global_invocation_id) id: vec3<u32>) {
+    let p = point_index(id);
+    if p >= params.count {
+        return;
+    }
+    if points[p].rest.w == 0.0 {
+        pos[p] = posed(p, head(2u));
+        return;
+    }
+    let h = params.gravity.w;
+    let vs = scratch[at(AV, p)].xyz;
+    let a = accel(p, scratch[at(AX, p)].xyz, vs, AX);
+    var x = pos[p].xyz + h / 6.0 * (scratch[at(SX, p)].xyz + vs);
+    var v = scratch[at(VEL, p)].xyz + h / 6.0 * (scratch[at(SV, p)].xyz + a);
+    collide(&x, &v);
+    pos[p] = vec4<f32>(x, 1.0);
+    scratch[at(VEL, p)] = vec4<f32>(v, 0.0);
+}
+
+// Semi-implicit Euler, first half: new velocities from the forces at the step start.
+@compute @workgroup_size(WORKGROUP)
+fn kick(@builtin(global_invocation_id) id: vec3<u32>) {
+    let p = point_index(id);
+    if p >= params.count || points[p].rest.w == 0.0 {
+        return;
+    }
+    let v0 = scratch[at(VEL, p)].xyz;
+    let a = accel(p, pos[p].xyz, v0, 0u);
+    scratch[at(VEL, p)] = vec4<f32>(v0 + params.gravity.w * a, 0.0);
+}
+
+// Second half: positions with the new velocities, then the collision.
+@compute @workgroup_size(WORKGROUP)
+fn drift(@builtin(global_invocation_id) id: vec3<u32>) {
+    let p = point_index(id);
+    if p >= params.count {
+        return;
+    }
+    if points[p].rest.w == 0.0 {
+        pos[p] = posed(p, head(2u));
+        return;
+    }
+    var v = scratch[at(VEL, p)].xyz;
+    var x = pos[p].xyz + params.gravity.w * v;
+    collide(&x, &v);
+    pos[p] = vec4<f32>(x, 1.0);
+    scratch[at(VEL, p)] = vec4<f32>(v, 0.0);
+}
