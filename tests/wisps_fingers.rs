@@ -7,7 +7,7 @@ use kami::systems::wisps::fingers::*;
 use kami::KamiError;
 use std::path::{Path, PathBuf};
 
-const SHIPPED: &str = "assets/depth/hand";
+const SHIPPED: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/depth/hand");
 
 /// Tracked tips against the truth, in the pairing with the smaller 3D error: per tip the
 /// image error (px), the depth error (mm, signed) and the 3D error (mm).
@@ -27,12 +27,28 @@ fn errors(cam: &Camera, tips: &[Tip; 2], truth: &[[f64; 3]]) -> [(f64, f64, f64)
     }
 }
 
-fn scratch(name: &str) -> PathBuf {
+/// A fresh directory under the system's temp dir, removed when dropped.
+struct Scratch(PathBuf);
+
+impl std::ops::Deref for Scratch {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn scratch(name: &str) -> Scratch {
     let dir =
         std::env::temp_dir().join(format!("kami-wisps-fingers-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    dir
+    Scratch(dir)
 }
 
 fn truth_track(spec: &HandSpec) -> Vec<Option<[Tip; 2]>> {
@@ -160,11 +176,30 @@ fn skeleton_follows_the_drawn_path() {
     // The tips close from 40 to 22 mm: the wisp thins from 2.0 to 1.1 cm.
     assert!((radii[0] - 2.0).abs() <= 0.1 && (radii[radii.len() - 1] - 1.1).abs() <= 0.1);
     assert!(radii.windows(2).all(|w| w[1] < w[0] + 0.05), "{radii:?}");
-    // Nodes about one spacing apart.
-    for w in sk.nodes.windows(2) {
+    // A node each time the midpoint has moved one spacing (1 cm), the last one at the end:
+    // gaps of 1 cm up to 1 cm plus a frame's step, and as many nodes as that fits along
+    // the path.
+    let steps: Vec<f64> = path
+        .windows(2)
+        .map(|w| glam::DVec3::from(w[0]).distance(glam::DVec3::from(w[1])))
+        .collect();
+    let (length, step) = (
+        steps.iter().sum::<f64>(),
+        steps.iter().fold(0.0, |a: f64, &b| a.max(b)),
+    );
+    let n = sk.nodes.len();
+    for (i, w) in sk.nodes.windows(2).enumerate() {
         let d = glam::DVec3::from(w[0].p).distance(glam::DVec3::from(w[1].p));
-        assert!((0.5..1.7).contains(&d), "nodes {d} cm apart");
+        let least = if i + 2 == n { 0.5 } else { 1.0 };
+        assert!(
+            (least..1.0 + step + 0.05).contains(&d),
+            "nodes {i} and {} are {d} cm apart",
+            i + 1
+        );
     }
+    let (few, many) = (length / (1.0 + step) + 1.0, length + 2.0);
+    println!("path {length:.2} cm long, frames {step:.2} cm apart at most: {n} nodes, between {few:.1} and {many:.1}");
+    assert!((few..=many).contains(&(n as f64)));
 }
 
 #[test]
@@ -245,6 +280,70 @@ fn touching_fingertips_stay_two() {
     println!("touching fingertips: worst {worst:.3} px");
 }
 
+/// Two cones (fingertips seen close up) 18 px apart, the second 3 mm further back, rising
+/// `slope` mm per pixel to their peaks from the saddle between them; and the ideal area
+/// centres: of the pixels on each cone's side of the saddle within `threshold` of its peak.
+fn cones(slope: f64, threshold: f64) -> (DepthFrame, [[f64; 2]; 2]) {
+    let cam = Camera::synthetic();
+    let peaks = [([70.0, 60.0], 250.0), ([88.0, 60.0], 253.0)];
+    let cone = |k: usize, u: f64, v: f64| {
+        let (c, z): ([f64; 2], f64) = peaks[k];
+        z + slope * (u - c[0]).hypot(v - c[1])
+    };
+    let mut sums = [[0.0; 3]; 2];
+    let mut depth = Vec::new();
+    for v in 0..cam.height {
+        for u in 0..cam.width {
+            let (u, v) = (f64::from(u), f64::from(v));
+            let (a, b) = (cone(0, u, v), cone(1, u, v));
+            let k = usize::from(b < a);
+            if a.min(b) <= peaks[k].1 + threshold {
+                sums[k][0] += u;
+                sums[k][1] += v;
+                sums[k][2] += 1.0;
+            }
+            depth.push(if a.min(b) < 250.0 + 16.0 * slope {
+                a.min(b).round() as u16
+            } else {
+                900
+            });
+        }
+    }
+    let centre = |s: [f64; 3]| [s[0] / s[2], s[1] / s[2]];
+    (
+        DepthFrame { camera: cam, depth },
+        [centre(sums[0]), centre(sums[1])],
+    )
+}
+
+#[test]
+fn a_saddle_between_two_cones_stops_both_areas() {
+    // Exact analytic depth, independent of the ray caster; the threshold reaches past the
+    // saddle, so only step 3's second rule stops each area there. A saddle must rise faster
+    // than the noise allowance per pixel: a shallow one needs a lower allowance.
+    let mut report = Vec::new();
+    for (slope, tol) in [(0.9, 0.0), (1.5, 0.0), (2.0, 1.0), (4.0, 1.0)] {
+        let threshold = 12.0 * slope;
+        let (f, ideal) = cones(slope, threshold);
+        let params = TrackParams {
+            threshold_mm: threshold,
+            rise_tolerance_mm: tol,
+            ..TrackParams::default()
+        };
+        let tips = fingertips(&f, &params).expect("two tips");
+        let mut worst = 0.0f64;
+        for (t, c) in tips.iter().zip(ideal) {
+            worst = worst.max((t.uv[0] - c[0]).hypot(t.uv[1] - c[1]));
+        }
+        report.push(format!("slope {slope} tol {tol}: {worst:.3} px"));
+        assert!(
+            worst <= 0.5,
+            "slope {slope} tol {tol}: {tips:?}, ideal {ideal:?}"
+        );
+    }
+    println!("cones, off the ideal areas' centres: {}", report.join("; "));
+}
+
 #[test]
 fn one_finger_gives_no_pair_but_its_tip() {
     let mut spec = HandSpec::curl(1);
@@ -286,6 +385,9 @@ fn empty_frames_give_nothing() {
         depth: vec![900; n],
     };
     assert_eq!(fingertip_areas(&wall, &params), [None, None]);
+    assert_eq!(wall.mm(3, 4), Some(900.0));
+    assert_eq!(wall.mm(160, 0), None);
+    assert_eq!(blank.mm(0, 0), None);
     // A palm alone: a convex area, but far too wide for a fingertip.
     let mut spec = HandSpec::curl(1);
     spec.poses[0].tips.clear();
@@ -315,7 +417,6 @@ fn write_then_read_round_trips() {
     // Writing fewer frames over more would leave stale ones behind: refused.
     let err = write_sequence(&dir, &frames[..2]).unwrap_err().to_string();
     assert!(err.contains("depth_0002.png"), "{err}");
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
@@ -348,7 +449,6 @@ fn the_cli_writes_and_tracks_a_sequence() {
     let sk: kami::scene::wisps::Skeleton = ron::from_str(&written).unwrap();
     assert_eq!(sk.name, "hand");
     assert!(sk.nodes.len() >= 10);
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 // --- Bad input -------------------------------------------------------------------------
@@ -361,7 +461,7 @@ fn message(dir: &Path) -> String {
 }
 
 /// A scratch copy of a good 3-frame sequence.
-fn good(name: &str) -> PathBuf {
+fn good(name: &str) -> Scratch {
     let dir = scratch(name);
     write_sequence(&dir, &synthesize(&HandSpec::curl(3))).unwrap();
     dir

@@ -117,9 +117,14 @@ pub struct DepthFrame {
 }
 
 impl DepthFrame {
-    /// Depth in millimetres at pixel (u, v); None where the camera had no reading.
+    /// Depth in millimetres at pixel (u, v); None where the camera had no reading or
+    /// outside the image.
     pub fn mm(&self, u: u32, v: u32) -> Option<f64> {
-        let d = self.depth[(v * self.camera.width + u) as usize];
+        if u >= self.camera.width || v >= self.camera.height {
+            return None;
+        }
+        let i = v as usize * self.camera.width as usize + u as usize;
+        let d = *self.depth.get(i)?;
         (d != 0).then(|| f64::from(d) * self.camera.depth_unit_mm)
     }
 }
@@ -310,7 +315,7 @@ pub fn synthesize(spec: &HandSpec) -> Vec<DepthFrame> {
                     (t, HandSpec::finger_base(palm, t))
                 })
                 .collect();
-            let mut depth = Vec::with_capacity((cam.width * cam.height) as usize);
+            let mut depth = Vec::with_capacity(cam.width as usize * cam.height as usize);
             for v in 0..cam.height {
                 for u in 0..cam.width {
                     let d = DVec3::new(
@@ -383,7 +388,7 @@ pub fn write_sequence(dir: &Path, frames: &[DepthFrame]) -> Result<()> {
     let cam = first.camera;
     cam.check().map_err(|m| bad_file(dir, m))?;
     for (i, f) in frames.iter().enumerate() {
-        if f.camera != cam || f.depth.len() != (cam.width * cam.height) as usize {
+        if f.camera != cam || f.depth.len() != cam.width as usize * cam.height as usize {
             return Err(bad_file(
                 dir,
                 format!("frame {i} has another camera or size than frame 0"),
@@ -616,13 +621,13 @@ pub fn read_sequence(dir: &Path) -> Result<Sequence> {
 // The tracker.
 
 /// Settings of the fingertip tracker (millimetres).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TrackParams {
     /// Step 3's threshold: an area holds pixels at most this much deeper than its seed.
     pub threshold_mm: f64,
     /// Step 3's second rule ("relative depth becoming less than that of outside points")
-    /// allows this much noise before a rise counts as climbing onto another object.
+    /// allows this much noise: a point outside the area must be nearer than an area pixel
+    /// by more than this to stop the growth there.
     pub rise_tolerance_mm: f64,
     /// An area reaching further than this from its centre is not a fingertip (the palm, the
     /// wall): the tracker then reports no pair.
@@ -643,7 +648,7 @@ impl Default for TrackParams {
 }
 
 /// A tracked fingertip.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Tip {
     /// Centre of the area, pixels (step 8: the mean of its pixel positions).
     pub uv: [f64; 2],
@@ -672,69 +677,50 @@ fn neighbours(i: usize, w: usize, h: usize) -> impl Iterator<Item = usize> {
 /// exceeds a given threshold or is becoming less than relative depth of outside points"):
 /// a pixel's relative depth is its depth minus the seed's. Growing outward from a fingertip
 /// goes down its flanks, away from the camera, so relative depth rises ring by ring; where
-/// it would fall instead, the growth has reached a valley and beyond it another convex
-/// object (the other fingertip, touching this one in the image). So:
+/// the points outside the area are nearer instead, the growth has reached a valley and
+/// beyond it lies another convex object (the other fingertip, touching this one in the
+/// image). So:
 /// (a) a pixel joins only if it has a reading and its relative depth is at most
 ///     `threshold_mm`;
-/// (b) a pixel joins only if it is no nearer than the deepest point on its way from the
-///     seed (its `level`; the way through the touching area pixel with the lowest level):
-///     the relative depth must not fall. Comparing with the deepest point so far, not with
-///     the neighbour, keeps the noise allowance from adding up over a slow climb;
-/// (c) an area pixel with a nearer point outside the area (nearer than itself) stops
-///     expanding: the outside rises there. This is what stops an area at the valley
-///     between touching fingertips, which (b) alone lets it cross by walking along the
-///     other tip's rim at the valley's depth.
-/// "Nearer" allows `rise_tolerance_mm` of noise in (b) and (c). The rules act per pixel:
-/// growth stops where they fail and goes on elsewhere. Each ring is judged against the area
-/// as it stood before the ring, so the order of visits does not matter.
+/// (b) an area pixel that has a point outside the area nearer than itself (by more than
+///     `rise_tolerance_mm`) stops expanding: it adds none of its neighbours.
+/// Both act per pixel: growth stops there and goes on elsewhere. (b) is deliberately
+/// stronger than refusing only the nearer pixel: that would still let the area walk along
+/// the other tip's rim, which lies at the valley's depth, and wrap around it. Each ring is
+/// judged against the area as it stood before the ring, so the order of visits does not
+/// matter. A saddle rising less than `rise_tolerance_mm` per pixel is not seen by (b).
 fn grow(frame: &DepthFrame, seed: usize, taken: &[bool], p: &TrackParams) -> Vec<usize> {
     let (w, h) = (frame.camera.width as usize, frame.camera.height as usize);
     let unit = frame.camera.depth_unit_mm;
     let mm = |i: usize| f64::from(frame.depth[i]) * unit;
     let limit = mm(seed) + p.threshold_mm;
-    // Deepest depth on the way from the seed, for area pixels; NaN outside the area.
-    let mut level = vec![f64::NAN; w * h];
-    let mut queued = vec![false; w * h];
-    level[seed] = mm(seed);
+    let mut inside = vec![false; w * h];
+    inside[seed] = true;
+    let outside = |inside: &[bool], q: usize| !inside[q] && !taken[q] && frame.depth[q] != 0;
     let mut area = vec![seed];
     let mut ring = vec![seed];
-    let mut candidates = Vec::new();
+    let mut next = Vec::new();
     while !ring.is_empty() {
-        candidates.clear();
+        next.clear();
         for &i in &ring {
-            let outside = |q: usize| level[q].is_nan() && !taken[q] && frame.depth[q] != 0;
-            // (c).
-            if neighbours(i, w, h).any(|q| outside(q) && mm(q) < mm(i) - p.rise_tolerance_mm) {
+            // Outside points include the other area's: a nearer area beside this one is
+            // the far side of a valley too.
+            let rises =
+                |q: usize| !inside[q] && frame.depth[q] != 0 && mm(q) < mm(i) - p.rise_tolerance_mm;
+            // (b)
+            if neighbours(i, w, h).any(rises) {
                 continue;
             }
-            for q in neighbours(i, w, h) {
-                if outside(q) && !queued[q] {
-                    queued[q] = true;
-                    candidates.push(q);
-                }
-            }
+            // (a)
+            next.extend(neighbours(i, w, h).filter(|&q| outside(&inside, q) && mm(q) <= limit));
         }
-        let next: Vec<(usize, f64)> = candidates
-            .iter()
-            .filter_map(|&q| {
-                let d = mm(q);
-                let from = neighbours(q, w, h)
-                    .map(|n| level[n])
-                    .filter(|l| !l.is_nan())
-                    .fold(f64::INFINITY, f64::min);
-                // (a) and (b).
-                (d <= limit && d >= from - p.rise_tolerance_mm).then_some((q, d.max(from)))
-            })
-            .collect();
-        for &q in &candidates {
-            queued[q] = false;
+        next.sort_unstable();
+        next.dedup();
+        for &q in &next {
+            inside[q] = true;
         }
-        ring.clear();
-        for &(q, l) in &next {
-            level[q] = l;
-            ring.push(q);
-        }
-        area.extend_from_slice(&ring);
+        area.extend_from_slice(&next);
+        std::mem::swap(&mut ring, &mut next);
     }
     area
 }
@@ -806,7 +792,7 @@ pub fn fingertip_areas(frame: &DepthFrame, params: &TrackParams) -> [Option<Tip>
 }
 
 /// The two fingertips of a frame, nearest first; None unless both are found (one finger up,
-/// an empty frame, a hand too far in front of a flat wall to stand out).
+/// an empty frame, a nearest area too wide or too small for a fingertip).
 pub fn fingertips(frame: &DepthFrame, params: &TrackParams) -> Option<[Tip; 2]> {
     match fingertip_areas(frame, params) {
         [Some(a), Some(b)] => Some([a, b]),
@@ -823,8 +809,7 @@ pub fn track(seq: &Sequence, params: &TrackParams) -> Vec<Option<[Tip; 2]>> {
 // The skeleton.
 
 /// How tracked tips become skeleton nodes.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct SkeletonParams {
     pub name: String,
     /// Head units per millimetre (0.1: centimetres, the shipped scenes' unit).
@@ -931,8 +916,8 @@ pub fn skeleton_from_track(
     if nodes.len() < 2 {
         return Err(track_error(format!(
             "two fingertips were found in {} of {} frames and their midpoint never moved {} \
-             from where it started: a skeleton needs at least 2 nodes (move the fingers \
-             further, or lower the node spacing)",
+             (the node spacing, in head units) from where it started: a skeleton needs at \
+             least 2 nodes (move the fingers further, or lower the node spacing)",
             tracked.len(),
             track.len(),
             params.node_spacing
