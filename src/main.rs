@@ -98,6 +98,19 @@ enum Command {
         #[command(subcommand)]
         which: Bench,
     },
+    /// Draw a toon-wisp skeleton with two fingertips (Sakai section 6): track a depth
+    /// sequence (depth_0000.png ... and camera.ron) and print the skeleton as RON.
+    Fingers {
+        /// Directory of the depth sequence, e.g. assets/depth/hand.
+        #[arg(required_unless_present = "synthesize")]
+        dir: Option<PathBuf>,
+        /// Write the synthetic hand sequence into this directory instead of tracking.
+        #[arg(long, conflicts_with_all = ["dir", "out"])]
+        synthesize: Option<PathBuf>,
+        /// Also write the skeleton to this file.
+        #[arg(short, long)]
+        out: Option<PathBuf>,
+    },
 }
 
 #[derive(Subcommand)]
@@ -482,6 +495,34 @@ fn main() -> Result<()> {
                 );
             }
         },
+        Command::Fingers {
+            dir,
+            synthesize,
+            out,
+        } => {
+            use kami::systems::wisps::fingers;
+            if let Some(to) = synthesize {
+                let frames = fingers::synthesize(&fingers::HandSpec::default());
+                fingers::write_sequence(&to, &frames)?;
+                println!(
+                    "wrote {} depth frames and camera.ron to {}",
+                    frames.len(),
+                    to.display()
+                );
+            } else if let Some(dir) = dir {
+                let (skeleton, found, frames) = fingers::skeleton_from_dir(&dir)?;
+                let ron = fingers::skeleton_ron(&skeleton);
+                eprintln!(
+                    "two fingertips in {found} of {frames} frames: {} nodes",
+                    skeleton.nodes.len()
+                );
+                println!("{ron}");
+                if let Some(out) = out {
+                    std::fs::write(&out, format!("{ron}\n"))
+                        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", out.display()))?;
+                }
+            }
+        }
     }
     Ok(())
 }

@@ -7,7 +7,7 @@ use glam::{DVec3, Vec3};
 use kami::forces::Forces;
 use kami::scene::wisps::{Bundle, Integrator, Node, Skeleton, Springs, Wisps};
 use kami::scene::{Ellipsoid, Head, HeadKey, Interp};
-use kami::systems::wisps::springs::{self, Lattice, Motion, Point, Spring, State, EPS_OUT};
+use kami::systems::wisps::springs::{self, Lattice, Motion, Point, Spring, State};
 use kami::systems::wisps::springs_gpu;
 
 fn wisps(skeletons: Vec<Skeleton>, springs: Springs, bundles: Vec<Bundle>) -> Wisps {

@@ -36,9 +36,7 @@
 
 use crate::error::{KamiError, Result};
 use crate::forces::Forces;
-use crate::scene::head::Ellipsoid;
-/// Where a pushed-out point lands is 1.5 of this in quadric units (shared with Anjyo).
-pub use crate::scene::head::EPS_OUT;
+use crate::scene::head::{Ellipsoid, EPS_OUT};
 use crate::scene::wisps::{Integrator, Springs, Wisps};
 use crate::scene::Head;
 use glam::{DMat4, DQuat, DVec3};
