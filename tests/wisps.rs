@@ -39,6 +39,19 @@ fn toon_divide_snapshot() {
     check_snapshot("toon_divide", &img, TOL);
 }
 
+/// Fig. 13: the head shaking side to side, the wisps on mass springs (RK4 on the GPU) at
+/// frame 16, turned hard left with the hair still swinging from the right.
+#[test]
+fn toon_shake_frame_16_snapshot() {
+    let gpu = common::gpu();
+    let scene = one_sample("toon_shake");
+    kami::stage::render_animation(&gpu, &scene, (128, 128), 16..=16, |_, img| {
+        check_snapshot("toon_shake_16", &img, TOL);
+        Ok(())
+    })
+    .unwrap();
+}
+
 fn is_skin(p: &image::Rgba<u8>) -> bool {
     // The toon head's skin (0.98, 0.86, 0.78) lit: red well above blue.
     p[0] as i32 - p[2] as i32 > 25

@@ -68,8 +68,11 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
 
 /// Where the node positions come from.
 enum Nodes {
-    /// The drawn skeletons, posed by the head each frame.
-    Still(wgpu::Buffer),
+    /// The drawn skeletons, posed by the head each frame (the buffer is bound by the
+    /// curve pass; kept here so it lives as long as the system).
+    Still(#[allow(dead_code)] wgpu::Buffer),
+    /// The mass springs' primaries, already in world space.
+    Springs(Box<springs_gpu::SpringsGpu>),
 }
 
 /// Toon wisps of one scene.
@@ -89,13 +92,29 @@ impl WispsSystem {
             allowed: "a wisps block (the wisps system is built only for scenes with wisps)".into(),
         })?;
         march::check_limits(gpu, &wisps)?;
-        let positions = crate::gpu::storage_buffer(
-            &gpu.device,
-            "wisp drawn nodes",
-            bytemuck::cast_slice(&march::drawn_positions(&wisps)),
-            wgpu::BufferUsages::empty(),
-        );
-        let curves = CurvePass::new(gpu, &wisps, &positions)?;
+        let nodes = match &wisps.springs {
+            Some(sp) => {
+                // The natural lengths are solved here (eq 24), once per build.
+                let lattice = springs::Lattice::build(&wisps, sp, &scene.head)?;
+                Nodes::Springs(Box::new(springs_gpu::SpringsGpu::new(
+                    gpu,
+                    &lattice,
+                    sp,
+                    &scene.head,
+                )?))
+            }
+            None => Nodes::Still(crate::gpu::storage_buffer(
+                &gpu.device,
+                "wisp drawn nodes",
+                bytemuck::cast_slice(&march::drawn_positions(&wisps)),
+                wgpu::BufferUsages::empty(),
+            )),
+        };
+        let positions = match &nodes {
+            Nodes::Still(b) => b,
+            Nodes::Springs(s) => s.positions(),
+        };
+        let curves = CurvePass::new(gpu, &wisps, positions)?;
         let draw = MarchPass::new(
             gpu,
             &curves,
@@ -105,7 +124,7 @@ impl WispsSystem {
         )?;
         Ok(WispsSystem {
             wisps,
-            nodes: Nodes::Still(positions),
+            nodes,
             curves,
             draw,
         })
@@ -127,13 +146,20 @@ impl HairSystem for WispsSystem {
 
     fn step(
         &mut self,
-        _gpu: &Gpu,
-        _enc: &mut wgpu::CommandEncoder,
-        _ctx: &FrameCtx,
-        _frames: u32,
+        gpu: &Gpu,
+        enc: &mut wgpu::CommandEncoder,
+        ctx: &FrameCtx,
+        frames: u32,
     ) -> Result<StepInfo> {
-        match &self.nodes {
+        match &mut self.nodes {
             Nodes::Still(_) => Ok(StepInfo::default()),
+            Nodes::Springs(s) => {
+                s.record(gpu, enc, ctx.forces, ctx.frame, frames)?;
+                Ok(StepInfo {
+                    substeps: frames * self.wisps.springs.as_ref().map_or(0, |p| p.substeps),
+                    capped: false,
+                })
+            }
         }
     }
 
@@ -146,6 +172,7 @@ impl HairSystem for WispsSystem {
     ) -> Result<()> {
         let model = match &self.nodes {
             Nodes::Still(_) => ctx.head,
+            Nodes::Springs(_) => WORLD,
         };
         self.curves.record(gpu, enc, model, self.moving());
         self.draw.write(
@@ -161,7 +188,10 @@ impl HairSystem for WispsSystem {
 
     fn draw(&self, _pass: &mut wgpu::RenderPass<'_>, _view: &View) {}
 
-    fn reset(&mut self, _gpu: &Gpu) -> Result<()> {
+    fn reset(&mut self, gpu: &Gpu) -> Result<()> {
+        if let Nodes::Springs(s) = &mut self.nodes {
+            s.reset(gpu)?;
+        }
         self.curves.invalidate();
         Ok(())
     }
@@ -200,5 +230,4 @@ impl HairSystem for WispsSystem {
 }
 
 /// Identity for nodes the springs already place in world space.
-#[allow(dead_code)]
 const WORLD: DMat4 = DMat4::IDENTITY;
