@@ -173,7 +173,7 @@ enum Bench {
     },
     /// Sakai's toon wisps: ray-march ms per frame against wisp count and image size, image
     /// error against step size and distance method, and the mass springs' work-precision
-    /// table; writes wisps.md, wisps.csv, wisps_cost.png and wisps_error.png.
+    /// table; writes wisps.md, wisps.csv and three plots (cost, error, springs).
     Wisps {
         #[arg(long, default_value = "assets/scenes/toon.ron")]
         scene: PathBuf,
@@ -490,7 +490,7 @@ fn main() -> Result<()> {
                 let report = kami::bench::wisps::run(&gpu, &scene, frames, &out)?;
                 println!("{}", report.markdown);
                 println!(
-                    "wrote {0}/wisps.md, {0}/wisps.csv, {0}/wisps_cost.png, {0}/wisps_error.png",
+                    "wrote {0}/wisps.md, {0}/wisps.csv, {0}/wisps_cost.png, {0}/wisps_error.png, {0}/wisps_springs.png",
                     out.display()
                 );
             }
