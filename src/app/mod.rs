@@ -393,9 +393,9 @@ impl ApplicationHandler for App {
     fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
         let Some(g) = self.gfx.as_mut() else { return };
         let response = g.egui_state.on_window_event(&g.window, &event);
-        // The skeleton editor: a button or key closes the open gesture (slider drags and
-        // wheel turns are one undo entry each), and a left release ends a node drag even
-        // over the panels.
+        // The skeleton editor: a button or key closes the open gesture (so a slider drag,
+        // or a run of wheel turns on one node, is one undo entry), and a left release ends
+        // a node drag even over the panels.
         if matches!(
             event,
             WindowEvent::MouseInput { .. } | WindowEvent::KeyboardInput { .. }
