@@ -376,3 +376,119 @@ fn viewer_memory_stays_flat_over_reloads() {
         end.2 - start.2
     );
 }
+
+/// The skeleton editor's overlay: the toon scene with the Skeletons panel's mouse mode
+/// switched on at frame 2 (through the panels' path, `--set wisps.edit=on`) draws every
+/// skeleton node as a dot in the overlay colour exactly where the viewer's camera projects
+/// it into the 3D view (left of the panels); before the switch there is no such colour
+/// there. The ray march gets a small step budget (`wisps.max_steps`): llvmpipe marches the
+/// full scene at a few thousand pixels a second.
+#[test]
+fn viewer_draws_the_skeleton_overlay_over_the_nodes() {
+    use glam::{DMat4, DVec2, DVec3};
+    use kami::systems::wisps::{edit, panel};
+    let x = xvfb();
+    let dir = std::env::temp_dir().join(format!("kami-viewer-edit-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let runtime = dir.join("xdg");
+    std::fs::create_dir_all(&runtime).unwrap();
+    let (before, after) = (dir.join("before.png"), dir.join("after.png"));
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_kami"));
+    cmd.args([
+        "view",
+        "assets/scenes/toon.ron",
+        "--software",
+        "--size",
+        "800x420",
+        "--exit-after-frames",
+        "3",
+        "--set",
+        "play=off",
+        "--set",
+        "wisps.max_steps=16",
+        "--set",
+        "2:wisps.edit=on",
+    ])
+    .arg("--screenshot-at")
+    .arg(format!("1:{}", before.display()))
+    .arg("--screenshot-at")
+    .arg(format!("2:{}", after.display()));
+    run_viewer(cmd, &x, &runtime);
+    let (a, b) = (pixels(&before), pixels(&after));
+    // The 3D view ends where the dark panel begins: the rightmost light (background)
+    // pixel of the top row.
+    let light = |p: &image::Rgb<u8>| p.0.iter().all(|&c| c > 200);
+    let scene_w = (0..b.width())
+        .rev()
+        .find(|&x| light(b.get_pixel(x, 1)))
+        .expect("no background in the top row")
+        + 1;
+    assert!(
+        scene_w > 300 && scene_w < 700,
+        "the 3D view is {scene_w} px wide: panels missing?"
+    );
+    let scene = kami::scene::Scene::load(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes/toon.ron"),
+    )
+    .unwrap();
+    let camera = kami::app::camera::OrbitCamera::from_desc(&scene.camera).camera();
+    let size = DVec2::new(f64::from(scene_w), f64::from(b.height()));
+    // No head motion in this scene: the nodes are where the scene file puts them.
+    let view = edit::View::from_camera(&camera, DMat4::IDENTITY, size, (DVec3::ZERO, 30.0));
+    let c = panel::OVERLAY;
+    let overlay = |p: &image::Rgb<u8>| {
+        [c.r(), c.g(), c.b()]
+            .iter()
+            .zip(p.0)
+            .all(|(&o, v)| o.abs_diff(v) <= 40)
+    };
+    // Overlay-coloured pixels within 2 px of each projected node.
+    let near = |img: &image::RgbImage, q: DVec2| {
+        (-2i64..=2).any(|dy| {
+            (-2i64..=2).any(|dx| {
+                let (x, y) = (q.x.floor() as i64 + dx, q.y.floor() as i64 + dy);
+                x >= 0
+                    && y >= 0
+                    && x < i64::from(scene_w)
+                    && y < i64::from(img.height())
+                    && overlay(img.get_pixel(x as u32, y as u32))
+            })
+        })
+    };
+    let wisps = scene.wisps.as_ref().unwrap();
+    let nodes: Vec<DVec2> = wisps
+        .skeletons
+        .iter()
+        .flat_map(|s| &s.nodes)
+        .filter_map(|n| view.project(DVec3::from(n.p)))
+        .map(|q| q.truncate())
+        .filter(|q| q.x >= 3.0 && q.y >= 3.0 && q.x < size.x - 3.0 && q.y < size.y - 3.0)
+        .collect();
+    assert!(nodes.len() > 40, "only {} nodes in view", nodes.len());
+    let shown = |img| nodes.iter().filter(|&&q| near(img, q)).count();
+    let (was, is) = (shown(&a), shown(&b));
+    assert_eq!(
+        is,
+        nodes.len(),
+        "{} of {} nodes have the overlay colour at their projection",
+        is,
+        nodes.len()
+    );
+    assert_eq!(
+        was, 0,
+        "overlay colour at {was} nodes before the editor was on"
+    );
+    // Off the nodes and chains the overlay leaves the view alone: a thin share of the
+    // view's pixels.
+    let share_on = |img: &image::RgbImage| {
+        let mut n = 0;
+        for y in 0..img.height() {
+            for x in 0..scene_w {
+                n += usize::from(overlay(img.get_pixel(x, y)));
+            }
+        }
+        n as f64 / (f64::from(scene_w) * f64::from(img.height()))
+    };
+    let s = share_on(&b);
+    assert!(s > 0.002 && s < 0.15, "overlay covers {:.4} of the view", s);
+}

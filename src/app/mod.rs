@@ -17,7 +17,9 @@ use crate::error::{KamiError, Result};
 use crate::gpu::{self, Gpu, Preference};
 use crate::scene::Scene;
 use crate::stage::{self, target::Offscreen, Look, Stage};
+use crate::systems::wisps::{edit, panel as wisp_panel};
 use camera::OrbitCamera;
+use glam::DVec2;
 use params::{Request, ViewerState};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -157,6 +159,83 @@ struct Mouse {
     orbit: bool,
     pan: bool,
     shift: bool,
+    ctrl: bool,
+    /// A skeleton node is being dragged (the skeleton editor's mouse mode).
+    node_drag: bool,
+    /// The last left press in the skeleton editor's mouse mode (double clicks).
+    last_click: Option<(Instant, (f64, f64))>,
+}
+
+/// Two left presses closer than this in time and `DOUBLE_PX` on screen are a double click.
+const DOUBLE_S: f64 = 0.4;
+const DOUBLE_PX: f64 = 6.0;
+
+/// Whether the mouse edits skeletons (the Skeletons panel's toggle, a scene with wisps, a
+/// view drawn).
+fn editing(s: &ViewerState) -> bool {
+    s.view.edit_skeletons && s.scene.wisps.is_some() && s.edit_view.is_some()
+}
+
+/// A left press in the skeleton editor's mouse mode: a double click away from the nodes
+/// adds a node at the cursor after the selected one; a press on a node selects it and
+/// starts dragging it. Returns false when the press is not the editor's (it orbits).
+fn edit_press(mouse: &mut Mouse, s: &mut ViewerState) -> bool {
+    let (Some(p), Some(view)) = (mouse.pos, s.edit_view) else {
+        return false;
+    };
+    let cursor = DVec2::new(p.0, p.1);
+    if cursor.x > view.size.x || cursor.y > view.size.y {
+        return false;
+    }
+    let Some(w) = s.scene.wisps.as_mut() else {
+        return false;
+    };
+    let now = Instant::now();
+    let double = mouse.last_click.is_some_and(|(t, q)| {
+        now.duration_since(t).as_secs_f64() < DOUBLE_S
+            && (DVec2::new(q.0, q.1) - cursor).length() < DOUBLE_PX
+    });
+    let hit = edit::pick(&w.skeletons, &view, cursor, edit::PICK_PX);
+    if double && hit.is_none() {
+        mouse.last_click = None;
+        let _ = s.editor.add_at(w, &view, cursor);
+        return true;
+    }
+    mouse.last_click = Some((now, p));
+    if hit.is_some() && s.editor.select_at(w, &view, cursor).is_some() {
+        mouse.node_drag = s.editor.begin_drag(w, &view, cursor).is_ok();
+        return true;
+    }
+    false
+}
+
+/// The wheel in the skeleton editor's mouse mode: over the selected node it scales the
+/// node's radius (Shift: its weight). Returns false when it is not the editor's (it zooms).
+fn edit_wheel(mouse: &Mouse, s: &mut ViewerState, steps: f64) -> bool {
+    if !editing(s) {
+        return false;
+    }
+    let (Some(p), Some(view), Some(w)) = (mouse.pos, s.edit_view, s.scene.wisps.as_mut()) else {
+        return false;
+    };
+    let Some(sel) = s.editor.selected(w) else {
+        return false;
+    };
+    let n = w.skeletons[sel.skeleton].nodes[sel.node];
+    let node = glam::DVec3::from(n.p);
+    let (Some(q), Some(r)) = (view.project(node), view.radius_px(node, n.r)) else {
+        return false;
+    };
+    if (q.truncate() - DVec2::new(p.0, p.1)).length() > r.max(edit::PICK_PX) {
+        return false;
+    }
+    let factor = (0.1 * steps).exp();
+    let _ = if mouse.shift {
+        s.editor.scale_weight(w, factor)
+    } else {
+        s.editor.scale_radius(w, factor)
+    };
+    true
 }
 
 struct Gfx {
@@ -314,6 +393,27 @@ impl ApplicationHandler for App {
     fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
         let Some(g) = self.gfx.as_mut() else { return };
         let response = g.egui_state.on_window_event(&g.window, &event);
+        // The skeleton editor: a button or key closes the open gesture (so a slider drag,
+        // or a run of wheel turns on one node, is one undo entry), and a left release ends
+        // a node drag even over the panels.
+        if matches!(
+            event,
+            WindowEvent::MouseInput { .. } | WindowEvent::KeyboardInput { .. }
+        ) && !self.state.editor.dragging()
+        {
+            self.state.editor.end_gesture();
+        }
+        if let WindowEvent::MouseInput {
+            state: ElementState::Released,
+            button: MouseButton::Left,
+            ..
+        } = event
+        {
+            if g.mouse.node_drag {
+                g.mouse.node_drag = false;
+                self.state.editor.end_drag();
+            }
+        }
         match event {
             WindowEvent::CloseRequested => event_loop.exit(),
             WindowEvent::Resized(size) => {
@@ -345,10 +445,18 @@ impl ApplicationHandler for App {
                 }
             }
             _ if response.consumed => {}
-            WindowEvent::ModifiersChanged(m) => g.mouse.shift = m.state().shift_key(),
+            WindowEvent::ModifiersChanged(m) => {
+                g.mouse.shift = m.state().shift_key();
+                g.mouse.ctrl = m.state().control_key();
+            }
             WindowEvent::MouseInput { state, button, .. } => {
                 let down = state == ElementState::Pressed;
                 match button {
+                    // Skeleton edit mode: a press on a node picks (and drags) it instead of
+                    // orbiting.
+                    MouseButton::Left if down && editing(&self.state) => {
+                        g.mouse.orbit = !edit_press(&mut g.mouse, &mut self.state);
+                    }
                     MouseButton::Left => g.mouse.orbit = down,
                     MouseButton::Right | MouseButton::Middle => g.mouse.pan = down,
                     _ => {}
@@ -356,7 +464,16 @@ impl ApplicationHandler for App {
             }
             WindowEvent::CursorMoved { position, .. } => {
                 let p = (position.x, position.y);
-                if let Some(last) = g.mouse.pos {
+                if g.mouse.node_drag {
+                    // (An undo during the drag ends it: then the cursor moves nothing.)
+                    if let (true, Some(view), Some(w)) = (
+                        self.state.editor.dragging(),
+                        self.state.edit_view,
+                        self.state.scene.wisps.as_mut(),
+                    ) {
+                        let _ = self.state.editor.drag_to(w, &view, DVec2::new(p.0, p.1));
+                    }
+                } else if let Some(last) = g.mouse.pos {
                     let (dx, dy) = (p.0 - last.0, p.1 - last.1);
                     if g.mouse.pan || (g.mouse.orbit && g.mouse.shift) {
                         g.camera.pan(dx, dy, g.config.height as f64);
@@ -371,11 +488,40 @@ impl ApplicationHandler for App {
                     MouseScrollDelta::LineDelta(_, y) => y as f64,
                     MouseScrollDelta::PixelDelta(p) => p.y / 40.0,
                 };
-                g.camera.zoom(steps);
+                if !edit_wheel(&g.mouse, &mut self.state, steps) {
+                    g.camera.zoom(steps);
+                }
             }
             WindowEvent::PinchGesture { delta, .. } => g.camera.zoom(delta * 8.0),
             WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => {
+                let st = &mut self.state;
                 match event.logical_key.as_ref() {
+                    // The skeleton editor: undo and redo whenever the scene has wisps;
+                    // Delete and Escape in its mouse mode.
+                    Key::Character(c)
+                        if g.mouse.ctrl
+                            && st.scene.wisps.is_some()
+                            && matches!(c.to_ascii_lowercase().as_str(), "z" | "y") =>
+                    {
+                        let redo = c.eq_ignore_ascii_case("y") || g.mouse.shift;
+                        if let Some(w) = st.scene.wisps.as_mut() {
+                            let _ = if redo {
+                                st.editor.redo(w)
+                            } else {
+                                st.editor.undo(w)
+                            };
+                        }
+                    }
+                    Key::Named(NamedKey::Delete) if editing(st) => {
+                        if let Some(w) = st.scene.wisps.as_mut() {
+                            let _ = st.editor.delete_node(w);
+                        }
+                    }
+                    Key::Named(NamedKey::Escape) if editing(st) => {
+                        if let Some(w) = st.scene.wisps.as_ref() {
+                            let _ = st.editor.select(w, None);
+                        }
+                    }
                     Key::Named(NamedKey::Space) => {
                         self.state.view.playing = !self.state.view.playing
                     }
@@ -452,6 +598,7 @@ fn handle_requests(g: &mut Gfx, state: &mut ViewerState, shots: &mut Vec<PathBuf
                         state.stats.groom_ms = took.as_secs_f64() * 1e3;
                         state.scene = scene;
                         state.group = 0;
+                        state.editor = Default::default();
                         state.error = None;
                         state.message = Some(format!("opened {path}"));
                     }
@@ -538,9 +685,23 @@ fn frame(
     let raw = g.egui_state.take_egui_input(&g.window);
     let mut panel_left = f32::MAX;
     let no_panels = options.no_panels;
+    let (win_w, win_h) = (g.config.width, g.config.height);
+    let (camera, head, bounds) = (g.camera.camera(), g.stage.ctx().head, g.stage.bounds());
     let mut output = ctx.run_ui(raw, |ui| {
         if !no_panels {
             panel_left = panels::show(ui, state);
+        }
+        // The 3D view as drawn this frame (the region left of the panels), for the skeleton
+        // editor's picking and its overlay.
+        let ppp = ui.ctx().pixels_per_point();
+        let scene_w = ((panel_left * ppp).round().max(1.0) as u32).min(win_w);
+        let size = DVec2::new(f64::from(scene_w), f64::from(win_h.max(1)));
+        let view = edit::View::from_camera(&camera, head, size, bounds);
+        state.edit_view = Some(view);
+        if state.view.edit_skeletons {
+            if let Some(w) = &state.scene.wisps {
+                wisp_panel::overlay(ui.ctx(), w, &state.editor, &view, ppp);
+            }
         }
     });
     g.egui_state

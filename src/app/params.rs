@@ -45,6 +45,9 @@ pub struct ViewSettings {
     /// Set by the adaptive level of detail when even the fewest hairs miss the budget: draw
     /// without MSAA in the viewer (the scene's setting is kept for renders and saving).
     pub msaa_dropped: bool,
+    /// Edit the wisps' skeletons with the mouse in the 3D view (left click picks and drags
+    /// a node, the wheel sets its radius, ...) and draw them over the view.
+    pub edit_skeletons: bool,
 }
 
 impl ViewSettings {
@@ -76,6 +79,7 @@ impl Default for ViewSettings {
             frame_budget_ms: 80.0,
             full_supersampling: false,
             msaa_dropped: false,
+            edit_skeletons: false,
         }
     }
 }
@@ -136,6 +140,13 @@ pub struct ViewerState {
     pub stats: Stats,
     /// Hair group edited by the per-group panels.
     pub group: usize,
+    /// The toon wisps' skeleton editor (selection, undo history); the Skeletons panel and
+    /// the mouse mode (`view.edit_skeletons`) drive it. A scene opened afresh starts a new
+    /// one.
+    pub editor: crate::systems::wisps::edit::Editor,
+    /// The 3D view as last drawn (the scene region, in window pixels), for the skeleton
+    /// editor: picking, dragging, the overlay. None before the first frame.
+    pub edit_view: Option<crate::systems::wisps::edit::View>,
 }
 
 impl ViewerState {
@@ -150,6 +161,8 @@ impl ViewerState {
             message: None,
             stats: Stats::default(),
             group: 0,
+            editor: Default::default(),
+            edit_view: None,
         }
     }
 
@@ -158,7 +171,9 @@ impl ViewerState {
     /// `width=w`, `ks=k`, `shininess=n`, `rigidity=EI` (all groups), `wind=x,y,z`,
     /// `gravity=x,y,z`, `stiffness=root,tip`, `damping=rate`, `pseudo=on|off`,
     /// `msaa=1|4`, `supersample=f`, `play=on|off`, `lod=fraction` (fixed, 0..1),
-    /// `fur.hairs=N`, `fur.stiffness=s` (all coats), `fur.culling=on|off`.
+    /// `fur.hairs=N`, `fur.stiffness=s` (all coats), `fur.culling=on|off`,
+    /// `wisps.edit=on|off` (the skeleton editor's mouse mode and overlay),
+    /// `wisps.max_steps=N` (the ray march's step budget: cheap previews).
     pub fn apply_set(&mut self, assignment: &str) -> Result<()> {
         let bad = |m: String| KamiError::Option(format!("--set {assignment}: {m}"));
         let (key, value) = assignment
@@ -264,6 +279,20 @@ impl ViewerState {
                     }
                     _ => f.culling.enabled = on()?,
                 }
+            }
+            "wisps.max_steps" => {
+                next.wisps
+                    .as_mut()
+                    .ok_or_else(|| bad("the scene has no wisps".into()))?
+                    .march
+                    .max_steps = int()?;
+            }
+            "wisps.edit" => {
+                let edit = on()?;
+                if edit && next.wisps.is_none() {
+                    return Err(bad("the scene has no wisps".into()));
+                }
+                self.view.edit_skeletons = edit;
             }
             _ => return Err(bad(format!("unknown key {key:?}"))),
         }

@@ -10,6 +10,7 @@
 //! opaque geometry with depth, before any strand hair or fur.
 
 pub mod curve;
+pub mod edit;
 pub mod field;
 pub mod fingers;
 pub mod march;

@@ -1,17 +1,260 @@
 //! The Toon panel (thresholds and colours of eqs 20-22, tones, outline, the ray march) and
-//! the Wisps panel (skeletons: nodes' radius and weight, springs). They only edit
-//! `ViewerState`; the stage classifies the edit with `super::classify` and applies it.
+//! the Skeletons panel (the skeleton editor of Fig. 9: the skeletons and their nodes, the
+//! selected node's radius, weight and position, adding and deleting nodes and skeletons,
+//! undo and redo, and the mouse mode of the 3D view). They only edit `ViewerState` (the
+//! Skeletons panel through `edit::Editor`); the stage classifies the edit with
+//! `super::classify` and applies it.
 
+use super::edit::{Editor, Sel};
 use crate::app::params::ViewerState;
-use crate::scene::wisps::{Distance, Tones};
+use crate::scene::wisps::{Distance, Tones, Wisps};
 use crate::systems::Panel;
-use egui::{Slider, Ui};
+use egui::{Button, Color32, DragValue, Slider, SliderClamping, Ui};
+use glam::{DVec2, DVec3};
 
-pub const PANELS: &[Panel] = &[Panel {
-    title: "Toon",
-    open: |s| s.wisps.is_some(),
-    show: toon,
-}];
+pub const PANELS: &[Panel] = &[
+    Panel {
+        title: "Toon",
+        open: |s| s.wisps.is_some(),
+        show: toon,
+    },
+    Panel {
+        title: "Skeletons",
+        open: |s| s.wisps.is_some(),
+        show: skeletons,
+    },
+];
+
+/// How the mouse edits skeletons in the 3D view while the mode is on.
+pub const MOUSE_HELP: &str = "click a node: select · drag: move it (parallel to the screen) · \
+    wheel over the selected node: radius (Shift: weight) · double-click: add a node at the \
+    cursor after the selected one · Delete: delete the node · Esc: deselect · \
+    Ctrl+Z / Ctrl+Shift+Z or Ctrl+Y: undo / redo · drag elsewhere: orbit as usual";
+
+/// Show an editor outcome: what happened, or (red) why not.
+pub fn outcome(ui: &mut Ui, ed: &Editor) {
+    match &ed.last {
+        Some(Ok(m)) => {
+            ui.label(m);
+        }
+        Some(Err(e)) => {
+            ui.colored_label(Color32::from_rgb(255, 110, 90), e);
+        }
+        None => {}
+    }
+}
+
+/// Where a copy of a skeleton goes: `amount` along the screen's right (in the head's frame,
+/// at `p`'s depth) in the last drawn view; along +z without one.
+fn screen_right(s: &ViewerState, p: DVec3, amount: f64) -> DVec3 {
+    let right = s.edit_view.and_then(|v| {
+        let q = v.project(p)?;
+        let a = v.unproject(q.truncate(), q.z)?;
+        let b = v.unproject(q.truncate() + DVec2::X, q.z)?;
+        (b - a).try_normalize()
+    });
+    right.unwrap_or(DVec3::Z) * amount
+}
+
+fn skeletons(ui: &mut Ui, s: &mut ViewerState) {
+    let Some(w) = s.scene.wisps.as_ref() else {
+        ui.label("this scene has no toon wisps");
+        return;
+    };
+    // A copy goes beside the original (by its largest radius, to the screen's right); a new
+    // skeleton hangs from the top of the head.
+    let shift = match s.editor.selected(w) {
+        Some(sel) => {
+            let sk = &w.skeletons[sel.skeleton];
+            let r = sk.nodes.iter().map(|n| n.r).fold(0.0, f64::max);
+            screen_right(s, DVec3::from(sk.nodes[0].p), 1.5 * r)
+        }
+        None => DVec3::ZERO,
+    };
+    let head = &s.scene.head;
+    let top = DVec3::from(head.center) + DVec3::new(0.0, head.radii[1], 0.0);
+    ui.checkbox(&mut s.view.edit_skeletons, "edit skeletons with the mouse")
+        .on_hover_text(MOUSE_HELP);
+    if s.view.edit_skeletons {
+        ui.small(MOUSE_HELP);
+    }
+    let Some(w) = s.scene.wisps.as_mut() else {
+        return;
+    };
+    let ed = &mut s.editor;
+    ui.horizontal(|ui| {
+        if ui
+            .add_enabled(ed.can_undo(), Button::new("Undo"))
+            .on_hover_text("Ctrl+Z")
+            .clicked()
+        {
+            let _ = ed.undo(w);
+        }
+        if ui
+            .add_enabled(ed.can_redo(), Button::new("Redo"))
+            .on_hover_text("Ctrl+Shift+Z or Ctrl+Y")
+            .clicked()
+        {
+            let _ = ed.redo(w);
+        }
+        ui.label(format!("{} undo / {} redo", ed.undo_len(), ed.redo_len()));
+    });
+    outcome(ui, ed);
+    ui.separator();
+    skeleton_list(ui, w, ed);
+    ui.separator();
+    match ed.selected(w) {
+        Some(sel) => node_fields(ui, w, ed, sel),
+        None => {
+            ui.label("no node selected");
+        }
+    }
+    let has = ed.selected(w).is_some();
+    ui.horizontal_wrapped(|ui| {
+        if ui
+            .add_enabled(has, Button::new("Add node after"))
+            .on_hover_text("past the tip: along the last segment, radius tapered")
+            .clicked()
+        {
+            let _ = ed.add_after(w);
+        }
+        if ui
+            .add_enabled(has, Button::new("Insert between"))
+            .on_hover_text("halfway to the next node (the previous one at the tip)")
+            .clicked()
+        {
+            let _ = ed.insert_between(w);
+        }
+        if ui
+            .add_enabled(has, Button::new("Delete node"))
+            .on_hover_text("Delete")
+            .clicked()
+        {
+            let _ = ed.delete_node(w);
+        }
+    });
+    ui.horizontal_wrapped(|ui| {
+        let add = if has { "Copy skeleton" } else { "Add skeleton" };
+        if ui
+            .button(add)
+            .on_hover_text(
+                "a copy of the selected skeleton beside it, or a new wisp on top of the head",
+            )
+            .clicked()
+        {
+            let _ = ed.add_skeleton(w, shift, top);
+        }
+        if ui
+            .add_enabled(has && w.skeletons.len() > 1, Button::new("Delete skeleton"))
+            .clicked()
+        {
+            let _ = ed.delete_skeleton(w);
+        }
+        if ui.add_enabled(has, Button::new("Deselect")).clicked() {
+            let _ = ed.select(w, None);
+        }
+    });
+    ui.small("Save (Files) writes the skeletons into the scene file.");
+}
+
+/// The skeletons (a scrolled list; clicking one selects its tip) and the selected one's
+/// nodes (clicking one selects it).
+fn skeleton_list(ui: &mut Ui, w: &Wisps, ed: &mut Editor) {
+    let sel = ed.selected(w);
+    let mut pick = None;
+    let row = ui.text_style_height(&egui::TextStyle::Body) + ui.spacing().item_spacing.y;
+    ui.label(format!("{} skeletons", w.skeletons.len()));
+    egui::ScrollArea::vertical()
+        .id_salt("wisp skeleton list")
+        .max_height(150.0)
+        .auto_shrink([false, true])
+        .show_rows(ui, row, w.skeletons.len(), |ui, rows| {
+            for i in rows {
+                let sk = &w.skeletons[i];
+                let name = if sk.name.is_empty() { "-" } else { &sk.name };
+                let text = format!("{i}: {name} ({} nodes)", sk.nodes.len());
+                let on = sel.is_some_and(|x| x.skeleton == i);
+                if ui.selectable_label(on, text).clicked() {
+                    pick = Some(Sel {
+                        skeleton: i,
+                        node: sk.nodes.len().saturating_sub(1),
+                    });
+                }
+            }
+        });
+    if let Some(sel) = sel {
+        ui.horizontal_wrapped(|ui| {
+            ui.label("nodes:");
+            for (i, n) in w.skeletons[sel.skeleton].nodes.iter().enumerate() {
+                if ui
+                    .selectable_label(sel.node == i, i.to_string())
+                    .on_hover_text(format!(
+                        "p ({:.3}, {:.3}, {:.3}), r {:.3}, w {:.3}",
+                        n.p[0], n.p[1], n.p[2], n.r, n.w
+                    ))
+                    .clicked()
+                {
+                    pick = Some(Sel {
+                        skeleton: sel.skeleton,
+                        node: i,
+                    });
+                }
+            }
+        });
+    }
+    if let Some(p) = pick {
+        let _ = ed.select(w, Some(p));
+    }
+}
+
+/// The selected node's radius, weight and position, edited through the editor (one undo
+/// entry per slider drag).
+fn node_fields(ui: &mut Ui, w: &mut Wisps, ed: &mut Editor, sel: Sel) {
+    let n = w.skeletons[sel.skeleton].nodes[sel.node];
+    ui.label(format!(
+        "node {} of skeleton {}{}",
+        sel.node,
+        sel.skeleton,
+        if sel.node == 0 { " (root)" } else { "" }
+    ));
+    let mut r = n.r;
+    if ui
+        .add(
+            Slider::new(&mut r, 0.01..=20.0)
+                .logarithmic(true)
+                .clamping(SliderClamping::Never)
+                .text("radius r_e"),
+        )
+        .changed()
+        && r != n.r
+    {
+        let _ = ed.set_radius(w, r);
+    }
+    let mut wt = n.w;
+    if ui
+        .add(
+            Slider::new(&mut wt, 0.05..=20.0)
+                .logarithmic(true)
+                .clamping(SliderClamping::Never)
+                .text("weight w_e"),
+        )
+        .changed()
+        && wt != n.w
+    {
+        let _ = ed.set_weight(w, wt);
+    }
+    let mut p = n.p;
+    let mut moved = false;
+    ui.horizontal(|ui| {
+        ui.label("position");
+        for c in p.iter_mut() {
+            moved |= ui.add(DragValue::new(c).speed(0.02)).changed();
+        }
+    });
+    if moved && p != n.p {
+        let _ = ed.set_position(w, p);
+    }
+}
 
 fn colour(ui: &mut Ui, label: &str, c: &mut [f32; 3]) {
     ui.horizontal(|ui| {
@@ -66,4 +309,82 @@ fn toon(ui: &mut Ui, s: &mut ViewerState) {
     }
     ui.add(Slider::new(&mut m.max_steps, 16..=1024).text("max steps"));
     ui.add(Slider::new(&mut m.refine, 0..=16).text("bisection steps"));
+}
+
+/// The overlay's colour: the skeletons' nodes and chains.
+pub const OVERLAY: Color32 = Color32::from_rgb(40, 230, 110);
+/// The selected node and its skeleton.
+pub const SELECTED: Color32 = Color32::from_rgb(255, 140, 0);
+
+/// Draw the skeletons over the 3D view with egui's painter (the skeleton editor's mouse
+/// mode): each node as a circle of its radius of influence r_e in pixels with a dot at its
+/// centre, the chains as lines, the selected node and its skeleton highlighted, and the
+/// editor's last message at the bottom left. `view` is the scene region in window pixels
+/// (`ppp` of them per egui point).
+pub fn overlay(ctx: &egui::Context, w: &Wisps, ed: &Editor, view: &super::edit::View, ppp: f32) {
+    use egui::{pos2, vec2, FontId, Id, LayerId, Order, Rect, Stroke};
+    let ppp = ppp.max(1e-3);
+    let clip = Rect::from_min_size(
+        egui::Pos2::ZERO,
+        vec2(view.size.x as f32 / ppp, view.size.y as f32 / ppp),
+    );
+    let painter = ctx
+        .layer_painter(LayerId::new(
+            Order::Middle,
+            Id::unique("wisp skeleton overlay"),
+        ))
+        .with_clip_rect(clip);
+    // The last message first: nodes drawn over it stay visible.
+    let (text, col) = match &ed.last {
+        Some(Ok(m)) => (m.as_str(), Color32::WHITE),
+        Some(Err(e)) => (e.as_str(), Color32::from_rgb(255, 150, 130)),
+        None => ("skeleton edit mode: click a node", Color32::WHITE),
+    };
+    let galley = painter.layout_no_wrap(text.to_string(), FontId::proportional(13.0), col);
+    let corner = clip.left_bottom() + vec2(8.0, -8.0 - galley.size().y);
+    painter.rect_filled(
+        Rect::from_min_size(corner, galley.size()).expand(4.0),
+        3.0,
+        Color32::from_black_alpha(170),
+    );
+    painter.galley(corner, galley, col);
+    let at = |q: DVec3| pos2(q.x as f32 / ppp, q.y as f32 / ppp);
+    let sel = ed.selected(w);
+    for (si, sk) in w.skeletons.iter().enumerate() {
+        let chosen = sel.is_some_and(|s| s.skeleton == si);
+        let colour = if chosen { SELECTED } else { OVERLAY };
+        let pts: Vec<Option<(egui::Pos2, f32)>> = sk
+            .nodes
+            .iter()
+            .map(|n| {
+                let p = DVec3::from(n.p);
+                let q = view.project(p)?;
+                let r = view.radius_px(p, n.r)?;
+                r.is_finite()
+                    .then_some((at(q), (r as f32 / ppp).clamp(2.0, 4000.0)))
+            })
+            .collect();
+        for pair in pts.windows(2) {
+            if let [Some(a), Some(b)] = pair {
+                painter.line_segment([a.0, b.0], Stroke::new(1.5, colour));
+            }
+        }
+        for (ni, q) in pts.iter().enumerate() {
+            let Some((c, r)) = *q else { continue };
+            let this = sel
+                == Some(Sel {
+                    skeleton: si,
+                    node: ni,
+                });
+            let (width, dot, col) = if this {
+                (2.5, 5.0, SELECTED)
+            } else {
+                (1.0, 3.0, colour)
+            };
+            // The circles of influence are faint (they overlap a lot); the dots are solid.
+            let ring = if this { col } else { col.gamma_multiply(0.55) };
+            painter.circle_stroke(c, r, Stroke::new(width, ring));
+            painter.circle_filled(c, dot, col);
+        }
+    }
 }
