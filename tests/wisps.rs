@@ -110,8 +110,8 @@ fn wisps_composite_with_the_head_by_depth() {
 #[test]
 fn wisp_depth_cuts_into_the_head_where_the_surfaces_meet() {
     use glam::DVec3;
-    let (r, w, t) = (1.5, 2.5, 0.5);
-    let vis = r * (1.0 - (t / (1.5 * w) as f64).sqrt());
+    let (r, w, t): (f64, f64, f64) = (1.5, 2.5, 0.5);
+    let vis = r * (1.0 - (t / (1.5 * w)).sqrt());
     let (a, b) = (DVec3::new(-9.0, 0.5, 3.2), DVec3::new(9.0, -0.5, 3.2));
     let text = format!(
         "Scene(head: Head(radii: (4.0, 4.0, 4.0), color: (0.98, 0.86, 0.78)), \

@@ -40,6 +40,7 @@ pub const KIND: Kind = Kind {
     shaders: &[
         ("wisps/curves", march::CURVES),
         ("wisps/march", march::MARCH),
+        ("wisps/springs", springs_gpu::SPRINGS),
     ],
 };
 
