@@ -113,7 +113,7 @@ def toon_shake():
         skeletons: [
 {sk}
         ],
-        springs: Some(Springs(stiffness: 10000.0, damping: 0.6, substeps: 16)),
+        springs: Some(Springs(ring: 0.5, stiffness: 10000.0, damping: 0.6, substeps: 16)),
     )),
     // The head shakes side to side (Fig. 13): a turn of 30 degrees each way about the
     // vertical every 16 frames, then rests.

@@ -676,6 +676,7 @@ fn validate_wisps(w: &wisps::Wisps) -> Result<()> {
     if let Some(sp) = &w.springs {
         positive("wisps.springs.mass", sp.mass, BIG)?;
         positive("wisps.springs.sub_mass", sp.sub_mass, BIG)?;
+        positive("wisps.springs.ring", sp.ring, 1.0)?;
         positive("wisps.springs.stiffness", sp.stiffness, 1e12)?;
         within("wisps.springs.damping", sp.damping, 0.0, 1e9)?;
         vec3("wisps.springs.gravity", sp.gravity, 1e9)?;

@@ -217,6 +217,12 @@ pub struct Springs {
     pub mass: f64,
     #[serde(default = "default_sub_mass")]
     pub sub_mass: f64,
+    /// Radius of the ring of 8 sub points round each node, as a fraction of its radius of
+    /// influence r ("distanced according to the blob radius"). Below 1 keeps the ring inside
+    /// the visible surface (0.67 r at weight 2.5, threshold 0.5), so wisps drawn lying on the
+    /// head do not start with sub points inside the scalp.
+    #[serde(default = "one")]
+    pub ring: f64,
     /// Spring constant k_s of every spring (force per unit stretch).
     #[serde(default = "default_stiffness")]
     pub stiffness: f64,
@@ -271,6 +277,7 @@ impl Default for Springs {
         Springs {
             mass: 1.0,
             sub_mass: default_sub_mass(),
+            ring: 1.0,
             stiffness: default_stiffness(),
             damping: default_damping(),
             gravity: default_g(),

@@ -45,10 +45,6 @@ use std::time::Instant;
 
 /// Sub mass points per node (Fig. 10).
 pub const RING: usize = 8;
-/// Sub points sit at this fraction of the radius of influence r ("distanced according to
-/// the blob radius"): inside the visible surface (0.67 r at weight 2.5 and threshold 0.5),
-/// so a wisp drawn lying on the head does not start with its ring inside the scalp.
-pub const RING_RADIUS: f64 = 0.5;
 /// Newton steps of the collision push-out (the WGSL twin uses the same count).
 pub const NEWTON: u32 = 8;
 /// Eq 24 is refused when the relative residual stays above this.
@@ -251,7 +247,7 @@ impl Lattice {
                 let (u, v) = frames[i];
                 for j in 0..RING {
                     let a = std::f64::consts::TAU * j as f64 / RING as f64;
-                    let q = p[i] + RING_RADIUS * node.r * (a.cos() * u + a.sin() * v);
+                    let q = p[i] + springs.ring * node.r * (a.cos() * u + a.sin() * v);
                     subs.push(at(q, springs.mass * springs.sub_mass));
                 }
             }
