@@ -267,7 +267,7 @@ fn distance_step(near: ptr<function, array<vec4<f32>, 64>>, n: u32, s_hi: f32) -
 // (the wisp's segments are consecutive in the list), summed over wisps; and a safe step:
 // the larger of the Lipschitz step (-f / sum of the near segments' bounds) and the distance
 // step, never past where a far segment's influence begins.
-fn field(list: ptr<function, array<u32, 64>>, count: u32, v: vec3<f32>) -> Sample {
+fn field(list: ptr<function, array<u32, 64>>, count: u32, v: vec3<f32>, with_step: bool) -> Sample {
     var out: Sample;
     var lip = 0.0;
     var far_gap = 1e30;
@@ -333,7 +333,8 @@ fn field(list: ptr<function, array<u32, 64>>, count: u32, v: vec3<f32>) -> Sampl
     out.f = sum - draw.march.x;
     out.grad = grad;
     var step = far_gap;
-    if (n_near > 0u && out.f < 0.0) {
+    // Bisection and the normal need only f and its gradient, not a step.
+    if (with_step && n_near > 0u && out.f < 0.0) {
         let s_lip = -out.f / lip;
         let s_dist = distance_step(&near, n_near, min(s_hi, far_gap));
         step = min(max(s_lip, s_dist), far_gap);
@@ -424,7 +425,7 @@ fn fs(in: VOut) -> FOut {
     var left_shell = false;
     for (var i = 0u; i < max_steps; i++) {
         let p = eye + t * dir;
-        let smp = field(&list, count, p);
+        let smp = field(&list, count, p, true);
         if (smp.f >= 0.0) {
             hit = true;
             break;
@@ -459,7 +460,7 @@ fn fs(in: VOut) -> FOut {
         var b = t;
         for (var i = 0u; i < u32(draw.march.w); i++) {
             let m = 0.5 * (a + b);
-            if (field(&list, count, eye + m * dir).f >= 0.0) {
+            if (field(&list, count, eye + m * dir, false).f >= 0.0) {
                 b = m;
             } else {
                 a = m;
@@ -467,7 +468,7 @@ fn fs(in: VOut) -> FOut {
         }
         let th = 0.5 * (a + b);
         let p = eye + th * dir;
-        let g = field(&list, count, p).grad;
+        let g = field(&list, count, p, false).grad;
         var n = -dir;
         if (dot(g, g) > 0.0) {
             n = -normalize(g);

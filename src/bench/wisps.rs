@@ -98,23 +98,6 @@ impl Timed {
     }
 }
 
-/// Mean absolute difference (0..255 over RGB) and the share of pixels off by more than 24.
-pub fn image_error(a: &RgbaImage, b: &RgbaImage) -> (f64, f64) {
-    let mut sum = 0u64;
-    let mut over = 0u64;
-    for (pa, pb) in a.pixels().zip(b.pixels()) {
-        let mut worst = 0;
-        for c in 0..3 {
-            let d = pa[c].abs_diff(pb[c]);
-            sum += d as u64;
-            worst = worst.max(d);
-        }
-        over += u64::from(worst > 24);
-    }
-    let n = (a.width() * a.height()) as f64;
-    (sum as f64 / (3.0 * n), over as f64 / n)
-}
-
 /// Run the whole bench on `scene_path` (the toon scene) and write the report into `out`.
 pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Report> {
     let scene = Scene::load(scene_path)?;
@@ -234,7 +217,7 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
         let mut t = Timed::new(gpu, &s, side)?;
         let img = t.image(gpu)?;
         let ms = time_mean(frames, || t.frame(gpu))? * 1e3;
-        let (mean, over) = image_error(&reference, &img);
+        let (mean, over, _) = super::backends::difference(&reference, &img);
         writeln!(
             md,
             "| {name} | {step} | {ms:.1} | {mean:.3} | {:.3} % |",
