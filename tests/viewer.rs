@@ -4,15 +4,27 @@
 //! code path, `--set`) changes what is drawn.
 
 mod common;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-/// A running Xvfb server; killed and reaped on drop.
+/// A running Xvfb server; stopped and reaped on drop.
 struct Server(Child);
 
 impl Drop for Server {
     fn drop(&mut self) {
+        // SIGTERM first: Xvfb then removes its /tmp/.X<n>-lock and socket. A SIGKILL
+        // (`Child::kill`) leaves both behind, and stale locks pile up run after run.
+        let _ = Command::new("kill")
+            .args(["-TERM", &self.0.id().to_string()])
+            .status();
+        let start = Instant::now();
+        while start.elapsed() < Duration::from_secs(5) {
+            if matches!(self.0.try_wait(), Ok(Some(_))) {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
         let _ = self.0.kill();
         let _ = self.0.wait();
     }
@@ -22,60 +34,50 @@ struct Xvfb {
     _server: Server,
     display: String,
     /// The viewer tests run one at a time (two software-rendered windows on a small machine
-    /// only slow each other down, and they would race for display numbers).
+    /// only slow each other down).
     _turn: std::sync::MutexGuard<'static, ()>,
 }
 
 static TURN: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
-/// Start Xvfb on a free display. No silent skip: without Xvfb the test fails and says how
-/// to get it.
+/// Start Xvfb on a display it picks itself (`-displayfd`): the X server knows which
+/// displays are taken and clears stale locks of dead servers, so there is no race and no
+/// guessing from lock files. No silent skip: without Xvfb the test fails and says how to
+/// get it.
 fn xvfb() -> Xvfb {
+    use std::io::BufRead;
     let turn = TURN.lock().unwrap_or_else(|e| e.into_inner());
-    let found = Command::new("Xvfb")
-        .arg("-help")
+    let child = Command::new("Xvfb")
+        .args([
+            "-displayfd",
+            "1",
+            "-screen",
+            "0",
+            "1400x900x24",
+            "-nolisten",
+            "tcp",
+        ])
+        .stdout(Stdio::piped())
         .stderr(Stdio::null())
-        .stdout(Stdio::null())
-        .status();
-    assert!(
-        found.is_ok(),
-        "Xvfb is needed for the viewer test: apt-get install -y xvfb"
-    );
-    for n in 150..250u32 {
-        let socket = PathBuf::from(format!("/tmp/.X11-unix/X{n}"));
-        if socket.exists() || Path::new(&format!("/tmp/.X{n}-lock")).exists() {
-            continue;
-        }
-        let mut server = Server(
-            Command::new("Xvfb")
-                .args([
-                    format!(":{n}"),
-                    "-screen".into(),
-                    "0".into(),
-                    "1400x900x24".into(),
-                    "-nolisten".into(),
-                    "tcp".into(),
-                ])
-                .stdout(Stdio::null())
-                .stderr(Stdio::null())
-                .spawn()
-                .expect("starting Xvfb"),
-        );
-        let start = Instant::now();
-        while !socket.exists() && start.elapsed() < Duration::from_secs(10) {
-            std::thread::sleep(Duration::from_millis(50));
-        }
-        // Another process may have taken the display first: then our Xvfb has exited.
-        if socket.exists() && matches!(server.0.try_wait(), Ok(None)) {
-            return Xvfb {
-                _server: server,
-                display: format!(":{n}"),
-                _turn: turn,
-            };
-        }
-        // Dropping `server` kills and reaps it; try the next display.
+        .spawn();
+    let mut server = match child {
+        Ok(c) => Server(c),
+        Err(e) => panic!("Xvfb is needed for the viewer test: apt-get install -y xvfb ({e})"),
+    };
+    // Xvfb writes the display number when it is ready to accept connections; EOF means it
+    // exited without finding one.
+    let mut line = String::new();
+    let stdout = server.0.stdout.take().expect("piped stdout");
+    let _ = std::io::BufReader::new(stdout).read_line(&mut line);
+    let n: u32 = line
+        .trim()
+        .parse()
+        .unwrap_or_else(|_| panic!("Xvfb did not report a display (it printed {line:?})"));
+    Xvfb {
+        _server: server,
+        display: format!(":{n}"),
+        _turn: turn,
     }
-    panic!("no free X display for Xvfb");
 }
 
 fn pixels(path: &Path) -> image::RgbImage {
