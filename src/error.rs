@@ -73,6 +73,15 @@ pub enum KamiError {
         message: String,
     },
 
+    /// A data file that cannot be used (marker CSV, EFF grid, BVH capture, strand file),
+    /// with the line (1-based) where it broke when known.
+    #[error("{path}{}: {message}", line.map(|l| format!(":{l}")).unwrap_or_default())]
+    Data {
+        path: String,
+        line: Option<usize>,
+        message: String,
+    },
+
     /// The viewer's window or surface could not be created.
     #[error("window: {0}")]
     Window(String),

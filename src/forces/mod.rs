@@ -6,6 +6,8 @@
 //! once per step; the per-root acceleration of a moving head is linear in the root's
 //! head-local position, so one matrix carries it to the GPU.
 
+pub mod eff;
+
 use crate::scene::{HeadKey, Interp, Scene, WindKey};
 use glam::{DMat4, DQuat, DVec3, EulerRot};
 

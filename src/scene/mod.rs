@@ -15,6 +15,7 @@ pub mod fur;
 pub(crate) mod head;
 pub mod mesh;
 mod validate;
+pub mod strips;
 pub mod wisps;
 
 pub use head::Ellipsoid;
@@ -56,6 +57,13 @@ pub struct Scene {
     /// Toon wisps (Sakai): skeletons drawn as a ray-marched blobby surface.
     #[serde(default)]
     pub wisps: Option<wisps::Wisps>,
+    /// Directable strips (Kazama et al.): layered reed strips on damped angular springs.
+    #[serde(default)]
+    pub strips: Option<strips::Strips>,
+    /// The External Force Field: a wind grid around the head that every hair system with
+    /// dynamics samples (`crate::forces::eff`).
+    #[serde(default)]
+    pub eff: Option<crate::forces::eff::EffDesc>,
 }
 
 fn default_gravity() -> [f64; 3] {
@@ -538,6 +546,10 @@ impl Scene {
         }
         let bytes = std::fs::read(path).map_err(io)?;
         let mut scene = Scene::from_bytes(&bytes, &path.display().to_string())?;
+        // Files the EFF names, read now so that errors name them.
+        if let Some(eff) = scene.eff.as_mut() {
+            crate::forces::eff::resolve(eff, path.parent().unwrap_or(Path::new("")))?;
+        }
         // A fur mesh named relative to the scene file.
         if let Some(fur::Fur {
             mesh: fur::MeshSource::File(m),

@@ -11,6 +11,7 @@
 
 pub mod anjyo;
 pub mod fur;
+pub mod strips;
 pub mod wisps;
 
 use crate::error::Result;

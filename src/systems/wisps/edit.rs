@@ -170,6 +170,8 @@ pub fn check(w: &Wisps) -> std::result::Result<(), String> {
         dynamics: None,
         fur: None,
         wisps: Some(w.clone()),
+        strips: None,
+        eff: None,
     };
     crate::scene::validate(&probe).map_err(|e| e.to_string())
 }

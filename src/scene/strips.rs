@@ -1,0 +1,239 @@
+//! Directable strips (Kazama, Sugisaki, Morishima): the scene part. The Hair Object Model is
+//! a set of reed-shaped strips (textured ribbons tapering to the tip) arranged in layers
+//! around the head, as stylists' layer model does. Each strip follows a chain of rigid
+//! sticks whose joints are damped angular springs with two degrees of freedom (eq 1),
+//! driven by gravity, the wind of the External Force Field (`crate::forces::eff`), the head's
+//! motion, a spring and the collision with the head (eq 2). Key-frame edits (section 4) add
+//! extra forces to the field.
+//!
+//! Coordinates are world units (centimetres in the shipped scenes, like the head); time is
+//! seconds.
+
+use serde::{Deserialize, Serialize};
+
+/// Strips of a scene.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Strips {
+    /// Layers of the layer model, inner (under) to outer (over); drawn in this order.
+    pub layers: Vec<Layer>,
+    #[serde(default)]
+    pub motion: Motion,
+    #[serde(default)]
+    pub look: Look,
+    /// Key-frame edits (section 4): each pulls one strip toward a target between two frames
+    /// by an extra force that joins the EFF.
+    #[serde(default)]
+    pub edits: Vec<Edit>,
+}
+
+/// One layer of the layer model: `count` strips whose roots lie on a ring of the head at
+/// polar angle `polar` (degrees from the crown), spread over an azimuth range.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Layer {
+    #[serde(default)]
+    pub name: String,
+    /// Strips in this layer (>= 1).
+    pub count: u32,
+    /// Polar angle of the root ring from the crown (+y), degrees, in (0, 180).
+    pub polar: f64,
+    /// Azimuth range of the roots, degrees; 0 is the face (+z), 90 the left side (+x), 180
+    /// the back. The strips are spread evenly over it (both ends included when the range is
+    /// less than a full turn).
+    #[serde(default = "full_turn")]
+    pub azimuth: [f64; 2],
+    /// Strip length (world units).
+    pub length: f64,
+    /// Rigid sticks per strip (the chain has `sticks + 1` control points).
+    #[serde(default = "default_sticks")]
+    pub sticks: u32,
+    /// Ribbon width at the root and at the tip (world units; the reed tapers between).
+    #[serde(default = "default_width")]
+    pub width: [f64; 2],
+    /// How the rest shape leaves the head: 0 along the head normal, 1 straight down.
+    #[serde(default = "default_droop")]
+    pub droop: f64,
+    /// Extra bend at each joint of the rest shape toward the head (degrees per stick).
+    #[serde(default)]
+    pub curl: f64,
+    /// Multiplies `motion.stiffness` for this layer (outer layers are often softer).
+    #[serde(default = "one")]
+    pub stiffness: f64,
+    /// Base colour (linear RGB, 0..1); the texture modulates it root to tip.
+    #[serde(default = "default_color")]
+    pub color: [f32; 3],
+}
+
+fn full_turn() -> [f64; 2] {
+    [0.0, 360.0]
+}
+fn default_sticks() -> u32 {
+    8
+}
+fn default_width() -> [f64; 2] {
+    [3.0, 0.6]
+}
+fn default_droop() -> f64 {
+    0.6
+}
+fn one() -> f64 {
+    1.0
+}
+fn default_color() -> [f32; 3] {
+    [0.16, 0.09, 0.05]
+}
+
+/// Eq 1, `I1 Φ'' + I2 Φ' + τ (Φ − Φ0) = H`, per joint, and the forces of eq 2.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Motion {
+    /// Moment of inertia I1 of the root joint (> 0); joints toward the tip carry less.
+    #[serde(default = "default_inertia")]
+    pub inertia: f64,
+    /// Air resistance I2 (>= 0).
+    #[serde(default = "default_damping")]
+    pub damping: f64,
+    /// Stiffness τ of the root joint (>= 0).
+    #[serde(default = "default_stiffness")]
+    pub stiffness: f64,
+    /// τ at the tip as a share of τ at the root (the strip softens toward the tip).
+    #[serde(default = "default_stiffness_tip")]
+    pub stiffness_tip: f64,
+    /// Spring constant k of S (eq 2).
+    #[serde(default)]
+    pub spring: f64,
+    /// Collision strength κ of Ψ (eq 2); 0 turns the collision force off.
+    #[serde(default = "default_collision")]
+    pub collision: f64,
+    /// Gravity g (force per unit mass of a stick, world units / s²).
+    #[serde(default = "default_gravity")]
+    pub gravity: [f64; 3],
+    /// Seconds of motion per rendered frame.
+    #[serde(default = "default_frame_time")]
+    pub frame_time: f64,
+    /// Integration steps per second of motion (the fixed simulation rate, independent of
+    /// the frame rate).
+    #[serde(default = "default_rate")]
+    pub steps_per_second: f64,
+    /// How control points read the EFF.
+    #[serde(default)]
+    pub sampling: Sampling,
+}
+
+fn default_inertia() -> f64 {
+    1.0
+}
+fn default_damping() -> f64 {
+    4.0
+}
+fn default_stiffness() -> f64 {
+    400.0
+}
+fn default_stiffness_tip() -> f64 {
+    0.25
+}
+fn default_collision() -> f64 {
+    1.0
+}
+fn default_gravity() -> [f64; 3] {
+    [0.0, -980.0, 0.0]
+}
+fn default_frame_time() -> f64 {
+    1.0 / 30.0
+}
+fn default_rate() -> f64 {
+    120.0
+}
+
+impl Default for Motion {
+    fn default() -> Self {
+        Motion {
+            inertia: default_inertia(),
+            damping: default_damping(),
+            stiffness: default_stiffness(),
+            stiffness_tip: default_stiffness_tip(),
+            spring: 0.0,
+            collision: default_collision(),
+            gravity: default_gravity(),
+            frame_time: default_frame_time(),
+            steps_per_second: default_rate(),
+            sampling: Sampling::default(),
+        }
+    }
+}
+
+/// How a control point reads the EFF's cells.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Sampling {
+    /// The cell the point is in (the paper: "when a control point moves into a grid cube").
+    Nearest,
+    /// Trilinear between the eight cell centres around the point (smooth in space).
+    #[default]
+    Trilinear,
+}
+
+/// How strips look.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Look {
+    /// Fine hairs across a strip in the generated texture.
+    #[serde(default = "default_hairs")]
+    pub hairs: u32,
+    /// Colour at the tip relative to the root (the root-to-tip gradient).
+    #[serde(default = "default_tip")]
+    pub tip_shade: f32,
+    /// Alpha below which a texel is discarded (the hairs' gaps).
+    #[serde(default = "default_cutoff")]
+    pub alpha_cutoff: f32,
+    /// Specular strength and exponent of the anisotropic highlight along the strip.
+    #[serde(default = "default_specular")]
+    pub specular: [f32; 2],
+}
+
+fn default_hairs() -> u32 {
+    24
+}
+fn default_tip() -> f32 {
+    1.6
+}
+fn default_cutoff() -> f32 {
+    0.35
+}
+fn default_specular() -> [f32; 2] {
+    [0.35, 40.0]
+}
+
+impl Default for Look {
+    fn default() -> Self {
+        Look {
+            hairs: default_hairs(),
+            tip_shade: default_tip(),
+            alpha_cutoff: default_cutoff(),
+            specular: default_specular(),
+        }
+    }
+}
+
+/// A key-frame edit (section 4): between `from` and `to` (frames) the strip `strip` is
+/// pulled toward `target` (its tip position at frame `to`, in the head's rest frame) by the
+/// extra force of eq 4, which falls off over `radius` around the strip.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Edit {
+    /// Index of the strip, counting layers in order.
+    pub strip: u32,
+    /// First key frame.
+    pub from: u32,
+    /// Second key frame (> from).
+    pub to: u32,
+    /// Where the strip's tip should be at `to`.
+    pub target: [f64; 3],
+    /// Falloff radius of the extra force around the strip (world units, > 0).
+    #[serde(default = "default_radius")]
+    pub radius: f64,
+}
+
+fn default_radius() -> f64 {
+    6.0
+}

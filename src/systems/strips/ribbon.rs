@@ -1,0 +1,1 @@
+//! STUB: filled by its helper.
