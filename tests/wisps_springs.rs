@@ -41,6 +41,7 @@ fn still(head: &Head) -> Forces {
         wind: Vec::new(),
         head_motion: Vec::new(),
         center: DVec3::from(head.center),
+        eff: None,
     }
 }
 

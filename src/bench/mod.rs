@@ -356,6 +356,7 @@ pub fn pendulum_periods(amplitude: f64, dt: f64) -> (f64, f64) {
             wind: Vec::new(),
             head_motion: Vec::new(),
             center: DVec3::ZERO,
+            eff: None,
         },
         params,
         // Far away: no contact.

@@ -53,3 +53,35 @@ impl Eff {
 pub fn resolve(_desc: &mut EffDesc, _dir: &Path) -> Result<()> {
     Ok(())
 }
+
+/// The EFF on the GPU: `grid` is the `EffGrid` uniform of `shaders/forces/eff.wgsl`, `cells`
+/// its storage buffer (one `vec4<f32>` per cell). A scene without an EFF gets a one-cell
+/// grid flagged absent, so kernels bind the same layout either way.
+pub struct EffGpu {
+    pub grid: wgpu::Buffer,
+    pub cells: wgpu::Buffer,
+}
+
+impl EffGpu {
+    pub fn new(gpu: &crate::gpu::Gpu, _eff: Option<&Eff>) -> Result<EffGpu> {
+        let grid = crate::gpu::storage_buffer(
+            &gpu.device,
+            "eff grid",
+            &[0u8; 64],
+            wgpu::BufferUsages::UNIFORM,
+        );
+        let cells = crate::gpu::storage_buffer(
+            &gpu.device,
+            "eff cells",
+            &[0u8; 16],
+            wgpu::BufferUsages::empty(),
+        );
+        Ok(EffGpu { grid, cells })
+    }
+
+    /// Write the grid's strength at `frame` (fractional).
+    pub fn write(&self, _gpu: &crate::gpu::Gpu, _eff: Option<&Eff>, _frame: f64) {}
+}
+
+/// The EFF's WGSL, to concatenate before a kernel that samples it.
+pub const EFF_WGSL: &str = crate::shaders::wgsl!("forces/eff.wgsl");

@@ -80,6 +80,8 @@ pub struct Forces {
     pub head_motion: Vec<HeadKey>,
     /// The head's centre: keyed rotations turn about it.
     pub center: DVec3,
+    /// The External Force Field (built once from the scene's `eff` block).
+    pub eff: Option<std::sync::Arc<eff::Eff>>,
 }
 
 impl Forces {
@@ -91,12 +93,14 @@ impl Forces {
                 wind: d.wind.clone(),
                 head_motion: d.head_motion.clone(),
                 center,
+                eff: eff_of(scene),
             },
             None => Forces {
                 gravity: DVec3::ZERO,
                 wind: Vec::new(),
                 head_motion: Vec::new(),
                 center,
+                eff: eff_of(scene),
             },
         }
     }
@@ -111,8 +115,34 @@ impl Forces {
         head_at(&self.head_motion, self.center, frame)
     }
 
+    /// The wind at world point `p` at `frame`: the uniform keyed wind plus the EFF.
+    pub fn wind_at_point(
+        &self,
+        p: DVec3,
+        frame: f64,
+        sampling: crate::scene::strips::Sampling,
+    ) -> DVec3 {
+        let field = self
+            .eff
+            .as_ref()
+            .map_or(DVec3::ZERO, |e| e.sample(p, sampling));
+        wind_at(&self.wind, frame) + field
+    }
+
     /// Whether the head moves at all.
     pub fn head_moves(&self) -> bool {
         !self.head_motion.is_empty()
+    }
+}
+
+/// The scene's EFF, built (its files were read and checked when the scene was loaded).
+fn eff_of(scene: &Scene) -> Option<std::sync::Arc<eff::Eff>> {
+    let desc = scene.eff.as_ref()?;
+    match eff::Eff::build(desc) {
+        Ok(e) => Some(std::sync::Arc::new(e)),
+        Err(e) => {
+            log::warn!("EFF not built: {e}");
+            None
+        }
     }
 }

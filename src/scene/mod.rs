@@ -14,8 +14,8 @@
 pub mod fur;
 pub(crate) mod head;
 pub mod mesh;
-mod validate;
 pub mod strips;
+mod validate;
 pub mod wisps;
 
 pub use head::Ellipsoid;
