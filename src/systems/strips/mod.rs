@@ -8,6 +8,7 @@ pub mod capture;
 pub mod dynamics;
 pub mod dynamics_gpu;
 pub mod hom;
+pub mod panel;
 pub mod ribbon;
 pub mod texture;
 
