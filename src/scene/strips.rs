@@ -38,8 +38,8 @@ pub struct Layer {
     pub count: u32,
     /// Polar angle of the root ring from the crown (+y), degrees, in (0, 180).
     pub polar: f64,
-    /// Azimuth range of the roots, degrees; 0 is the face (+z), 90 the left side (+x), 180
-    /// the back. The strips are spread evenly over it (both ends included when the range is
+    /// Azimuth range of the roots, degrees, as the head's `Ellipsoid::point` measures it:
+    /// from +x (the face looks along +x) toward +z; 180 is the back. The strips are spread evenly over it (both ends included when the range is
     /// less than a full turn).
     #[serde(default = "full_turn")]
     pub azimuth: [f64; 2],
