@@ -516,9 +516,10 @@ fn invalid(field: &str, value: impl std::fmt::Display, allowed: &str) -> KamiErr
 /// How a capture maps onto Kami's head: BVH point `x` goes to `center + scale · C (x − p0)`,
 /// where `p0` is the head's centre in the capture at the first used frame (the joint's
 /// origin plus half its End Site offset: midway up the skull, where Kami's head turns) and
-/// `C` turns the capture about the vertical so that the head faces +z (Kami's face
-/// direction) there. The joint's local +z is taken as its facing (the BVH rest pose faces
-/// +z: CMU's toes point there).
+/// `C` turns the capture about the vertical so that the head faces +x there (Kami's face
+/// looks along +x). The joint's local +z is taken as its facing (the BVH rest pose faces
+/// +z: CMU's toes point there). `C` is a proper turn: the capture is not mirrored, so the
+/// subject's left lands on Kami's -z.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Mapping {
     pub p0: DVec3,
@@ -532,14 +533,15 @@ impl Mapping {
         let pivot = bvh.joints[joint].end_site.unwrap_or(DVec3::ZERO) * 0.5;
         let p0 = g0.transform_point3(pivot);
         let fwd = g0.transform_vector3(DVec3::Z);
+        // A turn by atan2(z, x) about +y takes the horizontal facing (x, z) onto +x.
         let yaw = if fwd.x.hypot(fwd.z) > 1e-6 {
-            fwd.x.atan2(fwd.z)
+            fwd.z.atan2(fwd.x)
         } else {
             0.0
         };
         Mapping {
             p0,
-            turn: DQuat::from_rotation_y(-yaw),
+            turn: DQuat::from_rotation_y(yaw),
             scale,
         }
     }

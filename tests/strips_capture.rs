@@ -535,9 +535,9 @@ fn head_keys_reproduce_the_cmu_head() {
     let center = DVec3::new(0.0, 1.0, 2.0);
     let g0 = b.global(head, 1);
     let map = Mapping::new(&b, head, g0, CMU_CM_PER_UNIT);
-    // At the first frame the head faces +z in Kami's frame.
+    // At the first frame the head faces +x, as Kami's does.
     let fwd = map.turn * g0.transform_vector3(DVec3::Z);
-    assert!(fwd.x.abs() < 1e-9 && fwd.z > 0.0, "{fwd}");
+    assert!(fwd.z.abs() < 1e-9 && fwd.x > 0.0, "{fwd}");
     // Points of a 20 cm head around the centre.
     let pts: Vec<DVec3> = [DVec3::X, DVec3::Y, DVec3::Z, -DVec3::X, DVec3::ONE]
         .iter()
