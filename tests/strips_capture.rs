@@ -4,7 +4,10 @@
 
 use glam::{DMat4, DQuat, DVec3};
 use kami::bvh::{self, Bvh, HeadCapture, Mapping, CMU_CM_PER_UNIT};
-use kami::systems::strips::capture::{wind_samples, Capture};
+use kami::systems::strips::capture::{
+    capture_of, field_error, marker_points, motion_error, wind_samples, Capture,
+};
+use kami::systems::strips::RestStrip;
 use kami::KamiError;
 use std::path::Path;
 
@@ -731,4 +734,73 @@ fn eq3_recovers_the_acceleration_from_rest() {
     }
     let short = analytic(3, dt, &wind, sag);
     assert!(wind_samples(&c, Some(&short), dt, 5).is_err());
+}
+
+// ---------------------------------------------------------------------------------------
+// Markers on simulated strands, and the error measures of the round trip
+
+fn strip(sticks: usize, length: f64) -> RestStrip {
+    RestStrip {
+        layer: 0,
+        points: (0..=sticks)
+            .map(|k| DVec3::new(0.0, -(k as f64) * length / sticks as f64, 0.0))
+            .collect(),
+        normal: DVec3::Y,
+        width: [3.0, 0.6],
+        stiffness: 1.0,
+        color: [0.2; 3],
+    }
+}
+
+#[test]
+fn markers_are_4_to_10_control_points_by_length() {
+    let rest = [
+        strip(12, 10.0),
+        strip(12, 40.0),
+        strip(12, 25.0),
+        strip(3, 40.0),
+    ];
+    let m = marker_points(&rest);
+    assert_eq!(m[0], vec![3, 6, 9, 12]);
+    assert_eq!(m[1].len(), 10);
+    assert_eq!(m[2].len(), 7);
+    // A chain with fewer joints than markers carries one per joint.
+    assert_eq!(m[3], vec![1, 2, 3]);
+    for (ks, s) in m.iter().zip(&rest) {
+        assert!(ks.windows(2).all(|w| w[0] < w[1]), "{ks:?}");
+        assert!(ks[0] >= 1 && *ks.last().unwrap() == s.points.len() - 1);
+    }
+    // Simulated frames, strip-major with a stride: the capture reads the marked points.
+    let stride = 13;
+    let frames: Vec<Vec<DVec3>> = (0..3)
+        .map(|f| {
+            (0..rest.len() * stride)
+                .map(|i| DVec3::new(f as f64, i as f64, 0.0))
+                .collect()
+        })
+        .collect();
+    let c = capture_of(&frames, stride, &m);
+    assert_eq!((c.frames, c.markers()), (3, 4 + 10 + 7 + 3));
+    assert_eq!(
+        c.strands[2][1][2],
+        DVec3::new(2.0, (2 * stride + m[2][1]) as f64, 0.0)
+    );
+}
+
+#[test]
+fn error_measures_on_known_pairs() {
+    let t = DVec3::new(100.0, 0.0, 0.0);
+    let e = field_error(&[(t, t), (DVec3::new(0.0, 200.0, 0.0), t), (t * 0.5, t)]);
+    assert_eq!(e.count, 3);
+    assert!((e.angle_mean - 30.0).abs() < 1e-9 && (e.angle_max - 90.0).abs() < 1e-9);
+    assert_eq!(e.ratio_median, 1.0);
+    // |errors|² = 0, 100² + 200², 50²: rms over 3, relative to rms |t| = 100.
+    let rms = ((100.0f64.powi(2) + 200.0f64.powi(2) + 50.0f64.powi(2)) / 3.0).sqrt();
+    assert!((e.rms - rms).abs() < 1e-9 && (e.relative - rms / 100.0).abs() < 1e-12);
+    let a = small_capture();
+    let mut b = a.clone();
+    b.strands[1][2][4] += DVec3::new(0.0, 3.0, 4.0);
+    let (r, m) = motion_error(&a, &b);
+    assert_eq!(m, 5.0);
+    assert!((r - (25.0f64 / 35.0).sqrt()).abs() < 1e-12);
 }

@@ -458,3 +458,119 @@ pub fn wind_samples(
     }
     Ok(out)
 }
+
+/// Markers on each strand, as control point indices: 4 on the shortest strand to 10 on the
+/// longest (the paper: "4-10 reflective markers ... depending on its length"), evenly spread
+/// by index from the first joint after the root to the tip. The root never moves, so a
+/// marker there would only say the wind is zero at the scalp.
+pub fn marker_points(rest: &[super::RestStrip]) -> Vec<Vec<usize>> {
+    let length =
+        |s: &super::RestStrip| -> f64 { s.points.windows(2).map(|w| (w[1] - w[0]).length()).sum() };
+    let lens: Vec<f64> = rest.iter().map(length).collect();
+    let lo = lens.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = lens.iter().copied().fold(0.0, f64::max);
+    rest.iter()
+        .zip(&lens)
+        .map(|(s, &l)| {
+            let sticks = s.points.len().saturating_sub(1);
+            let share = if hi > lo { (l - lo) / (hi - lo) } else { 1.0 };
+            let n = ((4.0 + 6.0 * share).round() as usize).min(sticks);
+            (1..=n)
+                .map(|i| ((i * sticks) as f64 / n as f64).round() as usize)
+                .collect()
+        })
+        .collect()
+}
+
+/// The markers' trajectories in simulated frames: `frames[f][strip * stride + k]` (the
+/// dynamics' layout) at the control points `markers[strip]`.
+pub fn capture_of(frames: &[Vec<DVec3>], stride: usize, markers: &[Vec<usize>]) -> Capture {
+    let strands = markers
+        .iter()
+        .enumerate()
+        .map(|(s, ks)| {
+            ks.iter()
+                .map(|&k| frames.iter().map(|fr| fr[s * stride + k]).collect())
+                .collect()
+        })
+        .collect();
+    Capture {
+        start: 0,
+        frames: frames.len(),
+        strands,
+    }
+}
+
+/// How far a fitted field is from the true one over a set of places.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FieldError {
+    /// Places compared.
+    pub count: usize,
+    /// Root mean square of |fit − true| (cm/s²).
+    pub rms: f64,
+    /// That over the root mean square of |true|: 0 is exact, 1 is as wrong as no field.
+    pub relative: f64,
+    /// Mean and largest angle between fit and true (degrees; places where either is zero
+    /// are left out of the angles).
+    pub angle_mean: f64,
+    pub angle_max: f64,
+    /// Median of |fit| / |true| (1 is the right strength).
+    pub ratio_median: f64,
+}
+
+/// Compare `(fit, true)` pairs.
+pub fn field_error(pairs: &[(DVec3, DVec3)]) -> FieldError {
+    if pairs.is_empty() {
+        return FieldError::default();
+    }
+    let n = pairs.len() as f64;
+    let err2: f64 = pairs.iter().map(|(f, t)| (*f - *t).length_squared()).sum();
+    let true2: f64 = pairs.iter().map(|(_, t)| t.length_squared()).sum();
+    let mut angles = Vec::new();
+    let mut ratios = Vec::new();
+    for (f, t) in pairs {
+        if f.length() > 0.0 && t.length() > 0.0 {
+            angles.push(f.angle_between(*t).to_degrees());
+        }
+        if t.length() > 0.0 {
+            ratios.push(f.length() / t.length());
+        }
+    }
+    ratios.sort_by(f64::total_cmp);
+    let median = match ratios.len() {
+        0 => f64::NAN,
+        k if k % 2 == 1 => ratios[k / 2],
+        k => 0.5 * (ratios[k / 2 - 1] + ratios[k / 2]),
+    };
+    FieldError {
+        count: pairs.len(),
+        rms: (err2 / n).sqrt(),
+        relative: if true2 > 0.0 {
+            (err2 / true2).sqrt()
+        } else {
+            f64::NAN
+        },
+        angle_mean: angles.iter().sum::<f64>() / angles.len().max(1) as f64,
+        angle_max: angles.iter().copied().fold(0.0, f64::max),
+        ratio_median: median,
+    }
+}
+
+/// Distance between two captures of the same markers: root mean square and largest over
+/// every marker and frame (cm).
+pub fn motion_error(a: &Capture, b: &Capture) -> (f64, f64) {
+    let mut sum = 0.0;
+    let mut max = 0.0f64;
+    let mut n = 0usize;
+    for (sa, sb) in a.strands.iter().zip(&b.strands) {
+        for (ta, tb) in sa.iter().zip(sb) {
+            for (p, q) in ta.iter().zip(tb) {
+                let d = (*p - *q).length();
+                sum += d * d;
+                max = max.max(d);
+                n += 1;
+            }
+        }
+    }
+    ((sum / n.max(1) as f64).sqrt(), max)
+}
