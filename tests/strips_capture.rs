@@ -790,12 +790,18 @@ fn markers_are_4_to_10_control_points_by_length() {
 #[test]
 fn error_measures_on_known_pairs() {
     let t = DVec3::new(100.0, 0.0, 0.0);
-    let e = field_error(&[(t, t), (DVec3::new(0.0, 200.0, 0.0), t), (t * 0.5, t)]);
-    assert_eq!(e.count, 3);
-    assert!((e.angle_mean - 30.0).abs() < 1e-9 && (e.angle_max - 90.0).abs() < 1e-9);
-    assert_eq!(e.ratio_median, 1.0);
-    // |errors|² = 0, 100² + 200², 50²: rms over 3, relative to rms |t| = 100.
-    let rms = ((100.0f64.powi(2) + 200.0f64.powi(2) + 50.0f64.powi(2)) / 3.0).sqrt();
+    let e = field_error(&[
+        (t, t),
+        (DVec3::new(0.0, 200.0, 0.0), t),
+        (t * 0.5, t),
+        (t * 3.0, t),
+    ]);
+    assert_eq!(e.count, 4);
+    assert!((e.angle_mean - 22.5).abs() < 1e-9 && (e.angle_max - 90.0).abs() < 1e-9);
+    // Ratios 1, 2, 0.5, 3: the median is 1.5.
+    assert_eq!(e.ratio_median, 1.5);
+    // |errors|² = 0, 100² + 200², 50², 200²: rms over 4, relative to rms |t| = 100.
+    let rms = ((100.0f64.powi(2) + 2.0 * 200.0f64.powi(2) + 50.0f64.powi(2)) / 4.0).sqrt();
     assert!((e.rms - rms).abs() < 1e-9 && (e.relative - rms / 100.0).abs() < 1e-12);
     let a = small_capture();
     let mut b = a.clone();
