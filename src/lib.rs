@@ -13,6 +13,7 @@
 
 pub mod app;
 pub mod bench;
+pub mod bvh;
 pub mod error;
 pub mod forces;
 pub mod fuzz;
