@@ -64,6 +64,10 @@ pub struct Scene {
     /// dynamics samples (`crate::forces::eff`).
     #[serde(default)]
     pub eff: Option<crate::forces::eff::EffDesc>,
+    /// Head motion from a BVH motion capture (one joint's motion moves the head), read when
+    /// the scene is loaded. When the scene's `dynamics` also keys head motion, those keys win.
+    #[serde(default)]
+    pub head_capture: Option<crate::bvh::HeadCapture>,
 }
 
 fn default_gravity() -> [f64; 3] {
@@ -546,6 +550,25 @@ impl Scene {
         }
         let bytes = std::fs::read(path).map_err(io)?;
         let mut scene = Scene::from_bytes(&bytes, &path.display().to_string())?;
+        // The head capture, read now so that errors name its file.
+        if let Some(hc) = scene.head_capture.as_mut() {
+            crate::bvh::resolve(hc, path.parent().unwrap_or(Path::new(""))).map_err(
+                |e| match e {
+                    KamiError::Invalid {
+                        field,
+                        value,
+                        allowed,
+                        ..
+                    } => KamiError::Invalid {
+                        file: path.display().to_string(),
+                        field,
+                        value,
+                        allowed,
+                    },
+                    other => other,
+                },
+            )?;
+        }
         // Files the EFF names, read now so that errors name them.
         if let Some(eff) = scene.eff.as_mut() {
             crate::forces::eff::resolve(eff, path.parent().unwrap_or(Path::new("")))?;

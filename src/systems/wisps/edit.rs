@@ -172,6 +172,7 @@ pub fn check(w: &Wisps) -> std::result::Result<(), String> {
         wisps: Some(w.clone()),
         strips: None,
         eff: None,
+        head_capture: None,
     };
     crate::scene::validate(&probe).map_err(|e| e.to_string())
 }
