@@ -89,9 +89,16 @@ fn hom_counts_roots_and_layer_values() {
             let r = &rest[i];
             assert_eq!(r.layer, li as u32);
             assert_eq!(r.points.len(), l.sticks as usize + 1);
-            assert_eq!((r.width, r.stiffness, r.color), (l.width, l.stiffness, l.color));
+            assert_eq!(
+                (r.width, r.stiffness, r.color),
+                (l.width, l.stiffness, l.color)
+            );
             let root = r.points[0];
-            assert!(e.eval(root).abs() < 1e-9, "root off the head: {}", e.eval(root));
+            assert!(
+                e.eval(root).abs() < 1e-9,
+                "root off the head: {}",
+                e.eval(root)
+            );
             let (theta, _) = e.polar(root);
             assert!(
                 (theta.to_degrees() - l.polar).abs() < 1e-9,
@@ -138,7 +145,10 @@ fn hom_stays_outside_the_head_with_exact_sticks() {
             }
         }
     }
-    assert!(pushed > 20, "these shapes should rest on the head ({pushed} points do)");
+    assert!(
+        pushed > 20,
+        "these shapes should rest on the head ({pushed} points do)"
+    );
 }
 
 #[test]
@@ -151,7 +161,10 @@ fn hom_droop_and_curl_shape_the_rest() {
     for r in hom::build(&strips(vec![hang.clone()]), &head).unwrap() {
         for w in r.points.windows(2) {
             let d = (w[1] - w[0]).normalize();
-            assert!((d + DVec3::Y).length() < 1e-12, "droop 1 should hang down: {d}");
+            assert!(
+                (d + DVec3::Y).length() < 1e-12,
+                "droop 1 should hang down: {d}"
+            );
         }
     }
     // Droop 0 leaves along the normal and stays straight.
@@ -159,14 +172,21 @@ fn hom_droop_and_curl_shape_the_rest() {
     for r in hom::build(&strips(vec![hang.clone()]), &head).unwrap() {
         for w in r.points.windows(2) {
             let d = (w[1] - w[0]).normalize();
-            assert!((d - r.normal).length() < 1e-12, "droop 0 should follow the normal");
+            assert!(
+                (d - r.normal).length() < 1e-12,
+                "droop 0 should follow the normal"
+            );
         }
     }
     // Curl turns each stick by `curl` degrees, outward → down → under (toward the head).
     hang.droop = 1.0;
     hang.curl = 10.0;
     for r in hom::build(&strips(vec![hang]), &head).unwrap() {
-        let dirs: Vec<DVec3> = r.points.windows(2).map(|w| (w[1] - w[0]).normalize()).collect();
+        let dirs: Vec<DVec3> = r
+            .points
+            .windows(2)
+            .map(|w| (w[1] - w[0]).normalize())
+            .collect();
         for w in dirs.windows(2) {
             let angle = w[0].dot(w[1]).clamp(-1.0, 1.0).acos().to_degrees();
             assert!((angle - 10.0).abs() < 1e-9, "curl turned by {angle}");
@@ -190,10 +210,16 @@ fn hom_azimuths_spread_over_the_range() {
     ];
     for (n, range, want) in cases {
         let rest = hom::build(&strips(vec![layer(n, 80.0, range)]), &head).unwrap();
-        let got: Vec<f64> = rest.iter().map(|r| azimuth_deg(&head, r.points[0])).collect();
+        let got: Vec<f64> = rest
+            .iter()
+            .map(|r| azimuth_deg(&head, r.points[0]))
+            .collect();
         for (g, w) in got.iter().zip(&want) {
             let d = (g - w).rem_euclid(360.0);
-            assert!(d.min(360.0 - d) < 1e-9, "range {range:?}: azimuths {got:?}, want {want:?}");
+            assert!(
+                d.min(360.0 - d) < 1e-9,
+                "range {range:?}: azimuths {got:?}, want {want:?}"
+            );
         }
     }
 }
@@ -213,7 +239,10 @@ fn hom_inner_layers_lie_closer_to_the_head() {
     for (a, b) in inner.iter().zip(outer) {
         assert_eq!(a.points[0], b.points[0], "same roots");
         for (p, q) in a.points.iter().zip(&b.points).skip(1) {
-            assert!(e.eval(*p) <= e.eval(*q) + 1e-12, "the inner layer is outside the outer");
+            assert!(
+                e.eval(*p) <= e.eval(*q) + 1e-12,
+                "the inner layer is outside the outer"
+            );
             if e.eval(*p) < e.eval(*q) - 1e-3 {
                 closer += 1;
             }
@@ -227,14 +256,21 @@ fn hom_inner_layers_lie_closer_to_the_head() {
             }
         }
     }
-    assert!(closer >= 10, "the layers rest on the head at the same height ({closer})");
+    assert!(
+        closer >= 10,
+        "the layers rest on the head at the same height ({closer})"
+    );
 }
 
 #[test]
 fn hom_is_deterministic_and_rejects_bad_layers() {
     let head = off_center_head();
-    assert_eq!(hom::build(&bob(), &head).unwrap(), hom::build(&bob(), &head).unwrap());
-    let bad: Vec<(&str, Box<dyn Fn(&mut Layer)>)> = vec![
+    assert_eq!(
+        hom::build(&bob(), &head).unwrap(),
+        hom::build(&bob(), &head).unwrap()
+    );
+    type Break = Box<dyn Fn(&mut Layer)>;
+    let bad: Vec<(&str, Break)> = vec![
         ("count", Box::new(|l| l.count = 0)),
         ("polar", Box::new(|l| l.polar = 0.0)),
         ("polar", Box::new(|l| l.polar = f64::NAN)),
@@ -260,7 +296,10 @@ fn hom_is_deterministic_and_rejects_bad_layers() {
     let mut s = bob();
     s.layers[0].count = u32::MAX;
     s.layers[1].count = u32::MAX;
-    assert!(hom::build(&s, &head).is_err(), "billions of strips must not allocate");
+    assert!(
+        hom::build(&s, &head).is_err(),
+        "billions of strips must not allocate"
+    );
 }
 
 // ---------------------------------------------------------------- texture
@@ -311,16 +350,35 @@ fn texture_has_hairs_gaps_and_ragged_ends() {
     let body_mean = (25..180).map(|y| rows[y]).sum::<f64>() / 155.0;
     assert!((0.5..0.8).contains(&body_mean), "body coverage {body_mean}");
     for y in (10..200).step_by(10) {
-        let g = gaps(&tex[y * w as usize..(y + 1) * w as usize], look.alpha_cutoff);
-        assert!(g + 4 >= look.hairs as usize, "row {y}: {g} gaps between {} hairs", look.hairs);
+        let g = gaps(
+            &tex[y * w as usize..(y + 1) * w as usize],
+            look.alpha_cutoff,
+        );
+        assert!(
+            g + 4 >= look.hairs as usize,
+            "row {y}: {g} gaps between {} hairs",
+            look.hairs
+        );
     }
     // The ends are spread: coverage falls gradually over the last TIP_SPREAD + TIP_TAPER.
     assert!(body(0.8) > 0.8 * body_mean, "hairs end too early");
-    assert!(body(0.9) < 0.85 * body_mean && body(0.9) > 0.15 * body_mean, "ends not spread: {}", body(0.9));
-    assert!(body(0.995) < 0.1 * body_mean, "hairs reach the tip row: {}", body(0.995));
+    assert!(
+        body(0.9) < 0.85 * body_mean && body(0.9) > 0.15 * body_mean,
+        "ends not spread: {}",
+        body(0.9)
+    );
+    assert!(
+        body(0.995) < 0.1 * body_mean,
+        "hairs reach the tip row: {}",
+        body(0.995)
+    );
     // Different hairs end on different rows.
     let ends: std::collections::BTreeSet<usize> = (0..w as usize)
-        .filter_map(|x| (0..h as usize).rev().find(|&y| tex[y * w as usize + x][3] > 128))
+        .filter_map(|x| {
+            (0..h as usize)
+                .rev()
+                .find(|&y| tex[y * w as usize + x][3] > 128)
+        })
         .collect();
     assert!(ends.len() >= 10, "hair ends on only {} rows", ends.len());
 }
@@ -369,9 +427,18 @@ fn texture_gradient_runs_root_to_tip() {
 fn texture_is_deterministic() {
     let look = Look::default();
     let (w, h) = texture::texture_size(&look);
-    assert_eq!(texture::strand_texture(&look, w, h), texture::strand_texture(&look, w, h));
-    let other = Look { hairs: 30, ..Look::default() };
-    assert_ne!(texture::strand_texture(&look, w, h), texture::strand_texture(&other, w, h));
+    assert_eq!(
+        texture::strand_texture(&look, w, h),
+        texture::strand_texture(&look, w, h)
+    );
+    let other = Look {
+        hairs: 30,
+        ..Look::default()
+    };
+    assert_ne!(
+        texture::strand_texture(&look, w, h),
+        texture::strand_texture(&other, w, h)
+    );
 }
 
 #[test]
@@ -406,9 +473,15 @@ fn texture_mips_average_their_blocks() {
                 }
             }
         }
-        assert!(worst <= 0.5 + 1e-9, "level {k}: a texel is {worst} off its block's average");
+        assert!(
+            worst <= 0.5 + 1e-9,
+            "level {k}: a texel is {worst} off its block's average"
+        );
         let mean = l.texels.iter().map(|t| t[3] as f64).sum::<f64>() / l.texels.len() as f64;
-        assert!((mean - overall).abs() < 0.5, "level {k} mean alpha {mean} vs {overall}");
+        assert!(
+            (mean - overall).abs() < 0.5,
+            "level {k} mean alpha {mean} vs {overall}"
+        );
     }
 }
 
@@ -475,7 +548,10 @@ fn ribbon_reference_is_flat_tapered_and_untwisted() {
             assert!(((a.position + b.position) * 0.5 - r.points[kk]).length() < 1e-12);
             assert_eq!((a.u, b.u, a.v), (0.0, 1.0, along));
             let side = (b.position - a.position) / width;
-            assert!(side.dot(a.tangent).abs() < 1e-12, "side not across the strip");
+            assert!(
+                side.dot(a.tangent).abs() < 1e-12,
+                "side not across the strip"
+            );
             assert!((a.tangent.length() - 1.0).abs() < 1e-12);
             // A rest strip lies in the plane normal to the ring tangent: the side vector is
             // that tangent at every point (no twist).
@@ -523,14 +599,20 @@ fn ribbon_side_is_parallel_transported() {
         let (t0, t1) = (v[2 * k].tangent, v[2 * k + 2].tangent);
         let axis = t0.cross(t1).normalize();
         let (s0, s1) = (side(k), side(k + 1));
-        assert!(s1.dot(t1).abs() < 1e-12, "point {k}: side not across the strip");
+        assert!(
+            s1.dot(t1).abs() < 1e-12,
+            "point {k}: side not across the strip"
+        );
         assert!(
             (s1.dot(axis) - s0.dot(axis)).abs() < 1e-12,
             "point {k}: side turned about more than the tangents' rotation"
         );
         turned += s0.angle_between(s1);
     }
-    assert!(turned > 1.0, "the helix should turn the side vector ({turned} rad)");
+    assert!(
+        turned > 1.0,
+        "the helix should turn the side vector ({turned} rad)"
+    );
 }
 
 fn points_buffer(gpu: &Gpu, points: &[DVec3]) -> wgpu::Buffer {
@@ -538,7 +620,12 @@ fn points_buffer(gpu: &Gpu, points: &[DVec3]) -> wgpu::Buffer {
         .iter()
         .map(|p| [p.x as f32, p.y as f32, p.z as f32, 1.0])
         .collect();
-    gpu::storage_buffer(&gpu.device, "test points", bytemuck::cast_slice(&data), wgpu::BufferUsages::empty())
+    gpu::storage_buffer(
+        &gpu.device,
+        "test points",
+        bytemuck::cast_slice(&data),
+        wgpu::BufferUsages::empty(),
+    )
 }
 
 fn frame_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
@@ -557,16 +644,39 @@ fn ribbon_kernel_matches_the_f64_reference() {
     let stride = 12;
     let m = pose();
     let points = moved(&rest, stride, &m);
-    let buffer = points_buffer(&gpu, &points);
     let layout = frame_layout(&gpu);
-    let pass = RibbonPass::new(&gpu, &rest, stride, &Look::default(), &layout, SCENE_FORMAT, 1).unwrap();
-    let mut enc = gpu.device.create_command_encoder(&Default::default());
-    pass.record(&gpu, &mut enc, &buffer, &m).unwrap();
-    gpu.queue.submit([enc.finish()]);
+    let pass = RibbonPass::new(
+        &gpu,
+        &rest,
+        stride,
+        &Look::default(),
+        &layout,
+        SCENE_FORMAT,
+        1,
+    )
+    .unwrap();
+    // First from another points buffer (the rest pose), then from the moved points: the
+    // pass binds the buffer it is given.
+    let mut still = Vec::new();
+    for r in &rest {
+        let mut p = r.points.clone();
+        p.resize(stride, *r.points.last().unwrap());
+        still.extend(p);
+    }
+    let first = points_buffer(&gpu, &still);
+    let buffer = points_buffer(&gpu, &points);
+    for b in [&first, &buffer] {
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        pass.record(&gpu, &mut enc, b, &m).unwrap();
+        gpu.queue.submit([enc.finish()]);
+    }
     let n = 2 * rest.len() * stride;
-    let got: Vec<GpuRibbonVertex> =
-        gpu::read_buffer(&gpu, pass.vertices(), (n * std::mem::size_of::<GpuRibbonVertex>()) as u64)
-            .unwrap();
+    let got: Vec<GpuRibbonVertex> = gpu::read_buffer(
+        &gpu,
+        pass.vertices(),
+        (n * std::mem::size_of::<GpuRibbonVertex>()) as u64,
+    )
+    .unwrap();
     // The reference reads the same f32-rounded points the kernel reads.
     let rounded: Vec<DVec3> = points.iter().map(|p| p.as_vec3().as_dvec3()).collect();
     let want: Vec<RibbonVertex> =
@@ -582,7 +692,9 @@ fn ribbon_kernel_matches_the_f64_reference() {
             at = i;
         }
         tan = tan.max((t - w.tangent).length());
-        uv = uv.max((g.position[3] as f64 - w.u).abs()).max((g.tangent[3] as f64 - w.v).abs());
+        uv = uv
+            .max((g.position[3] as f64 - w.u).abs())
+            .max((g.tangent[3] as f64 - w.v).abs());
     }
     println!("ribbon kernel vs f64: worst position {pos:.3e} cm (vertex {at}), tangent {tan:.3e}, uv {uv:.3e}");
     // Positions are ~20 cm (f32 ulp ~2e-6); sides and tangents are rebuilt per point.
@@ -598,11 +710,33 @@ fn ribbon_pass_rejects_a_short_points_buffer_and_stride() {
     let rest = hom::build(&bob(), &Head::default()).unwrap();
     let layout = frame_layout(&gpu);
     assert!(RibbonPass::new(&gpu, &rest, 5, &Look::default(), &layout, SCENE_FORMAT, 1).is_err());
-    let pass = RibbonPass::new(&gpu, &rest, 11, &Look::default(), &layout, SCENE_FORMAT, 1).unwrap();
+    let pass =
+        RibbonPass::new(&gpu, &rest, 11, &Look::default(), &layout, SCENE_FORMAT, 1).unwrap();
     let short = points_buffer(&gpu, &vec![DVec3::ZERO; 11 * rest.len() - 1]);
     let mut enc = gpu.device.create_command_encoder(&Default::default());
-    let err = pass.record(&gpu, &mut enc, &short, &DMat4::IDENTITY).unwrap_err();
+    let err = pass
+        .record(&gpu, &mut enc, &short, &DMat4::IDENTITY)
+        .unwrap_err();
     assert!(err.to_string().contains("points buffer"), "{err}");
+}
+
+/// The two modules validate with naga without a GPU (until the strips kind lists them in
+/// `kami::shaders::all()`, which `tests/shader_validation.rs` walks).
+#[test]
+fn ribbon_shaders_validate() {
+    for (name, source) in [
+        ("strips/ribbon", ribbon::RIBBON),
+        ("strips/draw", ribbon::DRAW),
+    ] {
+        let module = naga::front::wgsl::parse_str(source)
+            .unwrap_or_else(|e| panic!("{name} does not parse:\n{}", e.emit_to_string(source)));
+        naga::valid::Validator::new(
+            naga::valid::ValidationFlags::all(),
+            naga::valid::Capabilities::MULTISAMPLED_SHADING,
+        )
+        .validate(&module)
+        .unwrap_or_else(|e| panic!("{name} does not validate:\n{}", e.emit_to_string(source)));
+    }
 }
 
 // ---------------------------------------------------------------- drawing
@@ -616,7 +750,9 @@ const HALF: f32 = 8.0;
 fn test_strip() -> RestStrip {
     RestStrip {
         layer: 0,
-        points: (0..=6).map(|k| DVec3::new(0.0, 6.0 - 2.0 * k as f64, 0.0)).collect(),
+        points: (0..=6)
+            .map(|k| DVec3::new(0.0, 6.0 - 2.0 * k as f64, 0.0))
+            .collect(),
         normal: DVec3::Z,
         width: [6.0, 2.0],
         stiffness: 1.0,
@@ -639,7 +775,12 @@ fn frame(size: (u32, u32), samples: u32) -> GpuFrame {
         // From the upper right, in front: diffuse sin(T, L) = 0.82, little specular.
         light_dir: [0.57735, 0.57735, 0.57735, 1.0],
         light_color: [1.0, 1.0, 1.0, 0.1],
-        viewport: [size.0 as f32, size.1 as f32, 1.0 / size.0 as f32, 1.0 / size.1 as f32],
+        viewport: [
+            size.0 as f32,
+            size.1 as f32,
+            1.0 / size.0 as f32,
+            1.0 / size.1 as f32,
+        ],
         raster: [1.0, 1.0, 1.0, samples as f32],
         flags: [0.0, 1.0, 0.0, 0.0],
     }
@@ -650,19 +791,30 @@ fn frame(size: (u32, u32), samples: u32) -> GpuFrame {
 fn render(gpu: &Gpu, samples: u32, look: &Look) -> image::RgbaImage {
     let rest = vec![test_strip()];
     let layout = frame_layout(gpu);
-    let mut pass = RibbonPass::new(gpu, &rest, 8, look, &layout, SCENE_FORMAT, 1).unwrap();
+    // Built with the default look and MSAA off, then changed: the look and the sample count
+    // reach the pipeline and the texture.
+    let mut pass =
+        RibbonPass::new(gpu, &rest, 8, &Look::default(), &layout, SCENE_FORMAT, 1).unwrap();
     pass.set_samples(gpu, samples);
+    pass.write_look(gpu, look).unwrap();
+    assert_eq!(pass.texture().size, texture::texture_size(look));
     let mut pts = rest[0].points.clone();
     pts.resize(8, *pts.last().unwrap());
     let points = points_buffer(gpu, &pts);
     let targets = SceneTargets::new(gpu, (SIZE, SIZE), samples, 1).unwrap();
-    let frame_buffer = gpu::storage_buffer(&gpu.device, "frame", bytemuck::bytes_of(&frame(targets.size, samples)), wgpu::BufferUsages::UNIFORM);
+    let frame_buffer = gpu::storage_buffer(
+        &gpu.device,
+        "frame",
+        bytemuck::bytes_of(&frame(targets.size, samples)),
+        wgpu::BufferUsages::UNIFORM,
+    );
     let frame_bg = pipeline::bind_buffers(&gpu.device, "frame", &layout, &[&frame_buffer]);
     let out = Offscreen::new(gpu, (SIZE, SIZE)).unwrap();
     let down = DownsamplePass::new(gpu, out.format).unwrap();
     let down_bg = down.bind(gpu, &targets);
     let mut enc = gpu.device.create_command_encoder(&Default::default());
-    pass.record(gpu, &mut enc, &points, &DMat4::IDENTITY).unwrap();
+    pass.record(gpu, &mut enc, &points, &DMat4::IDENTITY)
+        .unwrap();
     {
         let mut rp = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("strips test"),
@@ -675,11 +827,16 @@ fn render(gpu: &Gpu, samples: u32, look: &Look) -> image::RgbaImage {
         rp.set_bind_group(0, &frame_bg, &[]);
         pass.draw(&mut rp);
     }
-    down.draw(&mut enc, &down_bg, &out.view, (SIZE, SIZE), wgpu::Color::BLACK);
+    down.draw(
+        &mut enc,
+        &down_bg,
+        &out.view,
+        (SIZE, SIZE),
+        wgpu::Color::BLACK,
+    );
     gpu.queue.submit([enc.finish()]);
     let img = out.read_rgba(gpu).unwrap();
     gpu.take_error().unwrap();
-    img.save(std::env::temp_dir().join(format!("strips_render_{samples}.png"))).unwrap();
     img
 }
 
@@ -717,7 +874,10 @@ fn check_render(img: &image::RgbaImage, what: &str) {
             let inside = (-0.05..=1.05).contains(&along)
                 && xw.abs() <= 0.5 * (6.0 - 4.0 * along.clamp(0.0, 1.0)) + 2.0 / px;
             if !inside {
-                assert!(!lit(img.get_pixel(x, y)), "{what}: lit pixel ({x}, {y}) outside the ribbon");
+                assert!(
+                    !lit(img.get_pixel(x, y)),
+                    "{what}: lit pixel ({x}, {y}) outside the ribbon"
+                );
             }
         }
     }
@@ -726,8 +886,14 @@ fn check_render(img: &image::RgbaImage, what: &str) {
         let half = 0.5 * (6.0 - 4.0 * along) * px;
         let (share, runs) = row_stats(img, row_of(6.0 - 12.0 * along), half);
         println!("{what}: v = {along}: covered {share:.2}, {runs} gaps");
-        assert!((0.4..0.92).contains(&share), "{what}: v = {along}: covered share {share}");
-        assert!(runs >= 5, "{what}: v = {along}: only {runs} gaps between 8 hairs");
+        assert!(
+            (0.4..0.92).contains(&share),
+            "{what}: v = {along}: covered share {share}"
+        );
+        assert!(
+            runs >= 5,
+            "{what}: v = {along}: only {runs} gaps between 8 hairs"
+        );
     }
     // Near the tip the ragged ends leave less hair: darker per pixel across the span, though
     // the gradient makes the hairs there 1.5 times as bright.
@@ -749,44 +915,48 @@ fn mean_red(img: &image::RgbaImage, y: u32, half_px: f64) -> f64 {
 #[test]
 fn ribbons_cover_their_footprint_with_hair_gaps() {
     let gpu = common::gpu();
-    let look = Look { hairs: 8, ..Look::default() };
+    let look = Look {
+        hairs: 8,
+        ..Look::default()
+    };
     let img = render(&gpu, 1, &look);
     check_render(&img, "no MSAA");
     let p = img.get_pixel(128, 100);
-    assert!(!lit(p) || (p[0] > p[1] && p[1] > p[2]), "the layer colour is warm: {p:?}");
+    assert!(
+        !lit(p) || (p[0] > p[1] && p[1] > p[2]),
+        "the layer colour is warm: {p:?}"
+    );
     // The gradient reaches the image. One wide hair covers the middle of the strip fully,
     // so its centre column shows the shading alone (no specular: it changes with the view
     // direction down the strip): near the tip end it is brighter than near the root by the
     // gradient's ratio (linear light; tip_shade 1.6).
-    let one = render(&gpu, 1, &Look { hairs: 1, specular: [0.0, 40.0], ..Look::default() });
+    let one = render(
+        &gpu,
+        1,
+        &Look {
+            hairs: 1,
+            specular: [0.0, 40.0],
+            ..Look::default()
+        },
+    );
     let lin = |y: u32| (one.get_pixel(SIZE / 2, y)[0] as f64 / 255.0).powf(2.2);
     let v = |row: u32| (row as f64 + 0.5 - 32.0) / 192.0;
     let want = texture::shade(&look, v(160)) / texture::shade(&look, v(40));
     let got = lin(160) / lin(40);
     println!("gradient in the image: tip / root {got:.3}, want {want:.3}");
-    assert!((got / want - 1.0).abs() < 0.05, "gradient: got {got}, want {want}");
+    assert!(
+        (got / want - 1.0).abs() < 0.05,
+        "gradient: got {got}, want {want}"
+    );
 }
 
 #[test]
 fn ribbons_with_msaa_coverage() {
     let gpu = common::gpu();
-    let look = Look { hairs: 8, ..Look::default() };
+    let look = Look {
+        hairs: 8,
+        ..Look::default()
+    };
     let img = render(&gpu, 4, &look);
     check_render(&img, "4x MSAA");
-}
-
-#[test]
-fn zz_dump_texture() {
-    for hairs in [8u32, 24] {
-        let look = Look { hairs, ..Look::default() };
-        let (w, h) = texture::texture_size(&look);
-        let tex = texture::strand_texture(&look, w, h);
-        let mut img = image::RgbaImage::new(w, h);
-        for (i, t) in tex.iter().enumerate() {
-            let a = t[3] as u32;
-            let c = (t[0] as u32 * a / 255) as u8;
-            img.put_pixel(i as u32 % w, i as u32 / w, image::Rgba([c, c, c, 255]));
-        }
-        img.save(format!("/tmp/rt/tex{hairs}.png")).unwrap();
-    }
 }

@@ -93,12 +93,20 @@ fn check_layer(i: usize, l: &Layer) -> Result<()> {
         return Err(invalid(f("droop"), l.droop, "a share in [0, 1]"));
     }
     if !(l.curl.is_finite() && l.curl.abs() <= 180.0) {
-        return Err(invalid(f("curl"), l.curl, "degrees per stick in [-180, 180]"));
+        return Err(invalid(
+            f("curl"),
+            l.curl,
+            "degrees per stick in [-180, 180]",
+        ));
     }
     if !(l.stiffness.is_finite() && l.stiffness >= 0.0) {
         return Err(invalid(f("stiffness"), l.stiffness, "a multiplier >= 0"));
     }
-    if !l.color.iter().all(|c| c.is_finite() && (0.0..=1.0).contains(c)) {
+    if !l
+        .color
+        .iter()
+        .all(|c| c.is_finite() && (0.0..=1.0).contains(c))
+    {
         return Err(invalid(
             f("color"),
             format!("{:?}", l.color),
@@ -172,7 +180,11 @@ pub fn build(strips: &Strips, head: &Head) -> Result<Vec<RestStrip>> {
 /// One strip of `layer` at azimuth `az` (degrees; 0 the face +z, 90 the left +x).
 fn strip(hull: &Ellipsoid, shell: &Ellipsoid, layer: &Layer, li: u32, az: f64) -> RestStrip {
     let (theta, phi) = (layer.polar.to_radians(), az.to_radians());
-    let dir = DVec3::new(theta.sin() * phi.sin(), theta.cos(), theta.sin() * phi.cos());
+    let dir = DVec3::new(
+        theta.sin() * phi.sin(),
+        theta.cos(),
+        theta.sin() * phi.cos(),
+    );
     let root = hull.center + hull.radii * dir;
     let normal = hull.normal(root);
     // r̂: the normal's horizontal direction (polar in (0, 180) keeps it non-zero; on an

@@ -149,9 +149,15 @@ pub fn mip_chain(level0: &[[u8; 4]], width: u32, height: u32) -> Vec<MipLevel> {
         lh = (lh / 2).max(1);
         let mut texels = Vec::with_capacity((lw * lh) as usize);
         for y in 0..lh as usize {
-            let (y0, y1) = (y * h / lh as usize, ((y + 1) * h / lh as usize).max(y * h / lh as usize + 1));
+            let (y0, y1) = (
+                y * h / lh as usize,
+                ((y + 1) * h / lh as usize).max(y * h / lh as usize + 1),
+            );
             for x in 0..lw as usize {
-                let (x0, x1) = (x * w / lw as usize, ((x + 1) * w / lw as usize).max(x * w / lw as usize + 1));
+                let (x0, x1) = (
+                    x * w / lw as usize,
+                    ((x + 1) * w / lw as usize).max(x * w / lw as usize + 1),
+                );
                 let (mut sa, mut sc, mut s, mut n) = (0.0f64, [0.0f64; 3], [0.0f64; 3], 0.0);
                 for yy in y0..y1 {
                     for t in &level0[yy * w + x0..yy * w + x1] {
