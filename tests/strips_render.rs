@@ -559,6 +559,11 @@ fn ribbon_reference_is_flat_tapered_and_untwisted() {
                 "side not across the strip"
             );
             assert!((a.tangent.length() - 1.0).abs() < 1e-12);
+            // The tangent: along the sticks at the ends, between them (the central
+            // difference, as the sticks have equal lengths) inside.
+            let (lo, hi) = (kk.saturating_sub(1), (kk + 1).min(n - 1));
+            let want = (r.points[hi] - r.points[lo]).normalize();
+            assert!((a.tangent - want).length() < 1e-12, "strip {s} point {k}: tangent");
             // A rest strip lies in the plane normal to the ring tangent: the side vector is
             // that tangent at every point (no twist).
             assert!(
