@@ -563,7 +563,10 @@ fn ribbon_reference_is_flat_tapered_and_untwisted() {
             // difference, as the sticks have equal lengths) inside.
             let (lo, hi) = (kk.saturating_sub(1), (kk + 1).min(n - 1));
             let want = (r.points[hi] - r.points[lo]).normalize();
-            assert!((a.tangent - want).length() < 1e-12, "strip {s} point {k}: tangent");
+            assert!(
+                (a.tangent - want).length() < 1e-12,
+                "strip {s} point {k}: tangent"
+            );
             // A rest strip lies in the plane normal to the ring tangent: the side vector is
             // that tangent at every point (no twist).
             assert!(
@@ -707,7 +710,7 @@ fn ribbon_kernel_matches_the_f64_reference() {
             .max((g.position[3] as f64 - w.u).abs())
             .max((g.tangent[3] as f64 - w.v).abs());
     }
-    println!("ribbon kernel vs f64: worst position {pos:.3e} cm (vertex {at}), tangent {tan:.3e}, uv {uv:.3e}");
+    println!("{}: ribbon kernel vs f64: worst position {pos:.3e} cm (vertex {at}), tangent {tan:.3e}, uv {uv:.3e}", gpu.describe());
     // Positions are ~20 cm (f32 ulp ~2e-6); sides and tangents are rebuilt per point.
     assert!(pos < 1e-5, "worst position error {pos} at vertex {at}");
     assert!(tan < 1e-6, "worst tangent error {tan}");
@@ -923,6 +926,28 @@ fn mean_red(img: &image::RgbaImage, y: u32, half_px: f64) -> f64 {
     (x0..x1).map(|x| img.get_pixel(x, y)[0] as f64).sum::<f64>() / (x1 - x0) as f64
 }
 
+/// u (0..1 across the ribbon) of the centres of the gaps in row `y`, whose span is
+/// `half_px` either side of the middle.
+fn gap_centres(img: &image::RgbaImage, y: u32, half_px: f64) -> Vec<f64> {
+    let c = SIZE as f64 / 2.0;
+    let (x0, x1) = ((c - half_px).ceil() as u32, (c + half_px).floor() as u32);
+    let mut out = Vec::new();
+    let mut start = None;
+    for x in x0..=x1 {
+        let l = x == x1 || lit(img.get_pixel(x, y));
+        match (l, start) {
+            (false, None) if x > x0 => start = Some(x),
+            (true, Some(s)) => {
+                let mid = 0.5 * (s + x - 1) as f64 + 0.5;
+                out.push((mid - (c - half_px)) / (2.0 * half_px));
+                start = None;
+            }
+            _ => {}
+        }
+    }
+    out
+}
+
 #[test]
 fn ribbons_cover_their_footprint_with_hair_gaps() {
     let gpu = common::gpu();
@@ -932,6 +957,45 @@ fn ribbons_cover_their_footprint_with_hair_gaps() {
     };
     let img = render(&gpu, 1, &look);
     check_render(&img, "no MSAA");
+    // The hairs run straight along the tapered ribbon: within one stick (rows 96 to 128,
+    // a trapezoid of two triangles) every gap stays at the same u. Interpolating u
+    // affinely per triangle would bend them at the diagonal.
+    let px = SIZE as f64 / (2.0 * HALF as f64);
+    let half_at = |y: u32| {
+        let along = ((y as f64 + 0.5) - 32.0) / 192.0;
+        0.5 * (6.0 - 4.0 * along) * px
+    };
+    let first: Vec<f64> = gap_centres(&img, 97, half_at(97))
+        .into_iter()
+        .filter(|u| (0.05..0.95).contains(u))
+        .collect();
+    assert!(first.len() >= 4, "gaps in row 97: {first:?}");
+    // Narrow gaps may close on a row; the others must be found within 0.06 (half the
+    // hair spacing) and, found, within 0.02 of where they were.
+    let (mut drift, mut found, mut tried) = (0.0f64, 0, 0);
+    for y in (99..127).step_by(2) {
+        let g = gap_centres(&img, y, half_at(y));
+        for a in &first {
+            tried += 1;
+            let near = g
+                .iter()
+                .map(|b| (a - b).abs())
+                .fold(f64::INFINITY, f64::min);
+            if near < 0.06 {
+                found += 1;
+                drift = drift.max(near);
+            }
+        }
+    }
+    println!("gaps across one stick: {found} of {tried} kept, drift {drift:.4} of the width");
+    assert!(
+        found * 5 >= tried * 4,
+        "the hairs bend within a stick: {found} of {tried} gaps kept"
+    );
+    assert!(
+        drift < 0.02,
+        "the hairs bend within a stick: gaps move by {drift} in u"
+    );
     let p = img.get_pixel(128, 100);
     assert!(
         !lit(p) || (p[0] > p[1] && p[1] > p[2]),
