@@ -1,0 +1,128 @@
+// Strips drawn as textured reeds (Kazama et al. 2.1): one triangle strip per strip, two
+// vertices per control point read from the ribbon buffer that shaders/strips/ribbon.wgsl
+// wrote (2 triangles per stick: on a software rasterizer triangle setup is the cost).
+//
+// Colour: the layer colour times the strand texture's root-to-tip gradient (stored divided
+// by `gain`), lit by Kajiya and Kay's model along the strip tangent T: diffuse sin(T, L),
+// specular k_s sin(T, H)^n. It does not use a surface normal, so both faces are lit alike.
+//
+// Coverage: the texture's alpha is the share of a texel the fine hairs cover. Where a
+// texel covers a sample or more (close up), the alpha test at `alpha_cutoff` is made
+// smooth over one sample (alpha minus the cutoff over its screen derivative), so hair edges
+// are crisp and anti-aliased; where several texels fall in a sample (far away, read from
+// the alpha-averaged mips), the mean alpha is the coverage itself, so a far strip keeps its
+// density instead of vanishing or turning solid. The two blend over one mip level. The
+// coverage then goes through common/coverage.wgsl as every hair pass's does: blended
+// without MSAA, a per-sample mask with it (per-sample discard on GL).
+
+// Keep in sync with GpuStripInfo (and the copy in shaders/strips/ribbon.wgsl).
+struct StripInfo {
+    side: vec4<f32>,
+    normal: vec4<f32>,
+    // rgb linear layer colour
+    color: vec4<f32>,
+    counts: vec4<u32>,
+}
+
+// Keep in sync with GpuRibbonVertex (and the copy in shaders/strips/ribbon.wgsl).
+struct RibbonVertex {
+    // xyz world position, w u
+    position: vec4<f32>,
+    // xyz unit tangent, w v
+    tangent: vec4<f32>,
+}
+
+// Keep in sync with GpuStripLook in src/systems/strips/ribbon.rs.
+struct StripLook {
+    // x specular strength, y specular exponent, z alpha cutoff, w texture gain
+    look: vec4<f32>,
+    // x stride (control point slots per strip)
+    counts: vec4<u32>,
+}
+
+@group(1) @binding(0) var<storage, read> verts: array<RibbonVertex>;
+@group(1) @binding(1) var<storage, read> info: array<StripInfo>;
+@group(1) @binding(2) var<uniform> strip_look: StripLook;
+@group(1) @binding(3) var strand_tex: texture_2d<f32>;
+@group(1) @binding(4) var strand_sampler: sampler;
+
+struct VOut {
+    @builtin(position) pos: vec4<f32>,
+    // x: u times the ribbon width here, y: that width, z: v (u = x / y, see vs)
+    @location(0) uvq: vec3<f32>,
+    @location(1) world: vec3<f32>,
+    @location(2) tangent: vec3<f32>,
+    @location(3) @interpolate(flat) strip: u32,
+}
+
+@vertex
+fn vs(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -> VOut {
+    var out: VOut;
+    let v = verts[2u * (si * strip_look.counts.x + (vi >> 1u)) + (vi & 1u)];
+    out.pos = frame.view_proj * vec4<f32>(v.position.xyz, 1.0);
+    // A tapered stick is a trapezoid cut into two triangles; u interpolated linearly would
+    // kink along the diagonal (the hairs zigzag once per stick). u × width and the width are
+    // both linear over the trapezoid, so their interpolated ratio is the true u.
+    let info_s = info[si];
+    let width = mix(info_s.side.w, info_s.normal.w, v.tangent.w);
+    out.uvq = vec3<f32>(v.position.w * width, width, v.tangent.w);
+    out.world = v.position.xyz;
+    out.tangent = v.tangent.xyz;
+    out.strip = si;
+    return out;
+}
+
+// Shaded colour and coverage of a fragment.
+fn strip_color(in: VOut) -> vec4<f32> {
+    // Sampling and derivatives first, in uniform control flow.
+    let u = select(0.5, in.uvq.x / in.uvq.y, in.uvq.y > 0.0);
+    let uv = vec2<f32>(u, in.uvq.z);
+    let tex = textureSample(strand_tex, strand_sampler, uv);
+    let texels = uv * vec2<f32>(textureDimensions(strand_tex, 0));
+    // Texels per sample across the strip: the hairs run along v, so their gaps are resolved
+    // or not by the footprint in u alone.
+    let footprint = length(vec2<f32>(dpdx(texels.x), dpdy(texels.x)));
+    let edge = max(fwidth(tex.a), 1e-3);
+
+    let cutoff = strip_look.look.z;
+    // Nothing where no hair is (also with a cutoff of 0).
+    let sharp = select(0.0, clamp((tex.a - cutoff) / edge + 0.5, 0.0, 1.0), tex.a > 0.0);
+    let far = clamp(log2(max(footprint, 1e-6)), 0.0, 1.0);
+    let alpha = mix(sharp, tex.a, far);
+
+    var t = in.tangent;
+    let tl2 = dot(t, t);
+    t = select(vec3<f32>(0.0, -1.0, 0.0), t * inverseSqrt(tl2), tl2 > 1e-20);
+    let l = frame.light_dir.xyz;
+    let view = normalize(frame.eye.xyz - in.world);
+    let h = normalize(l + view);
+    let tdl = dot(t, l);
+    let tdh = dot(t, h);
+    let diffuse = sqrt(max(1.0 - tdl * tdl, 0.0));
+    let spec = strip_look.look.x * pow(max(1.0 - tdh * tdh, 0.0), 0.5 * strip_look.look.y);
+    let base = info[in.strip].color.rgb * tex.rgb * strip_look.look.w;
+    let intensity = frame.light_dir.w;
+    let rgb = base * (frame.light_color.w + intensity * diffuse) + frame.light_color.rgb * (intensity * spec);
+    return vec4<f32>(rgb, alpha);
+}
+
+// Below this coverage a fragment is dropped (it would only write depth).
+const MIN_COVERAGE: f32 = 0.004;
+
+@fragment
+fn fs(in: VOut) -> HairFragment {
+    let c = strip_color(in);
+    if c.a < MIN_COVERAGE {
+        discard;
+    }
+    return hair_fragment(c, in.pos.xy, in.strip);
+}
+
+@fragment
+fn fs_per_sample(in: VOut, @builtin(sample_index) sample: u32) -> @location(0) vec4<f32> {
+    let c = strip_color(in);
+    if c.a < MIN_COVERAGE {
+        discard;
+    }
+    return hair_fragment_per_sample(c, in.pos.xy, in.strip, sample);
+}
