@@ -198,15 +198,16 @@ fn check_fill(e: &Eff, cubic: bool) {
             w(a).distance(head) < w(b).distance(head)
         }
     };
-    let mut worst = 0.0f64;
     let (mut rule_a, mut rule_b) = (0, 0);
     for i in 0..e.cell_count() {
         if e.defined()[i] {
             continue;
         }
         let p = e.cell_center(i);
-        let mut near: Vec<(f64, usize)> =
-            defined.iter().map(|&j| (dist2(ijk(i), ijk(j)), j)).collect();
+        let mut near: Vec<(f64, usize)> = defined
+            .iter()
+            .map(|&j| (dist2(ijk(i), ijk(j)), j))
+            .collect();
         near.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         let (n1, n2) = (near[0].1, near[1].1);
         let (d1, d2) = (p.distance(e.cell_center(n1)), p.distance(e.cell_center(n2)));
@@ -239,9 +240,11 @@ fn check_fill(e: &Eff, cubic: bool) {
             e.ijk(n1),
             e.ijk(n2)
         );
-        worst = worst.max(err);
     }
-    assert!(rule_a > 10 && rule_b > 10, "both rules ran: {rule_a}, {rule_b}");
+    assert!(
+        rule_a > 10 && rule_b > 10,
+        "both rules ran: {rule_a}, {rule_b}"
+    );
 }
 
 /// No defined cell: the only wind known is the outside force, everywhere.
@@ -251,10 +254,7 @@ fn without_defined_cells_every_cell_is_the_outside_force() {
     d.source = [0.0, 100.0, 0.0];
     d.strength = 30.0;
     let e = Eff::build(&d).unwrap();
-    assert!(e
-        .cells()
-        .iter()
-        .all(|c| *c == DVec3::new(0.0, -30.0, 0.0)));
+    assert!(e.cells().iter().all(|c| *c == DVec3::new(0.0, -30.0, 0.0)));
     assert_eq!(e.max_force(), 30.0);
 }
 
@@ -359,14 +359,21 @@ fn outside_the_grid_the_force_blows_from_the_source_toward_the_head() {
         DVec3::new(0.0, -1000.0, 0.0),
     ] {
         for s in [Sampling::Nearest, Sampling::Trilinear] {
-            assert!(close(e.sample(p, s), want, 1e-12), "at {p}: {}", e.sample(p, s));
+            assert!(
+                close(e.sample(p, s), want, 1e-12),
+                "at {p}: {}",
+                e.sample(p, s)
+            );
         }
     }
     // The band: continuous at the face, the outside force one cell (5) out, halfway between.
     let face = DVec3::new(10.0, -3.0, 1.0);
     let inner = e.sample(face - DVec3::X * 1e-9, Sampling::Trilinear);
     let outer = e.sample(face + DVec3::X * 1e-9, Sampling::Trilinear);
-    assert!(close(inner, outer, 1e-6), "jump at the face: {inner} {outer}");
+    assert!(
+        close(inner, outer, 1e-6),
+        "jump at the face: {inner} {outer}"
+    );
     assert!(close(
         e.sample(face + DVec3::X * 5.0 * BAND_CELLS, Sampling::Trilinear),
         want,
@@ -508,7 +515,15 @@ fn file_round_trip_is_exact() {
     d.source = [-33.3, 12.25, 1e5];
     d.strength = 123.456789;
     let mut e = Eff::build(&d).unwrap();
-    let awkward = [0.1, -0.0, 1e-300, 5e-324, 1.0 / 3.0, -2.5e8, f64::MIN_POSITIVE];
+    let awkward = [
+        0.1,
+        -0.0,
+        1e-300,
+        5e-324,
+        1.0 / 3.0,
+        -2.5e8,
+        f64::MIN_POSITIVE,
+    ];
     for i in 0..e.cell_count() {
         if i % 3 == 0 {
             let a = |k: u32| awkward[(i + k as usize) % awkward.len()] * (1.0 + rnd(i as u32, k));
@@ -527,7 +542,10 @@ fn file_round_trip_is_exact() {
     assert_eq!(back.strength(), e.strength());
     assert_eq!(back.defined(), e.defined());
     for (a, b) in back.cells().iter().zip(e.cells()) {
-        assert_eq!(a.to_array().map(f64::to_bits), b.to_array().map(f64::to_bits));
+        assert_eq!(
+            a.to_array().map(f64::to_bits),
+            b.to_array().map(f64::to_bits)
+        );
     }
     let again = temp("round_trip_again.eff");
     back.save(&again).unwrap();
@@ -581,7 +599,10 @@ fn bad_files_are_refused_with_the_line() {
     // Too few cells: the error is at the end and says the size is wrong.
     let (line, m) = bad_file("short.eff", &join(&lines[..n - 1]));
     assert_eq!(line, Some(n - 1));
-    assert!(m.contains("wrong size") && m.contains("4 cell lines") && m.contains("after 3"), "{m}");
+    assert!(
+        m.contains("wrong size") && m.contains("4 cell lines") && m.contains("after 3"),
+        "{m}"
+    );
     // Too many cells: at the first extra line.
     let mut more = lines.clone();
     more.push("d 1.0 2.0 3.0");
@@ -595,7 +616,10 @@ fn bad_files_are_refused_with_the_line() {
         bad[cells_at + 1] = &row;
         let (line, m) = bad_file(name, &join(&bad));
         assert_eq!(line, Some(cells_at + 2));
-        assert!(m.contains("not a finite number") && m.contains("cell [1, 0, 0]"), "{m}");
+        assert!(
+            m.contains("not a finite number") && m.contains("cell [1, 0, 0]"),
+            "{m}"
+        );
     }
     // A cell line cut short (a truncated file without its last newline).
     let cut = good.trim_end().rsplit_once(' ').unwrap().0.to_string();
@@ -605,15 +629,23 @@ fn bad_files_are_refused_with_the_line() {
     // Not a number; a bad flag.
     let mut bad = lines.clone();
     bad[cells_at] = "d 1.0 x 3.0";
-    assert!(bad_file("word.eff", &join(&bad)).1.contains("`x` is not a number"));
+    assert!(bad_file("word.eff", &join(&bad))
+        .1
+        .contains("`x` is not a number"));
     bad[cells_at] = "q 1.0 2.0 3.0";
-    assert!(bad_file("flag.eff", &join(&bad)).1.contains("starts with `d`"));
+    assert!(bad_file("flag.eff", &join(&bad))
+        .1
+        .contains("starts with `d`"));
     // Header: no `cells` line, a missing key, an unknown key, a key twice, a bad version,
     // not an EFF file at all, an empty file.
     let (line, m) = bad_file("header_cut.eff", &join(&lines[..cells_at - 1]));
     assert_eq!(line, Some(cells_at - 1));
     assert!(m.contains("truncated header"), "{m}");
-    let no_cell: Vec<&str> = lines.iter().copied().filter(|l| !l.starts_with("cell ")).collect();
+    let no_cell: Vec<&str> = lines
+        .iter()
+        .copied()
+        .filter(|l| !l.starts_with("cell "))
+        .collect();
     let (_, m) = bad_file("no_cell.eff", &join(&no_cell));
     assert!(m.contains("no `cell` line"), "{m}");
     let mut unknown = lines.clone();
@@ -624,20 +656,41 @@ fn bad_files_are_refused_with_the_line() {
     let mut twice = lines.clone();
     let origin = line_of(&good, "origin") - 1;
     twice.insert(origin, lines[origin]);
-    assert!(bad_file("twice.eff", &join(&twice)).1.contains("`origin` is given twice"));
+    assert!(bad_file("twice.eff", &join(&twice))
+        .1
+        .contains("`origin` is given twice"));
     let mut version = lines.clone();
     version[0] = "kami-eff 2";
     let (line, m) = bad_file("version.eff", &join(&version));
     assert_eq!(line, Some(1));
     assert!(m.contains("unsupported version"), "{m}");
-    assert!(bad_file("other.eff", "P3\n1 1\n").1.contains("not an EFF file"));
-    assert!(bad_file("empty.eff", "\n# nothing\n").1.contains("empty file"));
+    assert!(bad_file("other.eff", "P3\n1 1\n")
+        .1
+        .contains("not an EFF file"));
+    assert!(bad_file("empty.eff", "\n# nothing\n")
+        .1
+        .contains("empty file"));
     // Bad header values: zero or negative cell size, a NaN origin.
     for (name, key, value, want) in [
         ("cell0.eff", "cell ", "cell 1.0 0.0 1.0", "must be > 0"),
-        ("origin_nan.eff", "origin", "origin 0 NaN 0", "not a finite number"),
-        ("res0.eff", "resolution", "resolution 2 0 1", "at least one cell"),
-        ("res_word.eff", "resolution", "resolution 2 two 1", "not a number"),
+        (
+            "origin_nan.eff",
+            "origin",
+            "origin 0 NaN 0",
+            "not a finite number",
+        ),
+        (
+            "res0.eff",
+            "resolution",
+            "resolution 2 0 1",
+            "at least one cell",
+        ),
+        (
+            "res_word.eff",
+            "resolution",
+            "resolution 2 two 1",
+            "not a number",
+        ),
     ] {
         let mut bad = lines.clone();
         let at = line_of(&good, key) - 1;
@@ -661,7 +714,10 @@ fn an_oversized_grid_is_refused_before_allocating() {
     // One past the cap, and a product that overflows u32.
     let text = good.replace("resolution 2 2 1", "resolution 129 128 128");
     assert!(bad_file("cap.eff", &text).1.contains("at most"));
-    let text = good.replace("resolution 2 2 1", "resolution 4294967295 4294967295 4294967295");
+    let text = good.replace(
+        "resolution 2 2 1",
+        "resolution 4294967295 4294967295 4294967295",
+    );
     assert!(bad_file("overflow.eff", &text).1.contains("at most"));
 }
 
@@ -674,16 +730,23 @@ fn bad_blocks_are_refused_naming_the_field() {
         other => panic!("expected an invalid-scene error, got {other:?}"),
     };
     let base = desc([4, 4, 4], 20.0);
-    let cases: Vec<(&str, Box<dyn Fn(&mut EffDesc)>)> = vec![
+    type Spoil = Box<dyn Fn(&mut EffDesc)>;
+    let cases: Vec<(&str, Spoil)> = vec![
         ("eff.resolution", Box::new(|d| d.resolution = [4, 0, 4])),
-        ("eff.resolution", Box::new(|d| d.resolution = [129, 128, 128])),
+        (
+            "eff.resolution",
+            Box::new(|d| d.resolution = [129, 128, 128]),
+        ),
         ("eff.resolution", Box::new(|d| d.resolution = [u32::MAX; 3])),
         ("eff.extent", Box::new(|d| d.extent = 0.0)),
         ("eff.extent", Box::new(|d| d.extent = -3.0)),
         ("eff.extent", Box::new(|d| d.extent = f64::NAN)),
         ("eff.center[1]", Box::new(|d| d.center[1] = f64::INFINITY)),
         ("eff.strength", Box::new(|d| d.strength = f64::NAN)),
-        ("eff.head[2]", Box::new(|d| d.head = Some([0.0, 0.0, f64::NAN]))),
+        (
+            "eff.head[2]",
+            Box::new(|d| d.head = Some([0.0, 0.0, f64::NAN])),
+        ),
         (
             "eff.source",
             Box::new(|d| {

@@ -141,7 +141,12 @@ fn a_field_in_one_half_moves_only_the_strands_in_that_half() {
         ("f32", &calm_gpu, run_gpu(&gpu, &scene, &input, 10)),
     ] {
         let (rest, moved) = halves(&travel(&input, &groomed.nodes, calm, &blown));
-        assert!(rest.len() > 20 && moved.len() > 20, "{} {}", rest.len(), moved.len());
+        assert!(
+            rest.len() > 20 && moved.len() > 20,
+            "{} {}",
+            rest.len(),
+            moved.len()
+        );
         let rest_worst = rest.iter().copied().fold(0.0, f64::max);
         let moved_median = median(moved.clone());
         eprintln!(
@@ -150,8 +155,14 @@ fn a_field_in_one_half_moves_only_the_strands_in_that_half() {
             moved.len(),
             rest.len()
         );
-        assert!(rest_worst == 0.0, "{name}: a strand in the still half moved {rest_worst:e}");
-        assert!(moved_median > 1.0, "{name}: the blown strands moved {moved_median} cm");
+        assert!(
+            rest_worst == 0.0,
+            "{name}: a strand in the still half moved {rest_worst:e}"
+        );
+        assert!(
+            moved_median > 1.0,
+            "{name}: the blown strands moved {moved_median} cm"
+        );
         medians.push(moved_median);
     }
     assert!(
@@ -262,13 +273,18 @@ fn gpu_matches_the_reference_with_a_field() {
         without.frame();
     }
     let offsets = input.vertex_offsets();
-    let tips: Vec<usize> = (1..offsets.len()).map(|s| offsets[s] as usize - 1).collect();
+    let tips: Vec<usize> = (1..offsets.len())
+        .map(|s| offsets[s] as usize - 1)
+        .collect();
     let field_effect = median(
         tips.iter()
             .map(|&i| cpu.nodes[i].distance(without.nodes[i]))
             .collect(),
     );
-    assert!(field_effect > 1.0, "the field moved the tips {field_effect} cm");
+    assert!(
+        field_effect > 1.0,
+        "the field moved the tips {field_effect} cm"
+    );
 
     let v = hair.read_vertices(&gpu).unwrap();
     let mut errs: Vec<f64> = input
@@ -298,9 +314,20 @@ fn gpu_matches_the_reference_with_a_field() {
         quantile(&errs, 0.99),
         errs[n - 1]
     );
-    assert!(quantile(&errs, 0.5) < 1e-4, "median {:.2e}", quantile(&errs, 0.5));
-    assert!(quantile(&errs, 0.99) < 1e-2, "99% {:.2e}", quantile(&errs, 0.99));
-    assert!(beyond as f64 <= 0.02 * n as f64, "{beyond} of {n} strands beyond 1e-2");
+    assert!(
+        quantile(&errs, 0.5) < 1e-4,
+        "median {:.2e}",
+        quantile(&errs, 0.5)
+    );
+    assert!(
+        quantile(&errs, 0.99) < 1e-2,
+        "99% {:.2e}",
+        quantile(&errs, 0.99)
+    );
+    assert!(
+        beyond as f64 <= 0.02 * n as f64,
+        "{beyond} of {n} strands beyond 1e-2"
+    );
     assert!(errs[n - 1] < 5e-2, "worst strand {:.2e}", errs[n - 1]);
     let state = sim.read_state(&gpu).unwrap();
     let worst_angle = cpu
@@ -309,7 +336,10 @@ fn gpu_matches_the_reference_with_a_field() {
         .zip(&state)
         .map(|(c, g)| wrapped(c[0] - g[0] as f64).max(wrapped(c[2] - g[2] as f64)))
         .fold(0.0, f64::max);
-    assert!(worst_angle < 0.25, "an angle differs by {worst_angle:.3} rad");
+    assert!(
+        worst_angle < 0.25,
+        "an angle differs by {worst_angle:.3} rad"
+    );
     let close = cpu
         .angles
         .iter()
@@ -353,4 +383,64 @@ fn several_frames_per_submission_see_their_own_gust() {
         .flat_map(|(a, b)| a.iter().zip(b).map(|(x, y)| (x - y).abs()))
         .fold(0.0f32, f32::max);
     assert!(worst == 0.0, "3 frames per submission differ by {worst}");
+}
+
+/// A field that is the same strong wind everywhere (no defined cells: every cell is the
+/// outside force) is the keyed uniform wind by another name: the same substeps (the schedule
+/// bounds the force with the field's largest value) and the same motion, to rounding.
+#[test]
+fn a_uniform_field_is_the_same_as_a_uniform_wind() {
+    let scene = still_scene(50);
+    let input = prepare(&scene).unwrap();
+    let groomed = cantilever::bend_all(&input);
+    let c = DVec3::from(scene.head.center);
+    let w = DVec3::new(3000.0, -500.0, 800.0);
+    let mut wind = scene.clone();
+    wind.dynamics.as_mut().unwrap().wind = vec![kami::scene::WindKey {
+        frame: 0.0,
+        force: w.to_array(),
+        interp: Interp::Step,
+    }];
+    let mut field = scene.clone();
+    field.eff = Some(EffDesc {
+        center: c.to_array(),
+        extent: 30.0,
+        resolution: [3, 4, 5],
+        source: (c - w.normalize() * 100.0).to_array(),
+        head: Some(c.to_array()),
+        strength: w.length(),
+        ..EffDesc::default()
+    });
+    let mut runs = Vec::new();
+    for s in [&wind, &field] {
+        let setup = DynSetup::new(s, &input, &groomed.visible).unwrap();
+        let substeps = setup.schedule(0).0.len();
+        let mut cpu = CpuSim::new(setup, groomed.nodes.clone());
+        for _ in 0..5 {
+            cpu.frame();
+        }
+        runs.push((substeps, cpu.nodes));
+    }
+    assert!(runs[0].0 > 1, "a strong wind needs substeps");
+    assert_eq!(
+        runs[1].0, runs[0].0,
+        "the field is substepped like the wind"
+    );
+    let moved = groomed
+        .nodes
+        .iter()
+        .zip(&runs[0].1)
+        .map(|(a, b)| a.distance(*b))
+        .fold(0.0, f64::max);
+    let differ = runs[0]
+        .1
+        .iter()
+        .zip(&runs[1].1)
+        .map(|(a, b)| a.distance(*b))
+        .fold(0.0, f64::max);
+    assert!(moved > 1.0, "the wind moved the hair {moved} cm");
+    assert!(
+        differ < 1e-9 * moved,
+        "field and wind differ by {differ:e} cm"
+    );
 }

@@ -392,7 +392,8 @@ impl Grid {
         self.dims.iter().map(|&d| d as usize).product()
     }
     fn index(&self, i: [u32; 3]) -> usize {
-        i[0] as usize + self.dims[0] as usize * (i[1] as usize + self.dims[1] as usize * i[2] as usize)
+        i[0] as usize
+            + self.dims[0] as usize * (i[1] as usize + self.dims[1] as usize * i[2] as usize)
     }
     fn ijk(&self, index: usize) -> [u32; 3] {
         let (x, y) = (self.dims[0] as usize, self.dims[1] as usize);
@@ -506,19 +507,7 @@ impl Eff {
         // Accumulate the block's and the extra samples per cell.
         let mut sum: std::collections::BTreeMap<usize, (DVec3, u32)> = Default::default();
         let g = eff.grid;
-        for (i, s) in desc.samples.iter().enumerate() {
-            let at = DVec3::from(s.at);
-            let Some(c) = g.cell_of(at) else {
-                return Err(bad(
-                    &format!("eff.samples[{i}].at"),
-                    format!("{:?}", s.at),
-                    &format!(
-                        "must lie inside the grid, from {:?} to {:?}",
-                        g.origin.to_array(),
-                        g.max().to_array()
-                    ),
-                ));
-            };
+        for (c, s) in sample_cells(desc, &g)?.into_iter().zip(&desc.samples) {
             let e = sum.entry(g.index(c)).or_default();
             e.0 += DVec3::from(s.force);
             e.1 += 1;
@@ -792,7 +781,11 @@ impl Eff {
     /// centre cell to `force`, repeated strokes converge to it) and becomes defined.
     /// Returns the cells touched.
     pub fn paint(&mut self, center: DVec3, radius: f64, force: DVec3, strength: f64) -> usize {
-        if !(radius > 0.0) || !center.is_finite() || !force.is_finite() || !strength.is_finite()
+        if radius.is_nan()
+            || radius <= 0.0
+            || !center.is_finite()
+            || !force.is_finite()
+            || !strength.is_finite()
         {
             return 0;
         }
@@ -949,8 +942,8 @@ impl Eff {
                     if resolution.is_some() {
                         return Err(dup(key));
                     }
-                    let r = parse_n::<u32, 3>(&rest)
-                        .map_err(|m| err(n, format!("resolution: {m}")))?;
+                    let r =
+                        parse_n::<u32, 3>(&rest).map_err(|m| err(n, format!("resolution: {m}")))?;
                     cell_total("resolution", r)
                         .map_err(|(v, a)| err(n, format!("resolution {v}: {a}")))?;
                     resolution = Some(r);
@@ -1121,11 +1114,7 @@ fn parse_n<T: std::str::FromStr, const N: usize>(
             "needs {N} number{}, found {}{}",
             if N == 1 { "" } else { "s" },
             words.len(),
-            if words.len() < N {
-                " (truncated?)"
-            } else {
-                ""
-            }
+            if words.len() < N { " (truncated?)" } else { "" }
         ));
     }
     let mut out = Vec::with_capacity(N);
@@ -1145,6 +1134,27 @@ fn check_finite(v: &[f64]) -> std::result::Result<(), String> {
         )),
         None => Ok(()),
     }
+}
+
+/// The cell of each of the block's samples, refused (naming the sample) outside the grid.
+fn sample_cells(desc: &EffDesc, g: &Grid) -> Result<Vec<[u32; 3]>> {
+    desc.samples
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            g.cell_of(DVec3::from(s.at)).ok_or_else(|| {
+                bad(
+                    &format!("eff.samples[{i}].at"),
+                    format!("{:?}", s.at),
+                    &format!(
+                        "must lie inside the grid, from {:?} to {:?}",
+                        g.origin.to_array(),
+                        g.max().to_array()
+                    ),
+                )
+            })
+        })
+        .collect()
 }
 
 /// The cells a blower defines, with their forces.
@@ -1265,8 +1275,13 @@ pub fn resolve(desc: &mut EffDesc, dir: &Path) -> Result<()> {
         let eff = Eff::load(&path)?;
         desc.loaded = Some(Loaded(Arc::new(eff)));
     }
-    // Samples outside the grid and the like: fail now, not when the stage builds it.
-    Eff::build(desc)?;
+    // Samples outside the grid: fail now, not when the stage builds it (after this,
+    // `Eff::build` cannot fail on this block).
+    let grid = match &desc.loaded {
+        Some(Loaded(e)) => e.grid,
+        None => desc.grid(),
+    };
+    sample_cells(desc, &grid)?;
     Ok(())
 }
 
@@ -1354,8 +1369,11 @@ impl EffGpu {
             fits
         });
         let scale = eff.map_or(0.0, |e| e.scale_at(frame));
-        gpu.queue
-            .write_buffer(&self.grid, 0, bytemuck::bytes_of(&GpuEffGrid::new(eff, scale)));
+        gpu.queue.write_buffer(
+            &self.grid,
+            0,
+            bytemuck::bytes_of(&GpuEffGrid::new(eff, scale)),
+        );
     }
 
     /// Upload changed cells (the brush) of a grid of the same size.

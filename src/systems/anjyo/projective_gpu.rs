@@ -157,7 +157,7 @@ impl ProjectivePass {
         let steps = Self::step_ring(device, capacity);
         // The field's own uniform stays at scale 1: the kernel scales by the substep's gust.
         let eff = EffGpu::new(gpu, setup.forces.eff.as_deref())?;
-        let bind_group = self.bind(device, &params, &steps, &strands, &state, hair, &eff);
+        let bind_group = self.bind(device, [&params, &strands, &state], &steps, hair, &eff);
         Ok(ProjectiveJob {
             params,
             strands,
@@ -179,13 +179,12 @@ impl ProjectivePass {
         })
     }
 
+    /// The bind group; `[params, strands, state]` are the job's fixed buffers.
     fn bind(
         &self,
         device: &wgpu::Device,
-        params: &wgpu::Buffer,
+        [params, strands, state]: [&wgpu::Buffer; 3],
         steps: &wgpu::Buffer,
-        strands: &wgpu::Buffer,
-        state: &wgpu::Buffer,
         hair: &StrandBuffers,
         eff: &EffGpu,
     ) -> wgpu::BindGroup {
@@ -249,10 +248,8 @@ impl ProjectivePass {
             job.steps = Self::step_ring(&gpu.device, job.capacity);
             job.bind_group = self.bind(
                 &gpu.device,
-                &job.params,
+                [&job.params, &job.strands, &job.state],
                 &job.steps,
-                &job.strands,
-                &job.state,
                 hair,
                 &job.eff,
             );
