@@ -143,15 +143,18 @@ fn the_head_point_chooses_the_rule_and_ties_go_to_the_lower_index() {
 }
 
 /// An independent brute-force reading of the documented rules on random sparse grids: the
-/// k-d tree fill must agree with it to rounding. On the cubic grid (head at the centre)
-/// exact ties are everywhere; the reference compares them as integers (squared cell
-/// offsets), the tie rule picks the lower index.
+/// k-d tree fill must agree with it to rounding. On the cubic grid (head at the centre, a
+/// cell size and centre chosen so that rounding would split ties) exact ties are everywhere;
+/// the reference compares them as integers (squared cell offsets), the tie rule picks the
+/// lower index.
 #[test]
 fn fill_matches_a_brute_force_reading_of_the_rules() {
     let mut uneven = desc([9, 7, 5], 30.0);
     uneven.center = [1.0, -2.0, 0.5];
     uneven.head = Some([2.0, 1.0, -1.0]);
-    let cubic = desc([8, 8, 8], 16.0);
+    // Awkward sizes, so that rounding would split ties if distances were not exact.
+    let mut cubic = desc([7, 7, 7], 33.3);
+    cubic.center = [0.3, -1.7, 2.9];
     for (mut d, count, is_cubic) in [(uneven, 40, false), (cubic, 25, true)] {
         d.source = [-40.0, 10.0, 30.0];
         d.strength = 70.0;
@@ -995,7 +998,7 @@ fn probe_points(e: &Eff) -> Vec<[f32; 3]> {
 
 /// WGSL `eff_force` against `Eff::sample_at` (f64) at the same f32 points, both modes, with
 /// a gust scale: worst error over the field's largest force <= 1e-5 (f32 rounding; measured
-/// about 1e-7). Nearest sampling on a cell face may pick either neighbour in f32, so its
+/// 7e-8 nearest, 4.5e-7 trilinear on lavapipe and llvmpipe). Nearest sampling on a cell face may pick either neighbour in f32, so its
 /// error there is taken against the nearest reference value within 1e-4 cell.
 #[test]
 fn gpu_sampling_matches_the_reference() {
