@@ -3,7 +3,9 @@
 // the equations and our additions): forces with the pseudo-force field, the theta plane from
 // y and F near the poles, the recurrences (4)' and (5)' with damping and the angular clamp,
 // the fluctuation kick, the joint-angle clamp, the hard collision; root to tip.
-// `init` turns the groomed nodes into angles at rest (theta^0 = theta^-1).
+// `init` turns the groomed nodes into angles at rest (theta^0 = theta^-1). Each segment adds
+// the External Force Field (shaders/forces/eff.wgsl, concatenated before this file) at its
+// node, times the substep's gust scale.
 
 const TAU: f32 = 6.28318530717959;
 // Passed by the Rust side (`projective::POLE_SIN`, `projective::MAX_TURN`, `gpu::WORKGROUP`).
@@ -44,7 +46,8 @@ struct Step {
     head: mat4x4<f32>,
     head_inv: mat4x4<f32>,
     accel: mat4x4<f32>,
-    // x: 1 when this substep kicks, y: kick bucket, z: 1 for the first step from rest
+    // x: 1 when this substep kicks, y: kick bucket, z: 1 for the first step from rest,
+    // w: the EFF's gust scale (f32 bits; 0 without an EFF)
     kick: vec4<u32>,
 }
 
@@ -63,6 +66,8 @@ struct DynStrand {
 @group(0) @binding(2) var<storage, read> dyn_strands: array<DynStrand>;
 @group(0) @binding(3) var<storage, read_write> state: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read_write> verts: array<vec4<f32>>;
+@group(0) @binding(5) var<uniform> eff: EffGrid;
+@group(0) @binding(6) var<storage, read> eff_cells: array<vec4<f32>>;
 
 fn hull() -> Hull {
     return Hull(params.head_center.xyz, params.head_radii.xyz);
@@ -181,6 +186,10 @@ fn advance(@builtin(global_invocation_id) id: vec3<u32>) {
         var php = a.w;
         let p_old = verts[base + i].xyz;
         var force = f_seg;
+        if substep.kick.w != 0u {
+            // Trilinear (projective::EFF_SAMPLING).
+            force += eff_field(p_old, 1u) * bitcast<f32>(substep.kick.w);
+        }
         var marked = 1.0;
         if params.pseudo != 0u {
             let local = xform_point(substep.head_inv, p_old);

@@ -1,26 +1,147 @@
-//! The External Force Field (Kazama et al. section 3.3): a voxel grid of wind forces around
-//! the head. STUB: the EFF helper fills this file (see the contract in its brief); the
-//! signatures below are the contract other modules code against.
+//! The External Force Field (Kazama, Sugisaki, Morishima, section 3.3): a voxel grid of wind
+//! forces around the head, shared by every hair system (strips read it at their control
+//! points, Anjyo's projective dynamics at every segment).
+//!
+//! # The field
+//!
+//! A box of `dims` cells starting at `origin`, each `cell` wide per axis (from the scene
+//! block: a cube of edge `extent` centred on `center`, 60 cm in the paper). Every cell holds
+//! one force (an acceleration, world units / s², like gravity). Outside the grid the force
+//! is the **outside force** `O = strength · unit(head − source)`: one uniform direction,
+//! from the wind's source toward the head (the paper: "the direction of the force from a
+//! point where the wind is generated towards the head"). A per-point direction (from the
+//! source through each point) was rejected: it is the same within a few degrees for a
+//! source far from a 60 cm grid, and a uniform `O` keeps the fill rules below linear.
+//!
+//! # Defined cells and the two fill rules
+//!
+//! Cells are *defined* by the scene's point samples (a cell's value is the mean of the
+//! samples in it), by its blowers (procedural jets: a gust without capture data), by an EFF
+//! file, by `set_cell` or the brush. Every other cell is filled, each from the defined cells
+//! only (never from another filled cell, so the order does not matter), by our reading of
+//! the paper's two rules. Let `H` be the head point, `e` the empty cell's centre, `n1` the
+//! nearest defined cell centre (Euclidean distance `d1`; ties go to the lower cell index),
+//! `n2` the second nearest (`d2`):
+//!
+//! - **(a) between the two nearest defined cells**, when `e` is strictly nearer to the head
+//!   than `n1` (`|e − H| < |n1 − H|`: the cell lies inside the measured shell):
+//!   `f = (d2 f(n1) + d1 f(n2)) / (d1 + d2)`, linear interpolation along `n1 → n2` at
+//!   `t = d1 / (d1 + d2)` (exact when `e` is on that segment). One defined cell: `f(n1)`.
+//! - **(b) between the nearest defined cell and the outside force** otherwise (the cell lies
+//!   outward of the measured cells): along the ray from `n1` through `e`, which leaves the
+//!   grid at `X`, the force goes linearly from `f(n1)` at `n1` to `O` at `X`:
+//!   `f = f(n1) + (O − f(n1)) · d1 / |X − n1|`.
+//! - No defined cell at all: every cell is `O` (the only wind known).
+//!
+//! Ties matter on a lattice (cells mirror each other about a centred head), so distances
+//! are computed from integer cell offsets, axes of equal cell size summed before scaling:
+//! equal distances are bit-identical and "ties go to the lower index" and "strictly nearer"
+//! hold exactly; the head point is snapped to 1/65536 of a cell for the same reason.
+//!
+//! # Sampling
+//!
+//! Nearest: the value of the cell containing `p` (the paper: "when a control point moves
+//! into a grid cube"). Trilinear: between the eight cell centres around `p`, clamped to the
+//! border cells' values between the outermost centres and the grid's faces. Beyond the
+//! faces the field blends to `O` over a band of `BAND_CELLS` cells:
+//! `f(p) = (1 − w) f_grid(clamp(p)) + w O` with `w = min(1, |δ|)`, `δ` the per-axis distance
+//! outside the box in cells. So the trilinear field is continuous everywhere, including the
+//! grid's surface, and equals `O` from one cell outside on.
+//!
+//! # Time
+//!
+//! Gust keys scale the whole field (grid and outside force) over time, like the scene's
+//! keyed wind: `Eff::scale_at(frame)` (1 without keys). `sample` is the unscaled field,
+//! `sample_at` includes the gust; `EffGpu::write` puts the scale into the uniform each frame.
+//!
+//! # EFF files
+//!
+//! A text file (`Eff::save`, `Eff::load`, or `file:` in the scene block, relative to the
+//! scene file and read by `resolve` when the scene loads):
+//!
+//! ```text
+//! kami-eff 1
+//! # comments and blank lines are allowed anywhere
+//! resolution 12 12 12
+//! origin -30.0 -30.0 -30.0
+//! cell 5.0 5.0 5.0
+//! source 0.0 0.0 100.0
+//! head 0.0 0.0 0.0
+//! strength 300.0
+//! cells
+//! d 1.5 0.0 -200.0
+//! i 1.25 0.0 -210.5
+//! ...
+//! ```
+//!
+//! The first line is the format and its version; then the six header keys, each once, in
+//! any order; `cells` ends the header. Then exactly `rx · ry · rz` cell lines, x fastest,
+//! then y, then z: `d` (a defined cell) or `i` (filled by the rules) and the force. Numbers
+//! are written in Rust's shortest round-trip form (`{:?}`), so save → load is exact.
+//! Errors name the file and the line (`KamiError::Data`).
 
-use crate::error::Result;
+use crate::error::{KamiError, Result};
 use crate::scene::strips::Sampling;
+use crate::scene::Interp;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
+use std::io::{BufRead, Write};
 use std::path::Path;
+use std::sync::Arc;
+
+/// Most cells in one grid (128³): refused before anything is allocated.
+pub const MAX_CELLS: u64 = 128 * 128 * 128;
+/// Width (in cells) of the band outside the grid over which the field blends to the outside
+/// force.
+pub const BAND_CELLS: f64 = 1.0;
+/// The file format's version (first line `kami-eff 1`).
+pub const FILE_VERSION: u32 = 1;
+/// Largest EFF file read (a full 128³ grid is about 170 MB of text).
+pub const MAX_FILE_BYTES: u64 = 512 << 20;
+/// Largest coordinate or force magnitude accepted in a scene block or file.
+const MAX_ABS: f64 = 1e9;
 
 /// The scene's EFF block.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct EffDesc {
-    /// Centre of the grid (world units).
+    /// Centre of the grid (world units). Ignored (must stay unset) with `file`.
     #[serde(default)]
     pub center: [f64; 3],
-    /// Edge length of the cubic grid (60 cm in the paper).
+    /// Edge length of the cubic grid (60 cm in the paper: most hair styles fit in it).
     #[serde(default = "default_extent")]
     pub extent: f64,
-    /// Cells per axis.
+    /// Cells per axis (each >= 1, at most `MAX_CELLS` in all).
     #[serde(default = "default_resolution")]
     pub resolution: [u32; 3],
+    /// Where the wind comes from: outside the grid it blows from here toward `head`.
+    #[serde(default = "default_source")]
+    pub source: [f64; 3],
+    /// The head point of the fill rules and the point the outside force blows toward;
+    /// the grid's centre when unset.
+    #[serde(default)]
+    pub head: Option<[f64; 3]>,
+    /// Magnitude of the outside force (world units / s²); 0: still air outside.
+    #[serde(default)]
+    pub strength: f64,
+    /// Point samples of the wind: each defines the cell it falls in (several in one cell
+    /// are averaged). Must lie inside the grid.
+    #[serde(default)]
+    pub samples: Vec<EffSample>,
+    /// Procedural jets that define the cells they cover (a gust without capture data).
+    #[serde(default)]
+    pub blowers: Vec<Blower>,
+    /// An EFF file (see the module docs), relative to the scene file. Its header gives the
+    /// grid, source, head and strength (leave those fields unset); samples and blowers
+    /// override its cells, and then its filled (`i`) cells are filled again.
+    #[serde(default)]
+    pub file: Option<String>,
+    /// Keys scaling the whole field over time (a gust); 1 without keys.
+    #[serde(default)]
+    pub gust: Vec<GustKey>,
+    /// The file's grid, read by `resolve` at scene load (not part of the scene text).
+    #[serde(skip)]
+    pub loaded: Option<Loaded>,
 }
 
 fn default_extent() -> f64 {
@@ -29,29 +150,1174 @@ fn default_extent() -> f64 {
 fn default_resolution() -> [u32; 3] {
     [12, 12, 12]
 }
+fn default_source() -> [f64; 3] {
+    [0.0, 0.0, 100.0]
+}
+
+impl Default for EffDesc {
+    fn default() -> Self {
+        EffDesc {
+            center: [0.0; 3],
+            extent: default_extent(),
+            resolution: default_resolution(),
+            source: default_source(),
+            head: None,
+            strength: 0.0,
+            samples: Vec::new(),
+            blowers: Vec::new(),
+            file: None,
+            gust: Vec::new(),
+            loaded: None,
+        }
+    }
+}
+
+/// One measured (or typed) wind sample.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EffSample {
+    /// Where (world units).
+    pub at: [f64; 3],
+    /// The force there (world units / s²).
+    pub force: [f64; 3],
+}
+
+/// A jet of air: from `at` along `toward`, a cylinder of `radius` widening by `spread`
+/// degrees. Cells whose centre is inside it (downstream of `at`) are defined with
+/// `strength · unit(toward) · (1 − (ρ/r)²)²`, ρ the centre's distance from the axis and r the
+/// jet's radius there: full on the axis, smoothly nothing at the edge.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Blower {
+    /// The nozzle (world units).
+    pub at: [f64; 3],
+    /// Direction of the jet (any length but zero).
+    pub toward: [f64; 3],
+    /// Force on the axis (world units / s²).
+    pub strength: f64,
+    /// Radius of the jet at the nozzle (> 0).
+    pub radius: f64,
+    /// Half-angle by which the jet widens (degrees, in [0, 80)).
+    #[serde(default)]
+    pub spread: f64,
+}
+
+/// The field's scale from `frame` on (like `WindKey`: held, or blended to the next key).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GustKey {
+    pub frame: f64,
+    pub scale: f64,
+    #[serde(default)]
+    pub interp: Interp,
+}
+
+/// An EFF file read at scene load: the grid it holds and where it came from.
+#[derive(Clone, PartialEq)]
+pub struct Loaded(pub Arc<Eff>);
+
+impl std::fmt::Debug for Loaded {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Loaded({:?} cells)", self.0.grid.dims)
+    }
+}
+
+fn bad(field: &str, value: impl std::fmt::Display, allowed: &str) -> KamiError {
+    KamiError::Invalid {
+        file: String::new(),
+        field: field.to_string(),
+        value: value.to_string(),
+        allowed: allowed.to_string(),
+    }
+}
+
+fn finite(field: &str, v: f64) -> Result<()> {
+    if v.is_finite() && v.abs() <= MAX_ABS {
+        Ok(())
+    } else {
+        Err(bad(
+            field,
+            v,
+            &format!("must be a finite number of magnitude at most {MAX_ABS:e}"),
+        ))
+    }
+}
+
+fn finite3(field: &str, v: [f64; 3]) -> Result<()> {
+    for (i, c) in v.iter().enumerate() {
+        finite(&format!("{field}[{i}]"), *c)?;
+    }
+    Ok(())
+}
+
+/// Cells in a grid of `dims`, refused (naming `field`) when zero along an axis or beyond
+/// `MAX_CELLS`, computed without overflow and before anything is allocated.
+fn cell_total(field: &str, dims: [u32; 3]) -> std::result::Result<u64, (String, String)> {
+    if dims.contains(&0) {
+        return Err((
+            format!("{dims:?}"),
+            "every axis needs at least one cell".into(),
+        ));
+    }
+    // u128: three u32 axes cannot overflow it.
+    let n = dims.iter().map(|&d| d as u128).product::<u128>();
+    if n > MAX_CELLS as u128 {
+        return Err((
+            format!("{dims:?} ({n} cells)"),
+            format!("{field}: at most {MAX_CELLS} cells (128³) in all"),
+        ));
+    }
+    Ok(n as u64)
+}
+
+impl EffDesc {
+    /// Check every value (field names as in the scene: `eff.extent`). Files are checked when
+    /// read (`resolve`); `build` also checks the samples against the grid.
+    pub fn validate(&self) -> Result<()> {
+        let with_file = self.file.is_some();
+        if with_file {
+            let d = EffDesc::default();
+            let unset: [(&str, bool); 5] = [
+                ("eff.center", self.center == d.center),
+                ("eff.extent", self.extent == d.extent),
+                ("eff.resolution", self.resolution == d.resolution),
+                ("eff.source", self.source == d.source),
+                ("eff.strength", self.strength == d.strength),
+            ];
+            for (field, is_unset) in unset {
+                if !is_unset {
+                    return Err(bad(
+                        field,
+                        "set",
+                        "the grid, source and strength come from eff.file: set them in the \
+                         file or drop the file",
+                    ));
+                }
+            }
+            if self.head.is_some() {
+                return Err(bad(
+                    "eff.head",
+                    "set",
+                    "the head point comes from eff.file: set it in the file or drop the file",
+                ));
+            }
+            if self.file.as_deref().is_some_and(|f| f.trim().is_empty()) {
+                return Err(bad("eff.file", "\"\"", "must name a file"));
+            }
+        }
+        finite3("eff.center", self.center)?;
+        finite("eff.extent", self.extent)?;
+        if self.extent <= 0.0 {
+            return Err(bad("eff.extent", self.extent, "must be > 0"));
+        }
+        cell_total("eff.resolution", self.resolution)
+            .map_err(|(v, a)| bad("eff.resolution", v, &a))?;
+        finite3("eff.source", self.source)?;
+        if let Some(h) = self.head {
+            finite3("eff.head", h)?;
+        }
+        finite("eff.strength", self.strength)?;
+        if self.strength != 0.0 && !with_file {
+            let h = self.head.map_or(DVec3::from(self.center), DVec3::from);
+            if (h - DVec3::from(self.source)).length() < 1e-9 {
+                return Err(bad(
+                    "eff.source",
+                    format!("{:?}", self.source),
+                    "must differ from the head point (the outside force blows from the \
+                     source toward the head)",
+                ));
+            }
+        }
+        for (i, s) in self.samples.iter().enumerate() {
+            finite3(&format!("eff.samples[{i}].at"), s.at)?;
+            finite3(&format!("eff.samples[{i}].force"), s.force)?;
+        }
+        for (i, b) in self.blowers.iter().enumerate() {
+            let f = |n: &str| format!("eff.blowers[{i}].{n}");
+            finite3(&f("at"), b.at)?;
+            finite3(&f("toward"), b.toward)?;
+            if DVec3::from(b.toward).length() < 1e-12 {
+                return Err(bad(
+                    &f("toward"),
+                    format!("{:?}", b.toward),
+                    "must be a non-zero direction",
+                ));
+            }
+            finite(&f("strength"), b.strength)?;
+            finite(&f("radius"), b.radius)?;
+            if b.radius <= 0.0 {
+                return Err(bad(&f("radius"), b.radius, "must be > 0"));
+            }
+            finite(&f("spread"), b.spread)?;
+            if !(0.0..80.0).contains(&b.spread) {
+                return Err(bad(&f("spread"), b.spread, "must be in [0, 80) degrees"));
+            }
+        }
+        for (i, k) in self.gust.iter().enumerate() {
+            finite(&format!("eff.gust[{i}].frame"), k.frame)?;
+            finite(&format!("eff.gust[{i}].scale"), k.scale)?;
+            if i > 0 && k.frame < self.gust[i - 1].frame {
+                return Err(bad(
+                    &format!("eff.gust[{i}].frame"),
+                    k.frame,
+                    "gust keys must be in frame order",
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The grid this block describes (without a file).
+    fn grid(&self) -> Grid {
+        let extent = DVec3::splat(self.extent);
+        let dims = self.resolution;
+        Grid {
+            origin: DVec3::from(self.center) - 0.5 * extent,
+            cell: extent / DVec3::new(dims[0] as f64, dims[1] as f64, dims[2] as f64),
+            dims,
+        }
+    }
+}
+
+/// Where the cells are: `dims` cells from `origin`, each `cell` wide per axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Grid {
+    origin: DVec3,
+    cell: DVec3,
+    dims: [u32; 3],
+}
+
+impl Grid {
+    fn count(&self) -> usize {
+        self.dims.iter().map(|&d| d as usize).product()
+    }
+    fn index(&self, i: [u32; 3]) -> usize {
+        i[0] as usize
+            + self.dims[0] as usize * (i[1] as usize + self.dims[1] as usize * i[2] as usize)
+    }
+    fn ijk(&self, index: usize) -> [u32; 3] {
+        let (x, y) = (self.dims[0] as usize, self.dims[1] as usize);
+        [
+            (index % x) as u32,
+            (index / x % y) as u32,
+            (index / (x * y)) as u32,
+        ]
+    }
+    fn center(&self, i: [u32; 3]) -> DVec3 {
+        self.origin + self.cell * (DVec3::new(i[0] as f64, i[1] as f64, i[2] as f64) + 0.5)
+    }
+    fn max(&self) -> DVec3 {
+        self.origin
+            + self.cell
+                * DVec3::new(
+                    self.dims[0] as f64,
+                    self.dims[1] as f64,
+                    self.dims[2] as f64,
+                )
+    }
+    /// The cell containing `p`, if inside (faces belong to the cell above, the top faces to
+    /// the last cell).
+    fn cell_of(&self, p: DVec3) -> Option<[u32; 3]> {
+        let g = (p - self.origin) / self.cell;
+        let mut out = [0; 3];
+        for a in 0..3 {
+            if !(g[a] >= 0.0 && g[a] <= self.dims[a] as f64) {
+                return None;
+            }
+            out[a] = (g[a].floor() as u32).min(self.dims[a] - 1);
+        }
+        Some(out)
+    }
+}
 
 /// A built grid: every cell has a force.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, PartialEq)]
 pub struct Eff {
+    /// The block it was built from (for a loaded file: the file, its grid in `center`,
+    /// `extent` and `resolution` as nearly as a cubic block can say it).
     pub desc: EffDesc,
+    grid: Grid,
+    source: DVec3,
+    head: DVec3,
+    strength: f64,
+    cells: Vec<DVec3>,
+    defined: Vec<bool>,
+    /// `max_force`: exact after a build, load or refill, an upper bound after edits.
+    bound: f64,
+}
+
+impl std::fmt::Debug for Eff {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Eff")
+            .field("origin", &self.grid.origin)
+            .field("cell", &self.grid.cell)
+            .field("dims", &self.grid.dims)
+            .field("source", &self.source)
+            .field("head", &self.head)
+            .field("strength", &self.strength)
+            .field("defined", &self.defined.iter().filter(|d| **d).count())
+            .finish_non_exhaustive()
+    }
 }
 
 impl Eff {
-    /// Build the grid from the scene block (cells filled by the paper's two rules).
+    /// Build the grid from the scene block: defined cells from the file, samples and
+    /// blowers, the rest by the paper's two rules (module docs).
     pub fn build(desc: &EffDesc) -> Result<Eff> {
-        Ok(Eff { desc: desc.clone() })
+        Self::from_samples(desc, &[])
     }
 
-    /// The force at world point `p` (outside the grid: the outside force).
-    pub fn sample(&self, _p: DVec3, _sampling: Sampling) -> DVec3 {
-        DVec3::ZERO
+    /// `build`, with extra point samples (position, force) defining cells too, such as the
+    /// forces fitted from motion capture. Extra samples outside the grid are left out (hair
+    /// leaves the grid); non-finite ones are refused.
+    pub fn from_samples(desc: &EffDesc, extra: &[(DVec3, DVec3)]) -> Result<Eff> {
+        desc.validate()?;
+        let base = match (&desc.file, &desc.loaded) {
+            (Some(file), None) => {
+                return Err(bad(
+                    "eff.file",
+                    file,
+                    "was not read: load the scene with Scene::load (or call \
+                     forces::eff::resolve) so the file is read relative to the scene",
+                ))
+            }
+            (_, Some(Loaded(e))) => Some(e.clone()),
+            (None, None) => None,
+        };
+        let mut eff = match &base {
+            Some(e) => Eff {
+                desc: desc.clone(),
+                ..(**e).clone()
+            },
+            None => {
+                let grid = desc.grid();
+                let n = grid.count();
+                Eff {
+                    desc: desc.clone(),
+                    grid,
+                    source: DVec3::from(desc.source),
+                    head: desc.head.map_or(DVec3::from(desc.center), DVec3::from),
+                    strength: desc.strength,
+                    cells: vec![DVec3::ZERO; n],
+                    defined: vec![false; n],
+                    bound: 0.0,
+                }
+            }
+        };
+        // Accumulate the block's and the extra samples per cell.
+        let mut sum: std::collections::BTreeMap<usize, (DVec3, u32)> = Default::default();
+        let g = eff.grid;
+        for (c, s) in sample_cells(desc, &g)?.into_iter().zip(&desc.samples) {
+            let e = sum.entry(g.index(c)).or_default();
+            e.0 += DVec3::from(s.force);
+            e.1 += 1;
+        }
+        for (i, (at, force)) in extra.iter().enumerate() {
+            if !at.is_finite() || !force.is_finite() {
+                return Err(bad(
+                    &format!("samples[{i}]"),
+                    format!("{at} {force}"),
+                    "must be finite",
+                ));
+            }
+            if let Some(c) = g.cell_of(*at) {
+                let e = sum.entry(g.index(c)).or_default();
+                e.0 += *force;
+                e.1 += 1;
+            }
+        }
+        for b in &desc.blowers {
+            for (index, value) in blower_cells(b, &g) {
+                let e = sum.entry(index).or_default();
+                e.0 += value;
+                e.1 += 1;
+            }
+        }
+        if base.is_some() && sum.is_empty() {
+            // The file as it was: its filled cells stay as they were saved.
+            return Ok(eff);
+        }
+        // New defined cells (over a file: its `i` cells are filled again from them).
+        for (index, (s, n)) in sum {
+            eff.cells[index] = s / n as f64;
+            eff.defined[index] = true;
+        }
+        eff.refill();
+        Ok(eff)
+    }
+
+    /// Fill every cell that is not defined by the two rules (module docs), from the defined
+    /// cells only. Deterministic: each cell depends on the defined cells alone.
+    pub fn refill(&mut self) {
+        let g = self.grid;
+        let outside = self.outside();
+        // The search runs in lattice units (cell (i, j, k) at (i, j, k)), so that equal
+        // distances compare equal (module docs: ties).
+        let lattice = |i: usize| {
+            let [x, y, z] = g.ijk(i);
+            DVec3::new(x as f64, y as f64, z as f64)
+        };
+        let metric = Metric::new(g.cell);
+        let mut pts: Vec<(DVec3, u32)> = (0..self.cells.len())
+            .filter(|&i| self.defined[i])
+            .map(|i| (lattice(i), i as u32))
+            .collect();
+        if pts.is_empty() {
+            self.cells.iter_mut().for_each(|c| *c = outside);
+            self.bound = outside.length();
+            return;
+        }
+        kd_build(&mut pts, 0);
+        // The head in lattice units, snapped to 1/65536 cell so that a head on a centre,
+        // face or corner is exactly there.
+        let head = ((self.head - g.origin) / g.cell - 0.5) * 65536.0;
+        let head = head.round() / 65536.0;
+        let (lo, hi) = (g.origin, g.max());
+        for i in 0..self.cells.len() {
+            if self.defined[i] {
+                continue;
+            }
+            let e = lattice(i);
+            let mut best = [(f64::INFINITY, u32::MAX); 2];
+            kd_nearest2(&pts, 0, e, &metric, &mut best);
+            let (n1, n2) = (best[0].1 as usize, best[1].1);
+            let f1 = self.cells[n1];
+            let d1 = best[0].0.sqrt();
+            self.cells[i] = if metric.d2(e - head) < metric.d2(lattice(n1) - head) {
+                // (a) between the two nearest defined cells.
+                if n2 == u32::MAX {
+                    f1
+                } else {
+                    let d2 = best[1].0.sqrt();
+                    (f1 * d2 + self.cells[n2 as usize] * d1) / (d1 + d2)
+                }
+            } else {
+                // (b) from the nearest defined cell to the outside force at the grid's face,
+                // along the ray from it through this cell (world units).
+                let c1 = g.center(g.ijk(n1));
+                let u = (g.center(g.ijk(i)) - c1).normalize();
+                let mut t_exit = f64::INFINITY;
+                for a in 0..3 {
+                    if u[a] > 0.0 {
+                        t_exit = t_exit.min((hi[a] - c1[a]) / u[a]);
+                    } else if u[a] < 0.0 {
+                        t_exit = t_exit.min((lo[a] - c1[a]) / u[a]);
+                    }
+                }
+                f1 + (outside - f1) * (d1 / t_exit).min(1.0)
+            };
+        }
+        self.bound = self.largest();
+    }
+
+    fn largest(&self) -> f64 {
+        self.cells
+            .iter()
+            .map(|c| c.length())
+            .fold(self.outside().length(), f64::max)
+    }
+
+    fn with_bound(mut self) -> Eff {
+        self.bound = self.largest();
+        self
+    }
+
+    /// The force at world point `p`, without the gust scale (outside the grid: the outside
+    /// force, blended over `BAND_CELLS` beyond the faces).
+    pub fn sample(&self, p: DVec3, sampling: Sampling) -> DVec3 {
+        let g = &self.grid;
+        let below = (g.origin - p).max(DVec3::ZERO);
+        let above = (p - g.max()).max(DVec3::ZERO);
+        let w = ((below + above) / g.cell / BAND_CELLS).length().min(1.0);
+        if w >= 1.0 {
+            return self.outside();
+        }
+        let inside = match sampling {
+            Sampling::Nearest => {
+                let q = (p - g.origin) / g.cell;
+                let i = [0, 1, 2].map(|a| (q[a].floor().max(0.0) as u32).min(g.dims[a] - 1));
+                self.cells[g.index(i)]
+            }
+            Sampling::Trilinear => self.trilinear(p),
+        };
+        if w > 0.0 {
+            inside * (1.0 - w) + self.outside() * w
+        } else {
+            inside
+        }
+    }
+
+    fn trilinear(&self, p: DVec3) -> DVec3 {
+        let g = &self.grid;
+        let q = (p - g.origin) / g.cell - 0.5;
+        let mut i0 = [0u32; 3];
+        let mut i1 = [0u32; 3];
+        let mut t = DVec3::ZERO;
+        for a in 0..3 {
+            let hi = g.dims[a].saturating_sub(2) as f64;
+            let f = q[a].floor().clamp(0.0, hi);
+            i0[a] = f as u32;
+            i1[a] = (i0[a] + 1).min(g.dims[a] - 1);
+            t[a] = (q[a] - f).clamp(0.0, 1.0);
+        }
+        let c = |x: u32, y: u32, z: u32| self.cells[g.index([x, y, z])];
+        let x00 = c(i0[0], i0[1], i0[2]).lerp(c(i1[0], i0[1], i0[2]), t.x);
+        let x10 = c(i0[0], i1[1], i0[2]).lerp(c(i1[0], i1[1], i0[2]), t.x);
+        let x01 = c(i0[0], i0[1], i1[2]).lerp(c(i1[0], i0[1], i1[2]), t.x);
+        let x11 = c(i0[0], i1[1], i1[2]).lerp(c(i1[0], i1[1], i1[2]), t.x);
+        x00.lerp(x10, t.y).lerp(x01.lerp(x11, t.y), t.z)
+    }
+
+    /// The force at `p` at `frame` (fractional): `sample` times the gust scale.
+    pub fn sample_at(&self, p: DVec3, frame: f64, sampling: Sampling) -> DVec3 {
+        self.sample(p, sampling) * self.scale_at(frame)
+    }
+
+    /// The gust scale at `frame` (1 without gust keys).
+    pub fn scale_at(&self, frame: f64) -> f64 {
+        super::keyed(
+            &self.desc.gust,
+            frame,
+            |k| k.frame,
+            |k| k.interp,
+            |k| k.scale,
+            |a, b, t| a + (b - a) * t,
+        )
+        .unwrap_or(1.0)
+    }
+
+    /// The force outside the grid (unscaled): `strength` from the source toward the head.
+    pub fn outside(&self) -> DVec3 {
+        if self.strength == 0.0 {
+            return DVec3::ZERO;
+        }
+        (self.head - self.source).normalize_or_zero() * self.strength
+    }
+
+    /// The largest force magnitude the field can give (unscaled; every sample is a convex
+    /// mix of cells and the outside force): exact after a build, load or `refill`, an upper
+    /// bound after `set_cell`, `paint` or `set_outside`. Solvers size their steps with it.
+    pub fn max_force(&self) -> f64 {
+        self.bound
+    }
+
+    /// Cells per axis.
+    pub fn dims(&self) -> [u32; 3] {
+        self.grid.dims
+    }
+    /// Number of cells.
+    pub fn cell_count(&self) -> usize {
+        self.cells.len()
+    }
+    /// Linear index of cell (i, j, k): x fastest (the file's and the GPU's order).
+    pub fn index(&self, ijk: [u32; 3]) -> usize {
+        self.grid.index(ijk)
+    }
+    /// (i, j, k) of a linear index.
+    pub fn ijk(&self, index: usize) -> [u32; 3] {
+        self.grid.ijk(index)
+    }
+    /// Centre of cell `index` (world).
+    pub fn cell_center(&self, index: usize) -> DVec3 {
+        self.grid.center(self.grid.ijk(index))
+    }
+    /// The cell containing `p`, if inside the grid.
+    pub fn cell_of(&self, p: DVec3) -> Option<usize> {
+        self.grid.cell_of(p).map(|c| self.grid.index(c))
+    }
+    /// The grid's min corner (world).
+    pub fn origin(&self) -> DVec3 {
+        self.grid.origin
+    }
+    /// Cell edge lengths per axis.
+    pub fn cell_size(&self) -> DVec3 {
+        self.grid.cell
+    }
+    /// The wind's source, the head point and the outside strength.
+    pub fn source(&self) -> DVec3 {
+        self.source
+    }
+    pub fn head(&self) -> DVec3 {
+        self.head
+    }
+    pub fn strength(&self) -> f64 {
+        self.strength
+    }
+    /// Every cell's force, index order.
+    pub fn cells(&self) -> &[DVec3] {
+        &self.cells
+    }
+    /// Which cells are defined (the rest were filled by the rules).
+    pub fn defined(&self) -> &[bool] {
+        &self.defined
+    }
+
+    /// Set one cell's force and mark it defined (call `refill` to re-fill the others).
+    pub fn set_cell(&mut self, index: usize, force: DVec3) {
+        self.cells[index] = force;
+        self.defined[index] = true;
+        self.bound = self.bound.max(force.length());
+    }
+
+    /// Change the outside force (call `refill` to re-fill the empty cells with it).
+    pub fn set_outside(&mut self, source: DVec3, head: DVec3, strength: f64) -> Result<()> {
+        finite3("eff.source", source.to_array())?;
+        finite3("eff.head", head.to_array())?;
+        finite("eff.strength", strength)?;
+        if strength != 0.0 && (head - source).length() < 1e-9 {
+            return Err(bad(
+                "eff.source",
+                format!("{source}"),
+                "must differ from the head point",
+            ));
+        }
+        (self.source, self.head, self.strength) = (source, head, strength);
+        self.bound = self.bound.max(strength.abs());
+        Ok(())
+    }
+
+    /// The brush: every cell whose centre is within `radius` of `center` moves toward
+    /// `force` by `strength · (1 − (d/radius)²)²` (strength clamped to [0, 1]: 1 sets the
+    /// centre cell to `force`, repeated strokes converge to it) and becomes defined.
+    /// Returns the cells touched.
+    pub fn paint(&mut self, center: DVec3, radius: f64, force: DVec3, strength: f64) -> usize {
+        if radius.is_nan()
+            || radius <= 0.0
+            || !center.is_finite()
+            || !force.is_finite()
+            || !strength.is_finite()
+        {
+            return 0;
+        }
+        let s = strength.clamp(0.0, 1.0);
+        let g = self.grid;
+        // Only the cells of the brush's bounding box.
+        let lo = ((center - radius - g.origin) / g.cell).floor();
+        let hi = ((center + radius - g.origin) / g.cell).floor();
+        let range = |a: usize| {
+            let top = g.dims[a] as f64 - 1.0;
+            (lo[a].clamp(0.0, top) as u32)..=(hi[a].clamp(0.0, top) as u32)
+        };
+        if (0..3).any(|a| hi[a] < 0.0 || lo[a] > g.dims[a] as f64 - 1.0) {
+            return 0;
+        }
+        let mut touched = 0;
+        for k in range(2) {
+            for j in range(1) {
+                for i in range(0) {
+                    let c = g.center([i, j, k]);
+                    let d = (c - center).length() / radius;
+                    if d >= 1.0 {
+                        continue;
+                    }
+                    let w = s * (1.0 - d * d).powi(2);
+                    if w <= 0.0 {
+                        continue;
+                    }
+                    let idx = g.index([i, j, k]);
+                    let old = self.cells[idx];
+                    self.cells[idx] = old + (force - old) * w;
+                    self.bound = self.bound.max(self.cells[idx].length());
+                    self.defined[idx] = true;
+                    touched += 1;
+                }
+            }
+        }
+        touched
+    }
+
+    /// Write the grid as an EFF file (module docs); exact on `load`.
+    pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
+        let path = path.as_ref();
+        let io = |source| KamiError::Io {
+            path: path.to_path_buf(),
+            source,
+        };
+        let file = std::fs::File::create(path).map_err(io)?;
+        let mut w = std::io::BufWriter::new(file);
+        let v = |v: DVec3| format!("{:?} {:?} {:?}", v.x, v.y, v.z);
+        let [rx, ry, rz] = self.grid.dims;
+        let mut head = format!(
+            "kami-eff {FILE_VERSION}\n\
+             # An External Force Field (Kazama et al. 3.3), written by Kami: forces in world\n\
+             # units / s². One line per cell after `cells`, x fastest, then y, then z;\n\
+             # d: a defined cell, i: filled by the interpolation rules.\n\
+             resolution {rx} {ry} {rz}\n"
+        );
+        head += &format!("origin {}\n", v(self.grid.origin));
+        head += &format!("cell {}\n", v(self.grid.cell));
+        head += &format!("source {}\n", v(self.source));
+        head += &format!("head {}\n", v(self.head));
+        head += &format!("strength {:?}\ncells\n", self.strength);
+        w.write_all(head.as_bytes()).map_err(io)?;
+        for (c, d) in self.cells.iter().zip(&self.defined) {
+            writeln!(w, "{} {}", if *d { "d" } else { "i" }, v(*c)).map_err(io)?;
+        }
+        w.flush().map_err(io)
+    }
+
+    /// Read an EFF file (module docs). Errors name the file and line: a bad header, a grid
+    /// beyond `MAX_CELLS` (refused before allocating), a bad or non-finite number, a
+    /// truncated line, and a file of the wrong size for its header.
+    pub fn load(path: impl AsRef<Path>) -> Result<Eff> {
+        let path = path.as_ref();
+        let name = path.display().to_string();
+        let err = |line: usize, message: String| KamiError::Data {
+            path: name.clone(),
+            line: if line == 0 { None } else { Some(line) },
+            message,
+        };
+        let io = |source| KamiError::Io {
+            path: path.to_path_buf(),
+            source,
+        };
+        let meta = std::fs::metadata(path).map_err(io)?;
+        if meta.is_dir() {
+            return Err(err(0, "is a directory, not an EFF file".into()));
+        }
+        if meta.len() > MAX_FILE_BYTES {
+            return Err(err(
+                0,
+                format!(
+                    "{} bytes is more than an EFF file of at most {MAX_CELLS} cells needs \
+                     ({MAX_FILE_BYTES} bytes at most)",
+                    meta.len()
+                ),
+            ));
+        }
+        let mut reader = std::io::BufReader::new(std::fs::File::open(path).map_err(io)?);
+        let mut lines = Lines {
+            reader: &mut reader,
+            number: 0,
+            buf: String::new(),
+        };
+        // Version line.
+        let (n, first) = lines
+            .next_content()
+            .map_err(|m| err(lines.number, m))?
+            .ok_or_else(|| err(0, "empty file: an EFF file starts with `kami-eff 1`".into()))?;
+        let mut words = first.split_whitespace();
+        if words.next() != Some("kami-eff") {
+            return Err(err(
+                n,
+                format!("not an EFF file: the first line must be `kami-eff {FILE_VERSION}`"),
+            ));
+        }
+        match words.next().map(str::parse::<u32>) {
+            Some(Ok(FILE_VERSION)) if words.next().is_none() => {}
+            _ => {
+                return Err(err(
+                    n,
+                    format!(
+                        "unsupported version line `{first}`: this Kami reads `kami-eff \
+                         {FILE_VERSION}`"
+                    ),
+                ))
+            }
+        }
+        // Header.
+        let mut resolution: Option<[u32; 3]> = None;
+        let mut vecs: [Option<DVec3>; 4] = [None; 4];
+        const VEC_KEYS: [&str; 4] = ["origin", "cell", "source", "head"];
+        let mut strength: Option<f64> = None;
+        let header_end = loop {
+            let Some((n, line)) = lines.next_content().map_err(|m| err(lines.number, m))? else {
+                return Err(err(
+                    lines.number,
+                    "truncated header: no `cells` line".into(),
+                ));
+            };
+            let mut words = line.split_whitespace();
+            let key = words.next().unwrap_or_default();
+            let rest: Vec<&str> = words.collect();
+            let dup = |k: &str| err(n, format!("`{k}` is given twice"));
+            match key {
+                "cells" => {
+                    if !rest.is_empty() {
+                        return Err(err(n, "`cells` takes nothing after it".into()));
+                    }
+                    break n;
+                }
+                "resolution" => {
+                    if resolution.is_some() {
+                        return Err(dup(key));
+                    }
+                    let r =
+                        parse_n::<u32, 3>(&rest).map_err(|m| err(n, format!("resolution: {m}")))?;
+                    cell_total("resolution", r)
+                        .map_err(|(v, a)| err(n, format!("resolution {v}: {a}")))?;
+                    resolution = Some(r);
+                }
+                "strength" => {
+                    if strength.is_some() {
+                        return Err(dup(key));
+                    }
+                    let [s] =
+                        parse_n::<f64, 1>(&rest).map_err(|m| err(n, format!("strength: {m}")))?;
+                    check_finite(&[s]).map_err(|m| err(n, format!("strength: {m}")))?;
+                    strength = Some(s);
+                }
+                k if VEC_KEYS.contains(&k) => {
+                    let slot = VEC_KEYS.iter().position(|v| *v == k).unwrap();
+                    if vecs[slot].is_some() {
+                        return Err(dup(key));
+                    }
+                    let v = parse_n::<f64, 3>(&rest).map_err(|m| err(n, format!("{k}: {m}")))?;
+                    check_finite(&v).map_err(|m| err(n, format!("{k}: {m}")))?;
+                    if k == "cell" && v.iter().any(|c| *c <= 0.0) {
+                        return Err(err(n, format!("cell: sizes must be > 0, found {v:?}")));
+                    }
+                    vecs[slot] = Some(DVec3::from(v));
+                }
+                other => {
+                    return Err(err(
+                        n,
+                        format!(
+                            "unknown header key `{other}` (expected resolution, origin, cell, \
+                             source, head, strength, then cells)"
+                        ),
+                    ))
+                }
+            }
+        };
+        let missing = |k: &str| {
+            err(
+                header_end,
+                format!("the header has no `{k}` line before `cells`"),
+            )
+        };
+        let dims = resolution.ok_or_else(|| missing("resolution"))?;
+        let [origin, cell, source, head] = [0, 1, 2, 3].map(|i| vecs[i]);
+        let origin = origin.ok_or_else(|| missing("origin"))?;
+        let cell = cell.ok_or_else(|| missing("cell"))?;
+        let source = source.ok_or_else(|| missing("source"))?;
+        let head = head.ok_or_else(|| missing("head"))?;
+        let strength = strength.ok_or_else(|| missing("strength"))?;
+        if strength != 0.0 && (head - source).length() < 1e-9 {
+            return Err(err(
+                header_end,
+                "source and head coincide: the outside force has no direction".into(),
+            ));
+        }
+        let grid = Grid { origin, cell, dims };
+        let count = grid.count();
+        let wrong_size = |line: usize, found: String| {
+            err(
+                line,
+                format!(
+                    "an EFF file of the wrong size: the header's resolution {dims:?} needs \
+                     {count} cell lines, {found}"
+                ),
+            )
+        };
+        let mut cells = Vec::with_capacity(count);
+        let mut defined = Vec::with_capacity(count);
+        while let Some((n, line)) = lines.next_content().map_err(|m| err(lines.number, m))? {
+            if cells.len() == count {
+                return Err(wrong_size(n, "and there is more".into()));
+            }
+            let ijk = grid.ijk(cells.len());
+            let mut words = line.split_whitespace();
+            let flag = match words.next() {
+                Some("d") => true,
+                Some("i") => false,
+                other => {
+                    return Err(err(
+                        n,
+                        format!(
+                            "cell {ijk:?}: a cell line starts with `d` (defined) or `i` \
+                             (filled), found `{}`",
+                            other.unwrap_or_default()
+                        ),
+                    ))
+                }
+            };
+            let rest: Vec<&str> = words.collect();
+            let v = parse_n::<f64, 3>(&rest).map_err(|m| err(n, format!("cell {ijk:?}: {m}")))?;
+            check_finite(&v).map_err(|m| err(n, format!("cell {ijk:?}: {m}")))?;
+            cells.push(DVec3::from(v));
+            defined.push(flag);
+        }
+        if cells.len() < count {
+            return Err(wrong_size(
+                lines.number,
+                format!("the file ends after {}", cells.len()),
+            ));
+        }
+        let extent = cell * DVec3::new(dims[0] as f64, dims[1] as f64, dims[2] as f64);
+        let desc = EffDesc {
+            center: (origin + 0.5 * extent).to_array(),
+            extent: extent.max_element(),
+            resolution: dims,
+            source: source.to_array(),
+            head: Some(head.to_array()),
+            strength,
+            file: Some(name.clone()),
+            ..EffDesc::default()
+        };
+        Ok(Eff {
+            desc,
+            grid,
+            source,
+            head,
+            strength,
+            bound: 0.0,
+            cells,
+            defined,
+        }
+        .with_bound())
     }
 }
 
-/// Read files the block names (relative to `dir`, the scene file's folder) so that building
-/// the grid cannot fail later; errors name the file.
-pub fn resolve(_desc: &mut EffDesc, _dir: &Path) -> Result<()> {
+/// Content lines of a text file with their 1-based numbers, skipping blanks and `#`
+/// comments; a line longer than 4 KiB is refused rather than read whole.
+struct Lines<'a, R: BufRead> {
+    reader: &'a mut R,
+    number: usize,
+    buf: String,
+}
+
+impl<R: BufRead> Lines<'_, R> {
+    fn next_content(&mut self) -> std::result::Result<Option<(usize, String)>, String> {
+        use std::io::Read;
+        const LONGEST: u64 = 4096;
+        loop {
+            self.buf.clear();
+            let got = (&mut *self.reader)
+                .take(LONGEST)
+                .read_line(&mut self.buf)
+                .map_err(|e| {
+                    self.number += 1;
+                    format!("cannot read: {e}")
+                })?;
+            if got == 0 {
+                return Ok(None);
+            }
+            self.number += 1;
+            if got as u64 == LONGEST && !self.buf.ends_with('\n') {
+                return Err(format!("line longer than {LONGEST} bytes"));
+            }
+            let t = self.buf.trim();
+            if t.is_empty() || t.starts_with('#') {
+                continue;
+            }
+            return Ok(Some((self.number, t.to_string())));
+        }
+    }
+}
+
+fn parse_n<T: std::str::FromStr, const N: usize>(
+    words: &[&str],
+) -> std::result::Result<[T; N], String> {
+    if words.len() != N {
+        return Err(format!(
+            "needs {N} number{}, found {}{}",
+            if N == 1 { "" } else { "s" },
+            words.len(),
+            if words.len() < N { " (truncated?)" } else { "" }
+        ));
+    }
+    let mut out = Vec::with_capacity(N);
+    for w in words {
+        out.push(
+            w.parse::<T>()
+                .map_err(|_| format!("`{w}` is not a number"))?,
+        );
+    }
+    out.try_into().map_err(|_| "unreachable".to_string())
+}
+
+fn check_finite(v: &[f64]) -> std::result::Result<(), String> {
+    match v.iter().find(|c| !c.is_finite() || c.abs() > MAX_ABS) {
+        Some(c) => Err(format!(
+            "{c} is not a finite number of magnitude at most {MAX_ABS:e}"
+        )),
+        None => Ok(()),
+    }
+}
+
+/// The cell of each of the block's samples, refused (naming the sample) outside the grid.
+fn sample_cells(desc: &EffDesc, g: &Grid) -> Result<Vec<[u32; 3]>> {
+    desc.samples
+        .iter()
+        .enumerate()
+        .map(|(i, s)| {
+            g.cell_of(DVec3::from(s.at)).ok_or_else(|| {
+                bad(
+                    &format!("eff.samples[{i}].at"),
+                    format!("{:?}", s.at),
+                    &format!(
+                        "must lie inside the grid, from {:?} to {:?}",
+                        g.origin.to_array(),
+                        g.max().to_array()
+                    ),
+                )
+            })
+        })
+        .collect()
+}
+
+/// The cells a blower defines, with their forces.
+fn blower_cells(b: &Blower, g: &Grid) -> Vec<(usize, DVec3)> {
+    let at = DVec3::from(b.at);
+    let dir = DVec3::from(b.toward).normalize();
+    let widen = b.spread.to_radians().tan();
+    let mut out = Vec::new();
+    for index in 0..g.count() {
+        let c = g.center(g.ijk(index));
+        let t = (c - at).dot(dir);
+        if t < 0.0 {
+            continue;
+        }
+        let rho = (c - at - dir * t).length();
+        let r = b.radius + t * widen;
+        if rho >= r {
+            continue;
+        }
+        let q = rho / r;
+        out.push((index, dir * b.strength * (1.0 - q * q).powi(2)));
+    }
+    out
+}
+
+/// Squared world distance of a lattice offset, exact for ties: axes whose cells have the
+/// same size add their squared offsets first (integers, exact) and multiply once, so
+/// mirror-image and permuted offsets give bit-identical distances.
+struct Metric {
+    c2: DVec3,
+}
+
+impl Metric {
+    fn new(cell: DVec3) -> Metric {
+        Metric { c2: cell * cell }
+    }
+    fn d2(&self, d: DVec3) -> f64 {
+        let (s, c) = (d * d, self.c2);
+        if c.x == c.y && c.y == c.z {
+            (s.x + s.y + s.z) * c.x
+        } else if c.x == c.y {
+            (s.x + s.y) * c.x + s.z * c.z
+        } else if c.y == c.z {
+            s.x * c.x + (s.y + s.z) * c.y
+        } else if c.x == c.z {
+            (s.x + s.z) * c.x + s.y * c.y
+        } else {
+            s.x * c.x + s.y * c.y + s.z * c.z
+        }
+    }
+}
+
+/// A static k-d tree in place: the median of each range splits it on axis `depth % 3`.
+fn kd_build(pts: &mut [(DVec3, u32)], depth: usize) {
+    if pts.len() <= 1 {
+        return;
+    }
+    let axis = depth % 3;
+    let mid = pts.len() / 2;
+    pts.select_nth_unstable_by(mid, |a, b| {
+        a.0[axis].total_cmp(&b.0[axis]).then(a.1.cmp(&b.1))
+    });
+    let (left, right) = pts.split_at_mut(mid);
+    kd_build(left, depth + 1);
+    kd_build(&mut right[1..], depth + 1);
+}
+
+/// The two nearest points to `q`, ordered by (squared distance, index): ties go to the
+/// lower index whatever the tree's shape, so the fill is deterministic. The far side of a
+/// split is skipped only when strictly farther than the second best (rounding is monotone,
+/// so the axis term alone never exceeds the full distance).
+fn kd_nearest2(
+    pts: &[(DVec3, u32)],
+    depth: usize,
+    q: DVec3,
+    metric: &Metric,
+    best: &mut [(f64, u32); 2],
+) {
+    if pts.is_empty() {
+        return;
+    }
+    let axis = depth % 3;
+    let mid = pts.len() / 2;
+    let (p, idx) = pts[mid];
+    let cand = (metric.d2(p - q), idx);
+    let less = |a: (f64, u32), b: (f64, u32)| a.0 < b.0 || (a.0 == b.0 && a.1 < b.1);
+    if less(cand, best[1]) {
+        if less(cand, best[0]) {
+            best[1] = best[0];
+            best[0] = cand;
+        } else {
+            best[1] = cand;
+        }
+    }
+    let diff = q[axis] - p[axis];
+    let (near, far) = if diff < 0.0 {
+        (&pts[..mid], &pts[mid + 1..])
+    } else {
+        (&pts[mid + 1..], &pts[..mid])
+    };
+    kd_nearest2(near, depth + 1, q, metric, best);
+    if diff * diff * metric.c2[axis] <= best[1].0 {
+        kd_nearest2(far, depth + 1, q, metric, best);
+    }
+}
+
+/// Read the file the block names (relative to `dir`, the scene file's folder) so that
+/// building the grid cannot fail later on it; errors name the file and line. Also checks
+/// the block (so a bad EFF block fails at load, naming the field).
+pub fn resolve(desc: &mut EffDesc, dir: &Path) -> Result<()> {
+    desc.validate()?;
+    if let Some(file) = &desc.file {
+        let path = if Path::new(file).is_relative() {
+            dir.join(file)
+        } else {
+            Path::new(file).to_path_buf()
+        };
+        let eff = Eff::load(&path)?;
+        desc.loaded = Some(Loaded(Arc::new(eff)));
+    }
+    // Samples outside the grid: fail now, not when the stage builds it (after this,
+    // `Eff::build` cannot fail on this block).
+    let grid = match &desc.loaded {
+        Some(Loaded(e)) => e.grid,
+        None => desc.grid(),
+    };
+    sample_cells(desc, &grid)?;
     Ok(())
+}
+
+/// The `EffGrid` uniform of `shaders/forces/eff.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct GpuEffGrid {
+    /// xyz: the grid's min corner; w: the blend band outside it, in cells.
+    pub origin: [f32; 4],
+    /// xyz: cell edge per axis.
+    pub cell: [f32; 4],
+    /// xyz: cells per axis; w: 1 when a field is present, 0 for none (force zero).
+    pub dims: [u32; 4],
+    /// xyz: the outside force (unscaled); w: the gust scale now.
+    pub outside: [f32; 4],
+}
+const _: () = assert!(std::mem::size_of::<GpuEffGrid>() == 64);
+
+impl GpuEffGrid {
+    /// The uniform for `eff` at gust scale `scale`; `None`: no field.
+    pub fn new(eff: Option<&Eff>, scale: f64) -> GpuEffGrid {
+        let Some(e) = eff else {
+            return GpuEffGrid {
+                dims: [1, 1, 1, 0],
+                cell: [1.0, 1.0, 1.0, 0.0],
+                ..Default::default()
+            };
+        };
+        let f = |v: DVec3, w: f32| [v.x as f32, v.y as f32, v.z as f32, w];
+        GpuEffGrid {
+            origin: f(e.grid.origin, BAND_CELLS as f32),
+            cell: f(e.grid.cell, 0.0),
+            dims: [e.grid.dims[0], e.grid.dims[1], e.grid.dims[2], 1],
+            outside: f(e.outside(), scale as f32),
+        }
+    }
 }
 
 /// The EFF on the GPU: `grid` is the `EffGrid` uniform of `shaders/forces/eff.wgsl`, `cells`
@@ -60,28 +1326,197 @@ pub fn resolve(_desc: &mut EffDesc, _dir: &Path) -> Result<()> {
 pub struct EffGpu {
     pub grid: wgpu::Buffer,
     pub cells: wgpu::Buffer,
+    /// Cells the buffer holds (1 for the absent grid).
+    count: usize,
 }
 
 impl EffGpu {
-    pub fn new(gpu: &crate::gpu::Gpu, _eff: Option<&Eff>) -> Result<EffGpu> {
+    pub fn new(gpu: &crate::gpu::Gpu, eff: Option<&Eff>) -> Result<EffGpu> {
+        let data = cell_data(eff);
+        gpu.check_storage_size("the EFF grid", (data.len() * 16) as u64)?;
         let grid = crate::gpu::storage_buffer(
             &gpu.device,
             "eff grid",
-            &[0u8; 64],
+            bytemuck::bytes_of(&GpuEffGrid::new(eff, 1.0)),
             wgpu::BufferUsages::UNIFORM,
         );
         let cells = crate::gpu::storage_buffer(
             &gpu.device,
             "eff cells",
-            &[0u8; 16],
+            bytemuck::cast_slice(&data),
             wgpu::BufferUsages::empty(),
         );
-        Ok(EffGpu { grid, cells })
+        Ok(EffGpu {
+            grid,
+            cells,
+            count: data.len(),
+        })
     }
 
-    /// Write the grid's strength at `frame` (fractional).
-    pub fn write(&self, _gpu: &crate::gpu::Gpu, _eff: Option<&Eff>, _frame: f64) {}
+    /// Write the grid's uniform with the gust scale at `frame` (fractional): cheap, once per
+    /// frame. A grid of another size than the one uploaded is written as absent (with a
+    /// warning): upload it with `new`, or its cells with `write_cells`.
+    pub fn write(&self, gpu: &crate::gpu::Gpu, eff: Option<&Eff>, frame: f64) {
+        let eff = eff.filter(|e| {
+            let fits = e.cell_count() == self.count;
+            if !fits {
+                log::warn!(
+                    "EFF of {} cells written to a GPU grid of {}: ignored",
+                    e.cell_count(),
+                    self.count
+                );
+            }
+            fits
+        });
+        let scale = eff.map_or(0.0, |e| e.scale_at(frame));
+        gpu.queue.write_buffer(
+            &self.grid,
+            0,
+            bytemuck::bytes_of(&GpuEffGrid::new(eff, scale)),
+        );
+    }
+
+    /// Upload changed cells (the brush) of a grid of the same size.
+    pub fn write_cells(&self, gpu: &crate::gpu::Gpu, eff: &Eff) -> Result<()> {
+        if eff.cell_count() != self.count {
+            return Err(KamiError::Gpu(format!(
+                "EFF of {} cells does not fit the GPU grid of {}: make a new EffGpu",
+                eff.cell_count(),
+                self.count
+            )));
+        }
+        gpu.queue
+            .write_buffer(&self.cells, 0, bytemuck::cast_slice(&cell_data(Some(eff))));
+        Ok(())
+    }
+}
+
+fn cell_data(eff: Option<&Eff>) -> Vec<[f32; 4]> {
+    match eff {
+        None => vec![[0.0; 4]],
+        Some(e) => e
+            .cells
+            .iter()
+            .map(|c| [c.x as f32, c.y as f32, c.z as f32, 0.0])
+            .collect(),
+    }
 }
 
 /// The EFF's WGSL, to concatenate before a kernel that samples it.
 pub const EFF_WGSL: &str = crate::shaders::wgsl!("forces/eff.wgsl");
+
+/// `forces/eff.wgsl` with a kernel that samples it at given points (`sample_on_gpu`); also
+/// the module that validates the file on its own (register it as `forces/eff`).
+pub const EFF_MODULE: &str = concat!(
+    crate::shaders::wgsl!("forces/eff.wgsl"),
+    r#"
+// Samples the EFF at points (tests and tools: `forces::eff::sample_on_gpu`).
+override WORKGROUP: u32;
+struct SampleParams {
+    // x: points, y: sampling (0 nearest, 1 trilinear), z: invocations per row of workgroups
+    n: vec4<u32>,
+}
+@group(0) @binding(0) var<uniform> eff: EffGrid;
+@group(0) @binding(1) var<storage, read> eff_cells: array<vec4<f32>>;
+@group(0) @binding(2) var<uniform> sample_params: SampleParams;
+@group(0) @binding(3) var<storage, read> sample_points: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read_write> sample_out: array<vec4<f32>>;
+
+@compute @workgroup_size(WORKGROUP)
+fn eff_sample(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x + id.y * sample_params.n.z;
+    if i >= sample_params.n.x {
+        return;
+    }
+    sample_out[i] = vec4<f32>(eff_force(sample_points[i].xyz, sample_params.n.y), 0.0);
+}
+"#
+);
+
+/// `eff_force` of `shaders/forces/eff.wgsl` at `points` (world), read back: the GPU twin of
+/// `Eff::sample_at` for contract tests and tools (not for the frame loop).
+pub fn sample_on_gpu(
+    gpu: &crate::gpu::Gpu,
+    eff: &EffGpu,
+    points: &[[f32; 3]],
+    sampling: Sampling,
+) -> Result<Vec<[f32; 3]>> {
+    use crate::gpu::{self, WORKGROUP};
+    use wgpu::util::DeviceExt;
+    if points.is_empty() {
+        return Ok(Vec::new());
+    }
+    let device = &gpu.device;
+    let n = points.len() as u32;
+    let dims = gpu.dispatch_dims(n, WORKGROUP)?;
+    let bytes = points.len() as u64 * 16;
+    gpu.check_storage_size("EFF sample points", bytes)?;
+    let module = gpu::shader_module(device, "eff sample", EFF_MODULE)?;
+    let cs = wgpu::ShaderStages::COMPUTE;
+    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("eff sample"),
+        entries: &[
+            gpu::uniform_entry(0, cs),
+            gpu::storage_entry(1, cs, true),
+            gpu::uniform_entry(2, cs),
+            gpu::storage_entry(3, cs, true),
+            gpu::storage_entry(4, cs, false),
+        ],
+    });
+    let [pipeline] = gpu::compute_pipelines(
+        device,
+        "eff sample",
+        &layout,
+        &module,
+        ["eff_sample"],
+        &[("WORKGROUP", WORKGROUP as f64)],
+    );
+    let mode = match sampling {
+        Sampling::Nearest => 0u32,
+        Sampling::Trilinear => 1,
+    };
+    let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("eff sample params"),
+        contents: bytemuck::bytes_of(&[n, mode, dims.0 * WORKGROUP, 0]),
+        usage: wgpu::BufferUsages::UNIFORM,
+    });
+    let pts: Vec<[f32; 4]> = points.iter().map(|p| [p[0], p[1], p[2], 1.0]).collect();
+    let input = gpu::storage_buffer(
+        device,
+        "eff sample points",
+        bytemuck::cast_slice(&pts),
+        wgpu::BufferUsages::empty(),
+    );
+    let output = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("eff sample out"),
+        size: bytes,
+        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        mapped_at_creation: false,
+    });
+    let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("eff sample"),
+        layout: &layout,
+        entries: &[
+            gpu::entry(0, &eff.grid),
+            gpu::entry(1, &eff.cells),
+            gpu::entry(2, &params),
+            gpu::entry(3, &input),
+            gpu::entry(4, &output),
+        ],
+    });
+    let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+        label: Some("eff sample"),
+    });
+    {
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("eff sample"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &bind, &[]);
+        pass.dispatch_workgroups(dims.0, dims.1, 1);
+    }
+    gpu.queue.submit([enc.finish()]);
+    let out: Vec<[f32; 4]> = gpu::read_buffer(gpu, &output, bytes)?;
+    Ok(out.iter().map(|v| [v[0], v[1], v[2]]).collect())
+}

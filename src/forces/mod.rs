@@ -4,7 +4,9 @@
 //! head pass and the systems' roots take the head pose from here, so everything in a frame
 //! agrees on where the head is. Everything here is uniform in space and evaluated on the CPU
 //! once per step; the per-root acceleration of a moving head is linear in the root's
-//! head-local position, so one matrix carries it to the GPU.
+//! head-local position, so one matrix carries it to the GPU. The one field that varies in
+//! space is the External Force Field (`eff`): a grid of winds around the head, sampled per
+//! point (`Forces::wind_at_point`, and `EffGpu` + `shaders/forces/eff.wgsl` on the GPU).
 
 pub mod eff;
 
@@ -115,18 +117,28 @@ impl Forces {
         head_at(&self.head_motion, self.center, frame)
     }
 
-    /// The wind at world point `p` at `frame`: the uniform keyed wind plus the EFF.
+    /// The wind at world point `p` at `frame`: the uniform keyed wind plus the EFF (scaled
+    /// by its gust keys at `frame`).
     pub fn wind_at_point(
         &self,
         p: DVec3,
         frame: f64,
         sampling: crate::scene::strips::Sampling,
     ) -> DVec3 {
-        let field = self
-            .eff
+        wind_at(&self.wind, frame) + self.eff_at(p, frame, sampling)
+    }
+
+    /// The EFF alone at `p` and `frame` (zero without one).
+    pub fn eff_at(&self, p: DVec3, frame: f64, sampling: crate::scene::strips::Sampling) -> DVec3 {
+        self.eff
             .as_ref()
-            .map_or(DVec3::ZERO, |e| e.sample(p, sampling));
-        wind_at(&self.wind, frame) + field
+            .map_or(DVec3::ZERO, |e| e.sample_at(p, frame, sampling))
+    }
+
+    /// The EFF's gust scale at `frame` (0 without an EFF: kernels multiply the unscaled
+    /// field by it).
+    pub fn eff_scale(&self, frame: f64) -> f64 {
+        self.eff.as_ref().map_or(0.0, |e| e.scale_at(frame))
     }
 
     /// Whether the head moves at all.

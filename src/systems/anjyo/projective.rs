@@ -37,6 +37,10 @@
 //!   control:
 //!   substeps so that h * omega <= `OMEGA_H` for the stiffest segment (omega^2 = c u |F|),
 //!   and beyond `max_substeps` a clamp of the angular step to `MAX_TURN` with a warning.
+//! - **The External Force Field** (Kazama et al., `crate::forces::eff`), when the scene has
+//!   one: each segment adds the field, trilinear, at its end node from the previous substep
+//!   (the point the pseudo-force test reads), times the gust scale at the substep's start.
+//!   The substep schedule bounds |F| by the uniform force plus the field's largest value.
 //!
 //! `shaders/anjyo/projective.wgsl` implements the same step in f32.
 
@@ -70,7 +74,13 @@ pub struct StepForces {
     /// The very first substep from rest: Verlet's first step from theta^0 = theta^-1 takes
     /// half the acceleration, which keeps the start second order (theta(h) = theta0 + a h^2/2).
     pub first: bool,
+    /// The EFF's gust scale at the substep's start (0 without an EFF): each segment adds the
+    /// field at its node times this.
+    pub eff_scale: f64,
 }
+
+/// How segments read the EFF.
+pub const EFF_SAMPLING: crate::scene::strips::Sampling = crate::scene::strips::Sampling::Trilinear;
 
 /// Forces of step `n` (from t_n to t_n + dt) split into `substeps`, for substep `s`.
 pub fn step_forces(forces: &Forces, dyn_: &Dynamics, n: u64, substeps: u32, s: u32) -> StepForces {
@@ -103,6 +113,7 @@ pub fn step_forces(forces: &Forces, dyn_: &Dynamics, n: u64, substeps: u32, s: u
         accel,
         kick,
         first: n == 0 && s == 0,
+        eff_scale: forces.eff_scale(frame),
     }
 }
 
@@ -236,11 +247,17 @@ impl DynSetup {
     }
 
     /// Largest force a segment can feel in step `n` of this many substeps: gravity + wind
-    /// plus the inertial force of the fastest-accelerating root.
+    /// + the EFF's largest value plus the inertial force of the fastest-accelerating root.
     fn force_bound(&self, f: &StepForces) -> f64 {
+        let uniform = f.force.length()
+            + self
+                .forces
+                .eff
+                .as_ref()
+                .map_or(0.0, |e| e.max_force() * f.eff_scale.abs());
         if f.accel == DMat4::ZERO {
             // A still head (the common case): no pass over the strands every step.
-            return f.force.length();
+            return uniform;
         }
         let rho = self.params.density;
         let accel = self
@@ -248,7 +265,7 @@ impl DynSetup {
             .iter()
             .map(|s| rho * s.seg_len * f.accel.transform_point3(s.root_local).length())
             .fold(0.0, f64::max);
-        f.force.length() + accel
+        uniform + accel
     }
 
     /// The substeps of step `n`: as many as stability needs (h omega <= OMEGA_H), at most
@@ -447,6 +464,11 @@ pub fn step_strand(
         let [mut th, mut ph, mut thp, mut php] = angles[off + i as usize];
         let p_old = nodes[base + i as usize];
         let mut force = f_seg;
+        if let Some(eff) = &setup.forces.eff {
+            if f.eff_scale != 0.0 {
+                force += eff.sample(p_old, EFF_SAMPLING) * f.eff_scale;
+            }
+        }
         if let Some(pf) = &p.pseudo_force {
             let local = head_inv.transform_point3(p_old);
             let g = setup.head.gradient(local);

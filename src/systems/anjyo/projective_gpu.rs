@@ -1,9 +1,12 @@
 //! The projective-dynamics kernel (`shaders/anjyo/projective.wgsl`): the f32 twin of the f64
 //! reference in `projective.rs`, one invocation per strand and one substep per dispatch;
-//! `tests/contract.rs` compares them.
+//! `tests/contract.rs` and `tests/eff_anjyo.rs` (with an External Force Field) compare them.
+//! The EFF is bound beside the substeps; each substep carries its own gust scale, so several
+//! frames recorded in one submission each see their own.
 
 use super::projective::{DynSetup, StepForces, MAX_TURN, POLE_SIN};
 use crate::error::Result;
+use crate::forces::eff::{EffGpu, EFF_WGSL};
 use crate::gpu::gpu_data::{GpuDynParams, GpuDynStrand, GpuStep};
 use crate::gpu::strands::StrandBuffers;
 use crate::gpu::{self, Gpu, WORKGROUP};
@@ -29,6 +32,9 @@ pub struct ProjectiveJob {
     capacity: u32,
     bind_group: wgpu::BindGroup,
     dims: (u32, u32),
+    /// The scene's External Force Field (an absent one without): `eff.write_cells` after
+    /// painting it.
+    pub eff: EffGpu,
 }
 
 fn mat(m: DMat4) -> [[f32; 4]; 4] {
@@ -51,16 +57,27 @@ pub fn gpu_step(f: &StepForces) -> GpuStep {
             u32::from(f.kick.is_some()),
             f.kick.unwrap_or(0),
             u32::from(f.first),
-            0,
+            // The EFF's gust scale, as f32 bits (the slot's last free word).
+            (f.eff_scale as f32).to_bits(),
         ],
         _pad: [0; 8],
+    }
+}
+
+/// The module's source: `anjyo::PROJECTIVE` samples the EFF, so it needs
+/// `forces/eff.wgsl` before it; added here when the module list does not have it.
+fn source() -> std::borrow::Cow<'static, str> {
+    if super::PROJECTIVE.contains("fn eff_field(") {
+        super::PROJECTIVE.into()
+    } else {
+        format!("{EFF_WGSL}\n{}", super::PROJECTIVE).into()
     }
 }
 
 impl ProjectivePass {
     pub fn new(gpu: &Gpu) -> Result<ProjectivePass> {
         let device = &gpu.device;
-        let module = gpu::shader_module(device, "projective", super::PROJECTIVE)?;
+        let module = gpu::shader_module(device, "projective", &source())?;
         let cs = wgpu::ShaderStages::COMPUTE;
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("projective"),
@@ -70,6 +87,8 @@ impl ProjectivePass {
                 gpu::storage_entry(2, cs, true),
                 gpu::storage_entry(3, cs, false),
                 gpu::storage_entry(4, cs, false),
+                gpu::uniform_entry(5, cs),
+                gpu::storage_entry(6, cs, true),
             ],
         });
         let [init, advance] = gpu::compute_pipelines(
@@ -136,7 +155,9 @@ impl ProjectivePass {
         });
         let capacity = 16;
         let steps = Self::step_ring(device, capacity);
-        let bind_group = self.bind(device, &params, &steps, &strands, &state, hair);
+        // The field's own uniform stays at scale 1: the kernel scales by the substep's gust.
+        let eff = EffGpu::new(gpu, setup.forces.eff.as_deref())?;
+        let bind_group = self.bind(device, [&params, &strands, &state], &steps, hair, &eff);
         Ok(ProjectiveJob {
             params,
             strands,
@@ -145,6 +166,7 @@ impl ProjectivePass {
             capacity,
             bind_group,
             dims,
+            eff,
         })
     }
 
@@ -157,14 +179,14 @@ impl ProjectivePass {
         })
     }
 
+    /// The bind group; `[params, strands, state]` are the job's fixed buffers.
     fn bind(
         &self,
         device: &wgpu::Device,
-        params: &wgpu::Buffer,
+        [params, strands, state]: [&wgpu::Buffer; 3],
         steps: &wgpu::Buffer,
-        strands: &wgpu::Buffer,
-        state: &wgpu::Buffer,
         hair: &StrandBuffers,
+        eff: &EffGpu,
     ) -> wgpu::BindGroup {
         device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("projective"),
@@ -182,6 +204,8 @@ impl ProjectivePass {
                 gpu::entry(2, strands),
                 gpu::entry(3, state),
                 gpu::entry(4, &hair.vertices),
+                gpu::entry(5, &eff.grid),
+                gpu::entry(6, &eff.cells),
             ],
         })
     }
@@ -224,11 +248,10 @@ impl ProjectivePass {
             job.steps = Self::step_ring(&gpu.device, job.capacity);
             job.bind_group = self.bind(
                 &gpu.device,
-                &job.params,
+                [&job.params, &job.strands, &job.state],
                 &job.steps,
-                &job.strands,
-                &job.state,
                 hair,
+                &job.eff,
             );
         }
         let mut bytes = Vec::with_capacity(substeps.len() * SLOT as usize);
