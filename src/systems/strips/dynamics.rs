@@ -387,7 +387,12 @@ pub fn check_motion(m: &Motion) -> Result<()> {
     let checks: [(&str, f64, bool, &str); 8] = [
         ("inertia", m.inertia, m.inertia > 0.0, "a number > 0"),
         ("damping", m.damping, m.damping >= 0.0, "a number >= 0"),
-        ("stiffness", m.stiffness, m.stiffness >= 0.0, "a number >= 0"),
+        (
+            "stiffness",
+            m.stiffness,
+            m.stiffness >= 0.0,
+            "a number >= 0",
+        ),
         (
             "stiffness_tip",
             m.stiffness_tip,
@@ -395,7 +400,12 @@ pub fn check_motion(m: &Motion) -> Result<()> {
             "a share >= 0",
         ),
         ("spring", m.spring, m.spring >= 0.0, "a number >= 0"),
-        ("collision", m.collision, m.collision >= 0.0, "a number >= 0"),
+        (
+            "collision",
+            m.collision,
+            m.collision >= 0.0,
+            "a number >= 0",
+        ),
         (
             "frame_time",
             m.frame_time,
@@ -529,7 +539,10 @@ impl Rig {
                     "a finite non-zero head normal",
                 ));
             }
-            let scale = s.points.iter().fold(1.0f64, |m, p| m.max(p.abs().max_element()));
+            let scale = s
+                .points
+                .iter()
+                .fold(1.0f64, |m, p| m.max(p.abs().max_element()));
             for k in 1..s.points.len() {
                 if (s.points[k] - s.points[k - 1]).length() <= 1e-9 * scale {
                     return Err(invalid(
@@ -799,7 +812,10 @@ impl Rig {
             .iter()
             .map(|j| {
                 let (w2, g2) = (j.tau / j.i1, j.i2 / j.i1);
-                [Propagator::new(w2, g2, dt), Propagator::new(w2, g2, 0.5 * dt)]
+                [
+                    Propagator::new(w2, g2, dt),
+                    Propagator::new(w2, g2, 0.5 * dt),
+                ]
             })
             .collect()
     }
@@ -1060,11 +1076,18 @@ impl Setup {
     /// them.
     pub fn gust() -> Setup {
         let head = Head::default();
-        let rest = [(40.0, 0.0), (60.0, 90.0), (70.0, 180.0), (60.0, 270.0), (50.0, 45.0), (80.0, 135.0)]
-            .iter()
-            .enumerate()
-            .map(|(i, &(p, a))| demo_strip(&head, p, a, 18.0 + 2.0 * i as f64, 8, 0.6))
-            .collect();
+        let rest = [
+            (40.0, 0.0),
+            (60.0, 90.0),
+            (70.0, 180.0),
+            (60.0, 270.0),
+            (50.0, 45.0),
+            (80.0, 135.0),
+        ]
+        .iter()
+        .enumerate()
+        .map(|(i, &(p, a))| demo_strip(&head, p, a, 18.0 + 2.0 * i as f64, 8, 0.6))
+        .collect();
         let key = |frame: f64, force: [f64; 3]| WindKey {
             frame,
             force,
@@ -1084,7 +1107,12 @@ impl Setup {
                 key(20.0, [200.0, 0.0, -200.0]),
                 key(36.0, [0.0; 3]),
             ],
-            head_motion: vec![turn(0.0, 0.0), turn(12.0, 25.0), turn(30.0, -10.0), turn(42.0, 0.0)],
+            head_motion: vec![
+                turn(0.0, 0.0),
+                turn(12.0, 25.0),
+                turn(30.0, -10.0),
+                turn(42.0, 0.0),
+            ],
             center: DVec3::from(head.center),
             eff: None,
         };
@@ -1232,13 +1260,11 @@ pub fn dt_for_error(rows: &[PrecisionRow], target: f64) -> Option<f64> {
         }
     }
     let order = observed_order(rows)?.max(0.5);
-    let near = r
-        .iter()
-        .min_by(|a, b| {
-            (a.tip_error_rel.ln() - target.ln())
-                .abs()
-                .total_cmp(&(b.tip_error_rel.ln() - target.ln()).abs())
-        })?;
+    let near = r.iter().min_by(|a, b| {
+        (a.tip_error_rel.ln() - target.ln())
+            .abs()
+            .total_cmp(&(b.tip_error_rel.ln() - target.ln()).abs())
+    })?;
     Some(near.dt * (target / near.tip_error_rel).powf(1.0 / order))
 }
 

@@ -144,7 +144,10 @@ impl DynamicsGpu {
         let device = &gpu.device;
         let count = rig.strip_count() as u32;
         let stride = rig.stride() as u32;
-        let longest = (0..rig.strip_count()).map(|s| rig.sticks(s)).max().unwrap_or(0) as u64;
+        let longest = (0..rig.strip_count())
+            .map(|s| rig.sticks(s))
+            .max()
+            .unwrap_or(0) as u64;
         let loops = longest * LOOPS_PER_STICK + stride as u64;
         if loops > LOOP_LIMIT {
             return Err(KamiError::TooLarge {
@@ -575,7 +578,11 @@ impl DynamicsGpu {
 
     /// Read the control points back (tests, benches).
     pub fn read_points(&self, gpu: &Gpu) -> Result<Vec<[f32; 4]>> {
-        gpu::read_buffer(gpu, &self.points, (self.rest_points.len() as u64 * 16).max(16))
+        gpu::read_buffer(
+            gpu,
+            &self.points,
+            (self.rest_points.len() as u64 * 16).max(16),
+        )
     }
 
     /// Read the joints' (θ, φ, θ', φ') back.
