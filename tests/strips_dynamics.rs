@@ -217,8 +217,8 @@ fn single_joint_settles_at_rest_plus_h_over_tau() {
 }
 
 /// The same clip at 30 and at 120 steps per second (frames at 30 per second) agrees within
-/// 6 % of the strip's length at every tip and frame (measured 4.5 %), and at 60 vs 120
-/// within 1.5 % (measured 1.1 %): the motion does not depend on the frame rate beyond the
+/// 6 % of the strip's length at every tip and frame (measured 4.2 %), and at 60 vs 120
+/// within 1.5 % (measured 0.84 %): the motion does not depend on the frame rate beyond the
 /// step's second-order error.
 #[test]
 fn frame_rate_independent() {
@@ -447,9 +447,11 @@ fn strips_stay_out_of_the_head() {
         let clip = simulate(&rest, &motion, &forces, &head, &[], 60).unwrap();
         let mut lowest = f64::INFINITY;
         for (f, p) in clip.iter().enumerate() {
-            for x in p {
+            for (i, x) in p.iter().enumerate() {
                 let e = hull.eval(*x);
-                lowest = lowest.min(e);
+                if i % 9 != 0 {
+                    lowest = lowest.min(e);
+                }
                 assert!(
                     e >= -1e-9,
                     "κ {kappa}, frame {f}: a point inside the head ({e})"
@@ -509,12 +511,9 @@ fn head_motion_swings_a_strip() {
         let vel = DVec3::Y.cross(rest_tip - DVec3::from(head.center));
         (local - rest_tip).dot(vel.normalize())
     };
-    for f in 0..30 {
-        eprintln!("frame {f}: lag {:.3}", lag(f));
-    }
     let early = lag(2);
     let swing = (1..=30).map(|f| lag(f).abs()).fold(0.0, f64::max);
-    eprintln!("lag at frame 4: {early:.3}, largest swing {swing:.3}");
+    eprintln!("lag at frame 2: {early:.3}, largest swing {swing:.3}");
     assert!(
         early < -1.0,
         "the tip should lag behind the turn (lag {early})"
@@ -649,7 +648,9 @@ fn bad_input_is_an_error() {
             "gravity",
         ),
     ] {
-        let e = Rig::new(&[good.clone()], &bad).unwrap_err().to_string();
+        let e = Rig::new(std::slice::from_ref(&good), &bad)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains(field), "{e}");
     }
     let e = ExtraForce {
@@ -661,15 +662,22 @@ fn bad_input_is_an_error() {
         accel: DVec3::X,
     };
     let forces = still(&head);
-    let msg = simulate(&[good.clone()], &motion, &forces, &head, &[e], 5)
-        .unwrap_err()
-        .to_string();
+    let msg = simulate(
+        std::slice::from_ref(&good),
+        &motion,
+        &forces,
+        &head,
+        &[e],
+        5,
+    )
+    .unwrap_err()
+    .to_string();
     assert!(
         msg.contains("extra force 0 (strip 3)") && msg.contains("after the first"),
         "{msg}"
     );
     let msg = simulate(
-        &[good.clone()],
+        std::slice::from_ref(&good),
         &motion,
         &forces,
         &head,

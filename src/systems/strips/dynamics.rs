@@ -108,7 +108,8 @@ pub struct ExtraForce {
 impl ExtraForce {
     /// r(frame): 0 outside [from, to], 1 in the middle.
     pub fn ramp(&self, frame: f64) -> f64 {
-        if !(self.to > self.from) || frame < self.from || frame > self.to {
+        let inside = self.to > self.from && frame >= self.from && frame <= self.to;
+        if !inside {
             return 0.0;
         }
         let s = (PI * (frame - self.from) / (self.to - self.from)).sin();
@@ -117,7 +118,8 @@ impl ExtraForce {
 
     /// s(|x − center| / radius).
     pub fn falloff(&self, x: DVec3) -> f64 {
-        if !(self.radius > 0.0) {
+        let positive = self.radius > 0.0;
+        if !positive {
             return 0.0;
         }
         let u2 = (x - self.center).length_squared() / (self.radius * self.radius);
@@ -155,10 +157,12 @@ pub fn check_extra(extra: &[ExtraForce]) -> Result<()> {
         if !finite {
             return Err(bad(format!("{e:?}"), "finite numbers"));
         }
-        if !(e.radius > 0.0) {
+        let positive = e.radius > 0.0;
+        if !positive {
             return Err(bad(format!("radius {}", e.radius), "a radius > 0"));
         }
-        if !(e.to > e.from) {
+        let ordered = e.to > e.from;
+        if !ordered {
             return Err(bad(
                 format!("frames {}..{}", e.from, e.to),
                 "a second key frame after the first",
@@ -1295,7 +1299,8 @@ pub fn largest_stable_dt(setup: &Setup, seconds: f64, cap: f64) -> Result<f64> {
             };
             rig.step(&env, dt);
             let r = rig.max_rate();
-            if !(r <= limit) {
+            let calm = r <= limit;
+            if !calm {
                 return Ok(false);
             }
         }
