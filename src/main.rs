@@ -320,6 +320,19 @@ fn main() -> Result<()> {
                 ),
                 None => format!("{segs} segments"),
             };
+            // Strips are ribbons on chains of sticks: named on their own too.
+            let segs = match &s.strips {
+                Some(st) => {
+                    let n: u64 = st.layers.iter().map(|l| u64::from(l.count)).sum();
+                    let sticks: u64 = st
+                        .layers
+                        .iter()
+                        .map(|l| u64::from(l.count) * u64::from(l.sticks))
+                        .sum();
+                    format!("{segs}, {n} strips ({sticks} sticks)")
+                }
+                None => segs,
+            };
             match frames {
                 None => {
                     let out = out.unwrap_or_else(|| PathBuf::from("kami.png"));
@@ -335,7 +348,10 @@ fn main() -> Result<()> {
                     );
                 }
                 Some((first, last)) => {
-                    if s.dynamics.is_none() {
+                    let moves = s.dynamics.is_some()
+                        || s.strips.is_some()
+                        || s.wisps.as_ref().is_some_and(|w| w.springs.is_some());
+                    if !moves {
                         log::warn!(
                             "{} has no dynamics: every frame is the same still",
                             scene.display()

@@ -20,7 +20,11 @@ pub const HEAD: &str = wgsl!("common/frame.wgsl", "stage/head.wgsl");
 pub const DOWNSAMPLE: &str = wgsl!("stage/downsample.wgsl");
 
 /// The stage's own modules.
-pub const STAGE: &[(&str, &str)] = &[("stage/head", HEAD), ("stage/downsample", DOWNSAMPLE)];
+pub const STAGE: &[(&str, &str)] = &[
+    ("stage/head", HEAD),
+    ("stage/downsample", DOWNSAMPLE),
+    ("forces/eff", crate::forces::eff::EFF_MODULE),
+];
 
 /// (path, source) of every module: the stage's and every hair system's.
 pub fn all() -> Vec<(&'static str, &'static str)> {

@@ -69,10 +69,11 @@ fn off_center_head() -> Head {
     }
 }
 
-/// Azimuth of a root in the layers' convention: 0 the face (+z), 90 the left (+x).
+/// Azimuth of a root in the layers' convention (`Ellipsoid::point`): from +x (the face)
+/// toward +z.
 fn azimuth_deg(head: &Head, p: DVec3) -> f64 {
     let q = (p - DVec3::from(head.center)) / DVec3::from(head.radii);
-    q.x.atan2(q.z).to_degrees()
+    q.z.atan2(q.x).to_degrees()
 }
 
 #[test]

@@ -89,18 +89,30 @@ pub struct Forces {
 impl Forces {
     pub fn from_scene(scene: &Scene) -> Forces {
         let center = DVec3::from(scene.head.center);
+        // Keyed head motion wins; else a head capture's keys (read when the scene loaded).
+        let captured = || {
+            scene
+                .head_capture
+                .as_ref()
+                .map(|h| h.keys.clone())
+                .unwrap_or_default()
+        };
         match &scene.dynamics {
             Some(d) => Forces {
                 gravity: DVec3::from(d.gravity),
                 wind: d.wind.clone(),
-                head_motion: d.head_motion.clone(),
+                head_motion: if d.head_motion.is_empty() {
+                    captured()
+                } else {
+                    d.head_motion.clone()
+                },
                 center,
                 eff: eff_of(scene),
             },
             None => Forces {
                 gravity: DVec3::ZERO,
                 wind: Vec::new(),
-                head_motion: Vec::new(),
+                head_motion: captured(),
                 center,
                 eff: eff_of(scene),
             },

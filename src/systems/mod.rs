@@ -169,7 +169,7 @@ pub struct Kind {
 }
 
 /// Every kind of hair Kami knows, in drawing order.
-pub const KINDS: &[&Kind] = &[&anjyo::KIND, &fur::KIND, &wisps::KIND];
+pub const KINDS: &[&Kind] = &[&anjyo::KIND, &fur::KIND, &wisps::KIND, &strips::KIND];
 
 /// The kind called `name`.
 pub fn kind(name: &str) -> Option<&'static Kind> {

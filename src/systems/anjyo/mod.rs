@@ -43,6 +43,7 @@ pub const PROJECTIVE: &str = wgsl!(
     "common/ellipsoid.wgsl",
     "common/rotate.wgsl",
     "common/random.wgsl",
+    "forces/eff.wgsl",
     "anjyo/projective.wgsl",
 );
 

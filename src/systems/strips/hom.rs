@@ -177,13 +177,14 @@ pub fn build(strips: &Strips, head: &Head) -> Result<Vec<RestStrip>> {
     Ok(out)
 }
 
-/// One strip of `layer` at azimuth `az` (degrees; 0 the face +z, 90 the left +x).
+/// One strip of `layer` at azimuth `az` (degrees, as `Ellipsoid::point` measures it: from
+/// +x, the face, toward +z).
 fn strip(hull: &Ellipsoid, shell: &Ellipsoid, layer: &Layer, li: u32, az: f64) -> RestStrip {
     let (theta, phi) = (layer.polar.to_radians(), az.to_radians());
     let dir = DVec3::new(
-        theta.sin() * phi.sin(),
-        theta.cos(),
         theta.sin() * phi.cos(),
+        theta.cos(),
+        theta.sin() * phi.sin(),
     );
     let root = hull.center + hull.radii * dir;
     let normal = hull.normal(root);

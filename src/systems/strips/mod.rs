@@ -8,11 +8,20 @@ pub mod capture;
 pub mod dynamics;
 pub mod dynamics_gpu;
 pub mod hom;
+pub mod keyframe;
 pub mod panel;
 pub mod ribbon;
 pub mod texture;
 
+use super::{Change, DrawSetup, FrameCtx, HairSystem, Kind, Panel, StepInfo, SystemStats, View};
+use crate::error::{KamiError, Result};
+use crate::forces::eff::EffGpu;
+use crate::forces::Forces;
+use crate::gpu::Gpu;
+use crate::scene::strips::Strips;
+use crate::scene::{Head, Scene};
 use glam::DVec3;
+use ribbon::RibbonPass;
 
 /// One strip of the Hair Object Model at rest, in the head's rest frame: what `hom` builds
 /// from the scene's layers and what the dynamics and the ribbons start from.
@@ -29,4 +38,268 @@ pub struct RestStrip {
     /// Multiplier of the motion's stiffness (the layer's).
     pub stiffness: f64,
     pub color: [f32; 3],
+}
+
+pub const KIND: Kind = Kind {
+    name: "strips",
+    in_scene: |s| s.strips.is_some(),
+    check_limits,
+    build,
+    classify,
+    panels: PANELS,
+    scenes: &["strips", "eff_capture"],
+    shaders: &[
+        ("strips/dynamics", dynamics_gpu::DYNAMICS),
+        ("strips/ribbon", ribbon::RIBBON),
+        ("strips/draw", ribbon::DRAW),
+    ],
+};
+
+pub const PANELS: &[Panel] = &[
+    Panel {
+        title: "Strips",
+        open: |s| s.strips.is_some(),
+        show: panel::strips,
+    },
+    Panel {
+        title: "EFF",
+        open: |s| s.strips.is_some() && s.eff.is_some(),
+        show: panel::eff,
+    },
+    Panel {
+        title: "Key frames",
+        open: |s| s.strips.as_ref().is_some_and(|st| !st.edits.is_empty()),
+        show: panel::keyframes,
+    },
+];
+
+/// Control points of the scene's strips (each strip has its layer's sticks + 1; the GPU
+/// keeps the longest as every strip's stride).
+fn point_slots(st: &Strips) -> u64 {
+    let count: u64 = st.layers.iter().map(|l| u64::from(l.count)).sum();
+    let stride = st.layers.iter().map(|l| l.sticks + 1).max().unwrap_or(0);
+    count * u64::from(stride)
+}
+
+fn check_limits(gpu: &Gpu, scene: &Scene) -> Result<()> {
+    let Some(st) = &scene.strips else {
+        return Ok(());
+    };
+    let slots = point_slots(st);
+    gpu.check_storage_size("the strips' control points", slots * 16)?;
+    // Two ribbon vertices per control point (position, tangent, u/v, colour: 64 bytes).
+    gpu.check_storage_size("the strips' ribbon vertices", slots * 2 * 64)?;
+    Ok(())
+}
+
+fn build(gpu: &Gpu, scene: &Scene, setup: &DrawSetup) -> Result<Box<dyn HairSystem>> {
+    Ok(Box::new(StripsSystem::new(gpu, scene, setup)?))
+}
+
+/// What an edit asks of the strips. The look is a `Redraw`. The forces' settings (gravity,
+/// spring, collision, sampling, the step rate), the EFF's cells and the head capture act
+/// from the next step (`Resimulate`; key-frame edits are solved again). The layers, the
+/// head, the joints' I1, I2 and τ (fixed in the rig's propagators), the EFF's grid size and
+/// the edits themselves build the strips again, and the clip restarts at frame 0.
+pub fn classify(old: &Scene, new: &Scene) -> Change {
+    let (Some(a), Some(b)) = (&old.strips, &new.strips) else {
+        return if old.strips == new.strips {
+            Change::None
+        } else {
+            Change::Rebuild
+        };
+    };
+    let joints = |s: &Strips| {
+        let m = &s.motion;
+        (m.inertia, m.damping, m.stiffness, m.stiffness_tip)
+    };
+    let grid = |s: &Scene| {
+        Forces::from_scene(s)
+            .eff
+            .map(|e| (e.dims(), e.origin(), e.cell_size()))
+    };
+    if a.layers != b.layers
+        || a.edits != b.edits
+        || joints(a) != joints(b)
+        || old.head != new.head
+        || grid(old) != grid(new)
+    {
+        return Change::Rebuild;
+    }
+    if a.motion != b.motion
+        || old.eff != new.eff
+        || old.head_capture != new.head_capture
+        || old.dynamics.as_ref().map(|d| (&d.wind, &d.head_motion))
+            != new.dynamics.as_ref().map(|d| (&d.wind, &d.head_motion))
+    {
+        return Change::Resimulate;
+    }
+    if a.look != b.look {
+        Change::Redraw
+    } else {
+        Change::None
+    }
+}
+
+/// Kazama's strips of one scene: the rest strips, their motion on the GPU, the EFF they
+/// read, and the ribbons drawn from their control points.
+pub struct StripsSystem {
+    pub strips: Strips,
+    pub head: Head,
+    pub rest: Vec<RestStrip>,
+    /// The solved key-frame edits (their extra forces are on the GPU).
+    pub solved: Vec<keyframe::Solved>,
+    eff: EffGpu,
+    pub dynamics: dynamics_gpu::DynamicsGpu,
+    pub ribbon: RibbonPass,
+    /// How far beyond the head the strips can reach (the bounds).
+    reach: f64,
+}
+
+impl StripsSystem {
+    pub fn new(gpu: &Gpu, scene: &Scene, setup: &DrawSetup) -> Result<StripsSystem> {
+        let strips = scene.strips.clone().ok_or_else(|| KamiError::Invalid {
+            file: String::new(),
+            field: "strips".into(),
+            value: "None".into(),
+            allowed: "a strips block (the strips system is built only for scenes with strips)"
+                .into(),
+        })?;
+        check_limits(gpu, scene)?;
+        let head = scene.head.clone();
+        let forces = Forces::from_scene(scene);
+        let rest = hom::build(&strips, &head)?;
+        let solved = keyframe::solve(&rest, &strips.motion, &forces, &head, &strips.edits)?;
+        let rig = dynamics::Rig::new(&rest, &strips.motion)?;
+        let eff = EffGpu::new(gpu, forces.eff.as_deref())?;
+        let mut dynamics = dynamics_gpu::DynamicsGpu::new(gpu, &rig, &strips.motion, &head, &eff)?;
+        dynamics.set_extra(gpu, &solved.iter().map(|s| s.extra).collect::<Vec<_>>())?;
+        let ribbon = RibbonPass::new(
+            gpu,
+            &rest,
+            rig.stride(),
+            &strips.look,
+            setup.frame_layout,
+            setup.format,
+            setup.samples,
+        )?;
+        let reach = strips
+            .layers
+            .iter()
+            .map(|l| l.length + l.width[0])
+            .fold(0.0, f64::max);
+        Ok(StripsSystem {
+            strips,
+            head,
+            rest,
+            solved,
+            eff,
+            dynamics,
+            ribbon,
+            reach,
+        })
+    }
+}
+
+impl HairSystem for StripsSystem {
+    fn kind(&self) -> &'static str {
+        KIND.name
+    }
+
+    fn bounds(&self) -> (DVec3, f64) {
+        let r = self.head.radii.iter().copied().fold(0.0, f64::max);
+        (DVec3::from(self.head.center), r + self.reach)
+    }
+
+    fn step(
+        &mut self,
+        gpu: &Gpu,
+        enc: &mut wgpu::CommandEncoder,
+        ctx: &FrameCtx,
+        frames: u32,
+    ) -> Result<StepInfo> {
+        // The gust scale at the recording's start holds for its frames (the viewer and
+        // renders record one frame per submission).
+        self.eff
+            .write(gpu, ctx.forces.eff.as_deref(), ctx.frame as f64);
+        self.dynamics
+            .record(gpu, enc, ctx.forces, ctx.frame, frames)?;
+        Ok(StepInfo {
+            substeps: frames * dynamics::steps_per_frame(&self.strips.motion),
+            capped: false,
+        })
+    }
+
+    fn prepare(
+        &mut self,
+        gpu: &Gpu,
+        enc: &mut wgpu::CommandEncoder,
+        ctx: &FrameCtx,
+        _view: &View,
+    ) -> Result<()> {
+        self.ribbon
+            .record(gpu, enc, self.dynamics.points(), &ctx.head)
+    }
+
+    fn draw(&self, pass: &mut wgpu::RenderPass<'_>, _view: &View) {
+        self.ribbon.draw(pass);
+    }
+
+    fn reset(&mut self, gpu: &Gpu) -> Result<()> {
+        self.dynamics.reset(gpu)
+    }
+
+    fn set_samples(&mut self, gpu: &Gpu, samples: u32) {
+        self.ribbon.set_samples(gpu, samples);
+    }
+
+    fn update(&mut self, gpu: &Gpu, scene: &Scene, change: Change) -> Result<()> {
+        let Some(st) = &scene.strips else {
+            return Ok(());
+        };
+        match change {
+            Change::Redraw => {
+                self.ribbon.write_look(gpu, &st.look)?;
+            }
+            Change::Resimulate => {
+                let forces = Forces::from_scene(scene);
+                if let Some(e) = forces.eff.as_deref() {
+                    self.eff.write_cells(gpu, e)?;
+                }
+                self.dynamics.update_params(gpu, &st.motion, &scene.head);
+                self.solved =
+                    keyframe::solve(&self.rest, &st.motion, &forces, &scene.head, &st.edits)?;
+                self.dynamics.set_extra(
+                    gpu,
+                    &self.solved.iter().map(|s| s.extra).collect::<Vec<_>>(),
+                )?;
+                self.ribbon.write_look(gpu, &st.look)?;
+            }
+            _ => {}
+        }
+        self.strips = st.clone();
+        Ok(())
+    }
+
+    fn stats(&self) -> SystemStats {
+        let n = self.rest.len() as u64;
+        SystemStats {
+            strands: n,
+            segments: self
+                .rest
+                .iter()
+                .map(|r| r.points.len().saturating_sub(1) as u64)
+                .sum(),
+            simulated: n,
+            drawn: n,
+        }
+    }
+
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+
+    fn as_any_mut(&mut self) -> &mut dyn std::any::Any {
+        self
+    }
 }

@@ -155,3 +155,14 @@ fn look(ui: &mut Ui, st: &mut Strips) {
             .text("specular exponent"),
     );
 }
+
+/// The EFF panel: the field's grid, its outside force and gust, arrows in the view, the
+/// brush, and load/save.
+pub fn eff(ui: &mut Ui, _s: &mut ViewerState) {
+    ui.label("EFF");
+}
+
+/// The key-frame timeline: pick a strip, set the first key, drag the target at the second.
+pub fn keyframes(ui: &mut Ui, _s: &mut ViewerState) {
+    ui.label("key frames");
+}
