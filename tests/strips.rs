@@ -301,3 +301,36 @@ fn bad_strips_are_refused_with_the_field() {
     let e = Scene::load(&p).unwrap_err().to_string();
     assert!(e.contains("nowhere.eff"), "{e}");
 }
+
+/// The Key frames panel's "add an edit": the target is 5 cm out from where the strip's tip
+/// would be at the second key, and the scene with the edit validates and solves.
+#[test]
+fn panel_adds_an_edit_that_solves() {
+    let mut scene = common::scene("strips");
+    let e = kami::systems::strips::panel::new_edit(&scene, 11, 4, 16).unwrap();
+    assert_eq!((e.strip, e.from, e.to), (11, 4, 20));
+    let st = scene.strips.as_ref().unwrap();
+    let forces = Forces::from_scene(&scene);
+    let rest = hom::build(st, &scene.head).unwrap();
+    let clip = dynamics::simulate(
+        std::slice::from_ref(&rest[11]),
+        &st.motion,
+        &forces,
+        &scene.head,
+        &[],
+        20,
+    )
+    .unwrap();
+    let tip = *clip[20].last().unwrap();
+    let d = (DVec3::from(e.target) - tip).length();
+    assert!((d - 5.0).abs() < 1e-9, "target {d} cm from the tip");
+    scene.strips.as_mut().unwrap().edits.push(e);
+    kami::scene::validate(&scene).unwrap();
+    let st = scene.strips.as_ref().unwrap();
+    let solved = keyframe::solve(&rest, &st.motion, &forces, &scene.head, &st.edits).unwrap();
+    assert!(
+        solved[0].miss <= keyframe::TOLERANCE,
+        "miss {}",
+        solved[0].miss
+    );
+}
