@@ -25,7 +25,7 @@ use glam::DVec3;
 /// How close (world units) the solved tip must come to the target.
 pub const TOLERANCE: f64 = 0.05;
 /// Levenberg-Marquardt iterations at most per edit.
-const ITERATIONS: usize = 12;
+const ITERATIONS: usize = 30;
 
 /// What solving an edit did.
 #[derive(Clone, Debug, PartialEq)]

@@ -373,7 +373,7 @@ pub fn keyframes(ui: &mut Ui, s: &mut ViewerState) {
     ui.add(Slider::new(&mut s.key_strip, 0..=strips.saturating_sub(1)).text("strip"));
     ui.add(Slider::new(&mut s.key_span, 2..=120).text("frames to the second key"));
     if ui
-        .button("add an edit: first key now, target 5 cm out from the tip")
+        .button("add an edit: first key now, the strip swung 5 cm out")
         .on_hover_text("the second key is `frames to the second key` later; drag the target below")
         .clicked()
     {
@@ -427,8 +427,9 @@ pub fn keyframes(ui: &mut Ui, s: &mut ViewerState) {
     }
 }
 
-/// An edit of strip `strip` from `from` to `from + span`, aimed 5 cm out from where the
-/// strip's tip would be at the second key (in the head's rest frame).
+/// An edit of strip `strip` from `from` to `from + span`: its target is where the tip would
+/// be at the second key, swung 5 cm out from the head about the root (in the head's rest
+/// frame).
 pub fn new_edit(scene: &Scene, strip: u32, from: u32, span: u32) -> crate::Result<Edit> {
     let st = scene
         .strips
@@ -448,21 +449,24 @@ pub fn new_edit(scene: &Scene, strip: u32, from: u32, span: u32) -> crate::Resul
         &[],
         to,
     )?;
-    let world = clip
-        .last()
-        .and_then(|f| f.last())
-        .copied()
-        .unwrap_or(DVec3::ZERO);
-    let head = forces.head_at(f64::from(to));
-    let tip = head.inverse().transform_point3(world);
+    let last = clip.last().cloned().unwrap_or_default();
+    let head = forces.head_at(f64::from(to)).inverse();
+    let tip = head.transform_point3(last.last().copied().unwrap_or(DVec3::ZERO));
+    let root = head.transform_point3(last.first().copied().unwrap_or(DVec3::ZERO));
+    // Swing the strip out from the head about its root until the tip has moved 5 cm (a
+    // force along a hanging strip cannot shorten it: targets lie on the sphere it reaches).
+    let arm = tip - root;
     let out = (tip - DVec3::from(scene.head.center))
         .with_y(0.0)
         .normalize_or(DVec3::X);
+    let axis = arm.cross(out).normalize_or(DVec3::Z);
+    let angle = 2.0 * (2.5 / arm.length().max(2.5)).asin();
+    let target = root + glam::DQuat::from_axis_angle(axis, angle) * arm;
     Ok(Edit {
         strip,
         from,
         to,
-        target: (tip + 5.0 * out).to_array(),
+        target: target.to_array(),
         radius: 6.0,
     })
 }
