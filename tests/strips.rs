@@ -43,6 +43,19 @@ fn strips_snapshots() {
     .unwrap();
 }
 
+/// `assets/scenes/eff_capture.ron` (the field fitted from the capture round trip) at frame
+/// 20.
+#[test]
+fn eff_capture_snapshot() {
+    let gpu = common::gpu();
+    let scene = one_sample("eff_capture");
+    kami::stage::render_animation(&gpu, &scene, (160, 128), 20..=20, |_, img| {
+        check_snapshot("eff_capture_20", &img, TOL);
+        Ok(())
+    })
+    .unwrap();
+}
+
 /// The stage's strips after `frames` frames (one frame per submission, as the viewer and
 /// renders record them): world control points, strip-major.
 fn gpu_points(gpu: &kami::gpu::Gpu, scene: &Scene, frames: u32) -> (Vec<DVec3>, usize) {
