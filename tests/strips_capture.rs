@@ -921,7 +921,7 @@ fn report_is_written() {
 
 #[test]
 fn capture_scene_loads_the_fitted_field() {
-    let scene = kami::scene::Scene::load(&root().join("assets/scenes/eff_capture.ron")).unwrap();
+    let scene = kami::scene::Scene::load(root().join("assets/scenes/eff_capture.ron")).unwrap();
     assert!(scene.strips.is_some());
     let forces = kami::forces::Forces::from_scene(&scene);
     let e = forces.eff.expect("the scene's EFF");

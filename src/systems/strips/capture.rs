@@ -915,7 +915,7 @@ pub fn write_report(out: &Path) -> Result<()> {
          wind (`capture::round_trip_wind`: two jets from the front-left and the outside \
          force) and in still air; the EFF fitted from the markers alone (eq 3 over {} frame, \
          minus the still-air baseline; {} samples defining {} cells; the source and head \
-         given, the outside strength the samples' mean magnitude: {:.1} cm/s², true {:.1}).\n",
+         given, the wind through the rig's measured response (`capture::fit`), the outside strength the samples' median magnitude: {:.1} cm/s², true {:.1}).\n",
         r.strands,
         r.markers,
         r.length,
@@ -929,7 +929,7 @@ pub fn write_report(out: &Path) -> Result<()> {
     let _ = writeln!(md, "## Field: fitted against true cells\n");
     let _ = writeln!(
         md,
-        "| cells | cells | rms (cm/s²) | relative | mean angle (°) | max angle (°) | median |fit|/|true| |\n|---|---|---|---|---|---|---|"
+        "| where | cells | rms (cm/s²) | relative | mean angle (°) | max angle (°) | median fit/true magnitude |\n|---|---|---|---|---|---|---|"
     );
     let _ = writeln!(md, "| markers passed {}", f(&r.field_passed));
     let _ = writeln!(md, "| all {}\n", f(&r.field_all));
