@@ -4,7 +4,7 @@
 // step's record picked by the dynamic `slot`. The propagators (the exact damped-oscillator
 // flow over a full and a half step) are computed in f64 on the CPU per joint and uploaded;
 // the head poses, the head-acceleration maps, the uniform wind and the extra forces' ramps
-// per step are too. Follows forces/eff.wgsl (eff_force) and common/ellipsoid.wgsl (hull).
+// per step are too. Follows forces/eff.wgsl (eff_field) and common/ellipsoid.wgsl (hull).
 //
 // Loops per invocation and dispatch stay far below llvmpipe's 65,535 (the Rust side refuses
 // strips with too many sticks): 3 passes over the sticks, 2 force sums over the extras, and
@@ -164,13 +164,15 @@ fn ramp(st: u32, e: u32, mid: bool) -> f32 {
 fn accel(x: vec3<f32>, goal: vec3<f32>, band: f32, st: u32, mid: bool) -> vec3<f32> {
     var m = steps[st].m0;
     var k = steps[st].k0;
-    var wind = steps[st].wind0.xyz;
+    var wind = steps[st].wind0;
     if mid {
         m = steps[st].m1;
         k = steps[st].k1;
-        wind = steps[st].wind1.xyz;
+        wind = steps[st].wind1;
     }
-    var a = params.gravity.xyz + wind + eff_force(x, params.flags.x);
+    // wind.w: the EFF's gust scale at this step's time (several frames may be recorded in
+    // one submission, so the scale travels with the step, not in the EFF's uniform).
+    var a = params.gravity.xyz + wind.xyz + eff_field(x, params.flags.x) * wind.w;
     a -= (k * vec4<f32>(x, 1.0)).xyz;
     let spring = params.gravity.w;
     if spring > 0.0 {

@@ -698,6 +698,11 @@ fn frame(
         let size = DVec2::new(f64::from(scene_w), f64::from(win_h.max(1)));
         let view = edit::View::from_camera(&camera, head, size, bounds);
         state.edit_view = Some(view);
+        if state.view.eff_arrows {
+            // EFF cells are in world space: projected without the head pose.
+            let world = edit::View::from_camera(&camera, glam::DMat4::IDENTITY, size, bounds);
+            crate::systems::strips::panel::overlay(ui.ctx(), &state.scene, &world, ppp);
+        }
         if state.view.edit_skeletons {
             if let Some(w) = &state.scene.wisps {
                 wisp_panel::overlay(ui.ctx(), w, &state.editor, &view, ppp);

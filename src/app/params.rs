@@ -48,6 +48,8 @@ pub struct ViewSettings {
     /// Edit the wisps' skeletons with the mouse in the 3D view (left click picks and drags
     /// a node, the wheel sets its radius, ...) and draw them over the view.
     pub edit_skeletons: bool,
+    /// Draw the EFF's cells as arrows and the key-frame targets over the view.
+    pub eff_arrows: bool,
 }
 
 impl ViewSettings {
@@ -80,6 +82,7 @@ impl Default for ViewSettings {
             full_supersampling: false,
             msaa_dropped: false,
             edit_skeletons: false,
+            eff_arrows: false,
         }
     }
 }
@@ -147,6 +150,11 @@ pub struct ViewerState {
     /// The 3D view as last drawn (the scene region, in window pixels), for the skeleton
     /// editor: picking, dragging, the overlay. None before the first frame.
     pub edit_view: Option<crate::systems::wisps::edit::View>,
+    /// The EFF panel's brush and file path.
+    pub brush: crate::systems::strips::panel::Brush,
+    /// The Key frames panel's strip and edit length.
+    pub key_strip: u32,
+    pub key_span: u32,
 }
 
 impl ViewerState {
@@ -163,6 +171,9 @@ impl ViewerState {
             group: 0,
             editor: Default::default(),
             edit_view: None,
+            brush: Default::default(),
+            key_strip: 0,
+            key_span: 20,
         }
     }
 

@@ -93,9 +93,12 @@ pub fn collision_accel(hull: &Ellipsoid, local: DVec3, band: f64, kappa: f64) ->
 }
 
 /// An extra force of a key-frame edit (section 4, eq 4; the lead's solver sets `accel`). It
-/// acts on the control points of every strip near `center` (world) during [from, to]
-/// (frames): `accel · s(|x − center| / radius) · r(frame)` with s(u) = (1 − u²)³ for u < 1
-/// else 0 and r = sin²(π (f − from) / (to − from)), both smooth, so the acceleration it
+/// acts on the control points of every strip near `center` (world): `accel · s(|x − center|
+/// / radius) · r(frame)` with s(u) = (1 − u²)³ for u < 1 else 0. In time it rises from the
+/// first key to the second, r = sin²(π/2 · (f − from)/(to − from)), is whole at `to` (so
+/// the strip is held at its target at the second key), and lets go over half the edit's
+/// length after it, r = cos²(π/2 · (f − to)/release) with release = (to − from)/2. Both s
+/// and r are smooth (r has zero slope at from, to and to + release), so the acceleration it
 /// adds has no jump in space or time. `strip` names the edited strip (informational).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ExtraForce {
@@ -108,14 +111,28 @@ pub struct ExtraForce {
 }
 
 impl ExtraForce {
-    /// r(frame): 0 outside [from, to], 1 in the middle.
+    /// Frames after `to` over which the force lets go.
+    pub fn release(&self) -> f64 {
+        0.5 * (self.to - self.from)
+    }
+
+    /// r(frame): 0 before `from`, rising to 1 at `to`, back to 0 at `to + release`.
     pub fn ramp(&self, frame: f64) -> f64 {
-        let inside = self.to > self.from && frame >= self.from && frame <= self.to;
-        if !inside {
+        let span = self.to - self.from;
+        if span <= 0.0 || frame <= self.from {
             return 0.0;
         }
-        let s = (PI * (frame - self.from) / (self.to - self.from)).sin();
-        s * s
+        let half_pi = 0.5 * PI;
+        if frame <= self.to {
+            let s = (half_pi * (frame - self.from) / span).sin();
+            return s * s;
+        }
+        let t = (frame - self.to) / self.release();
+        if t >= 1.0 {
+            return 0.0;
+        }
+        let c = (half_pi * t).cos();
+        c * c
     }
 
     /// s(|x − center| / radius).

@@ -514,7 +514,11 @@ impl DynamicsGpu {
                 let h0 = HeadFrame::at(forces, &self.motion, f0, width);
                 let hm = HeadFrame::at(forces, &self.motion, fm, width);
                 let end = forces.head_at(f0 + 1.0 / spf as f64);
-                let wind = |f: f64| f4(crate::forces::wind_at(&forces.wind, f), f);
+                // w: the EFF's gust scale at `f` (the kernel scales the field per step).
+                let wind = |f: f64| {
+                    let scale = forces.eff.as_ref().map_or(0.0, |e| e.scale_at(f));
+                    f4(crate::forces::wind_at(&forces.wind, f), scale)
+                };
                 let mut ramp0 = [0.0f32; MAX_EXTRA];
                 let mut ramp1 = [0.0f32; MAX_EXTRA];
                 for (e, x) in self.extra.iter().enumerate() {

@@ -1,13 +1,15 @@
 //! Key-frame editing (Kazama et al. section 4, eq 4): an animator picks a strip, sets a
 //! first key frame, and drags the strip's tip to where it should be at a second key frame.
 //! The edit becomes an extra force that joins the EFF: an acceleration `a` acting, with a
-//! smooth falloff in space (`(1 − u²)³` within a radius) and in time (`sin²` between the
-//! two keys), on the control points near the strip — so neighbouring strips follow a
-//! little, and the motion has no jump in acceleration at either key.
+//! smooth falloff in space (`(1 − u²)³` within a radius) and in time (rising as `sin²` from
+//! the first key, whole at the second so the strip is held at its target there, let go as
+//! `cos²` over half the edit's length after it; `dynamics::ExtraForce::ramp`), on the
+//! control points near the strip — so neighbouring strips follow a little, and the motion
+//! has no jump in acceleration at either key or at the release.
 //!
 //! Eq 4 gives the size of the force as the constant acceleration that moves a point by the
 //! wanted offset in the edit's time, `2 Δ / s²`. With the springs pulling back and the
-//! ramps, that is only a first guess: `solve` refines `a` by Newton's method on the f64
+//! ramps, that is only a first guess: `solve` refines `a` by Levenberg-Marquardt on the f64
 //! clip of that strip (each iteration simulates the strip from frame 0 to the second key,
 //! with finite differences for the Jacobian) until the tip is within `TOLERANCE` of the
 //! target. Later edits are solved with the earlier ones in place.
@@ -22,8 +24,8 @@ use glam::DVec3;
 
 /// How close (world units) the solved tip must come to the target.
 pub const TOLERANCE: f64 = 0.05;
-/// Newton iterations at most per edit.
-const ITERATIONS: usize = 12;
+/// Levenberg-Marquardt iterations at most per edit.
+const ITERATIONS: usize = 30;
 
 /// What solving an edit did.
 #[derive(Clone, Debug, PartialEq)]
@@ -31,7 +33,7 @@ pub struct Solved {
     pub extra: ExtraForce,
     /// Distance from the tip to the target at the second key, after solving.
     pub miss: f64,
-    /// Newton iterations taken.
+    /// Iterations taken.
     pub iterations: usize,
 }
 
@@ -92,10 +94,11 @@ fn solve_one(
     let free = tip_at(strip, motion, forces, head, before, e.to)?;
     // The force acts around the way from the free tip to the target.
     let center = 0.5 * (free + target);
-    let radius = e.radius.max(0.75 * (target - free).length());
+    // Wide enough that the force is nearly even along the way (0.82 of its peak at the ends).
+    let radius = e.radius.max(2.0 * (target - free).length());
     let seconds = f64::from(e.to - e.from) * motion.frame_time;
     // Eq 4's size: the constant acceleration that moves a point by Δ in the edit's time.
-    // The sin² ramp averages one half, so twice that is the first guess.
+    // The rising ramp averages one half over the edit, so twice that is the first guess.
     let mut a = 2.0 * 2.0 * (target - free) / (seconds * seconds);
     let with = |a: DVec3| {
         let mut all = before.to_vec();
@@ -125,21 +128,32 @@ fn solve_one(
             *col = (miss_of(a + da)? - r) / h;
         }
         let j = glam::DMat3::from_cols(cols[0], cols[1], cols[2]);
-        if j.determinant().abs() < 1e-30 {
-            break;
-        }
-        let step = j.inverse() * r;
-        // Damped: halve the step while it does not reduce the miss.
-        let mut t = 1.0;
-        loop {
-            let next = a - t * step;
-            let rn = miss_of(next)?;
-            if rn.length() < r.length() || t < 1e-3 {
-                a = next;
-                r = rn;
+        // Levenberg-Marquardt: a force along a hanging strip hardly moves it (no torque),
+        // so J is near singular in that direction and a plain Newton step would run off
+        // along it. Damping λ grows until a step reduces the miss; stop when none does.
+        let jtj = j.transpose() * j;
+        let g = j.transpose() * r;
+        let mut lambda = 1e-3 * (jtj.x_axis.x + jtj.y_axis.y + jtj.z_axis.z) / 3.0;
+        let mut better = None;
+        for _ in 0..8 {
+            let m = jtj + glam::DMat3::from_diagonal(DVec3::splat(lambda));
+            if m.determinant().abs() < 1e-300 {
                 break;
             }
-            t *= 0.5;
+            let next = a - m.inverse() * g;
+            let rn = miss_of(next)?;
+            if rn.length() < r.length() {
+                better = Some((next, rn));
+                break;
+            }
+            lambda *= 10.0;
+        }
+        match better {
+            Some((next, rn)) => {
+                a = next;
+                r = rn;
+            }
+            None => break,
         }
     }
     Ok(Solved {

@@ -4,8 +4,12 @@
 //! act from the next step, layers rebuild the strips, the look redraws.
 
 use crate::app::params::ViewerState;
-use crate::scene::strips::{Layer, Sampling, Strips};
-use egui::{ComboBox, DragValue, Slider, Ui};
+use crate::forces::eff::{Blower, Eff, EffDesc, EffSample, GustKey};
+use crate::forces::Forces;
+use crate::scene::strips::{Edit, Layer, Sampling, Strips};
+use crate::scene::{Interp, Scene};
+use egui::{Color32, ComboBox, DragValue, Slider, Ui};
+use glam::DVec3;
 
 pub fn strips(ui: &mut Ui, s: &mut ViewerState) {
     let Some(st) = s.scene.strips.as_mut() else {
@@ -156,13 +160,383 @@ fn look(ui: &mut Ui, st: &mut Strips) {
     );
 }
 
-/// The EFF panel: the field's grid, its outside force and gust, arrows in the view, the
-/// brush, and load/save.
-pub fn eff(ui: &mut Ui, _s: &mut ViewerState) {
-    ui.label("EFF");
+/// A starting field for a scene without one: a gust from the front-left, as in
+/// `assets/eff/front_left_gust.eff`.
+fn starter_eff() -> EffDesc {
+    EffDesc {
+        center: [0.0, -6.0, 0.0],
+        source: [70.0, 10.0, 70.0],
+        head: Some([0.0, 0.0, 0.0]),
+        strength: 150.0,
+        blowers: vec![Blower {
+            at: [32.0, 6.0, 32.0],
+            toward: [-1.0, -0.15, -1.0],
+            strength: 450.0,
+            radius: 9.0,
+            spread: 12.0,
+        }],
+        ..EffDesc::default()
+    }
 }
 
-/// The key-frame timeline: pick a strip, set the first key, drag the target at the second.
-pub fn keyframes(ui: &mut Ui, _s: &mut ViewerState) {
-    ui.label("key frames");
+/// The brush of the EFF panel (kept between frames).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Brush {
+    pub center: [f64; 3],
+    pub radius: f64,
+    pub direction: [f64; 3],
+    pub strength: f64,
+    /// File for Load and Save.
+    pub path: String,
+}
+
+impl Default for Brush {
+    fn default() -> Self {
+        Brush {
+            center: [0.0, -15.0, -12.0],
+            radius: 10.0,
+            direction: [0.0, 0.0, 1.0],
+            strength: 600.0,
+            path: "eff.eff".into(),
+        }
+    }
+}
+
+/// The field as the scene builds it (files read, fill rules applied).
+fn built(scene: &Scene) -> Option<std::sync::Arc<Eff>> {
+    Forces::from_scene(scene).eff
+}
+
+/// The EFF panel: the grid, the outside force, the gust keys, arrows in the view, a brush
+/// that paints direction and strength into the cells, and load/save of EFF files.
+pub fn eff(ui: &mut Ui, s: &mut ViewerState) {
+    if s.scene.eff.is_none() {
+        ui.label("this scene has no External Force Field");
+        if ui.button("add one (a gust from the front-left)").clicked() {
+            s.scene.eff = Some(starter_eff());
+        }
+        return;
+    }
+    let field = built(&s.scene);
+    if let Some(e) = &field {
+        let d = e.dims();
+        ui.label(format!(
+            "{}×{}×{} cells of {:.1} cm; {} defined, the rest filled by the two rules; \
+             strongest {:.0} cm/s²",
+            d[0],
+            d[1],
+            d[2],
+            e.cell_size().x,
+            e.defined().iter().filter(|d| **d).count(),
+            e.max_force()
+        ));
+    }
+    ui.checkbox(
+        &mut s.view.eff_arrows,
+        "draw the cells as arrows in the view",
+    );
+    let Some(desc) = s.scene.eff.as_mut() else {
+        return;
+    };
+    if let Some(f) = &desc.file {
+        ui.label(format!("cells from {f}"));
+    } else {
+        ui.add(Slider::new(&mut desc.extent, 10.0..=200.0).text("extent (cm)"));
+        ui.horizontal(|ui| {
+            ui.label("cells per axis");
+            for r in &mut desc.resolution {
+                ui.add(DragValue::new(r).range(1..=64));
+            }
+        });
+        ui.horizontal(|ui| {
+            ui.label("wind source");
+            for c in &mut desc.source {
+                ui.add(DragValue::new(c).speed(1.0));
+            }
+        });
+        ui.add(
+            Slider::new(&mut desc.strength, 0.0..=3000.0)
+                .logarithmic(true)
+                .text("outside force (toward the head)"),
+        );
+    }
+    ui.separator();
+    ui.label("gust: the field's scale over time (frame, scale)");
+    let mut remove = None;
+    for (i, k) in desc.gust.iter_mut().enumerate() {
+        ui.horizontal(|ui| {
+            ui.add(
+                DragValue::new(&mut k.frame)
+                    .range(0.0..=100_000.0)
+                    .speed(1.0),
+            );
+            ui.add(DragValue::new(&mut k.scale).range(0.0..=100.0).speed(0.05));
+            let mut linear = k.interp == Interp::Linear;
+            ui.checkbox(&mut linear, "blend");
+            k.interp = if linear { Interp::Linear } else { Interp::Step };
+            if ui.small_button("x").clicked() {
+                remove = Some(i);
+            }
+        });
+    }
+    if let Some(i) = remove {
+        desc.gust.remove(i);
+    }
+    if ui.small_button("add a gust key").clicked() {
+        let frame = desc.gust.last().map_or(0.0, |k| k.frame + 10.0);
+        desc.gust.push(GustKey {
+            frame,
+            scale: 1.0,
+            interp: Interp::Linear,
+        });
+    }
+    // Keys stay in frame order (the validator requires it).
+    desc.gust.sort_by(|a, b| a.frame.total_cmp(&b.frame));
+    ui.separator();
+    ui.label("brush: paint a force into the cells around a point");
+    let b = &mut s.brush;
+    ui.horizontal(|ui| {
+        ui.label("at");
+        for c in &mut b.center {
+            ui.add(DragValue::new(c).speed(0.5));
+        }
+    });
+    ui.add(Slider::new(&mut b.radius, 1.0..=40.0).text("radius"));
+    ui.horizontal(|ui| {
+        ui.label("direction");
+        for c in &mut b.direction {
+            ui.add(DragValue::new(c).speed(0.05).range(-1.0..=1.0));
+        }
+    });
+    ui.add(
+        Slider::new(&mut b.strength, 0.0..=5000.0)
+            .logarithmic(true)
+            .text("strength (cm/s²)"),
+    );
+    if ui.button("paint").clicked() {
+        if let Some(e) = &field {
+            let dir = DVec3::from(b.direction).normalize_or_zero();
+            let mut painted = (**e).clone();
+            let n = painted.paint(DVec3::from(b.center), b.radius, dir * b.strength, 1.0);
+            // The painted cells become samples of the scene's field (saved with the scene),
+            // so the fill rules work around them.
+            let before = e.cells();
+            for (i, (new, old)) in painted.cells().iter().zip(before).enumerate() {
+                if (*new - *old).length() > 1e-9 {
+                    desc.samples.push(EffSample {
+                        at: painted.cell_center(i).to_array(),
+                        force: new.to_array(),
+                    });
+                }
+            }
+            s.message = Some(format!("painted {n} cells"));
+        }
+    }
+    ui.separator();
+    ui.horizontal(|ui| {
+        ui.label("file");
+        ui.text_edit_singleline(&mut b.path);
+    });
+    ui.horizontal(|ui| {
+        if ui.button("save the field").clicked() {
+            match field.as_ref().map(|e| e.save(&b.path)) {
+                Some(Ok(())) => s.message = Some(format!("saved {}", b.path)),
+                Some(Err(e)) => s.error = Some(e.to_string()),
+                None => {}
+            }
+        }
+        if ui.button("load a field").clicked() {
+            let mut next = EffDesc {
+                file: Some(b.path.clone()),
+                gust: desc.gust.clone(),
+                ..EffDesc::default()
+            };
+            match crate::forces::eff::resolve(&mut next, std::path::Path::new("")) {
+                Ok(()) => *desc = next,
+                Err(e) => s.error = Some(e.to_string()),
+            }
+        }
+    });
+}
+
+/// The key-frame timeline (section 4): each edit pulls one strip toward a target between
+/// two key frames; the clip re-simulates as soon as an edit changes.
+pub fn keyframes(ui: &mut Ui, s: &mut ViewerState) {
+    let frame = s.stats.frame;
+    let Some(st) = s.scene.strips.as_ref() else {
+        ui.label("this scene has no strips");
+        return;
+    };
+    let strips: u32 = st.layers.iter().map(|l| l.count).sum();
+    ui.label(format!("frame {frame}"));
+    ui.checkbox(&mut s.view.playing, "play");
+    ui.add(Slider::new(&mut s.key_strip, 0..=strips.saturating_sub(1)).text("strip"));
+    ui.add(Slider::new(&mut s.key_span, 2..=120).text("frames to the second key"));
+    if ui
+        .button("add an edit: first key now, the strip swung 5 cm out")
+        .on_hover_text("the second key is `frames to the second key` later; drag the target below")
+        .clicked()
+    {
+        match new_edit(&s.scene, s.key_strip, frame as u32, s.key_span) {
+            Ok(e) => {
+                if let Some(st) = s.scene.strips.as_mut() {
+                    st.edits.push(e);
+                }
+            }
+            Err(e) => s.error = Some(e.to_string()),
+        }
+    }
+    ui.checkbox(
+        &mut s.view.eff_arrows,
+        "show targets and the field in the view",
+    );
+    let Some(st) = s.scene.strips.as_mut() else {
+        return;
+    };
+    let mut remove = None;
+    for (i, e) in st.edits.iter_mut().enumerate() {
+        egui::CollapsingHeader::new(format!(
+            "edit {i}: strip {}, frames {}..{}",
+            e.strip, e.from, e.to
+        ))
+        .id_salt(("strip edit", i))
+        .default_open(true)
+        .show(ui, |ui| {
+            ui.horizontal(|ui| {
+                ui.label("keys");
+                ui.add(DragValue::new(&mut e.from).range(0..=100_000));
+                ui.add(DragValue::new(&mut e.to).range(1..=100_000));
+            });
+            if e.to <= e.from {
+                e.to = e.from + 1;
+            }
+            ui.horizontal(|ui| {
+                ui.label("target");
+                for c in &mut e.target {
+                    ui.add(DragValue::new(c).speed(0.1));
+                }
+            });
+            ui.add(Slider::new(&mut e.radius, 1.0..=30.0).text("falloff radius"));
+            if ui.small_button("remove").clicked() {
+                remove = Some(i);
+            }
+        });
+    }
+    if let Some(i) = remove {
+        st.edits.remove(i);
+    }
+}
+
+/// An edit of strip `strip` from `from` to `from + span`: its target is where the tip would
+/// be at the second key, swung 5 cm out from the head about the root (in the head's rest
+/// frame).
+pub fn new_edit(scene: &Scene, strip: u32, from: u32, span: u32) -> crate::Result<Edit> {
+    let st = scene
+        .strips
+        .as_ref()
+        .ok_or_else(|| crate::KamiError::Option("the scene has no strips".into()))?;
+    let rest = super::hom::build(st, &scene.head)?;
+    let r = rest
+        .get(strip as usize)
+        .ok_or_else(|| crate::KamiError::Option(format!("no strip {strip}")))?;
+    let forces = Forces::from_scene(scene);
+    let to = from + span.max(1);
+    let clip = super::dynamics::simulate(
+        std::slice::from_ref(r),
+        &st.motion,
+        &forces,
+        &scene.head,
+        &[],
+        to,
+    )?;
+    let last = clip.last().cloned().unwrap_or_default();
+    let head = forces.head_at(f64::from(to)).inverse();
+    let tip = head.transform_point3(last.last().copied().unwrap_or(DVec3::ZERO));
+    let root = head.transform_point3(last.first().copied().unwrap_or(DVec3::ZERO));
+    // Swing the strip out from the head about its root until the tip has moved 5 cm (a
+    // force along a hanging strip cannot shorten it: targets lie on the sphere it reaches).
+    let arm = tip - root;
+    let out = (tip - DVec3::from(scene.head.center))
+        .with_y(0.0)
+        .normalize_or(DVec3::X);
+    let axis = arm.cross(out).normalize_or(DVec3::Z);
+    let angle = 2.0 * (2.5 / arm.length().max(2.5)).asin();
+    let target = root + glam::DQuat::from_axis_angle(axis, angle) * arm;
+    Ok(Edit {
+        strip,
+        from,
+        to,
+        target: target.to_array(),
+        radius: 6.0,
+    })
+}
+
+/// Arrows for the EFF's cells (every other cell on each axis past 8 per axis) and the
+/// key-frame targets, over the 3D view. `view` projects world points.
+pub fn overlay(
+    ctx: &egui::Context,
+    scene: &Scene,
+    view: &crate::systems::wisps::edit::View,
+    ppp: f32,
+) {
+    use egui::{pos2, vec2, Id, LayerId, Order, Rect, Stroke};
+    let ppp = ppp.max(1e-3);
+    let clip = Rect::from_min_size(
+        egui::Pos2::ZERO,
+        vec2(view.size.x as f32 / ppp, view.size.y as f32 / ppp),
+    );
+    let painter = ctx
+        .layer_painter(LayerId::new(Order::Middle, Id::unique("strips overlay")))
+        .with_clip_rect(clip);
+    let at = |q: DVec3| pos2(q.x as f32 / ppp, q.y as f32 / ppp);
+    if let Some(e) = built(scene) {
+        let d = e.dims();
+        let step = |n: u32| if n > 8 { 2 } else { 1 };
+        let biggest = e.max_force().max(1e-9);
+        let len = e.cell_size().min_element() * 0.9;
+        for k in (0..d[2]).step_by(step(d[2])) {
+            for j in (0..d[1]).step_by(step(d[1])) {
+                for i in (0..d[0]).step_by(step(d[0])) {
+                    let idx = e.index([i, j, k]);
+                    let c = e.cell_center(idx);
+                    let f = e.cells()[idx];
+                    let m = f.length() / biggest;
+                    if m < 0.05 {
+                        continue;
+                    }
+                    let tip = c + f / f.length() * len * m;
+                    if let (Some(a), Some(b)) = (view.project(c), view.project(tip)) {
+                        let col = if e.defined()[idx] {
+                            Color32::from_rgb(255, 200, 80)
+                        } else {
+                            Color32::from_rgb(110, 190, 255)
+                        };
+                        painter.arrow(at(a), at(b) - at(a), Stroke::new(1.2, col));
+                    }
+                }
+            }
+        }
+    }
+    if let Some(st) = &scene.strips {
+        let forces = Forces::from_scene(scene);
+        for e in &st.edits {
+            let p = forces
+                .head_at(f64::from(e.to))
+                .transform_point3(DVec3::from(e.target));
+            if let Some(q) = view.project(p) {
+                painter.circle_stroke(
+                    at(q),
+                    6.0,
+                    Stroke::new(2.0, Color32::from_rgb(255, 80, 160)),
+                );
+                painter.text(
+                    at(q) + vec2(8.0, -8.0),
+                    egui::Align2::LEFT_BOTTOM,
+                    format!("strip {} @ {}", e.strip, e.to),
+                    egui::FontId::proportional(12.0),
+                    Color32::WHITE,
+                );
+            }
+        }
+    }
 }
