@@ -188,7 +188,7 @@ enum Bench {
     },
     /// Kazama's strips: dynamics and full-frame ms against strip count (strips per second),
     /// the angular-spring solver's work-precision table, and the EFF fit; writes strips.md,
-    /// strips.csv, strips_speed.png and strips_precision.png.
+    /// strips.csv, strips_speed.png, strips_precision.png and capture.md/.csv/.png.
     Strips {
         #[arg(long, default_value = "assets/scenes/strips.ron")]
         scene: PathBuf,
@@ -535,7 +535,7 @@ fn main() -> Result<()> {
                 let report = kami::bench::strips::run(&gpu, &scene, frames, &out)?;
                 println!("{}", report.markdown);
                 println!(
-                    "wrote {0}/strips.md, {0}/strips.csv, {0}/strips_speed.png, {0}/strips_precision.png",
+                    "wrote {0}/strips.md, {0}/strips.csv, {0}/strips_speed.png, {0}/strips_precision.png, {0}/capture.md, {0}/capture.csv, {0}/capture.png",
                     out.display()
                 );
             }

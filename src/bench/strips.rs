@@ -1,7 +1,8 @@
 //! `kami bench strips`: Kazama's strips. Strips per second on the adapter in use (the
 //! dynamics kernel alone and a full frame, against strip count), the angular-spring
 //! solver's work–precision table on `dynamics::Setup::gust()` (f64 CPU reference), and the
-//! EFF fit section. Writes strips.md, strips.csv, strips_speed.png and strips_precision.png.
+//! EFF fit (the capture round trip's report). Writes strips.md, strips.csv, strips_speed.png,
+//! strips_precision.png, and capture.md/.csv/.png.
 
 use super::{provenance, time_mean, write_report, Report};
 use crate::error::Result;
@@ -357,23 +358,36 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
         "us per strip per simulated second",
         "tip error / strip length",
         &[Series {
-            name: "angular springs, 30-960 steps/s".into(),
+            name: "30-960 steps/s".into(),
             color: plot::palette(2),
             points: pts,
         }],
         Some((0.01, "1 %")),
     );
 
-    // 3. EFF fit.
-    // TODO(lead): when `crate::systems::strips::capture::write_report(out)` lands on main,
-    // call it here and link its output from this section. It did not exist on main when
-    // this bench was written, so the section reports no numbers.
+    // 3. EFF fit: the capture round trip writes capture.md, capture.csv and capture.png
+    // into `out`; its tables are quoted here (headings demoted) so strips.md stands alone.
+    crate::systems::strips::capture::write_report(out)?;
+    let cap_path = out.join("capture.md");
+    let cap = std::fs::read_to_string(&cap_path).map_err(|source| crate::KamiError::Io {
+        path: cap_path.clone(),
+        source,
+    })?;
     writeln!(
         md,
-        "## EFF fit\n\nNot measured by this bench yet: the capture round trip's report \
-         (`systems::strips::capture::write_report`) is not on main.\n"
+        "## EFF fit\n\nFrom `systems::strips::capture::write_report` (also written as \
+         capture.md, capture.csv, capture.png).\n"
     )
     .ok();
+    let mut quoted = String::new();
+    for line in cap.lines() {
+        if line.starts_with("# ") || line.starts_with("Written by") {
+            continue;
+        }
+        let demote = if line.starts_with('#') { "#" } else { "" };
+        writeln!(quoted, "{demote}{line}").ok();
+    }
+    md.push_str(quoted.trim_start());
 
     write_report(out, "strips", &md, &csv)?;
     save(out, "strips_speed.png", speed_plot)?;
