@@ -186,6 +186,21 @@ enum Bench {
         #[arg(long)]
         software: bool,
     },
+    /// Kazama's strips: dynamics and full-frame ms against strip count (strips per second),
+    /// the angular-spring solver's work-precision table, and the EFF fit; writes strips.md,
+    /// strips.csv, strips_speed.png, strips_precision.png and capture.md/.csv/.png.
+    Strips {
+        #[arg(long, default_value = "assets/scenes/strips.ron")]
+        scene: PathBuf,
+        /// Frames to time per figure.
+        #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=1000))]
+        frames: u32,
+        /// Directory for the report files.
+        #[arg(long, default_value = "bench_out")]
+        out: PathBuf,
+        #[arg(long)]
+        software: bool,
+    },
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -507,6 +522,20 @@ fn main() -> Result<()> {
                 println!("{}", report.markdown);
                 println!(
                     "wrote {0}/wisps.md, {0}/wisps.csv, {0}/wisps_cost.png, {0}/wisps_error.png, {0}/wisps_springs.png",
+                    out.display()
+                );
+            }
+            Bench::Strips {
+                scene,
+                frames,
+                out,
+                software,
+            } => {
+                let gpu = Gpu::headless(preference(software))?;
+                let report = kami::bench::strips::run(&gpu, &scene, frames, &out)?;
+                println!("{}", report.markdown);
+                println!(
+                    "wrote {0}/strips.md, {0}/strips.csv, {0}/strips_speed.png, {0}/strips_precision.png, {0}/capture.md, {0}/capture.csv, {0}/capture.png",
                     out.display()
                 );
             }

@@ -3,6 +3,7 @@
 
 pub mod backends;
 pub mod fur;
+pub mod strips;
 pub mod wisps;
 
 use crate::error::Result;

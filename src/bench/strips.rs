@@ -1,0 +1,410 @@
+//! `kami bench strips`: Kazama's strips. Strips per second on the adapter in use (the
+//! dynamics kernel alone and a full frame, against strip count), the angular-spring
+//! solver's work–precision table on `dynamics::Setup::gust()` (f64 CPU reference), and the
+//! EFF fit (the capture round trip's report). Writes strips.md, strips.csv, strips_speed.png,
+//! strips_precision.png, and capture.md/.csv/.png.
+
+use super::{provenance, time_mean, write_report, Report};
+use crate::error::Result;
+use crate::gpu::Gpu;
+use crate::plot::{self, Series};
+use crate::scene::Scene;
+use crate::stage::{self, target, Quality, Stage};
+use crate::systems::strips::dynamics::{self, PrecisionRow, Setup};
+use std::fmt::Write;
+use std::path::Path;
+
+/// Strip counts of the speed sweep (the shipped scene has 120).
+pub const COUNTS: [u32; 4] = [30, 120, 480, 1920];
+
+/// Image size of the full-frame timing (one sample per pixel).
+pub const SIZE: (u32, u32) = (640, 480);
+
+/// Rates of the work–precision table (steps per second; rounded to whole steps per frame).
+pub const RATES: [f64; 7] = [15.0, 30.0, 60.0, 120.0, 240.0, 480.0, 960.0];
+
+/// Frames of `Setup::gust()` the precision table runs: 1.5 s at 30 fps covers the gust's
+/// keys (to frame 36) and the head turn (to frame 42).
+pub const PRECISION_FRAMES: u32 = 45;
+
+/// Largest step the stability search tries (seconds).
+pub const STABLE_CAP: f64 = 0.5;
+
+/// The paper's figure (Kazama et al., Quadro FX4500): 120 strips at 15–20 fps.
+pub const PAPER: &str = "120 strips at 15–20 fps on a Quadro FX4500";
+
+/// The scene with its layers' counts scaled so they sum to `n` (largest remainder, at
+/// least one strip per layer), the layers' shapes unchanged.
+pub fn scaled(scene: &Scene, n: u32) -> Scene {
+    let mut s = scene.clone();
+    let Some(st) = s.strips.as_mut() else {
+        return s;
+    };
+    let total: u32 = st.layers.iter().map(|l| l.count).sum();
+    if total == 0 {
+        return s;
+    }
+    let want: Vec<f64> = st
+        .layers
+        .iter()
+        .map(|l| l.count as f64 * n as f64 / total as f64)
+        .collect();
+    let mut got: Vec<u32> = want.iter().map(|w| (w.floor() as u32).max(1)).collect();
+    let mut order: Vec<usize> = (0..want.len()).collect();
+    order.sort_by(|&a, &b| (want[b] - want[b].floor()).total_cmp(&(want[a] - want[a].floor())));
+    let mut k = 0;
+    while got.iter().sum::<u32>() < n && !order.is_empty() {
+        got[order[k % order.len()]] += 1;
+        k += 1;
+    }
+    for (l, c) in st.layers.iter_mut().zip(got) {
+        l.count = c;
+    }
+    s
+}
+
+/// One scene on the stage with an offscreen target.
+struct Timed {
+    stage: Stage,
+    out: target::Offscreen,
+}
+
+impl Timed {
+    fn new(gpu: &Gpu, scene: &Scene) -> Result<Timed> {
+        stage::check_limits(gpu, scene, SIZE)?;
+        let quality = Quality {
+            msaa: 1,
+            supersample: 1,
+        };
+        Ok(Timed {
+            stage: Stage::new(gpu, scene, target::OUTPUT_FORMAT, quality)?,
+            out: target::Offscreen::new(gpu, SIZE)?,
+        })
+    }
+
+    /// One frame of motion only (the strips are the stage's only system), waited for.
+    fn step(&mut self, gpu: &Gpu) -> Result<()> {
+        let mut enc = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("bench strips step"),
+            });
+        self.stage.advance(gpu, &mut enc, 1)?;
+        gpu.queue.submit([enc.finish()]);
+        gpu.wait()
+    }
+
+    /// One frame of motion and the render into the offscreen target, waited for.
+    fn frame(&mut self, gpu: &Gpu) -> Result<()> {
+        let look = self.stage.look();
+        let mut enc = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("bench strips frame"),
+            });
+        self.stage.advance(gpu, &mut enc, 1)?;
+        self.stage
+            .render(gpu, &mut enc, &self.out.view, SIZE, &look)?;
+        gpu.queue.submit([enc.finish()]);
+        gpu.wait()
+    }
+}
+
+fn save(out: &Path, name: &str, img: image::RgbaImage) -> Result<()> {
+    std::fs::create_dir_all(out).map_err(|source| crate::KamiError::Io {
+        path: out.to_path_buf(),
+        source,
+    })?;
+    let p = out.join(name);
+    img.save(&p).map_err(|e| crate::KamiError::Io {
+        path: p.clone(),
+        source: std::io::Error::other(e),
+    })
+}
+
+/// Run the whole bench on `scene_path` (the strips scene) and write the report into `out`.
+pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Report> {
+    let scene = Scene::load(scene_path)?;
+    let Some(strips) = scene.strips.as_ref() else {
+        return Err(crate::KamiError::Invalid {
+            file: scene_path.display().to_string(),
+            field: "strips".into(),
+            value: "None".into(),
+            allowed: "a scene with strips (assets/scenes/strips.ron)".into(),
+        });
+    };
+    let steps = dynamics::steps_per_frame(&strips.motion);
+    let mut md = String::new();
+    let mut csv = String::from(
+        "table,strips,steps_per_second,dt,ms_per_frame,fps,strips_per_second,tip_error,tip_error_rel,ns_per_strip_step,stable\n",
+    );
+    writeln!(
+        md,
+        "# Strips (Kazama, Sugisaki, Morishima)\n\n{}\n",
+        provenance()
+    )
+    .ok();
+    writeln!(md, "Adapter: {}.\n", gpu.describe()).ok();
+
+    // 1. Speed against strip count.
+    writeln!(md, "## Strips per second\n").ok();
+    writeln!(
+        md,
+        "`{}` with its layers' counts scaled to N strips; {} steps per frame ({} steps/s, \
+         frame time {:.4} s). Dynamics: `Stage::advance` of one frame (the strips are the \
+         only system), submitted and waited for. Full frame: advance and render into a \
+         {}x{} offscreen target, one sample per pixel. Mean of {frames} frames after one \
+         warm-up. Strips per second = N x dynamics frames per second.\n",
+        scene_path.display(),
+        steps,
+        strips.motion.steps_per_second,
+        strips.motion.frame_time,
+        SIZE.0,
+        SIZE.1
+    )
+    .ok();
+    writeln!(
+        md,
+        "| N | dynamics ms/frame | strips per second | full frame ms | full frame fps |"
+    )
+    .ok();
+    writeln!(md, "|---:|---:|---:|---:|---:|").ok();
+    let mut dyn_pts = Vec::new();
+    let mut full_pts = Vec::new();
+    let mut fps_120 = None;
+    for &n in &COUNTS {
+        let s = scaled(&scene, n);
+        let count: u32 = s
+            .strips
+            .as_ref()
+            .map(|st| st.layers.iter().map(|l| l.count).sum())
+            .unwrap_or(0);
+        let mut t = Timed::new(gpu, &s)?;
+        let dyn_s = time_mean(frames, || t.step(gpu))?;
+        let full_s = time_mean(frames, || t.frame(gpu))?;
+        let sps = count as f64 / dyn_s;
+        writeln!(
+            md,
+            "| {count} | {:.2} | {sps:.0} | {:.2} | {:.1} |",
+            dyn_s * 1e3,
+            full_s * 1e3,
+            1.0 / full_s
+        )
+        .ok();
+        writeln!(
+            csv,
+            "dynamics,{count},{},,{:.4},{:.3},{sps:.1},,,,",
+            strips.motion.steps_per_second,
+            dyn_s * 1e3,
+            1.0 / dyn_s
+        )
+        .ok();
+        writeln!(
+            csv,
+            "full_frame,{count},{},,{:.4},{:.3},,,,,",
+            strips.motion.steps_per_second,
+            full_s * 1e3,
+            1.0 / full_s
+        )
+        .ok();
+        if count == 120 {
+            fps_120 = Some(1.0 / full_s);
+        }
+        dyn_pts.push((count as f64, dyn_s * 1e3));
+        full_pts.push((count as f64, full_s * 1e3));
+    }
+    writeln!(
+        md,
+        "\nThe paper's figure, on different hardware: {PAPER} (a full frame, drawn). Here, \
+         120 strips: {} fps for a full frame on the adapter above.\n",
+        fps_120.map_or("-".into(), |f| format!("{f:.1}"))
+    )
+    .ok();
+    let speed_plot = plot::loglog(
+        "Strips: ms per frame against strip count",
+        "strips",
+        "ms per frame",
+        &[
+            Series {
+                name: "dynamics".into(),
+                color: plot::palette(0),
+                points: dyn_pts,
+            },
+            Series {
+                name: format!("full frame {}x{}", SIZE.0, SIZE.1),
+                color: plot::palette(1),
+                points: full_pts,
+            },
+        ],
+        None,
+    );
+
+    // 2. Work against precision of the angular-spring solver (f64 CPU reference).
+    let setup = Setup::gust();
+    let rows = dynamics::work_precision(&setup, &RATES, PRECISION_FRAMES)?;
+    let seconds = PRECISION_FRAMES as f64 * setup.motion.frame_time;
+    let order = dynamics::observed_order(&rows);
+    let largest = dynamics::largest_stable_dt(&setup, seconds, STABLE_CAP)?;
+    let to_one = dynamics::dt_for_error(&rows, 0.01);
+    let reference = (16.0 * RATES.iter().copied().fold(0.0, f64::max)).max(3840.0);
+    writeln!(
+        md,
+        "## Angular springs: work against precision\n\n`dynamics::Setup::gust()` ({} strips: \
+         gravity, a gust, a head turn, a key-frame force), {PRECISION_FRAMES} frames ({seconds:.2} \
+         s), f64 on the CPU. Tip error: the largest tip distance over every frame and strip \
+         from the same solver at {reference:.0} steps/s; relative: to the strip's length. \
+         Requested rates {:?} steps/s are rounded to whole steps per frame (the table shows \
+         the effective rate). Cost: wall time of the f64 reference per strip and step, and per \
+         strip and simulated second.\n",
+        setup.rest.len(),
+        RATES
+    )
+    .ok();
+    writeln!(
+        md,
+        "| steps/s | dt (ms) | tip error (cm) | tip error / length | ns per strip-step | µs per strip-second | stable |"
+    )
+    .ok();
+    writeln!(md, "|---:|---:|---:|---:|---:|---:|---|").ok();
+    let mut pts = Vec::new();
+    for r in &rows {
+        let us = r.ns_per_strip_step * r.steps_per_second * 1e-3;
+        writeln!(
+            md,
+            "| {:.0} | {:.3} | {:.3e} | {:.3e} | {:.0} | {us:.1} | {} |",
+            r.steps_per_second,
+            r.dt * 1e3,
+            r.tip_error,
+            r.tip_error_rel,
+            r.ns_per_strip_step,
+            if r.stable { "yes" } else { "no" }
+        )
+        .ok();
+        writeln!(
+            csv,
+            "precision,{},{},{},,,,{:.6e},{:.6e},{:.2},{}",
+            setup.rest.len(),
+            r.steps_per_second,
+            r.dt,
+            r.tip_error,
+            r.tip_error_rel,
+            r.ns_per_strip_step,
+            r.stable
+        )
+        .ok();
+        if r.stable && r.tip_error_rel > 0.0 && r.tip_error_rel.is_finite() {
+            pts.push((us, r.tip_error_rel));
+        }
+    }
+    let ns_mean = mean_ns(&rows);
+    writeln!(md).ok();
+    writeln!(
+        md,
+        "- Observed order (slope of log error against log dt, stable rows): {}.",
+        order.map_or("- (fewer than two usable rows)".into(), |o| format!(
+            "{o:.2}"
+        ))
+    )
+    .ok();
+    writeln!(
+        md,
+        "- Largest stable dt over {seconds:.2} s (rates within {}x the reference's, searched \
+         up to {STABLE_CAP} s): {}.",
+        dynamics::SPEED_LIMIT,
+        if largest >= STABLE_CAP {
+            format!("≥ {:.0} ms (the cap)", STABLE_CAP * 1e3)
+        } else {
+            format!("{:.2} ms", largest * 1e3)
+        }
+    )
+    .ok();
+    match to_one {
+        Some(dt) => {
+            let us = ns_mean * 1e-3 / dt;
+            writeln!(
+                md,
+                "- Cost to 1 % tip error: dt = {:.2} ms ({:.0} steps/s), {us:.1} µs per strip \
+                 per simulated second at the mean {ns_mean:.0} ns per strip-step (f64 CPU).",
+                dt * 1e3,
+                1.0 / dt
+            )
+            .ok();
+            writeln!(
+                csv,
+                "to_one_percent,{},{},{dt},,,,,0.01,{ns_mean:.2},",
+                setup.rest.len(),
+                1.0 / dt
+            )
+            .ok();
+        }
+        None => {
+            writeln!(
+                md,
+                "- Cost to 1 % tip error: no stable rows to interpolate."
+            )
+            .ok();
+        }
+    }
+    writeln!(
+        md,
+        "- The f64 reference on the shipped scene's 120 strips at {} steps per frame would \
+         cost about {:.2} ms per frame on one CPU thread ({ns_mean:.0} ns per strip-step).\n",
+        steps,
+        ns_mean * 120.0 * steps as f64 * 1e-6
+    )
+    .ok();
+    let precision_plot = plot::loglog(
+        "Strips: tip error against cost (f64 CPU)",
+        "us per strip per simulated second",
+        "tip error / strip length",
+        &[Series {
+            name: "30-960 steps/s".into(),
+            color: plot::palette(2),
+            points: pts,
+        }],
+        Some((0.01, "1 %")),
+    );
+
+    // 3. EFF fit: the capture round trip writes capture.md, capture.csv and capture.png
+    // into `out`; its tables are quoted here (headings demoted) so strips.md stands alone.
+    crate::systems::strips::capture::write_report(out)?;
+    let cap_path = out.join("capture.md");
+    let cap = std::fs::read_to_string(&cap_path).map_err(|source| crate::KamiError::Io {
+        path: cap_path.clone(),
+        source,
+    })?;
+    writeln!(
+        md,
+        "## EFF fit\n\nFrom `systems::strips::capture::write_report` (also written as \
+         capture.md, capture.csv, capture.png).\n"
+    )
+    .ok();
+    let mut quoted = String::new();
+    for line in cap.lines() {
+        if line.starts_with("# ") || line.starts_with("Written by") {
+            continue;
+        }
+        let demote = if line.starts_with('#') { "#" } else { "" };
+        writeln!(quoted, "{demote}{line}").ok();
+    }
+    md.push_str(quoted.trim_start());
+
+    write_report(out, "strips", &md, &csv)?;
+    save(out, "strips_speed.png", speed_plot)?;
+    save(out, "strips_precision.png", precision_plot)?;
+    Ok(Report { markdown: md, csv })
+}
+
+/// Mean f64 cost per strip-step over the stable rows (the cost hardly depends on dt).
+fn mean_ns(rows: &[PrecisionRow]) -> f64 {
+    let v: Vec<f64> = rows
+        .iter()
+        .filter(|r| r.stable && r.ns_per_strip_step.is_finite())
+        .map(|r| r.ns_per_strip_step)
+        .collect();
+    if v.is_empty() {
+        0.0
+    } else {
+        v.iter().sum::<f64>() / v.len() as f64
+    }
+}
