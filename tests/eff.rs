@@ -899,33 +899,7 @@ fn a_scene_reads_its_eff_file() {
 /// face, +x the head's left). Regenerate with `UPDATE_EFF=1 cargo test --test eff
 /// shipped_eff_file_is_current`.
 fn front_left_gust() -> EffDesc {
-    EffDesc {
-        center: [0.0, -6.0, 0.0],
-        extent: 60.0,
-        resolution: [12, 12, 12],
-        source: [70.0, 10.0, 70.0],
-        head: Some([0.0, 0.0, 0.0]),
-        strength: 150.0,
-        blowers: vec![
-            // The main jet, aimed past the face toward the right shoulder, widening.
-            Blower {
-                at: [32.0, 6.0, 32.0],
-                toward: [-1.0, -0.15, -1.0],
-                strength: 450.0,
-                radius: 9.0,
-                spread: 12.0,
-            },
-            // A weaker, lower stream that lifts the ends.
-            Blower {
-                at: [30.0, -24.0, 22.0],
-                toward: [-1.0, 0.35, -0.8],
-                strength: 220.0,
-                radius: 7.0,
-                spread: 8.0,
-            },
-        ],
-        ..EffDesc::default()
-    }
+    kami::forces::eff::front_left_gust()
 }
 
 #[test]

@@ -1261,6 +1261,38 @@ fn kd_nearest2(
     }
 }
 
+/// A gust from the front-left: a jet aimed past the face, a weaker low stream that lifts
+/// the ends, and the outside force from the source toward the head (12³ cells over 60 cm).
+/// `assets/eff/front_left_gust.eff` is this field built (`tests/eff.rs` keeps it current);
+/// the capture round trip blows it, and the EFF panel starts a scene's field with it.
+pub fn front_left_gust() -> EffDesc {
+    EffDesc {
+        center: [0.0, -6.0, 0.0],
+        extent: 60.0,
+        resolution: [12, 12, 12],
+        source: [70.0, 10.0, 70.0],
+        head: Some([0.0, 0.0, 0.0]),
+        strength: 150.0,
+        blowers: vec![
+            Blower {
+                at: [32.0, 6.0, 32.0],
+                toward: [-1.0, -0.15, -1.0],
+                strength: 450.0,
+                radius: 9.0,
+                spread: 12.0,
+            },
+            Blower {
+                at: [30.0, -24.0, 22.0],
+                toward: [-1.0, 0.35, -0.8],
+                strength: 220.0,
+                radius: 7.0,
+                spread: 8.0,
+            },
+        ],
+        ..EffDesc::default()
+    }
+}
+
 /// Read the file the block names (relative to `dir`, the scene file's folder) so that
 /// building the grid cannot fail later on it; errors name the file and line. Also checks
 /// the block (so a bad EFF block fails at load, naming the field).

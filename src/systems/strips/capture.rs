@@ -623,32 +623,7 @@ pub fn round_trip_strips() -> crate::scene::strips::Strips {
 /// weaker low stream, and the outside force from the source toward the head (the
 /// `front_left_gust` recipe of the EFF tests, 12³ cells over 60 cm).
 pub fn round_trip_wind() -> crate::forces::eff::EffDesc {
-    use crate::forces::eff::{Blower, EffDesc};
-    EffDesc {
-        center: [0.0, -6.0, 0.0],
-        extent: 60.0,
-        resolution: [12, 12, 12],
-        source: [70.0, 10.0, 70.0],
-        head: Some([0.0, 0.0, 0.0]),
-        strength: 150.0,
-        blowers: vec![
-            Blower {
-                at: [32.0, 6.0, 32.0],
-                toward: [-1.0, -0.15, -1.0],
-                strength: 450.0,
-                radius: 9.0,
-                spread: 12.0,
-            },
-            Blower {
-                at: [30.0, -24.0, 22.0],
-                toward: [-1.0, 0.35, -0.8],
-                strength: 220.0,
-                radius: 7.0,
-                spread: 8.0,
-            },
-        ],
-        ..EffDesc::default()
-    }
+    crate::forces::eff::front_left_gust()
 }
 
 /// Markers of `strips` simulated for `frames` frames in the EFF `eff` (still air without

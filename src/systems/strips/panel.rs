@@ -4,7 +4,7 @@
 //! act from the next step, layers rebuild the strips, the look redraws.
 
 use crate::app::params::ViewerState;
-use crate::forces::eff::{Blower, Eff, EffDesc, EffSample, GustKey};
+use crate::forces::eff::{Eff, EffDesc, EffSample, GustKey};
 use crate::forces::Forces;
 use crate::scene::strips::{Edit, Layer, Sampling, Strips};
 use crate::scene::{Interp, Scene};
@@ -160,25 +160,6 @@ fn look(ui: &mut Ui, st: &mut Strips) {
     );
 }
 
-/// A starting field for a scene without one: a gust from the front-left, as in
-/// `assets/eff/front_left_gust.eff`.
-fn starter_eff() -> EffDesc {
-    EffDesc {
-        center: [0.0, -6.0, 0.0],
-        source: [70.0, 10.0, 70.0],
-        head: Some([0.0, 0.0, 0.0]),
-        strength: 150.0,
-        blowers: vec![Blower {
-            at: [32.0, 6.0, 32.0],
-            toward: [-1.0, -0.15, -1.0],
-            strength: 450.0,
-            radius: 9.0,
-            spread: 12.0,
-        }],
-        ..EffDesc::default()
-    }
-}
-
 /// The brush of the EFF panel (kept between frames).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Brush {
@@ -213,7 +194,7 @@ pub fn eff(ui: &mut Ui, s: &mut ViewerState) {
     if s.scene.eff.is_none() {
         ui.label("this scene has no External Force Field");
         if ui.button("add one (a gust from the front-left)").clicked() {
-            s.scene.eff = Some(starter_eff());
+            s.scene.eff = Some(crate::forces::eff::front_left_gust());
         }
         return;
     }
