@@ -701,7 +701,13 @@ fn frame(
         if state.view.eff_arrows {
             // EFF cells are in world space: projected without the head pose.
             let world = edit::View::from_camera(&camera, glam::DMat4::IDENTITY, size, bounds);
-            crate::systems::strips::panel::overlay(ui.ctx(), &state.scene, &world, ppp);
+            crate::systems::strips::panel::overlay(
+                ui.ctx(),
+                &state.scene,
+                &mut state.brush.cache,
+                &world,
+                ppp,
+            );
         }
         if state.view.edit_skeletons {
             if let Some(w) = &state.scene.wisps {

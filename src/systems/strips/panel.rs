@@ -169,6 +169,9 @@ pub struct Brush {
     pub strength: f64,
     /// File for Load and Save.
     pub path: String,
+    /// The field last built for the panel and the overlay, with the block it was built
+    /// from: building runs the fill rules, too much work to repeat every UI frame.
+    pub cache: Option<(EffDesc, std::sync::Arc<Eff>)>,
 }
 
 impl Default for Brush {
@@ -179,13 +182,26 @@ impl Default for Brush {
             direction: [0.0, 0.0, 1.0],
             strength: 600.0,
             path: "eff.eff".into(),
+            cache: None,
         }
     }
 }
 
-/// The field as the scene builds it (files read, fill rules applied).
-fn built(scene: &Scene) -> Option<std::sync::Arc<Eff>> {
-    Forces::from_scene(scene).eff
+/// The field as the scene builds it (files read, fill rules applied), built again only
+/// when the scene's EFF block changed.
+pub fn built(
+    scene: &Scene,
+    cache: &mut Option<(EffDesc, std::sync::Arc<Eff>)>,
+) -> Option<std::sync::Arc<Eff>> {
+    let desc = scene.eff.as_ref()?;
+    if let Some((d, e)) = cache.as_ref() {
+        if d == desc {
+            return Some(e.clone());
+        }
+    }
+    let e = Forces::from_scene(scene).eff?;
+    *cache = Some((desc.clone(), e.clone()));
+    Some(e)
 }
 
 /// The EFF panel: the grid, the outside force, the gust keys, arrows in the view, a brush
@@ -198,7 +214,7 @@ pub fn eff(ui: &mut Ui, s: &mut ViewerState) {
         }
         return;
     }
-    let field = built(&s.scene);
+    let field = built(&s.scene, &mut s.brush.cache);
     if let Some(e) = &field {
         let d = e.dims();
         ui.label(format!(
@@ -457,6 +473,7 @@ pub fn new_edit(scene: &Scene, strip: u32, from: u32, span: u32) -> crate::Resul
 pub fn overlay(
     ctx: &egui::Context,
     scene: &Scene,
+    cache: &mut Option<(EffDesc, std::sync::Arc<Eff>)>,
     view: &crate::systems::wisps::edit::View,
     ppp: f32,
 ) {
@@ -470,7 +487,7 @@ pub fn overlay(
         .layer_painter(LayerId::new(Order::Middle, Id::unique("strips overlay")))
         .with_clip_rect(clip);
     let at = |q: DVec3| pos2(q.x as f32 / ppp, q.y as f32 / ppp);
-    if let Some(e) = built(scene) {
+    if let Some(e) = built(scene, cache) {
         let d = e.dims();
         let step = |n: u32| if n > 8 { 2 } else { 1 };
         let biggest = e.max_force().max(1e-9);
