@@ -208,3 +208,155 @@ fn a_refused_edit_keeps_what_was_drawn() {
     assert!(s.apply(&gpu, &good).unwrap().restarted);
     assert_eq!(kinds(&s), ["anjyo", "fur"]);
 }
+
+/// One submission that keeps llvmpipe busy for longer than the 2.1 s that wgpu's GL backend
+/// allows one fence wait: `Gpu::wait` must keep waiting, not report a timeout (the clean-clone
+/// CI once failed a snapshot this way), and the work must be complete when it returns. It is
+/// a draw, not a dispatch, because llvmpipe's GL runs compute at submit and defers drawing.
+#[test]
+fn wait_outlasts_one_fence_timeout() {
+    let gpu = common::gpu();
+    let rounds: u32 = std::env::var("KAMI_TEST_WAIT_ROUNDS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(16_000);
+    assert!(
+        rounds < 65_535,
+        "KAMI_TEST_WAIT_ROUNDS: llvmpipe ends longer loops"
+    );
+    let src = "
+        @group(0) @binding(0) var<uniform> rounds: vec4<u32>;
+        @vertex
+        fn vs(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
+            let p = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
+            return vec4<f32>(p * 2.0 - 1.0, 0.0, 1.0);
+        }
+        @fragment
+        fn fs(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<u32> {
+            var x = u32(pos.x) + u32(pos.y) * 256u + 1u;
+            // llvmpipe ends a loop after 65,535 iterations in all (nested ones count
+            // together), so each iteration takes eight steps (xorshift and a multiply,
+            // which the compiler cannot fold into one).
+            for (var r = 0u; r < rounds.x; r++) {
+                STEPS
+            }
+            return vec4<u32>(x, 0u, 0u, 0u);
+        }";
+    let step = "x ^= x << 13u; x ^= x >> 17u; x ^= x << 5u; x = x * 747796405u + 2891336453u;\n";
+    let src = src.replace("STEPS", &step.repeat(8));
+    let module = kami::gpu::shader_module(&gpu.device, "busy", &src).unwrap();
+    use wgpu::util::DeviceExt;
+    let uni = gpu
+        .device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("rounds"),
+            contents: bytemuck::cast_slice(&[rounds, 0, 0, 0]),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+    let side = 256u32;
+    let format = wgpu::TextureFormat::R32Uint;
+    let target = gpu.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("busy target"),
+        size: wgpu::Extent3d {
+            width: side,
+            height: side,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    });
+    let pipe = gpu
+        .device
+        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("busy"),
+            layout: None,
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: Default::default(),
+            depth_stencil: None,
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs"),
+                compilation_options: Default::default(),
+                targets: &[Some(format.into())],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+    let bind = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &pipe.get_bind_group_layout(0),
+        entries: &[kami::gpu::entry(0, &uni)],
+    });
+    let out = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("busy readback"),
+        size: (side * side * 4) as u64,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let view = target.create_view(&Default::default());
+    let mut enc = gpu.device.create_command_encoder(&Default::default());
+    {
+        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("busy"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            ..Default::default()
+        });
+        pass.set_pipeline(&pipe);
+        pass.set_bind_group(0, &bind, &[]);
+        pass.draw(0..3, 0..1);
+    }
+    let t = std::time::Instant::now();
+    gpu.queue.submit([enc.finish()]);
+    let submitted = t.elapsed().as_secs_f64();
+    gpu.wait().unwrap();
+    let waited = t.elapsed().as_secs_f64() - submitted;
+    // Read back in a second submission (on GL the copy would draw inside the first submit).
+    let mut enc = gpu.device.create_command_encoder(&Default::default());
+    enc.copy_texture_to_buffer(
+        target.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &out,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(side * 4),
+                rows_per_image: None,
+            },
+        },
+        target.size(),
+    );
+    gpu.queue.submit([enc.finish()]);
+    let got: Vec<u32> = kami::gpu::map_read(&gpu, &out).unwrap();
+    // The same steps on the CPU, for a few pixels.
+    for (px, py) in [(0u32, 0u32), (1, 0), (77, 130), (side - 1, side - 1)] {
+        let mut x = px + py * side + 1;
+        for _ in 0..rounds * 8 {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            x = x.wrapping_mul(747796405).wrapping_add(2891336453);
+        }
+        assert_eq!(got[(px + py * side) as usize], x, "pixel ({px}, {py})");
+    }
+    eprintln!(
+        "{}: submit {submitted:.2} s, wait {waited:.2} s",
+        gpu.describe()
+    );
+}

@@ -25,6 +25,9 @@ pub enum Preference {
     Software,
 }
 
+/// How long [`Gpu::wait`] waits for submitted work before it gives up.
+pub const WAIT_LIMIT: std::time::Duration = std::time::Duration::from_secs(600);
+
 /// Adapter, device and queue.
 pub struct Gpu {
     pub instance: wgpu::Instance,
@@ -183,15 +186,29 @@ impl Gpu {
         format!("{} ({:?})", self.info.name, self.info.backend)
     }
 
-    /// Block until all submitted work is done.
+    /// Block until all submitted work is done, for up to [`WAIT_LIMIT`].
+    ///
+    /// wgpu's GL backend caps one fence wait at `i32::MAX` ns (about 2.1 s), so a long
+    /// submission on llvmpipe reports a timeout that is not one: we wait again until the
+    /// limit is really spent.
     pub fn wait(&self) -> Result<()> {
-        self.device
-            .poll(wgpu::PollType::Wait {
+        let start = std::time::Instant::now();
+        loop {
+            let left = WAIT_LIMIT.saturating_sub(start.elapsed());
+            match self.device.poll(wgpu::PollType::Wait {
                 submission_index: None,
-                timeout: Some(std::time::Duration::from_secs(600)),
-            })
-            .map(|_| ())
-            .map_err(|e| KamiError::Gpu(format!("waiting for the GPU: {e}")))
+                timeout: Some(left),
+            }) {
+                Ok(_) => return Ok(()),
+                Err(wgpu::PollError::Timeout) if !left.is_zero() => continue,
+                Err(e) => {
+                    return Err(KamiError::Gpu(format!(
+                        "waiting for the GPU ({:.1} s): {e}",
+                        start.elapsed().as_secs_f64()
+                    )))
+                }
+            }
+        }
     }
 
     /// The first uncaptured GPU error since the last call, as an error.
