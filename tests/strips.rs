@@ -241,6 +241,22 @@ fn edits_are_classified_by_what_they_touch() {
         with(&|s| s.eff.as_mut().unwrap().gust.clear()),
         Change::Resimulate
     );
+    // A key-frame edit re-solves its extra force; the viewer then replays the clip.
+    assert_eq!(
+        with(&|s| s
+            .strips
+            .as_mut()
+            .unwrap()
+            .edits
+            .push(kami::scene::strips::Edit {
+                strip: 3,
+                from: 2,
+                to: 12,
+                target: [0.0, -20.0, 5.0],
+                radius: 6.0,
+            })),
+        Change::Resimulate
+    );
     assert_eq!(
         with(&|s| s.strips.as_mut().unwrap().motion.stiffness = 300.0),
         Change::Rebuild

@@ -494,3 +494,174 @@ fn viewer_draws_the_skeleton_overlay_over_the_nodes() {
     let s = share_on(&b);
     assert!(s > 0.002 && s < 0.15, "overlay covers {:.4} of the view", s);
 }
+
+/// Kazama section 4 with the mouse, in the real window: the strips scene, paused, the Key
+/// frames panel's mouse mode on (`strips.edit`). A press on a strip's projected middle picks
+/// that strip (the viewer reads the GPU's pose back), `K` (`strips.key`) sets a first key
+/// at frame 0 and shows the second key (frame 20), and a press on the pink target marker
+/// dragged 40 px right moves the target so that it projects 40 px right of where it was
+/// (within half a pixel). The saved scene holds that edit, and the viewer's frame after the
+/// drag is `kami render`'s frame 20 of the saved scene: the clip was simulated again with
+/// the new target.
+#[test]
+fn viewer_picks_a_strip_and_drags_its_target() {
+    use glam::{DMat4, DVec2, DVec3};
+    use kami::systems::strips::{hom, panel, pick};
+    use kami::systems::wisps::edit::View;
+    let x = xvfb();
+    let dir = std::env::temp_dir().join(format!("kami-viewer-strips-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let runtime = dir.join("xdg");
+    std::fs::create_dir_all(&runtime).unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let scene = kami::scene::Scene::load(root.join("assets/scenes/strips.ron")).unwrap();
+    let (w, h) = (480u32, 360u32);
+    let camera = kami::app::camera::OrbitCamera::from_desc(&scene.camera).camera();
+    // x and y of a projection do not depend on the clip planes.
+    let view = View::from_camera(
+        &camera,
+        DMat4::IDENTITY,
+        DVec2::new(f64::from(w), f64::from(h)),
+        (DVec3::from(scene.head.center), 60.0),
+    );
+    let st = scene.strips.as_ref().unwrap();
+    let forces = kami::forces::Forces::from_scene(&scene);
+    let head0 = forces.head_at(0.0);
+    let rest: Vec<Vec<DVec3>> = hom::build(st, &scene.head)
+        .unwrap()
+        .iter()
+        .map(|r| {
+            r.points
+                .iter()
+                .map(|p| head0.transform_point3(*p))
+                .collect()
+        })
+        .collect();
+    // A strip whose middle is in the view, the pick's choice there, with no other strip
+    // within 3 px of it (the GPU's f32 pose may differ from this f64 one by a hair).
+    let (strip, at) = (0..rest.len())
+        .find_map(|i| {
+            let n = rest[i].len();
+            let mid = view.project(0.5 * (rest[i][n / 2 - 1] + rest[i][n / 2]))?;
+            let c = mid.truncate();
+            let inside =
+                c.x > 20.0 && c.y > 20.0 && c.x < f64::from(w) - 20.0 && c.y < f64::from(h) - 20.0;
+            let alone = pick::pick_strip(&rest, &view, c, pick::PICK_PX) == Some(i)
+                && (0..rest.len()).filter(|&j| j != i).all(|j| {
+                    pick::pick_strip(std::slice::from_ref(&rest[j]), &view, c, 3.0).is_none()
+                });
+            (inside && alone).then_some((i, c))
+        })
+        .expect("no isolated strip in view");
+    let edit = panel::new_edit(&scene, strip as u32, 0, 20).unwrap();
+    let head20 = forces.head_at(20.0);
+    let t0 = view
+        .project(pick::target_world(&edit, &head20))
+        .unwrap()
+        .truncate();
+    let t1 = t0 + DVec2::new(40.0, 0.0);
+    let saved = dir.join("saved.ron");
+    let shot = dir.join("after.png");
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_kami"));
+    cmd.args([
+        "view",
+        "assets/scenes/strips.ron",
+        "--software",
+        "--no-panels",
+        "--size",
+        &format!("{w}x{h}"),
+        "--exit-after-frames",
+        "10",
+        "--set",
+        "play=off",
+        "--set",
+        "1:strips.edit=on",
+        "--set",
+        &format!("2:mouse.press={},{}", at.x, at.y),
+        "--set",
+        "2:mouse.release",
+        "--set",
+        "3:strips.key",
+        "--set",
+        &format!("5:mouse.press={},{}", t0.x, t0.y),
+        "--set",
+        &format!("6:mouse.move={},{}", t1.x, t1.y),
+        "--set",
+        "7:mouse.release",
+        "--set",
+        "8:strips.edit=off",
+    ])
+    .arg("--set")
+    .arg(format!("8:save={}", saved.display()))
+    .arg("--screenshot-at")
+    .arg(format!("9:{}", shot.display()));
+    run_viewer(cmd, &x, &runtime);
+    // The saved scene names the EFF file relative to the scenes folder.
+    let text = std::fs::read_to_string(&saved)
+        .unwrap()
+        .replace("\"../eff/", &format!("\"{}/assets/eff/", root.display()));
+    std::fs::write(&saved, text).unwrap();
+    let got = kami::scene::Scene::load(&saved).unwrap();
+    let edits = &got.strips.as_ref().unwrap().edits;
+    assert_eq!(edits.len(), 1, "{edits:?}");
+    let e = &edits[0];
+    assert_eq!((e.strip, e.from, e.to), (strip as u32, 0, 20), "{e:?}");
+    let moved = view
+        .project(pick::target_world(e, &head20))
+        .unwrap()
+        .truncate();
+    eprintln!("picked strip {strip} at {at}; target {t0} dragged to {t1}, now at {moved}");
+    assert!(
+        (moved - t1).length() < 0.5,
+        "the target projects to {moved}, the cursor let go at {t1} (it was at {t0})"
+    );
+    // The viewer shows frame 20 of the edited clip.
+    let frames = dir.join("frames");
+    let out = Command::new(env!("CARGO_BIN_EXE_kami"))
+        .current_dir(root)
+        .args(["render"])
+        .arg(&saved)
+        .args([
+            "--software",
+            "--size",
+            &format!("{w}x{h}"),
+            "--supersample",
+            "1",
+            "--frames",
+            "19..20",
+            "--out",
+        ])
+        .arg(&frames)
+        .env("XDG_RUNTIME_DIR", &runtime)
+        .output()
+        .expect("running kami render");
+    assert!(
+        out.status.success(),
+        "kami render failed:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let viewer = image::open(&shot).unwrap().to_rgba8();
+    let rendered = image::open(frames.join("frame_0020.png"))
+        .unwrap()
+        .to_rgba8();
+    let before = image::open(frames.join("frame_0019.png"))
+        .unwrap()
+        .to_rgba8();
+    let (mean, share, _) = common::compare(&viewer, &rendered, 24);
+    eprintln!(
+        "viewer against render: mean {mean:.3}, {:.4}% off",
+        share * 100.0
+    );
+    assert!(
+        mean <= 0.5 && share <= 0.002,
+        "the viewer after the drag differs from kami render frame 20 of the saved scene: \
+         mean {mean:.3}, {:.3}% of pixels off by more than 24",
+        share * 100.0
+    );
+    // The check can fail: frame 19 is visibly another pose.
+    let (_, share_19, _) = common::compare(&viewer, &before, 24);
+    assert!(
+        share_19 > 0.002,
+        "frame 19 looks like frame 20 ({share_19})"
+    );
+}

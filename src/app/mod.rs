@@ -12,6 +12,7 @@
 pub mod camera;
 pub mod panels;
 pub mod params;
+pub mod strips_mouse;
 
 use crate::error::{KamiError, Result};
 use crate::gpu::{self, Gpu, Preference};
@@ -164,6 +165,8 @@ struct Mouse {
     node_drag: bool,
     /// The last left press in the skeleton editor's mouse mode (double clicks).
     last_click: Option<(Instant, (f64, f64))>,
+    /// What a press in the strips' mouse modes holds (a target, a paint stroke).
+    strips: strips_mouse::Gesture,
 }
 
 /// Two left presses closer than this in time and `DOUBLE_PX` on screen are a double click.
@@ -413,6 +416,7 @@ impl ApplicationHandler for App {
                 g.mouse.node_drag = false;
                 self.state.editor.end_drag();
             }
+            strips_mouse::release(&mut g.mouse.strips);
         }
         match event {
             WindowEvent::CloseRequested => event_loop.exit(),
@@ -457,6 +461,28 @@ impl ApplicationHandler for App {
                     MouseButton::Left if down && editing(&self.state) => {
                         g.mouse.orbit = !edit_press(&mut g.mouse, &mut self.state);
                     }
+                    // The strips' mouse modes: a press on a target drags it, on a strip
+                    // picks it; the EFF brush paints a stroke.
+                    MouseButton::Left if down && strips_mouse::on(&self.state) => {
+                        let cursor = g.mouse.pos.map(|p| DVec2::new(p.0, p.1));
+                        let took = cursor.map(|c| {
+                            strips_mouse::press(
+                                &g.stage,
+                                &g.gpu,
+                                &mut g.mouse.strips,
+                                &mut self.state,
+                                c,
+                            )
+                        });
+                        g.mouse.orbit = match took {
+                            Some(Ok(took)) => !took,
+                            Some(Err(e)) => {
+                                self.state.error = Some(e.to_string());
+                                false
+                            }
+                            None => true,
+                        };
+                    }
                     MouseButton::Left => g.mouse.orbit = down,
                     MouseButton::Right | MouseButton::Middle => g.mouse.pan = down,
                     _ => {}
@@ -473,6 +499,13 @@ impl ApplicationHandler for App {
                     ) {
                         let _ = self.state.editor.drag_to(w, &view, DVec2::new(p.0, p.1));
                     }
+                } else if g.mouse.strips.active() {
+                    strips_mouse::drag(
+                        &g.stage,
+                        &mut g.mouse.strips,
+                        &mut self.state,
+                        DVec2::new(p.0, p.1),
+                    );
                 } else if let Some(last) = g.mouse.pos {
                     let (dx, dy) = (p.0 - last.0, p.1 - last.1);
                     if g.mouse.pan || (g.mouse.orbit && g.mouse.shift) {
@@ -522,6 +555,11 @@ impl ApplicationHandler for App {
                             let _ = st.editor.select(w, None);
                         }
                     }
+                    Key::Character(c) if st.view.edit_strips && c.eq_ignore_ascii_case("k") => {
+                        if let Err(e) = st.add_strip_edit() {
+                            st.error = Some(e.to_string());
+                        }
+                    }
                     Key::Named(NamedKey::Space) => {
                         self.state.view.playing = !self.state.view.playing
                     }
@@ -558,6 +596,8 @@ fn apply(g: &mut Gfx, state: &mut ViewerState) -> Result<()> {
         state.error = Some(e.to_string());
         return Ok(());
     }
+    let edits = |sc: &Scene| sc.strips.as_ref().map(|st| st.edits.clone());
+    let edits_changed = edits(g.stage.scene()) != edits(&state.scene);
     let t = Instant::now();
     // A refused edit leaves the stage drawing what it had; the error shows in the panel.
     let applied = match g.stage.apply(&g.gpu, &state.scene) {
@@ -571,6 +611,11 @@ fn apply(g: &mut Gfx, state: &mut ViewerState) -> Result<()> {
     if applied.restarted {
         g.clock_debt = 0.0;
         state.stats.groom_ms = t.elapsed().as_secs_f64() * 1e3;
+    }
+    // A key-frame edit changes the clip from its first key on: replay it to the frame
+    // shown (or where the edit asked to look).
+    if edits_changed && !applied.restarted && state.seek.is_none() {
+        state.seek = Some(g.stage.frame());
     }
     state.error = None;
     Ok(())
@@ -639,6 +684,18 @@ fn handle_requests(g: &mut Gfx, state: &mut ViewerState, shots: &mut Vec<PathBuf
                 let (c, r) = g.stage.bounds();
                 g.camera.frame(c, r);
             }
+            Request::Mouse(ev) => match ev {
+                params::MouseEvent::Press(x, y) => {
+                    g.mouse.pos = Some((x, y));
+                    let c = DVec2::new(x, y);
+                    strips_mouse::press(&g.stage, &g.gpu, &mut g.mouse.strips, state, c)?;
+                }
+                params::MouseEvent::Move(x, y) => {
+                    g.mouse.pos = Some((x, y));
+                    strips_mouse::drag(&g.stage, &mut g.mouse.strips, state, DVec2::new(x, y));
+                }
+                params::MouseEvent::Release => strips_mouse::release(&mut g.mouse.strips),
+            },
         }
     }
     Ok(())
@@ -687,6 +744,7 @@ fn frame(
     let no_panels = options.no_panels;
     let (win_w, win_h) = (g.config.width, g.config.height);
     let (camera, head, bounds) = (g.camera.camera(), g.stage.ctx().head, g.stage.bounds());
+    let forces = g.stage.ctx().forces;
     let mut output = ctx.run_ui(raw, |ui| {
         if !no_panels {
             panel_left = panels::show(ui, state);
@@ -698,15 +756,28 @@ fn frame(
         let size = DVec2::new(f64::from(scene_w), f64::from(win_h.max(1)));
         let view = edit::View::from_camera(&camera, head, size, bounds);
         state.edit_view = Some(view);
-        if state.view.eff_arrows {
-            // EFF cells are in world space: projected without the head pose.
-            let world = edit::View::from_camera(&camera, glam::DMat4::IDENTITY, size, bounds);
+        // EFF cells, strips and targets are in world space: projected without the head pose.
+        let world = edit::View::from_camera(&camera, glam::DMat4::IDENTITY, size, bounds);
+        state.world_view = Some(world);
+        let strips_mode = state.view.edit_strips || state.view.paint_eff;
+        if state.view.eff_arrows || (strips_mode && state.scene.strips.is_some()) {
+            let picked = state
+                .strip_pose
+                .as_ref()
+                .filter(|_| state.view.edit_strips)
+                .and_then(|(_, p)| p.get(state.key_strip as usize));
             crate::systems::strips::panel::overlay(
                 ui.ctx(),
                 &state.scene,
                 &mut state.brush.cache,
                 &world,
                 ppp,
+                crate::systems::strips::panel::Show {
+                    arrows: state.view.eff_arrows || state.view.paint_eff,
+                    targets: state.view.eff_arrows || state.view.edit_strips,
+                    picked: picked.map(|p| p.as_slice()),
+                    forces: Some(forces),
+                },
             );
         }
         if state.view.edit_skeletons {
@@ -743,6 +814,11 @@ fn frame_body(
 ) -> Result<()> {
     handle_requests(g, state, &mut shots)?;
     apply(g, state)?;
+    if let Some(f) = state.seek.take() {
+        g.stage.seek(&g.gpu, f)?;
+        g.clock_debt = 0.0;
+        state.strip_pose = None;
+    }
 
     // The clock: `time_scale` frames per drawn frame, from the second drawn frame on.
     let t = Instant::now();
@@ -767,6 +843,10 @@ fn frame_body(
         }
     }
     state.stats.sim_ms = state.stats.sim_ema.add(t.elapsed().as_secs_f64() * 1e3);
+    // The picked strip's outline follows it (one read-back a frame, in the mouse mode only).
+    if state.view.edit_strips && state.scene.strips.is_some() {
+        strips_mouse::pose(&g.stage, &g.gpu, state)?;
+    }
     let counts = g.stage.stats();
     state.stats.simulated = counts.simulated;
     state.stats.frame = g.stage.frame();

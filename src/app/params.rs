@@ -50,6 +50,12 @@ pub struct ViewSettings {
     pub edit_skeletons: bool,
     /// Draw the EFF's cells as arrows and the key-frame targets over the view.
     pub eff_arrows: bool,
+    /// The strips' mouse mode (Key frames panel): a left press on a target marker drags
+    /// it, on a strip picks it; `K` sets a first key for the picked strip.
+    pub edit_strips: bool,
+    /// The EFF brush's mouse mode (EFF panel): a left drag paints the drag's direction into
+    /// the cells under the cursor.
+    pub paint_eff: bool,
 }
 
 impl ViewSettings {
@@ -83,6 +89,8 @@ impl Default for ViewSettings {
             msaa_dropped: false,
             edit_skeletons: false,
             eff_arrows: false,
+            edit_strips: false,
+            paint_eff: false,
         }
     }
 }
@@ -96,6 +104,17 @@ pub enum Request {
     Step,
     Reset,
     FrameScene,
+    /// A mouse gesture in the 3D view, from `--set mouse.*` (scripts and tests drive the
+    /// strips' picking, dragging and painting through the same code as the real mouse).
+    Mouse(MouseEvent),
+}
+
+/// A scripted mouse event in window pixels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum MouseEvent {
+    Press(f64, f64),
+    Move(f64, f64),
+    Release,
 }
 
 /// Frame statistics shown in the Stats panel.
@@ -150,11 +169,20 @@ pub struct ViewerState {
     /// The 3D view as last drawn (the scene region, in window pixels), for the skeleton
     /// editor: picking, dragging, the overlay. None before the first frame.
     pub edit_view: Option<crate::systems::wisps::edit::View>,
+    /// The same view without the head pose: world points (strips, targets, EFF cells).
+    pub world_view: Option<crate::systems::wisps::edit::View>,
     /// The EFF panel's brush and file path.
     pub brush: crate::systems::strips::panel::Brush,
     /// The Key frames panel's strip and edit length.
     pub key_strip: u32,
     pub key_span: u32,
+    /// Simulate again from the rest pose to this frame after this frame's edits apply (the
+    /// timeline's scrub, a key-frame edit's replay), see `Stage::seek`.
+    pub seek: Option<u64>,
+    /// What the timeline's pointer holds.
+    pub timeline_grab: Option<crate::systems::strips::pick::TimelineGrab>,
+    /// The strips as last read back for the mouse mode: (frame, world polylines).
+    pub strip_pose: Option<(u64, Vec<Vec<glam::DVec3>>)>,
 }
 
 impl ViewerState {
@@ -171,10 +199,40 @@ impl ViewerState {
             group: 0,
             editor: Default::default(),
             edit_view: None,
+            world_view: None,
             brush: Default::default(),
             key_strip: 0,
             key_span: 20,
+            seek: None,
+            timeline_grab: None,
+            strip_pose: None,
         }
+    }
+
+    /// A key-frame edit of the picked strip (`key_strip`) whose first key is the current
+    /// frame and second `key_span` frames later; the clip is shown at the second key,
+    /// paused, so its target can be dragged at once.
+    pub fn add_strip_edit(&mut self) -> Result<()> {
+        use crate::scene::MAX_STRIP_EDITS;
+        let count = self.scene.strips.as_ref().map_or(0, |st| st.edits.len());
+        if count >= MAX_STRIP_EDITS {
+            return Err(KamiError::Option(format!(
+                "a scene holds at most {MAX_STRIP_EDITS} key-frame edits"
+            )));
+        }
+        let frame = u32::try_from(self.stats.frame).unwrap_or(u32::MAX - 1_000);
+        let e = crate::systems::strips::panel::new_edit(
+            &self.scene,
+            self.key_strip,
+            frame,
+            self.key_span,
+        )?;
+        self.seek = Some(u64::from(e.to));
+        self.view.playing = false;
+        if let Some(st) = self.scene.strips.as_mut() {
+            st.edits.push(e);
+        }
+        Ok(())
     }
 
     /// Apply a `--set KEY=VALUE` override through the same path as the panels: it edits the
@@ -184,12 +242,19 @@ impl ViewerState {
     /// `msaa=1|4`, `supersample=f`, `play=on|off`, `lod=fraction` (fixed, 0..1),
     /// `fur.hairs=N`, `fur.stiffness=s` (all coats), `fur.culling=on|off`,
     /// `wisps.edit=on|off` (the skeleton editor's mouse mode and overlay),
-    /// `wisps.max_steps=N` (the ray march's step budget: cheap previews).
+    /// `wisps.max_steps=N` (the ray march's step budget: cheap previews), `strips.edit=on|off`
+    /// and `eff.paint=on|off` (the strips' and the EFF brush's mouse modes), `strips.key`
+    /// (a first key now for the picked strip), `seek=FRAME`, `save=FILE`, and scripted mouse
+    /// events `mouse.press=x,y`, `mouse.move=x,y`, `mouse.release` (window pixels).
     pub fn apply_set(&mut self, assignment: &str) -> Result<()> {
         let bad = |m: String| KamiError::Option(format!("--set {assignment}: {m}"));
-        let (key, value) = assignment
-            .split_once('=')
-            .ok_or_else(|| bad("expected KEY=VALUE".into()))?;
+        // Actions without a value: `strips.key`, `mouse.release`.
+        let (key, value) = match assignment {
+            "strips.key" | "mouse.release" => (assignment, ""),
+            _ => assignment
+                .split_once('=')
+                .ok_or_else(|| bad("expected KEY=VALUE".into()))?,
+        };
         let nums = |n: usize| -> Result<Vec<f64>> {
             let v: Vec<f64> = value
                 .split(',')
@@ -305,6 +370,34 @@ impl ViewerState {
                 }
                 self.view.edit_skeletons = edit;
             }
+            "strips.edit" | "eff.paint" => {
+                let on = on()?;
+                if on && next.strips.is_none() {
+                    return Err(bad("the scene has no strips".into()));
+                }
+                if on && key == "eff.paint" && next.eff.is_none() {
+                    return Err(bad("the scene has no EFF".into()));
+                }
+                if key == "strips.edit" {
+                    self.view.edit_strips = on;
+                    self.view.paint_eff &= !on;
+                } else {
+                    self.view.paint_eff = on;
+                    self.view.edit_strips &= !on;
+                }
+            }
+            "strips.key" => return self.add_strip_edit().map_err(|e| bad(e.to_string())),
+            "seek" => self.seek = Some(int()? as u64),
+            "save" => self.requests.push(Request::Save(value.to_string())),
+            "mouse.press" | "mouse.move" => {
+                let v = nums(2)?;
+                self.requests.push(Request::Mouse(if key == "mouse.press" {
+                    MouseEvent::Press(v[0], v[1])
+                } else {
+                    MouseEvent::Move(v[0], v[1])
+                }));
+            }
+            "mouse.release" => self.requests.push(Request::Mouse(MouseEvent::Release)),
             _ => return Err(bad(format!("unknown key {key:?}"))),
         }
         crate::scene::validate(&next).map_err(|e| bad(e.to_string()))?;

@@ -19,7 +19,7 @@ mod validate;
 pub mod wisps;
 
 pub use head::Ellipsoid;
-pub use validate::{validate, MAX_SEGMENTS, MAX_SIZE, MAX_STRANDS};
+pub use validate::{validate, MAX_SEGMENTS, MAX_SIZE, MAX_STRANDS, MAX_STRIP_EDITS};
 
 use crate::error::{KamiError, Result};
 use serde::{Deserialize, Serialize};

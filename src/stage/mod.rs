@@ -96,6 +96,9 @@ pub fn check_limits(gpu: &Gpu, scene: &Scene, size: (u32, u32)) -> Result<()> {
 /// A kind's part of an edit: its index in `KINDS`, the change, the system built for it.
 type Planned = (usize, Change, Option<Box<dyn HairSystem>>);
 
+/// Frames of motion one submission of [`Stage::seek`] records.
+pub const SEEK_CHUNK: u64 = 32;
+
 /// The clock at `frame`: the forces and the head pose there.
 fn clock(frame: u64, forces: &Forces) -> FrameCtx<'_> {
     FrameCtx {
@@ -286,6 +289,24 @@ impl Stage {
         }
         self.frame = 0;
         Ok(())
+    }
+
+    /// The clock to `frame` by simulating again from the rest pose (the timeline's scrub,
+    /// and the clip after a key-frame edit): motion depends on the whole past, so a seek
+    /// replays it. At most `SEEK_CHUNK` frames go in one submission.
+    pub fn seek(&mut self, gpu: &Gpu, frame: u64) -> Result<()> {
+        self.reset(gpu)?;
+        while self.frame < frame {
+            let n = (frame - self.frame).min(SEEK_CHUNK) as u32;
+            let mut enc = gpu
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("seek"),
+                });
+            self.advance(gpu, &mut enc, n)?;
+            gpu.queue.submit([enc.finish()]);
+        }
+        gpu.take_error()
     }
 
     /// Change anti-aliasing; pipelines and targets are rebuilt only when needed.

@@ -10,6 +10,7 @@ pub mod dynamics_gpu;
 pub mod hom;
 pub mod keyframe;
 pub mod panel;
+pub mod pick;
 pub mod ribbon;
 pub mod texture;
 
@@ -68,7 +69,7 @@ pub const PANELS: &[Panel] = &[
     },
     Panel {
         title: "Key frames",
-        open: |s| s.strips.as_ref().is_some_and(|st| !st.edits.is_empty()),
+        open: |s| s.strips.is_some(),
         show: panel::keyframes,
     },
 ];
@@ -119,14 +120,16 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
             .map(|e| (e.dims(), e.origin(), e.cell_size()))
     };
     if a.layers != b.layers
-        || a.edits != b.edits
         || joints(a) != joints(b)
         || old.head != new.head
         || grid(old) != grid(new)
     {
         return Change::Rebuild;
     }
+    // An edit's keys or target: solve the extra forces again (the viewer then replays
+    // the clip, see `Stage::seek`), no new pipelines while a target is dragged.
     if a.motion != b.motion
+        || a.edits != b.edits
         || old.eff != new.eff
         || old.head_capture != new.head_capture
         || old.dynamics.as_ref().map(|d| (&d.wind, &d.head_motion))
@@ -198,6 +201,20 @@ impl StripsSystem {
             ribbon,
             reach,
         })
+    }
+}
+
+impl StripsSystem {
+    /// The strips as the GPU last posed them, one world-space polyline each (the viewer's
+    /// picking reads them back when the mouse asks, never every frame of a render).
+    pub fn pose(&self, gpu: &Gpu) -> Result<Vec<Vec<DVec3>>> {
+        let points = self.dynamics.read_points(gpu)?;
+        let lens: Vec<usize> = self.rest.iter().map(|r| r.points.len()).collect();
+        Ok(pick::polylines(
+            &points,
+            self.dynamics.stride() as usize,
+            &lens,
+        ))
     }
 }
 

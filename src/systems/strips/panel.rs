@@ -187,6 +187,48 @@ impl Default for Brush {
     }
 }
 
+/// Paint `force` into the cells within `radius` of `center` of `field` (the scene's field
+/// as built), as point samples of the scene's EFF block at the cells' centres so the fill
+/// rules work around them and the scene saves them. A painted cell's earlier samples are
+/// replaced, not averaged with the new one: repeated strokes converge to the brush's force.
+/// Returns the cells painted.
+pub fn paint_into(
+    desc: &mut EffDesc,
+    field: &Eff,
+    center: DVec3,
+    radius: f64,
+    force: DVec3,
+) -> usize {
+    let mut painted = field.clone();
+    painted.paint(center, radius, force, 1.0);
+    let changed: Vec<usize> = painted
+        .cells()
+        .iter()
+        .zip(field.cells())
+        .enumerate()
+        .filter(|(_, (new, old))| (**new - **old).length() > 1e-9)
+        .map(|(i, _)| i)
+        .collect();
+    let cell_of = |at: [f64; 3]| {
+        let q = (DVec3::from(at) - field.origin()) / field.cell_size();
+        let d = field.dims();
+        (q.min_element() >= 0.0
+            && (q.x as u32) < d[0]
+            && (q.y as u32) < d[1]
+            && (q.z as u32) < d[2])
+            .then(|| field.index([q.x as u32, q.y as u32, q.z as u32]))
+    };
+    desc.samples
+        .retain(|smp| cell_of(smp.at).is_none_or(|c| changed.binary_search(&c).is_err()));
+    for &i in &changed {
+        desc.samples.push(EffSample {
+            at: painted.cell_center(i).to_array(),
+            force: painted.cells()[i].to_array(),
+        });
+    }
+    changed.len()
+}
+
 /// The field as the scene builds it (files read, fill rules applied), built again only
 /// when the scene's EFF block changed.
 pub fn built(
@@ -310,25 +352,28 @@ pub fn eff(ui: &mut Ui, s: &mut ViewerState) {
             .logarithmic(true)
             .text("strength (cm/s²)"),
     );
-    if ui.button("paint").clicked() {
-        if let Some(e) = &field {
-            let dir = DVec3::from(b.direction).normalize_or_zero();
-            let mut painted = (**e).clone();
-            let n = painted.paint(DVec3::from(b.center), b.radius, dir * b.strength, 1.0);
-            // The painted cells become samples of the scene's field (saved with the scene),
-            // so the fill rules work around them.
-            let before = e.cells();
-            for (i, (new, old)) in painted.cells().iter().zip(before).enumerate() {
-                if (*new - *old).length() > 1e-9 {
-                    desc.samples.push(EffSample {
-                        at: painted.cell_center(i).to_array(),
-                        force: new.to_array(),
-                    });
-                }
+    ui.horizontal(|ui| {
+        if ui.button("paint").clicked() {
+            if let Some(e) = &field {
+                let dir = DVec3::from(b.direction).normalize_or_zero();
+                let n = paint_into(desc, e, DVec3::from(b.center), b.radius, dir * b.strength);
+                s.message = Some(format!("painted {n} cells"));
             }
-            s.message = Some(format!("painted {n} cells"));
         }
-    }
+        let mut mouse = s.view.paint_eff;
+        if ui
+            .checkbox(&mut mouse, "paint with the mouse")
+            .on_hover_text(
+                "a left drag in the view paints the drag's direction, at this radius and \
+                 strength, into the cells under the cursor (in the plane through the head's \
+                 centre facing you)",
+            )
+            .changed()
+        {
+            s.view.paint_eff = mouse;
+            s.view.edit_strips &= !mouse;
+        }
+    });
     ui.separator();
     ui.horizontal(|ui| {
         ui.label("file");
@@ -365,22 +410,32 @@ pub fn keyframes(ui: &mut Ui, s: &mut ViewerState) {
         return;
     };
     let strips: u32 = st.layers.iter().map(|l| l.count).sum();
-    ui.label(format!("frame {frame}"));
-    ui.checkbox(&mut s.view.playing, "play");
+    ui.horizontal(|ui| {
+        ui.label(format!("frame {frame}"));
+        ui.checkbox(&mut s.view.playing, "play");
+    });
+    timeline(ui, s);
+    let mut mouse = s.view.edit_strips;
+    if ui
+        .checkbox(&mut mouse, "pick strips and drag targets with the mouse")
+        .on_hover_text(
+            "left click a strip to pick it, K sets a first key at this frame; drag a pink \
+             target marker to move the strip's pose at the second key",
+        )
+        .changed()
+    {
+        s.view.edit_strips = mouse;
+        s.view.paint_eff &= !mouse;
+    }
     ui.add(Slider::new(&mut s.key_strip, 0..=strips.saturating_sub(1)).text("strip"));
     ui.add(Slider::new(&mut s.key_span, 2..=120).text("frames to the second key"));
     if ui
-        .button("add an edit: first key now, the strip swung 5 cm out")
-        .on_hover_text("the second key is `frames to the second key` later; drag the target below")
+        .button("add an edit: first key now, the strip swung 5 cm out (K)")
+        .on_hover_text("the clip then shows the second key: drag the target there")
         .clicked()
     {
-        match new_edit(&s.scene, s.key_strip, frame as u32, s.key_span) {
-            Ok(e) => {
-                if let Some(st) = s.scene.strips.as_mut() {
-                    st.edits.push(e);
-                }
-            }
-            Err(e) => s.error = Some(e.to_string()),
+        if let Err(e) = s.add_strip_edit() {
+            s.error = Some(e.to_string());
         }
     }
     ui.checkbox(
@@ -421,6 +476,125 @@ pub fn keyframes(ui: &mut Ui, s: &mut ViewerState) {
     }
     if let Some(i) = remove {
         st.edits.remove(i);
+    }
+}
+
+/// The key-frame timeline: a frame ruler with the clock, and a row per edit with its two
+/// keys and the release after them. A press on the ruler or between keys scrubs (the clip
+/// is simulated again to that frame); a press on a key drags it.
+fn timeline(ui: &mut Ui, s: &mut ViewerState) {
+    use super::pick::{move_key, Timeline, TimelineGrab};
+    use egui::{pos2, vec2, Align2, FontId, Rect, Sense, Stroke};
+    let Some(st) = s.scene.strips.as_ref() else {
+        return;
+    };
+    const RULER: f32 = 18.0;
+    const ROW: f32 = 14.0;
+    let clip = s.scene.head_capture.as_ref().map(|h| h.keys.len() as u32);
+    let frames = Timeline::span(&st.edits, s.stats.frame, clip);
+    let height = RULER + ROW * st.edits.len().max(1) as f32 + 4.0;
+    let (rect, resp) =
+        ui.allocate_exact_size(vec2(ui.available_width(), height), Sense::click_and_drag());
+    let tl = Timeline {
+        left: f64::from(rect.left() + 6.0),
+        width: f64::from(rect.width() - 12.0),
+        frames,
+    };
+    let x = |f: f64| tl.x_of(f) as f32;
+    let painter = ui.painter_at(rect);
+    painter.rect_filled(rect, 3.0, Color32::from_gray(28));
+    // Ruler: a tick every 10 frames, a label every 30.
+    for f in (0..=frames).step_by(10) {
+        let tall = f % 30 == 0;
+        let top = rect.top() + if tall { 2.0 } else { 9.0 };
+        painter.line_segment(
+            [
+                pos2(x(f64::from(f)), top),
+                pos2(x(f64::from(f)), rect.top() + RULER),
+            ],
+            Stroke::new(1.0, Color32::from_gray(110)),
+        );
+        if tall {
+            painter.text(
+                pos2(x(f64::from(f)) + 2.0, rect.top() + 1.0),
+                Align2::LEFT_TOP,
+                f.to_string(),
+                FontId::proportional(10.0),
+                Color32::from_gray(170),
+            );
+        }
+    }
+    let row_y = |r: usize| rect.top() + RULER + ROW * r as f32;
+    for (r, e) in st.edits.iter().enumerate() {
+        let y0 = row_y(r) + 2.0;
+        let (a, b) = (x(f64::from(e.from)), x(f64::from(e.to)));
+        let release = x(f64::from(e.to) + f64::from(e.to - e.from) / 2.0);
+        let picked = e.strip == s.key_strip;
+        let col = if picked {
+            Color32::from_rgb(255, 80, 160)
+        } else {
+            Color32::from_rgb(170, 90, 130)
+        };
+        painter.rect_filled(
+            Rect::from_min_max(pos2(a, y0 + 3.0), pos2(b, y0 + ROW - 5.0)),
+            2.0,
+            col.gamma_multiply(0.6),
+        );
+        painter.line_segment(
+            [
+                pos2(b, y0 + ROW / 2.0 - 1.0),
+                pos2(release, y0 + ROW / 2.0 - 1.0),
+            ],
+            Stroke::new(1.0, col),
+        );
+        for k in [a, b] {
+            painter.circle_filled(pos2(k, y0 + ROW / 2.0 - 1.0), 4.0, col);
+        }
+        painter.text(
+            pos2(release + 4.0, y0 + ROW / 2.0 - 1.0),
+            Align2::LEFT_CENTER,
+            format!("strip {}", e.strip),
+            FontId::proportional(10.0),
+            Color32::from_gray(200),
+        );
+    }
+    let now = x(s.stats.frame as f64);
+    painter.line_segment(
+        [pos2(now, rect.top()), pos2(now, rect.bottom())],
+        Stroke::new(2.0, Color32::from_rgb(255, 210, 90)),
+    );
+    let Some(p) = resp.interact_pointer_pos() else {
+        return;
+    };
+    let at = tl.frame_at(f64::from(p.x));
+    if resp.drag_started() || resp.clicked() {
+        let row = (p.y >= rect.top() + RULER)
+            .then(|| ((p.y - rect.top() - RULER) / ROW) as usize)
+            .filter(|r| *r < st.edits.len());
+        s.timeline_grab = Some(tl.grab(&st.edits, row, f64::from(p.x), 6.0));
+    }
+    match s.timeline_grab {
+        Some(g @ (TimelineGrab::From(i) | TimelineGrab::To(i))) => {
+            if let Some(e) = s.scene.strips.as_mut().and_then(|st| st.edits.get_mut(i)) {
+                move_key(e, g, at);
+                s.key_strip = e.strip;
+                let shown = if matches!(g, TimelineGrab::To(_)) {
+                    e.to
+                } else {
+                    e.from
+                };
+                s.seek = Some(u64::from(shown));
+                s.view.playing = false;
+            }
+        }
+        Some(TimelineGrab::Scrub) if u64::from(at) != s.stats.frame => {
+            s.seek = Some(u64::from(at));
+            s.view.playing = false;
+        }
+        _ => {}
+    }
+    if resp.drag_stopped() || resp.clicked() {
+        s.timeline_grab = None;
     }
 }
 
@@ -468,14 +642,31 @@ pub fn new_edit(scene: &Scene, strip: u32, from: u32, span: u32) -> crate::Resul
     })
 }
 
-/// Arrows for the EFF's cells (every other cell on each axis past 8 per axis) and the
-/// key-frame targets, over the 3D view. `view` projects world points.
+/// What [`overlay`] draws.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Show<'a> {
+    /// The EFF's cells as arrows.
+    pub arrows: bool,
+    /// The key-frame targets.
+    pub targets: bool,
+    /// The picked strip's centre line, as last posed (world points).
+    pub picked: Option<&'a [DVec3]>,
+    /// The forces the stage runs (the head pose at a target's key); None: the scene's.
+    pub forces: Option<&'a Forces>,
+}
+
+/// The colour of the key-frame targets and the picked strip.
+pub const TARGET: Color32 = Color32::from_rgb(255, 80, 160);
+
+/// Arrows for the EFF's cells (every other cell on each axis past 8 per axis), the
+/// key-frame targets and the picked strip, over the 3D view. `view` projects world points.
 pub fn overlay(
     ctx: &egui::Context,
     scene: &Scene,
     cache: &mut Option<(EffDesc, std::sync::Arc<Eff>)>,
     view: &crate::systems::wisps::edit::View,
     ppp: f32,
+    show: Show<'_>,
 ) {
     use egui::{pos2, vec2, Id, LayerId, Order, Rect, Stroke};
     let ppp = ppp.max(1e-3);
@@ -487,7 +678,15 @@ pub fn overlay(
         .layer_painter(LayerId::new(Order::Middle, Id::unique("strips overlay")))
         .with_clip_rect(clip);
     let at = |q: DVec3| pos2(q.x as f32 / ppp, q.y as f32 / ppp);
-    if let Some(e) = built(scene, cache) {
+    if let Some(line) = show.picked {
+        let pts: Vec<egui::Pos2> = line
+            .iter()
+            .filter_map(|p| view.project(*p))
+            .map(at)
+            .collect();
+        painter.add(egui::Shape::line(pts, Stroke::new(2.5, TARGET)));
+    }
+    if let Some(e) = show.arrows.then(|| built(scene, cache)).flatten() {
         let d = e.dims();
         let step = |n: u32| if n > 8 { 2 } else { 1 };
         let biggest = e.max_force().max(1e-9);
@@ -515,18 +714,21 @@ pub fn overlay(
             }
         }
     }
-    if let Some(st) = &scene.strips {
-        let forces = Forces::from_scene(scene);
+    if let Some(st) = scene.strips.as_ref().filter(|_| show.targets) {
+        let own;
+        let forces = match show.forces {
+            Some(f) => f,
+            None => {
+                own = Forces::from_scene(scene);
+                &own
+            }
+        };
         for e in &st.edits {
             let p = forces
                 .head_at(f64::from(e.to))
                 .transform_point3(DVec3::from(e.target));
             if let Some(q) = view.project(p) {
-                painter.circle_stroke(
-                    at(q),
-                    6.0,
-                    Stroke::new(2.0, Color32::from_rgb(255, 80, 160)),
-                );
+                painter.circle_stroke(at(q), 6.0, Stroke::new(2.0, TARGET));
                 painter.text(
                     at(q) + vec2(8.0, -8.0),
                     egui::Align2::LEFT_BOTTOM,
