@@ -865,3 +865,25 @@ fn trilinear_sampling_is_smoother_than_nearest() {
         "nearest and trilinear should agree within half a strip: {max_rel}"
     );
 }
+
+/// The bench's work–precision rates each give their own whole number of steps per frame on
+/// `Setup::gust()` (a rate below the frame rate rounds up to one step and repeats a row).
+#[test]
+fn precision_rates_give_distinct_rows() {
+    let m = Setup::gust().motion;
+    let spf: Vec<u32> = kami::bench::strips::RATES
+        .iter()
+        .map(|&r| {
+            steps_per_frame(&Motion {
+                steps_per_second: r,
+                ..m.clone()
+            })
+        })
+        .collect();
+    let mut d = spf.clone();
+    d.dedup();
+    assert_eq!(d, spf, "repeated steps per frame: {spf:?}");
+    for (r, s) in kami::bench::strips::RATES.iter().zip(&spf) {
+        assert_eq!(*s as f64 / m.frame_time, *r, "rate {r} is not what runs");
+    }
+}
