@@ -1,6 +1,9 @@
 //! Strips motion capture: the marker CSV and BVH readers (every bad input refused with its
-//! file and line), head keys from the CMU capture that reproduce the joint's motion, and
-//! eq 3's wind estimate on motions whose acceleration we know.
+//! file and line), head keys from the CMU capture that reproduce the joint's motion, eq 3's
+//! wind estimate on motions whose acceleration we know, and the shipped scene whose head
+//! turns with the CMU capture (its motion, its snapshots, the error without the file).
+
+mod common;
 
 use glam::{DMat4, DQuat, DVec3};
 use kami::bvh::{self, Bvh, HeadCapture, Mapping, CMU_CM_PER_UNIT};
@@ -927,4 +930,98 @@ fn capture_scene_loads_the_fitted_field() {
     let e = forces.eff.expect("the scene's EFF");
     let shipped = Eff::load(root().join("assets/eff/capture.eff")).unwrap();
     assert_eq!(e.cells(), shipped.cells());
+}
+
+// ---------------------------------------------------------------------------------------
+// assets/scenes/strips_turn.ron: the layered strips on the CMU head turning
+
+/// Snapshot tolerance of the strips snapshots (`tests/strips.rs`): mean <= 0.25 of 255, at
+/// most 0.2 % of pixels off by more than 24, one sample per pixel.
+const TOL: common::Tolerance = common::Tolerance {
+    mean: 0.25,
+    threshold: 24,
+    share: 0.002,
+};
+
+fn turn_scene() -> kami::Scene {
+    cmu();
+    common::scene("strips_turn")
+}
+
+/// The head turns about half a revolution with the capture, and the hair lags it: in the
+/// head's frame the tips swing away from where they hang on a still head (f64 reference).
+#[test]
+fn strips_turn_scene_swings_the_hair() {
+    use kami::forces::Forces;
+    use kami::systems::strips::{dynamics, hom};
+    let scene = turn_scene();
+    assert_eq!(scene.head_capture.as_ref().unwrap().keys.len(), 90);
+    let forces = Forces::from_scene(&scene);
+    assert!(forces.head_moves());
+    // A few degrees of drift to frame 12 (measured 5° at frame 8), the fast part of the turn
+    // in frames 12-18 (measured 52° at 18), about half a turn by frame 60 (measured 176°;
+    // the angle of a rotation reads at most 180°).
+    let deg = |f: f64| angle(forces.head_at(f)).to_degrees();
+    assert!(deg(8.0) < 9.0, "{}", deg(8.0));
+    assert!(deg(18.0) > 40.0, "{}", deg(18.0));
+    assert!(deg(80.0) > 150.0, "the head turns round: {}", deg(80.0));
+    let st = scene.strips.as_ref().unwrap();
+    let rest = hom::build(st, &scene.head).unwrap();
+    let frames = 40;
+    let still = Forces {
+        head_motion: Vec::new(),
+        ..forces.clone()
+    };
+    let turn = dynamics::simulate(&rest, &st.motion, &forces, &scene.head, &[], frames).unwrap();
+    let hang = dynamics::simulate(&rest, &st.motion, &still, &scene.head, &[], frames).unwrap();
+    let stride = turn[0].len() / rest.len();
+    let mut swing = 0.0f64;
+    for f in 0..=frames as usize {
+        let inv = forces.head_at(f as f64).inverse();
+        for s in 0..rest.len() {
+            let i = s * stride + stride - 1;
+            let d = (inv.transform_point3(turn[f][i]) - hang[f][i]).length();
+            assert!(d.is_finite());
+            swing = swing.max(d);
+        }
+    }
+    eprintln!("strips_turn: tips swing up to {swing:.1} cm in the head's frame");
+    assert!(swing > 5.0, "the turn should swing the hair: {swing} cm");
+}
+
+/// Frames 0 (rest), 18 (the hair swung out by the fast part of the turn) and 30 of
+/// `assets/scenes/strips_turn.ron`, at the strips snapshots' size and tolerance.
+#[test]
+fn strips_turn_snapshots() {
+    let gpu = common::gpu();
+    let mut scene = turn_scene();
+    scene.render.supersample = 1;
+    scene.render.msaa = 1;
+    kami::stage::render_animation(&gpu, &scene, (160, 128), 0..=30, |f, img| {
+        if [0, 18, 30].contains(&f) {
+            common::check_snapshot(&format!("strips_turn_{f}"), &img, TOL);
+        }
+        Ok(())
+    })
+    .unwrap();
+}
+
+/// Without the BVH file the scene does not load, and the error names the file.
+#[test]
+fn strips_turn_without_the_capture_names_the_file() {
+    let text = std::fs::read_to_string(root().join("assets/scenes/strips_turn.ron")).unwrap();
+    assert!(text.contains(CMU));
+    let missing = "/nonexistent/assimp/01_01.bvh";
+    let dir = std::env::temp_dir().join(format!("kami-strips-turn-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("strips_turn.ron");
+    std::fs::write(&path, text.replace(CMU, missing)).unwrap();
+    let e = kami::Scene::load(&path).unwrap_err();
+    std::fs::remove_dir_all(&dir).ok();
+    let msg = e.to_string();
+    assert!(
+        matches!(&e, KamiError::Io { path, .. } if path == Path::new(missing)),
+        "{msg}"
+    );
+    assert!(msg.contains(missing), "{msg}");
 }
