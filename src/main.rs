@@ -535,7 +535,7 @@ fn main() -> Result<()> {
                 let report = kami::bench::strips::run(&gpu, &scene, frames, &out)?;
                 println!("{}", report.markdown);
                 println!(
-                    "wrote {0}/strips.md, {0}/strips.csv, {0}/strips_speed.png, {0}/strips_precision.png, {0}/capture.md, {0}/capture.csv, {0}/capture.png",
+                    "wrote {0}/strips.md, {0}/strips.csv, {0}/strips_speed.png, {0}/strips_precision.png, {0}/strips_sampling.csv, {0}/strips_sampling.png, {0}/capture.md, {0}/capture.csv, {0}/capture.png",
                     out.display()
                 );
             }

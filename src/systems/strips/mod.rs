@@ -48,7 +48,7 @@ pub const KIND: Kind = Kind {
     build,
     classify,
     panels: PANELS,
-    scenes: &["strips", "eff_capture"],
+    scenes: &["strips", "eff_capture", "strips_turn"],
     shaders: &[
         ("strips/dynamics", dynamics_gpu::DYNAMICS),
         ("strips/ribbon", ribbon::RIBBON),
