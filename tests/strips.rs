@@ -257,9 +257,15 @@ fn edits_are_classified_by_what_they_touch() {
             })),
         Change::Resimulate
     );
+    // τ, I1, I2: new joint constants from the next step, the pose kept (an artist tunes
+    // them while the clip plays).
     assert_eq!(
         with(&|s| s.strips.as_mut().unwrap().motion.stiffness = 300.0),
-        Change::Rebuild
+        Change::Resimulate
+    );
+    assert_eq!(
+        with(&|s| s.strips.as_mut().unwrap().motion.inertia = 2.0),
+        Change::Resimulate
     );
     assert_eq!(
         with(&|s| s.strips.as_mut().unwrap().layers[0].count = 5),

@@ -197,6 +197,15 @@ fn points(gpu: &kami::gpu::Gpu, stage: &Stage) -> Vec<[f32; 4]> {
         .unwrap()
 }
 
+/// The largest coordinate difference between two poses (0: bit for bit where finite).
+fn worst(a: &[[f32; 4]], b: &[[f32; 4]]) -> f32 {
+    assert_eq!(a.len(), b.len());
+    a.iter()
+        .zip(b)
+        .flat_map(|(p, q)| (0..4).map(move |k| (p[k] - q[k]).abs()))
+        .fold(0.0, f32::max)
+}
+
 fn stage(gpu: &kami::gpu::Gpu, scene: &kami::Scene) -> Stage {
     let q = Quality {
         msaa: 1,
@@ -262,4 +271,49 @@ fn an_edit_and_a_seek_replay_the_clip_with_the_edit() {
         })
         .fold(0.0, f64::max);
     assert!(moved > 1.0, "the edit moved nothing at frame 24: {moved}");
+}
+
+/// τ, I1 and I2 change without a rebuild too: the stage keeps its clock and pose, and a
+/// seek then gives a fresh run's strips with the new constants, bit for bit (so the GPU got
+/// every new propagator), which differ from the old constants' strips.
+#[test]
+fn new_joint_constants_act_without_a_rebuild() {
+    let gpu = common::gpu();
+    let mut scene = common::scene("strips");
+    for l in &mut scene.strips.as_mut().unwrap().layers {
+        l.count = l.count.div_ceil(4);
+    }
+    let mut stiff = scene.clone();
+    {
+        let m = &mut stiff.strips.as_mut().unwrap().motion;
+        m.stiffness *= 4.0;
+        m.inertia *= 0.5;
+        m.damping *= 2.0;
+    }
+    assert_eq!(
+        kami::systems::strips::classify(&scene, &stiff),
+        Change::Resimulate
+    );
+    let mut live = stage(&gpu, &scene);
+    live.seek(&gpu, 15).unwrap();
+    let old = points(&gpu, &live);
+    let applied = live.apply(&gpu, &stiff).unwrap();
+    assert!(!applied.restarted);
+    assert_eq!(live.frame(), 15);
+    let off = worst(&points(&gpu, &live), &old);
+    assert!(off == 0.0, "the pose must stay: it moved by {off}");
+    live.seek(&gpu, 15).unwrap();
+    let mut fresh = stage(&gpu, &stiff);
+    fresh.seek(&gpu, 15).unwrap();
+    let want = points(&gpu, &fresh);
+    let off = worst(&points(&gpu, &live), &want);
+    assert!(
+        off == 0.0,
+        "seek with new constants differs from a fresh run by {off}"
+    );
+    let moved = worst(&want, &old);
+    assert!(
+        moved > 0.5,
+        "the new constants moved the strips by only {moved}"
+    );
 }

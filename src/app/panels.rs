@@ -54,6 +54,9 @@ pub fn show(ui: &mut Ui, s: &mut ViewerState) -> f32 {
                 egui::CollapsingHeader::new("Stats").default_open(true).show(ui, |ui| stats(ui, s));
                 ui.separator();
                 ui.small("Drag: orbit · right/middle or shift-drag: pan · wheel: zoom · F: frame · Space: play · N: step · R: reset · S: screenshot");
+                if s.view.edit_strips {
+                    ui.small("Strips: click a strip to pick it · K: first key now · drag a pink marker: move its target");
+                }
             });
         })
         .response

@@ -373,9 +373,36 @@ impl DynamicsGpu {
         );
     }
 
+    /// New joint constants (I1, I2, τ from a changed `Motion`) for the same strips: the
+    /// rig must have the same strips, sticks and layout. They reach the GPU with the next
+    /// `update_params`; the current pose stays.
+    pub fn set_rig(&mut self, rig: Rig) -> Result<()> {
+        let layout = |r: &Rig| {
+            (
+                r.stride(),
+                r.strips
+                    .iter()
+                    .map(|s| (s.first, s.sticks))
+                    .collect::<Vec<_>>(),
+            )
+        };
+        if layout(&rig) != layout(&self.rig) {
+            return Err(KamiError::Invalid {
+                file: String::new(),
+                field: "strips rig".into(),
+                value: format!("{} strips, stride {}", rig.strip_count(), rig.stride()),
+                allowed:
+                    "the same strips and sticks as the rig on the GPU (rebuild to change them)"
+                        .into(),
+            });
+        }
+        self.rig = rig;
+        Ok(())
+    }
+
     /// Take the forces' settings of `motion` (gravity, spring, collision, sampling, frame
-    /// time and step rate) and the hull of `head`. The joints' I1, I2 and τ stay those of
-    /// the rig (build anew to change them).
+    /// time and step rate), the joints' constants of the rig (see `set_rig`) and the hull
+    /// of `head`.
     pub fn update_params(&mut self, gpu: &Gpu, motion: &Motion, head: &Head) {
         self.motion = motion.clone();
         let dt = step_length(motion);

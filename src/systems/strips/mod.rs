@@ -97,11 +97,12 @@ fn build(gpu: &Gpu, scene: &Scene, setup: &DrawSetup) -> Result<Box<dyn HairSyst
     Ok(Box::new(StripsSystem::new(gpu, scene, setup)?))
 }
 
-/// What an edit asks of the strips. The look is a `Redraw`. The forces' settings (gravity,
-/// spring, collision, sampling, the step rate), the EFF's cells and the head capture act
-/// from the next step (`Resimulate`; key-frame edits are solved again). The layers, the
-/// head, the joints' I1, I2 and τ (fixed in the rig's propagators), the EFF's grid size and
-/// the edits themselves build the strips again, and the clip restarts at frame 0.
+/// What an edit asks of the strips. The look is a `Redraw`. The joints' I1, I2 and τ, the
+/// forces' settings (gravity, spring, collision, sampling, the step rate), the EFF's cells,
+/// the head capture and the key-frame edits act from the next step (`Resimulate`: new
+/// propagators, key-frame edits solved again, the pose kept; the viewer replays the clip
+/// after an edit). The layers, the head and the EFF's grid size build the strips again,
+/// and the clip restarts at frame 0.
 pub fn classify(old: &Scene, new: &Scene) -> Change {
     let (Some(a), Some(b)) = (&old.strips, &new.strips) else {
         return if old.strips == new.strips {
@@ -110,20 +111,12 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
             Change::Rebuild
         };
     };
-    let joints = |s: &Strips| {
-        let m = &s.motion;
-        (m.inertia, m.damping, m.stiffness, m.stiffness_tip)
-    };
     let grid = |s: &Scene| {
         Forces::from_scene(s)
             .eff
             .map(|e| (e.dims(), e.origin(), e.cell_size()))
     };
-    if a.layers != b.layers
-        || joints(a) != joints(b)
-        || old.head != new.head
-        || grid(old) != grid(new)
-    {
+    if a.layers != b.layers || old.head != new.head || grid(old) != grid(new) {
         return Change::Rebuild;
     }
     // An edit's keys or target: solve the extra forces again (the viewer then replays
@@ -283,6 +276,9 @@ impl HairSystem for StripsSystem {
                 if let Some(e) = forces.eff.as_deref() {
                     self.eff.write_cells(gpu, e)?;
                 }
+                // τ, I1 and I2 act from the next step too: new joint constants, same pose.
+                let rig = dynamics::Rig::new(&self.rest, &st.motion)?;
+                self.dynamics.set_rig(rig)?;
                 self.dynamics.update_params(gpu, &st.motion, &scene.head);
                 self.solved =
                     keyframe::solve(&self.rest, &st.motion, &forces, &scene.head, &st.edits)?;

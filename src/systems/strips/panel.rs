@@ -515,9 +515,18 @@ fn timeline(ui: &mut Ui, s: &mut ViewerState) {
             Stroke::new(1.0, Color32::from_gray(110)),
         );
         if tall {
+            // The last labels end at their tick, inside the timeline.
+            let end = x(f64::from(f)) + 24.0 > rect.right();
             painter.text(
-                pos2(x(f64::from(f)) + 2.0, rect.top() + 1.0),
-                Align2::LEFT_TOP,
+                pos2(
+                    x(f64::from(f)) + if end { -2.0 } else { 2.0 },
+                    rect.top() + 1.0,
+                ),
+                if end {
+                    Align2::RIGHT_TOP
+                } else {
+                    Align2::LEFT_TOP
+                },
                 f.to_string(),
                 FontId::proportional(10.0),
                 Color32::from_gray(170),
