@@ -119,6 +119,11 @@ pub struct Motion {
     /// How control points read the EFF.
     #[serde(default)]
     pub sampling: Sampling,
+    /// Gravity preloading: the rest angles Φ0 are set so that the groomed shape is the
+    /// equilibrium under gravity (Φ0 = Φ − H_g(Φ)/τ), and the strips hold it in still air
+    /// instead of sagging from frame 0 (off: Φ0 is the groomed shape, as in the paper).
+    #[serde(default)]
+    pub preload: bool,
 }
 
 fn default_inertia() -> f64 {
@@ -159,6 +164,7 @@ impl Default for Motion {
             frame_time: default_frame_time(),
             steps_per_second: default_rate(),
             sampling: Sampling::default(),
+            preload: false,
         }
     }
 }

@@ -386,6 +386,9 @@ pub struct Rig {
     pub(crate) joints: Vec<Joint>,
     /// Angles per joint.
     pub(crate) q: Vec<[f64; 2]>,
+    /// Angles of the groomed pose, where the state starts and resets (the rest angles Φ0
+    /// unless gravity preloading moved those).
+    pub(crate) start: Vec<[f64; 2]>,
     /// Angular rates per joint.
     pub(crate) v: Vec<[f64; 2]>,
     pub(crate) stride: usize,
@@ -638,6 +641,7 @@ impl Rig {
             });
         }
         let q: Vec<[f64; 2]> = joints.iter().map(|j| j.rest).collect();
+        let start = q.clone();
         let v = vec![[0.0; 2]; joints.len()];
         let scratch = Scratch {
             x: vec![DVec3::ZERO; stride],
@@ -650,12 +654,60 @@ impl Rig {
             strips,
             joints,
             q,
+            start,
             v,
             stride,
             pose: DMat4::IDENTITY,
             props: None,
             scratch,
         })
+    }
+
+    /// `new`, then gravity preloading on `head` when `motion.preload` asks for it: the rig
+    /// every simulation of a scene uses (CPU reference and GPU alike).
+    pub fn posed(rest: &[RestStrip], motion: &Motion, head: &Head) -> Result<Rig> {
+        let mut rig = Rig::new(rest, motion)?;
+        if motion.preload {
+            rig.preload(motion, head);
+        }
+        Ok(rig)
+    }
+
+    /// Gravity preloading (`Motion::preload`): move each joint's rest angles Φ0 so that
+    /// τ (Φg − Φ0) = H(Φg), the generalized force in the groomed pose Φg of gravity and of
+    /// the hull's penalty band (groomed points lie outside the hull, but may lie in the
+    /// band) on a still head in still air; the strips then hold Φg (the state starts and
+    /// resets there). Wind, the EFF and head motion are what move them. The spring is zero
+    /// at Φg. Joints with τ = 0 cannot hold a shape and keep Φ0 = Φg.
+    pub fn preload(&mut self, motion: &Motion, head: &Head) {
+        let still = Forces {
+            gravity: DVec3::ZERO,
+            wind: Vec::new(),
+            head_motion: Vec::new(),
+            center: DVec3::ZERO,
+            eff: None,
+        };
+        let still_motion = Motion {
+            spring: 0.0,
+            ..motion.clone()
+        };
+        let env = Env {
+            forces: &still,
+            frame: 0.0,
+            head,
+            motion: &still_motion,
+            extra: &[],
+        };
+        for s in 0..self.strips.len() {
+            let h = self.generalized_forces(&env, s);
+            let first = self.strips[s].first;
+            for (j, hj) in h.iter().enumerate() {
+                let jt = &mut self.joints[first + j];
+                if jt.tau > 1e-12 && hj.iter().all(|x| x.is_finite()) {
+                    jt.rest = [jt.rest[0] - hj[0] / jt.tau, jt.rest[1] - hj[1] / jt.tau];
+                }
+            }
+        }
     }
 
     /// Points per strip in `points()` (the longest strip's control points).
@@ -674,9 +726,7 @@ impl Rig {
 
     /// Back to the rest state (rest angles, no motion, head at its rest pose).
     pub fn reset(&mut self) {
-        for (q, j) in self.q.iter_mut().zip(&self.joints) {
-            *q = j.rest;
-        }
+        self.q.clone_from(&self.start);
         self.v.iter_mut().for_each(|v| *v = [0.0; 2]);
         self.pose = DMat4::IDENTITY;
     }
@@ -1028,7 +1078,7 @@ pub fn simulate(
     frames: u32,
 ) -> Result<Vec<Vec<DVec3>>> {
     check_extra(extra)?;
-    let mut rig = Rig::new(rest, motion)?;
+    let mut rig = Rig::posed(rest, motion, head)?;
     rig.set_pose(forces.head_at(0.0));
     let mut out = Vec::with_capacity(frames as usize + 1);
     out.push(rig.points());
@@ -1179,7 +1229,7 @@ pub const SPEED_LIMIT: f64 = 4.0;
 
 /// Tips of every strip at every frame (index frame × strips + strip) and the top rate.
 fn tips(setup: &Setup, motion: &Motion, frames: u32) -> Result<(Vec<DVec3>, f64, u64)> {
-    let mut rig = Rig::new(&setup.rest, motion)?;
+    let mut rig = Rig::posed(&setup.rest, motion, &setup.head)?;
     rig.set_pose(setup.forces.head_at(0.0));
     let mut out = Vec::new();
     let mut top: f64 = 0.0;
@@ -1305,7 +1355,7 @@ pub fn largest_stable_dt(setup: &Setup, seconds: f64, cap: f64) -> Result<f64> {
     let limit = SPEED_LIMIT * top.max(1e-9);
     let ft = setup.motion.frame_time;
     let stable_at = |dt: f64| -> Result<bool> {
-        let mut rig = Rig::new(&setup.rest, &setup.motion)?;
+        let mut rig = Rig::posed(&setup.rest, &setup.motion, &setup.head)?;
         rig.set_pose(setup.forces.head_at(0.0));
         let steps = (seconds / dt).ceil() as u64;
         for i in 0..steps {

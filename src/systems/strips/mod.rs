@@ -166,7 +166,7 @@ impl StripsSystem {
         let forces = Forces::from_scene(scene);
         let rest = hom::build(&strips, &head)?;
         let solved = keyframe::solve(&rest, &strips.motion, &forces, &head, &strips.edits)?;
-        let rig = dynamics::Rig::new(&rest, &strips.motion)?;
+        let rig = dynamics::Rig::posed(&rest, &strips.motion, &head)?;
         let eff = EffGpu::new(gpu, forces.eff.as_deref())?;
         let mut dynamics = dynamics_gpu::DynamicsGpu::new(gpu, &rig, &strips.motion, &head, &eff)?;
         dynamics.set_extra(gpu, &solved.iter().map(|s| s.extra).collect::<Vec<_>>())?;
@@ -277,7 +277,7 @@ impl HairSystem for StripsSystem {
                     self.eff.write_cells(gpu, e)?;
                 }
                 // τ, I1 and I2 act from the next step too: new joint constants, same pose.
-                let rig = dynamics::Rig::new(&self.rest, &st.motion)?;
+                let rig = dynamics::Rig::posed(&self.rest, &st.motion, &scene.head)?;
                 self.dynamics.set_rig(rig)?;
                 self.dynamics.update_params(gpu, &st.motion, &scene.head);
                 self.solved =

@@ -72,6 +72,13 @@ fn motion(ui: &mut Ui, st: &mut Strips) {
             .logarithmic(true)
             .text("steps per second"),
     );
+    ui.checkbox(
+        &mut m.preload,
+        "hold the groomed shape under gravity (preload)",
+    )
+    .on_hover_text(
+        "rest angles set so the groom is the equilibrium under gravity: no sag at the start",
+    );
     ComboBox::from_label("EFF sampling")
         .selected_text(match m.sampling {
             Sampling::Nearest => "nearest cell",
