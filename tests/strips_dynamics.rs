@@ -927,6 +927,24 @@ fn preload_holds_the_groomed_shape_under_gravity() {
         Rig::posed(&rest, &on, &scene.head).unwrap(),
     );
     assert_eq!(a.points(), b.points(), "the groomed pose is the start");
+    // ... and where a reset goes back to, after the pose moved (in a wind).
+    let mut windy = b.clone();
+    let wind = Forces {
+        wind: vec![WindKey {
+            frame: 0.0,
+            force: [300.0, 0.0, 0.0],
+            interp: Interp::Step,
+        }],
+        ..forces.clone()
+    };
+    windy.run_frames(&wind, &scene.head, &on, &[], 0, 10);
+    assert!(windy.points() != a.points(), "the wind moved nothing");
+    windy.reset();
+    assert_eq!(
+        windy.points(),
+        a.points(),
+        "reset goes back to the groomed pose"
+    );
     let turned = (0..a.strip_count())
         .flat_map(|s| (0..a.sticks(s)).map(move |j| (s, j)))
         .map(|(s, j)| {
@@ -945,6 +963,9 @@ fn preload_holds_the_groomed_shape_under_gravity() {
     g.record(&gpu, &mut enc, &forces, 0, frames).unwrap();
     gpu.queue.submit([enc.finish()]);
     let end = g.read_points(&gpu).unwrap();
+    // A GPU reset goes back to the groomed pose too.
+    g.reset(&gpu).unwrap();
+    assert_eq!(g.read_points(&gpu).unwrap(), start, "GPU reset");
     let moved = start
         .iter()
         .zip(&end)

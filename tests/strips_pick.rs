@@ -317,3 +317,40 @@ fn new_joint_constants_act_without_a_rebuild() {
         "the new constants moved the strips by only {moved}"
     );
 }
+
+/// A refused edit (here an edit naming a strip that does not exist, as a script could
+/// hand the stage without validating) leaves the stage with its systems, its scene and its
+/// pose: the error names the edit, and the clip goes on.
+#[test]
+fn a_refused_edit_keeps_the_stage_as_it_was() {
+    let gpu = common::gpu();
+    let mut scene = common::scene("strips");
+    for l in &mut scene.strips.as_mut().unwrap().layers {
+        l.count = l.count.div_ceil(4);
+    }
+    let mut live = stage(&gpu, &scene);
+    live.seek(&gpu, 5).unwrap();
+    let before = points(&gpu, &live);
+    let mut bad = scene.clone();
+    bad.strips
+        .as_mut()
+        .unwrap()
+        .edits
+        .push(edit(9999, 0, 10, [0.0, -20.0, 5.0]));
+    let e = live.apply(&gpu, &bad).expect_err("an edit of strip 9999");
+    assert!(e.to_string().contains("edits[0].strip"), "{e}");
+    assert_eq!(live.systems().len(), 1, "the strips system was dropped");
+    assert!(live.scene() == &scene, "the stage took the refused scene");
+    let off = worst(&points(&gpu, &live), &before);
+    assert!(off == 0.0, "the refused edit moved the strips by {off}");
+    live.seek(&gpu, 6).unwrap();
+    assert_eq!(live.frame(), 6);
+}
+
+/// The timeline's span stays finite for keys near the end of the frame range.
+#[test]
+fn the_timeline_span_does_not_overflow() {
+    let far = edit(0, u32::MAX - 10, u32::MAX - 1, [0.0; 3]);
+    assert_eq!(Timeline::span(&[far], 0, None), u32::MAX);
+    assert_eq!(Timeline::span(&[], u64::MAX, None), u32::MAX);
+}

@@ -608,6 +608,8 @@ fn apply(g: &mut Gfx, state: &mut ViewerState) -> Result<()> {
         }
     };
     g.refused = None;
+    // The strips' pose read for picking may belong to the old strips.
+    state.strip_pose = None;
     if applied.restarted {
         g.clock_debt = 0.0;
         state.stats.groom_ms = t.elapsed().as_secs_f64() * 1e3;

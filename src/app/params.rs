@@ -179,8 +179,9 @@ pub struct ViewerState {
     /// Simulate again from the rest pose to this frame after this frame's edits apply (the
     /// timeline's scrub, a key-frame edit's replay), see `Stage::seek`.
     pub seek: Option<u64>,
-    /// What the timeline's pointer holds.
-    pub timeline_grab: Option<crate::systems::strips::pick::TimelineGrab>,
+    /// What the timeline's pointer holds, and the timeline's length (frames) when it took
+    /// hold.
+    pub timeline_grab: Option<(crate::systems::strips::pick::TimelineGrab, u32)>,
     /// The strips as last read back for the mouse mode: (frame, world polylines).
     pub strip_pose: Option<(u64, Vec<Vec<glam::DVec3>>)>,
 }

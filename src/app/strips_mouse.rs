@@ -117,8 +117,12 @@ pub fn drag(stage: &Stage, g: &mut Gesture, s: &mut ViewerState, cursor: DVec2) 
         if (cursor - last).length() < DAB_PX {
             return;
         }
-        // The stroke lies in the plane through the head's centre facing the eye.
-        let centre = DVec3::from(s.scene.head.center);
+        // The stroke lies in the plane through the head's centre (where the head is now)
+        // facing the eye.
+        let centre = stage
+            .ctx()
+            .head
+            .transform_point3(DVec3::from(s.scene.head.center));
         let depth = view.project(centre).map_or(0.5, |q| q.z);
         let (Some(a), Some(b)) = (view.unproject(last, depth), view.unproject(cursor, depth))
         else {

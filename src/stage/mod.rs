@@ -96,8 +96,9 @@ pub fn check_limits(gpu: &Gpu, scene: &Scene, size: (u32, u32)) -> Result<()> {
 /// A kind's part of an edit: its index in `KINDS`, the change, the system built for it.
 type Planned = (usize, Change, Option<Box<dyn HairSystem>>);
 
-/// Frames of motion one submission of [`Stage::seek`] records.
-pub const SEEK_CHUNK: u64 = 32;
+/// Frames of motion one submission of [`Stage::seek`] records (as many as the viewer's
+/// playback records at most, so a seek needs no bigger step buffers than playing does).
+pub const SEEK_CHUNK: u64 = 4;
 
 /// The clock at `frame`: the forces and the head pose there.
 fn clock(frame: u64, forces: &Forces) -> FrameCtx<'_> {
@@ -370,7 +371,13 @@ impl Stage {
                 }
                 (None, Some(mut s)) if change != Change::Rebuild => {
                     if change != Change::None {
-                        s.update(gpu, new, change)?;
+                        if let Err(e) = s.update(gpu, new, change) {
+                            // Keep every system: the refused edit leaves the stage with
+                            // what it has (systems' `update` fail before they write).
+                            self.systems.push(s);
+                            self.systems.append(&mut old);
+                            return Err(e);
+                        }
                     }
                     self.systems.push(s);
                 }

@@ -193,7 +193,7 @@ pub fn check_extra(extra: &[ExtraForce]) -> Result<()> {
 
 /// What a step reads besides the rig: the force fields, the clock, the head hull and the
 /// forces' settings (`motion`'s gravity, spring, collision, sampling and frame time; the
-/// joints' I1, I2 and τ were fixed by `Rig::new`, rebuild the rig to change them).
+/// joints' I1, I2 and τ were fixed by `Rig::new`: a new rig carries new ones).
 #[derive(Clone, Copy)]
 pub struct Env<'a> {
     pub forces: &'a Forces,
@@ -678,8 +678,11 @@ impl Rig {
     /// the hull's penalty band (groomed points lie outside the hull, but may lie in the
     /// band) on a still head in still air; the strips then hold Φg (the state starts and
     /// resets there). Wind, the EFF and head motion are what move them. The spring is zero
-    /// at Φg. Joints with τ = 0 cannot hold a shape and keep Φ0 = Φg.
-    pub fn preload(&mut self, motion: &Motion, head: &Head) {
+    /// at Φg. Joints with τ = 0 cannot hold a shape and keep Φ0 = Φg. H is taken with the
+    /// head at its rest pose: head keys whose first pose is turned (not a capture, which
+    /// starts at rest) see gravity from another side and swing from frame 0. Called on a
+    /// fresh rig (state at Φg) by `posed`.
+    fn preload(&mut self, motion: &Motion, head: &Head) {
         let still = Forces {
             gravity: DVec3::ZERO,
             wind: Vec::new(),
@@ -724,7 +727,8 @@ impl Rig {
         self.strips[s].sticks
     }
 
-    /// Back to the rest state (rest angles, no motion, head at its rest pose).
+    /// Back to the groomed pose (the start angles, which differ from the rest angles Φ0
+    /// under gravity preloading), no motion, head at its rest pose.
     pub fn reset(&mut self) {
         self.q.clone_from(&self.start);
         self.v.iter_mut().for_each(|v| *v = [0.0; 2]);

@@ -123,7 +123,7 @@ pub struct DynamicsGpu {
     count: u32,
     stride: u32,
     joint_count: u32,
-    /// The rig (its joints for the propagators, its rest state for `reset`).
+    /// The rig (its joints for the propagators; `set_rig` swaps in new constants).
     rig: Rig,
     motion: Motion,
     head: Head,
@@ -134,6 +134,19 @@ pub struct DynamicsGpu {
 
 fn f4(v: glam::DVec3, w: f64) -> [f32; 4] {
     [v.x as f32, v.y as f32, v.z as f32, w as f32]
+}
+
+/// Whether `extra` fits the GPU (at most `MAX_EXTRA`) and each force is well formed.
+pub fn check_extras(extra: &[ExtraForce]) -> Result<()> {
+    if extra.len() > MAX_EXTRA {
+        return Err(KamiError::Invalid {
+            file: String::new(),
+            field: "strips extra forces (key-frame edits)".into(),
+            value: format!("{} forces", extra.len()),
+            allowed: format!("at most {MAX_EXTRA} on the GPU at once"),
+        });
+    }
+    check_extra(extra)
 }
 
 impl DynamicsGpu {
@@ -377,6 +390,14 @@ impl DynamicsGpu {
     /// rig must have the same strips, sticks and layout. They reach the GPU with the next
     /// `update_params`; the current pose stays.
     pub fn set_rig(&mut self, rig: Rig) -> Result<()> {
+        self.check_rig(&rig)?;
+        self.rig = rig;
+        Ok(())
+    }
+
+    /// Whether `rig` can replace the one on the GPU: the same strips, sticks and layout,
+    /// and the same groomed pose (what `reset` uploads).
+    pub fn check_rig(&self, rig: &Rig) -> Result<()> {
         let layout = |r: &Rig| {
             (
                 r.stride(),
@@ -386,17 +407,16 @@ impl DynamicsGpu {
                     .collect::<Vec<_>>(),
             )
         };
-        if layout(&rig) != layout(&self.rig) {
+        if layout(rig) != layout(&self.rig) || rig.start != self.rig.start {
             return Err(KamiError::Invalid {
                 file: String::new(),
                 field: "strips rig".into(),
                 value: format!("{} strips, stride {}", rig.strip_count(), rig.stride()),
-                allowed:
-                    "the same strips and sticks as the rig on the GPU (rebuild to change them)"
-                        .into(),
+                allowed: "the same strips, sticks and groomed pose as the rig on the GPU \
+                          (rebuild to change them)"
+                    .into(),
             });
         }
-        self.rig = rig;
         Ok(())
     }
 
@@ -488,15 +508,7 @@ impl DynamicsGpu {
 
     /// The key-frame edits' extra forces (at most `MAX_EXTRA`).
     pub fn set_extra(&mut self, gpu: &Gpu, extra: &[ExtraForce]) -> Result<()> {
-        if extra.len() > MAX_EXTRA {
-            return Err(KamiError::Invalid {
-                file: String::new(),
-                field: "strips extra forces (key-frame edits)".into(),
-                value: format!("{} forces", extra.len()),
-                allowed: format!("at most {MAX_EXTRA} on the GPU at once"),
-            });
-        }
-        check_extra(extra)?;
+        check_extras(extra)?;
         self.extra = extra.to_vec();
         self.write_params(gpu);
         Ok(())
@@ -595,7 +607,8 @@ impl DynamicsGpu {
         self.count
     }
 
-    /// Back to the rest state (rest angles, still, the head at its rest pose).
+    /// Back to the groomed pose (the rig's start angles, which differ from the rest angles
+    /// Φ0 under gravity preloading), still, the head at its rest pose.
     pub fn reset(&mut self, gpu: &Gpu) -> Result<()> {
         if self.joint_count > 0 {
             gpu.queue

@@ -101,7 +101,7 @@ fn build(gpu: &Gpu, scene: &Scene, setup: &DrawSetup) -> Result<Box<dyn HairSyst
 /// forces' settings (gravity, spring, collision, sampling, the step rate), the EFF's cells,
 /// the head capture and the key-frame edits act from the next step (`Resimulate`: new
 /// propagators, key-frame edits solved again, the pose kept; the viewer replays the clip
-/// after an edit). The layers, the head and the EFF's grid size build the strips again,
+/// after a key-frame edit, the others act from the frame shown). The layers, the head and the EFF's grid size build the strips again,
 /// and the clip restarts at frame 0.
 pub fn classify(old: &Scene, new: &Scene) -> Change {
     let (Some(a), Some(b)) = (&old.strips, &new.strips) else {
@@ -272,20 +272,22 @@ impl HairSystem for StripsSystem {
                 self.ribbon.write_look(gpu, &st.look)?;
             }
             Change::Resimulate => {
+                // Everything that can fail first, so a refused edit leaves the GPU as it was.
                 let forces = Forces::from_scene(scene);
+                // τ, I1 and I2 act from the next step too: new joint constants, same pose.
+                let rig = dynamics::Rig::posed(&self.rest, &st.motion, &scene.head)?;
+                let solved =
+                    keyframe::solve(&self.rest, &st.motion, &forces, &scene.head, &st.edits)?;
+                let extra: Vec<dynamics::ExtraForce> = solved.iter().map(|s| s.extra).collect();
+                dynamics_gpu::check_extras(&extra)?;
+                self.dynamics.check_rig(&rig)?;
                 if let Some(e) = forces.eff.as_deref() {
                     self.eff.write_cells(gpu, e)?;
                 }
-                // τ, I1 and I2 act from the next step too: new joint constants, same pose.
-                let rig = dynamics::Rig::posed(&self.rest, &st.motion, &scene.head)?;
                 self.dynamics.set_rig(rig)?;
                 self.dynamics.update_params(gpu, &st.motion, &scene.head);
-                self.solved =
-                    keyframe::solve(&self.rest, &st.motion, &forces, &scene.head, &st.edits)?;
-                self.dynamics.set_extra(
-                    gpu,
-                    &self.solved.iter().map(|s| s.extra).collect::<Vec<_>>(),
-                )?;
+                self.solved = solved;
+                self.dynamics.set_extra(gpu, &extra)?;
                 self.ribbon.write_look(gpu, &st.look)?;
             }
             _ => {}

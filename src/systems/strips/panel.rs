@@ -498,7 +498,12 @@ fn timeline(ui: &mut Ui, s: &mut ViewerState) {
     const RULER: f32 = 18.0;
     const ROW: f32 = 14.0;
     let clip = s.scene.head_capture.as_ref().map(|h| h.keys.len() as u32);
-    let frames = Timeline::span(&st.edits, s.stats.frame, clip);
+    // While a key or the clock is held the timeline keeps its length: it would otherwise
+    // grow under the pointer as the key (or the clock) moves right.
+    let frames = s.timeline_grab.map_or_else(
+        || Timeline::span(&st.edits, s.stats.frame, clip),
+        |(_, f)| f,
+    );
     let height = RULER + ROW * st.edits.len().max(1) as f32 + 4.0;
     let (rect, resp) =
         ui.allocate_exact_size(vec2(ui.available_width(), height), Sense::click_and_drag());
@@ -579,17 +584,31 @@ fn timeline(ui: &mut Ui, s: &mut ViewerState) {
         [pos2(now, rect.top()), pos2(now, rect.bottom())],
         Stroke::new(2.0, Color32::from_rgb(255, 210, 90)),
     );
+    if !resp.is_pointer_button_down_on() && !resp.drag_stopped() {
+        s.timeline_grab = None;
+    }
     let Some(p) = resp.interact_pointer_pos() else {
         return;
     };
     let at = tl.frame_at(f64::from(p.x));
-    if resp.drag_started() || resp.clicked() {
-        let row = (p.y >= rect.top() + RULER)
-            .then(|| ((p.y - rect.top() - RULER) / ROW) as usize)
-            .filter(|r| *r < st.edits.len());
-        s.timeline_grab = Some(tl.grab(&st.edits, row, f64::from(p.x), 6.0));
+    if resp.clicked() {
+        // A click scrubs; only a drag moves keys.
+        s.timeline_grab = None;
+        if u64::from(at) != s.stats.frame {
+            s.seek = Some(u64::from(at));
+            s.view.playing = false;
+        }
+        return;
     }
-    match s.timeline_grab {
+    if resp.drag_started() {
+        // What was under the press, not where the pointer is once the drag is recognised.
+        let o = ui.input(|i| i.pointer.press_origin()).unwrap_or(p);
+        let row = (o.y >= rect.top() + RULER)
+            .then(|| ((o.y - rect.top() - RULER) / ROW) as usize)
+            .filter(|r| *r < st.edits.len());
+        s.timeline_grab = Some((tl.grab(&st.edits, row, f64::from(o.x), 6.0), frames));
+    }
+    match s.timeline_grab.map(|(g, _)| g) {
         Some(g @ (TimelineGrab::From(i) | TimelineGrab::To(i))) => {
             if let Some(e) = s.scene.strips.as_mut().and_then(|st| st.edits.get_mut(i)) {
                 move_key(e, g, at);
@@ -609,7 +628,7 @@ fn timeline(ui: &mut Ui, s: &mut ViewerState) {
         }
         _ => {}
     }
-    if resp.drag_stopped() || resp.clicked() {
+    if resp.drag_stopped() {
         s.timeline_grab = None;
     }
 }

@@ -113,14 +113,20 @@ impl Timeline {
     /// The frames a timeline shows: all keys and the current frame with room after them,
     /// at least four seconds at 30 fps.
     pub fn span(edits: &[Edit], frame: u64, clip: Option<u32>) -> u32 {
-        let last_key = edits.iter().map(|e| e.to + (e.to - e.from) / 2).max();
+        let last_key = edits
+            .iter()
+            .map(|e| u64::from(e.to) + u64::from(e.to.saturating_sub(e.from)) / 2)
+            .max();
         let want = [
             120,
             last_key.map_or(0, |k| k + 30),
-            (frame.min(u64::from(u32::MAX - 60)) as u32) + 30,
-            clip.unwrap_or(0),
+            frame.saturating_add(30),
+            u64::from(clip.unwrap_or(0)),
         ];
-        want.into_iter().max().unwrap_or(120)
+        want.into_iter()
+            .max()
+            .unwrap_or(120)
+            .min(u64::from(u32::MAX)) as u32
     }
 
     pub fn x_of(&self, frame: f64) -> f64 {
