@@ -103,6 +103,34 @@ fn share(img: &image::RgbImage, x0: f64, x1: f64, f: impl Fn(&image::Rgb<u8>) ->
     hit as f64 / n as f64
 }
 
+/// `kami render SCENE --frames RANGE` into `out` at `size`, one sample per pixel (the
+/// viewer's default), on the software adapter; fails with its output.
+fn render_frames(scene: &Path, size: (u32, u32), range: &str, out: &Path, runtime: &Path) {
+    let res = Command::new(env!("CARGO_BIN_EXE_kami"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .arg("render")
+        .arg(scene)
+        .args([
+            "--software",
+            "--size",
+            &format!("{}x{}", size.0, size.1),
+            "--supersample",
+            "1",
+            "--frames",
+            range,
+            "--out",
+        ])
+        .arg(out)
+        .env("XDG_RUNTIME_DIR", runtime)
+        .output()
+        .expect("running kami render");
+    assert!(
+        res.status.success(),
+        "kami render failed:\n{}",
+        String::from_utf8_lossy(&res.stderr)
+    );
+}
+
 /// Run `kami view` with `cmd`'s arguments in the virtual display; fails with its output.
 fn run_viewer(mut cmd: Command, x: &Xvfb, runtime: &Path) {
     let out = cmd
@@ -275,28 +303,12 @@ fn viewer_frame_n_is_the_rendered_frame_n() {
     .arg(format!("{N}:{}", shot.display()));
     run_viewer(cmd, &x, &runtime);
     let frames = dir.join("frames");
-    let out = Command::new(env!("CARGO_BIN_EXE_kami"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args([
-            "render",
-            "assets/scenes/hair_and_fur.ron",
-            "--software",
-            "--size",
-            "320x240",
-            "--supersample",
-            "1",
-            "--frames",
-            &format!("{N}..{}", N + 1),
-            "--out",
-        ])
-        .arg(&frames)
-        .env("XDG_RUNTIME_DIR", &runtime)
-        .output()
-        .expect("running kami render");
-    assert!(
-        out.status.success(),
-        "kami render failed:\n{}",
-        String::from_utf8_lossy(&out.stderr)
+    render_frames(
+        Path::new("assets/scenes/hair_and_fur.ron"),
+        (320, 240),
+        &format!("{N}..{}", N + 1),
+        &frames,
+        &runtime,
     );
     let viewer = image::open(&shot).unwrap().to_rgba8();
     let rendered = |f: u64| {
@@ -617,29 +629,7 @@ fn viewer_picks_a_strip_and_drags_its_target() {
     );
     // The viewer shows frame 20 of the edited clip.
     let frames = dir.join("frames");
-    let out = Command::new(env!("CARGO_BIN_EXE_kami"))
-        .current_dir(root)
-        .args(["render"])
-        .arg(&saved)
-        .args([
-            "--software",
-            "--size",
-            &format!("{w}x{h}"),
-            "--supersample",
-            "1",
-            "--frames",
-            "19..20",
-            "--out",
-        ])
-        .arg(&frames)
-        .env("XDG_RUNTIME_DIR", &runtime)
-        .output()
-        .expect("running kami render");
-    assert!(
-        out.status.success(),
-        "kami render failed:\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    render_frames(&saved, (w, h), "19..20", &frames, &runtime);
     let viewer = image::open(&shot).unwrap().to_rgba8();
     let rendered = image::open(frames.join("frame_0020.png"))
         .unwrap()
