@@ -16,6 +16,7 @@ pub mod bench;
 pub mod bvh;
 pub mod error;
 pub mod forces;
+pub mod formats;
 pub mod fuzz;
 pub mod gpu;
 pub mod plot;

@@ -1,0 +1,106 @@
+//! Strand files: grooms made in other tools come in, Kami's hair goes out (`kami convert`,
+//! the viewer's Files panel, and hair groups that name a file in the scene).
+//!
+//! Every reader returns the same [`Groom`]: polylines with optional per-point widths,
+//! opacities and colours. Readers check counts against the body before allocating and
+//! refuse NaN points, naming the file and the place (`KamiError::Data`).
+
+use crate::error::{KamiError, Result};
+use std::path::Path;
+
+/// A groom as strand files carry it: polylines, strand after strand.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Groom {
+    /// Points of each strand, in order (every strand has at least 2).
+    pub counts: Vec<u32>,
+    /// All points, strand after strand (`counts` sums to its length), in the file's units.
+    pub points: Vec<[f32; 3]>,
+    /// Per-point width (diameter), when the file has one.
+    pub widths: Option<Vec<f32>>,
+    /// Per-point opacity in 0..1 (`.hair` stores transparency = 1 - opacity).
+    pub opacities: Option<Vec<f32>>,
+    /// Per-point linear RGB colour, when the file has one.
+    pub colors: Option<Vec<[f32; 3]>>,
+}
+
+impl Groom {
+    /// The points of strand `i`.
+    pub fn strand(&self, i: usize) -> &[[f32; 3]] {
+        let start: usize = self.counts[..i].iter().map(|&c| c as usize).sum();
+        &self.points[start..start + self.counts[i] as usize]
+    }
+
+    /// Every strand's points, in order.
+    pub fn strands(&self) -> impl Iterator<Item = &[[f32; 3]]> + '_ {
+        let mut start = 0usize;
+        self.counts.iter().map(move |&c| {
+            let s = &self.points[start..start + c as usize];
+            start += c as usize;
+            s
+        })
+    }
+
+    /// Check the invariants every reader guarantees; `origin` names the file in errors.
+    pub fn check(&self, origin: &str) -> Result<()> {
+        let bad = |message: String| KamiError::Data {
+            path: origin.to_string(),
+            line: None,
+            message,
+        };
+        let total: u64 = self.counts.iter().map(|&c| c as u64).sum();
+        if total != self.points.len() as u64 {
+            return Err(bad(format!(
+                "the strand counts add up to {total} points but there are {}",
+                self.points.len()
+            )));
+        }
+        if let Some(i) = self.counts.iter().position(|&c| c < 2) {
+            return Err(bad(format!(
+                "strand {i} has {} point(s); at least 2 are needed",
+                self.counts[i]
+            )));
+        }
+        if let Some(i) = self
+            .points
+            .iter()
+            .position(|p| p.iter().any(|v| !v.is_finite()))
+        {
+            return Err(bad(format!(
+                "point {i} is not finite: {:?}",
+                self.points[i]
+            )));
+        }
+        let n = self.points.len();
+        for (name, len) in [
+            ("widths", self.widths.as_ref().map(Vec::len)),
+            ("opacities", self.opacities.as_ref().map(Vec::len)),
+            ("colors", self.colors.as_ref().map(Vec::len)),
+        ] {
+            if let Some(len) = len {
+                if len != n {
+                    return Err(bad(format!("{len} {name} for {n} points")));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Read a strand file; the format is chosen by the extension (`.hair`, `.obj`, `.usda`).
+pub fn read(path: &Path) -> Result<Groom> {
+    Err(KamiError::Data {
+        path: path.display().to_string(),
+        line: None,
+        message: "strand files are not read yet".into(),
+    })
+}
+
+/// Write a strand file; the format is chosen by the extension (`.hair`, `.obj`, `.usda`).
+pub fn write(path: &Path, groom: &Groom) -> Result<()> {
+    let _ = groom;
+    Err(KamiError::Data {
+        path: path.display().to_string(),
+        line: None,
+        message: "strand files are not written yet".into(),
+    })
+}
