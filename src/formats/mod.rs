@@ -40,6 +40,35 @@ impl Groom {
         })
     }
 
+    /// Put `other`'s strands after these. A per-point array only one side has is filled on
+    /// the other side with a neutral value (width 0.01, opacity 1, white).
+    pub fn append(&mut self, other: Groom) {
+        fn join<T: Clone>(
+            a: &mut Option<Vec<T>>,
+            na: usize,
+            b: Option<Vec<T>>,
+            nb: usize,
+            fill: T,
+        ) {
+            match (a.as_mut(), b) {
+                (None, None) => {}
+                (Some(a), Some(b)) => a.extend(b),
+                (Some(a), None) => a.extend(std::iter::repeat_n(fill, nb)),
+                (None, Some(b)) => {
+                    let mut v = vec![fill; na];
+                    v.extend(b);
+                    *a = Some(v);
+                }
+            }
+        }
+        let (na, nb) = (self.points.len(), other.points.len());
+        join(&mut self.widths, na, other.widths, nb, 0.01);
+        join(&mut self.opacities, na, other.opacities, nb, 1.0);
+        join(&mut self.colors, na, other.colors, nb, [1.0; 3]);
+        self.counts.extend(other.counts);
+        self.points.extend(other.points);
+    }
+
     /// Check the invariants every reader guarantees; `origin` names the file in errors.
     pub fn check(&self, origin: &str) -> Result<()> {
         let bad = |message: String| KamiError::Data {

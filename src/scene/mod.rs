@@ -121,13 +121,21 @@ fn yes() -> bool {
 pub struct HairGroup {
     #[serde(default)]
     pub name: String,
-    /// Where the pores are.
+    /// Strands read from a file made in another tool instead of grown from pores: the file's
+    /// shapes are the rest pose (no cantilever bending), resampled to `segments` equal
+    /// segments each. `roots`, `length`, `rigidity`, `direction` and the jitters do not
+    /// apply; `count` is the most strands taken (spread evenly over the file).
+    #[serde(default)]
+    pub file: Option<StrandFile>,
+    /// Where the pores are (the whole upper head when absent).
+    #[serde(default)]
     pub roots: Roots,
     /// Number of hairs.
     pub count: u32,
     /// Segments per hair (k in the paper).
     pub segments: u32,
-    /// Hair length (k * d).
+    /// Hair length (k * d); required unless the group names a `file`.
+    #[serde(default)]
     pub length: f64,
     /// Relative random variation of the length: each hair is `length * (1 + j*(2u-1))`.
     #[serde(default)]
@@ -139,7 +147,8 @@ pub struct HairGroup {
     /// neighbouring hairs are not exactly parallel.
     #[serde(default)]
     pub direction_jitter: f64,
-    /// Flexural rigidity EI.
+    /// Flexural rigidity EI; required unless the group names a `file`.
+    #[serde(default)]
     pub rigidity: f64,
     #[serde(default)]
     pub bending: Bending,
@@ -172,6 +181,121 @@ pub struct Roots {
     /// the forehead, temples, ears and nape instead of a polar rectangle.
     #[serde(default)]
     pub hairline: Option<Vec<(f64, f64)>>,
+}
+
+impl Default for Roots {
+    /// The upper half of the head, all round.
+    fn default() -> Self {
+        Roots {
+            theta: (0.0, 90.0),
+            phi: (-180.0, 180.0),
+            on: None,
+            hairline: None,
+        }
+    }
+}
+
+/// A strand file a hair group reads (`.hair`, OBJ polylines, `.usda` BasisCurves; see
+/// `crate::formats`). The transform places the groom on Kami's head (face along +x, y up):
+/// points are scaled, then rotated (degrees about x, then y, then z), then moved.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StrandFile {
+    /// The file, relative to the scene file's folder or absolute.
+    pub path: String,
+    #[serde(default = "one_f64")]
+    pub scale: f64,
+    #[serde(default)]
+    pub rotate: [f64; 3],
+    #[serde(default)]
+    pub translate: [f64; 3],
+    /// The strands as read, placed (filled by `Scene::load` or [`resolve_strand_files`]).
+    #[serde(skip)]
+    pub groom: Option<std::sync::Arc<crate::formats::Groom>>,
+}
+
+fn one_f64() -> f64 {
+    1.0
+}
+
+impl StrandFile {
+    /// The placement as a matrix: scale, then rotate x, y, z, then translate.
+    pub fn transform(&self) -> glam::DMat4 {
+        let [rx, ry, rz] = self.rotate.map(f64::to_radians);
+        glam::DMat4::from_translation(glam::DVec3::from(self.translate))
+            * glam::DMat4::from_rotation_z(rz)
+            * glam::DMat4::from_rotation_y(ry)
+            * glam::DMat4::from_rotation_x(rx)
+            * glam::DMat4::from_scale(glam::DVec3::splat(self.scale))
+    }
+}
+
+/// Read the strand files the scene's hair groups name (relative paths from `dir`), place
+/// them and keep at most `count` strands of each, spread evenly; `count` becomes the number
+/// taken. `origin` names the scene in errors.
+pub fn resolve_strand_files(scene: &mut Scene, dir: &Path, origin: &str) -> Result<()> {
+    for (gi, g) in scene.groups.iter_mut().enumerate() {
+        let Some(f) = g.file.as_mut() else { continue };
+        let path = if Path::new(&f.path).is_relative() && !dir.as_os_str().is_empty() {
+            dir.join(&f.path)
+        } else {
+            Path::new(&f.path).to_path_buf()
+        };
+        let read = crate::formats::read(&path)?;
+        let n = read.counts.len();
+        if n == 0 {
+            return Err(KamiError::Invalid {
+                file: origin.to_string(),
+                field: format!("groups[{gi}].file.path"),
+                value: format!("{:?}", f.path),
+                allowed: "the file has no strands".into(),
+            });
+        }
+        let take = (g.count as usize).min(n);
+        let m = f.transform();
+        let mut groom = crate::formats::Groom::default();
+        let mut starts = Vec::with_capacity(n + 1);
+        let mut acc = 0usize;
+        for &c in &read.counts {
+            starts.push(acc);
+            acc += c as usize;
+        }
+        for j in 0..take {
+            // Strand j of `take`, spread evenly over the file's order.
+            let i = j * n / take;
+            let range = starts[i]..starts[i] + read.counts[i] as usize;
+            groom.counts.push(read.counts[i]);
+            groom
+                .points
+                .extend(read.points[range.clone()].iter().map(|p| {
+                    let q =
+                        m.transform_point3(glam::DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64));
+                    [q.x as f32, q.y as f32, q.z as f32]
+                }));
+            if let Some(w) = &read.widths {
+                groom
+                    .widths
+                    .get_or_insert_with(Vec::new)
+                    .extend(w[range.clone()].iter().map(|w| w * f.scale as f32));
+            }
+            if let Some(o) = &read.opacities {
+                groom
+                    .opacities
+                    .get_or_insert_with(Vec::new)
+                    .extend_from_slice(&o[range.clone()]);
+            }
+            if let Some(c) = &read.colors {
+                groom
+                    .colors
+                    .get_or_insert_with(Vec::new)
+                    .extend_from_slice(&c[range]);
+            }
+        }
+        groom.check(&path.display().to_string())?;
+        g.count = take as u32;
+        f.groom = Some(std::sync::Arc::new(groom));
+    }
+    Ok(())
 }
 
 impl Roots {
@@ -569,6 +693,12 @@ impl Scene {
                 },
             )?;
         }
+        // Strand files the hair groups name, read now so that errors name them.
+        resolve_strand_files(
+            &mut scene,
+            path.parent().unwrap_or(Path::new("")),
+            &path.display().to_string(),
+        )?;
         // Files the EFF names, read now so that errors name them.
         if let Some(eff) = scene.eff.as_mut() {
             crate::forces::eff::resolve(eff, path.parent().unwrap_or(Path::new("")))?;

@@ -302,6 +302,36 @@ fn validate_dynamics(d: &Dynamics) -> Result<()> {
     Ok(())
 }
 
+/// A group read from a strand file: its placement; what only grown hair has is refused
+/// rather than silently ignored.
+fn validate_file_group(p: &str, g: &HairGroup, f: &crate::scene::StrandFile) -> Result<()> {
+    if f.path.is_empty() {
+        return Err(bad(
+            &format!("{p}.file.path"),
+            "\"\"",
+            "names the strand file",
+        ));
+    }
+    positive(&format!("{p}.file.scale"), f.scale, BIG)?;
+    vec3(&format!("{p}.file.rotate"), f.rotate, 1e6)?;
+    vec3(&format!("{p}.file.translate"), f.translate, BIG)?;
+    if !g.cuts.is_empty() {
+        return Err(bad(
+            &format!("{p}.cuts"),
+            g.cuts.len(),
+            "a group read from a file keeps the file's lengths: cut it in the tool that made it",
+        ));
+    }
+    if !g.loads.is_empty() {
+        return Err(bad(
+            &format!("{p}.loads"),
+            g.loads.len(),
+            "a group read from a file is not bent: its loads would do nothing",
+        ));
+    }
+    material(&format!("{p}.material"), &g.material)
+}
+
 fn validate_group(p: &str, g: &HairGroup) -> Result<()> {
     if g.count == 0 {
         return Err(bad(&format!("{p}.count"), 0, "must be at least 1"));
@@ -312,6 +342,9 @@ fn validate_group(p: &str, g: &HairGroup) -> Result<()> {
             g.segments,
             &format!("must be in [1, {MAX_SEGMENTS}]"),
         ));
+    }
+    if let Some(f) = &g.file {
+        return validate_file_group(p, g, f);
     }
     positive(&format!("{p}.length"), g.length, BIG)?;
     within(&format!("{p}.length_jitter"), g.length_jitter, 0.0, 0.95)?;
@@ -452,8 +485,11 @@ fn validate_group(p: &str, g: &HairGroup) -> Result<()> {
             }
         }
     }
-    let m = &g.material;
-    let mp = format!("{p}.material");
+    material(&format!("{p}.material"), &g.material)
+}
+
+/// A hair group's look.
+fn material(mp: &str, m: &crate::scene::Material) -> Result<()> {
     color(&format!("{mp}.color"), m.color, 1.0)?;
     within(&format!("{mp}.ka"), m.ka, 0.0, 10.0)?;
     within(&format!("{mp}.ka_spread"), m.ka_spread, 0.0, 5.0)?;

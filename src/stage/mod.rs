@@ -537,6 +537,28 @@ pub fn frame_uniform(
     }
 }
 
+impl Stage {
+    /// Every system's strands as they are now, one groom (systems in build order).
+    pub fn export(&self, gpu: &Gpu) -> Result<crate::formats::Groom> {
+        let mut all = crate::formats::Groom::default();
+        for s in &self.systems {
+            if let Some(g) = s.export(gpu)? {
+                all.append(g);
+            }
+        }
+        Ok(all)
+    }
+}
+
+/// The hair of a scene at `frame` (simulated from the rest pose), as one groom: what
+/// `kami convert scene.ron out.hair --frame N` writes.
+pub fn export_scene(gpu: &Gpu, scene: &Scene, frame: u64) -> Result<crate::formats::Groom> {
+    check_limits(gpu, scene, (1, 1))?;
+    let mut stage = Stage::new(gpu, scene, target::OUTPUT_FORMAT, Quality::of(scene))?;
+    stage.seek(gpu, frame)?;
+    stage.export(gpu)
+}
+
 /// Render frame 0 (the rest pose) of a scene offscreen.
 pub fn render_scene(gpu: &Gpu, scene: &Scene, size: (u32, u32)) -> Result<image::RgbaImage> {
     let mut img = None;

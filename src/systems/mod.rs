@@ -136,6 +136,12 @@ pub trait HairSystem {
     /// Take an edit classified as `Redraw` or `Resimulate` by the kind's `classify`.
     fn update(&mut self, gpu: &Gpu, scene: &Scene, change: Change) -> Result<()>;
     fn stats(&self) -> SystemStats;
+    /// The hair as it is now, as polylines with widths and colours, for strand files
+    /// (`kami convert scene.ron out.hair`, the viewer's Files panel); `None` for kinds that
+    /// have no strands to write.
+    fn export(&self, _gpu: &Gpu) -> Result<Option<crate::formats::Groom>> {
+        Ok(None)
+    }
     /// For tests and benches that look inside one kind.
     fn as_any(&self) -> &dyn std::any::Any;
     fn as_any_mut(&mut self) -> &mut dyn std::any::Any;

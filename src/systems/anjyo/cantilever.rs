@@ -370,8 +370,16 @@ pub fn bend_all(input: &GroomInput) -> GroomOutput {
     let mut visible = Vec::with_capacity(input.roots.len());
     let mut fallbacks = 0;
     let mut max_iterations = 0;
-    for r in &input.roots {
+    for (i, r) in input.roots.iter().enumerate() {
         let g = &input.groups[r.group as usize];
+        if let Some(shapes) = &g.shapes {
+            // Read from a file, not bent (`super::imported`).
+            let k = g.segments as usize + 1;
+            let j = i - g.first_strand as usize;
+            nodes.extend_from_slice(&shapes[j * k..(j + 1) * k]);
+            visible.push(g.segments as f64);
+            continue;
+        }
         let (n, c) = bend_strand(&input.head, g, r);
         visible.push(visible_segments(&n, &g.cuts, r.cut_mask));
         fallbacks += u32::from(!c.converged);

@@ -292,6 +292,24 @@ pub fn groom_gpu(gpu: &Gpu, input: &GroomInput) -> Result<StrandBuffers> {
         });
     pass.dispatch(&mut enc, &job);
     gpu.queue.submit([enc.finish()]);
+    // Groups read from strand files keep the file's shapes: their nodes replace what the
+    // kernel wrote (queued writes run before the next submission, so after the bending).
+    let offsets = input.vertex_offsets();
+    let mut wrote = false;
+    for g in &input.groups {
+        let Some(shapes) = &g.shapes else { continue };
+        let nodes: Vec<[f32; 4]> = shapes
+            .iter()
+            .map(|p| [p.x as f32, p.y as f32, p.z as f32, 1.0])
+            .collect();
+        let at = offsets[g.first_strand as usize] as u64 * crate::gpu::strands::NODE;
+        gpu.queue
+            .write_buffer(&strands.vertices, at, bytemuck::cast_slice(&nodes));
+        wrote = true;
+    }
+    if wrote {
+        gpu.queue.submit([]);
+    }
     gpu.wait()?;
     gpu.take_error()?;
     Ok(strands)

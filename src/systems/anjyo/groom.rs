@@ -90,6 +90,9 @@ pub struct GroupParams {
     /// Index of the group's first strand; its strands are contiguous.
     pub first_strand: u32,
     pub strand_count: u32,
+    /// Rest nodes read from a strand file (`segments + 1` per strand, in order): such a
+    /// group is not bent, its nodes are these (`super::imported`).
+    pub shapes: Option<std::sync::Arc<Vec<DVec3>>>,
 }
 
 impl GroupParams {
@@ -175,6 +178,24 @@ pub fn prepare(scene: &Scene) -> Result<GroomInput> {
     let mut roots = Vec::new();
     let mut groups = Vec::new();
     for (gi, g) in scene.groups.iter().enumerate() {
+        if g.file.is_some() {
+            let first = roots.len() as u32;
+            let (r, nodes) = super::imported::group_roots(scene.seed, gi, g)?;
+            let count = r.len() as u32;
+            roots.extend(r);
+            groups.push(GroupParams {
+                segments: g.segments,
+                // Not bent: the cheapest straight beam stands in until the nodes are written.
+                rigidity: 1.0,
+                mode: BendMode::Paper,
+                loads: vec![],
+                cuts: vec![],
+                first_strand: first,
+                strand_count: count,
+                shapes: Some(std::sync::Arc::new(nodes)),
+            });
+            continue;
+        }
         let hull = g
             .roots
             .on
@@ -268,6 +289,7 @@ pub fn prepare(scene: &Scene) -> Result<GroomInput> {
             cuts: g.cuts.iter().map(|c| c.rule.clone()).collect(),
             first_strand: first,
             strand_count: g.count,
+            shapes: None,
         });
     }
     Ok(GroomInput {

@@ -13,6 +13,7 @@ pub mod cantilever_gpu;
 pub mod draw;
 pub mod elastica;
 pub mod groom;
+pub mod imported;
 pub mod panel;
 pub mod projective;
 pub mod projective_gpu;
@@ -89,6 +90,8 @@ pub struct AnjyoSystem {
     /// The groomed rest pose, for `reset` (dynamic scenes only).
     rest: Option<wgpu::Buffer>,
     draw: draw::StrandsPass,
+    /// The groups' looks, for strand-file export.
+    materials: Vec<crate::scene::Material>,
     bounds: (DVec3, f64),
     counts: (u64, u64),
     lod: f64,
@@ -112,6 +115,17 @@ pub fn scene_bounds(scene: &Scene) -> (DVec3, f64) {
     let head_r = scene.head.radii.iter().cloned().fold(0.0, f64::max);
     let mut r = head_r;
     for g in &scene.groups {
+        if let Some(f) = &g.file {
+            // A file's strands reach as far as their farthest point.
+            let far = f.groom.as_ref().map_or(0.0, |gr| {
+                gr.points
+                    .iter()
+                    .map(|p| (DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) - c).length())
+                    .fold(0.0, f64::max)
+            });
+            r = r.max(far);
+            continue;
+        }
         let (hc, hr) = match &g.roots.on {
             Some(e) => (
                 DVec3::from(e.center),
@@ -169,6 +183,50 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
     }
 }
 
+/// Polylines of the drawn hair: each strand's nodes up to its drawn (cut) length, the last
+/// segment shortened to the fractional part; widths tapered root to tip as the ribbon draws
+/// them; the group's colour.
+pub fn export_strands(
+    materials: &[crate::scene::Material],
+    records: &[crate::gpu::gpu_data::GpuStrand],
+    nodes: &[[f32; 4]],
+) -> crate::formats::Groom {
+    let mut g = crate::formats::Groom {
+        widths: Some(Vec::new()),
+        colors: Some(Vec::new()),
+        ..Default::default()
+    };
+    for r in records {
+        let k = r.segments as usize;
+        let drawn = (r.visible as f64).clamp(0.0, k as f64);
+        let whole = drawn.floor() as usize;
+        let frac = drawn - whole as f64;
+        // Segments drawn, the last one perhaps in part; a strand cut to nothing is left out.
+        let segs = if frac > 1e-6 { whole + 1 } else { whole };
+        if segs == 0 {
+            continue;
+        }
+        let m = &materials[r.group as usize];
+        let first = r.first_vertex as usize;
+        for i in 0..=segs {
+            let p = nodes[first + i];
+            let mut q = [p[0], p[1], p[2]];
+            if i == segs && frac > 1e-6 {
+                let a = nodes[first + i - 1];
+                let t = frac as f32;
+                q = [0, 1, 2].map(|c| a[c] + t * (p[c] - a[c]));
+            }
+            g.points.push(q);
+            let along = (i.min(whole) as f64 + if i > whole { frac } else { 0.0 }) / k as f64;
+            let w = m.width * (1.0 + (m.tip_width - 1.0) * along);
+            g.widths.as_mut().unwrap().push(w as f32);
+            g.colors.as_mut().unwrap().push(m.color);
+        }
+        g.counts.push(segs as u32 + 1);
+    }
+    g
+}
+
 impl AnjyoSystem {
     /// Groom the scene's hair on the GPU and set up its simulation and draw.
     pub fn new(gpu: &Gpu, scene: &Scene, setup: &DrawSetup) -> Result<AnjyoSystem> {
@@ -203,6 +261,7 @@ impl AnjyoSystem {
             sim,
             rest,
             draw,
+            materials: scene.groups.iter().map(|g| g.material.clone()).collect(),
             bounds: scene_bounds(scene),
             counts: counts(scene),
             lod: 1.0,
@@ -272,8 +331,12 @@ impl HairSystem for AnjyoSystem {
 
     fn update(&mut self, gpu: &Gpu, scene: &Scene, change: Change) -> Result<()> {
         match change {
-            Change::Redraw => self.draw.update_materials(&gpu.queue, &materials(scene)),
+            Change::Redraw => {
+                self.materials = scene.groups.iter().map(|g| g.material.clone()).collect();
+                self.draw.update_materials(&gpu.queue, &materials(scene))
+            }
             Change::Resimulate => {
+                self.materials = scene.groups.iter().map(|g| g.material.clone()).collect();
                 if let (Some(sim), Some(d)) = (self.sim.as_mut(), &scene.dynamics) {
                     sim.update_params(gpu, d.clone());
                 }
@@ -300,6 +363,12 @@ impl HairSystem for AnjyoSystem {
                 .map_or(0, |s| s.setup.strands.len() as u64),
             drawn,
         }
+    }
+
+    fn export(&self, gpu: &Gpu) -> Result<Option<crate::formats::Groom>> {
+        let nodes = self.hair.read_vertices(gpu)?;
+        let records = self.hair.read_strands(gpu)?;
+        Ok(Some(export_strands(&self.materials, &records, &nodes)))
     }
 
     fn as_any(&self) -> &dyn std::any::Any {

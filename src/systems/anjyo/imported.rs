@@ -1,0 +1,177 @@
+//! Grooms made in other tools as live Anjyo hair: a hair group that names a strand file
+//! (`crate::scene::StrandFile`) takes its rest pose from the file instead of the cantilever.
+//! Each strand is resampled to the group's `segments` equal segments along its arc length,
+//! because the projective dynamics (Anjyo section 3) moves strands of one segment length.
+//! The root is the strand's first point, so it rides the head like a groomed pore.
+
+use super::groom::StrandRoot;
+use crate::error::{KamiError, Result};
+use crate::rng::Rng;
+use crate::scene::HairGroup;
+use glam::DVec3;
+
+/// `segments + 1` nodes along the polyline `points`, each exactly one segment length d
+/// from the last (the projective dynamics rebuilds strands from angles and d, so unequal
+/// chords would change the shape at the first step); d is chosen so that the last node
+/// lands on the polyline's end (secant iteration on the arc length it reaches). `None` when
+/// the polyline has no length.
+pub fn resample(points: &[DVec3], segments: u32) -> Option<Vec<DVec3>> {
+    let total: f64 = points.windows(2).map(|w| (w[1] - w[0]).length()).sum();
+    if !(total > 0.0) || !total.is_finite() {
+        return None;
+    }
+    let k = segments.max(1);
+    let mut d = total / k as f64;
+    let mut best = walk(points, d, k);
+    for _ in 0..40 {
+        let reached = best.1;
+        if (reached - total).abs() <= 1e-12 * total {
+            break;
+        }
+        // Chords are never longer than the arc they cut: d * k <= reached-arc, so scaling d
+        // by total / reached converges from below on smooth strands.
+        d *= total / reached.max(1e-300);
+        best = walk(points, d, k);
+    }
+    Some(best.0)
+}
+
+/// Nodes k+1 at chord `d` from each other along `points`, and the arc length the last one
+/// reached (past the end, the last segment's line is followed).
+fn walk(points: &[DVec3], d: f64, k: u32) -> (Vec<DVec3>, f64) {
+    let mut out = Vec::with_capacity(k as usize + 1);
+    let mut p = points[0];
+    out.push(p);
+    // Position along the polyline: segment j, parameter t in [0, 1].
+    let (mut j, mut t) = (0usize, 0.0f64);
+    let mut arc_before = 0.0; // arc length up to the start of segment j
+    let last = points.len() - 2;
+    for _ in 0..k {
+        loop {
+            let (a, b) = (points[j], points[j + 1]);
+            let e = b - a;
+            let ee = e.length_squared();
+            // |a + s e - p|^2 = d^2 for s >= t: the far root of the quadratic.
+            let f = a - p;
+            let (qa, qb, qc) = (ee, 2.0 * f.dot(e), f.length_squared() - d * d);
+            let disc = qb * qb - 4.0 * qa * qc;
+            let s = if qa > 0.0 && disc >= 0.0 {
+                (-qb + disc.sqrt()) / (2.0 * qa)
+            } else {
+                f64::NEG_INFINITY
+            };
+            if s >= t && (s <= 1.0 || j == last) {
+                t = s;
+                p = a + e * s;
+                break;
+            }
+            if j == last {
+                // The sphere does not reach the last segment's line: go straight on.
+                let dir = if ee > 0.0 { e / ee.sqrt() } else { DVec3::X };
+                p += dir * d;
+                t = if ee > 0.0 { (p - a).dot(e) / ee } else { 1.0 };
+                break;
+            }
+            arc_before += ee.sqrt();
+            j += 1;
+            t = 0.0;
+        }
+        out.push(p);
+    }
+    let seg = (points[j + 1] - points[j]).length();
+    (out, arc_before + t * seg)
+}
+
+/// Roots and resampled rest nodes (`segments + 1` per strand, strands in order) of hair
+/// group `gi`, read from its file. The file must have been read (`Scene::load` or
+/// `scene::resolve_strand_files`).
+pub fn group_roots(seed: u64, gi: usize, g: &HairGroup) -> Result<(Vec<StrandRoot>, Vec<DVec3>)> {
+    let file = g
+        .file
+        .as_ref()
+        .expect("group_roots is called for file groups only");
+    let Some(groom) = file.groom.as_ref() else {
+        return Err(KamiError::Invalid {
+            file: String::new(),
+            field: format!("groups[{gi}].file"),
+            value: format!("{:?}", file.path),
+            allowed: "the strand file was not read: load the scene with Scene::load or call \
+                      scene::resolve_strand_files"
+                .into(),
+        });
+    };
+    let mut rng = Rng::new(seed, gi as u64 + 1);
+    let mut roots = Vec::with_capacity(groom.counts.len());
+    let mut nodes = Vec::with_capacity(groom.counts.len() * (g.segments as usize + 1));
+    for (si, strand) in groom.strands().enumerate() {
+        let pts: Vec<DVec3> = strand
+            .iter()
+            .map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64))
+            .collect();
+        let Some(n) = resample(&pts, g.segments) else {
+            return Err(KamiError::Data {
+                path: file.path.clone(),
+                line: None,
+                message: format!("strand {si} has no length (all its points coincide)"),
+            });
+        };
+        let seg_len = (n[1] - n[0]).length();
+        let ka = (g.material.ka + g.material.ka_spread * rng.normal()).max(0.0);
+        roots.push(StrandRoot {
+            pos: n[0],
+            dir: (n[1] - n[0]) / seg_len,
+            seg_len,
+            group: gi as u32,
+            ka,
+            cut_mask: 0,
+        });
+        nodes.extend(n);
+    }
+    Ok((roots, nodes))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn resampling_keeps_ends_and_spaces_nodes_equally() {
+        // A straight line in uneven pieces: nodes at exact equal steps.
+        let pts = [
+            DVec3::ZERO,
+            DVec3::new(0.5, 0.0, 0.0),
+            DVec3::new(4.0, 0.0, 0.0),
+        ];
+        let n = resample(&pts, 4).unwrap();
+        assert_eq!(n.len(), 5);
+        for (i, p) in n.iter().enumerate() {
+            assert!(
+                (*p - DVec3::new(i as f64, 0.0, 0.0)).length() < 1e-12,
+                "{i}: {p}"
+            );
+        }
+        // A helix sampled finely: equal chords, the end reached, every node on the curve.
+        let helix: Vec<DVec3> = (0..=400)
+            .map(|i| {
+                let a = i as f64 * 0.03;
+                DVec3::new(a.cos(), a.sin(), 0.2 * a)
+            })
+            .collect();
+        let n = resample(&helix, 24).unwrap();
+        let d = (n[1] - n[0]).length();
+        for w in n.windows(2) {
+            assert!(((w[1] - w[0]).length() - d).abs() < 1e-12 * d);
+        }
+        assert_eq!(n[0], helix[0]);
+        assert!(
+            (n[24] - helix[400]).length() < 1e-9,
+            "tip off by {}",
+            (n[24] - helix[400]).length()
+        );
+        for p in &n {
+            let r = (p.x * p.x + p.y * p.y).sqrt();
+            assert!((r - 1.0).abs() < 2e-4, "node off the helix: r = {r}");
+        }
+        assert!(resample(&[DVec3::ONE, DVec3::ONE], 3).is_none());
+    }
+}
