@@ -17,7 +17,7 @@ use glam::DVec3;
 /// the polyline has no length.
 pub fn resample(points: &[DVec3], segments: u32) -> Option<Vec<DVec3>> {
     let total: f64 = points.windows(2).map(|w| (w[1] - w[0]).length()).sum();
-    if !(total > 0.0) || !total.is_finite() {
+    if total.is_nan() || total <= 0.0 || !total.is_finite() {
         return None;
     }
     let k = segments.max(1);
