@@ -170,14 +170,19 @@ fn imported_strands_move_under_the_gust_as_the_reference_does() {
 #[test]
 fn bad_imports_are_refused_with_the_place() {
     let scene = source_scene();
-    let mut g = Groom::default();
-    g.counts = vec![2, 2];
-    g.points = vec![
-        [0.0, 11.0, 0.0],
-        [1.0, 12.0, 0.0],
-        [0.5, 11.0, 0.0],
-        [0.5, 11.0, 0.0],
-    ];
+    let g = Groom {
+        counts: vec![2, 2],
+        ..Default::default()
+    };
+    let g = Groom {
+        points: vec![
+            [0.0, 11.0, 0.0],
+            [1.0, 12.0, 0.0],
+            [0.5, 11.0, 0.0],
+            [0.5, 11.0, 0.0],
+        ],
+        ..g
+    };
     let bad = imported_scene(scene.clone(), g, 4);
     let e = prepare(&bad).unwrap_err().to_string();
     assert!(
