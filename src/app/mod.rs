@@ -22,7 +22,7 @@ use crate::systems::wisps::{edit, panel as wisp_panel};
 use camera::OrbitCamera;
 use glam::DVec2;
 use params::{Request, ViewerState};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 use winit::application::ApplicationHandler;
@@ -665,6 +665,23 @@ fn handle_requests(g: &mut Gfx, state: &mut ViewerState, shots: &mut Vec<PathBuf
                 match saved {
                     Ok(()) => state.message = Some(format!("saved {path}")),
                     Err(e) => state.error = Some(format!("cannot save {path}: {e}")),
+                }
+            }
+            Request::Export(path) => {
+                let written = g.stage.export(&g.gpu).and_then(|groom| {
+                    crate::formats::write(Path::new(&path), &groom)?;
+                    Ok(groom)
+                });
+                match written {
+                    Ok(groom) => {
+                        state.message = Some(format!(
+                            "exported {} strands ({} points) at frame {} to {path}",
+                            groom.counts.len(),
+                            groom.points.len(),
+                            g.stage.frame()
+                        ))
+                    }
+                    Err(e) => state.error = Some(format!("cannot export {path}: {e}")),
                 }
             }
             Request::Screenshot(path) => shots.push(PathBuf::from(path)),

@@ -108,6 +108,19 @@ fn files(ui: &mut Ui, s: &mut ViewerState) {
                 .push(Request::Screenshot("kami-screenshot.png".into()));
         }
     });
+    ui.horizontal(|ui| {
+        ui.label("hair file");
+        ui.text_edit_singleline(&mut s.export_path)
+            .on_hover_text(".hair, .obj (polylines) or .usda (BasisCurves)");
+        if ui
+            .button("Export")
+            .on_hover_text("write the hair as it is now (this frame) to the file")
+            .clicked()
+        {
+            s.requests.push(Request::Export(s.export_path.clone()));
+        }
+    });
+    ui.label("Open also takes a strand file (.hair, .obj, .usda): it opens as hair on a head");
     ui.label("shipped scenes:");
     ui.horizontal_wrapped(|ui| {
         for name in shipped() {

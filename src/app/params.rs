@@ -100,6 +100,8 @@ impl Default for ViewSettings {
 pub enum Request {
     Open(String),
     Save(String),
+    /// Write the hair as it is now to a strand file (`.hair`, `.obj`, `.usda`).
+    Export(String),
     Screenshot(String),
     Step,
     Reset,
@@ -153,6 +155,8 @@ pub struct ViewerState {
     pub view: ViewSettings,
     /// The path field of the Files panel.
     pub path: String,
+    /// The Files panel's strand-file path for Export.
+    pub export_path: String,
     /// Head motion keys kept while head motion is switched off.
     pub parked_head_motion: Vec<crate::scene::HeadKey>,
     pub requests: Vec<Request>,
@@ -192,6 +196,7 @@ impl ViewerState {
             scene,
             view: ViewSettings::default(),
             path,
+            export_path: "kami-hair.hair".into(),
             parked_head_motion: Vec::new(),
             requests: Vec::new(),
             error: None,
@@ -390,6 +395,7 @@ impl ViewerState {
             "strips.key" => return self.add_strip_edit().map_err(|e| bad(e.to_string())),
             "seek" => self.seek = Some(int()? as u64),
             "save" => self.requests.push(Request::Save(value.to_string())),
+            "export" => self.requests.push(Request::Export(value.to_string())),
             "mouse.press" | "mouse.move" => {
                 let v = nums(2)?;
                 self.requests.push(Request::Mouse(if key == "mouse.press" {

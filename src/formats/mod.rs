@@ -115,6 +115,27 @@ impl Groom {
     }
 }
 
+/// The strand formats, told apart by extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    Hair,
+    Obj,
+    Usda,
+}
+
+impl Format {
+    /// The format of `path` by its extension (case-insensitive), if it is a strand file.
+    pub fn of(path: &Path) -> Option<Format> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        match ext.as_str() {
+            "hair" => Some(Format::Hair),
+            "obj" => Some(Format::Obj),
+            "usda" => Some(Format::Usda),
+            _ => None,
+        }
+    }
+}
+
 /// Read a strand file; the format is chosen by the extension (`.hair`, `.obj`, `.usda`).
 pub fn read(path: &Path) -> Result<Groom> {
     Err(KamiError::Data {

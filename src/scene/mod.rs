@@ -658,9 +658,148 @@ impl Scene {
         Scene::from_ron(text, origin)
     }
 
-    /// Read, parse and validate a scene file.
+    /// A scene showing one strand file (`.hair`, `.obj` polylines, `.usda`): the strands as
+    /// one static hair group, over a head ellipsoid fitted under their roots (the file
+    /// carries no head; name one in a scene file for collisions that matter), the width
+    /// from the file's root widths or 0.4 % of the mean strand length, and a camera that
+    /// frames it all. What `kami view groom.hair` and the Files panel open.
+    pub fn from_strand_file(path: &Path) -> Result<Scene> {
+        let groom = crate::formats::read(path)?;
+        let origin = path.display().to_string();
+        if groom.counts.is_empty() {
+            return Err(KamiError::Data {
+                path: origin,
+                line: None,
+                message: "the file has no strands".into(),
+            });
+        }
+        let n = groom.counts.len();
+        let mut roots = Vec::with_capacity(n);
+        let mut lengths = Vec::with_capacity(n);
+        let mut root_widths = Vec::new();
+        let mut at = 0usize;
+        for &c in &groom.counts {
+            let pts = &groom.points[at..at + c as usize];
+            roots.push(glam::DVec3::from(pts[0].map(f64::from)));
+            lengths.push(
+                pts.windows(2)
+                    .map(|w| {
+                        (glam::DVec3::from(w[1].map(f64::from))
+                            - glam::DVec3::from(w[0].map(f64::from)))
+                        .length()
+                    })
+                    .sum::<f64>(),
+            );
+            if let Some(w) = &groom.widths {
+                root_widths.push(w[at] as f64);
+            }
+            at += c as usize;
+        }
+        let mean_len = lengths.iter().sum::<f64>() / n as f64;
+        let (lo, hi) = roots.iter().fold(
+            (glam::DVec3::splat(f64::MAX), glam::DVec3::splat(f64::MIN)),
+            |(lo, hi), r| (lo.min(*r), hi.max(*r)),
+        );
+        // Roots cover the scalp: the crown at the top, the nape at the bottom. The ellipsoid
+        // has its centre at the lowest root's height and sits 2 % inside the roots.
+        let mid = 0.5 * (lo + hi);
+        let half = (0.5 * (hi - lo)).max(glam::DVec3::splat(1e-3 * mean_len.max(1e-9)));
+        let radii = [0.98 * half.x, 0.98 * (hi.y - lo.y).max(half.y), 0.98 * half.z];
+        let center = [mid.x, lo.y, mid.z];
+        let mut segs: Vec<u32> = groom.counts.iter().map(|&c| c - 1).collect();
+        segs.sort_unstable();
+        let segments = segs[segs.len() / 2].clamp(4, MAX_SEGMENTS.min(64));
+        let width = if root_widths.is_empty() {
+            0.004 * mean_len
+        } else {
+            root_widths.iter().sum::<f64>() / root_widths.len() as f64
+        };
+        let reach = roots
+            .iter()
+            .zip(&lengths)
+            .map(|(r, l)| (*r - glam::DVec3::from(center)).length() + l)
+            .fold(0.0, f64::max)
+            .max(1e-6);
+        let c = glam::DVec3::from(center);
+        let eye = c + glam::DVec3::new(2.6, 0.6, 1.9).normalize() * reach * 3.2;
+        let name = path
+            .file_name()
+            .map(|f| f.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let mut scene = Scene {
+            seed: 0,
+            head: Head {
+                center,
+                radii,
+                ..Default::default()
+            },
+            gravity: default_gravity(),
+            groups: vec![HairGroup {
+                name,
+                file: Some(StrandFile {
+                    path: origin.clone(),
+                    scale: 1.0,
+                    rotate: [0.0; 3],
+                    translate: [0.0; 3],
+                    groom: None,
+                }),
+                roots: Roots::default(),
+                count: (n as u64).min(MAX_STRANDS) as u32,
+                segments,
+                length: 0.0,
+                length_jitter: 0.0,
+                direction: Direction::default(),
+                direction_jitter: 0.0,
+                rigidity: 0.0,
+                bending: Bending::default(),
+                loads: vec![],
+                cuts: vec![],
+                material: Material {
+                    width,
+                    ..Default::default()
+                },
+                dynamic: true,
+            }],
+            camera: CameraDesc {
+                eye: eye.to_array(),
+                target: [c.x, c.y, c.z],
+                ..Default::default()
+            },
+            light: Light::default(),
+            render: RenderSettings::default(),
+            dynamics: None,
+            fur: None,
+            wisps: None,
+            strips: None,
+            eff: None,
+            head_capture: None,
+        };
+        validate(&scene).map_err(|e| match e {
+            KamiError::Invalid {
+                field,
+                value,
+                allowed,
+                ..
+            } => KamiError::Invalid {
+                file: origin.clone(),
+                field,
+                value,
+                allowed,
+            },
+            other => other,
+        })?;
+        // The file is read again through the group, as a scene file naming it would.
+        resolve_strand_files(&mut scene, Path::new(""), &origin)?;
+        Ok(scene)
+    }
+
+    /// Read, parse and validate a scene file; a strand file (`.hair`, `.obj`, `.usda`)
+    /// opens as a scene of its own ([`Scene::from_strand_file`]).
     pub fn load(path: impl AsRef<Path>) -> Result<Scene> {
         let path = path.as_ref();
+        if crate::formats::Format::of(path).is_some() {
+            return Scene::from_strand_file(path);
+        }
         let io = |source| KamiError::Io {
             path: path.to_path_buf(),
             source,
