@@ -704,7 +704,11 @@ impl Scene {
         // has its centre at the lowest root's height and sits 2 % inside the roots.
         let mid = 0.5 * (lo + hi);
         let half = (0.5 * (hi - lo)).max(glam::DVec3::splat(1e-3 * mean_len.max(1e-9)));
-        let radii = [0.98 * half.x, 0.98 * (hi.y - lo.y).max(half.y), 0.98 * half.z];
+        let radii = [
+            0.98 * half.x,
+            0.98 * (hi.y - lo.y).max(half.y),
+            0.98 * half.z,
+        ];
         let center = [mid.x, lo.y, mid.z];
         let mut segs: Vec<u32> = groom.counts.iter().map(|&c| c - 1).collect();
         segs.sort_unstable();

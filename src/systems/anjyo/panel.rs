@@ -62,30 +62,14 @@ fn stiffness(ui: &mut Ui, s: &mut ViewerState) {
     }
     group_picker(ui, s);
     let g = &mut s.scene.groups[s.group];
-    ui.add(
-        Slider::new(&mut g.rigidity, 1.0..=5000.0)
-            .logarithmic(true)
-            .text("EI (flexural rigidity)"),
-    );
-    let mut converged = matches!(g.bending, Bending::Converged { .. });
-    ui.horizontal(|ui| {
-        ui.label("bending");
-        ui.radio_value(&mut converged, false, "paper");
-        ui.radio_value(&mut converged, true, "converged");
-    });
-    match (&g.bending, converged) {
-        (Bending::Paper, true) => {
-            g.bending = Bending::Converged {
-                max_iterations: 400,
-                tolerance: 1e-5,
-            }
-        }
-        (Bending::Converged { .. }, false) => g.bending = Bending::Paper,
-        _ => {}
-    }
-    if ui.small_button("use this EI for every group").clicked() {
-        let e = g.rigidity;
-        s.scene.groups.iter_mut().for_each(|g| g.rigidity = e);
+    if let Some(f) = &g.file {
+        // Imported strands are not bent: their rest pose is the file's.
+        ui.label(format!(
+            "read from {}: {} strands of {} segments, rest pose from the file (not bent)",
+            f.path, g.count, g.segments
+        ));
+    } else {
+        bending(ui, s);
     }
     let Some(d) = s.scene.dynamics.as_mut() else {
         ui.label("joint-angle stiffness and inertia act in dynamics (Dynamics panel)");
@@ -134,6 +118,40 @@ fn stiffness(ui: &mut Ui, s: &mut ViewerState) {
 }
 
 /// A small plot of `f(t)` in [0, 1] for t in [0, 1].
+/// The cantilever's rigidity and bending mode of the picked (grown) group.
+fn bending(ui: &mut Ui, s: &mut ViewerState) {
+    let g = &mut s.scene.groups[s.group];
+    ui.add(
+        Slider::new(&mut g.rigidity, 1.0..=5000.0)
+            .logarithmic(true)
+            .text("EI (flexural rigidity)"),
+    );
+    let mut converged = matches!(g.bending, Bending::Converged { .. });
+    ui.horizontal(|ui| {
+        ui.label("bending");
+        ui.radio_value(&mut converged, false, "paper");
+        ui.radio_value(&mut converged, true, "converged");
+    });
+    match (&g.bending, converged) {
+        (Bending::Paper, true) => {
+            g.bending = Bending::Converged {
+                max_iterations: 400,
+                tolerance: 1e-5,
+            }
+        }
+        (Bending::Converged { .. }, false) => g.bending = Bending::Paper,
+        _ => {}
+    }
+    if ui.small_button("use this EI for every group").clicked() {
+        let e = g.rigidity;
+        s.scene
+            .groups
+            .iter_mut()
+            .filter(|g| g.file.is_none())
+            .for_each(|g| g.rigidity = e);
+    }
+}
+
 fn profile_plot(ui: &mut Ui, f: impl Fn(f64) -> f64, label: &str) {
     let (rect, painter) = ui.allocate_painter(
         egui::vec2(ui.available_width().min(300.0), 60.0),
