@@ -111,6 +111,17 @@ enum Command {
         #[arg(short, long)]
         out: Option<PathBuf>,
     },
+    /// Convert a strand file: `.hair` (Cem Yuksel), `.obj` (polylines) or `.usda` (USD
+    /// BasisCurves), either way (docs/formats.md says what each keeps).
+    Convert {
+        /// Strand file to read.
+        input: PathBuf,
+        /// Strand file to write; the extension picks the format.
+        output: PathBuf,
+        /// Multiply every point (and width) by this factor, e.g. 0.1 for mm to cm.
+        #[arg(long, default_value_t = 1.0)]
+        scale: f32,
+    },
 }
 
 #[derive(Subcommand)]
@@ -567,6 +578,32 @@ fn main() -> Result<()> {
                         .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", out.display()))?;
                 }
             }
+        }
+        Command::Convert {
+            input,
+            output,
+            scale,
+        } => {
+            if !scale.is_finite() || scale <= 0.0 {
+                bail!("--scale {scale}: use a positive number");
+            }
+            let mut groom = kami::formats::read(&input)?;
+            if scale != 1.0 {
+                for p in &mut groom.points {
+                    *p = p.map(|v| v * scale);
+                }
+                for w in groom.widths.iter_mut().flatten() {
+                    *w *= scale;
+                }
+            }
+            kami::formats::write(&output, &groom)?;
+            println!(
+                "{} strands, {} points: {} -> {}",
+                groom.counts.len(),
+                groom.points.len(),
+                input.display(),
+                output.display()
+            );
         }
     }
     Ok(())

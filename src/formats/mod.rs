@@ -8,6 +8,10 @@
 use crate::error::{KamiError, Result};
 use std::path::Path;
 
+pub mod hair;
+pub mod obj;
+pub mod usd;
+
 /// A groom as strand files carry it: polylines, strand after strand.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Groom {
@@ -115,6 +119,9 @@ impl Groom {
     }
 }
 
+/// The extensions `read` and `write` know, for error messages.
+pub const EXTENSIONS: &str = "`.hair` (Cem Yuksel), `.obj` (polylines), `.usda` (USD BasisCurves)";
+
 /// The strand formats, told apart by extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Format {
@@ -136,21 +143,89 @@ impl Format {
     }
 }
 
+fn format_of(path: &Path) -> Result<Format> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("hair") => Ok(Format::Hair),
+        Some("obj") => Ok(Format::Obj),
+        Some("usda") => Ok(Format::Usda),
+        other => Err(KamiError::Data {
+            path: path.display().to_string(),
+            line: None,
+            message: format!(
+                "{} is not a strand format Kami knows; use {EXTENSIONS}{}",
+                other.map_or("no extension".to_string(), |e| format!("`.{e}`")),
+                if matches!(other, Some("usd" | "usdc" | "usdz")) {
+                    " (binary USD is not read: save as .usda)"
+                } else {
+                    ""
+                }
+            ),
+        }),
+    }
+}
+
+/// A `KamiError::Data` for `origin`.
+pub(crate) fn data_error(origin: &str, line: Option<usize>, message: String) -> KamiError {
+    KamiError::Data {
+        path: origin.to_string(),
+        line,
+        message,
+    }
+}
+
 /// Read a strand file; the format is chosen by the extension (`.hair`, `.obj`, `.usda`).
 pub fn read(path: &Path) -> Result<Groom> {
-    Err(KamiError::Data {
-        path: path.display().to_string(),
-        line: None,
-        message: "strand files are not read yet".into(),
+    format_of(path)?;
+    let bytes = std::fs::read(path).map_err(|source| KamiError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    read_bytes(&path.display().to_string(), &bytes, path)
+}
+
+fn read_bytes(origin: &str, bytes: &[u8], path: &Path) -> Result<Groom> {
+    let groom = match format_of(path)? {
+        Format::Hair => hair::parse(bytes, origin)?,
+        Format::Obj => obj::parse(text(bytes, origin)?, origin)?,
+        Format::Usda => usd::parse(text(bytes, origin)?, origin)?,
+    };
+    groom.check(origin)?;
+    Ok(groom)
+}
+
+/// Parse a strand file already in memory; `name`'s extension chooses the format and `name`
+/// is what errors call the file (used by the fuzz harness and tests).
+pub fn parse(name: &str, bytes: &[u8]) -> Result<Groom> {
+    read_bytes(name, bytes, Path::new(name))
+}
+
+fn text<'a>(bytes: &'a [u8], origin: &str) -> Result<&'a str> {
+    std::str::from_utf8(bytes).map_err(|e| {
+        let line = bytes[..e.valid_up_to()]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count()
+            + 1;
+        data_error(origin, Some(line), "the text is not UTF-8".into())
     })
 }
 
 /// Write a strand file; the format is chosen by the extension (`.hair`, `.obj`, `.usda`).
 pub fn write(path: &Path, groom: &Groom) -> Result<()> {
-    let _ = groom;
-    Err(KamiError::Data {
-        path: path.display().to_string(),
-        line: None,
-        message: "strand files are not written yet".into(),
+    let format = format_of(path)?;
+    let origin = path.display().to_string();
+    groom.check(&origin)?;
+    let bytes = match format {
+        Format::Hair => hair::to_bytes(groom, &origin)?,
+        Format::Obj => obj::to_string(groom).into_bytes(),
+        Format::Usda => usd::to_string(groom).into_bytes(),
+    };
+    std::fs::write(path, bytes).map_err(|source| KamiError::Io {
+        path: path.to_path_buf(),
+        source,
     })
 }
