@@ -30,43 +30,44 @@ fn surface(t: f64, p: f64) -> DVec3 {
 }
 
 fn main() -> anyhow::Result<()> {
-    let strands = 1500u32;
-    let points = 40usize;
+    let strands = 1700u32;
+    let points = 16usize;
     let mut groom = kami::formats::Groom::default();
     let mut widths = Vec::new();
-    let mut colors = Vec::new();
     for i in 0..strands {
-        // Roots: uniform in cos(theta) on the crown and the back, none on the face.
-        let t0 = (1.0 - 0.75 * hash(i, 1)).acos().min(1.6);
-        let p0 = 2.0 * PI * hash(i, 2);
-        let front = p0.cos();
-        if front > 0.35 && t0 > 0.75 {
+        // Roots: uniform in cos(theta) over the crown, the sides and the back.
+        let t0 = (1.0 - 1.15 * hash(i, 1)).acos();
+        let p0 = PI * (2.0 * hash(i, 2) - 1.0);
+        // A hairline: none on the forehead below 40 degrees or the temples below 65.
+        if p0.cos() > 0.0 && t0 > (40f64.to_radians() + 25f64.to_radians() * (1.0 - p0.cos())) {
             continue;
         }
         let length = 30.0 + 6.0 * (hash(i, 3) - 0.5);
         let phase = 2.0 * PI * hash(i, 4);
-        let tone = 0.85 + 0.3 * hash(i, 5);
+        // Over the scalp from the root to an exit below the ears, parted in the middle and
+        // combed back: the exit azimuth moves towards the back, more for roots at the front.
+        let side = if p0 >= 0.0 { 1.0 } else { -1.0 };
+        let pe = p0 + (side * PI - p0) * (0.08 + 0.4 * p0.cos().max(0.0));
+        let te = 1.95;
+        let (r0, re) = (surface(t0, p0), surface(te, pe));
+        let run = 1.15 * (re - r0).length();
         let mut pts: Vec<DVec3> = Vec::with_capacity(points);
         for j in 0..points {
             let s = j as f64 / (points - 1) as f64 * length;
-            // Over the scalp: the zenith grows with the arc run, the azimuth swept back.
-            let t = (t0 + s / 11.0).min(1.95);
-            let sweep = (s / 14.0).min(1.0) * 0.55 * front.max(0.0);
-            let p = p0 + sweep * if p0.sin() >= 0.0 { 1.0 } else { -1.0 };
-            let lift = 0.15 + 0.03 * s;
-            let base = surface(t, p);
-            let n = (base / (RADII * RADII)).normalize();
-            let over = base + n * lift;
-            // Below the scalp run, fall straight down in waves across the fall.
-            let run = (1.95 - t0) * 11.0;
-            let q = if s > run {
-                let down = s - run;
-                let side = DVec3::new(n.x, 0.0, n.z).normalize_or_zero();
-                let wave = 0.9 * (down / 18.0).min(1.0) * (2.0 * PI * down / 7.0 + phase).sin();
-                let end = surface(1.95, p) + n * (0.15 + 0.03 * run);
-                end + DVec3::new(0.0, -down, 0.0) + side * (wave + 0.08 * down)
+            let q = if s <= run {
+                let u = s / run;
+                let (t, p) = (t0 + (te - t0) * u, p0 + (pe - p0) * u);
+                let base = surface(t, p);
+                let n = (base / (RADII * RADII)).normalize();
+                base + n * (0.15 + 0.6 * u)
             } else {
-                over
+                // Below the scalp run, fall straight down in waves across the fall.
+                let down = s - run;
+                let n = (re / (RADII * RADII)).normalize();
+                let out = DVec3::new(n.x, 0.0, n.z).normalize_or_zero();
+                let across = DVec3::Y.cross(out);
+                let wave = 1.1 * (down / 10.0).min(1.0) * (2.0 * PI * down / 8.0 + phase).sin();
+                re + n * 0.75 + DVec3::new(0.0, -down, 0.0) + across * wave + out * (0.1 * down)
             };
             pts.push(q);
         }
@@ -74,12 +75,10 @@ fn main() -> anyhow::Result<()> {
         for (j, q) in pts.iter().enumerate() {
             groom.points.push([q.x as f32, q.y as f32, q.z as f32]);
             let along = j as f32 / (points - 1) as f32;
-            widths.push(0.08 * (1.0 - 0.7 * along));
-            colors.push([0.36 * tone as f32, 0.22 * tone as f32, 0.12 * tone as f32]);
+            widths.push(0.09 * (1.0 - 0.6 * along));
         }
     }
     groom.widths = Some(widths);
-    groom.colors = Some(colors);
     let out = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/grooms/wavy.hair");
     std::fs::create_dir_all(out.parent().unwrap())?;
     kami::formats::write(&out, &groom)?;

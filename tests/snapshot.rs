@@ -163,3 +163,19 @@ fn hair_and_fur_frame_6() {
     })
     .unwrap();
 }
+
+/// An imported groom (issue 14): `wavy.hair` read as live Anjyo hair, at rest and at frame
+/// 12 of the head turn, every other strand.
+#[test]
+fn imported_groom_frames_0_and_12() {
+    let gpu = common::gpu();
+    let mut scene = common::scene("imported_groom");
+    scene.groups[0].count /= 2;
+    kami::stage::render_animation(&gpu, &scene, SIZE, 0..=12, |f, img| {
+        if f % 12 == 0 {
+            check_snapshot(&format!("imported_groom_{f:02}"), &img, TOL);
+        }
+        Ok(())
+    })
+    .unwrap();
+}

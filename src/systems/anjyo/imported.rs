@@ -103,8 +103,13 @@ pub fn group_roots(seed: u64, gi: usize, g: &HairGroup) -> Result<(Vec<StrandRoo
     let mut rng = Rng::new(seed, gi as u64 + 1);
     let mut roots = Vec::with_capacity(groom.counts.len());
     let mut nodes = Vec::with_capacity(groom.counts.len() * (g.segments as usize + 1));
-    for (si, strand) in groom.strands().enumerate() {
-        let pts: Vec<DVec3> = strand
+    // At most `count` strands, spread evenly over the file (a count lowered after loading,
+    // in code or a panel, thins the groom rather than cutting off its end).
+    let all: Vec<&[[f32; 3]]> = groom.strands().collect();
+    let take = (g.count as usize).min(all.len());
+    for j in 0..take {
+        let si = j * all.len() / take;
+        let pts: Vec<DVec3> = all[si]
             .iter()
             .map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64))
             .collect();
