@@ -235,11 +235,32 @@ pub fn load(path: &Path, animation: Option<&str>, fps: f64) -> Result<SkinnedMes
     if !(fps.is_finite() && fps > 0.0) {
         return Err(err(&name, format!("fps must be positive, got {fps}")));
     }
-    let gltf = gltf::Gltf::open(path).map_err(|e| err(&name, format!("not usable glTF: {e}")))?;
+    let bad = |e: gltf::Error| err(&name, format!("not usable glTF: {e}"));
+    let bytes = std::fs::read(path).map_err(|e| err(&name, format!("not usable glTF: {e}")))?;
+    let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(bad)?;
+    // gltf-json 1.4's validation indexes the POSITION accessor without a bounds check (a
+    // panic on a bad index): check it first, then validate.
+    let json = gltf.document.into_json();
+    for (mi, m) in json.meshes.iter().enumerate() {
+        for (pi, p) in m.primitives.iter().enumerate() {
+            for (sem, a) in &p.attributes {
+                if a.value() >= json.accessors.len() {
+                    return Err(err(
+                        &name,
+                        format!(
+                            "not usable glTF: mesh {mi} primitive {pi}: attribute {sem:?} names                              accessor {}, but there are {}",
+                            a.value(),
+                            json.accessors.len()
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    let doc = &gltf::Document::from_json(json).map_err(bad)?;
     let base = path.parent().unwrap_or(Path::new("."));
-    let buffers = gltf::import_buffers(&gltf.document, Some(base), gltf.blob.clone())
+    let buffers = gltf::import_buffers(doc, Some(base), gltf.blob)
         .map_err(|e| err(&name, format!("cannot read its buffers: {e}")))?;
-    let doc = &gltf.document;
     let node = doc
         .nodes()
         .find(|n| n.mesh().is_some() && n.skin().is_some())
