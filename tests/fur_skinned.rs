@@ -337,3 +337,25 @@ fn fur_creature_frame_12() {
     })
     .unwrap();
 }
+
+/// The scene's `size` fits the rest mesh; the skinned pose must scale with it (the joint
+/// matrices are conjugated by the fit): the creature fitted to radius 3 is the one fitted to
+/// radius 1, three times larger, in every pose.
+#[test]
+fn fitting_scales_the_skinned_pose() {
+    let mut f = creature_fur(200);
+    let one = FurSetup::new(&f, 1).unwrap();
+    f.size = Some(3.0);
+    let three = FurSetup::new(&f, 1).unwrap();
+    for frame in [0.0, 9.5, 40.0] {
+        let (m1, m3) = (one.joint_matrices(frame), three.joint_matrices(frame));
+        for v in (0..one.mesh.positions.len()).step_by(7) {
+            let a = one.vertex_at(v, frame, m1.as_deref()).0;
+            let b = three.vertex_at(v, frame, m3.as_deref()).0;
+            assert!(
+                (b - 3.0 * a).length() < 1e-9,
+                "frame {frame} vertex {v}: {b} vs 3 x {a}"
+            );
+        }
+    }
+}
