@@ -14,8 +14,10 @@ use std::fmt::Write as _;
 /// Rings along the body (tail to nose) and vertices around each ring.
 const RINGS: usize = 44;
 const AROUND: usize = 18;
-/// Spine joints (a chain from the tail).
-const JOINTS: usize = 6;
+/// Spine joints (a chain from the tail), then one joint per leg.
+const SPINE: usize = 6;
+const LEGS: usize = 4;
+const JOINTS: usize = SPINE + LEGS;
 /// Body length along x, from x = -LENGTH/2 (tail) to +LENGTH/2 (nose).
 const LENGTH: f64 = 2.0;
 /// Animation keys over the 2-second loop.
@@ -40,7 +42,81 @@ fn radius(u: f64) -> f64 {
 
 /// Spine joint k's rest x.
 fn joint_x(k: usize) -> f64 {
-    -0.5 * LENGTH + 0.1 + k as f64 * (LENGTH - 0.2) / (JOINTS - 1) as f64
+    -0.5 * LENGTH + 0.1 + k as f64 * (LENGTH - 0.2) / (SPINE - 1) as f64
+}
+
+/// Leg l's hip (rest, world), its spine joint and its phase in the trot (diagonal pairs).
+fn leg(l: usize) -> ([f64; 3], usize, f64) {
+    let side = if l % 2 == 0 { 1.0 } else { -1.0 };
+    let (x, spine) = if l < 2 { (0.42, 4) } else { (-0.55, 1) };
+    let phase = if l == 0 || l == 3 { 0.0 } else { PI };
+    ([x, -0.08, 0.11 * side], spine, phase)
+}
+
+/// Adds a closed tube along `path` (centre, radius) to the mesh, every vertex weighted
+/// fully to `joint`.
+fn tube(
+    path: &[([f64; 3], f64)],
+    around: usize,
+    joint: u8,
+    pos: &mut Vec<[f64; 3]>,
+    tris: &mut Vec<[u32; 3]>,
+    skin: &mut (Vec<[u8; 4]>, Vec<[f64; 4]>),
+) {
+    let first = pos.len() as u32;
+    // Rings lie across the straight line from the first centre to the last.
+    let (a, b) = (path[0].0, path[path.len() - 1].0);
+    let d = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    let d = [d[0] / l, d[1] / l, d[2] / l];
+    let u0 = if d[0].abs() < 0.9 {
+        [1.0, 0.0, 0.0]
+    } else {
+        [0.0, 1.0, 0.0]
+    };
+    let dot = u0[0] * d[0] + u0[1] * d[1] + u0[2] * d[2];
+    let u = [u0[0] - dot * d[0], u0[1] - dot * d[1], u0[2] - dot * d[2]];
+    let ul = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
+    let u = [u[0] / ul, u[1] / ul, u[2] / ul];
+    let v = [
+        d[1] * u[2] - d[2] * u[1],
+        d[2] * u[0] - d[0] * u[2],
+        d[0] * u[1] - d[1] * u[0],
+    ];
+    pos.push(a);
+    for (c, r) in path {
+        for k in 0..around {
+            let (s, co) = (TAU * k as f64 / around as f64).sin_cos();
+            pos.push([
+                c[0] + r * (co * u[0] + s * v[0]),
+                c[1] + r * (co * u[1] + s * v[1]),
+                c[2] + r * (co * u[2] + s * v[2]),
+            ]);
+        }
+    }
+    pos.push(b);
+    let last = pos.len() as u32 - 1;
+    let ring = |i: usize, k: usize| first + 1 + (i * around + k % around) as u32;
+    for k in 0..around {
+        tris.push([first, ring(0, k + 1), ring(0, k)]);
+        tris.push([last, ring(path.len() - 1, k), ring(path.len() - 1, k + 1)]);
+    }
+    for i in 0..path.len() - 1 {
+        for k in 0..around {
+            let (p, q, r, t) = (
+                ring(i, k),
+                ring(i, k + 1),
+                ring(i + 1, k),
+                ring(i + 1, k + 1),
+            );
+            tris.push([p, q, r]);
+            tris.push([q, t, r]);
+        }
+    }
+    for _ in first..=last {
+        skin.0.push([joint, 0, 0, 0]);
+        skin.1.push([1.0, 0.0, 0.0, 0.0]);
+    }
 }
 
 fn quat_yz(ay: f64, az: f64) -> [f64; 4] {
@@ -109,12 +185,38 @@ fn main() -> anyhow::Result<()> {
     // Weights: a hat function along the spine (two joints per vertex).
     let (mut joints, mut weights) = (Vec::new(), Vec::new());
     for p in &pos {
-        let f = ((p[0] - joint_x(0)) / (joint_x(1) - joint_x(0))).clamp(0.0, (JOINTS - 1) as f64);
-        let k = (f.floor() as usize).min(JOINTS - 2);
+        let f = ((p[0] - joint_x(0)) / (joint_x(1) - joint_x(0))).clamp(0.0, (SPINE - 1) as f64);
+        let k = (f.floor() as usize).min(SPINE - 2);
         let t = f - k as f64;
         joints.push([k as u8, k as u8 + 1, 0, 0]);
         weights.push([1.0 - t, t, 0.0, 0.0]);
     }
+    let mut skin = (joints, weights);
+    // Four legs (hip inside the body down to a paw), each on its own joint.
+    for l in 0..LEGS {
+        let (h, _, _) = leg(l);
+        let path: Vec<([f64; 3], f64)> = (0..6)
+            .map(|i| {
+                let t = i as f64 / 5.0;
+                let r = 0.065 - 0.02 * t + if i == 5 { 0.01 } else { 0.0 };
+                (
+                    [h[0] + 0.03 * t, h[1] - 0.34 * t, h[2] * (1.0 + 0.2 * t)],
+                    r,
+                )
+            })
+            .collect();
+        tube(&path, 10, (SPINE + l) as u8, &mut pos, &mut tris, &mut skin);
+    }
+    // Two ears on the head joint.
+    for side in [1.0, -1.0] {
+        let path = [
+            ([0.66, 0.08, 0.07 * side], 0.05),
+            ([0.64, 0.17, 0.09 * side], 0.035),
+            ([0.62, 0.24, 0.1 * side], 0.012),
+        ];
+        tube(&path, 8, (SPINE - 1) as u8, &mut pos, &mut tris, &mut skin);
+    }
+    let (joints, weights) = skin;
 
     // The animation: per joint a rotation, the root a translation.
     let times: Vec<f64> = (0..KEYS)
@@ -129,7 +231,12 @@ fn main() -> anyhow::Result<()> {
             ay *= 0.5;
             az = 0.0;
         }
-        if k == JOINTS - 1 {
+        if k >= SPINE {
+            // The legs trot: diagonal pairs swing together, forward and back about z.
+            let (_, _, phase) = leg(k - SPINE);
+            return quat_yz(0.0, 0.55 * (2.0 * w + phase).sin());
+        }
+        if k == SPINE - 1 {
             // The head nods and looks about.
             ay = 0.3 * (w - 1.1 * kf + 0.8).sin();
             az = 0.18 * (2.0 * w + PI / 3.0).sin();
@@ -162,13 +269,23 @@ fn main() -> anyhow::Result<()> {
             .collect(),
     );
     // Inverse bind matrices: joint k's rest global is a translation to (x_k, 0, 0).
+    let rest = |k: usize| {
+        if k < SPINE {
+            [joint_x(k), 0.0, 0.0]
+        } else {
+            leg(k - SPINE).0
+        }
+    };
     let ibm = (0..JOINTS).flat_map(|k| {
         let mut m = [0.0; 16];
         m[0] = 1.0;
         m[5] = 1.0;
         m[10] = 1.0;
         m[15] = 1.0;
-        m[12] = -joint_x(k);
+        let r = rest(k);
+        m[12] = -r[0];
+        m[13] = -r[1];
+        m[14] = -r[2];
         m
     });
     push(&mut buf, f32s(&mut ibm.into_iter()));
@@ -206,18 +323,40 @@ fn main() -> anyhow::Result<()> {
     for k in 0..JOINTS {
         let t = if k == 0 {
             root_t(0.0)
-        } else {
+        } else if k < SPINE {
             [joint_x(k) - joint_x(k - 1), 0.0, 0.0]
+        } else {
+            let (h, parent, _) = leg(k - SPINE);
+            [h[0] - joint_x(parent), h[1], h[2]]
         };
-        let children = if k + 1 < JOINTS {
-            format!(", \"children\": [{}]", k + 2)
+        // Node k + 1: spine joints chain, legs hang from theirs.
+        let mut kids: Vec<String> = Vec::new();
+        if k + 1 < SPINE {
+            kids.push((k + 2).to_string());
+        }
+        if k < SPINE {
+            kids.extend(
+                (0..LEGS)
+                    .filter(|&l| leg(l).1 == k)
+                    .map(|l| (SPINE + l + 1).to_string()),
+            );
+        }
+        let children = if !kids.is_empty() {
+            format!(", \"children\": [{}]", kids.join(", "))
         } else {
             String::new()
         };
         write!(
             w,
-            ",\n    {{\"name\": \"spine{k}\", \"translation\": [{}, {}, {}]{children}}}",
-            t[0] as f32, t[1] as f32, t[2] as f32
+            ",\n    {{\"name\": \"{}\", \"translation\": [{}, {}, {}]{children}}}",
+            if k < SPINE {
+                format!("spine{k}")
+            } else {
+                format!("leg{}", k - SPINE)
+            },
+            t[0] as f32,
+            t[1] as f32,
+            t[2] as f32
         )?;
     }
     writeln!(w, "\n  ],")?;
