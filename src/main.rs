@@ -376,6 +376,7 @@ fn main() -> Result<()> {
                 Some((first, last)) => {
                     let moves = s.dynamics.is_some()
                         || s.strips.is_some()
+                        || s.fur.as_ref().is_some_and(|f| f.moves())
                         || s.wisps.as_ref().is_some_and(|w| w.springs.is_some());
                     if !moves {
                         log::warn!(

@@ -21,9 +21,10 @@ struct Coat {
     floppiness: f32,
     end_rand: f32,
     dir_weight: f32,
-    _p0: f32,
-    _p1: f32,
-    _p2: f32,
+    // Where the per-vertex (joints, weights) start in `mesh`; 0: not skinned.
+    skin_base: u32,
+    _p1: u32,
+    _p2: u32,
     up: vec4<f32>,
     // x amplitude, y 2 pi / wavelength, z phase offset, w on
     motion: vec4<f32>,
@@ -51,6 +52,23 @@ const POLYLINE: u32 = 1u;
 @group(0) @binding(7) var<storage, read_write> info: array<vec4<f32>>;
 // Per mesh vertex: the unit body-segment direction (the fur's or its region's).
 @group(0) @binding(8) var<storage, read> dirs: array<vec4<f32>>;
+// The skin's joint matrices this frame (G(joint) * inverse bind, fitted).
+// Keep MAX_JOINTS in sync with kami::scene::skinned::MAX_JOINTS.
+const MAX_JOINTS: u32 = 64u;
+@group(0) @binding(9) var<uniform> joints: array<mat4x4<f32>, MAX_JOINTS>;
+
+// Linear blend skinning of vertex v (kami::scene::skinned::Skin::skin_vertex): the mesh
+// buffer holds, from skin_base, two vec4 per vertex: joint indices (as floats), weights.
+fn skinned(v: u32, p: vec3<f32>, n: vec3<f32>) -> Deformed {
+    if coat.skin_base == 0u {
+        return Deformed(p, n);
+    }
+    let j = vec4<u32>(mesh[coat.skin_base + 2u * v]);
+    let w = mesh[coat.skin_base + 2u * v + 1u];
+    let m = joints[j.x] * w.x + joints[j.y] * w.y + joints[j.z] * w.z + joints[j.w] * w.w;
+    let nn = (m * vec4<f32>(n, 0.0)).xyz;
+    return Deformed((m * vec4<f32>(p, 1.0)).xyz, safe_normalize(nn, n));
+}
 
 fn hair_random(h: u32, which: u32) -> f32 {
     let x = pcg_hash(which ^ pcg_hash(h ^ pcg_hash(coat.seed)));
@@ -91,7 +109,8 @@ fn generate(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroup
     var body = vec3<f32>(0.0);
     for (var k = 0u; k < 3u; k++) {
         let v = tri[k];
-        let d = deform(coat.motion, coat.motion_axis.xyz, coat.motion_dir.xyz, mesh[2u * v].xyz, mesh[2u * v + 1u].xyz);
+        let sk = skinned(v, mesh[2u * v].xyz, mesh[2u * v + 1u].xyz);
+        let d = deform(coat.motion, coat.motion_axis.xyz, coat.motion_dir.xyz, sk.p, sk.n);
         root += b[k] * d.p;
         normal += b[k] * d.n;
         len += b[k] * mesh[2u * v].w;

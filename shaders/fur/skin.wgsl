@@ -7,11 +7,30 @@ struct Skin {
     motion: vec4<f32>,
     motion_axis: vec4<f32>,
     motion_dir: vec4<f32>,
+    // x: where the per-vertex (joints, weights) start in `mesh`; 0: not skinned.
+    skin: vec4<u32>,
 }
 
 @group(1) @binding(0) var<uniform> skin: Skin;
 @group(1) @binding(1) var<storage, read> mesh: array<vec4<f32>>;
 @group(1) @binding(2) var<storage, read> tris: array<vec4<u32>>;
+// Keep MAX_JOINTS in sync with kami::scene::skinned::MAX_JOINTS.
+const MAX_JOINTS: u32 = 64u;
+@group(1) @binding(3) var<uniform> joints: array<mat4x4<f32>, MAX_JOINTS>;
+
+// Linear blend skinning, as in shaders/fur/generate.wgsl.
+fn skinned(v: u32, p: vec3<f32>, n: vec3<f32>) -> Deformed {
+    let base = skin.skin.x;
+    if base == 0u {
+        return Deformed(p, n);
+    }
+    let j = vec4<u32>(mesh[base + 2u * v]);
+    let w = mesh[base + 2u * v + 1u];
+    let m = joints[j.x] * w.x + joints[j.y] * w.y + joints[j.z] * w.z + joints[j.w] * w.w;
+    let nn = (m * vec4<f32>(n, 0.0)).xyz;
+    let l = length(nn);
+    return Deformed((m * vec4<f32>(p, 1.0)).xyz, select(n, nn / l, l > 1e-20));
+}
 
 struct VOut {
     @builtin(position) pos: vec4<f32>,
@@ -23,7 +42,8 @@ struct VOut {
 fn vs(@builtin(vertex_index) vi: u32) -> VOut {
     var out: VOut;
     let v = tris[vi / 3u][vi % 3u];
-    let d = deform(skin.motion, skin.motion_axis.xyz, skin.motion_dir.xyz, mesh[2u * v].xyz, mesh[2u * v + 1u].xyz);
+    let sk = skinned(v, mesh[2u * v].xyz, mesh[2u * v + 1u].xyz);
+    let d = deform(skin.motion, skin.motion_axis.xyz, skin.motion_dir.xyz, sk.p, sk.n);
     out.pos = frame.view_proj * vec4<f32>(d.p, 1.0);
     out.world = d.p;
     out.normal = d.n;

@@ -230,7 +230,10 @@ pub struct GpuFurCoat {
     pub floppiness: f32,
     pub end_rand: f32,
     pub dir_weight: f32,
-    pub _pad: [f32; 3],
+    /// Where the skin's per-vertex joints and weights start in the mesh buffer (0: the mesh
+    /// is not skinned).
+    pub skin_base: u32,
+    pub _pad: [u32; 2],
     pub up: [f32; 4],
     /// x amplitude, y 2 pi / wavelength, z phase offset (2 pi frame / period), w on.
     pub motion: [f32; 4],
@@ -264,8 +267,10 @@ pub struct GpuSkin {
     pub motion: [f32; 4],
     pub motion_axis: [f32; 4],
     pub motion_dir: [f32; 4],
+    /// x: where the skin's joints and weights start in the mesh buffer (0: not skinned).
+    pub skin: [u32; 4],
 }
-assert_size!(GpuSkin, 64);
+assert_size!(GpuSkin, 80);
 
 /// sRGB component (0..1) to linear.
 pub fn srgb_to_linear(c: f32) -> f32 {

@@ -43,6 +43,13 @@ pub struct Fur {
     pub skin: [f32; 3],
 }
 
+impl Fur {
+    /// Whether the fur moves from frame to frame (a mesh motion or an animated glTF skin).
+    pub fn moves(&self) -> bool {
+        self.motion.is_some() || matches!(self.mesh, MeshSource::Gltf { .. })
+    }
+}
+
 fn back() -> [f64; 3] {
     [-1.0, 0.0, 0.0]
 }
@@ -62,6 +69,31 @@ pub enum MeshSource {
     /// A mesh of the CGAL demo data in Debian's `libcgal-demo` (e.g. "lion-head.off"),
     /// extracted on first use into the system's temporary folder.
     CgalDemo(String),
+    /// A skinned, animated glTF 2.0 mesh (`.gltf` or `.glb`; relative to the scene file's
+    /// folder): the first node with a mesh and a skin, posed by `animation` (by name; absent:
+    /// the file's first one) with linear blend skinning, looping. Scene frames are
+    /// converted to seconds by `fps`. See docs/fur_skinned.md.
+    Gltf {
+        file: String,
+        #[serde(default)]
+        animation: Option<String>,
+        #[serde(default = "fps")]
+        fps: f64,
+    },
+}
+
+fn fps() -> f64 {
+    24.0
+}
+
+impl MeshSource {
+    /// The file named relative to the scene file, if the source is a file.
+    pub fn file_mut(&mut self) -> Option<&mut String> {
+        match self {
+            MeshSource::File(f) | MeshSource::Gltf { file: f, .. } => Some(f),
+            _ => None,
+        }
+    }
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

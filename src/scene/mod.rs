@@ -14,6 +14,7 @@
 pub mod fur;
 pub(crate) mod head;
 pub mod mesh;
+pub mod skinned;
 pub mod strips;
 mod validate;
 pub mod wisps;
@@ -847,11 +848,7 @@ impl Scene {
             crate::forces::eff::resolve(eff, path.parent().unwrap_or(Path::new("")))?;
         }
         // A fur mesh named relative to the scene file.
-        if let Some(fur::Fur {
-            mesh: fur::MeshSource::File(m),
-            ..
-        }) = scene.fur.as_mut()
-        {
+        if let Some(m) = scene.fur.as_mut().and_then(|f| f.mesh.file_mut()) {
             let dir = path.parent().unwrap_or(Path::new(""));
             if Path::new(m.as_str()).is_relative() && !dir.as_os_str().is_empty() {
                 *m = dir.join(m.as_str()).display().to_string();

@@ -510,6 +510,10 @@ fn validate_fur(f: &fur::Fur) -> Result<()> {
                 "must name an .obj, .off or .ply file",
             ));
         }
+        fur::MeshSource::Gltf { file, .. } if file.trim().is_empty() => {
+            return Err(bad("fur.mesh", "\"\"", "must name a .gltf or .glb file"));
+        }
+        fur::MeshSource::Gltf { fps, .. } => positive("fur.mesh.fps", *fps, 1e4)?,
         fur::MeshSource::CgalDemo(n)
             if n.is_empty() || n.contains(['/', '\\']) || n.starts_with('.') =>
         {

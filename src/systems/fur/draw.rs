@@ -32,6 +32,7 @@ struct Bound {
     /// Per coat: first strand, tube or not, vertices per instance.
     coats: Vec<(u32, bool, u32)>,
     mesh_vertices: u32,
+    skin_base: u32,
 }
 
 /// The coat materials for the GPU; `width_scale` widens hair when culling draws fewer.
@@ -58,7 +59,7 @@ pub fn fur_materials(setup: &FurSetup, width_scale: f64) -> Vec<GpuFurMaterial> 
 }
 
 /// The skin uniform at `frame`.
-pub fn skin_uniform(setup: &FurSetup, frame: f64) -> GpuSkin {
+pub fn skin_uniform(setup: &FurSetup, frame: f64, skin_base: u32) -> GpuSkin {
     let c = linear_rgb(setup.fur.skin);
     let (motion, axis, dir) = motion_uniform(setup.fur.motion.as_ref(), frame);
     GpuSkin {
@@ -66,6 +67,7 @@ pub fn skin_uniform(setup: &FurSetup, frame: f64) -> GpuSkin {
         motion,
         motion_axis: axis,
         motion_dir: dir,
+        skin: [skin_base, 0, 0, 0],
     }
 }
 
@@ -97,6 +99,7 @@ impl FurPass {
                 gpu::uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT),
                 gpu::storage_entry(1, vs, true),
                 gpu::storage_entry(2, vs, true),
+                gpu::uniform_entry(3, vs),
             ],
         );
         let pipeline_layout = pipeline::pipeline_layout(device, "fur", &[frame_layout, &layout]);
@@ -218,7 +221,7 @@ impl FurPass {
             device,
             "fur skin",
             &self.mesh_layout,
-            &[&skin, &fur.mesh, &fur.tris],
+            &[&skin, &fur.mesh, &fur.tris, &fur.joints],
         );
         let coats = setup
             .fur
@@ -242,6 +245,7 @@ impl FurPass {
             skin,
             coats,
             mesh_vertices: setup.mesh.triangles.len() as u32 * 3,
+            skin_base: fur.skin_base,
         });
     }
 
@@ -253,8 +257,11 @@ impl FurPass {
                 0,
                 bytemuck::cast_slice(&fur_materials(setup, width_scale)),
             );
-            gpu.queue
-                .write_buffer(&b.skin, 0, bytemuck::bytes_of(&skin_uniform(setup, frame)));
+            gpu.queue.write_buffer(
+                &b.skin,
+                0,
+                bytemuck::bytes_of(&skin_uniform(setup, frame, b.skin_base)),
+            );
         }
     }
 

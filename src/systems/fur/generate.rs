@@ -13,6 +13,8 @@ use glam::DVec3;
 /// Bytes of one coat's uniform record (the dynamic-offset alignment).
 const SLOT: u64 = 256;
 const U32: u64 = std::mem::size_of::<u32>() as u64;
+/// Bytes of the joint-matrix uniform.
+const JOINTS: u64 = (crate::scene::skinned::MAX_JOINTS * std::mem::size_of::<[f32; 16]>()) as u64;
 /// Bytes of one hair slot's info: (skin normal, random), (hair-plane normal, 0).
 pub const INFO: u64 = std::mem::size_of::<[[f32; 4]; 2]>() as u64;
 
@@ -43,6 +45,11 @@ pub struct FurGpu {
     /// The mesh (two vec4 per vertex) and triangles, shared with the skin pass.
     pub mesh: wgpu::Buffer,
     pub tris: wgpu::Buffer,
+    /// The skin's joint matrices (MAX_JOINTS mat4), written every frame when skinned;
+    /// shared with the skin pass.
+    pub joints: wgpu::Buffer,
+    /// Where the skin's joints and weights start in `mesh` (0: not skinned).
+    pub skin_base: u32,
     culling: f64,
     tri_count: u32,
 }
@@ -64,6 +71,7 @@ impl FurGpu {
                 gpu::storage_entry(6, cs, false),
                 gpu::storage_entry(7, cs, false),
                 gpu::storage_entry(8, cs, true),
+                gpu::uniform_entry(9, cs),
             ],
         });
         let [pipeline] = gpu::compute_pipelines(
@@ -87,7 +95,7 @@ impl FurGpu {
             .map(|(i, (c, a))| (a.total, c.style.segments(), i as u32))
             .collect();
         let strands = StrandBuffers::from_runs(gpu, "fur", &runs)?;
-        let mesh: Vec<[f32; 4]> = setup
+        let mut mesh: Vec<[f32; 4]> = setup
             .mesh
             .positions
             .iter()
@@ -100,6 +108,18 @@ impl FurGpu {
                 ]
             })
             .collect();
+        // A skin appends two vec4 per vertex: joint indices (as floats), weights.
+        let skin_base = match &setup.skin {
+            None => 0,
+            Some(sk) => {
+                let base = mesh.len() as u32;
+                for (j, w) in sk.joints.iter().zip(&sk.weights) {
+                    mesh.push(j.map(|x| x as f32));
+                    mesh.push(w.map(|x| x as f32));
+                }
+                base
+            }
+        };
         let tris: Vec<[u32; 4]> = setup
             .mesh
             .triangles
@@ -154,6 +174,12 @@ impl FurGpu {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        let joints = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("fur joints"),
+            size: JOINTS,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
         let entry = gpu::entry;
         let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("fur_gen"),
@@ -175,6 +201,7 @@ impl FurGpu {
                 entry(6, &strands.vertices),
                 entry(7, &info),
                 entry(8, &dirs),
+                entry(9, &joints),
             ],
         });
         Ok(FurGpu {
@@ -187,6 +214,8 @@ impl FurGpu {
             drawn: vec![0; setup.coats.len()],
             mesh,
             tris: tris_buf,
+            joints,
+            skin_base,
             culling: f64::NAN,
             tri_count,
         })
@@ -234,7 +263,8 @@ impl FurGpu {
                 floppiness: (1.0 - coat.stiffness).max(0.02) as f32,
                 end_rand: coat.end_randomize as f32,
                 dir_weight: coat.direction_weight as f32,
-                _pad: [0.0; 3],
+                skin_base: self.skin_base,
+                _pad: [0; 2],
                 up: vec4(DVec3::from(fur.up).normalize()),
                 motion,
                 motion_axis: axis,
@@ -244,6 +274,14 @@ impl FurGpu {
             bytes.extend_from_slice(bytemuck::bytes_of(&g));
         }
         gpu.queue.write_buffer(&self.coats, 0, &bytes);
+        if let Some(mats) = setup.joint_matrices(frame) {
+            let m: Vec<[f32; 16]> = mats
+                .iter()
+                .map(|m| m.to_cols_array().map(|x| x as f32))
+                .collect();
+            gpu.queue
+                .write_buffer(&self.joints, 0, bytemuck::cast_slice(&m));
+        }
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("fur_gen"),
             timestamp_writes: None,

@@ -58,6 +58,7 @@ pub const KIND: Kind = Kind {
         "fur_tube",
         "fur_lion_head",
         "hair_and_fur",
+        "fur_creature",
     ],
     shaders: &[
         ("fur/generate", GENERATE),

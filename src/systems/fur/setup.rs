@@ -30,7 +30,8 @@ use crate::error::{KamiError, Result};
 use crate::rng::{pcg_hash, Rng};
 use crate::scene::fur::{Coat, Fur, FurStyle, MeshMotion, MeshSource, CURVE_SEGMENTS};
 use crate::scene::mesh::Mesh;
-use glam::DVec3;
+use crate::scene::skinned::{self, Skin};
+use glam::{DMat4, DVec3};
 
 /// Entries of the barycentric table (the paper's 2048).
 pub const TABLE: usize = 2048;
@@ -58,6 +59,9 @@ pub struct FurSetup {
     pub directions: Vec<DVec3>,
     pub table: Vec<[f64; 2]>,
     pub coats: Vec<CoatAlloc>,
+    /// The mesh's skin and animation (glTF meshes): vertices are skinned before the mesh
+    /// motion, so the roots (fixed barycentric points) ride the skinned triangles.
+    pub skin: Option<Skin>,
     /// Bounding sphere of the rest mesh grown by the longest hair: asked for every frame
     /// (culling, framing), so computed once.
     bounds: (DVec3, f64),
@@ -80,14 +84,38 @@ impl FurSetup {
                 let dir = std::env::temp_dir().join("kami-cgal-data");
                 Mesh::load(crate::scene::mesh::cgal_demo_mesh(name, &dir)?)?
             }
+            MeshSource::Gltf {
+                file,
+                animation,
+                fps,
+            } => {
+                let s = skinned::load(std::path::Path::new(file), animation.as_deref(), *fps)?;
+                return FurSetup::with_skin(fur, s.mesh, Some(s.skin), seed);
+            }
         };
         FurSetup::from_mesh(fur, mesh, seed)
     }
 
     /// Allocate the roots of every coat on `mesh` (in place of `fur.mesh`).
-    pub fn from_mesh(fur: &Fur, mut mesh: Mesh, seed: u64) -> Result<FurSetup> {
+    pub fn from_mesh(fur: &Fur, mesh: Mesh, seed: u64) -> Result<FurSetup> {
+        FurSetup::with_skin(fur, mesh, None, seed)
+    }
+
+    /// Allocate the roots of every coat on `mesh`, skinned by `skin` when given (the
+    /// scene's `size` fits the rest mesh; the skin is conjugated by the same similarity).
+    pub fn with_skin(
+        fur: &Fur,
+        mut mesh: Mesh,
+        mut skin: Option<Skin>,
+        seed: u64,
+    ) -> Result<FurSetup> {
         if let Some(size) = fur.size {
+            let (c, r) = mesh.bounds();
             mesh.fit(size);
+            if let Some(sk) = skin.as_mut() {
+                let s = if r > 0.0 { size / r } else { 1.0 };
+                sk.fit = DMat4::from_scale(DVec3::splat(s)) * DMat4::from_translation(-c);
+            }
         }
         let inside = |p: DVec3| {
             fur.regions
@@ -156,7 +184,17 @@ impl FurSetup {
                 }
             })
             .collect();
-        let (c, r) = mesh.bounds();
+        let (c, mut r) = mesh.bounds();
+        // A skinned mesh moves away from its rest pose: grow the sphere over 32 poses.
+        if let Some(sk) = &skin {
+            let span = sk.animation.as_ref().map_or(0.0, |a| a.duration) * sk.fps;
+            for i in 0..32 {
+                let mats = sk.joint_matrices(span * i as f64 / 32.0);
+                for (v, (p, n)) in mesh.positions.iter().zip(&mesh.normals).enumerate() {
+                    r = r.max((sk.skin_vertex(&mats, v, *p, *n).0 - c).length());
+                }
+            }
+        }
         let longest = lengths.iter().cloned().fold(0.0, f64::max)
             * fur
                 .coats
@@ -170,6 +208,7 @@ impl FurSetup {
             directions,
             table,
             coats,
+            skin,
             bounds: (c, r + longest),
         })
     }
@@ -196,6 +235,22 @@ impl FurSetup {
     /// Bounding sphere of the (rest) mesh grown by the longest hair.
     pub fn bounds(&self) -> (DVec3, f64) {
         self.bounds
+    }
+
+    /// The skin's joint matrices at `frame` (None for an unskinned mesh).
+    pub fn joint_matrices(&self, frame: f64) -> Option<Vec<DMat4>> {
+        self.skin.as_ref().map(|s| s.joint_matrices(frame))
+    }
+
+    /// Position and normal of vertex `v` at `frame`: skinned by `mats` (from
+    /// [`FurSetup::joint_matrices`] at the same frame), then moved by the mesh motion.
+    pub fn vertex_at(&self, v: usize, frame: f64, mats: Option<&[DMat4]>) -> (DVec3, DVec3) {
+        let (p, n) = (self.mesh.positions[v], self.mesh.normals[v]);
+        let (p, n) = match (&self.skin, mats) {
+            (Some(sk), Some(m)) => sk.skin_vertex(m, v, p, n),
+            _ => (p, n),
+        };
+        deform(self.fur.motion.as_ref(), p, n, frame)
     }
 }
 
@@ -246,18 +301,14 @@ pub fn hair_points(s: &FurSetup, coat: usize, t: usize, h: u32, frame: f64) -> H
     let [b1, b2] = s.table[h as usize % TABLE];
     let b = [b1, b2, 1.0 - b1 - b2];
     let tri = s.mesh.triangles[t];
+    let mats = s.joint_matrices(frame);
     let mut root = DVec3::ZERO;
     let mut normal = DVec3::ZERO;
     let mut len = 0.0;
     let mut body = DVec3::ZERO;
     for k in 0..3 {
         let v = tri[k] as usize;
-        let (p, n) = deform(
-            s.fur.motion.as_ref(),
-            s.mesh.positions[v],
-            s.mesh.normals[v],
-            frame,
-        );
+        let (p, n) = s.vertex_at(v, frame, mats.as_deref());
         root += b[k] * p;
         normal += b[k] * n;
         len += b[k] * s.lengths[v];
