@@ -112,15 +112,23 @@ enum Command {
         out: Option<PathBuf>,
     },
     /// Convert a strand file: `.hair` (Cem Yuksel), `.obj` (polylines) or `.usda` (USD
-    /// BasisCurves), either way (docs/formats.md says what each keeps).
+    /// BasisCurves), either way (docs/formats.md says what each keeps); or write a scene's
+    /// hair (a `.ron` input) at a frame: Anjyo strands, fur and strip centre lines.
     Convert {
-        /// Strand file to read.
+        /// Strand file or scene (`.ron`) to read.
         input: PathBuf,
         /// Strand file to write; the extension picks the format.
         output: PathBuf,
         /// Multiply every point (and width) by this factor, e.g. 0.1 for mm to cm.
         #[arg(long, default_value_t = 1.0)]
         scale: f32,
+        /// With a scene input: the frame whose hair is written (0 is the groomed rest pose;
+        /// later frames are simulated first).
+        #[arg(long, default_value_t = 0)]
+        frame: u64,
+        /// With a scene input: prefer a software adapter even when a GPU is present.
+        #[arg(long)]
+        software: bool,
     },
 }
 
@@ -584,11 +592,38 @@ fn main() -> Result<()> {
             input,
             output,
             scale,
+            frame,
+            software,
         } => {
             if !scale.is_finite() || scale <= 0.0 {
                 bail!("--scale {scale}: use a positive number");
             }
-            let mut groom = kami::formats::read(&input)?;
+            if kami::formats::Format::of(&output).is_none() {
+                bail!(
+                    "{}: not a strand format Kami writes; use {}",
+                    output.display(),
+                    kami::formats::EXTENSIONS
+                );
+            }
+            let is_scene = input
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("ron"));
+            if !is_scene && frame != 0 {
+                bail!("--frame is for a scene input (.ron); a strand file has no frames");
+            }
+            let mut groom = if is_scene {
+                let scene = kami::Scene::load(&input)?;
+                let gpu = Gpu::headless(preference(software))?;
+                kami::stage::export_scene(&gpu, &scene, frame)?
+            } else {
+                kami::formats::read(&input)?
+            };
+            if groom.counts.is_empty() {
+                bail!(
+                    "{}: nothing to write (toon wisps are surfaces, not strands)",
+                    input.display()
+                );
+            }
             if scale != 1.0 {
                 for p in &mut groom.points {
                     *p = p.map(|v| v * scale);

@@ -281,3 +281,83 @@ fn imported_roots_ride_a_captured_head() {
         "the captured head moved the roots only {turned:.2} cm"
     );
 }
+
+/// A scene's hair written out (`kami convert scene.ron out --frame N`) is what the stage
+/// shows at that frame: fur from the f64 reference at the stage's clock (on the trotting
+/// creature, frame 6 is not frame 0), one centre line per strip as the GPU has it, Anjyo
+/// strands cut to their drawn length (bob's cuts).
+#[test]
+fn scenes_export_their_hair_at_the_frame() {
+    use kami::stage::{Quality, Stage};
+    let gpu = common::gpu();
+    let format = wgpu::TextureFormat::Rgba8UnormSrgb;
+
+    let mut fur = common::scene("fur_creature");
+    fur.fur.as_mut().unwrap().hairs = 3000;
+    let at0 = kami::stage::export_scene(&gpu, &fur, 0).unwrap();
+    let mut stage = Stage::new(&gpu, &fur, format, Quality::of(&fur)).unwrap();
+    stage.seek(&gpu, 6).unwrap();
+    let at6 = stage.export(&gpu).unwrap();
+    let setup = &stage
+        .system::<kami::systems::fur::FurSystem>()
+        .unwrap()
+        .setup;
+    assert_eq!(at6, kami::systems::fur::export_fur(setup, 6.0));
+    assert_eq!(at6.counts, at0.counts);
+    let moved = at6
+        .points
+        .iter()
+        .zip(&at0.points)
+        .map(|(a, b)| (0..3).map(|c| (a[c] - b[c]).abs()).fold(0.0, f32::max))
+        .fold(0.0, f32::max);
+    assert!(
+        moved > 0.05,
+        "the creature's fur moved only {moved} by frame 6"
+    );
+
+    let strips = common::scene("strips");
+    let mut stage = Stage::new(&gpu, &strips, format, Quality::of(&strips)).unwrap();
+    stage.seek(&gpu, 5).unwrap();
+    let out = stage.export(&gpu).unwrap();
+    let sys = stage
+        .system::<kami::systems::strips::StripsSystem>()
+        .unwrap();
+    let pose = sys.pose(&gpu).unwrap();
+    assert_eq!(out.counts.len(), sys.rest.len());
+    let flat: Vec<[f32; 3]> = pose
+        .iter()
+        .flatten()
+        .map(|p| [p.x as f32, p.y as f32, p.z as f32])
+        .collect();
+    assert_eq!(out.points, flat);
+
+    let mut bob = common::scene("bob");
+    for g in &mut bob.groups {
+        g.count /= 20;
+    }
+    let mut stage = Stage::new(&gpu, &bob, format, Quality::of(&bob)).unwrap();
+    stage.seek(&gpu, 0).unwrap();
+    let out = stage.export(&gpu).unwrap();
+    let sys = stage.system::<kami::systems::anjyo::AnjyoSystem>().unwrap();
+    let records = sys.hair.read_strands(&gpu).unwrap();
+    assert_eq!(out.counts.len(), records.len());
+    let mut shortened = 0;
+    for (s, r) in out.strands().zip(&records) {
+        let len: f64 = s
+            .windows(2)
+            .map(|w| {
+                (0..3)
+                    .map(|c| ((w[1][c] - w[0][c]) as f64).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+            })
+            .sum();
+        let want = r.visible as f64 * r.seg_len as f64;
+        assert!(
+            (len - want).abs() < 1e-4 * want.max(1.0),
+            "{len} against {want}"
+        );
+        shortened += usize::from(r.visible < r.segments as f32);
+    }
+    assert!(shortened > 100, "only {shortened} strands were cut");
+}

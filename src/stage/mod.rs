@@ -541,8 +541,9 @@ impl Stage {
     /// Every system's strands as they are now, one groom (systems in build order).
     pub fn export(&self, gpu: &Gpu) -> Result<crate::formats::Groom> {
         let mut all = crate::formats::Groom::default();
+        let ctx = self.ctx();
         for s in &self.systems {
-            if let Some(g) = s.export(gpu)? {
+            if let Some(g) = s.export(gpu, &ctx)? {
                 all.append(g);
             }
         }

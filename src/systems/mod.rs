@@ -139,7 +139,7 @@ pub trait HairSystem {
     /// The hair as it is now, as polylines with widths and colours, for strand files
     /// (`kami convert scene.ron out.hair`, the viewer's Files panel); `None` for kinds that
     /// have no strands to write.
-    fn export(&self, _gpu: &Gpu) -> Result<Option<crate::formats::Groom>> {
+    fn export(&self, _gpu: &Gpu, _ctx: &FrameCtx) -> Result<Option<crate::formats::Groom>> {
         Ok(None)
     }
     /// For tests and benches that look inside one kind.

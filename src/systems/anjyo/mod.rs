@@ -365,7 +365,7 @@ impl HairSystem for AnjyoSystem {
         }
     }
 
-    fn export(&self, gpu: &Gpu) -> Result<Option<crate::formats::Groom>> {
+    fn export(&self, gpu: &Gpu, _ctx: &FrameCtx) -> Result<Option<crate::formats::Groom>> {
         let nodes = self.hair.read_vertices(gpu)?;
         let records = self.hair.read_strands(gpu)?;
         Ok(Some(export_strands(&self.materials, &records, &nodes)))

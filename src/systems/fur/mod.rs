@@ -123,6 +123,32 @@ pub struct FurSystem {
     pub compensate_width: bool,
 }
 
+/// Every hair of every coat at full density (no distance culling) at `frame`, from the f64
+/// reference the GPU generator matches: the polylines, the coat's width (constant along a
+/// hair, as drawn) and diffuse colour.
+pub fn export_fur(setup: &FurSetup, frame: f64) -> crate::formats::Groom {
+    let mut g = crate::formats::Groom {
+        widths: Some(Vec::new()),
+        colors: Some(Vec::new()),
+        ..Default::default()
+    };
+    for (ci, coat) in setup.coats.iter().enumerate() {
+        let m = &setup.fur.coats[ci].material;
+        for t in 0..coat.first.len() {
+            for h in coat.first[t]..coat.first[t] + coat.count[t] {
+                let nodes = setup::hair_points(setup, ci, t, h, frame).nodes;
+                g.counts.push(nodes.len() as u32);
+                for p in &nodes {
+                    g.points.push([p.x as f32, p.y as f32, p.z as f32]);
+                    g.widths.as_mut().unwrap().push(m.width as f32);
+                    g.colors.as_mut().unwrap().push(m.diffuse);
+                }
+            }
+        }
+    }
+    g
+}
+
 impl FurSystem {
     pub fn new(gpu: &Gpu, scene: &Scene, draw_setup: &DrawSetup) -> Result<FurSystem> {
         let fur = scene
@@ -250,6 +276,10 @@ impl HairSystem for FurSystem {
             simulated: 0,
             drawn: self.drawn.iter().map(|&d| d as u64).sum(),
         }
+    }
+
+    fn export(&self, _gpu: &Gpu, ctx: &FrameCtx) -> Result<Option<crate::formats::Groom>> {
+        Ok(Some(export_fur(&self.setup, ctx.time())))
     }
 
     fn as_any(&self) -> &dyn std::any::Any {

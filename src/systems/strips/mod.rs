@@ -310,6 +310,33 @@ impl HairSystem for StripsSystem {
         }
     }
 
+    /// The strips' centre lines (their control points as drawn now), with the ribbon's
+    /// width running root to tip and the layer's colour: a strand file has no ribbons.
+    fn export(&self, gpu: &Gpu, _ctx: &FrameCtx) -> Result<Option<crate::formats::Groom>> {
+        let lines = self.pose(gpu)?;
+        let mut g = crate::formats::Groom {
+            widths: Some(Vec::new()),
+            colors: Some(Vec::new()),
+            ..Default::default()
+        };
+        for (line, rest) in lines.iter().zip(&self.rest) {
+            if line.len() < 2 {
+                continue;
+            }
+            g.counts.push(line.len() as u32);
+            for (i, p) in line.iter().enumerate() {
+                let u = i as f64 / (line.len() - 1) as f64;
+                g.points.push([p.x as f32, p.y as f32, p.z as f32]);
+                g.widths
+                    .as_mut()
+                    .unwrap()
+                    .push((rest.width[0] + u * (rest.width[1] - rest.width[0])) as f32);
+                g.colors.as_mut().unwrap().push(rest.color);
+            }
+        }
+        Ok(Some(g))
+    }
+
     fn as_any(&self) -> &dyn std::any::Any {
         self
     }
