@@ -381,6 +381,12 @@ def Xform "root" (
 
     def BasisCurves "more"
     {
+        matrix4d xformOp:transform = ( (1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (5, 5, 5, 1) )
+        uniform token[] xformOpOrder = ["xformOp:transform"]
+        texCoord2f[] primvars:st = [(0, 0), (1, 1)] (
+            interpolation = "vertex"
+        )
+        normal3f[] normals
         uniform token type = "linear"
         int[] curveVertexCounts = [2]
         point3f[] points.timeSamples = {
@@ -521,6 +527,10 @@ fn writers_refuse_what_they_cannot_store() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("at most 65536"), "{e}");
+    let e = formats::write(&tmp("empty.obj"), &Groom::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("empty.obj") && e.contains("no strands"), "{e}");
 }
 
 #[test]

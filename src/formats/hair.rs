@@ -17,7 +17,7 @@ const THICKNESS: u32 = 4;
 const TRANSPARENCY: u32 = 8;
 const COLOR: u32 = 16;
 /// What Kami writes in the 88-byte info field.
-const INFO: &[u8] = b"Kami hair (https://github.com/ - kami convert)";
+const INFO: &[u8] = b"written by Kami (kami convert)";
 
 fn u32_at(b: &[u8], at: usize) -> u32 {
     u32::from_le_bytes(b[at..at + 4].try_into().unwrap())

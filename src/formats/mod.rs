@@ -219,6 +219,13 @@ pub fn write(path: &Path, groom: &Groom) -> Result<()> {
     let format = format_of(path)?;
     let origin = path.display().to_string();
     groom.check(&origin)?;
+    if groom.counts.is_empty() {
+        return Err(data_error(
+            &origin,
+            None,
+            "the groom has no strands to write".into(),
+        ));
+    }
     let bytes = match format {
         Format::Hair => hair::to_bytes(groom, &origin)?,
         Format::Obj => obj::to_string(groom).into_bytes(),

@@ -294,7 +294,9 @@ impl Parser<'_> {
             }),
             Tok::Punct('(') => {
                 self.at -= 1;
-                let v = self.tuple()?;
+                let Some(v) = self.tuple()? else {
+                    return Ok(Value::Other);
+                };
                 let arity = v.len();
                 Ok(Value::Nums {
                     v,
@@ -314,7 +316,11 @@ impl Parser<'_> {
                         }
                         Some(Tok::Punct(',')) => self.at += 1,
                         Some(Tok::Punct('(')) => {
-                            let t = self.tuple()?;
+                            let Some(t) = self.tuple()? else {
+                                self.at = start;
+                                self.skip_group()?;
+                                return Ok(Value::Other);
+                            };
                             if *arity.get_or_insert(t.len()) != t.len() {
                                 return Err(
                                     self.err("tuples of different sizes in one array".into())
@@ -367,19 +373,21 @@ impl Parser<'_> {
         }
     }
 
-    fn tuple(&mut self) -> Result<Vec<f64>> {
+    /// A tuple of numbers; `None` (skipped) for anything else, such as the rows of a
+    /// `matrix4d xformOp:transform`, which Kami does not use.
+    fn tuple(&mut self) -> Result<Option<Vec<f64>>> {
+        let start = self.at;
         self.expect('(')?;
         let mut v = Vec::new();
         loop {
             match self.bump()? {
-                Tok::Punct(')') => return Ok(v),
+                Tok::Punct(')') => return Ok(Some(v)),
                 Tok::Punct(',') => {}
                 Tok::Word(w) if num(&w).is_some() => v.push(num(&w).unwrap_or_default()),
-                t => {
-                    self.at -= 1;
-                    return Err(
-                        self.err(format!("expected a number in a tuple, found {}", show(&t)))
-                    );
+                _ => {
+                    self.at = start;
+                    self.skip_group()?;
+                    return Ok(None);
                 }
             }
         }
