@@ -361,3 +361,41 @@ fn scenes_export_their_hair_at_the_frame() {
     }
     assert!(shortened > 100, "only {shortened} strands were cut");
 }
+
+/// A strand file opens as a scene of its own (`kami view groom.hair`, the Files panel's
+/// Open): one group with every strand, over a head fitted under the roots (each root
+/// outside it, the highest within 10 % of its crown), framed by the camera; a strand file
+/// that is not one is refused naming it.
+#[test]
+fn a_strand_file_opens_as_a_scene() {
+    let path = common::root().join("assets/grooms/wavy.hair");
+    let scene = kami::Scene::load(&path).unwrap();
+    assert_eq!(scene.groups.len(), 1);
+    let g = &scene.groups[0];
+    let groom = g.file.as_ref().unwrap().groom.as_ref().unwrap();
+    assert_eq!(g.count as usize, groom.counts.len());
+    assert_eq!(g.count, 1100);
+    let head = scene.head_ellipsoid();
+    let roots: Vec<DVec3> = groom
+        .strands()
+        .map(|s| DVec3::new(s[0][0] as f64, s[0][1] as f64, s[0][2] as f64))
+        .collect();
+    let inside = roots.iter().filter(|r| head.eval(**r) < 0.0).count();
+    assert_eq!(inside, 0, "{inside} roots inside the fitted head");
+    let top = roots.iter().map(|r| r.y).fold(f64::MIN, f64::max);
+    let crown = scene.head.center[1] + scene.head.radii[1];
+    assert!(
+        (top - crown).abs() < 0.1 * scene.head.radii[1],
+        "crown {crown}, top root {top}"
+    );
+    let target = DVec3::from(scene.camera.target);
+    assert!((target - DVec3::from(scene.head.center)).length() < 1e-9);
+
+    let dir = std::env::temp_dir().join(format!("kami-strandfile-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mesh = dir.join("a-mesh.obj");
+    std::fs::write(&mesh, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let e = kami::Scene::load(&mesh).unwrap_err().to_string();
+    assert!(e.contains("a-mesh.obj"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
+}

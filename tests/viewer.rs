@@ -153,6 +153,7 @@ fn viewer_shows_hair_and_panels_and_reacts_to_changes() {
     let dir = std::env::temp_dir().join(format!("kami-viewer-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let (before, after) = (dir.join("before.png"), dir.join("after.png"));
+    let exported = dir.join("hair.usda");
     let runtime = dir.join("xdg");
     std::fs::create_dir_all(&runtime).unwrap();
     let mut cmd = Command::new(env!("CARGO_BIN_EXE_kami"));
@@ -174,9 +175,17 @@ fn viewer_shows_hair_and_panels_and_reacts_to_changes() {
         "--set",
         "12:lod=1",
     ])
+    .arg("--set")
+    .arg(format!("14:export={}", exported.display()))
     .arg("--screenshot-at")
     .arg(format!("22:{}", after.display()));
     run_viewer(cmd, &x, &runtime);
+    // The Files panel's Export wrote the hair as it was: every strand of the gust.
+    let hair = kami::formats::read(&exported).expect("the viewer exported the hair");
+    let (strands, _) = kami::Scene::load(common::root().join("assets/scenes/gust.ron"))
+        .unwrap()
+        .counts();
+    assert_eq!(hair.counts.len() as u64, strands);
     let a = pixels(&before);
     let b = pixels(&after);
     // Not blank: many distinct colours.

@@ -702,15 +702,19 @@ impl Scene {
             |(lo, hi), r| (lo.min(*r), hi.max(*r)),
         );
         // Roots cover the scalp: the crown at the top, the nape at the bottom. The ellipsoid
-        // has its centre at the lowest root's height and sits 2 % inside the roots.
+        // has its centre at the lowest root's height and sits inside every root.
         let mid = 0.5 * (lo + hi);
         let half = (0.5 * (hi - lo)).max(glam::DVec3::splat(1e-3 * mean_len.max(1e-9)));
-        let radii = [
-            0.98 * half.x,
-            0.98 * (hi.y - lo.y).max(half.y),
-            0.98 * half.z,
-        ];
+        let r0 = glam::DVec3::new(half.x, (hi.y - lo.y).max(half.y), half.z);
         let center = [mid.x, lo.y, mid.z];
+        // Shrunk until every root is outside it, with a 2 % margin.
+        let c0 = glam::DVec3::from(center);
+        let k = roots
+            .iter()
+            .map(|r| ((*r - c0) / r0).length())
+            .fold(f64::MAX, f64::min)
+            .clamp(1e-3, 1.0);
+        let radii = (r0 * 0.98 * k).to_array();
         let mut segs: Vec<u32> = groom.counts.iter().map(|&c| c - 1).collect();
         segs.sort_unstable();
         let segments = segs[segs.len() / 2].clamp(4, MAX_SEGMENTS.min(64));
@@ -726,7 +730,7 @@ impl Scene {
             .fold(0.0, f64::max)
             .max(1e-6);
         let c = glam::DVec3::from(center);
-        let eye = c + glam::DVec3::new(2.6, 0.6, 1.9).normalize() * reach * 3.2;
+        let eye = c + glam::DVec3::new(2.6, 0.6, 1.9).normalize() * reach * 2.3;
         let name = path
             .file_name()
             .map(|f| f.to_string_lossy().into_owned())
