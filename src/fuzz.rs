@@ -1,5 +1,5 @@
 //! A mutation fuzzer for what users hand Kami: scene text (`Scene::from_bytes`, which
-//! validates) and OBJ, OFF and PLY meshes. cargo-fuzz needs nightly, so this one runs on
+//! validates), OBJ, OFF and PLY meshes, and strand files (`.hair`, OBJ polylines, `.usda`). cargo-fuzz needs nightly, so this one runs on
 //! stable: a deterministic mutator (one seed, one run, on every machine) grows inputs from the
 //! seed corpus in `tests/fuzz_corpus/`. There is no coverage feedback; an input whose outcome
 //! is new (an error's words less what it echoes from the input, the field validation refused,
@@ -30,10 +30,22 @@ pub enum Target {
     Obj,
     Off,
     Ply,
+    /// Strand files (`crate::formats`).
+    Hair,
+    Lines,
+    Usda,
 }
 
 impl Target {
-    pub const ALL: [Target; 4] = [Target::Scene, Target::Obj, Target::Off, Target::Ply];
+    pub const ALL: [Target; 7] = [
+        Target::Scene,
+        Target::Obj,
+        Target::Off,
+        Target::Ply,
+        Target::Hair,
+        Target::Lines,
+        Target::Usda,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -41,6 +53,9 @@ impl Target {
             Target::Obj => "obj",
             Target::Off => "off",
             Target::Ply => "ply",
+            Target::Hair => "hair",
+            Target::Lines => "lines",
+            Target::Usda => "usda",
         }
     }
 
@@ -60,6 +75,9 @@ impl Target {
             Target::Obj => OBJ_WORDS,
             Target::Off => OFF_WORDS,
             Target::Ply => PLY_WORDS,
+            Target::Hair => HAIR_WORDS,
+            Target::Lines => LINE_WORDS,
+            Target::Usda => USDA_WORDS,
         }
     }
 }
@@ -125,6 +143,35 @@ const PLY_WORDS: &[&str] = &[
     "end_header\n", "char ", "uchar ", "short ", "ushort ", "int ", "uint ", "float ",
     "double ", "int8 ", "uint8 ", "int32 ", "uint32 ", "float32 ", "float64 ", "3 0 1 2\n",
     "255 ", "\n", "\r\n", " ",
+];
+
+#[rustfmt::skip]
+const HAIR_WORDS: &[&str] = &[
+    "HAIR", "\u{0}\u{0}\u{0}\u{0}", "\u{ff}\u{ff}\u{ff}\u{ff}", "\u{1f}\u{0}\u{0}\u{0}",
+    "\u{2}\u{0}\u{0}\u{0}", "\u{0}\u{0}\u{c0}\u{7f}", "\u{0}\u{0}\u{80}\u{7f}",
+    "\u{1}\u{0}", "\u{ff}\u{ff}",
+];
+
+#[rustfmt::skip]
+const LINE_WORDS: &[&str] = &[
+    "v ", "l ", "l 1 2\n", "l 1 2 3 4\n", "l -1 -2\n", "l 1/1 2/2\n", "l 0 1\n",
+    "l 4294967295 1\n", "l 1\n", "v 0 0 0\n", "v 1 2 3 0.5 0.5 0.5\n", "v nan 0 0\n",
+    "v 1e39 0 0\n", "g x\n", "o x\n", "#", "\\\n", "/", "\n", " ",
+];
+
+#[rustfmt::skip]
+const USDA_WORDS: &[&str] = &[
+    "#usda 1.0\n", "def BasisCurves \"c\" {\n", "def Xform \"x\" {\n", "}\n", "(", ")", "[", "]",
+    "{", "}", "\"", "uniform token type = \"linear\"\n", "uniform token type = \"cubic\"\n",
+    "uniform token basis = \"bspline\"\n", "uniform token basis = \"bezier\"\n",
+    "uniform token basis = \"catmullRom\"\n", "int[] curveVertexCounts = [", "point3f[] points = [",
+    "float[] widths = [", "color3f[] primvars:displayColor = [",
+    "float[] primvars:displayOpacity = [", "(interpolation = \"vertex\")",
+    "(interpolation = \"constant\")", "(interpolation = \"uniform\")",
+    "(interpolation = \"varying\")", "int[] primvars:displayColor:indices = [",
+    "point3f[] points.timeSamples = {", "1: [", "(0, 0, 0)", "(1, 2, 3)", "(nan, 0, 0)",
+    "double3 xformOp:translate = (1, 2, 3)\n", "matrix4d xformOp:transform = ( (1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1) )\n",
+    "2, ", "4294967295, ", ", ", "\n", " ",
 ];
 
 #[rustfmt::skip]
@@ -227,6 +274,18 @@ fn check(target: Target, input: &[u8]) -> Result<String, Finding> {
                 Err(e) => Ok(class(&e.to_string(), input)),
             };
         }
+        Target::Hair | Target::Lines | Target::Usda => {
+            let name = match target {
+                Target::Hair => "fuzz.hair",
+                Target::Lines => "fuzz.obj",
+                _ => "fuzz.usda",
+            };
+            return match crate::formats::parse(name, input) {
+                Ok(groom) => check_groom(&groom).map(|_| "ok".into()),
+                Err(crate::KamiError::Data { message, .. }) => Ok(class(&message, input)),
+                Err(e) => Ok(class(&e.to_string(), input)),
+            };
+        }
         Target::Obj => Mesh::from_obj(&String::from_utf8_lossy(input), "fuzz.obj"),
         Target::Off => Mesh::from_off(&String::from_utf8_lossy(input), "fuzz.off"),
         Target::Ply => Mesh::from_ply(input, "fuzz.ply"),
@@ -259,6 +318,45 @@ fn class(message: &str, input: &[u8]) -> String {
         .take(4)
         .collect::<Vec<_>>()
         .join(" ")
+}
+
+/// What an accepted strand file promises: the groom's invariants (`Groom::check`: counts
+/// that add up, two points or more per strand, finite points, one attribute per point),
+/// finite attributes, and that it writes and reads back as `.hair` with its points equal.
+pub fn check_groom(g: &crate::formats::Groom) -> Result<(), Finding> {
+    if let Err(e) = g.check("fuzz") {
+        return Err(Finding::new(
+            "accepted groom breaks its invariants",
+            format!("accepted groom breaks its invariants: {e}"),
+        ));
+    }
+    let finite = g.widths.iter().flatten().all(|w| w.is_finite())
+        && g.opacities.iter().flatten().all(|o| o.is_finite())
+        && g.colors.iter().flatten().flatten().all(|c| c.is_finite());
+    if !finite {
+        return Err(Finding::new(
+            "accepted groom has a non-finite attribute",
+            "accepted groom has a non-finite width, opacity or colour",
+        ));
+    }
+    if let Ok(bytes) = crate::formats::hair::to_bytes(g, "fuzz") {
+        match crate::formats::parse("again.hair", &bytes) {
+            Ok(back) if back.points == g.points && back.counts == g.counts => {}
+            Ok(_) => {
+                return Err(Finding::new(
+                    "groom changes through .hair",
+                    "an accepted groom written as .hair reads back with other points",
+                ))
+            }
+            Err(e) => {
+                return Err(Finding::new(
+                    "groom does not read back",
+                    format!("an accepted groom written as .hair does not read back: {e}"),
+                ))
+            }
+        }
+    }
+    Ok(())
 }
 
 /// What an accepted scene promises: every number finite (validate checks them all), and

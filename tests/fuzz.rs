@@ -77,6 +77,21 @@ fn ply_short_run() {
     short_run(Target::Ply);
 }
 
+#[test]
+fn hair_short_run() {
+    short_run(Target::Hair);
+}
+
+#[test]
+fn lines_short_run() {
+    short_run(Target::Lines);
+}
+
+#[test]
+fn usda_short_run() {
+    short_run(Target::Usda);
+}
+
 /// Every seed (and every input once found and kept as a seed) runs without a finding.
 #[test]
 fn corpus_replays_cleanly() {

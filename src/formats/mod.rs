@@ -103,6 +103,32 @@ impl Groom {
                 self.points[i]
             )));
         }
+        // Attributes Kami draws or writes must be numbers too (a colour of 1e308 in an OBJ
+        // is infinite as f32).
+        let attr = |name: &str, i: Option<usize>| match i {
+            Some(i) => Err(bad(format!(
+                "the {name} of point {i} is not a finite number"
+            ))),
+            None => Ok(()),
+        };
+        attr(
+            "width",
+            self.widths
+                .as_ref()
+                .and_then(|w| w.iter().position(|v| !v.is_finite())),
+        )?;
+        attr(
+            "opacity",
+            self.opacities
+                .as_ref()
+                .and_then(|o| o.iter().position(|v| !v.is_finite())),
+        )?;
+        attr(
+            "colour",
+            self.colors
+                .as_ref()
+                .and_then(|c| c.iter().position(|v| v.iter().any(|x| !x.is_finite()))),
+        )?;
         let n = self.points.len();
         for (name, len) in [
             ("widths", self.widths.as_ref().map(Vec::len)),
