@@ -73,7 +73,15 @@ impl Ellipsoid {
     /// degenerates (`p` straight along `a0`), the plane of `a0` and the hull normal at `p`
     /// is used instead. Returns `p` unchanged when it is outside.
     pub fn push_out(&self, pivot: DVec3, a0: DVec3, p: DVec3, d: f64) -> DVec3 {
-        push_out_implicit(&|q| self.eval(q), &|q| self.gradient(q), EPS_OUT, pivot, a0, p, d)
+        push_out_implicit(
+            &|q| self.eval(q),
+            &|q| self.gradient(q),
+            EPS_OUT,
+            pivot,
+            a0,
+            p,
+            d,
+        )
     }
 }
 

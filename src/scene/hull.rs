@@ -83,7 +83,12 @@ impl HeadHull {
         let e = self.ellipsoid();
         let flag = if self.sdf().is_some() { 1.0 } else { 0.0 };
         (
-            [e.center.x as f32, e.center.y as f32, e.center.z as f32, flag],
+            [
+                e.center.x as f32,
+                e.center.y as f32,
+                e.center.z as f32,
+                flag,
+            ],
             [e.radii.x as f32, e.radii.y as f32, e.radii.z as f32, 0.0],
         )
     }
@@ -146,9 +151,7 @@ pub fn in_scalp(regions: &[ScalpRegion], center: DVec3, p: DVec3) -> bool {
             t >= theta.0 && t <= theta.1 && super::head::phi_in_range(f, *phi)
         }
         ScalpRegion::Sphere { center, radius } => (p - DVec3::from(*center)).length() <= *radius,
-        ScalpRegion::HalfSpace { normal, offset } => {
-            DVec3::from(*normal).dot(p) >= *offset
-        }
+        ScalpRegion::HalfSpace { normal, offset } => DVec3::from(*normal).dot(p) >= *offset,
     })
 }
 
@@ -174,6 +177,20 @@ pub fn build_head_mesh(head: &Head, m: &HeadMesh) -> Result<HeadMeshData> {
     let nx = xf.inverse().transpose();
     for n in &mut mesh.normals {
         *n = nx.transform_vector3(*n).normalize_or(DVec3::Y);
+    }
+    // Wind outwards (an open mesh is left as its file winds it by `Mesh::new`; CGAL's
+    // head.off is wound inwards): the head pass culls back faces and lights by the normals.
+    let tris = Triangles {
+        positions: &mesh.positions,
+        triangles: &mesh.triangles,
+    };
+    if tris.orientation() < 0.0 {
+        for t in &mut mesh.triangles {
+            t.swap(1, 2);
+        }
+        for n in &mut mesh.normals {
+            *n = -*n;
+        }
     }
     let start = std::time::Instant::now();
     let sdf = Sdf::build(

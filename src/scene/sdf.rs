@@ -21,8 +21,11 @@
 //! across the opening instead of flipping whole regions the way ray parity or a distant
 //! pseudo-normal can. Blocks farther than their half-diagonal from the surface take the sign
 //! of w at their centre (w is continuous off the surface, so only a block that straddles the
-//! neck opening's 1/2 level could be mis-signed there, far from any hair); blocks that touch
-//! the surface evaluate w at every node.
+//! neck opening's 1/2 level could be mis-signed there, far from any hair); in blocks that
+//! touch the surface a node whose nearest point lies inside a face (the offset is along that
+//! face's normal, to 1e-4) takes that face's side, and every other node (nearest point on an
+//! edge or a vertex, where a face normal can lie) evaluates w. The orientation (outward or
+//! inward winding) is the sign of the mesh's signed volume.
 //!
 //! The GPU copy (`to_gpu`, read by `shaders/common/sdf.wgsl`) is the same values in f32
 //! with the same indexing and interpolation.
@@ -111,6 +114,22 @@ impl Triangles<'_> {
         self.triangles[t].map(|i| self.positions[i as usize])
     }
 
+    /// +1 when the triangles are wound outwards (positive signed volume by the divergence
+    /// theorem, which an open mesh approximates), -1 when inwards.
+    pub fn orientation(&self) -> f64 {
+        let v: f64 = (0..self.triangles.len())
+            .map(|t| {
+                let [a, b, c] = self.tri(t);
+                a.dot(b.cross(c))
+            })
+            .sum();
+        if v < 0.0 {
+            -1.0
+        } else {
+            1.0
+        }
+    }
+
     /// Exact distance from `p` to the nearest triangle (brute force).
     pub fn distance(&self, p: DVec3) -> f64 {
         (0..self.triangles.len())
@@ -137,7 +156,7 @@ impl Triangles<'_> {
     /// Exact signed distance (brute force; the reference the tests hold the grid to).
     pub fn signed_distance(&self, p: DVec3) -> f64 {
         let d = self.distance(p);
-        if self.winding_number(p) > 0.5 {
+        if self.orientation() * self.winding_number(p) > 0.5 {
             -d
         } else {
             d
@@ -170,7 +189,10 @@ impl Sdf {
             .map(|n| n.get())
             .unwrap_or(1)
             .min(block_count);
-        let node = |i: usize, j: usize, k: usize| origin + cell * DVec3::new(i as f64, j as f64, k as f64);
+        let node =
+            |i: usize, j: usize, k: usize| origin + cell * DVec3::new(i as f64, j as f64, k as f64);
+        let orient = mesh.orientation();
+        let inside = |p: DVec3| orient * mesh.winding_number(p) > 0.5;
         // Each worker fills whole blocks; (index, value) pairs come back and are scattered.
         let results: Vec<Vec<(usize, f64)>> = std::thread::scope(|s| {
             let handles: Vec<_> = (0..threads)
@@ -196,23 +218,31 @@ impl Sdf {
                             let dmin = dc.iter().cloned().fold(f64::INFINITY, f64::min);
                             cand.clear();
                             cand.extend((0..dc.len()).filter(|&t| dc[t] <= dmin + 2.0 * r + 1e-12));
-                            let block_sign = (dmin > r).then(|| {
-                                if mesh.winding_number(c) > 0.5 {
-                                    -1.0
-                                } else {
-                                    1.0
-                                }
-                            });
+                            let block_sign = (dmin > r).then(|| if inside(c) { -1.0 } else { 1.0 });
                             for k in i0[2]..i1[2] {
                                 for j in i0[1]..i1[1] {
                                     for i in i0[0]..i1[0] {
                                         let p = node(i, j, k);
-                                        let d = cand
-                                            .iter()
-                                            .map(|&t| mesh.tri_distance(p, t))
-                                            .fold(f64::INFINITY, f64::min);
+                                        let (mut d, mut q, mut best) = (f64::INFINITY, p, 0);
+                                        for &t in &cand {
+                                            let [a, b, c] = mesh.tri(t);
+                                            let qt = closest_point_triangle(p, a, b, c);
+                                            let dt = (qt - p).length();
+                                            if dt < d {
+                                                (d, q, best) = (dt, qt, t);
+                                            }
+                                        }
                                         let sign = block_sign.unwrap_or_else(|| {
-                                            if mesh.winding_number(p) > 0.5 {
+                                            // Nearest point inside a face (p - q along its
+                                            // normal): that face's side. Else (an edge or a
+                                            // vertex is nearest) the winding number.
+                                            let [a, b, c] = mesh.tri(best);
+                                            let n =
+                                                orient * (b - a).cross(c - a).normalize_or_zero();
+                                            let s = n.dot(p - q);
+                                            if d > 0.0 && s.abs() >= 0.9999 * d {
+                                                s.signum()
+                                            } else if inside(p) {
                                                 -1.0
                                             } else {
                                                 1.0

@@ -530,7 +530,11 @@ fn validate_head_mesh(m: &crate::scene::HeadMesh) -> Result<()> {
                 within(&format!("{f}.phi.0"), phi.0, -360.0, 360.0)?;
                 within(&format!("{f}.phi.1"), phi.1, -360.0, 720.0)?;
                 if phi.0 > phi.1 {
-                    return Err(bad(&format!("{f}.phi"), format!("{phi:?}"), "must be increasing"));
+                    return Err(bad(
+                        &format!("{f}.phi"),
+                        format!("{phi:?}"),
+                        "must be increasing",
+                    ));
                 }
             }
             ScalpRegion::Sphere { center, radius } => {

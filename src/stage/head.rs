@@ -186,7 +186,11 @@ impl HeadPass {
     }
 }
 
-fn geometry(device: &wgpu::Device, verts: &[[f32; 6]], idx: &[u32]) -> (wgpu::Buffer, wgpu::Buffer) {
+fn geometry(
+    device: &wgpu::Device,
+    verts: &[[f32; 6]],
+    idx: &[u32],
+) -> (wgpu::Buffer, wgpu::Buffer) {
     let vertices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("head vertices"),
         contents: bytemuck::cast_slice(verts),
@@ -208,7 +212,11 @@ fn unit_sphere() -> (Vec<[f32; 6]>, Vec<u32>) {
         let theta = std::f32::consts::PI * r as f32 / RINGS as f32;
         for s in 0..=SECTORS {
             let phi = std::f32::consts::TAU * s as f32 / SECTORS as f32;
-            let (x, y, z) = (theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin());
+            let (x, y, z) = (
+                theta.sin() * phi.cos(),
+                theta.cos(),
+                theta.sin() * phi.sin(),
+            );
             v.push([x, y, z, x, y, z]);
         }
     }

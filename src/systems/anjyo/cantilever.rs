@@ -230,7 +230,9 @@ pub fn bend_converged(b: &Beam, max_iterations: u32, tolerance: f64) -> (Vec<DVe
     for j in 0..k {
         let nt = ((nodes[j + 1] - nodes[j]) / d).normalize();
         omega[j] = turn(t, nt);
-        contact[j] = b.hull.is_some_and(|h| h.eval(nodes[j + 1]) < contact_band(h));
+        contact[j] = b
+            .hull
+            .is_some_and(|h| h.eval(nodes[j + 1]) < contact_band(h));
         t = nt;
     }
     let g_est = {
@@ -259,7 +261,9 @@ pub fn bend_converged(b: &Beam, max_iterations: u32, tolerance: f64) -> (Vec<DVe
             prev[j] = if pushed[j] { realized[j] } else { omega[j] };
             omega[j] = realized[j];
             // Pushed nodes end inside the band, so this covers them too.
-            contact[j] = b.hull.is_some_and(|h| h.eval(nodes[j + 1]) < contact_band(h));
+            contact[j] = b
+                .hull
+                .is_some_and(|h| h.eval(nodes[j + 1]) < contact_band(h));
         }
         let residual = change / alpha;
         info = Convergence {

@@ -155,7 +155,7 @@ impl CantileverPass {
             row_stride: dims.0 * WORKGROUP,
             chunk,
             head_center: input.head.gpu_params().0,
- head_radii: input.head.gpu_params().1,
+            head_radii: input.head.gpu_params().1,
         };
         let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("cantilever params"),
@@ -190,13 +190,11 @@ impl CantileverPass {
             mapped_at_creation: false,
         });
         let sdf_words = input.head.gpu_sdf();
-        gpu.check_storage_size("the head's signed distance field", 4 * sdf_words.len() as u64)?;
-        let sdf = gpu::storage_buffer(
-            device,
-            "head sdf",
-            bytemuck::cast_slice(&sdf_words),
-            none,
-        );
+        gpu.check_storage_size(
+            "the head's signed distance field",
+            4 * sdf_words.len() as u64,
+        )?;
+        let sdf = gpu::storage_buffer(device, "head sdf", bytemuck::cast_slice(&sdf_words), none);
         let bind_group = gpu::pipeline::bind_buffers(
             device,
             "cantilever",

@@ -194,32 +194,33 @@ pub fn prepare(scene: &Scene) -> Result<GroomInput> {
             let (pos, n, td, pd) = if let Some(m) = on_mesh {
                 mesh_pore(m, scene, gi, &mut rng)?
             } else {
-            let mut tries = 0u32;
-            let (theta, phi) = loop {
-                let ct = rng.range(t1.cos(), t0.cos());
-                let phi = rng.range(p0, p1);
-                let theta = ct.clamp(-1.0, 1.0).acos();
-                let accept = rng.uniform() * amax <= hull.area_factor(theta, phi);
-                let below = g
-                    .roots
-                    .hairline_theta(phi.to_degrees())
-                    .is_some_and(|t| theta.to_degrees() > t);
-                if accept && !below {
-                    break (theta, phi);
-                }
-                tries += 1;
-                if tries > 1_000_000 {
-                    return Err(KamiError::Invalid {
-                        file: String::new(),
-                        field: format!("groups[{gi}].roots"),
-                        value: format!("{:?}", g.roots.theta),
-                        allowed: "the polar range and hairline leave (almost) no area for pores"
-                            .into(),
-                    });
-                }
-            };
-            let pos = hull.point(theta, phi);
-            (pos, hull.normal(pos), theta.to_degrees(), phi.to_degrees())
+                let mut tries = 0u32;
+                let (theta, phi) = loop {
+                    let ct = rng.range(t1.cos(), t0.cos());
+                    let phi = rng.range(p0, p1);
+                    let theta = ct.clamp(-1.0, 1.0).acos();
+                    let accept = rng.uniform() * amax <= hull.area_factor(theta, phi);
+                    let below = g
+                        .roots
+                        .hairline_theta(phi.to_degrees())
+                        .is_some_and(|t| theta.to_degrees() > t);
+                    if accept && !below {
+                        break (theta, phi);
+                    }
+                    tries += 1;
+                    if tries > 1_000_000 {
+                        return Err(KamiError::Invalid {
+                            file: String::new(),
+                            field: format!("groups[{gi}].roots"),
+                            value: format!("{:?}", g.roots.theta),
+                            allowed:
+                                "the polar range and hairline leave (almost) no area for pores"
+                                    .into(),
+                        });
+                    }
+                };
+                let pos = hull.point(theta, phi);
+                (pos, hull.normal(pos), theta.to_degrees(), phi.to_degrees())
             };
             let dir = match &g.direction {
                 Direction::Normal => n,
@@ -289,7 +290,8 @@ pub fn prepare(scene: &Scene) -> Result<GroomInput> {
 
 /// One pore on a mesh head's scalp: area-uniform over the scalp triangles, kept where the
 /// group's polar range and hairline (about `head.center`) allow, then moved onto the SDF's
-/// zero level set (two Newton steps) so the root sits on the hull that hair collides with.
+/// zero level set (two Newton steps) so the root sits on the hull that hair collides with;
+/// a pore the field cannot follow within a quarter cell is drawn again.
 /// Returns (position, unit normal, zenith, azimuth in degrees).
 fn mesh_pore(
     m: &HeadMeshData,
@@ -306,6 +308,7 @@ fn mesh_pore(
         let in_theta = td >= g.roots.theta.0 && td <= g.roots.theta.1;
         let below = g.roots.hairline_theta(pd).is_some_and(|t| td > t);
         if in_theta && phi_in_range(pd, g.roots.phi) && !below {
+            let mesh_pos = pos;
             for _ in 0..2 {
                 let gr = m.sdf.gradient(pos);
                 let l2 = gr.length_squared();
@@ -313,7 +316,11 @@ fn mesh_pore(
                     pos -= m.sdf.sample(pos) * gr / l2;
                 }
             }
-            return Ok((pos, n, td, pd));
+            // Where the field cannot follow the mesh (features thinner than a cell: ear
+            // rims) no hair grows.
+            if (pos - mesh_pos).length() <= 0.25 * m.sdf.cell && m.sdf.sample(pos).abs() < 1e-4 {
+                return Ok((pos, n, td, pd));
+            }
         }
     }
     Err(KamiError::Invalid {

@@ -162,7 +162,10 @@ impl ProjectivePass {
         // The field's own uniform stays at scale 1: the kernel scales by the substep's gust.
         let eff = EffGpu::new(gpu, setup.forces.eff.as_deref())?;
         let sdf_words = setup.head.gpu_sdf();
-        gpu.check_storage_size("the head's signed distance field", 4 * sdf_words.len() as u64)?;
+        gpu.check_storage_size(
+            "the head's signed distance field",
+            4 * sdf_words.len() as u64,
+        )?;
         let sdf = gpu::storage_buffer(
             device,
             "head sdf",
@@ -318,6 +321,6 @@ fn gpu_params(setup: &DynSetup, row_stride: u32) -> GpuDynParams {
         sigma_end: p.stiffness.end as f32,
         _pad: [0.0; 2],
         head_center: setup.head.gpu_params().0,
- head_radii: setup.head.gpu_params().1,
+        head_radii: setup.head.gpu_params().1,
     }
 }
