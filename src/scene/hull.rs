@@ -235,7 +235,9 @@ pub fn build_head_mesh(head: &Head, m: &HeadMesh) -> Result<HeadMeshData> {
     })
 }
 
-type Cache = Option<((Head, HeadMesh), Arc<HeadMeshData>)>;
+/// Keyed by what the mesh head depends on (its description and the centre polar scalp
+/// regions are measured about), so editing the skin colour rebuilds nothing.
+type Cache = Option<(([f64; 3], HeadMesh), Arc<HeadMeshData>)>;
 static CACHE: Mutex<Cache> = Mutex::new(None);
 
 /// The mesh head of a scene, built once per distinct head (re-grooms and the head pass share
@@ -244,7 +246,7 @@ pub fn head_mesh(head: &Head) -> Result<Option<Arc<HeadMeshData>>> {
     let Some(m) = &head.mesh else {
         return Ok(None);
     };
-    let key = (head.clone(), m.clone());
+    let key = (head.center, m.clone());
     if let Ok(c) = CACHE.lock() {
         if let Some((k, v)) = c.as_ref() {
             if *k == key {
