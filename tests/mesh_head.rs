@@ -251,12 +251,6 @@ fn cantilever_on_mesh_head_matches_reference_and_stays_outside() {
         errs[n - 1]
     );
     assert!(
-        errs[(n - 1) * 99 / 100] < 1e-4,
-        "99% {:.2e}",
-        errs[(n - 1) * 99 / 100]
-    );
-    assert!(errs[n - 1] < 1e-3, "worst strand {:.2e}", errs[n - 1]);
-    assert!(
         cpu_depth < 1e-3,
         "a CPU node is {cpu_depth:.2e} inside the head"
     );
@@ -264,6 +258,12 @@ fn cantilever_on_mesh_head_matches_reference_and_stays_outside() {
         gpu_depth < 2e-3,
         "a GPU node is {gpu_depth:.2e} inside the head"
     );
+    assert!(
+        errs[(n - 1) * 99 / 100] < 1e-4,
+        "99% {:.2e}",
+        errs[(n - 1) * 99 / 100]
+    );
+    assert!(errs[n - 1] < 1e-3, "worst strand {:.2e}", errs[n - 1]);
 }
 
 /// The hard case: a gust twice the scene's straight into the face for 12 frames, then down.
