@@ -270,7 +270,7 @@ fn collision_and_load_degenerate_cases() {
                 segments: 20,
                 rigidity: 50.0,
                 load: &load,
-                hull: Some(&head),
+                hull: Some(&kami::scene::hull::HeadHull::Ellipsoid(head)),
             };
             let nodes = if converged {
                 cantilever::bend_converged(&beam, 500, 1e-6).0
@@ -322,7 +322,7 @@ fn extreme_valid_parameters_stay_finite() {
             segments: 256,
             rigidity,
             load: &load,
-            hull: Some(&head),
+            hull: Some(&kami::scene::hull::HeadHull::Ellipsoid(head)),
         };
         for nodes in [
             cantilever::bend_paper(&beam),
@@ -348,7 +348,7 @@ fn pores_follow_region_and_hairline() {
             &input.roots[grp.first_strand as usize..(grp.first_strand + grp.strand_count) as usize]
         {
             assert!(input.head.eval(r.pos).abs() < 1e-9, "pore off the surface");
-            let (t, p) = input.head.polar(r.pos);
+            let (t, p) = input.head.ellipsoid().polar(r.pos);
             let (t, p) = (t.to_degrees(), p.to_degrees());
             assert!(
                 t >= g.roots.theta.0 - 1e-6 && t <= g.roots.theta.1 + 1e-6,

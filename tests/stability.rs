@@ -68,7 +68,7 @@ struct Run {
     capped: bool,
     clamped: u64,
     sim: CpuSim,
-    head: kami::scene::Ellipsoid,
+    head: kami::scene::hull::HeadHull,
 }
 
 fn run(scene: &Scene, frames: u32) -> Run {
@@ -103,7 +103,7 @@ fn last_pose(sim: &CpuSim) -> glam::DMat4 {
 
 /// Finite values, segment lengths, roots on the head and (hard collision on) no node inside
 /// the head in head coordinates: the head may be moving.
-fn check_invariants(sim: &CpuSim, head: &kami::scene::Ellipsoid) {
+fn check_invariants(sim: &CpuSim, head: &kami::scene::hull::HeadHull) {
     let p = &sim.setup.params;
     let pose = last_pose(sim);
     let inv = pose.inverse();

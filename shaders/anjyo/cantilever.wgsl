@@ -70,8 +70,11 @@ const FLAG_DONE: u32 = 2u;
 // Converged mode only: joint rotations [0, total) and their previous values [total, 2 total).
 @group(0) @binding(7) var<storage, read_write> scratch: array<vec4<f32>>;
 
-fn hull() -> Hull {
-    return Hull(params.head_center.xyz, params.head_radii.xyz);
+// The mesh head's signed distance field (common/sdf.wgsl); a placeholder for an ellipsoid.
+@group(0) @binding(8) var<storage, read> sdf_data: array<f32>;
+
+fn hull() -> HeadHull {
+    return head_hull(params.head_center, params.head_radii);
 }
 
 fn group_load(g: Group, rest: vec3<f32>, p: vec3<f32>) -> vec3<f32> {
@@ -105,7 +108,7 @@ fn bend_paper(base: u32, g: Group, p0: vec3<f32>, dir: vec3<f32>, d: f32) {
         let y = (wi - dot(wi, a0) * a0) * scale;
         let e = a0 * d + y;
         var p = prev + e * (d / length(e));
-        p = hull_push_out(h, prev, a0, p, d);
+        p = head_push_out(h, prev, a0, p, d);
         a0 = normalize((p - prev) / d);
         verts[base + i] = vec4<f32>(p, 1.0);
         prev = p;
@@ -145,7 +148,7 @@ fn rebuild_projected(base: u32, k: u32, p0: vec3<f32>, dir: vec3<f32>, d: f32) -
         let om = scratch[base + j].xyz;
         // Normalised: GPU sin/cos are only accurate to about 2^-11.
         let free = p + normalize(rotate_vec(om, t)) * d;
-        let q = hull_push_out(h, p, t, free, d);
+        let q = head_push_out(h, p, t, free, d);
         let nt = normalize((q - p) / d);
         var real = om;
         let old = scratch[po + base + j].xyz;
@@ -217,8 +220,8 @@ fn converged_steps(base: u32, g: Group, p0: vec3<f32>, dir: vec3<f32>, d: f32, i
             let om = scratch[base + j].xyz;
             // A node resting on the hull is not stepped inwards.
             let node = verts[base + j + 1u].xyz;
-            if hull_eval(h, node) < CONTACT_BAND {
-                let nrm = normalize(hull_gradient(h, node));
+            if head_eval(h, node) < select(CONTACT_BAND, 4.0 * SDF_EPS_OUT, h.sdf) {
+                let nrm = normalize(head_gradient(h, node));
                 let stp = cross(tgt - om, t_in);
                 let inward = min(dot(stp, nrm), 0.0);
                 tgt = om + cross(t_in, stp - inward * nrm);

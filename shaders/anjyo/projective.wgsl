@@ -69,8 +69,11 @@ struct DynStrand {
 @group(0) @binding(5) var<uniform> eff: EffGrid;
 @group(0) @binding(6) var<storage, read> eff_cells: array<vec4<f32>>;
 
-fn hull() -> Hull {
-    return Hull(params.head_center.xyz, params.head_radii.xyz);
+// The mesh head's signed distance field (common/sdf.wgsl); a placeholder for an ellipsoid.
+@group(0) @binding(7) var<storage, read> sdf_data: array<f32>;
+
+fn hull() -> HeadHull {
+    return head_hull(params.head_center, params.head_radii);
 }
 
 fn direction(theta: f32, phi: f32) -> vec3<f32> {
@@ -177,7 +180,7 @@ fn advance(@builtin(global_invocation_id) id: vec3<u32>) {
     let push = select(1.0, 0.5, substep.kick.z != 0u) / (1.0 + g);
     verts[base] = vec4<f32>(root, 1.0);
     var prev_p = root;
-    var prev_dir = normalize(xform_vector(substep.head, hull_gradient(hl, s.root.xyz)));
+    var prev_dir = normalize(xform_vector(substep.head, head_gradient(hl, s.root.xyz)));
     for (var i = 1u; i <= k; i++) {
         let a = state[off + i];
         var th = a.x;
@@ -193,8 +196,8 @@ fn advance(@builtin(global_invocation_id) id: vec3<u32>) {
         var marked = 1.0;
         if params.pseudo != 0u {
             let local = xform_point(substep.head_inv, p_old);
-            let g = hull_gradient(hl, local);
-            let dist = hull_eval(hl, local) / max(length(g), 1e-30);
+            let g = head_gradient(hl, local);
+            let dist = head_eval(hl, local) / max(length(g), 1e-30);
             let dd = xform_vector(substep.head, g);
             if dist < params.near && dot(dd, force) < params.pseudo_alpha * length(dd) * length(force) {
                 force *= params.eps_pore + (params.eps_tip - params.eps_pore) * along(s, i);
@@ -260,10 +263,10 @@ fn advance(@builtin(global_invocation_id) id: vec3<u32>) {
         var pn = prev_p + dir * d;
         if params.collision != 0u {
             let local = xform_point(substep.head_inv, pn);
-            if hull_eval(hl, local) < 0.0 {
+            if head_eval(hl, local) < 0.0 {
                 let lp = xform_point(substep.head_inv, prev_p);
                 let la = normalize(xform_vector(substep.head_inv, prev_dir));
-                let q = hull_push_out(hl, lp, la, local, d);
+                let q = head_push_out(hl, lp, la, local, d);
                 dir = normalize(xform_point(substep.head, q) - prev_p);
                 pn = prev_p + dir * d;
                 moved = true;

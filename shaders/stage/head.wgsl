@@ -1,9 +1,11 @@
-// The head ellipsoid: a unit-sphere mesh scaled by the radii, lit by the scene light with a
-// soft wrap so the unlit side is not black.
+// The head: the ellipsoid (a unit-sphere mesh scaled by the radii) or a mesh head (its own
+// vertices and normals, in head coordinates), lit by the scene light with a soft wrap so the
+// unlit side is not black.
 
 // Keep in sync with GpuHead in src/gpu/gpu_data.rs.
 struct Head {
     model: mat4x4<f32>,
+    rotation: mat4x4<f32>,
     color: vec4<f32>,
     inv_radii2: vec4<f32>,
 }
@@ -17,13 +19,14 @@ struct VOut {
 }
 
 @vertex
-fn vs(@location(0) unit: vec3<f32>) -> VOut {
+fn vs(@location(0) unit: vec3<f32>, @location(1) normal: vec3<f32>) -> VOut {
     var out: VOut;
     let world = (head.model * vec4<f32>(unit, 1.0)).xyz;
     out.pos = frame.view_proj * vec4<f32>(world, 1.0);
     out.world = world;
-    // Ellipsoid normal: gradient of the quadric, (p - c) / r^2 = unit / r.
-    out.normal = unit * sqrt(head.inv_radii2.xyz);
+    // Ellipsoid normal: gradient of the quadric, (p - c) / r^2 = unit / r (a mesh head's
+    // radii are 1), turned by the pose.
+    out.normal = (head.rotation * vec4<f32>(normal * sqrt(head.inv_radii2.xyz), 0.0)).xyz;
     return out;
 }
 

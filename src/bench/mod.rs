@@ -361,7 +361,10 @@ pub fn pendulum_periods(amplitude: f64, dt: f64) -> (f64, f64) {
         },
         params,
         // Far away: no contact.
-        head: crate::scene::Ellipsoid::new([1e6, 0.0, 0.0], [1.0, 1.0, 1.0]),
+        head: crate::scene::hull::HeadHull::Ellipsoid(crate::scene::Ellipsoid::new(
+            [1e6, 0.0, 0.0],
+            [1.0, 1.0, 1.0],
+        )),
         strands: vec![strand],
         state_len: 2,
         max_cu: 0.0,

@@ -144,12 +144,14 @@ assert_size!(GpuMaterial, 32);
 pub struct GpuHead {
     /// Model matrix of the unit sphere (scale by radii, then translate).
     pub model: [[f32; 4]; 4],
+    /// The head pose's rotation (normals turn with it).
+    pub rotation: [[f32; 4]; 4],
     /// rgb: linear skin colour.
     pub color: [f32; 4],
-    /// 1 / radii^2 (for normals of the ellipsoid).
+    /// 1 / radii^2 (for normals of the ellipsoid; 1 for a mesh head).
     pub inv_radii2: [f32; 4],
 }
-assert_size!(GpuHead, 96);
+assert_size!(GpuHead, 160);
 
 /// Projective-dynamics parameters. Keep in sync with `struct DynParams` in
 /// `shaders/anjyo/projective.wgsl`.

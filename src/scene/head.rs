@@ -73,13 +73,38 @@ impl Ellipsoid {
     /// degenerates (`p` straight along `a0`), the plane of `a0` and the hull normal at `p`
     /// is used instead. Returns `p` unchanged when it is outside.
     pub fn push_out(&self, pivot: DVec3, a0: DVec3, p: DVec3, d: f64) -> DVec3 {
-        if self.eval(p) >= 0.0 {
+        push_out_implicit(
+            &|q| self.eval(q),
+            &|q| self.gradient(q),
+            EPS_OUT,
+            pivot,
+            a0,
+            p,
+            d,
+        )
+    }
+}
+
+/// Anjyo's collision response against any implicit hull `eval` (negative inside, gradient
+/// `gradient`), nodes landing at least `eps` outside: the ellipsoid's quadric form, or a
+/// mesh head's signed distance (`scene::hull::HeadHull`). See `Ellipsoid::push_out`.
+pub fn push_out_implicit(
+    eval: &dyn Fn(DVec3) -> f64,
+    gradient: &dyn Fn(DVec3) -> DVec3,
+    eps: f64,
+    pivot: DVec3,
+    a0: DVec3,
+    p: DVec3,
+    d: f64,
+) -> DVec3 {
+    {
+        if eval(p) >= 0.0 {
             return p;
         }
         let w = p - pivot;
         let mut v = w - w.dot(a0) * a0;
         if v.length() <= 1e-9 * d {
-            let g = self.gradient(p);
+            let g = gradient(p);
             v = g - g.dot(a0) * a0;
             if v.length() <= 1e-12 * g.length().max(1e-300) {
                 v = a0.any_orthonormal_vector();
@@ -88,7 +113,7 @@ impl Ellipsoid {
         let v = v.normalize();
         let phi0 = w.dot(v).atan2(w.dot(a0));
         let at = |phi: f64| pivot + d * (phi.cos() * a0 + phi.sin() * v);
-        let outside = |phi: f64| self.eval(at(phi)) >= EPS_OUT;
+        let outside = |phi: f64| eval(at(phi)) >= eps;
         // Coarse search then bisection; the WGSL twin uses the same steps (and fewer
         // bisections, f32). Loop counts matter on llvmpipe (see shaders/anjyo/cantilever.wgsl).
         const STEPS: u32 = 32;
@@ -113,7 +138,7 @@ impl Ellipsoid {
         }
         // The whole circle is inside (only when d exceeds the hull's size near the pivot):
         // go straight out along the normal.
-        pivot + d * self.normal(pivot)
+        pivot + d * gradient(pivot).normalize_or(DVec3::Y)
     }
 }
 

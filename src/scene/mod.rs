@@ -13,7 +13,9 @@
 
 pub mod fur;
 pub(crate) mod head;
+pub mod hull;
 pub mod mesh;
+pub mod sdf;
 pub mod skinned;
 pub mod strips;
 mod validate;
@@ -90,6 +92,56 @@ pub struct Head {
     /// Draw the ellipsoid (the collision hull is used either way).
     #[serde(default = "yes")]
     pub visible: bool,
+    /// A head that is a triangle mesh: pores lie on its scalp and hair collides with its
+    /// signed distance field instead of the ellipsoid (`center` stays the point polar angles
+    /// are measured about; `radii` only frame the camera).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mesh: Option<HeadMesh>,
+}
+
+/// A mesh head (`scene::hull`): where the mesh comes from, how it is placed in head
+/// coordinates (face along +x, y up), which part grows hair and the SDF resolution.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HeadMesh {
+    /// An OBJ, OFF or PLY file (relative to the scene file) or a CGAL demo mesh.
+    pub source: fur::MeshSource,
+    /// Scale the file's coordinates by this (first).
+    #[serde(default = "one_f64")]
+    pub scale: f64,
+    /// Then rotate: degrees about x, then y, then z.
+    #[serde(default)]
+    pub rotate: [f64; 3],
+    /// Then translate.
+    #[serde(default)]
+    pub translate: [f64; 3],
+    /// The scalp: triangles whose centroid is in every region listed (all when empty).
+    #[serde(default)]
+    pub scalp: Vec<ScalpRegion>,
+    /// SDF cells along the grid's longest axis.
+    #[serde(default = "default_sdf_resolution")]
+    pub resolution: u32,
+}
+
+fn one_f64() -> f64 {
+    1.0
+}
+
+fn default_sdf_resolution() -> u32 {
+    64
+}
+
+/// One region the scalp lies in (placed head coordinates).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum ScalpRegion {
+    /// Polar angles (degrees, as for pores on the ellipsoid) of `p - head.center`: zenith
+    /// from +y, azimuth from +x towards +z (may run past 180 to wrap).
+    Polar { theta: (f64, f64), phi: (f64, f64) },
+    /// Inside a sphere.
+    Sphere { center: [f64; 3], radius: f64 },
+    /// Points with `dot(normal, p) >= offset`.
+    HalfSpace { normal: [f64; 3], offset: f64 },
 }
 
 fn default_radii() -> [f64; 3] {
@@ -103,6 +155,7 @@ impl Default for Head {
             radii: default_radii(),
             color: default_skin(),
             visible: true,
+            mesh: None,
         }
     }
 }
@@ -213,10 +266,6 @@ pub struct StrandFile {
     /// The strands as read, placed (filled by `Scene::load` or [`resolve_strand_files`]).
     #[serde(skip)]
     pub groom: Option<std::sync::Arc<crate::formats::Groom>>,
-}
-
-fn one_f64() -> f64 {
-    1.0
 }
 
 impl StrandFile {
@@ -850,6 +899,17 @@ impl Scene {
         // Files the EFF names, read now so that errors name them.
         if let Some(eff) = scene.eff.as_mut() {
             crate::forces::eff::resolve(eff, path.parent().unwrap_or(Path::new("")))?;
+        }
+        // A head mesh named relative to the scene file.
+        if let Some(HeadMesh {
+            source: fur::MeshSource::File(m),
+            ..
+        }) = scene.head.mesh.as_mut()
+        {
+            let dir = path.parent().unwrap_or(Path::new(""));
+            if Path::new(m.as_str()).is_relative() && !dir.as_os_str().is_empty() {
+                *m = dir.join(m.as_str()).display().to_string();
+            }
         }
         // A fur mesh named relative to the scene file.
         if let Some(m) = scene.fur.as_mut().and_then(|f| f.mesh.file_mut()) {

@@ -107,6 +107,9 @@ pub fn validate(s: &Scene) -> Result<()> {
         positive(&format!("head.radii[{i}]"), *r, BIG)?;
     }
     color("head.color", s.head.color, 1.0)?;
+    if let Some(m) = &s.head.mesh {
+        validate_head_mesh(m)?;
+    }
     vec3("gravity", s.gravity, 1e9)?;
 
     if s.groups.is_empty() && s.fur.is_none() && s.wisps.is_none() && s.strips.is_none() {
@@ -498,6 +501,91 @@ fn material(mp: &str, m: &crate::scene::Material) -> Result<()> {
     within(&format!("{mp}.kd"), m.kd, 0.0, 10.0)?;
     positive(&format!("{mp}.width"), m.width, 1e3)?;
     within(&format!("{mp}.tip_width"), m.tip_width, 0.0, 1.0)?;
+    Ok(())
+}
+
+/// SDF resolutions a mesh head may ask for (cells on the longest axis): below 8 the head is
+/// a blob, above 256 the build takes minutes and the field tens of MB.
+pub const SDF_RESOLUTION: (u32, u32) = (8, 256);
+
+/// Most scalp regions.
+const MAX_SCALP_REGIONS: usize = 64;
+
+fn validate_head_mesh(m: &crate::scene::HeadMesh) -> Result<()> {
+    use crate::scene::ScalpRegion;
+    match &m.source {
+        fur::MeshSource::File(p) if p.trim().is_empty() => {
+            return Err(bad(
+                "head.mesh.source",
+                "\"\"",
+                "must name an .obj, .off or .ply file",
+            ));
+        }
+        fur::MeshSource::CgalDemo(n)
+            if n.is_empty() || n.contains(['/', '\\']) || n.starts_with('.') =>
+        {
+            return Err(bad(
+                "head.mesh.source",
+                format!("CgalDemo({n:?})"),
+                "must be a file name in the CGAL demo meshes, e.g. \"head.off\"",
+            ));
+        }
+        _ => {}
+    }
+    positive("head.mesh.scale", m.scale, BIG)?;
+    vec3("head.mesh.rotate", m.rotate, 3600.0)?;
+    vec3("head.mesh.translate", m.translate, BIG)?;
+    let (lo, hi) = SDF_RESOLUTION;
+    if m.resolution < lo || m.resolution > hi {
+        return Err(bad(
+            "head.mesh.resolution",
+            m.resolution,
+            &format!("must be in [{lo}, {hi}] (SDF cells on the longest axis)"),
+        ));
+    }
+    if m.scalp.len() > MAX_SCALP_REGIONS {
+        return Err(bad(
+            "head.mesh.scalp",
+            m.scalp.len(),
+            &format!("at most {MAX_SCALP_REGIONS} regions"),
+        ));
+    }
+    for (i, r) in m.scalp.iter().enumerate() {
+        let f = format!("head.mesh.scalp[{i}]");
+        match r {
+            ScalpRegion::Polar { theta, phi } => {
+                within(&format!("{f}.theta.0"), theta.0, 0.0, 180.0)?;
+                within(&format!("{f}.theta.1"), theta.1, 0.0, 180.0)?;
+                if theta.0 > theta.1 {
+                    return Err(bad(
+                        &format!("{f}.theta"),
+                        format!("{theta:?}"),
+                        "must be increasing",
+                    ));
+                }
+                within(&format!("{f}.phi.0"), phi.0, -360.0, 360.0)?;
+                within(&format!("{f}.phi.1"), phi.1, -360.0, 720.0)?;
+                if phi.0 > phi.1 {
+                    return Err(bad(
+                        &format!("{f}.phi"),
+                        format!("{phi:?}"),
+                        "must be increasing",
+                    ));
+                }
+            }
+            ScalpRegion::Sphere { center, radius } => {
+                vec3(&format!("{f}.center"), *center, BIG)?;
+                positive(&format!("{f}.radius"), *radius, BIG)?;
+            }
+            ScalpRegion::HalfSpace { normal, offset } => {
+                vec3(&format!("{f}.normal"), *normal, BIG)?;
+                if normal.iter().all(|c| *c == 0.0) {
+                    return Err(bad(&format!("{f}.normal"), "[0, 0, 0]", "must not be zero"));
+                }
+                within(&format!("{f}.offset"), *offset, -BIG, BIG)?;
+            }
+        }
+    }
     Ok(())
 }
 

@@ -1,16 +1,21 @@
 //! The head: the collision ellipsoid drawn as a lit mesh (a unit UV sphere scaled by the
-//! radii), z-buffered with the hair.
+//! radii), or a mesh head's own triangles (`scene::hull`), z-buffered with the hair and moved
+//! by the head pose.
 
 use crate::error::Result;
 use crate::gpu::gpu_data::{linear_rgb, GpuHead};
 use crate::gpu::pipeline::{self, DrawPipeline};
 use crate::gpu::{self, Gpu};
-use crate::scene::Ellipsoid;
-use glam::{DMat4, Mat4};
+use crate::scene::{Ellipsoid, HeadMesh};
+use glam::{DMat4, DVec3, Mat4};
 use wgpu::util::DeviceExt;
 
 /// Drawn head radii relative to the collision hull.
 pub const DRAWN_SCALE: f64 = 0.996;
+
+/// A mesh head is drawn this far inside its surface (scene units) along its vertex normals,
+/// for the same reason as `DRAWN_SCALE`.
+pub const MESH_INSET: f64 = 0.03;
 
 const RINGS: u32 = 48;
 const SECTORS: u32 = 96;
@@ -23,6 +28,8 @@ pub struct HeadPass {
     vertices: wgpu::Buffer,
     indices: wgpu::Buffer,
     index_count: u32,
+    /// The mesh head the buffers hold (`None`: the unit sphere).
+    mesh: Option<HeadMesh>,
     uniform: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
 }
@@ -45,16 +52,7 @@ impl HeadPass {
         let pl = pipeline::pipeline_layout(device, "head", &[frame_layout, &layout]);
         let pipeline = Self::pipeline(device, &module, &pl, color_format, samples);
         let (verts, idx) = unit_sphere();
-        let vertices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("head vertices"),
-            contents: bytemuck::cast_slice(&verts),
-            usage: wgpu::BufferUsages::VERTEX,
-        });
-        let indices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("head indices"),
-            contents: bytemuck::cast_slice(&idx),
-            usage: wgpu::BufferUsages::INDEX,
-        });
+        let (vertices, indices) = geometry(device, &verts, &idx);
         let uniform = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("head uniform"),
             size: std::mem::size_of::<GpuHead>() as u64,
@@ -70,6 +68,7 @@ impl HeadPass {
             vertices,
             indices,
             index_count: idx.len() as u32,
+            mesh: None,
             uniform,
             bind_group,
         })
@@ -102,9 +101,9 @@ impl HeadPass {
             topology: wgpu::PrimitiveTopology::TriangleList,
             cull_mode: Some(wgpu::Face::Back),
             vertex_buffers: &[Some(wgpu::VertexBufferLayout {
-                array_stride: std::mem::size_of::<[f32; 3]>() as u64,
+                array_stride: std::mem::size_of::<[f32; 6]>() as u64,
                 step_mode: wgpu::VertexStepMode::Vertex,
-                attributes: &wgpu::vertex_attr_array![0 => Float32x3],
+                attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3],
             })],
             blend: None,
             format,
@@ -113,17 +112,60 @@ impl HeadPass {
         .build(device)
     }
 
+    /// Draw the scene's mesh head (or the ellipsoid for `None`); buffers are rebuilt only
+    /// when the mesh head changes.
+    pub fn set_mesh(&mut self, gpu: &Gpu, head: &crate::scene::Head) -> Result<()> {
+        if self.mesh == head.mesh {
+            return Ok(());
+        }
+        let (verts, idx) = match crate::scene::hull::head_mesh(head)? {
+            Some(m) => {
+                let verts = m
+                    .mesh
+                    .positions
+                    .iter()
+                    .zip(&m.mesh.normals)
+                    .map(|(p, n)| {
+                        let q = (*p - *n * MESH_INSET).as_vec3();
+                        let n = n.as_vec3();
+                        [q.x, q.y, q.z, n.x, n.y, n.z]
+                    })
+                    .collect::<Vec<_>>();
+                let idx: Vec<u32> = m.mesh.triangles.iter().flatten().copied().collect();
+                (verts, idx)
+            }
+            None => unit_sphere(),
+        };
+        (self.vertices, self.indices) = geometry(&gpu.device, &verts, &idx);
+        self.index_count = idx.len() as u32;
+        self.mesh = head.mesh.clone();
+        Ok(())
+    }
+
     /// Set the ellipsoid (and its pose) and colour. The head is drawn `DRAWN_SCALE` smaller
     /// than the collision hull: nodes sit on the hull, so the chord between two of them dips
     /// below it by d^2/8R (0.01-0.03 cm here) and would vanish into the skin between nodes.
     pub fn prepare(&self, queue: &wgpu::Queue, hull: &Ellipsoid, pose: DMat4, color: [f32; 3]) {
-        let radii = hull.radii * DRAWN_SCALE;
+        // A mesh head's vertices are in head coordinates already.
+        let radii = if self.mesh.is_some() {
+            DVec3::ONE
+        } else {
+            hull.radii * DRAWN_SCALE
+        };
+        let center = if self.mesh.is_some() {
+            DVec3::ZERO
+        } else {
+            hull.center
+        };
         let model: Mat4 =
-            (pose * DMat4::from_translation(hull.center) * DMat4::from_scale(radii)).as_mat4();
+            (pose * DMat4::from_translation(center) * DMat4::from_scale(radii)).as_mat4();
+        // Normals turn with the pose only (it is rigid).
+        let rotation = DMat4::from_mat3(glam::DMat3::from_mat4(pose)).as_mat4();
         let c = linear_rgb(color);
         let r2 = radii * radii;
         let data = GpuHead {
             model: model.to_cols_array_2d(),
+            rotation: rotation.to_cols_array_2d(),
             color: [c[0], c[1], c[2], 1.0],
             inv_radii2: [
                 (1.0 / r2.x) as f32,
@@ -144,18 +186,38 @@ impl HeadPass {
     }
 }
 
-/// Unit UV sphere, counter-clockwise seen from outside.
-fn unit_sphere() -> (Vec<[f32; 3]>, Vec<u32>) {
+fn geometry(
+    device: &wgpu::Device,
+    verts: &[[f32; 6]],
+    idx: &[u32],
+) -> (wgpu::Buffer, wgpu::Buffer) {
+    let vertices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("head vertices"),
+        contents: bytemuck::cast_slice(verts),
+        usage: wgpu::BufferUsages::VERTEX,
+    });
+    let indices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some("head indices"),
+        contents: bytemuck::cast_slice(idx),
+        usage: wgpu::BufferUsages::INDEX,
+    });
+    (vertices, indices)
+}
+
+/// Unit UV sphere, counter-clockwise seen from outside: (position, normal) per vertex, the
+/// normal being the position.
+fn unit_sphere() -> (Vec<[f32; 6]>, Vec<u32>) {
     let mut v = Vec::new();
     for r in 0..=RINGS {
         let theta = std::f32::consts::PI * r as f32 / RINGS as f32;
         for s in 0..=SECTORS {
             let phi = std::f32::consts::TAU * s as f32 / SECTORS as f32;
-            v.push([
+            let (x, y, z) = (
                 theta.sin() * phi.cos(),
                 theta.cos(),
                 theta.sin() * phi.sin(),
-            ]);
+            );
+            v.push([x, y, z, x, y, z]);
         }
     }
     let mut idx = Vec::new();

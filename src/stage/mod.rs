@@ -189,6 +189,9 @@ impl Stage {
             (false, true) => self.head = None,
             _ => {}
         }
+        if let Some(h) = self.head.as_mut() {
+            h.set_mesh(gpu, &self.scene.head)?;
+        }
         Ok(())
     }
 

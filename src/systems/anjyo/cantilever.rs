@@ -34,7 +34,8 @@
 //! The WGSL kernel `shaders/anjyo/cantilever.wgsl` implements the same steps in f32.
 
 use super::groom::{BendMode, GroomInput, GroupParams, StrandRoot};
-use crate::scene::{CutRule, Ellipsoid};
+use crate::scene::hull::HeadHull;
+use crate::scene::CutRule;
 use glam::{DQuat, DVec3};
 
 /// One beam to bend.
@@ -50,7 +51,7 @@ pub struct Beam<'a> {
     /// (which decides the regions it is in) and its current midpoint (where the field is
     /// evaluated).
     pub load: &'a dyn Fn(DVec3, DVec3) -> DVec3,
-    pub hull: Option<&'a Ellipsoid>,
+    pub hull: Option<&'a HeadHull>,
 }
 
 impl Beam<'_> {
@@ -208,6 +209,11 @@ pub fn relaxation(g_est: f64) -> (f64, f64) {
 /// Nodes within this band outside the hull (in units of the quadric) count as resting on it.
 pub const CONTACT_BAND: f64 = 4.0 * crate::scene::head::EPS_OUT;
 
+/// The contact band of a hull in its own units (`CONTACT_BAND` for the ellipsoid).
+pub fn contact_band(h: &HeadHull) -> f64 {
+    4.0 * h.eps_out()
+}
+
 /// The converged bend: fixed point of (shape -> true moments -> joint rotations), started
 /// from the paper's shape and relaxed with heavy-ball momentum. Where the hull stops a joint
 /// the iteration is projected: the state becomes the rotation the joint really made (with
@@ -224,7 +230,9 @@ pub fn bend_converged(b: &Beam, max_iterations: u32, tolerance: f64) -> (Vec<DVe
     for j in 0..k {
         let nt = ((nodes[j + 1] - nodes[j]) / d).normalize();
         omega[j] = turn(t, nt);
-        contact[j] = b.hull.is_some_and(|h| h.eval(nodes[j + 1]) < CONTACT_BAND);
+        contact[j] = b
+            .hull
+            .is_some_and(|h| h.eval(nodes[j + 1]) < contact_band(h));
         t = nt;
     }
     let g_est = {
@@ -253,7 +261,9 @@ pub fn bend_converged(b: &Beam, max_iterations: u32, tolerance: f64) -> (Vec<DVe
             prev[j] = if pushed[j] { realized[j] } else { omega[j] };
             omega[j] = realized[j];
             // Pushed nodes end inside the band, so this covers them too.
-            contact[j] = b.hull.is_some_and(|h| h.eval(nodes[j + 1]) < CONTACT_BAND);
+            contact[j] = b
+                .hull
+                .is_some_and(|h| h.eval(nodes[j + 1]) < contact_band(h));
         }
         let residual = change / alpha;
         info = Convergence {
@@ -272,7 +282,7 @@ pub fn bend_converged(b: &Beam, max_iterations: u32, tolerance: f64) -> (Vec<DVe
 /// does not converge within its iterations falls back to the paper's shape (and says so:
 /// `converged == false`).
 pub fn bend_strand(
-    head: &Ellipsoid,
+    head: &HeadHull,
     group: &GroupParams,
     root: &StrandRoot,
 ) -> (Vec<DVec3>, Convergence) {

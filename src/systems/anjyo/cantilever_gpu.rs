@@ -51,6 +51,7 @@ impl CantileverPass {
                 gpu::storage_entry(5, cs, false),
                 gpu::storage_entry(6, cs, false),
                 gpu::storage_entry(7, cs, false),
+                gpu::storage_entry(8, cs, true),
             ],
         });
         let [bend, iterate, finish] = gpu::compute_pipelines(
@@ -62,6 +63,7 @@ impl CantileverPass {
             &[
                 ("WORKGROUP", WORKGROUP as f64),
                 ("EPS_OUT", crate::scene::head::EPS_OUT),
+                ("SDF_EPS_OUT", crate::scene::hull::SDF_EPS_OUT),
                 ("CONTACT_BAND", super::cantilever::CONTACT_BAND),
             ],
         );
@@ -152,18 +154,8 @@ impl CantileverPass {
             total_vertices: strands.vertex_count,
             row_stride: dims.0 * WORKGROUP,
             chunk,
-            head_center: [
-                input.head.center.x as f32,
-                input.head.center.y as f32,
-                input.head.center.z as f32,
-                0.0,
-            ],
-            head_radii: [
-                input.head.radii.x as f32,
-                input.head.radii.y as f32,
-                input.head.radii.z as f32,
-                0.0,
-            ],
+            head_center: input.head.gpu_params().0,
+            head_radii: input.head.gpu_params().1,
         };
         let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("cantilever params"),
@@ -197,6 +189,12 @@ impl CantileverPass {
             usage: wgpu::BufferUsages::STORAGE,
             mapped_at_creation: false,
         });
+        let sdf_words = input.head.gpu_sdf();
+        gpu.check_storage_size(
+            "the head's signed distance field",
+            4 * sdf_words.len() as u64,
+        )?;
+        let sdf = gpu::storage_buffer(device, "head sdf", bytemuck::cast_slice(&sdf_words), none);
         let bind_group = gpu::pipeline::bind_buffers(
             device,
             "cantilever",
@@ -210,6 +208,7 @@ impl CantileverPass {
                 &strands.strands,
                 &strands.vertices,
                 &scratch,
+                &sdf,
             ],
         );
         Ok(CantileverJob {

@@ -9,6 +9,7 @@ use crate::gpu::strands::{DrawRange, StrandBuffers};
 use crate::gpu::Gpu;
 use crate::rng::hash_unit;
 use crate::rng::Rng;
+use crate::scene::hull::{HeadHull, HeadMeshData};
 use crate::scene::{head::phi_in_range, Bending, CutRule, Direction, Ellipsoid, Load, Scene};
 use glam::DVec3;
 
@@ -105,7 +106,7 @@ impl GroupParams {
 /// Everything the cantilever solver reads.
 #[derive(Clone, Debug)]
 pub struct GroomInput {
-    pub head: Ellipsoid,
+    pub head: HeadHull,
     pub roots: Vec<StrandRoot>,
     pub groups: Vec<GroupParams>,
 }
@@ -171,6 +172,7 @@ impl GroomInput {
 /// element), so density does not bunch at the poles.
 pub fn prepare(scene: &Scene) -> Result<GroomInput> {
     let head = scene.head_ellipsoid();
+    let head_mesh = crate::scene::hull::head_mesh(&scene.head)?;
     let gravity = ResolvedLoad {
         field: LoadField::Uniform(DVec3::from(scene.gravity)),
         planes: vec![],
@@ -207,33 +209,40 @@ pub fn prepare(scene: &Scene) -> Result<GroomInput> {
         let (t0, t1) = (g.roots.theta.0.to_radians(), g.roots.theta.1.to_radians());
         let (p0, p1) = (g.roots.phi.0.to_radians(), g.roots.phi.1.to_radians());
         let amax = hull.area_factor_max();
+        // Pores on a mesh head's scalp (groups with their own ellipsoid keep it).
+        let on_mesh = head_mesh.as_ref().filter(|_| g.roots.on.is_none());
         for _ in 0..g.count {
-            let mut tries = 0u32;
-            let (theta, phi) = loop {
-                let ct = rng.range(t1.cos(), t0.cos());
-                let phi = rng.range(p0, p1);
-                let theta = ct.clamp(-1.0, 1.0).acos();
-                let accept = rng.uniform() * amax <= hull.area_factor(theta, phi);
-                let below = g
-                    .roots
-                    .hairline_theta(phi.to_degrees())
-                    .is_some_and(|t| theta.to_degrees() > t);
-                if accept && !below {
-                    break (theta, phi);
-                }
-                tries += 1;
-                if tries > 1_000_000 {
-                    return Err(KamiError::Invalid {
-                        file: String::new(),
-                        field: format!("groups[{gi}].roots"),
-                        value: format!("{:?}", g.roots.theta),
-                        allowed: "the polar range and hairline leave (almost) no area for pores"
-                            .into(),
-                    });
-                }
+            let (pos, n, td, pd) = if let Some(m) = on_mesh {
+                mesh_pore(m, scene, gi, &mut rng)?
+            } else {
+                let mut tries = 0u32;
+                let (theta, phi) = loop {
+                    let ct = rng.range(t1.cos(), t0.cos());
+                    let phi = rng.range(p0, p1);
+                    let theta = ct.clamp(-1.0, 1.0).acos();
+                    let accept = rng.uniform() * amax <= hull.area_factor(theta, phi);
+                    let below = g
+                        .roots
+                        .hairline_theta(phi.to_degrees())
+                        .is_some_and(|t| theta.to_degrees() > t);
+                    if accept && !below {
+                        break (theta, phi);
+                    }
+                    tries += 1;
+                    if tries > 1_000_000 {
+                        return Err(KamiError::Invalid {
+                            file: String::new(),
+                            field: format!("groups[{gi}].roots"),
+                            value: format!("{:?}", g.roots.theta),
+                            allowed:
+                                "the polar range and hairline leave (almost) no area for pores"
+                                    .into(),
+                        });
+                    }
+                };
+                let pos = hull.point(theta, phi);
+                (pos, hull.normal(pos), theta.to_degrees(), phi.to_degrees())
             };
-            let pos = hull.point(theta, phi);
-            let n = hull.normal(pos);
             let dir = match &g.direction {
                 Direction::Normal => n,
                 Direction::Blend { dir, weight } => {
@@ -261,7 +270,6 @@ pub fn prepare(scene: &Scene) -> Result<GroomInput> {
             };
             let len = g.length * (1.0 + g.length_jitter * (2.0 * rng.uniform() - 1.0));
             let ka = (g.material.ka + g.material.ka_spread * rng.normal()).max(0.0);
-            let (td, pd) = (theta.to_degrees(), phi.to_degrees());
             let mut cut_mask = 0u32;
             for (ci, c) in g.cuts.iter().enumerate() {
                 let in_theta = c.theta.is_none_or(|(a, b)| td >= a && td <= b);
@@ -293,9 +301,55 @@ pub fn prepare(scene: &Scene) -> Result<GroomInput> {
         });
     }
     Ok(GroomInput {
-        head,
+        head: match &head_mesh {
+            Some(m) => HeadHull::Sdf(m.sdf.clone()),
+            None => HeadHull::Ellipsoid(head),
+        },
         roots,
         groups,
+    })
+}
+
+/// One pore on a mesh head's scalp: area-uniform over the scalp triangles, kept where the
+/// group's polar range and hairline (about `head.center`) allow, then moved onto the SDF's
+/// zero level set (two Newton steps) so the root sits on the hull that hair collides with;
+/// a pore the field cannot follow within a quarter cell is drawn again.
+/// Returns (position, unit normal, zenith, azimuth in degrees).
+fn mesh_pore(
+    m: &HeadMeshData,
+    scene: &Scene,
+    gi: usize,
+    rng: &mut Rng,
+) -> Result<(DVec3, DVec3, f64, f64)> {
+    let g = &scene.groups[gi];
+    let center = DVec3::from(scene.head.center);
+    for _ in 0..1_000_000u32 {
+        let (ut, u, v) = (rng.uniform(), rng.uniform(), rng.uniform());
+        let (mut pos, n) = m.sample(ut, u, v);
+        let (td, pd) = crate::scene::hull::polar_deg(pos, center);
+        let in_theta = td >= g.roots.theta.0 && td <= g.roots.theta.1;
+        let below = g.roots.hairline_theta(pd).is_some_and(|t| td > t);
+        if in_theta && phi_in_range(pd, g.roots.phi) && !below {
+            let mesh_pos = pos;
+            for _ in 0..2 {
+                let gr = m.sdf.gradient(pos);
+                let l2 = gr.length_squared();
+                if l2 > 1e-12 {
+                    pos -= m.sdf.sample(pos) * gr / l2;
+                }
+            }
+            // Where the field cannot follow the mesh (features thinner than a cell: ear
+            // rims) no hair grows.
+            if (pos - mesh_pos).length() <= 0.25 * m.sdf.cell && m.sdf.sample(pos).abs() < 1e-4 {
+                return Ok((pos, n, td, pd));
+            }
+        }
+    }
+    Err(KamiError::Invalid {
+        file: String::new(),
+        field: format!("groups[{gi}].roots"),
+        value: format!("{:?}", g.roots.theta),
+        allowed: "the polar range and hairline leave (almost) no scalp of the head mesh".into(),
     })
 }
 

@@ -34,6 +34,7 @@ use simulation::Simulation;
 pub const CANTILEVER: &str = wgsl!(
     "common/strands.wgsl",
     "common/ellipsoid.wgsl",
+    "common/sdf.wgsl",
     "common/rotate.wgsl",
     "common/loads.wgsl",
     "anjyo/cantilever.wgsl",
@@ -42,6 +43,7 @@ pub const CANTILEVER: &str = wgsl!(
 /// Projective dynamics (Anjyo section 3).
 pub const PROJECTIVE: &str = wgsl!(
     "common/ellipsoid.wgsl",
+    "common/sdf.wgsl",
     "common/rotate.wgsl",
     "common/random.wgsl",
     "forces/eff.wgsl",

@@ -47,7 +47,8 @@
 use super::groom::GroomInput;
 use crate::forces::Forces;
 use crate::rng::pcg_hash;
-use crate::scene::{Dynamics, Ellipsoid, Scene};
+use crate::scene::hull::HeadHull;
+use crate::scene::{Dynamics, Scene};
 use glam::{DMat4, DVec3};
 use std::f64::consts::{PI, TAU};
 
@@ -141,7 +142,7 @@ pub struct DynSetup {
     pub params: Dynamics,
     /// The shared force fields (gravity, wind, head motion) the steps are scheduled from.
     pub forces: Forces,
-    pub head: Ellipsoid,
+    pub head: HeadHull,
     pub strands: Vec<DynStrand>,
     pub state_len: u32,
     /// Largest c_i u_i over all segments: omega^2 = max_cu |F| bounds the stiffest mode.
@@ -190,7 +191,7 @@ impl DynSetup {
             seed: (scene.seed ^ (scene.seed >> 32)) as u32,
             params,
             forces: Forces::from_scene(scene),
-            head: input.head,
+            head: input.head.clone(),
             strands,
             state_len,
             max_cu: 0.0,

@@ -26,6 +26,8 @@ pub struct ProjectivePass {
 /// ring of per-substep uniforms. Only strands of dynamic groups get state.
 pub struct ProjectiveJob {
     params: wgpu::Buffer,
+    /// The mesh head's SDF (`shaders/common/sdf.wgsl`; a placeholder for an ellipsoid).
+    sdf: wgpu::Buffer,
     strands: wgpu::Buffer,
     pub state: wgpu::Buffer,
     steps: wgpu::Buffer,
@@ -89,6 +91,7 @@ impl ProjectivePass {
                 gpu::storage_entry(4, cs, false),
                 gpu::uniform_entry(5, cs),
                 gpu::storage_entry(6, cs, true),
+                gpu::storage_entry(7, cs, true),
             ],
         });
         let [init, advance] = gpu::compute_pipelines(
@@ -100,6 +103,7 @@ impl ProjectivePass {
             &[
                 ("WORKGROUP", WORKGROUP as f64),
                 ("EPS_OUT", crate::scene::head::EPS_OUT),
+                ("SDF_EPS_OUT", crate::scene::hull::SDF_EPS_OUT),
                 ("POLE_SIN", POLE_SIN),
                 ("MAX_TURN", MAX_TURN),
             ],
@@ -157,9 +161,27 @@ impl ProjectivePass {
         let steps = Self::step_ring(device, capacity);
         // The field's own uniform stays at scale 1: the kernel scales by the substep's gust.
         let eff = EffGpu::new(gpu, setup.forces.eff.as_deref())?;
-        let bind_group = self.bind(device, [&params, &strands, &state], &steps, hair, &eff);
+        let sdf_words = setup.head.gpu_sdf();
+        gpu.check_storage_size(
+            "the head's signed distance field",
+            4 * sdf_words.len() as u64,
+        )?;
+        let sdf = gpu::storage_buffer(
+            device,
+            "head sdf",
+            bytemuck::cast_slice(&sdf_words),
+            wgpu::BufferUsages::empty(),
+        );
+        let bind_group = self.bind(
+            device,
+            [&params, &strands, &state, &sdf],
+            &steps,
+            hair,
+            &eff,
+        );
         Ok(ProjectiveJob {
             params,
+            sdf,
             strands,
             state,
             steps,
@@ -183,7 +205,7 @@ impl ProjectivePass {
     fn bind(
         &self,
         device: &wgpu::Device,
-        [params, strands, state]: [&wgpu::Buffer; 3],
+        [params, strands, state, sdf]: [&wgpu::Buffer; 4],
         steps: &wgpu::Buffer,
         hair: &StrandBuffers,
         eff: &EffGpu,
@@ -206,6 +228,7 @@ impl ProjectivePass {
                 gpu::entry(4, &hair.vertices),
                 gpu::entry(5, &eff.grid),
                 gpu::entry(6, &eff.cells),
+                gpu::entry(7, sdf),
             ],
         })
     }
@@ -248,7 +271,7 @@ impl ProjectivePass {
             job.steps = Self::step_ring(&gpu.device, job.capacity);
             job.bind_group = self.bind(
                 &gpu.device,
-                [&job.params, &job.strands, &job.state],
+                [&job.params, &job.strands, &job.state, &job.sdf],
                 &job.steps,
                 hair,
                 &job.eff,
@@ -297,17 +320,7 @@ fn gpu_params(setup: &DynSetup, row_stride: u32) -> GpuDynParams {
         inertia_tip: p.inertia.tip as f32,
         sigma_end: p.stiffness.end as f32,
         _pad: [0.0; 2],
-        head_center: [
-            setup.head.center.x as f32,
-            setup.head.center.y as f32,
-            setup.head.center.z as f32,
-            0.0,
-        ],
-        head_radii: [
-            setup.head.radii.x as f32,
-            setup.head.radii.y as f32,
-            setup.head.radii.z as f32,
-            0.0,
-        ],
+        head_center: setup.head.gpu_params().0,
+        head_radii: setup.head.gpu_params().1,
     }
 }

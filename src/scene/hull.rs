@@ -1,0 +1,301 @@
+//! The head hull that grooming and dynamics collide with: Anjyo's ellipsoid, or a triangle
+//! mesh's signed distance field (`scene::sdf`). Both are implicit functions, negative
+//! inside, with a gradient, and share Anjyo's push-out (`head::push_out_implicit`), so the
+//! cantilever, the projective dynamics and the pseudo-force (D = the hull gradient) are
+//! written once. Units differ: the ellipsoid's value is its quadric form, the SDF's a
+//! distance; each variant carries its own push-out margin (`eps_out`).
+//!
+//! `shaders/common/sdf.wgsl` is the GPU twin (`HeadHull`, `head_eval`, `head_push_out`).
+
+use super::head::{push_out_implicit, Ellipsoid, EPS_OUT};
+use super::mesh::Mesh;
+use super::sdf::{Sdf, Triangles};
+use super::{fur::MeshSource, Head, HeadMesh, ScalpRegion};
+use crate::error::{KamiError, Result};
+use glam::{DMat4, DQuat, DVec3, EulerRot};
+use std::path::Path;
+use std::sync::{Arc, Mutex};
+
+/// Nodes pushed out of a mesh head land this far outside its zero level set (scene units,
+/// cm by convention: 0.1 mm, well above f32 rounding of positions near 20 cm).
+pub const SDF_EPS_OUT: f64 = 0.01;
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum HeadHull {
+    Ellipsoid(Ellipsoid),
+    Sdf(Arc<Sdf>),
+}
+
+impl HeadHull {
+    /// Negative inside (quadric form or signed distance).
+    pub fn eval(&self, p: DVec3) -> f64 {
+        match self {
+            HeadHull::Ellipsoid(e) => e.eval(p),
+            HeadHull::Sdf(s) => s.sample(p),
+        }
+    }
+
+    pub fn gradient(&self, p: DVec3) -> DVec3 {
+        match self {
+            HeadHull::Ellipsoid(e) => e.gradient(p),
+            HeadHull::Sdf(s) => s.gradient(p),
+        }
+    }
+
+    pub fn normal(&self, p: DVec3) -> DVec3 {
+        self.gradient(p).normalize_or(DVec3::Y)
+    }
+
+    /// How far outside (in `eval`'s units) a pushed node lands.
+    pub fn eps_out(&self) -> f64 {
+        match self {
+            HeadHull::Ellipsoid(_) => EPS_OUT,
+            HeadHull::Sdf(_) => SDF_EPS_OUT,
+        }
+    }
+
+    /// Anjyo's push-out (`Ellipsoid::push_out`) against this hull.
+    pub fn push_out(&self, pivot: DVec3, a0: DVec3, p: DVec3, d: f64) -> DVec3 {
+        match self {
+            HeadHull::Ellipsoid(e) => e.push_out(pivot, a0, p, d),
+            HeadHull::Sdf(s) => push_out_implicit(
+                &|q| s.sample(q),
+                &|q| s.gradient(q),
+                SDF_EPS_OUT,
+                pivot,
+                a0,
+                p,
+                d,
+            ),
+        }
+    }
+
+    /// The ellipsoid's centre and radii for the GPU (placeholders for an SDF).
+    pub fn ellipsoid(&self) -> Ellipsoid {
+        match self {
+            HeadHull::Ellipsoid(e) => *e,
+            HeadHull::Sdf(_) => Ellipsoid::new([0.0; 3], [1.0; 3]),
+        }
+    }
+
+    /// `head_center` and `head_radii` of the kernels' parameters: the ellipsoid, and in
+    /// `head_center.w` 1 when the hull is the SDF bound beside them (`shaders/common/sdf.wgsl`).
+    pub fn gpu_params(&self) -> ([f32; 4], [f32; 4]) {
+        let e = self.ellipsoid();
+        let flag = if self.sdf().is_some() { 1.0 } else { 0.0 };
+        (
+            [
+                e.center.x as f32,
+                e.center.y as f32,
+                e.center.z as f32,
+                flag,
+            ],
+            [e.radii.x as f32, e.radii.y as f32, e.radii.z as f32, 0.0],
+        )
+    }
+
+    /// The SDF's words for the kernels' `sdf_data` binding (a placeholder header for an
+    /// ellipsoid, never read).
+    pub fn gpu_sdf(&self) -> Vec<f32> {
+        match self {
+            HeadHull::Sdf(s) => s.to_gpu(),
+            HeadHull::Ellipsoid(_) => vec![0.0; super::sdf::GPU_HEADER + 8],
+        }
+    }
+
+    pub fn sdf(&self) -> Option<&Sdf> {
+        match self {
+            HeadHull::Sdf(s) => Some(s),
+            HeadHull::Ellipsoid(_) => None,
+        }
+    }
+}
+
+/// A loaded mesh head: the placed mesh, its field and its scalp.
+#[derive(Debug)]
+pub struct HeadMeshData {
+    /// In head coordinates (placed by the scene's scale, rotation and translation).
+    pub mesh: Mesh,
+    pub sdf: Arc<Sdf>,
+    /// Scalp triangles and their cumulative areas (for area-uniform pores).
+    pub scalp: Vec<u32>,
+    pub scalp_cdf: Vec<f64>,
+    /// Seconds the SDF took to build.
+    pub build_seconds: f64,
+}
+
+/// Placement of the head mesh: scale, rotate (x then y then z, degrees), translate.
+pub fn placement(m: &HeadMesh) -> DMat4 {
+    let [rx, ry, rz] = m.rotate.map(f64::to_radians);
+    DMat4::from_scale_rotation_translation(
+        DVec3::splat(m.scale),
+        DQuat::from_euler(EulerRot::ZYX, rz, ry, rx),
+        DVec3::from(m.translate),
+    )
+}
+
+/// Polar angles (degrees) of `p` about `center`: zenith from +y, azimuth from +x to +z.
+pub fn polar_deg(p: DVec3, center: DVec3) -> (f64, f64) {
+    let q = p - center;
+    let l = q.length().max(1e-300);
+    (
+        (q.y / l).clamp(-1.0, 1.0).acos().to_degrees(),
+        q.z.atan2(q.x).to_degrees(),
+    )
+}
+
+/// Is `p` in every scalp region?
+pub fn in_scalp(regions: &[ScalpRegion], center: DVec3, p: DVec3) -> bool {
+    regions.iter().all(|r| match r {
+        ScalpRegion::Polar { theta, phi } => {
+            let (t, f) = polar_deg(p, center);
+            t >= theta.0 && t <= theta.1 && super::head::phi_in_range(f, *phi)
+        }
+        ScalpRegion::Sphere { center, radius } => (p - DVec3::from(*center)).length() <= *radius,
+        ScalpRegion::HalfSpace { normal, offset } => DVec3::from(*normal).dot(p) >= *offset,
+    })
+}
+
+/// Read the mesh file a source names.
+pub fn load_source(source: &MeshSource) -> Result<Mesh> {
+    match source {
+        MeshSource::Critter => Ok(crate::systems::fur::critter::critter()),
+        MeshSource::File(path) => Mesh::load(path),
+        MeshSource::CgalDemo(name) => {
+            let dir = std::env::temp_dir().join("kami-cgal-data");
+            Mesh::load(super::mesh::cgal_demo_mesh(name, &dir)?)
+        }
+        // A skinned glTF's mesh in its bind pose (the head does not follow the skin).
+        MeshSource::Gltf {
+            file,
+            animation,
+            fps,
+        } => Ok(super::skinned::load(Path::new(file), animation.as_deref(), *fps)?.mesh),
+    }
+}
+
+/// Load, place and build the field of a mesh head (no cache).
+pub fn build_head_mesh(head: &Head, m: &HeadMesh) -> Result<HeadMeshData> {
+    let mut mesh = load_source(&m.source)?;
+    let xf = placement(m);
+    for p in &mut mesh.positions {
+        *p = xf.transform_point3(*p);
+    }
+    let nx = xf.inverse().transpose();
+    for n in &mut mesh.normals {
+        *n = nx.transform_vector3(*n).normalize_or(DVec3::Y);
+    }
+    // Wind outwards (an open mesh is left as its file winds it by `Mesh::new`; CGAL's
+    // head.off is wound inwards): the head pass culls back faces and lights by the normals.
+    let tris = Triangles {
+        positions: &mesh.positions,
+        triangles: &mesh.triangles,
+    };
+    if tris.orientation() < 0.0 {
+        for t in &mut mesh.triangles {
+            t.swap(1, 2);
+        }
+        for n in &mut mesh.normals {
+            *n = -*n;
+        }
+    }
+    let start = std::time::Instant::now();
+    let sdf = Sdf::build(
+        &Triangles {
+            positions: &mesh.positions,
+            triangles: &mesh.triangles,
+        },
+        m.resolution as usize,
+    );
+    let build_seconds = start.elapsed().as_secs_f64();
+    let center = DVec3::from(head.center);
+    let mut scalp = Vec::new();
+    let mut scalp_cdf = Vec::new();
+    let mut acc = 0.0;
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        let c = tri
+            .iter()
+            .map(|&i| mesh.positions[i as usize])
+            .sum::<DVec3>()
+            / 3.0;
+        let a = mesh.area(t);
+        if a > 0.0 && in_scalp(&m.scalp, center, c) {
+            acc += a;
+            scalp.push(t as u32);
+            scalp_cdf.push(acc);
+        }
+    }
+    if scalp.is_empty() {
+        return Err(KamiError::Invalid {
+            file: String::new(),
+            field: "head.mesh.scalp".into(),
+            value: format!("{:?}", m.scalp),
+            allowed: "regions that contain at least one triangle of the mesh".into(),
+        });
+    }
+    Ok(HeadMeshData {
+        mesh,
+        sdf: Arc::new(sdf),
+        scalp,
+        scalp_cdf,
+        build_seconds,
+    })
+}
+
+/// Keyed by what the mesh head depends on (its description and the centre polar scalp
+/// regions are measured about), so editing the skin colour rebuilds nothing.
+type Cache = Option<(([f64; 3], HeadMesh), Arc<HeadMeshData>)>;
+static CACHE: Mutex<Cache> = Mutex::new(None);
+
+/// The mesh head of a scene, built once per distinct head (re-grooms and the head pass share
+/// it); `None` for an ellipsoid head.
+pub fn head_mesh(head: &Head) -> Result<Option<Arc<HeadMeshData>>> {
+    let Some(m) = &head.mesh else {
+        return Ok(None);
+    };
+    let key = (head.center, m.clone());
+    if let Ok(c) = CACHE.lock() {
+        if let Some((k, v)) = c.as_ref() {
+            if *k == key {
+                return Ok(Some(v.clone()));
+            }
+        }
+    }
+    let data = Arc::new(build_head_mesh(head, m)?);
+    if let Ok(mut c) = CACHE.lock() {
+        *c = Some((key, data.clone()));
+    }
+    Ok(Some(data))
+}
+
+/// The scene's collision hull.
+pub fn head_hull(head: &Head) -> Result<HeadHull> {
+    Ok(match head_mesh(head)? {
+        Some(m) => HeadHull::Sdf(m.sdf.clone()),
+        None => HeadHull::Ellipsoid(Ellipsoid::new(head.center, head.radii)),
+    })
+}
+
+impl HeadMeshData {
+    /// An area-uniform point on the scalp from two uniforms in [0,1) and a third for the
+    /// triangle: (position, interpolated unit normal).
+    pub fn sample(&self, u_tri: f64, u: f64, v: f64) -> (DVec3, DVec3) {
+        let total = *self.scalp_cdf.last().unwrap_or(&0.0);
+        let target = u_tri * total;
+        let k = self
+            .scalp_cdf
+            .partition_point(|&c| c <= target)
+            .min(self.scalp.len() - 1);
+        let tri = self.mesh.triangles[self.scalp[k] as usize];
+        let [a, b, c] = tri.map(|i| self.mesh.positions[i as usize]);
+        let [na, nb, nc] = tri.map(|i| self.mesh.normals[i as usize]);
+        let (mut s, mut t) = (u, v);
+        if s + t > 1.0 {
+            (s, t) = (1.0 - s, 1.0 - t);
+        }
+        let p = a + s * (b - a) + t * (c - a);
+        let face = (b - a).cross(c - a).normalize_or(DVec3::Y);
+        let n = ((1.0 - s - t) * na + s * nb + t * nc).normalize_or(face);
+        (p, n)
+    }
+}
