@@ -205,6 +205,15 @@ enum Bench {
         #[arg(long)]
         software: bool,
     },
+    /// The mesh head's signed distance field: build time and error against the exact
+    /// signed distance at several grid resolutions; writes sdf.md, sdf.csv and sdf.png.
+    Sdf {
+        #[arg(long, default_value = "assets/scenes/mesh_head.ron")]
+        scene: PathBuf,
+        /// Directory for the report files.
+        #[arg(long, default_value = "bench_out")]
+        out: PathBuf,
+    },
     /// Kazama's strips: dynamics and full-frame ms against strip count (strips per second),
     /// the angular-spring solver's work-precision table, and the EFF fit; writes strips.md,
     /// strips.csv, strips_speed.png, strips_precision.png and capture.md/.csv/.png.
@@ -530,6 +539,11 @@ fn main() -> Result<()> {
                     "wrote {0}/fur.md, {0}/fur.csv, {0}/fur_culling.png",
                     out.display()
                 );
+            }
+            Bench::Sdf { scene, out } => {
+                let report = kami::bench::sdf::run(&scene, &out)?;
+                println!("{}", report.markdown);
+                println!("wrote {0}/sdf.md, {0}/sdf.csv, {0}/sdf.png", out.display());
             }
             Bench::Wisps {
                 scene,

@@ -23,7 +23,8 @@ pub struct Groom {
     pub widths: Option<Vec<f32>>,
     /// Per-point opacity in 0..1 (`.hair` stores transparency = 1 - opacity).
     pub opacities: Option<Vec<f32>>,
-    /// Per-point linear RGB colour, when the file has one.
+    /// Per-point RGB colour in 0..1 as the file stores it (Kami writes its materials' sRGB
+    /// colours; no format says which space).
     pub colors: Option<Vec<[f32; 3]>>,
 }
 
