@@ -639,3 +639,27 @@ fn pixar_usd_reads_kami_usda() {
     assert_eq!(Some(widths), g.widths);
     assert_eq!(lines.next(), Some("interpolation vertex"));
 }
+
+/// Found in review: attributes out of their range, hostile nesting and bad indices in usda
+/// are errors naming the file, never a crash (a stack overflow aborts the process).
+#[test]
+fn attributes_nesting_and_indices_are_checked() {
+    // Transparency 2.0 would be opacity -1; a negative thickness.
+    let mut b = header(1, 2, 0b01011, 0, 0.0, 0.0, [0.0; 3]);
+    b.extend(1u16.to_le_bytes());
+    f32s(&mut b, &[0.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
+    f32s(&mut b, &[0.0, 2.0]);
+    expect("transparency.hair", &b, "outside 0..1");
+    let mut b = header(1, 2, 0b00111, 0, 0.0, 0.0, [0.0; 3]);
+    b.extend(1u16.to_le_bytes());
+    f32s(&mut b, &[0.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
+    f32s(&mut b, &[0.1, -0.1]);
+    expect("thickness.hair", &b, "negative");
+    // 100,000 nested prims, and 300,000 nested time-sample dictionaries.
+    let deep = format!("#usda 1.0\n{}", "def \"a\" {\n".repeat(100_000));
+    expect("deep.usda", deep.as_bytes(), "nesting deeper");
+    let deep = format!("#usda 1.0\nfloat x = {}", "{0:".repeat(300_000));
+    expect("deep_values.usda", deep.as_bytes(), "nesting deeper");
+    let indexed = "#usda 1.0\ndef BasisCurves \"c\" {\n    int[] curveVertexCounts = [2]\n    point3f[] points = [(0, 0, 0), (0, 1, 0)]\n    color3f[] primvars:displayColor = [(1, 0, 0), (0, 1, 0)] (interpolation = \"vertex\")\n    int[] primvars:displayColor:indices = [0, 1.5]\n}\n";
+    expect("fraction.usda", indexed.as_bytes(), "not a whole number");
+}

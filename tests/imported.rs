@@ -399,3 +399,50 @@ fn a_strand_file_opens_as_a_scene() {
     assert!(e.contains("a-mesh.obj"), "{e}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Found in review: a strand with no length in a file is left out (with a warning), not a
+/// failed load; the path is made absolute, so a scene saved in another folder still finds
+/// the file.
+#[test]
+fn pointless_strands_are_left_out_and_paths_kept_absolute() {
+    let dir = std::env::temp_dir().join(format!("kami-pointless-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("grooms")).unwrap();
+    let g = Groom {
+        counts: vec![3, 2, 2],
+        points: vec![
+            [0.0, 11.5, 0.0],
+            [1.0, 13.0, 0.0],
+            [2.0, 14.0, 0.0],
+            [0.5, 11.4, 0.0],
+            [0.5, 11.4, 0.0],
+            [0.0, 11.5, 1.0],
+            [0.0, 13.0, 2.0],
+        ],
+        widths: Some(vec![0.1, 0.1, 0.1, 0.2, 0.2, 0.3, 0.3]),
+        ..Default::default()
+    };
+    kami::formats::write(&dir.join("grooms/g.hair"), &g).unwrap();
+    let text = r#"Scene(groups: [HairGroup(file: Some(StrandFile(path: "grooms/g.hair")), count: 10, segments: 4)])"#;
+    std::fs::write(dir.join("scene.ron"), text).unwrap();
+    let scene = kami::Scene::load(dir.join("scene.ron")).unwrap();
+    let f = scene.groups[0].file.as_ref().unwrap();
+    let groom = f.groom.as_ref().unwrap();
+    assert_eq!(
+        groom.counts,
+        vec![3, 2],
+        "the strand with no length is left out"
+    );
+    assert_eq!(
+        groom.widths.as_ref().unwrap(),
+        &vec![0.1, 0.1, 0.1, 0.3, 0.3]
+    );
+    assert_eq!(scene.groups[0].count, 2);
+    assert!(std::path::Path::new(&f.path).is_absolute(), "{}", f.path);
+    // Saved elsewhere and loaded again: the same groom.
+    std::fs::create_dir_all(dir.join("elsewhere")).unwrap();
+    std::fs::write(dir.join("elsewhere/saved.ron"), scene.to_ron()).unwrap();
+    let again = kami::Scene::load(dir.join("elsewhere/saved.ron")).unwrap();
+    assert_eq!(again.groups[0].file.as_ref().unwrap().groom, f.groom);
+    prepare(&again).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -124,6 +124,23 @@ impl Groom {
                 .as_ref()
                 .and_then(|o| o.iter().position(|v| !v.is_finite())),
         )?;
+        if let Some(i) = self
+            .widths
+            .as_ref()
+            .and_then(|w| w.iter().position(|&v| v < 0.0))
+        {
+            return Err(bad(format!("the width of point {i} is negative")));
+        }
+        if let Some(i) = self
+            .opacities
+            .as_ref()
+            .and_then(|o| o.iter().position(|&v| !(0.0..=1.0).contains(&v)))
+        {
+            return Err(bad(format!(
+                "the opacity of point {i} is {}, outside 0..1",
+                self.opacities.as_ref().unwrap()[i]
+            )));
+        }
         attr(
             "colour",
             self.colors

@@ -198,7 +198,13 @@ struct Parser<'a> {
     toks: Vec<(Tok, usize)>,
     at: usize,
     origin: &'a str,
+    /// Nesting of prims and values now: bounded, so a hostile file is an error, not a
+    /// stack overflow.
+    depth: usize,
 }
+
+/// Deepest nesting of prims or values read (real files nest a handful of levels).
+const MAX_DEPTH: usize = 128;
 
 /// A numeric attribute: name, values (flattened), tuple size, interpolation, line.
 type Attr = (String, Vec<f64>, usize, Option<String>, usize);
@@ -281,7 +287,22 @@ impl Parser<'_> {
         Ok(interp)
     }
 
+    fn enter(&mut self) -> Result<()> {
+        self.depth += 1;
+        if self.depth > MAX_DEPTH {
+            return Err(self.err(format!("nesting deeper than {MAX_DEPTH} levels")));
+        }
+        Ok(())
+    }
+
     fn value(&mut self) -> Result<Value> {
+        self.enter()?;
+        let v = self.value_in();
+        self.depth -= 1;
+        v
+    }
+
+    fn value_in(&mut self) -> Result<Value> {
         match self.bump()? {
             Tok::Str(_) => Ok(Value::Text),
             Tok::Word(w) => Ok(match num(&w) {
@@ -395,6 +416,18 @@ impl Parser<'_> {
 
     /// Statements up to a closing `}` (or the end, at the top), collecting BasisCurves.
     fn block(
+        &mut self,
+        prim: &mut Option<&mut Prim>,
+        out: &mut Vec<Prim>,
+        top: bool,
+    ) -> Result<()> {
+        self.enter()?;
+        let r = self.block_in(prim, out, top);
+        self.depth -= 1;
+        r
+    }
+
+    fn block_in(
         &mut self,
         prim: &mut Option<&mut Prim>,
         out: &mut Vec<Prim>,
@@ -564,6 +597,7 @@ pub fn parse(text: &str, origin: &str) -> Result<Groom> {
         toks,
         at: 0,
         origin,
+        depth: 0,
     };
     let mut prims = Vec::new();
     p.block(&mut None, &mut prims, true)?;
@@ -625,10 +659,10 @@ pub fn parse(text: &str, origin: &str) -> Result<Groom> {
                 let n = vals.len() / arity.max(1);
                 let mut out = Vec::with_capacity(idx.len() * arity);
                 for &k in idx {
-                    if k < 0.0 || k as usize >= n {
+                    if k.is_nan() || k < 0.0 || k.fract() != 0.0 || k as usize >= n {
                         return Err(err(
                             *iline,
-                            format!("index {k} is out of range for {n} values of `{name}`"),
+                            format!("index {k} is not a whole number in 0..{n} (the values of `{name}`)"),
                         ));
                     }
                     out.extend_from_slice(&vals[k as usize * arity..(k as usize + 1) * arity]);

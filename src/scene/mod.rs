@@ -291,7 +291,21 @@ pub fn resolve_strand_files(scene: &mut Scene, dir: &Path, origin: &str) -> Resu
         } else {
             Path::new(&f.path).to_path_buf()
         };
-        let read = crate::formats::read(&path)?;
+        let mut read = crate::formats::read(&path)?;
+        // Strands with no length (every point the same) cannot be hair: left out, said.
+        let before = read.counts.len();
+        drop_pointless_strands(&mut read);
+        if read.counts.len() < before {
+            log::warn!(
+                "{}: {} of {before} strands have no length (all their points coincide) and are left out",
+                path.display(),
+                before - read.counts.len()
+            );
+        }
+        // Absolute, so a scene saved elsewhere (the viewer's Save) still finds the file.
+        if let Ok(abs) = std::fs::canonicalize(&path) {
+            f.path = abs.display().to_string();
+        }
         let n = read.counts.len();
         if n == 0 {
             return Err(KamiError::Invalid {
@@ -346,6 +360,43 @@ pub fn resolve_strand_files(scene: &mut Scene, dir: &Path, origin: &str) -> Resu
         f.groom = Some(std::sync::Arc::new(groom));
     }
     Ok(())
+}
+
+/// Remove the strands whose points all coincide, with their attributes.
+fn drop_pointless_strands(g: &mut crate::formats::Groom) {
+    let mut keep_point = Vec::with_capacity(g.points.len());
+    let mut counts = Vec::with_capacity(g.counts.len());
+    let mut at = 0usize;
+    for &c in &g.counts {
+        let pts = &g.points[at..at + c as usize];
+        let keep = pts.iter().any(|p| *p != pts[0]);
+        keep_point.extend(std::iter::repeat_n(keep, c as usize));
+        if keep {
+            counts.push(c);
+        }
+        at += c as usize;
+    }
+    if counts.len() == g.counts.len() {
+        return;
+    }
+    fn filter<T: Copy>(v: &mut Vec<T>, keep: &[bool]) {
+        let mut i = 0;
+        v.retain(|_| {
+            i += 1;
+            keep[i - 1]
+        });
+    }
+    filter(&mut g.points, &keep_point);
+    if let Some(w) = g.widths.as_mut() {
+        filter(w, &keep_point);
+    }
+    if let Some(o) = g.opacities.as_mut() {
+        filter(o, &keep_point);
+    }
+    if let Some(c) = g.colors.as_mut() {
+        filter(c, &keep_point);
+    }
+    g.counts = counts;
 }
 
 impl Roots {
@@ -901,11 +952,7 @@ impl Scene {
             crate::forces::eff::resolve(eff, path.parent().unwrap_or(Path::new("")))?;
         }
         // A head mesh named relative to the scene file.
-        if let Some(HeadMesh {
-            source: fur::MeshSource::File(m),
-            ..
-        }) = scene.head.mesh.as_mut()
-        {
+        if let Some(m) = scene.head.mesh.as_mut().and_then(|h| h.source.file_mut()) {
             let dir = path.parent().unwrap_or(Path::new(""));
             if Path::new(m.as_str()).is_relative() && !dir.as_os_str().is_empty() {
                 *m = dir.join(m.as_str()).display().to_string();

@@ -521,6 +521,14 @@ fn validate_head_mesh(m: &crate::scene::HeadMesh) -> Result<()> {
                 "must name an .obj, .off or .ply file",
             ));
         }
+        fur::MeshSource::Gltf { file, .. } if file.trim().is_empty() => {
+            return Err(bad(
+                "head.mesh.source",
+                "\"\"",
+                "must name a .gltf or .glb file",
+            ));
+        }
+        fur::MeshSource::Gltf { fps, .. } => positive("head.mesh.source.fps", *fps, 1e4)?,
         fur::MeshSource::CgalDemo(n)
             if n.is_empty() || n.contains(['/', '\\']) || n.starts_with('.') =>
         {

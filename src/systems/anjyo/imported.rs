@@ -16,6 +16,18 @@ use glam::DVec3;
 /// lands on the polyline's end (secant iteration on the arc length it reaches). `None` when
 /// the polyline has no length.
 pub fn resample(points: &[DVec3], segments: u32) -> Option<Vec<DVec3>> {
+    // Repeated points (a tip written twice is common in exports) are zero-length pieces the
+    // walk cannot follow: drop them.
+    let mut kept: Vec<DVec3> = Vec::with_capacity(points.len());
+    for p in points {
+        if kept.last() != Some(p) {
+            kept.push(*p);
+        }
+    }
+    if kept.len() < 2 {
+        return None;
+    }
+    let points = &kept[..];
     let total: f64 = points.windows(2).map(|w| (w[1] - w[0]).length()).sum();
     if total.is_nan() || total <= 0.0 || !total.is_finite() {
         return None;
@@ -178,5 +190,18 @@ mod tests {
             assert!((r - 1.0).abs() < 2e-4, "node off the helix: r = {r}");
         }
         assert!(resample(&[DVec3::ONE, DVec3::ONE], 3).is_none());
+        // A repeated tip (and a repeated point inside) changes nothing.
+        let pts = [
+            DVec3::ZERO,
+            DVec3::new(0.0, 1.0, 0.0),
+            DVec3::new(0.0, 1.0, 0.0),
+            DVec3::new(0.0, 2.0, 0.5),
+            DVec3::new(0.0, 3.0, 1.5),
+            DVec3::new(0.0, 3.0, 1.5),
+        ];
+        let a = resample(&pts, 4).unwrap();
+        let b = resample(&[pts[0], pts[1], pts[3], pts[4]], 4).unwrap();
+        assert_eq!(a, b);
+        assert!((a[4] - pts[4]).length() < 1e-9, "tip at {}", a[4]);
     }
 }
