@@ -50,7 +50,18 @@ pub fn run(scene_path: &Path, out: &Path) -> Result<Report> {
     let mut far = Vec::new();
     // 600 points within 1 cm of a mesh vertex, 600 uniform in the box; points where the
     // winding number is within 0.3 of 1/2 (the open neck) have no clear sign and are left out.
+    let mut tries = 0u32;
     while near.len() < 600 || far.len() < 600 {
+        tries += 1;
+        if tries > 200_000 {
+            return Err(crate::KamiError::Invalid {
+                file: scene_path.display().to_string(),
+                field: "head.mesh".into(),
+                value: format!("{} near and {} box points", near.len(), far.len()),
+                allowed: "the mesh's sign is ambiguous almost everywhere (an open sheet?):                           no points to measure the field at"
+                    .into(),
+            });
+        }
         let v = first.mesh.positions[(rng.unit() * first.mesh.positions.len() as f64) as usize];
         let p_near = v + (DVec3::new(rng.unit(), rng.unit(), rng.unit()) * 2.0 - 1.0);
         let p_far = lo + (hi - lo) * DVec3::new(rng.unit(), rng.unit(), rng.unit());
