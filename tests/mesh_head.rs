@@ -3,7 +3,7 @@
 //! kernels on the mesh head against their f64 references, no node inside the head after
 //! grooming and after a strong gust into the face, clear errors, and a snapshot.
 //!
-//! Figures (printed with `--nocapture`) are quoted in docs/mesh_head.md.
+//! Speed and error figures come from `kami bench sdf` (docs/sdf.md), not from these tests.
 
 mod common;
 use common::{check_snapshot, Tolerance};
@@ -452,4 +452,35 @@ fn mesh_head_frame_12_snapshot() {
         Ok(())
     })
     .unwrap();
+}
+
+/// A head mesh replaced on disk is read again when the scene is opened again (the cache is
+/// keyed by the file's size and time, not only its path): a sphere of radius 9 becomes one
+/// of radius 12, and the field at the centre follows.
+#[test]
+fn a_replaced_mesh_file_is_read_again() {
+    let dir = std::env::temp_dir().join(format!("kami-mesh-again-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("ball.off");
+    let write = |r: f64, rings: u32| {
+        let (p, t) = common::uv_sphere(DVec3::ZERO, r, rings, 2 * rings);
+        std::fs::write(&path, common::off_text(&p, &t)).unwrap();
+    };
+    write(9.0, 12);
+    let mut scene = mesh_scene();
+    let m = scene.head.mesh.as_mut().unwrap();
+    m.source = kami::scene::fur::MeshSource::File(path.display().to_string());
+    m.scale = 1.0;
+    m.rotate = [0.0; 3];
+    m.translate = [0.0; 3];
+    m.scalp.clear();
+    m.resolution = 16;
+    let first = data(&scene).sdf.sample(DVec3::ZERO);
+    write(12.0, 16);
+    let second = data(&scene).sdf.sample(DVec3::ZERO);
+    assert!(
+        first < -8.0 && second < first - 2.5,
+        "the field at the centre: {first:.2} then {second:.2}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
 }

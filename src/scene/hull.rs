@@ -243,8 +243,10 @@ pub fn build_head_mesh(head: &Head, m: &HeadMesh) -> Result<HeadMeshData> {
 }
 
 /// Keyed by what the mesh head depends on (its description and the centre polar scalp
-/// regions are measured about), so editing the skin colour rebuilds nothing.
-type Cache = Option<(([f64; 3], HeadMesh), Arc<HeadMeshData>)>;
+/// regions are measured about, and the file's size and time), so editing the skin colour
+/// rebuilds nothing.
+type Key = ([f64; 3], HeadMesh, Option<(u64, std::time::SystemTime)>);
+type Cache = Option<(Key, Arc<HeadMeshData>)>;
 static CACHE: Mutex<Cache> = Mutex::new(None);
 
 /// The mesh head of a scene, built once per distinct head (re-grooms and the head pass share
@@ -253,7 +255,9 @@ pub fn head_mesh(head: &Head) -> Result<Option<Arc<HeadMeshData>>> {
     let Some(m) = &head.mesh else {
         return Ok(None);
     };
-    let key = (head.center, m.clone());
+    // The file's size and modification time are part of the key: a mesh replaced on disk
+    // and opened again is read again.
+    let key = (head.center, m.clone(), stamp(&m.source));
     if let Ok(c) = CACHE.lock() {
         if let Some((k, v)) = c.as_ref() {
             if *k == key {
@@ -266,6 +270,17 @@ pub fn head_mesh(head: &Head) -> Result<Option<Arc<HeadMeshData>>> {
         *c = Some((key, data.clone()));
     }
     Ok(Some(data))
+}
+
+/// Size and modification time of the file a mesh source reads (None for built-in and
+/// packaged meshes, or when the file cannot be stat'ed: the load reports that).
+fn stamp(source: &MeshSource) -> Option<(u64, std::time::SystemTime)> {
+    let path = match source {
+        MeshSource::File(f) | MeshSource::Gltf { file: f, .. } => f,
+        _ => return None,
+    };
+    let meta = std::fs::metadata(path).ok()?;
+    Some((meta.len(), meta.modified().ok()?))
 }
 
 /// The scene's collision hull.
