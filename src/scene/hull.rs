@@ -12,7 +12,7 @@ use super::mesh::Mesh;
 use super::sdf::{Sdf, Triangles};
 use super::{fur::MeshSource, Head, HeadMesh, ScalpRegion};
 use crate::error::{KamiError, Result};
-use glam::{DMat4, DQuat, DVec3, EulerRot};
+use glam::{DMat4, DVec3};
 use std::path::Path;
 use std::sync::{Arc, Mutex};
 
@@ -126,12 +126,7 @@ pub struct HeadMeshData {
 
 /// Placement of the head mesh: scale, rotate (x then y then z, degrees), translate.
 pub fn placement(m: &HeadMesh) -> DMat4 {
-    let [rx, ry, rz] = m.rotate.map(f64::to_radians);
-    DMat4::from_scale_rotation_translation(
-        DVec3::splat(m.scale),
-        DQuat::from_euler(EulerRot::ZYX, rz, ry, rx),
-        DVec3::from(m.translate),
-    )
+    super::placement(m.scale, m.rotate, m.translate)
 }
 
 /// Polar angles (degrees) of `p` about `center`: zenith from +y, azimuth from +x to +z.

@@ -271,13 +271,19 @@ pub struct StrandFile {
 impl StrandFile {
     /// The placement as a matrix: scale, then rotate x, y, z, then translate.
     pub fn transform(&self) -> glam::DMat4 {
-        let [rx, ry, rz] = self.rotate.map(f64::to_radians);
-        glam::DMat4::from_translation(glam::DVec3::from(self.translate))
-            * glam::DMat4::from_rotation_z(rz)
-            * glam::DMat4::from_rotation_y(ry)
-            * glam::DMat4::from_rotation_x(rx)
-            * glam::DMat4::from_scale(glam::DVec3::splat(self.scale))
+        placement(self.scale, self.rotate, self.translate)
     }
+}
+
+/// How files made elsewhere are placed in Kami's head coordinates (strand files, head
+/// meshes): scale, then rotate (degrees about x, then y, then z), then translate.
+pub fn placement(scale: f64, rotate: [f64; 3], translate: [f64; 3]) -> glam::DMat4 {
+    let [rx, ry, rz] = rotate.map(f64::to_radians);
+    glam::DMat4::from_scale_rotation_translation(
+        glam::DVec3::splat(scale),
+        glam::DQuat::from_euler(glam::EulerRot::ZYX, rz, ry, rx),
+        glam::DVec3::from(translate),
+    )
 }
 
 /// Read the strand files the scene's hair groups name (relative paths from `dir`), place
