@@ -164,6 +164,39 @@ enum Bench {
     /// Projective dynamics: error against cost over a sweep of dt and segment counts on the
     /// gust scene and the hard cases, GPU and CPU cost at the paper's size, and the rigid
     /// pendulum's period; writes dynamics.md, dynamics.csv and dynamics.png.
+    /// GPU time per pass (simulation, generation, draw, resolve, whole frame) over a sweep of
+    /// strand counts and segments per strand, from timestamp queries (a labelled CPU-side
+    /// fallback where the adapter has none), and the simulation's memory bandwidth against
+    /// a buffer copy; writes scale.md, scale.csv and scale.png.
+    Scale {
+        #[arg(long, default_value = "assets/scenes/gust.ron")]
+        scene: PathBuf,
+        /// Strand counts, comma separated.
+        #[arg(long, value_delimiter = ',', default_value = "1000,10000,100000,1000000", value_parser = parse_count)]
+        strands: Vec<u32>,
+        /// Segments per strand, comma separated.
+        #[arg(long, value_delimiter = ',', default_value = "8,16,32,64", value_parser = parse_segments)]
+        segments: Vec<u32>,
+        /// Image size.
+        #[arg(long, default_value = "1920x1080", value_parser = parse_size)]
+        size: (u32, u32),
+        /// Timed frames per point.
+        #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=1000))]
+        frames: u32,
+        /// Skip points with more segments than this (default: 2,000,000 on a software
+        /// adapter, 64,000,000 on a GPU).
+        #[arg(long)]
+        max_segments: Option<u64>,
+        /// Time each phase on the CPU around a wait even where the adapter has timestamp
+        /// queries (to check one clock against the other).
+        #[arg(long)]
+        cpu_clock: bool,
+        /// Directory for the report files.
+        #[arg(long, default_value = "bench_out")]
+        out: PathBuf,
+        #[arg(long)]
+        software: bool,
+    },
     Dynamics {
         #[arg(long, default_value = "assets/scenes/gust.ron")]
         scene: PathBuf,
@@ -229,6 +262,35 @@ enum Bench {
         #[arg(long)]
         software: bool,
     },
+}
+
+fn parse_count(s: &str) -> Result<u32, String> {
+    let n: u32 = s
+        .trim()
+        .replace('_', "")
+        .parse()
+        .map_err(|_| format!("strand count {s:?} is not a whole number"))?;
+    if n == 0 || n as u64 > kami::scene::MAX_STRANDS {
+        return Err(format!(
+            "strand count {n} must be between 1 and {}",
+            kami::scene::MAX_STRANDS
+        ));
+    }
+    Ok(n)
+}
+
+fn parse_segments(s: &str) -> Result<u32, String> {
+    let n: u32 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("segment count {s:?} is not a whole number"))?;
+    if n == 0 || n > kami::scene::MAX_SEGMENTS {
+        return Err(format!(
+            "segments per strand {n} must be between 1 and {}",
+            kami::scene::MAX_SEGMENTS
+        ));
+    }
+    Ok(n)
 }
 
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -509,6 +571,34 @@ fn main() -> Result<()> {
                 let report = kami::bench::backends::run(&scenes, &out)?;
                 println!("{}", report.markdown);
                 println!("wrote {0}/backends.md, {0}/backends.csv", out.display());
+            }
+            Bench::Scale {
+                scene,
+                strands,
+                segments,
+                size,
+                frames,
+                max_segments,
+                cpu_clock,
+                out,
+                software,
+            } => {
+                let gpu = Gpu::headless(preference(software))?;
+                let soft = gpu.info.device_type == wgpu::DeviceType::Cpu;
+                let sweep = kami::bench::scale::Sweep {
+                    strands,
+                    segments,
+                    size,
+                    frames,
+                    max_segments: max_segments.unwrap_or(if soft { 2_000_000 } else { 64_000_000 }),
+                    cpu_clock,
+                };
+                let report = kami::bench::scale::run(&gpu, &scene, &sweep, &out)?;
+                println!("{}", report.markdown);
+                println!(
+                    "wrote {0}/scale.md, {0}/scale.csv, {0}/scale.png",
+                    out.display()
+                );
             }
             Bench::Dynamics {
                 scene,

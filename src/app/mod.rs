@@ -15,6 +15,7 @@ pub mod params;
 pub mod strips_mouse;
 
 use crate::error::{KamiError, Result};
+use crate::gpu::timing::Phase;
 use crate::gpu::{self, Gpu, Preference};
 use crate::scene::Scene;
 use crate::stage::{self, target::Offscreen, Look, Stage};
@@ -100,14 +101,12 @@ pub fn run(options: ViewerOptions) -> Result<()> {
     let st = &app.state.stats;
     if app.gfx.is_some() {
         println!(
-            "viewer: {} frames drawn (clock at frame {}), {:.1} fps; sim {:.1} ms, scene {:.1} ms, panels {:.1} ms, present {:.1} ms; {:.0} % of hairs drawn, {}x{} on {}",
+            "viewer: {} frames drawn (clock at frame {}), {:.1} fps; {}, CPU recording {:.1} ms; {:.0} % of hairs drawn, {}x{} on {}",
             app.gfx.as_ref().map_or(0, |g| g.frames),
             st.frame,
             st.fps,
-            st.sim_ms,
-            st.render_ms,
-            st.ui_ms,
-            st.present_ms,
+            st.gpu_summary(),
+            st.record_ms,
             app.state.view.hair_fraction * 100.0,
             st.size.0,
             st.size.1,
@@ -281,7 +280,10 @@ fn build(
     quality: stage::Quality,
 ) -> Result<Stage> {
     stage::check_limits(gpu, scene, scene.render.size)?;
-    Stage::new(gpu, scene, format, quality)
+    let mut stage = Stage::new(gpu, scene, format, quality)?;
+    // Per-pass GPU times for Stats and the level of detail, read back without waiting.
+    stage.enable_timing(gpu);
+    Ok(stage)
 }
 
 impl App {
@@ -354,6 +356,7 @@ impl App {
             Some(gpu.device.limits().max_texture_dimension_2d as usize),
         );
         self.state.stats.adapter = gpu.describe();
+        self.state.stats.timestamps = crate::gpu::timing::GpuTimer::new(&gpu).is_some();
         self.gfx = Some(Gfx {
             camera: OrbitCamera::from_desc(&scene.camera),
             window,
@@ -839,8 +842,9 @@ fn frame_body(
         state.strip_pose = None;
     }
 
-    // The clock: `time_scale` frames per drawn frame, from the second drawn frame on.
-    let t = Instant::now();
+    // The clock: `time_scale` frames per drawn frame, from the second drawn frame on. The
+    // motion is submitted on its own (the strips' picking reads it back) and never waited
+    // for: the GPU times of every pass come back from timestamps a few frames later.
     if state.view.playing && g.frames > 0 {
         g.clock_debt += state.view.time_scale;
         let due = (g.clock_debt.floor() as u32).min(4);
@@ -854,14 +858,11 @@ fn frame_body(
                 });
             let info = g.stage.advance(&g.gpu, &mut enc, due)?;
             g.gpu.queue.submit([enc.finish()]);
-            // Wait (to time the simulation) only when a solver recorded work.
             if info.substeps > 0 {
-                g.gpu.wait()?;
                 state.stats.substeps = info.substeps;
             }
         }
     }
-    state.stats.sim_ms = state.stats.sim_ema.add(t.elapsed().as_secs_f64() * 1e3);
     // The picked strip's outline follows it (one read-back a frame, in the mouse mode only).
     if state.view.edit_strips && state.scene.strips.is_some() {
         strips_mouse::pose(&g.stage, &g.gpu, state)?;
@@ -906,22 +907,37 @@ fn frame_body(
         pixels_per_point: output.pixels_per_point,
     };
 
-    let (scene_ms, ui_ms) = draw(g, &target, (w, h), scene_w, &look, &paint, &screen)?;
     let t = Instant::now();
+    draw(g, &target, (w, h), scene_w, &look, &paint, &screen)?;
     g.gpu.queue.present(surface_tex);
-    g.gpu.wait()?;
-    let present_ms = t.elapsed().as_secs_f64() * 1e3;
+    let record_ms = t.elapsed().as_secs_f64() * 1e3;
     let st = &mut state.stats;
-    st.render_ms = st.render_ema.add(scene_ms);
-    st.ui_ms = st.ui_ema.add(ui_ms);
-    st.present_ms = st.present_ema.add(present_ms);
+    st.record_ms = st.record_ema.add(record_ms);
+    // GPU times of an earlier frame, when they have arrived (never waited for).
+    if let Some(times) = g.stage.timer().and_then(|t| t.poll(&g.gpu)) {
+        st.gpu = Some(times);
+        if let Some(ms) = times.get(Phase::Simulation) {
+            st.sim_ms = st.sim_ema.add(ms);
+        }
+        let scene_ms = [Phase::Generation, Phase::Draw, Phase::Resolve]
+            .iter()
+            .filter_map(|p| times.get(*p))
+            .sum::<f64>();
+        st.render_ms = st.render_ema.add(scene_ms);
+        if let Some(ms) = times.get(Phase::Panels) {
+            st.ui_ms = st.ui_ema.add(ms);
+        }
+    } else if g.stage.timer().is_none() {
+        // No timestamps on this adapter: the frame period is all there is to go by.
+        st.render_ms = st.frame_ms;
+    }
     st.systems = g
         .stage
         .systems()
         .iter()
         .map(|s| (s.kind(), s.stats()))
         .collect();
-    let render_ms = scene_ms;
+    let render_ms = st.render_ms;
 
     for path in shots {
         let shot = Offscreen::with_format(&g.gpu, (w, h), g.config.format)?;
@@ -960,7 +976,7 @@ fn frame_body(
     Ok(())
 }
 
-/// Scene then panels into `target`.
+/// Scene then panels into `target`, in one submission that nothing waits for.
 fn draw(
     g: &mut Gfx,
     target: &wgpu::TextureView,
@@ -969,30 +985,20 @@ fn draw(
     look: &Look,
     paint: &[egui::ClippedPrimitive],
     screen: &egui_wgpu::ScreenDescriptor,
-) -> Result<(f64, f64)> {
-    // Scene and panels are submitted and timed separately: the Stats panel says which one
-    // limits the frame rate.
-    let t = Instant::now();
+) -> Result<()> {
     let mut enc = g
         .gpu
         .device
         .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("viewer scene"),
+            label: Some("viewer frame"),
         });
     g.stage
         .render_region(&g.gpu, &mut enc, target, size, (scene_w, size.1), look)?;
-    g.gpu.queue.submit([enc.finish()]);
-    g.gpu.wait()?;
-    let scene_ms = t.elapsed().as_secs_f64() * 1e3;
-    let t = Instant::now();
-    let mut enc = g
-        .gpu
-        .device
-        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("viewer panels"),
-        });
     g.egui_renderer
         .update_buffers(&g.gpu.device, &g.gpu.queue, &mut enc, paint, screen);
+    if let Some(t) = g.stage.timer() {
+        t.begin(&mut enc, Phase::Panels);
+    }
     {
         let pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("egui"),
@@ -1013,8 +1019,13 @@ fn draw(
         let mut pass = pass.forget_lifetime();
         g.egui_renderer.render(&mut pass, paint, screen);
     }
+    if let Some(t) = g.stage.timer() {
+        t.end(&mut enc, Phase::Panels);
+        t.finish(&mut enc);
+    }
     g.gpu.queue.submit([enc.finish()]);
-    g.gpu.wait()?;
-    g.gpu.take_error()?;
-    Ok((scene_ms, t.elapsed().as_secs_f64() * 1e3))
+    if let Some(t) = g.stage.timer() {
+        t.submitted();
+    }
+    g.gpu.take_error()
 }

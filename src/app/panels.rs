@@ -284,11 +284,35 @@ fn stats(ui: &mut Ui, s: &ViewerState) {
         ui.label("fps");
         ui.label(format!("{:.1}", st.fps));
         ui.end_row();
-        ui.label("sim / scene");
-        ui.label(format!("{:.1} / {:.1} ms", st.sim_ms, st.render_ms));
-        ui.end_row();
-        ui.label("panels / present");
-        ui.label(format!("{:.1} / {:.1} ms", st.ui_ms, st.present_ms));
+        // Per-pass GPU times from timestamp queries (a few frames late; nothing waits).
+        match (&st.gpu, st.timestamps) {
+            (Some(t), _) => {
+                for p in crate::gpu::timing::Phase::ALL {
+                    if let Some(ms) = t.get(p) {
+                        ui.label(format!("GPU {}", p.name()));
+                        ui.label(format!("{ms:.2} ms"));
+                        ui.end_row();
+                    }
+                }
+                if let Some(ms) = t.frame {
+                    ui.label("GPU frame");
+                    ui.label(format!("{ms:.2} ms (busy {:.2})", t.busy()));
+                    ui.end_row();
+                }
+            }
+            (None, true) => {
+                ui.label("GPU passes");
+                ui.label("waiting for the first timings");
+                ui.end_row();
+            }
+            (None, false) => {
+                ui.label("GPU passes");
+                ui.label("no timestamp queries on this adapter");
+                ui.end_row();
+            }
+        }
+        ui.label("CPU recording");
+        ui.label(format!("{:.1} ms", st.record_ms));
         ui.end_row();
         ui.label("last groom");
         ui.label(format!("{:.0} ms", st.groom_ms));

@@ -124,13 +124,19 @@ pub enum MouseEvent {
 pub struct Stats {
     pub fps: f64,
     pub frame_ms: f64,
+    /// GPU simulation time (timestamps; 0 without them).
     pub sim_ms: f64,
-    /// Scene passes (the share that depends on the hair drawn).
+    /// GPU time of the scene passes: generation, draw, resolve (timestamps); the frame
+    /// period on adapters without timestamps. The level of detail keeps it in budget.
     pub render_ms: f64,
-    /// egui panels.
+    /// GPU time of the egui panels (timestamps).
     pub ui_ms: f64,
-    /// Presenting to the window.
-    pub present_ms: f64,
+    /// CPU time to record and submit the frame's scene and panels and present it.
+    pub record_ms: f64,
+    /// The newest per-pass GPU times (None until the first arrive, or without timestamps).
+    pub gpu: Option<crate::gpu::timing::PassTimes>,
+    /// The adapter has timestamp queries.
+    pub timestamps: bool,
     pub groom_ms: f64,
     pub strands: u64,
     pub segments: u64,
@@ -145,7 +151,20 @@ pub struct Stats {
     pub sim_ema: Ema,
     pub render_ema: Ema,
     pub ui_ema: Ema,
-    pub present_ema: Ema,
+    pub record_ema: Ema,
+}
+
+impl Stats {
+    /// The per-pass GPU times in one line (the viewer's exit line).
+    pub fn gpu_summary(&self) -> String {
+        if !self.timestamps {
+            return "no GPU timestamps on this adapter".into();
+        }
+        format!(
+            "GPU sim {:.2} ms, scene {:.2} ms, panels {:.2} ms",
+            self.sim_ms, self.render_ms, self.ui_ms
+        )
+    }
 }
 
 /// Everything the panels edit.

@@ -8,6 +8,7 @@
 pub mod gpu_data;
 pub mod pipeline;
 pub mod strands;
+pub mod timing;
 
 use crate::error::{KamiError, Result};
 use std::sync::{Arc, Mutex};
@@ -152,7 +153,9 @@ impl Gpu {
         }
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("kami device"),
-            required_features: wgpu::Features::empty(),
+            // Timestamp queries where the adapter has them: per-pass GPU times
+            // (`timing::GpuTimer`) for the viewer's Stats and `kami bench scale`.
+            required_features: adapter.features() & timing::features(),
             required_limits: adapter.limits(),
             experimental_features: wgpu::ExperimentalFeatures::disabled(),
             memory_hints: wgpu::MemoryHints::Performance,

@@ -18,6 +18,7 @@ pub mod target;
 use crate::error::Result;
 use crate::forces::Forces;
 use crate::gpu::gpu_data::{linear_rgb, GpuFrame};
+use crate::gpu::timing::{GpuTimer, Phase};
 use crate::gpu::{self, Gpu};
 use crate::scene::Scene;
 use crate::systems::{Change, DrawSetup, FrameCtx, HairSystem, StepInfo, SystemStats, View, KINDS};
@@ -76,6 +77,8 @@ pub struct Stage {
     head: Option<head::HeadPass>,
     downsample: DownsamplePass,
     targets: Option<(SceneTargets, wgpu::BindGroup)>,
+    /// Per-pass GPU times, only when a caller asked for them (`enable_timing`).
+    timer: Option<GpuTimer>,
 }
 
 /// Check, before anything is allocated, that a scene rendered at `size` fits the adapter:
@@ -154,6 +157,7 @@ impl Stage {
             frame_bind_group,
             frame_layout,
             targets: None,
+            timer: None,
         };
         stage.ensure_head(gpu)?;
         for kind in KINDS {
@@ -197,6 +201,31 @@ impl Stage {
 
     pub fn scene(&self) -> &Scene {
         &self.scene
+    }
+
+    /// Time every pass on the GPU from now on (the viewer's Stats, `kami bench scale`).
+    /// False when the adapter has no timestamp queries.
+    pub fn enable_timing(&mut self, gpu: &Gpu) -> bool {
+        if self.timer.is_none() {
+            self.timer = GpuTimer::new(gpu);
+        }
+        self.timer.is_some()
+    }
+
+    /// The pass timer, when timing is on: the caller ends the frame with `finish` in its
+    /// last encoder and `submitted` after submitting it, and reads times with `poll`.
+    pub fn timer(&mut self) -> Option<&mut GpuTimer> {
+        self.timer.as_mut()
+    }
+
+    fn mark(&mut self, enc: &mut wgpu::CommandEncoder, phase: Phase, begin: bool) {
+        if let Some(t) = self.timer.as_mut() {
+            if begin {
+                t.begin(enc, phase);
+            } else {
+                t.end(enc, phase);
+            }
+        }
     }
 
     /// Whether the head pass is built (only while the scene shows the head).
@@ -278,10 +307,12 @@ impl Stage {
         if frames == 0 {
             return Ok(info);
         }
+        self.mark(enc, Phase::Simulation, true);
         let ctx = clock(self.frame, &self.forces);
         for s in &mut self.systems {
             info = info.merge(s.step(gpu, enc, &ctx, frames)?);
         }
+        self.mark(enc, Phase::Simulation, false);
         self.frame += frames as u64;
         Ok(info)
     }
@@ -445,9 +476,13 @@ impl Stage {
             lod: look.lod,
             overlay: look.overlay,
         };
+        self.mark(enc, Phase::Generation, true);
         let ctx = clock(self.frame, &self.forces);
         for s in &mut self.systems {
             s.prepare(gpu, enc, &ctx, &view)?;
+        }
+        if let Some(t) = self.timer.as_mut() {
+            t.end(enc, Phase::Generation);
         }
         let bounds = self.bounds();
         let Some((targets, down_bg)) = self.targets.as_ref() else {
@@ -465,6 +500,9 @@ impl Stage {
                 ctx.head,
                 self.scene.head.color,
             );
+        }
+        if let Some(t) = self.timer.as_mut() {
+            t.begin(enc, Phase::Draw);
         }
         let bg = linear_rgb(self.scene.render.background);
         let clear = wgpu::Color {
@@ -494,7 +532,12 @@ impl Stage {
                 s.draw(&mut pass, &view);
             }
         }
+        if let Some(t) = self.timer.as_mut() {
+            t.end(enc, Phase::Draw);
+            t.begin(enc, Phase::Resolve);
+        }
         self.downsample.draw(enc, down_bg, output, size, clear);
+        self.mark(enc, Phase::Resolve, false);
         Ok(())
     }
 }
