@@ -191,6 +191,12 @@ enum Bench {
         /// queries (to check one clock against the other).
         #[arg(long)]
         cpu_clock: bool,
+        /// MSAA samples (1 or 4) instead of the scene's.
+        #[arg(long, value_parser = parse_msaa)]
+        msaa: Option<u32>,
+        /// Supersampling per axis (1..=4) instead of the scene's.
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4))]
+        supersample: Option<u32>,
         /// Directory for the report files.
         #[arg(long, default_value = "bench_out")]
         out: PathBuf,
@@ -580,6 +586,8 @@ fn main() -> Result<()> {
                 frames,
                 max_segments,
                 cpu_clock,
+                msaa,
+                supersample,
                 out,
                 software,
             } => {
@@ -592,6 +600,8 @@ fn main() -> Result<()> {
                     frames,
                     max_segments: max_segments.unwrap_or(if soft { 2_000_000 } else { 64_000_000 }),
                     cpu_clock,
+                    msaa,
+                    supersample,
                 };
                 let report = kami::bench::scale::run(&gpu, &scene, &sweep, &out)?;
                 println!("{}", report.markdown);

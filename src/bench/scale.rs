@@ -29,6 +29,9 @@ pub struct Sweep {
     pub max_segments: u64,
     /// Time on the CPU around waits even where timestamps exist (to check them).
     pub cpu_clock: bool,
+    /// Anti-aliasing instead of the scene's: (MSAA samples, supersampling per axis).
+    pub msaa: Option<u32>,
+    pub supersample: Option<u32>,
 }
 
 /// Bytes the projective kernel moves per simulated segment and substep: the angle state
@@ -259,7 +262,14 @@ fn opt(v: Option<f64>) -> String {
 
 /// Run the sweep over `base_path`'s scene; writes `scale.md`, `scale.csv` and `scale.png`.
 pub fn run(gpu: &Gpu, base_path: &Path, sweep: &Sweep, out: &Path) -> Result<Report> {
-    let base = Scene::load(base_path)?;
+    let mut base = Scene::load(base_path)?;
+    if let Some(m) = sweep.msaa {
+        base.render.msaa = m;
+    }
+    if let Some(f) = sweep.supersample {
+        base.render.supersample = f;
+    }
+    crate::scene::validate(&base)?;
     if base.dynamics.is_none() || !base.groups.iter().any(|g| g.dynamic) {
         return Err(KamiError::Invalid {
             file: base_path.display().to_string(),
