@@ -5,6 +5,7 @@ pub mod backends;
 pub mod fur;
 pub mod scale;
 pub mod sdf;
+pub mod splat;
 pub mod strips;
 pub mod wisps;
 

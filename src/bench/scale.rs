@@ -41,7 +41,6 @@ pub const BYTES_PER_SEGMENT: u64 = 64;
 pub const BYTES_PER_STRAND: u64 = 64;
 
 /// One measured point.
-#[derive(Clone, Debug)]
 struct Point {
     strands: u64,
     segments: u32,
@@ -54,6 +53,10 @@ struct Point {
     phases: [Option<f64>; 5],
     /// The simulation alone on the CPU clock (timed runs only).
     sim_alone_ms: Option<f64>,
+    /// Rendering alone (generation, ribbons, resolve) on the CPU clock.
+    ribbons_ms: f64,
+    /// The compute walk over every segment (`bench::splat`).
+    probe: Option<super::splat::Probe>,
     frame_ms: f64,
     cpu_ms: f64,
 }
@@ -185,6 +188,24 @@ fn measure(gpu: &Gpu, scene: &Scene, sweep: &Sweep, timed: bool) -> Result<Point
             alone.push(t.elapsed().as_secs_f64() * 1e3);
         }
     }
+    // How to draw: the ribbons alone (render only, CPU wall) beside the compute probe's
+    // lower bound for a compute rasteriser (bench::splat).
+    let mut ribbons = Vec::new();
+    for _ in 0..3 {
+        let t = Instant::now();
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        stage.render(gpu, &mut enc, &out.view, sweep.size, &look)?;
+        if let Some(tm) = stage.timer() {
+            tm.finish(&mut enc);
+        }
+        gpu.queue.submit([enc.finish()]);
+        if let Some(tm) = stage.timer() {
+            tm.submitted();
+        }
+        gpu.wait()?;
+        ribbons.push(t.elapsed().as_secs_f64() * 1e3);
+    }
+    let probe = super::splat::probe(gpu, &stage, sweep.size, 3)?;
     gpu.take_error()?;
     let mut phases = [None; 5];
     for p in Phase::ALL {
@@ -199,6 +220,8 @@ fn measure(gpu: &Gpu, scene: &Scene, sweep: &Sweep, timed: bool) -> Result<Point
         substeps: substeps as f64 / sweep.frames.max(1) as f64,
         phases,
         sim_alone_ms: median(alone),
+        ribbons_ms: median(ribbons).unwrap_or(f64::NAN),
+        probe,
         frame_ms: median(samples.iter().filter_map(|s| s.frame).collect()).unwrap_or(f64::NAN),
         cpu_ms: median(cpu).unwrap_or(f64::NAN),
     })
@@ -394,6 +417,23 @@ pub fn run(gpu: &Gpu, base_path: &Path, sweep: &Sweep, out: &Path) -> Result<Rep
     }
     if !skipped.is_empty() {
         let _ = writeln!(md, "\nSkipped: {}.", skipped.join("; "));
+    }
+    let _ = writeln!(md, "\n**How to draw thin strands** (issue 12, item 6: measure before choosing). Rendering alone (generation, the triangle-strip ribbons, resolve; CPU wall around a wait) beside `bench::splat`: a compute pass that only walks every segment across the pixels it crosses and counts them (no depth, shading or coverage), the lower bound of a compute rasteriser at this size.\n");
+    let _ = writeln!(md, "| strands | segments/strand | render alone ms | compute walk ms | pixel steps | render / walk |");
+    let _ = writeln!(md, "|---:|---:|---:|---:|---:|---:|");
+    for p in &points {
+        if let Some(pr) = &p.probe {
+            let _ = writeln!(
+                md,
+                "| {} | {} | {:.2} | {:.2} | {} | {:.1} |",
+                p.strands,
+                p.segments,
+                p.ribbons_ms,
+                pr.ms,
+                pr.pixel_steps,
+                p.ribbons_ms / pr.ms
+            );
+        }
     }
     let mut series = Vec::new();
     for (i, &k) in sweep.segments.iter().enumerate() {
