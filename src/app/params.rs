@@ -160,9 +160,16 @@ impl Stats {
         if !self.timestamps {
             return "no GPU timestamps on this adapter".into();
         }
+        let sim = match self
+            .gpu
+            .and_then(|t| t.get(crate::gpu::timing::Phase::Simulation))
+        {
+            Some(_) => format!("{:.2} ms", self.sim_ms),
+            None => "none".into(),
+        };
         format!(
-            "GPU sim {:.2} ms, scene {:.2} ms, panels {:.2} ms",
-            self.sim_ms, self.render_ms, self.ui_ms
+            "GPU sim {sim}, scene {:.2} ms, panels {:.2} ms",
+            self.render_ms, self.ui_ms
         )
     }
 }
