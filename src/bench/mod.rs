@@ -3,6 +3,7 @@
 
 pub mod backends;
 pub mod fur;
+pub mod lod;
 pub mod sdf;
 pub mod strips;
 pub mod wisps;
