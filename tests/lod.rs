@@ -133,3 +133,39 @@ fn anjyo_uses_the_shared_share() {
     assert!((a.screen.share - 0.25).abs() < 1e-9, "{:?}", a.screen);
     assert!((a.screen.width_scale - 4.0).abs() < 1e-9);
 }
+
+/// Fur shares the function: far away (four times the distance where the model fills the
+/// frame) its polyline coats draw every k-th node (k > 1) and a quarter of the hairs, and
+/// the image stays within 4 levels of 255 (tile error) of full detail (measured: steps
+/// 2 and 5, 25 % of the hairs, tile error 1.6).
+#[test]
+fn small_fur_draws_fewer_hairs_and_nodes_with_a_small_error() {
+    let gpu = common::gpu();
+    let mut scene = common::scene("fur_fig9");
+    let setup =
+        kami::systems::fur::setup::FurSetup::new(scene.fur.as_ref().unwrap(), scene.seed).unwrap();
+    let (centre, r) = setup.bounds();
+    let full = r / (0.5 * scene.camera.fov_y.to_radians()).sin();
+    let dir = (glam::DVec3::from(scene.camera.eye) - centre).normalize();
+    scene.camera.eye = (centre + dir * (4.0 * full)).to_array();
+    scene.camera.target = centre.to_array();
+    let shot = |tol: f64| {
+        let mut s = scene.clone();
+        s.render.lod_tolerance_px = tol;
+        let mut stage = Stage::new(&gpu, &s, target::OUTPUT_FORMAT, Quality::of(&s)).unwrap();
+        let out = target::Offscreen::new(&gpu, SIZE).unwrap();
+        let look = stage.look();
+        frame(&gpu, &mut stage, &out, &look);
+        let f = stage.system::<FurSystem>().unwrap();
+        let drawn: u64 = f.drawn.iter().map(|&d| d as u64).sum();
+        (out.read_rgba(&gpu).unwrap(), drawn, f.steps.clone())
+    };
+    let (full_img, full_n, full_steps) = shot(0.0);
+    let (img, n, steps) = shot(0.5);
+    let err = kami::bench::fur::model_error(&img, &full_img);
+    eprintln!("fur k = 4: hairs {n} of {full_n}, steps {steps:?}, error {err:?}");
+    assert!(full_steps.iter().all(|&s| s == 1));
+    assert!(steps.iter().all(|&s| s > 1), "steps {steps:?}");
+    assert!(n as f64 <= 0.3 * full_n as f64, "{n} of {full_n}");
+    assert!(err.0 <= 4.0, "tile error {err:?}");
+}

@@ -122,8 +122,8 @@ the shipped scenes pass unchanged.
 
 **What it does not do.** The turn per node is assumed (20 degrees, `lod::NOMINAL_TURN`), not \
 measured on the moving hair: a strand bent more sharply shows up to proportionally more chord \
-error. Fur keeps all its segments (1, 7 or 12 per hair); only its strand share comes from the \
-shared function. The share is linear in the on-screen size, not chosen from the image error: \
+error. Fur's ribbon coats skip nodes by the same rule (k per coat, from its longest hair); its \
+tubes keep all their segments. The share is linear in the on-screen size, not chosen from the image error: \
 the error above stays a few levels of 255, of the order of the floor, but is not bounded by \
 construction. Drawing fewer strands does not make the simulation cheaper: every dynamic strand \
 is still simulated.

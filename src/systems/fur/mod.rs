@@ -11,7 +11,8 @@
 //!
 //! Culling is the strand share of the screen-space level of detail shared with strand hair
 //! (`systems::lod`); `render.lod_tolerance_px = 0` turns it off with the rest of it. The
-//! fur's hairs keep all their segments (1, 7 or 12 per hair): the node step is strand hair's.
+//! ribbon styles draw every k-th node by the same chord-error rule as strand hair (k per coat,
+//! from its longest hair's segment length); tubes keep all their segments.
 
 pub mod critter;
 pub mod draw;
@@ -125,6 +126,8 @@ pub struct FurSystem {
     pub drawn: Vec<u32>,
     /// Width factor of this frame's hairs (culling and level of detail draw fewer, wider).
     pub width_scale: f64,
+    /// Node step per coat this frame (ribbons; the screen-space level of detail).
+    pub steps: Vec<u32>,
     /// Widen culled hair to keep the coverage (off only to measure what it buys).
     pub compensate_width: bool,
     /// What the hairs on the GPU were last generated from (`None`: never, or edited since).
@@ -188,6 +191,7 @@ impl FurSystem {
         )?;
         draw.set_fur(gpu, &setup, &generator);
         Ok(FurSystem {
+            steps: vec![1; setup.coats.len()],
             drawn: vec![0; setup.coats.len()],
             setup,
             generator,
@@ -273,7 +277,31 @@ impl HairSystem for FurSystem {
         } else {
             1.0
         };
-        self.draw.prepare(gpu, &self.setup, frame, self.width_scale);
+        let seen = crate::systems::lod::Seen {
+            center: bounds.0,
+            radius: bounds.1,
+            eye: view.eye,
+            fov_y: view.fov_y,
+            height_px: view.height_px,
+        };
+        let longest = self.setup.lengths.iter().cloned().fold(0.0, f64::max);
+        self.steps = self
+            .setup
+            .fur
+            .coats
+            .iter()
+            .map(|c| {
+                let seg_len = longest * c.relative_length / c.style.segments() as f64;
+                crate::systems::lod::segment_step(
+                    seg_len,
+                    crate::systems::lod::NOMINAL_TURN,
+                    seen.px_per_unit(),
+                    view.lod_tolerance_px,
+                )
+            })
+            .collect();
+        self.draw
+            .prepare(gpu, &self.setup, frame, self.width_scale, &self.steps);
         Ok(())
     }
 
@@ -282,7 +310,7 @@ impl HairSystem for FurSystem {
     }
 
     fn draw(&self, pass: &mut wgpu::RenderPass<'_>, _view: &View) {
-        self.draw.draw_hairs(pass, &self.drawn);
+        self.draw.draw_hairs(pass, &self.drawn, &self.steps);
     }
 
     fn reset(&mut self, _gpu: &Gpu) -> Result<()> {
