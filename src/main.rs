@@ -229,6 +229,18 @@ enum Bench {
         #[arg(long)]
         software: bool,
     },
+    /// Screen-space level of detail of strand hair: image error against full detail and
+    /// strands/segments drawn as the head gets smaller on screen; writes lod.md, lod.csv and
+    /// lod.png.
+    Lod {
+        #[arg(long, default_value = "assets/scenes/gust.ron")]
+        scene: PathBuf,
+        /// Directory for the report files.
+        #[arg(long, default_value = "bench_out")]
+        out: PathBuf,
+        #[arg(long)]
+        software: bool,
+    },
     /// Sakai's toon wisps: ray-march ms per frame against wisp count and image size, image
     /// error against step size and distance method, and the mass springs' work-precision
     /// table; writes wisps.md, wisps.csv and three plots (cost, error, springs).
@@ -639,6 +651,16 @@ fn main() -> Result<()> {
                     "wrote {0}/fur.md, {0}/fur.csv, {0}/fur_culling.png",
                     out.display()
                 );
+            }
+            Bench::Lod {
+                scene,
+                out,
+                software,
+            } => {
+                let gpu = Gpu::headless(preference(software))?;
+                let report = kami::bench::lod::run(&gpu, &scene, &out)?;
+                println!("{}", report.markdown);
+                println!("wrote {0}/lod.md, {0}/lod.csv, {0}/lod.png", out.display());
             }
             Bench::Sdf { scene, out } => {
                 let report = kami::bench::sdf::run(&scene, &out)?;

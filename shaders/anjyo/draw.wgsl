@@ -4,6 +4,8 @@
 // nodes and interpolates): I = I_a k_a C + I_s k_s (1 - (T.H)^2)^(n/2), with k_a per strand.
 // A strand thinner than `frame.raster.y` samples is drawn that wide with alpha equal to its
 // true coverage (common/coverage.wgsl), so sub-pixel hair is smooth and order-independent.
+// The screen-space level of detail (src/systems/lod.rs) draws every lod.y-th node (and the
+// last) and widens the fewer strands drawn by lod.x.
 
 // Keep in sync with GpuMaterial in src/gpu/gpu_data.rs.
 struct Material {
@@ -16,6 +18,8 @@ struct Material {
 @group(1) @binding(0) var<storage, read> strands: array<Strand>;
 @group(1) @binding(1) var<storage, read> verts: array<vec4<f32>>;
 @group(1) @binding(2) var<storage, read> materials: array<Material>;
+// x: width factor, y: node step (StrandsPass::prepare).
+@group(1) @binding(3) var<uniform> lod: vec4<f32>;
 
 struct VOut {
     @builtin(position) pos: vec4<f32>,
@@ -39,8 +43,10 @@ fn vs(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -> VOut 
     var out: VOut;
     let s = strands[si];
     let last = u32(ceil(s.visible));
-    // Nodes past the drawn length collapse onto the last one: zero-area triangles.
-    let n = min(vi >> 1u, last);
+    // Every step-th node; nodes past the drawn length collapse onto the last one
+    // (zero-area triangles).
+    let step = max(u32(lod.y), 1u);
+    let n = min((vi >> 1u) * step, last);
     let side = select(-1.0, 1.0, (vi & 1u) == 1u);
     let mat = materials[s.group];
 
@@ -49,11 +55,11 @@ fn vs(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -> VOut 
     if last == 0u {
         t = verts[s.first_vertex + 1u].xyz - p;
     } else if n == 0u {
-        t = node_pos(s, 1u) - p;
+        t = node_pos(s, min(step, last)) - p;
     } else if n == last {
-        t = p - node_pos(s, n - 1u);
+        t = p - node_pos(s, ((n - 1u) / step) * step);
     } else {
-        t = node_pos(s, n + 1u) - node_pos(s, n - 1u);
+        t = node_pos(s, min(n + step, last)) - node_pos(s, n - step);
     }
     let tl = length(t);
     t = select(vec3<f32>(0.0, -1.0, 0.0), t / tl, tl > 1e-20);
@@ -69,7 +75,7 @@ fn vs(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -> VOut 
     // Width: world width tapered root to tip, in samples at this depth.
     let along = f32(n) / f32(max(s.segments, 1u));
     // raster.z widens hair when only a share of it is drawn (level of detail).
-    let width = mat.params.z * mix(1.0, mat.params.w, along) * frame.raster.z;
+    let width = mat.params.z * mix(1.0, mat.params.w, along) * frame.raster.z * lod.x;
     let width_px = width * frame.raster.x / max(clip.w, 1e-6);
     let drawn_px = max(width_px, frame.raster.y);
     let coverage = width_px / drawn_px;

@@ -6,6 +6,17 @@
 // `init` turns the groomed nodes into angles at rest (theta^0 = theta^-1). Each segment adds
 // the External Force Field (shaders/forces/eff.wgsl, concatenated before this file) at its
 // node, times the substep's gust scale.
+//
+// Memory layout, shaped for coalescing (neighbouring invocations = neighbouring strands):
+// - the angle state is segment-major: segment i (1..=k) of strand column c lives at
+//   state[(i - 1) * state_stride + c], so at each step of the root-to-tip loop the invocations
+//   of a workgroup read and write consecutive vec4s;
+// - the per-strand records are three columns (ids, root, extra; `load_strand`), so their one
+//   read per substep is consecutive too;
+// - the node positions `verts` keep the strand-major layout the draw passes, the groom and
+//   the other systems share: neighbouring invocations touch addresses (segments + 1) * 16
+//   bytes apart, one uncoalesced read and write per segment. Changing it would need every
+//   reader of the strand buffers to change with it.
 
 const TAU: f32 = 6.28318530717959;
 // Passed by the Rust side (`projective::POLE_SIN`, `projective::MAX_TURN`, `gpu::WORKGROUP`).
@@ -33,7 +44,7 @@ struct DynParams {
     inertia_root: f32,
     inertia_tip: f32,
     sigma_end: f32,
-    _p1: f32,
+    state_stride: u32,
     _p2: f32,
     head_center: vec4<f32>,
     head_radii: vec4<f32>,
@@ -51,9 +62,9 @@ struct Step {
     kick: vec4<u32>,
 }
 
-// Keep in sync with GpuDynStrand in src/gpu/gpu_data.rs.
+// Keep in sync with GpuDynStrand in src/gpu/gpu_data.rs (stored as three columns).
 struct DynStrand {
-    // strand, first vertex, state offset, simulated segments
+    // strand, first vertex, state column, simulated segments
     ids: vec4<u32>,
     // xyz pore in head coordinates, w segment length
     root: vec4<f32>,
@@ -63,7 +74,8 @@ struct DynStrand {
 
 @group(0) @binding(0) var<uniform> params: DynParams;
 @group(0) @binding(1) var<uniform> substep: Step;
-@group(0) @binding(2) var<storage, read> dyn_strands: array<DynStrand>;
+// Three columns of state_stride words: ids, then root (f32 bits), then extra (f32 bits).
+@group(0) @binding(2) var<storage, read> dyn_strands: array<vec4<u32>>;
 @group(0) @binding(3) var<storage, read_write> state: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read_write> verts: array<vec4<f32>>;
 @group(0) @binding(5) var<uniform> eff: EffGrid;
@@ -138,6 +150,20 @@ fn xform_vector(m: mat4x4<f32>, v: vec3<f32>) -> vec3<f32> {
     return (m * vec4<f32>(v, 0.0)).xyz;
 }
 
+fn load_strand(si: u32) -> DynStrand {
+    let n = params.state_stride;
+    return DynStrand(
+        dyn_strands[si],
+        bitcast<vec4<f32>>(dyn_strands[n + si]),
+        bitcast<vec4<f32>>(dyn_strands[2u * n + si]),
+    );
+}
+
+// Segment i (1..=k) of the strand in state column c.
+fn state_at(c: u32, i: u32) -> u32 {
+    return (i - 1u) * params.state_stride + c;
+}
+
 fn strand_index(id: vec3<u32>) -> u32 {
     return id.x + id.y * params.row_stride;
 }
@@ -148,13 +174,13 @@ fn init(@builtin(global_invocation_id) id: vec3<u32>) {
     if si >= params.strand_count {
         return;
     }
-    let s = dyn_strands[si];
+    let s = load_strand(si);
     let base = s.ids.y;
     let off = s.ids.z;
     for (var i = 1u; i <= s.ids.w; i++) {
         let dir = normalize(verts[base + i].xyz - verts[base + i - 1u].xyz);
         let a = angles_near(dir, 0.5 * PI, 0.0);
-        state[off + i] = vec4<f32>(a, a);
+        state[state_at(off, i)] = vec4<f32>(a, a);
     }
 }
 
@@ -164,7 +190,7 @@ fn advance(@builtin(global_invocation_id) id: vec3<u32>) {
     if si >= params.strand_count {
         return;
     }
-    let s = dyn_strands[si];
+    let s = load_strand(si);
     let k = s.ids.w;
     let base = s.ids.y;
     let off = s.ids.z;
@@ -182,7 +208,7 @@ fn advance(@builtin(global_invocation_id) id: vec3<u32>) {
     var prev_p = root;
     var prev_dir = normalize(xform_vector(substep.head, head_gradient(hl, s.root.xyz)));
     for (var i = 1u; i <= k; i++) {
-        let a = state[off + i];
+        let a = state[state_at(off, i)];
         var th = a.x;
         var ph = a.y;
         var thp = a.z;
@@ -293,7 +319,7 @@ fn advance(@builtin(global_invocation_id) id: vec3<u32>) {
             out.y -= shift;
             out.w -= shift;
         }
-        state[off + i] = out;
+        state[state_at(off, i)] = out;
         // w = 2 marks a segment the pseudo-force acted on (the viewer can show them).
         verts[base + i] = vec4<f32>(pn, marked);
         prev_p = pn;

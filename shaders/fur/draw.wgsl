@@ -13,7 +13,7 @@ struct FurMaterial {
     diffuse: vec4<f32>,
     // rgb specular, w shininess
     specular: vec4<f32>,
-    // x normal randomize, y width scale
+    // x normal randomize, y width scale, z node step (ribbons; src/systems/lod.rs)
     extra: vec4<f32>,
 }
 
@@ -78,7 +78,8 @@ fn vs_ribbon(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -
     var out: VOut;
     let s = strands[si];
     let m = materials[s.group];
-    let n = min(vi >> 1u, s.segments);
+    // Every step-th node and the last (the screen-space level of detail).
+    let n = min((vi >> 1u) * max(u32(m.extra.z), 1u), s.segments);
     let side = select(-1.0, 1.0, (vi & 1u) == 1u);
     let p = verts[s.first_vertex + n].xyz;
     let t = tangent(s, n);

@@ -3,6 +3,7 @@
 
 pub mod backends;
 pub mod fur;
+pub mod lod;
 pub mod scale;
 pub mod sdf;
 pub mod splat;

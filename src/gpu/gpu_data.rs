@@ -178,7 +178,11 @@ pub struct GpuDynParams {
     pub inertia_root: f32,
     pub inertia_tip: f32,
     pub sigma_end: f32,
-    pub _pad: [f32; 2],
+    /// Entries per segment row of the segment-major angle state (the dynamic strands,
+    /// rounded up to whole workgroups): segment i of strand column c is at
+    /// `(i - 1) * state_stride + c`.
+    pub state_stride: u32,
+    pub _pad: f32,
     pub head_center: [f32; 4],
     pub head_radii: [f32; 4],
 }
@@ -201,10 +205,13 @@ pub struct GpuStep {
 assert_size!(GpuStep, 256);
 
 /// One simulated strand. Keep in sync with `struct DynStrand` in `shaders/anjyo/projective.wgsl`.
+/// Uploaded as three columns (all `ids`, then all `root`, then all `extra`, each
+/// `state_stride` long) so that neighbouring invocations read neighbouring 16-byte words.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuDynStrand {
-    /// strand, first vertex, state offset, simulated segments.
+    /// strand, first vertex, state column (its index among the dynamic strands), simulated
+    /// segments.
     pub ids: [u32; 4],
     /// xyz: pore in head coordinates; w: segment length.
     pub root: [f32; 4],

@@ -705,6 +705,11 @@ pub struct RenderSettings {
     /// transparent in proportion (coverage), so sub-pixel hair stays smooth.
     #[serde(default = "default_min_width")]
     pub min_width: f64,
+    /// Screen-space level of detail (`systems::lod`): the chord error allowed, in pixels,
+    /// when segments are skipped on a small object; 0 draws every strand and segment at any
+    /// size.
+    #[serde(default = "default_lod_tolerance_px")]
+    pub lod_tolerance_px: f64,
 }
 
 fn default_size() -> (u32, u32) {
@@ -722,6 +727,9 @@ fn default_supersample() -> u32 {
 fn default_min_width() -> f64 {
     1.0
 }
+fn default_lod_tolerance_px() -> f64 {
+    0.5
+}
 
 impl Default for RenderSettings {
     fn default() -> Self {
@@ -731,6 +739,7 @@ impl Default for RenderSettings {
             msaa: default_msaa(),
             supersample: default_supersample(),
             min_width: default_min_width(),
+            lod_tolerance_px: default_lod_tolerance_px(),
         }
     }
 }

@@ -199,6 +199,7 @@ pub fn validate(s: &Scene) -> Result<()> {
         ));
     }
     within("render.min_width", r.min_width, 0.25, 8.0)?;
+    within("render.lod_tolerance_px", r.lod_tolerance_px, 0.0, 16.0)?;
     if let Some(d) = &s.dynamics {
         validate_dynamics(d)?;
     }

@@ -474,6 +474,8 @@ impl Stage {
             eye: look.camera.eye,
             fov_y: look.camera.fov_y,
             lod: look.lod,
+            height_px: size.1 as f64,
+            lod_tolerance_px: self.scene.render.lod_tolerance_px,
             overlay: look.overlay,
         };
         self.mark(enc, Phase::Generation, true);

@@ -11,6 +11,7 @@
 
 pub mod anjyo;
 pub mod fur;
+pub mod lod;
 pub mod strips;
 pub mod wisps;
 
@@ -47,6 +48,10 @@ pub struct View {
     pub fov_y: f64,
     /// Share of the hairs to draw (the viewer's level of detail); 1 for full quality.
     pub lod: f64,
+    /// Height of the target in pixels (the screen-space level of detail, `lod`).
+    pub height_px: f64,
+    /// Chord error allowed by the screen-space level of detail, pixels; 0 is full detail.
+    pub lod_tolerance_px: f64,
     /// Show the system's diagnostic overlay (Anjyo: segments the pseudo-force acted on).
     pub overlay: bool,
 }

@@ -3,6 +3,10 @@
 //! shader. With MSAA, sub-pixel coverage becomes a per-sample stochastic sample mask
 //! (`shaders/common/coverage.wgsl`: hashed from pixel, strand and sample, so thin hairs add
 //! up as real coverage does, in any order); without MSAA it is alpha-blended.
+//!
+//! The screen-space level of detail (`systems::lod`) reaches the pass as a share of each
+//! group's strands (times the viewer's budget), a width factor and a node step, the last two
+//! in a small uniform (`prepare`): the vertex shader draws every step-th node and the last.
 
 use crate::error::Result;
 use crate::gpu::gpu_data::{linear_rgb, GpuMaterial};
@@ -25,6 +29,9 @@ pub struct StrandsPass {
     pipeline: wgpu::RenderPipeline,
     layout: wgpu::BindGroupLayout,
     bound: Option<Bound>,
+    /// x: width factor of the screen-space level of detail, y: node step (`prepare`).
+    lod: wgpu::Buffer,
+    step: u32,
 }
 
 struct Bound {
@@ -66,10 +73,19 @@ impl StrandsPass {
                 gpu::storage_entry(0, vs, true),
                 gpu::storage_entry(1, vs, true),
                 gpu::storage_entry(2, vs, true),
+                gpu::uniform_entry(3, vs),
             ],
         );
         let pl = pipeline::pipeline_layout(device, "strands", &[frame_layout, &layout]);
         let pipeline = Self::pipeline(gpu, &module, &pl, color_format, samples);
+        let lod = wgpu::util::DeviceExt::create_buffer_init(
+            device,
+            &wgpu::util::BufferInitDescriptor {
+                label: Some("strands lod"),
+                contents: bytemuck::bytes_of(&[1.0f32; 4]),
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            },
+        );
         Ok(StrandsPass {
             module,
             pipeline_layout: pl,
@@ -77,6 +93,8 @@ impl StrandsPass {
             pipeline,
             layout,
             bound: None,
+            lod,
+            step: 1,
         })
     }
 
@@ -126,7 +144,7 @@ impl StrandsPass {
             &gpu.device,
             "strands",
             &self.layout,
-            &[&hair.strands, &hair.vertices, &materials],
+            &[&hair.strands, &hair.vertices, &materials, &self.lod],
         );
         self.bound = Some(Bound {
             bind_group,
@@ -142,7 +160,19 @@ impl StrandsPass {
         }
     }
 
-    /// Draw `fraction` of each group's hairs (`drawn_count`).
+    /// The screen-space level of detail's width factor and node step for the next draws.
+    pub fn prepare(&mut self, queue: &wgpu::Queue, width_scale: f64, step: u32) {
+        self.step = step.max(1);
+        let lod = [width_scale as f32, self.step as f32, 0.0, 0.0];
+        queue.write_buffer(&self.lod, 0, bytemuck::bytes_of(&lod));
+    }
+
+    /// Nodes drawn per strand of a group with `nodes_per_strand` nodes.
+    pub fn drawn_nodes(&self, nodes_per_strand: u32) -> u32 {
+        crate::systems::lod::drawn_nodes(nodes_per_strand.saturating_sub(1), self.step)
+    }
+
+    /// Draw `fraction` of each group's hairs (`drawn_count`), every `step`-th node.
     pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>, fraction: f64) {
         let Some(b) = &self.bound else { return };
         pass.set_pipeline(&self.pipeline);
@@ -153,7 +183,7 @@ impl StrandsPass {
                 continue;
             }
             pass.draw(
-                0..2 * r.nodes_per_strand,
+                0..2 * self.drawn_nodes(r.nodes_per_strand),
                 r.first_strand..r.first_strand + count,
             );
         }

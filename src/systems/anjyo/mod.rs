@@ -19,6 +19,7 @@ pub mod projective;
 pub mod projective_gpu;
 pub mod simulation;
 
+use super::lod::{screen_lod, ScreenLod, Seen};
 use super::{Change, DrawSetup, FrameCtx, HairSystem, Kind, StepInfo, SystemStats, View};
 use crate::error::Result;
 use crate::gpu::gpu_data::GpuMaterial;
@@ -97,6 +98,10 @@ pub struct AnjyoSystem {
     bounds: (DVec3, f64),
     counts: (u64, u64),
     lod: f64,
+    /// The longest segment of any group (the screen-space level of detail's chord error).
+    seg_len: f64,
+    /// This frame's screen-space level of detail (`systems::lod`).
+    pub screen: ScreenLod,
 }
 
 /// Check the hair buffers against the storage-binding limit before allocating them.
@@ -139,6 +144,24 @@ pub fn scene_bounds(scene: &Scene) -> (DVec3, f64) {
         r = r.max(reach);
     }
     (c, r)
+}
+
+/// The longest segment of the scene's hair groups (a strand file's: its reach over its
+/// segments, an upper bound).
+pub fn longest_segment(scene: &Scene) -> f64 {
+    let (_, r) = scene_bounds(scene);
+    scene
+        .groups
+        .iter()
+        .map(|g| {
+            let len = if g.file.is_some() {
+                2.0 * r
+            } else {
+                g.length * (1.0 + g.length_jitter)
+            };
+            len / g.segments.max(1) as f64
+        })
+        .fold(0.0, f64::max)
 }
 
 /// Strands and segments of the scene's hair groups (not its fur).
@@ -230,6 +253,15 @@ pub fn export_strands(
 }
 
 impl AnjyoSystem {
+    /// Strands and segments drawn at the last `prepare` (level of detail included).
+    pub fn drawn(&self) -> (u64, u64) {
+        self.hair.ranges.iter().fold((0, 0), |(h, s), r| {
+            let n = draw::drawn_count(r.strand_count, self.lod) as u64;
+            let segs = self.draw.drawn_nodes(r.nodes_per_strand).saturating_sub(1) as u64;
+            (h + n, s + n * segs)
+        })
+    }
+
     /// Groom the scene's hair on the GPU and set up its simulation and draw.
     pub fn new(gpu: &Gpu, scene: &Scene, setup: &DrawSetup) -> Result<AnjyoSystem> {
         let input = groom::prepare(scene)?;
@@ -267,6 +299,8 @@ impl AnjyoSystem {
             bounds: scene_bounds(scene),
             counts: counts(scene),
             lod: 1.0,
+            seg_len: longest_segment(scene),
+            screen: ScreenLod::FULL,
         })
     }
 }
@@ -300,17 +334,28 @@ impl HairSystem for AnjyoSystem {
 
     fn prepare(
         &mut self,
-        _gpu: &Gpu,
+        gpu: &Gpu,
         _enc: &mut wgpu::CommandEncoder,
         _ctx: &FrameCtx,
         view: &View,
     ) -> Result<()> {
-        self.lod = view.lod;
+        let seen = Seen {
+            center: self.bounds.0,
+            radius: self.bounds.1,
+            eye: view.eye,
+            fov_y: view.fov_y,
+            height_px: view.height_px,
+        };
+        self.screen = screen_lod(&seen, self.seg_len, view.lod_tolerance_px);
+        // The viewer's budget multiplies on top (its widening, 1/sqrt, is the frame's).
+        self.lod = self.screen.share * view.lod;
+        self.draw
+            .prepare(&gpu.queue, self.screen.width_scale, self.screen.step);
         Ok(())
     }
 
-    fn draw(&self, pass: &mut wgpu::RenderPass<'_>, view: &View) {
-        self.draw.draw(pass, view.lod);
+    fn draw(&self, pass: &mut wgpu::RenderPass<'_>, _view: &View) {
+        self.draw.draw(pass, self.lod);
     }
 
     fn reset(&mut self, gpu: &Gpu) -> Result<()> {

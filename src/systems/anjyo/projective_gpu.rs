@@ -3,6 +3,16 @@
 //! `tests/contract.rs` and `tests/eff_anjyo.rs` (with an External Force Field) compare them.
 //! The EFF is bound beside the substeps; each substep carries its own gust scale, so several
 //! frames recorded in one submission each see their own.
+//!
+//! Layout for coalescing (one invocation per strand, so neighbouring invocations are
+//! neighbouring strands): the angle state is segment-major, segment i of strand column c at
+//! `(i - 1) * stride + c` with `stride` the dynamic strands rounded up to whole workgroups
+//! ([`StateLayout`]); the strand records go up as three columns (ids, root, extra). The state
+//! then holds `max segments * stride` entries instead of `sum (segments + 1)`: strands shorter
+//! than the longest leave holes (at most the ratio of the longest to the mean length).
+//! The node positions (`StrandBuffers::vertices`) stay strand-major because the draw passes,
+//! the groom and the other systems read them so: each segment's node read and write is
+//! `(segments + 1) * 16` bytes from its neighbour's, the one uncoalesced access left.
 
 use super::projective::{DynSetup, StepForces, MAX_TURN, POLE_SIN};
 use crate::error::Result;
@@ -14,6 +24,49 @@ use glam::DMat4;
 use wgpu::util::DeviceExt;
 
 const SLOT: u64 = 256;
+
+/// Where the kernel keeps each strand's angles: segment-major, one row per segment.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StateLayout {
+    /// Entries per row: the dynamic strands rounded up to whole workgroups.
+    pub stride: u32,
+    /// Rows: the most segments of any dynamic strand.
+    pub rows: u32,
+}
+
+impl StateLayout {
+    pub fn of(setup: &DynSetup) -> StateLayout {
+        StateLayout {
+            stride: (setup.strands.len() as u32)
+                .div_ceil(WORKGROUP)
+                .max(1)
+                .saturating_mul(WORKGROUP),
+            rows: setup.strands.iter().map(|s| s.segments).max().unwrap_or(0),
+        }
+    }
+
+    /// Entries in the state buffer (at least one: a buffer cannot be empty).
+    pub fn entries(&self) -> u64 {
+        (self.rows as u64 * self.stride as u64).max(1)
+    }
+
+    /// Index of segment `i` (1..=segments) of strand column `c`.
+    pub fn index(&self, c: u32, i: u32) -> usize {
+        (i as usize - 1) * self.stride as usize + c as usize
+    }
+
+    /// The state read back from the GPU in the f64 reference's strand-major order (entry
+    /// `state_offset + i` for segment i, entry `state_offset` unused and zero).
+    pub fn to_strand_major(&self, setup: &DynSetup, gpu_state: &[[f32; 4]]) -> Vec<[f32; 4]> {
+        let mut out = vec![[0.0; 4]; setup.state_len as usize];
+        for (c, s) in setup.strands.iter().enumerate() {
+            for i in 1..=s.segments {
+                out[(s.state_offset + i) as usize] = gpu_state[self.index(c as u32, i)];
+            }
+        }
+        out
+    }
+}
 
 /// The projective-dynamics kernel (`shaders/anjyo/projective.wgsl`).
 pub struct ProjectivePass {
@@ -34,6 +87,7 @@ pub struct ProjectiveJob {
     capacity: u32,
     bind_group: wgpu::BindGroup,
     dims: (u32, u32),
+    pub layout: StateLayout,
     /// The scene's External Force Field (an absent one without): `eff.write_cells` after
     /// painting it.
     pub eff: EffGpu,
@@ -124,11 +178,13 @@ impl ProjectivePass {
     ) -> Result<ProjectiveJob> {
         let device = &gpu.device;
         let dims = gpu.dispatch_dims(setup.strands.len() as u32, WORKGROUP)?;
+        let layout = StateLayout::of(setup);
         let records: Vec<GpuDynStrand> = setup
             .strands
             .iter()
-            .map(|s| GpuDynStrand {
-                ids: [s.strand, s.first_vertex, s.state_offset, s.segments],
+            .enumerate()
+            .map(|(c, s)| GpuDynStrand {
+                ids: [s.strand, s.first_vertex, c as u32, s.segments],
                 root: [
                     s.root_local.x as f32,
                     s.root_local.y as f32,
@@ -138,17 +194,29 @@ impl ProjectivePass {
                 extra: [s.scalp as f32, 0.0, 0.0, 0.0],
             })
             .collect();
-        let state_bytes = setup.state_len as u64 * std::mem::size_of::<[f32; 4]>() as u64;
+        // Three columns of `stride` words each: ids, root, extra.
+        let stride = layout.stride as usize;
+        let mut columns = vec![[0u32; 4]; 3 * stride];
+        for (c, r) in records.iter().enumerate() {
+            columns[c] = r.ids;
+            columns[stride + c] = bytemuck::cast(r.root);
+            columns[2 * stride + c] = bytemuck::cast(r.extra);
+        }
+        let state_bytes = layout.entries() * std::mem::size_of::<[f32; 4]>() as u64;
         gpu.check_storage_size("the dynamics state", state_bytes)?;
+        gpu.check_storage_size(
+            "the dynamic strands",
+            std::mem::size_of_val(columns.as_slice()) as u64,
+        )?;
         let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("projective params"),
-            contents: bytemuck::bytes_of(&gpu_params(setup, dims.0 * WORKGROUP)),
+            contents: bytemuck::bytes_of(&gpu_params(setup, dims.0 * WORKGROUP, layout)),
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         });
         let strands = gpu::storage_buffer(
             device,
             "dynamic strands",
-            bytemuck::cast_slice(&records),
+            bytemuck::cast_slice(&columns),
             wgpu::BufferUsages::empty(),
         );
         let state = device.create_buffer(&wgpu::BufferDescriptor {
@@ -188,6 +256,7 @@ impl ProjectivePass {
             capacity,
             bind_group,
             dims,
+            layout,
             eff,
         })
     }
@@ -238,7 +307,7 @@ impl ProjectivePass {
         gpu.queue.write_buffer(
             &job.params,
             0,
-            bytemuck::bytes_of(&gpu_params(setup, job.dims.0 * WORKGROUP)),
+            bytemuck::bytes_of(&gpu_params(setup, job.dims.0 * WORKGROUP, job.layout)),
         );
     }
 
@@ -294,7 +363,7 @@ impl ProjectivePass {
     }
 }
 
-fn gpu_params(setup: &DynSetup, row_stride: u32) -> GpuDynParams {
+fn gpu_params(setup: &DynSetup, row_stride: u32, layout: StateLayout) -> GpuDynParams {
     let p = &setup.params;
     let pf = p.pseudo_force.as_ref();
     GpuDynParams {
@@ -319,7 +388,8 @@ fn gpu_params(setup: &DynSetup, row_stride: u32) -> GpuDynParams {
         inertia_root: p.inertia.root as f32,
         inertia_tip: p.inertia.tip as f32,
         sigma_end: p.stiffness.end as f32,
-        _pad: [0.0; 2],
+        state_stride: layout.stride,
+        _pad: 0.0,
         head_center: setup.head.gpu_params().0,
         head_radii: setup.head.gpu_params().1,
     }

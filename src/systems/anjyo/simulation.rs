@@ -118,12 +118,14 @@ impl Simulation {
         self.pass.update_params(gpu, &self.job, &self.setup);
     }
 
-    /// The angle state (tests only).
+    /// The angle state (tests only), in the f64 reference's strand-major order (the GPU
+    /// keeps it segment-major: `projective_gpu::StateLayout`).
     pub fn read_state(&self, gpu: &Gpu) -> Result<Vec<[f32; 4]>> {
-        crate::gpu::read_buffer(
+        let raw: Vec<[f32; 4]> = crate::gpu::read_buffer(
             gpu,
             &self.job.state,
-            self.setup.state_len as u64 * std::mem::size_of::<[f32; 4]>() as u64,
-        )
+            self.job.layout.entries() * std::mem::size_of::<[f32; 4]>() as u64,
+        )?;
+        Ok(self.job.layout.to_strand_major(&self.setup, &raw))
     }
 }

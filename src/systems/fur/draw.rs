@@ -36,13 +36,16 @@ struct Bound {
 }
 
 /// The coat materials for the GPU; `width_scale` widens hair when culling draws fewer.
-pub fn fur_materials(setup: &FurSetup, width_scale: f64) -> Vec<GpuFurMaterial> {
+/// `steps[coat]`: the screen-space level of detail's node step (ribbons; missing = 1).
+pub fn fur_materials(setup: &FurSetup, width_scale: f64, steps: &[u32]) -> Vec<GpuFurMaterial> {
     setup
         .fur
         .coats
         .iter()
-        .map(|c| {
+        .enumerate()
+        .map(|(ci, c)| {
             let m = &c.material;
+            let step = steps.get(ci).copied().unwrap_or(1).max(1);
             let (a, d, s) = (
                 linear_rgb(m.ambient),
                 linear_rgb(m.diffuse),
@@ -52,7 +55,12 @@ pub fn fur_materials(setup: &FurSetup, width_scale: f64) -> Vec<GpuFurMaterial> 
                 ambient: [a[0], a[1], a[2], m.width as f32],
                 diffuse: [d[0], d[1], d[2], style_code(c.style) as f32],
                 specular: [s[0], s[1], s[2], m.shininess as f32],
-                extra: [c.normal_randomize as f32, width_scale as f32, 0.0, 0.0],
+                extra: [
+                    c.normal_randomize as f32,
+                    width_scale as f32,
+                    step as f32,
+                    0.0,
+                ],
             }
         })
         .collect()
@@ -197,7 +205,7 @@ impl FurPass {
         let materials = gpu::storage_buffer(
             device,
             "fur materials",
-            bytemuck::cast_slice(&fur_materials(setup, 1.0)),
+            bytemuck::cast_slice(&fur_materials(setup, 1.0, &[])),
             wgpu::BufferUsages::empty(),
         );
         let skin = device.create_buffer(&wgpu::BufferDescriptor {
@@ -230,12 +238,7 @@ impl FurPass {
             .zip(&fur.strands.ranges)
             .map(|(c, r)| {
                 let tube = c.style == FurStyle::Tube;
-                let verts = if tube {
-                    36 * c.style.segments()
-                } else {
-                    2 * (c.style.segments() + 1)
-                };
-                (r.first_strand, tube, verts)
+                (r.first_strand, tube, c.style.segments())
             })
             .collect();
         self.bound = Some(Bound {
@@ -250,12 +253,19 @@ impl FurPass {
     }
 
     /// Per-frame uniforms: materials (culling widens hair) and the skin's motion.
-    pub fn prepare(&self, gpu: &Gpu, setup: &FurSetup, frame: f64, width_scale: f64) {
+    pub fn prepare(
+        &self,
+        gpu: &Gpu,
+        setup: &FurSetup,
+        frame: f64,
+        width_scale: f64,
+        steps: &[u32],
+    ) {
         if let Some(b) = &self.bound {
             gpu.queue.write_buffer(
                 &b.materials,
                 0,
-                bytemuck::cast_slice(&fur_materials(setup, width_scale)),
+                bytemuck::cast_slice(&fur_materials(setup, width_scale, steps)),
             );
             gpu.queue.write_buffer(
                 &b.skin,
@@ -273,14 +283,20 @@ impl FurPass {
         pass.draw(0..b.mesh_vertices, 0..1);
     }
 
-    /// Draw `drawn[coat]` hairs of each coat.
-    pub fn draw_hairs(&self, pass: &mut wgpu::RenderPass<'_>, drawn: &[u32]) {
+    /// Draw `drawn[coat]` hairs of each coat, ribbons every `steps[coat]`-th node (tubes all).
+    pub fn draw_hairs(&self, pass: &mut wgpu::RenderPass<'_>, drawn: &[u32], steps: &[u32]) {
         let Some(b) = &self.bound else { return };
         pass.set_bind_group(1, &b.bind_group, &[]);
-        for (&(first, tube, verts), &n) in b.coats.iter().zip(drawn) {
+        for (ci, (&(first, tube, segments), &n)) in b.coats.iter().zip(drawn).enumerate() {
             if n == 0 {
                 continue;
             }
+            let verts = if tube {
+                36 * segments
+            } else {
+                let step = steps.get(ci).copied().unwrap_or(1);
+                2 * crate::systems::lod::drawn_nodes(segments, step)
+            };
             pass.set_pipeline(if tube { &self.tube } else { &self.ribbon });
             pass.draw(0..verts, first..first + n);
         }

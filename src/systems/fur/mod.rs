@@ -5,7 +5,14 @@
 //! viewer's level of detail, and draws the skin and the hairs (`draw`).
 //!
 //! The fur has no state between frames: its hairs are a function of the clock's frame and
-//! the camera, so `step` and `reset` have nothing to do.
+//! the camera, so `step` and `reset` have nothing to do. `prepare` regenerates only when
+//! that function's inputs changed since the last generation (`GenKey`): a still mesh (no
+//! motion, no skin) at the same culling factor keeps last frame's hairs.
+//!
+//! Culling is the strand share of the screen-space level of detail shared with strand hair
+//! (`systems::lod`); `render.lod_tolerance_px = 0` turns it off with the rest of it. The
+//! ribbon styles draw every k-th node by the same chord-error rule as strand hair (k per coat,
+//! from its longest hair's segment length); tubes keep all their segments.
 
 pub mod critter;
 pub mod draw;
@@ -119,8 +126,22 @@ pub struct FurSystem {
     pub drawn: Vec<u32>,
     /// Width factor of this frame's hairs (culling and level of detail draw fewer, wider).
     pub width_scale: f64,
+    /// Node step per coat this frame (ribbons; the screen-space level of detail).
+    pub steps: Vec<u32>,
     /// Widen culled hair to keep the coverage (off only to measure what it buys).
     pub compensate_width: bool,
+    /// What the hairs on the GPU were last generated from (`None`: never, or edited since).
+    last_gen: Option<GenKey>,
+    /// Generations recorded since the system was built.
+    pub generations: u64,
+}
+
+/// The inputs of a generation: the frame (only when the mesh moves) and the culling factor
+/// times the level of detail.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct GenKey {
+    frame: Option<f64>,
+    factor: f64,
 }
 
 /// Every hair of every coat at full density (no distance culling) at `frame`, from the f64
@@ -170,13 +191,27 @@ impl FurSystem {
         )?;
         draw.set_fur(gpu, &setup, &generator);
         Ok(FurSystem {
+            steps: vec![1; setup.coats.len()],
             drawn: vec![0; setup.coats.len()],
             setup,
             generator,
             draw,
             width_scale: 1.0,
             compensate_width: true,
+            last_gen: None,
+            generations: 0,
         })
+    }
+
+    /// Whether the mesh moves with the clock (a motion or a skin): then every frame's hairs
+    /// differ.
+    pub fn moving(&self) -> bool {
+        self.setup.fur.motion.is_some() || self.setup.skin.is_some()
+    }
+
+    /// Generate again on the next `prepare` even if nothing changed (to time generation).
+    pub fn invalidate(&mut self) {
+        self.last_gen = None;
     }
 
     /// Hairs allocated over all coats.
@@ -214,23 +249,59 @@ impl HairSystem for FurSystem {
         view: &View,
     ) -> Result<()> {
         let bounds = self.setup.bounds();
-        let c = culling_factor(
-            &self.setup.fur,
-            bounds,
-            view.fov_y,
-            (view.eye - bounds.0).length(),
-        );
+        let c = if view.lod_tolerance_px > 0.0 {
+            culling_factor(
+                &self.setup.fur,
+                bounds,
+                view.fov_y,
+                (view.eye - bounds.0).length(),
+            )
+        } else {
+            1.0
+        };
         let lod = view.lod.clamp(1e-3, 1.0);
         let frame = ctx.time();
-        self.generator
-            .record(gpu, enc, &self.setup, frame, c * lod)?;
+        let key = GenKey {
+            frame: self.moving().then_some(frame),
+            factor: c * lod,
+        };
+        if self.last_gen != Some(key) {
+            self.generator
+                .record(gpu, enc, &self.setup, frame, c * lod)?;
+            self.last_gen = Some(key);
+            self.generations += 1;
+        }
         self.drawn.clone_from(&self.generator.drawn);
         self.width_scale = if self.compensate_width {
             1.0 / (c * lod.sqrt())
         } else {
             1.0
         };
-        self.draw.prepare(gpu, &self.setup, frame, self.width_scale);
+        let seen = crate::systems::lod::Seen {
+            center: bounds.0,
+            radius: bounds.1,
+            eye: view.eye,
+            fov_y: view.fov_y,
+            height_px: view.height_px,
+        };
+        let longest = self.setup.lengths.iter().cloned().fold(0.0, f64::max);
+        self.steps = self
+            .setup
+            .fur
+            .coats
+            .iter()
+            .map(|c| {
+                let seg_len = longest * c.relative_length / c.style.segments() as f64;
+                crate::systems::lod::segment_step(
+                    seg_len,
+                    crate::systems::lod::NOMINAL_TURN,
+                    seen.px_per_unit(),
+                    view.lod_tolerance_px,
+                )
+            })
+            .collect();
+        self.draw
+            .prepare(gpu, &self.setup, frame, self.width_scale, &self.steps);
         Ok(())
     }
 
@@ -239,7 +310,7 @@ impl HairSystem for FurSystem {
     }
 
     fn draw(&self, pass: &mut wgpu::RenderPass<'_>, _view: &View) {
-        self.draw.draw_hairs(pass, &self.drawn);
+        self.draw.draw_hairs(pass, &self.drawn, &self.steps);
     }
 
     fn reset(&mut self, _gpu: &Gpu) -> Result<()> {
@@ -252,6 +323,8 @@ impl HairSystem for FurSystem {
 
     /// A `Redraw`: new materials and skin colour (written with the next frame's uniforms).
     fn update(&mut self, _gpu: &Gpu, scene: &Scene, change: Change) -> Result<()> {
+        // An edit: generate again on the next prepare, whatever it changed.
+        self.last_gen = None;
         if let (Change::Redraw, Some(f)) = (change, &scene.fur) {
             for (mine, new) in self.setup.fur.coats.iter_mut().zip(&f.coats) {
                 mine.material = new.material.clone();

@@ -255,16 +255,14 @@ impl FurSetup {
 }
 
 /// The culling factor at camera distance `distance` from the model: 1 up to the full
-/// distance, then full / distance.
+/// distance, then full / distance: the strand share of the screen-space level of detail
+/// shared with strand hair (`systems::lod::strand_share`), with the coat's own full distance
+/// when it sets one.
 pub fn culling_factor(fur: &Fur, bounds: (DVec3, f64), fov_y: f64, distance: f64) -> f64 {
     if !fur.culling.enabled {
         return 1.0;
     }
-    let full = fur
-        .culling
-        .full_distance
-        .unwrap_or_else(|| bounds.1 / (0.5 * fov_y).sin());
-    (full / distance.max(1e-9)).min(1.0)
+    crate::systems::lod::strand_share(bounds.1, distance, fov_y, fur.culling.full_distance)
 }
 
 /// Position and normal of a mesh point after the mesh motion at `frame` (a travelling wave
