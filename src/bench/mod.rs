@@ -3,6 +3,7 @@
 
 pub mod backends;
 pub mod fur;
+pub mod guides;
 pub mod sdf;
 pub mod strips;
 pub mod wisps;

@@ -12,6 +12,8 @@ pub mod cantilever;
 pub mod cantilever_gpu;
 pub mod draw;
 pub mod elastica;
+pub mod follow;
+pub mod follow_gpu;
 pub mod groom;
 pub mod imported;
 pub mod panel;
@@ -50,6 +52,13 @@ pub const PROJECTIVE: &str = wgsl!(
     "anjyo/projective.wgsl",
 );
 
+/// Followers rebuilt from their guides (`follow`).
+pub const FOLLOW: &str = wgsl!(
+    "common/ellipsoid.wgsl",
+    "common/sdf.wgsl",
+    "anjyo/follow.wgsl",
+);
+
 /// Hair ribbons with Anjyo's anisotropic specular.
 pub const DRAW: &str = wgsl!(
     "common/strands.wgsl",
@@ -80,6 +89,7 @@ pub const KIND: Kind = Kind {
     shaders: &[
         ("anjyo/cantilever", CANTILEVER),
         ("anjyo/projective", PROJECTIVE),
+        ("anjyo/follow", FOLLOW),
         ("anjyo/draw", DRAW),
     ],
 };
@@ -159,7 +169,7 @@ pub fn materials(scene: &Scene) -> Vec<GpuMaterial> {
 
 /// What an edit asks of the strands: pores, lengths, rigidity, loads, cuts, head, grooming
 /// gravity or per-strand k_a re-groom (and restart the motion from the new rest pose);
-/// dynamics switched on or off rebuild; dynamics parameters act from the next step;
+/// dynamics switched on or off, or a new guide share, rebuild; dynamics parameters act from the next step;
 /// colours, k_s, n and widths are new uniforms.
 pub fn classify(old: &Scene, new: &Scene) -> Change {
     // Groups with their look-only fields made equal: what is left is the groom.
@@ -174,7 +184,12 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
         (s.seed, s.head.center, s.head.radii, s.gravity, groups)
     };
     let looks = |s: &Scene| -> Vec<_> { s.groups.iter().map(|g| g.material.clone()).collect() };
-    if groom_view(old) != groom_view(new) || old.dynamics.is_some() != new.dynamics.is_some() {
+    // The guide share decides which strands are simulated: a new set-up.
+    let guides = |s: &Scene| s.dynamics.as_ref().map(|d| d.guides);
+    if groom_view(old) != groom_view(new)
+        || old.dynamics.is_some() != new.dynamics.is_some()
+        || guides(old) != guides(new)
+    {
         Change::Rebuild
     } else if old.dynamics != new.dynamics {
         Change::Resimulate
