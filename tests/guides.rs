@@ -173,9 +173,10 @@ fn followers_move_stay_outside_and_keep_lengths() {
 }
 
 /// Guides are picked per dynamic group, ceil(share * count) of them, spread over the
-/// scalp: every pore has a guide closer than the farthest-point cover radius, which for
-/// an even spread of m points on the scalp is about sqrt(area / m); checked against a
-/// generous bound (twice the radius that m discs would need to cover the group's patch).
+/// scalp: with m guides among n pores an even spread leaves every pore within about
+/// sqrt(n / m) pore spacings of a guide; the farthest pore from any guide must be within
+/// twice that (measured on the gust at a twentieth, share 0.1: 1.57 and 1.58 times for
+/// the two groups; the first m pores, randomly drawn, give 2.4 and 2.5).
 #[test]
 fn guides_are_counted_and_spread() {
     let scene = gust(Some(0.1));
@@ -219,7 +220,7 @@ fn guides_are_counted_and_spread() {
         let even = spacing * (members.len() as f64 / guides.len() as f64).sqrt();
         eprintln!("group {g}: cover {cover:.3}, even spread {even:.3}");
         assert!(
-            cover < 2.5 * even,
+            cover < 2.0 * even,
             "group {g}: a pore is {cover:.2} from its nearest guide (even spread ~{even:.2})"
         );
     }
