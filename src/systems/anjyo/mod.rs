@@ -1,6 +1,7 @@
 //! Anjyo, Usami & Kurihara 1992: cantilever-beam hairstyles on an ellipsoid head
 //! (`groom`, `cantilever` + `cantilever_gpu`), one-dimensional projective dynamics
-//! (`projective` + `projective_gpu`, driven by `simulation`), and ribbons with Anjyo's
+//! (`projective` + `projective_gpu`, driven by `simulation`; with a guide share only the
+//! guides, the rest rebuilt by `follow` + `follow_gpu`), and ribbons with Anjyo's
 //! anisotropic shading (`draw`). Every GPU kernel has its f64 CPU reference beside it.
 //!
 //! Per scene: the pores are drawn on the CPU (`groom::prepare`), bent once on the GPU into
