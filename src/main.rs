@@ -212,6 +212,18 @@ enum Bench {
         #[arg(long)]
         software: bool,
     },
+    /// Guides and followers: simulation time per frame and the followers' position error
+    /// against simulating every strand, for guide shares 1 .. 0.05 at frames 10, 20 and 30
+    /// of the gust; writes guides.md, guides.csv and guides.png.
+    Guides {
+        #[arg(long, default_value = "assets/scenes/gust.ron")]
+        scene: PathBuf,
+        /// Directory for the report files.
+        #[arg(long, default_value = "bench_out")]
+        out: PathBuf,
+        #[arg(long)]
+        software: bool,
+    },
     /// Van Gelder & Wilhelms' fur: hairs/s per style at 900x900 against the paper's rates,
     /// the Figure 9 image at 500,000 hairs, and distance-based culling (image error against
     /// the full-density render versus hairs drawn and time); writes fur.md, fur.csv and
@@ -632,6 +644,19 @@ fn main() -> Result<()> {
                 println!("{}", report.markdown);
                 println!(
                     "wrote {0}/dynamics.md, {0}/dynamics.csv, {0}/dynamics.png",
+                    out.display()
+                );
+            }
+            Bench::Guides {
+                scene,
+                out,
+                software,
+            } => {
+                let gpu = Gpu::headless(preference(software))?;
+                let report = kami::bench::guides::run(&gpu, &scene, &out)?;
+                println!("{}", report.markdown);
+                println!(
+                    "wrote {0}/guides.md, {0}/guides.csv, {0}/guides.png",
                     out.display()
                 );
             }

@@ -3,6 +3,7 @@
 
 pub mod backends;
 pub mod fur;
+pub mod guides;
 pub mod lod;
 pub mod scale;
 pub mod sdf;

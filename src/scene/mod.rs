@@ -1109,6 +1109,11 @@ pub struct Dynamics {
     /// angular velocity and warns.
     #[serde(default = "default_max_substeps")]
     pub max_substeps: u32,
+    /// Guides and followers: the share in (0, 1] of each dynamic group's strands that the
+    /// projective solver simulates (the guides, spread over the scalp); every other strand
+    /// follows its nearest guides (`systems::anjyo::follow`). Absent: every strand simulated.
+    #[serde(default)]
+    pub guides: Option<f64>,
 }
 
 impl Default for Dynamics {
@@ -1127,6 +1132,7 @@ impl Default for Dynamics {
             fluctuation: None,
             collision: true,
             max_substeps: default_max_substeps(),
+            guides: None,
         }
     }
 }

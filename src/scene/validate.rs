@@ -296,6 +296,9 @@ fn validate_dynamics(d: &Dynamics) -> Result<()> {
             ));
         }
     }
+    if let Some(g) = d.guides {
+        positive("dynamics.guides", g, 1.0)?;
+    }
     if d.max_substeps == 0 || d.max_substeps > 4096 {
         return Err(bad(
             "dynamics.max_substeps",

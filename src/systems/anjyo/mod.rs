@@ -1,6 +1,7 @@
 //! Anjyo, Usami & Kurihara 1992: cantilever-beam hairstyles on an ellipsoid head
 //! (`groom`, `cantilever` + `cantilever_gpu`), one-dimensional projective dynamics
-//! (`projective` + `projective_gpu`, driven by `simulation`), and ribbons with Anjyo's
+//! (`projective` + `projective_gpu`, driven by `simulation`; with a guide share only the
+//! guides, the rest rebuilt by `follow` + `follow_gpu`), and ribbons with Anjyo's
 //! anisotropic shading (`draw`). Every GPU kernel has its f64 CPU reference beside it.
 //!
 //! Per scene: the pores are drawn on the CPU (`groom::prepare`), bent once on the GPU into
@@ -12,6 +13,8 @@ pub mod cantilever;
 pub mod cantilever_gpu;
 pub mod draw;
 pub mod elastica;
+pub mod follow;
+pub mod follow_gpu;
 pub mod groom;
 pub mod imported;
 pub mod panel;
@@ -51,6 +54,13 @@ pub const PROJECTIVE: &str = wgsl!(
     "anjyo/projective.wgsl",
 );
 
+/// Followers rebuilt from their guides (`follow`).
+pub const FOLLOW: &str = wgsl!(
+    "common/ellipsoid.wgsl",
+    "common/sdf.wgsl",
+    "anjyo/follow.wgsl",
+);
+
 /// Hair ribbons with Anjyo's anisotropic specular.
 pub const DRAW: &str = wgsl!(
     "common/strands.wgsl",
@@ -81,6 +91,7 @@ pub const KIND: Kind = Kind {
     shaders: &[
         ("anjyo/cantilever", CANTILEVER),
         ("anjyo/projective", PROJECTIVE),
+        ("anjyo/follow", FOLLOW),
         ("anjyo/draw", DRAW),
     ],
 };
@@ -182,7 +193,7 @@ pub fn materials(scene: &Scene) -> Vec<GpuMaterial> {
 
 /// What an edit asks of the strands: pores, lengths, rigidity, loads, cuts, head, grooming
 /// gravity or per-strand k_a re-groom (and restart the motion from the new rest pose);
-/// dynamics switched on or off rebuild; dynamics parameters act from the next step;
+/// dynamics switched on or off, or a new guide share, rebuild; dynamics parameters act from the next step;
 /// colours, k_s, n and widths are new uniforms.
 pub fn classify(old: &Scene, new: &Scene) -> Change {
     // Groups with their look-only fields made equal: what is left is the groom.
@@ -197,7 +208,12 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
         (s.seed, s.head.center, s.head.radii, s.gravity, groups)
     };
     let looks = |s: &Scene| -> Vec<_> { s.groups.iter().map(|g| g.material.clone()).collect() };
-    if groom_view(old) != groom_view(new) || old.dynamics.is_some() != new.dynamics.is_some() {
+    // The guide share decides which strands are simulated: a new set-up.
+    let guides = |s: &Scene| s.dynamics.as_ref().map(|d| d.guides);
+    if groom_view(old) != groom_view(new)
+        || old.dynamics.is_some() != new.dynamics.is_some()
+        || guides(old) != guides(new)
+    {
         Change::Rebuild
     } else if old.dynamics != new.dynamics {
         Change::Resimulate

@@ -283,6 +283,24 @@ fn dynamics(ui: &mut Ui, s: &mut ViewerState) {
         ui.add(Slider::new(&mut f.amplitude, 0.0..=45.0).text("kick amplitude (°)"));
         ui.add(Slider::new(&mut f.period, 1..=60).text("every (frames)"));
     }
+    // Guides and followers (`follow`): a new share rebuilds the system (`classify`).
+    let mut guided = d.guides.is_some();
+    ui.checkbox(&mut guided, "guides and followers (simulate a share)")
+        .on_hover_text(
+            "simulate only a share of the strands; the others follow their 3 nearest guides",
+        );
+    match (guided, d.guides.is_some()) {
+        (true, false) => d.guides = Some(0.25),
+        (false, true) => d.guides = None,
+        _ => {}
+    }
+    if let Some(g) = d.guides.as_mut() {
+        ui.add(
+            Slider::new(g, 0.01..=1.0)
+                .logarithmic(true)
+                .text("share simulated (guides)"),
+        );
+    }
     if ui.small_button("Disable dynamics").clicked() {
         s.scene.dynamics = None;
     }

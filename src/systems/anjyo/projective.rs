@@ -157,15 +157,18 @@ fn smoothstep(a: f64, b: f64, x: f64) -> f64 {
 
 impl DynSetup {
     /// Simulation set-up for the dynamic groups of a groomed scene (`visible`: drawn segments
-    /// per strand from the groom). `None` when the scene has no dynamics or no dynamic group.
+    /// per strand from the groom): every strand, or only the guides when the scene sets
+    /// `dynamics.guides` (`follow`). `None` when the scene has no dynamics or no dynamic group.
     pub fn new(scene: &Scene, input: &GroomInput, visible: &[f64]) -> Option<DynSetup> {
         let params = scene.dynamics.clone()?;
         let offsets = input.vertex_offsets();
         let mut strands = Vec::new();
         let mut state_len = 0u32;
         let inr = &params.inertia;
+        // Every strand of a dynamic group, or only its guides (`follow::guide_mask`).
+        let simulated = super::follow::guide_mask(scene, input);
         for (i, r) in input.roots.iter().enumerate() {
-            if !scene.groups[r.group as usize].dynamic {
+            if !simulated[i] {
                 continue;
             }
             let k = input.groups[r.group as usize].segments;

@@ -1,7 +1,11 @@
 //! `Simulation` drives the projective-dynamics kernel over a groom: positions stay on the
 //! GPU, the CPU only schedules forces (`projective::DynSetup::schedule`). The f64 reference
-//! of the same step is `projective::CpuSim` (`tests/contract.rs` compares them).
+//! of the same step is `projective::CpuSim` (`tests/contract.rs` compares them). With a
+//! guide share (`dynamics.guides`) the kernel simulates only the guides and the follower
+//! kernel (`follow_gpu`) rebuilds the other strands after each submission's substeps.
 
+use super::follow::FollowSetup;
+use super::follow_gpu::{FollowJob, FollowPass};
 use super::groom::GroomInput;
 use super::projective::DynSetup;
 use super::projective_gpu::{ProjectiveJob, ProjectivePass};
@@ -20,6 +24,11 @@ pub struct Simulation {
     pub steps: u64,
     /// Steps that needed more than `max_substeps` (the angular clamp was relied on).
     pub capped_steps: u64,
+    /// The followers, when only a share of the strands is simulated.
+    pub follow: Option<FollowSetup>,
+    follow_gpu: Option<(FollowPass, FollowJob)>,
+    /// Head pose the followers were last rebuilt at (the end of the last recorded step).
+    pub follow_head: glam::DMat4,
 }
 
 impl Simulation {
@@ -45,12 +54,24 @@ impl Simulation {
         };
         let pass = ProjectivePass::new(gpu)?;
         let job = pass.prepare(gpu, &setup, hair)?;
+        let follow = FollowSetup::new(scene, input, &visible, &setup);
+        let follow_gpu = match &follow {
+            Some(f) => {
+                let fp = FollowPass::new(gpu)?;
+                let fj = fp.prepare(gpu, f, hair)?;
+                Some((fp, fj))
+            }
+            None => None,
+        };
         let sim = Simulation {
             setup,
             pass,
             job,
             steps: 0,
             capped_steps: 0,
+            follow,
+            follow_gpu,
+            follow_head: glam::DMat4::IDENTITY,
         };
         let mut enc = gpu
             .device
@@ -108,11 +129,27 @@ impl Simulation {
             self.steps += 1;
         }
         self.pass.advance(gpu, enc, &mut self.job, hair, &all);
+        if let (Some((fp, fj)), Some(last)) = (&self.follow_gpu, all.last()) {
+            fp.record(gpu, enc, fj, last.head);
+            self.follow_head = last.head;
+        }
         info
+    }
+
+    /// Record the follower kernel alone, at the last pose (benchmarks: its own cost).
+    /// Nothing without followers.
+    pub fn record_followers(&self, gpu: &Gpu, enc: &mut wgpu::CommandEncoder) {
+        if let Some((fp, fj)) = &self.follow_gpu {
+            fp.record(gpu, enc, fj, self.follow_head);
+        }
     }
 
     /// Parameters changed without changing which strands are simulated.
     pub fn update_params(&mut self, gpu: &Gpu, params: crate::scene::Dynamics) {
+        if let (Some(f), Some((fp, fj))) = (self.follow.as_mut(), self.follow_gpu.as_mut()) {
+            f.collision = params.collision;
+            fp.set_collision(fj, params.collision);
+        }
         self.setup.params = params;
         self.setup.update_max_cu();
         self.pass.update_params(gpu, &self.job, &self.setup);

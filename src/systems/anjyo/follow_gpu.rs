@@ -1,0 +1,213 @@
+//! The follower kernel (`shaders/anjyo/follow.wgsl`): the f32 twin of `follow::follow`,
+//! one invocation per follower, dispatched once per submission after the projective
+//! substeps (a follower depends only on its guides' nodes and the head pose at that moment,
+//! so once per submission is the same as once per frame). `tests/guides.rs` compares it
+//! with the f64 reference.
+//!
+//! Its two GPU structs live here rather than in `gpu::gpu_data` because nothing else reads
+//! them; same rules (`#[repr(C)]`, `Pod`, a size check, "keep in sync").
+
+use super::follow::{FollowSetup, MAX_GUIDES};
+use crate::error::Result;
+use crate::gpu::strands::StrandBuffers;
+use crate::gpu::{self, Gpu, WORKGROUP};
+use bytemuck::{Pod, Zeroable};
+use glam::DMat4;
+use wgpu::util::DeviceExt;
+
+/// Keep in sync with `struct FollowParams` in `shaders/anjyo/follow.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuFollowParams {
+    pub follower_count: u32,
+    pub row_stride: u32,
+    pub collision: u32,
+    pub _pad: u32,
+    /// `HeadHull::gpu_params` (w = 1 selects the SDF).
+    pub head_center: [f32; 4],
+    pub head_radii: [f32; 4],
+    /// Head pose at the end of the frame and its inverse.
+    pub head: [[f32; 4]; 4],
+    pub head_inv: [[f32; 4]; 4],
+}
+const _: () = assert!(std::mem::size_of::<GpuFollowParams>() == 176);
+
+/// Keep in sync with `struct Follower` in `shaders/anjyo/follow.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuFollower {
+    /// First vertex, moved segments, guide count, unused.
+    pub ids: [u32; 4],
+    /// xyz pore in head coordinates, w segment length.
+    pub root: [f32; 4],
+    pub guide_first: [u32; 4],
+    pub guide_segs: [u32; 4],
+    /// Shepard weights w_j.
+    pub weight: [f32; 4],
+}
+const _: () = assert!(std::mem::size_of::<GpuFollower>() == 80);
+const _: () = assert!(MAX_GUIDES <= 4);
+
+/// The follower pipeline.
+pub struct FollowPass {
+    pipeline: wgpu::ComputePipeline,
+    layout: wgpu::BindGroupLayout,
+}
+
+/// Buffers of one groom's followers.
+pub struct FollowJob {
+    params: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+    dims: (u32, u32),
+    base: GpuFollowParams,
+}
+
+impl FollowPass {
+    pub fn new(gpu: &Gpu) -> Result<FollowPass> {
+        let device = &gpu.device;
+        let module = gpu::shader_module(device, "follow", super::FOLLOW)?;
+        let cs = wgpu::ShaderStages::COMPUTE;
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("follow"),
+            entries: &[
+                gpu::uniform_entry(0, cs),
+                gpu::storage_entry(1, cs, true),
+                gpu::storage_entry(2, cs, false),
+                gpu::storage_entry(3, cs, true),
+                gpu::storage_entry(4, cs, true),
+            ],
+        });
+        let [pipeline] = gpu::compute_pipelines(
+            device,
+            "follow",
+            &layout,
+            &module,
+            ["follow"],
+            &[
+                ("WORKGROUP", WORKGROUP as f64),
+                ("EPS_OUT", crate::scene::head::EPS_OUT),
+                ("SDF_EPS_OUT", crate::scene::hull::SDF_EPS_OUT),
+            ],
+        );
+        Ok(FollowPass { pipeline, layout })
+    }
+
+    /// Upload the followers.
+    pub fn prepare(
+        &self,
+        gpu: &Gpu,
+        setup: &FollowSetup,
+        hair: &StrandBuffers,
+    ) -> Result<FollowJob> {
+        let device = &gpu.device;
+        let dims = gpu.dispatch_dims(setup.followers.len() as u32, WORKGROUP)?;
+        let records: Vec<GpuFollower> = setup
+            .followers
+            .iter()
+            .map(|f| {
+                let mut r = GpuFollower {
+                    ids: [f.first_vertex, f.segments, f.guides.len() as u32, 0],
+                    root: [
+                        f.root_local.x as f32,
+                        f.root_local.y as f32,
+                        f.root_local.z as f32,
+                        f.seg_len as f32,
+                    ],
+                    ..Default::default()
+                };
+                for (j, g) in f.guides.iter().enumerate() {
+                    r.guide_first[j] = g.first_vertex;
+                    r.guide_segs[j] = g.segments;
+                    r.weight[j] = g.weight as f32;
+                }
+                r
+            })
+            .collect();
+        let bytes = std::mem::size_of_val(records.as_slice()) as u64;
+        gpu.check_storage_size("the follower table", bytes)?;
+        let (head_center, head_radii) = setup.head.gpu_params();
+        let base = GpuFollowParams {
+            follower_count: setup.followers.len() as u32,
+            row_stride: dims.0 * WORKGROUP,
+            collision: u32::from(setup.collision),
+            head_center,
+            head_radii,
+            ..Default::default()
+        };
+        let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("follow params"),
+            contents: bytemuck::bytes_of(&base),
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        });
+        let followers = gpu::storage_buffer(
+            device,
+            "followers",
+            bytemuck::cast_slice(&records),
+            wgpu::BufferUsages::empty(),
+        );
+        let sdf_words = setup.head.gpu_sdf();
+        gpu.check_storage_size(
+            "the head's signed distance field",
+            4 * sdf_words.len() as u64,
+        )?;
+        let sdf = gpu::storage_buffer(
+            device,
+            "follow head sdf",
+            bytemuck::cast_slice(&sdf_words),
+            wgpu::BufferUsages::empty(),
+        );
+        // The rest shape: the groom as it is now, before any step.
+        let rest = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("follow rest pose"),
+            size: hair.vertices.size(),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("follow rest pose"),
+        });
+        enc.copy_buffer_to_buffer(&hair.vertices, 0, &rest, 0, hair.vertices.size());
+        gpu.queue.submit([enc.finish()]);
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("follow"),
+            layout: &self.layout,
+            entries: &[
+                gpu::entry(0, &params),
+                gpu::entry(1, &followers),
+                gpu::entry(2, &hair.vertices),
+                gpu::entry(3, &sdf),
+                gpu::entry(4, &rest),
+            ],
+        });
+        Ok(FollowJob {
+            params,
+            bind_group,
+            dims,
+            base,
+        })
+    }
+
+    /// Upload the head pose and record the follower dispatch (once per submission, after
+    /// the substeps: the pose is written when the queue is submitted).
+    pub fn record(&self, gpu: &Gpu, enc: &mut wgpu::CommandEncoder, job: &FollowJob, head: DMat4) {
+        let p = GpuFollowParams {
+            head: head.as_mat4().to_cols_array_2d(),
+            head_inv: head.inverse().as_mat4().to_cols_array_2d(),
+            ..job.base
+        };
+        gpu.queue
+            .write_buffer(&job.params, 0, bytemuck::bytes_of(&p));
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("follow"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &job.bind_group, &[]);
+        pass.dispatch_workgroups(job.dims.0, job.dims.1, 1);
+    }
+
+    /// The collision switch changed (tuning from the viewer).
+    pub fn set_collision(&self, job: &mut FollowJob, collision: bool) {
+        job.base.collision = u32::from(collision);
+    }
+}
