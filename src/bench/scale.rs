@@ -53,6 +53,9 @@ struct Point {
     phases: [Option<f64>; 5],
     /// The simulation alone on the CPU clock (timed runs only).
     sim_alone_ms: Option<f64>,
+    /// The simulation time the costs use: the timestamps, or the CPU clock where they
+    /// missed the compute work.
+    sim_cost: Option<f64>,
     /// Rendering alone (generation, ribbons, resolve) on the CPU clock.
     ribbons_ms: f64,
     /// The compute walk over every segment (`bench::splat`).
@@ -174,36 +177,18 @@ fn measure(gpu: &Gpu, scene: &Scene, sweep: &Sweep, timed: bool) -> Result<Point
     let mut alone = Vec::new();
     if timed {
         for _ in 0..3 {
-            let t = Instant::now();
-            let mut enc = gpu.device.create_command_encoder(&Default::default());
-            stage.advance(gpu, &mut enc, 1)?;
-            if let Some(tm) = stage.timer() {
-                tm.finish(&mut enc);
-            }
-            gpu.queue.submit([enc.finish()]);
-            if let Some(tm) = stage.timer() {
-                tm.submitted();
-            }
-            gpu.wait()?;
-            alone.push(t.elapsed().as_secs_f64() * 1e3);
+            alone.push(wall_ms(gpu, &mut stage, |stage, enc| {
+                stage.advance(gpu, enc, 1).map(|_| ())
+            })?);
         }
     }
     // How to draw: the ribbons alone (render only, CPU wall) beside the compute probe's
     // lower bound for a compute rasteriser (bench::splat).
     let mut ribbons = Vec::new();
     for _ in 0..3 {
-        let t = Instant::now();
-        let mut enc = gpu.device.create_command_encoder(&Default::default());
-        stage.render(gpu, &mut enc, &out.view, sweep.size, &look)?;
-        if let Some(tm) = stage.timer() {
-            tm.finish(&mut enc);
-        }
-        gpu.queue.submit([enc.finish()]);
-        if let Some(tm) = stage.timer() {
-            tm.submitted();
-        }
-        gpu.wait()?;
-        ribbons.push(t.elapsed().as_secs_f64() * 1e3);
+        ribbons.push(wall_ms(gpu, &mut stage, |stage, enc| {
+            stage.render(gpu, enc, &out.view, sweep.size, &look)
+        })?);
     }
     let probe = super::splat::probe(gpu, &stage, sweep.size, 3)?;
     gpu.take_error()?;
@@ -220,11 +205,33 @@ fn measure(gpu: &Gpu, scene: &Scene, sweep: &Sweep, timed: bool) -> Result<Point
         substeps: substeps as f64 / sweep.frames.max(1) as f64,
         phases,
         sim_alone_ms: median(alone),
+        sim_cost: None,
         ribbons_ms: median(ribbons).unwrap_or(f64::NAN),
         probe,
         frame_ms: median(samples.iter().filter_map(|s| s.frame).collect()).unwrap_or(f64::NAN),
         cpu_ms: median(cpu).unwrap_or(f64::NAN),
     })
+}
+
+/// CPU wall milliseconds of what `record` records, submitted alone and waited for (the
+/// stage's timer, if on, is finished so its marks do not leak into the next frame).
+fn wall_ms(
+    gpu: &Gpu,
+    stage: &mut Stage,
+    record: impl FnOnce(&mut Stage, &mut wgpu::CommandEncoder) -> Result<()>,
+) -> Result<f64> {
+    let t = Instant::now();
+    let mut enc = gpu.device.create_command_encoder(&Default::default());
+    record(stage, &mut enc)?;
+    if let Some(tm) = stage.timer() {
+        tm.finish(&mut enc);
+    }
+    gpu.queue.submit([enc.finish()]);
+    if let Some(tm) = stage.timer() {
+        tm.submitted();
+    }
+    gpu.wait()?;
+    Ok(t.elapsed().as_secs_f64() * 1e3)
 }
 
 /// Copy bandwidth of this device (bytes read + written per second): a large buffer copied
@@ -356,7 +363,7 @@ pub fn run(gpu: &Gpu, base_path: &Path, sweep: &Sweep, out: &Path) -> Result<Rep
                 continue;
             }
             eprintln!("scale: {n} strands x {k} segments");
-            let p = measure(gpu, &scene, sweep, timed)?;
+            let mut p = measure(gpu, &scene, sweep, timed)?;
             let sim = p.phases[Phase::Simulation as usize];
             let bytes =
                 (p.sim_segments * BYTES_PER_SEGMENT + p.sim_strands * BYTES_PER_STRAND) as f64;
@@ -365,6 +372,7 @@ pub fn run(gpu: &Gpu, base_path: &Path, sweep: &Sweep, out: &Path) -> Result<Rep
                 matches!((sim, p.sim_alone_ms), (Some(ts), Some(cpu)) if cpu > 3.0 * ts + 1.0);
             suspect |= missed;
             let sim_cost = if missed { p.sim_alone_ms } else { sim };
+            p.sim_cost = sim_cost;
             let (ns, gbs, bound) = match sim_cost {
                 Some(ms) if p.substeps > 0.0 => {
                     let per_sub = ms * 1e-3 / p.substeps;
@@ -451,7 +459,7 @@ pub fn run(gpu: &Gpu, base_path: &Path, sweep: &Sweep, out: &Path) -> Result<Rep
             color: crate::plot::palette(i + 5),
             points: pts
                 .iter()
-                .filter_map(|p| p.phases[0].map(|s| (p.strands as f64, s)))
+                .filter_map(|p| p.sim_cost.map(|s| (p.strands as f64, s)))
                 .collect(),
         });
     }

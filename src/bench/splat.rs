@@ -14,17 +14,8 @@ use crate::systems::anjyo::AnjyoSystem;
 use std::time::Instant;
 use wgpu::util::DeviceExt;
 
+/// After `shaders/common/strands.wgsl` (the `Strand` record).
 const SHADER: &str = r#"
-struct Strand {
-    first_vertex: u32,
-    segments: u32,
-    group: u32,
-    flags: u32,
-    visible: f32,
-    ka: f32,
-    seg_len: f32,
-    rand: f32,
-}
 struct Params {
     view_proj: mat4x4<f32>,
     size: vec2<u32>,
@@ -104,7 +95,11 @@ pub fn probe(gpu: &Gpu, stage: &Stage, size: (u32, u32), runs: u32) -> Result<Op
             | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
-    let module = gpu::shader_module(device, "splat probe", SHADER)?;
+    let source = format!(
+        "{}\n{SHADER}",
+        include_str!("../../shaders/common/strands.wgsl")
+    );
+    let module = gpu::shader_module(device, "splat probe", &source)?;
     let cs = wgpu::ShaderStages::COMPUTE;
     let layout = gpu::pipeline::layout(
         device,
