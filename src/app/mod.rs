@@ -356,7 +356,10 @@ impl App {
             Some(gpu.device.limits().max_texture_dimension_2d as usize),
         );
         self.state.stats.adapter = gpu.describe();
-        self.state.stats.timestamps = crate::gpu::timing::GpuTimer::new(&gpu).is_some();
+        self.state.stats.timestamps = gpu
+            .device
+            .features()
+            .contains(crate::gpu::timing::features());
         self.gfx = Some(Gfx {
             camera: OrbitCamera::from_desc(&scene.camera),
             window,
