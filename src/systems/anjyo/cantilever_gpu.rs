@@ -189,12 +189,7 @@ impl CantileverPass {
             usage: wgpu::BufferUsages::STORAGE,
             mapped_at_creation: false,
         });
-        let sdf_words = input.head.gpu_sdf();
-        gpu.check_storage_size(
-            "the head's signed distance field",
-            4 * sdf_words.len() as u64,
-        )?;
-        let sdf = gpu::storage_buffer(device, "head sdf", bytemuck::cast_slice(&sdf_words), none);
+        let sdf = super::head_sdf_buffer(gpu, &input.head, "head sdf")?;
         let bind_group = gpu::pipeline::bind_buffers(
             device,
             "cantilever",

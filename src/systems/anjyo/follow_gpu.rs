@@ -145,17 +145,7 @@ impl FollowPass {
             bytemuck::cast_slice(&records),
             wgpu::BufferUsages::empty(),
         );
-        let sdf_words = setup.head.gpu_sdf();
-        gpu.check_storage_size(
-            "the head's signed distance field",
-            4 * sdf_words.len() as u64,
-        )?;
-        let sdf = gpu::storage_buffer(
-            device,
-            "follow head sdf",
-            bytemuck::cast_slice(&sdf_words),
-            wgpu::BufferUsages::empty(),
-        );
+        let sdf = super::head_sdf_buffer(gpu, &setup.head, "follow head sdf")?;
         // The rest shape: the groom as it is now, before any step.
         let rest = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("follow rest pose"),

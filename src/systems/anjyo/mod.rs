@@ -96,6 +96,23 @@ pub const KIND: Kind = Kind {
     ],
 };
 
+/// The head's signed distance field as a storage buffer for the kernels that collide with
+/// the head (cantilever, projective, follow); a placeholder word for an ellipsoid head.
+pub fn head_sdf_buffer(
+    gpu: &Gpu,
+    head: &crate::scene::hull::HeadHull,
+    label: &str,
+) -> Result<wgpu::Buffer> {
+    let words = head.gpu_sdf();
+    gpu.check_storage_size("the head's signed distance field", 4 * words.len() as u64)?;
+    Ok(crate::gpu::storage_buffer(
+        &gpu.device,
+        label,
+        bytemuck::cast_slice(&words),
+        wgpu::BufferUsages::empty(),
+    ))
+}
+
 /// Anjyo hair of one scene: the groom, its simulation if the scene has dynamics, the draw.
 pub struct AnjyoSystem {
     pub input: GroomInput,

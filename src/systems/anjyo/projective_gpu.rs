@@ -229,17 +229,7 @@ impl ProjectivePass {
         let steps = Self::step_ring(device, capacity);
         // The field's own uniform stays at scale 1: the kernel scales by the substep's gust.
         let eff = EffGpu::new(gpu, setup.forces.eff.as_deref())?;
-        let sdf_words = setup.head.gpu_sdf();
-        gpu.check_storage_size(
-            "the head's signed distance field",
-            4 * sdf_words.len() as u64,
-        )?;
-        let sdf = gpu::storage_buffer(
-            device,
-            "head sdf",
-            bytemuck::cast_slice(&sdf_words),
-            wgpu::BufferUsages::empty(),
-        );
+        let sdf = super::head_sdf_buffer(gpu, &setup.head, "head sdf")?;
         let bind_group = self.bind(
             device,
             [&params, &strands, &state, &sdf],
