@@ -50,6 +50,10 @@ enum Command {
         /// Supersampling factor per axis, 1 to 4 (default: the scene's render.supersample).
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4))]
         supersample: Option<u32>,
+        /// How strand hair is rasterised: ribbons or compute (default: the scene's
+        /// render.strands).
+        #[arg(long, value_parser = parse_strands)]
+        strands: Option<kami::scene::StrandRaster>,
         /// Prefer a software adapter (llvmpipe/lavapipe) even when a GPU is present.
         #[arg(long)]
         software: bool,
@@ -253,6 +257,27 @@ enum Bench {
         #[arg(long)]
         software: bool,
     },
+    /// Strand rasterisers: ribbons (MSAA 4 and 1) and the compute rasteriser for thin
+    /// strands, ms per drawn frame against the image error from a 64-samples-per-pixel
+    /// reference; writes raster.md, raster.csv, raster.png and each image.
+    Raster {
+        #[arg(long, default_value = "assets/scenes/gust.ron")]
+        scene: PathBuf,
+        /// Image size as WIDTHxHEIGHT.
+        #[arg(long, value_parser = parse_size, default_value = "1280x720")]
+        size: (u32, u32),
+        /// The frame drawn (simulated first).
+        #[arg(long, default_value_t = 15)]
+        frame: u64,
+        /// Timed frames per rasteriser (the median is reported).
+        #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=1000))]
+        runs: u32,
+        /// Directory for the report files.
+        #[arg(long, default_value = "bench_out")]
+        out: PathBuf,
+        #[arg(long)]
+        software: bool,
+    },
     /// Sakai's toon wisps: ray-march ms per frame against wisp count and image size, image
     /// error against step size and distance method, and the mass springs' work-precision
     /// table; writes wisps.md, wisps.csv and three plots (cost, error, springs).
@@ -360,6 +385,11 @@ fn parse_frame_path(s: &str) -> Result<(u64, PathBuf), String> {
 }
 
 /// 1 or 4: the sample counts every adapter Kami runs on supports.
+/// `ribbons` or `compute` (`render.strands`).
+fn parse_strands(s: &str) -> Result<kami::scene::StrandRaster, String> {
+    kami::scene::StrandRaster::parse(s)
+}
+
 fn parse_msaa(s: &str) -> Result<u32, String> {
     match s.trim() {
         "1" => Ok(1),
@@ -413,11 +443,15 @@ fn main() -> Result<()> {
             size,
             msaa,
             supersample,
+            strands,
             software,
         } => {
             let mut s = kami::Scene::load(&scene)?;
             if let Some(m) = msaa {
                 s.render.msaa = m;
+            }
+            if let Some(r) = strands {
+                s.render.strands = r;
             }
             if let Some(f) = supersample {
                 s.render.supersample = f;
@@ -686,6 +720,22 @@ fn main() -> Result<()> {
                 let report = kami::bench::lod::run(&gpu, &scene, &out)?;
                 println!("{}", report.markdown);
                 println!("wrote {0}/lod.md, {0}/lod.csv, {0}/lod.png", out.display());
+            }
+            Bench::Raster {
+                scene,
+                size,
+                frame,
+                runs,
+                out,
+                software,
+            } => {
+                let gpu = Gpu::headless(preference(software))?;
+                let report = kami::bench::raster::run(&gpu, &scene, &out, size, frame, runs)?;
+                println!("{}", report.markdown);
+                println!(
+                    "wrote {0}/raster.md, {0}/raster.csv, {0}/raster.png",
+                    out.display()
+                );
             }
             Bench::Sdf { scene, out } => {
                 let report = kami::bench::sdf::run(&scene, &out)?;

@@ -816,7 +816,7 @@ fn render(gpu: &Gpu, samples: u32, look: &Look) -> image::RgbaImage {
     let mut pts = rest[0].points.clone();
     pts.resize(8, *pts.last().unwrap());
     let points = points_buffer(gpu, &pts);
-    let targets = SceneTargets::new(gpu, (SIZE, SIZE), samples, 1).unwrap();
+    let targets = SceneTargets::new(gpu, (SIZE, SIZE), samples, 1, false).unwrap();
     let frame_buffer = gpu::storage_buffer(
         &gpu.device,
         "frame",
@@ -826,7 +826,7 @@ fn render(gpu: &Gpu, samples: u32, look: &Look) -> image::RgbaImage {
     let frame_bg = pipeline::bind_buffers(&gpu.device, "frame", &layout, &[&frame_buffer]);
     let out = Offscreen::new(gpu, (SIZE, SIZE)).unwrap();
     let down = DownsamplePass::new(gpu, out.format).unwrap();
-    let down_bg = down.bind(gpu, &targets);
+    let down_bg = down.bind(gpu, &targets, None);
     let mut enc = gpu.device.create_command_encoder(&Default::default());
     pass.record(gpu, &mut enc, &points, &DMat4::IDENTITY)
         .unwrap();
@@ -834,7 +834,7 @@ fn render(gpu: &Gpu, samples: u32, look: &Look) -> image::RgbaImage {
         let mut rp = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("strips test"),
             color_attachments: &[Some(targets.color_attachment(wgpu::Color::BLACK))],
-            depth_stencil_attachment: Some(targets.depth_attachment()),
+            depth_stencil_attachment: Some(targets.depth_attachment(false)),
             timestamp_writes: None,
             occlusion_query_set: None,
             multiview_mask: None,

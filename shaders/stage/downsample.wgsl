@@ -1,18 +1,42 @@
 // Supersampling resolve: each output pixel is the mean of its factor x factor block of the
 // (already MSAA-resolved) scene texture, in linear colour. Anjyo's oversampling for hair
 // thinner than a pixel. Into a non-sRGB output (a window shared with egui) the sRGB
-// encoding is done here.
+// encoding is done here. Thin strands drawn by the compute rasteriser
+// (anjyo/splat.wgsl) are composited over each sample first, from their accumulation.
 
 struct Resolve {
     factor: u32,
     // 1: the output is not an sRGB format, so encode here.
     encode_srgb: u32,
-    _p1: u32,
+    // 1: composite the thin-strand accumulation (`accum`) over the scene.
+    splat: u32,
     _p2: u32,
 }
 
 @group(0) @binding(0) var scene: texture_2d<f32>;
 @group(0) @binding(1) var<uniform> resolve: Resolve;
+// Five words per scene sample: sum rgb a wt, sum a wt, sum -ln(1 - a) (anjyo/splat.wgsl).
+@group(0) @binding(2) var<storage, read> accum: array<u32>;
+
+// Keep in sync with anjyo/splat.wgsl.
+const COLOR_SCALE: f32 = 16384.0;
+const DEPTH_SCALE: f32 = 4096.0;
+
+// The thin strands over the scene at sample `px`: their weighted mean colour times their
+// coverage 1 - T, over the scene times the transmittance T.
+fn with_hair(px: vec2<i32>, scene_rgb: vec3<f32>) -> vec3<f32> {
+    if resolve.splat == 0u {
+        return scene_rgb;
+    }
+    let i = 5u * (u32(px.y) * textureDimensions(scene).x + u32(px.x));
+    let aw = f32(accum[i + 3u]);
+    if aw <= 0.0 {
+        return scene_rgb;
+    }
+    let t = exp(-f32(accum[i + 4u]) / DEPTH_SCALE);
+    let hair = vec3<f32>(f32(accum[i]), f32(accum[i + 1u]), f32(accum[i + 2u])) / aw;
+    return hair * (1.0 - t) + scene_rgb * t;
+}
 
 @vertex
 fn vs(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
@@ -25,13 +49,14 @@ fn vs(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
 fn fs(@builtin(position) p: vec4<f32>) -> @location(0) vec4<f32> {
     let f = i32(resolve.factor);
     let base = vec2<i32>(floor(p.xy)) * f;
-    var sum = vec4<f32>(0.0);
+    var sum = vec3<f32>(0.0);
     for (var y = 0; y < f; y++) {
         for (var x = 0; x < f; x++) {
-            sum += textureLoad(scene, base + vec2<i32>(x, y), 0);
+            let px = base + vec2<i32>(x, y);
+            sum += with_hair(px, textureLoad(scene, px, 0).rgb);
         }
     }
-    let rgb = (sum / f32(f * f)).rgb;
+    let rgb = sum / f32(f * f);
     if resolve.encode_srgb != 0u {
         return vec4<f32>(linear_to_srgb(rgb), 1.0);
     }

@@ -365,6 +365,10 @@ impl ViewerState {
             }
             "msaa" => next.render.msaa = int()?,
             "supersample" => next.render.supersample = int()?,
+            "strands" => {
+                next.render.strands =
+                    crate::scene::StrandRaster::parse(value.trim()).map_err(bad)?
+            }
             "play" => self.view.playing = on()?,
             "lod" => {
                 let f = nums(1)?[0];

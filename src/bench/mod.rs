@@ -5,6 +5,7 @@ pub mod backends;
 pub mod fur;
 pub mod guides;
 pub mod lod;
+pub mod raster;
 pub mod scale;
 pub mod sdf;
 pub mod splat;

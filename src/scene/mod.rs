@@ -710,6 +710,33 @@ pub struct RenderSettings {
     /// size.
     #[serde(default = "default_lod_tolerance_px")]
     pub lod_tolerance_px: f64,
+    /// How strand hair (the Anjyo groups) is rasterised.
+    #[serde(default)]
+    pub strands: StrandRaster,
+}
+
+/// How strand hair is rasterised.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum StrandRaster {
+    /// Camera-facing ribbons, two triangles per segment, coverage by MSAA sample masks.
+    #[default]
+    Ribbons,
+    /// The compute rasteriser for thin strands (`shaders/anjyo/splat.wgsl`): one step per
+    /// sample a segment crosses, analytic coverage, order-independent compositing. Much
+    /// cheaper where triangle setup dominates (software adapters); meant for strands at
+    /// most a few samples wide.
+    Compute,
+}
+
+impl StrandRaster {
+    /// From its name on a command line (`ribbons` or `compute`).
+    pub fn parse(s: &str) -> std::result::Result<StrandRaster, String> {
+        match s {
+            "ribbons" => Ok(StrandRaster::Ribbons),
+            "compute" => Ok(StrandRaster::Compute),
+            _ => Err(format!("strands must be ribbons or compute, not {s:?}")),
+        }
+    }
 }
 
 fn default_size() -> (u32, u32) {
@@ -740,6 +767,7 @@ impl Default for RenderSettings {
             supersample: default_supersample(),
             min_width: default_min_width(),
             lod_tolerance_px: default_lod_tolerance_px(),
+            strands: StrandRaster::default(),
         }
     }
 }

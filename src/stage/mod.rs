@@ -13,6 +13,7 @@
 
 pub mod camera;
 pub mod head;
+pub mod splat;
 pub mod target;
 
 use crate::error::Result;
@@ -76,9 +77,23 @@ pub struct Stage {
     /// Built only while the scene shows the head.
     head: Option<head::HeadPass>,
     downsample: DownsamplePass,
-    targets: Option<(SceneTargets, wgpu::BindGroup)>,
+    targets: Option<Targets>,
+    /// Group 2 of the systems' compute rasterisers for thin strands.
+    splat_layouts: splat::SplatLayouts,
     /// Per-pass GPU times, only when a caller asked for them (`enable_timing`).
     timer: Option<GpuTimer>,
+    /// The frame uniform of the last `render` (the splat contract test rebuilds its input).
+    last_frame: GpuFrame,
+}
+
+/// The scene targets of one output size, the resolve's bind group for them, and the thin
+/// strands' accumulation once some system splats.
+struct Targets {
+    scene: SceneTargets,
+    resolve: wgpu::BindGroup,
+    splat: Option<splat::SplatTarget>,
+    /// Whether `resolve` composites the accumulation.
+    resolve_splat: bool,
 }
 
 /// Check, before anything is allocated, that a scene rendered at `size` fits the adapter:
@@ -135,7 +150,10 @@ impl Stage {
         let frame_layout = gpu::pipeline::layout(
             device,
             "frame",
-            &[gpu::uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT)],
+            &[gpu::uniform_entry(
+                0,
+                wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
+            )],
         );
         let frame_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("frame uniform"),
@@ -157,7 +175,9 @@ impl Stage {
             frame_bind_group,
             frame_layout,
             targets: None,
+            splat_layouts: splat::SplatLayouts::new(device),
             timer: None,
+            last_frame: bytemuck::Zeroable::zeroed(),
         };
         stage.ensure_head(gpu)?;
         for kind in KINDS {
@@ -174,6 +194,7 @@ impl Stage {
     fn draw_setup(&self) -> DrawSetup<'_> {
         DrawSetup {
             frame_layout: &self.frame_layout,
+            splat_layouts: &self.splat_layouts,
             format: gpu::pipeline::SCENE_FORMAT,
             samples: self.quality.msaa,
         }
@@ -226,6 +247,16 @@ impl Stage {
                 t.end(enc, phase);
             }
         }
+    }
+
+    /// The frame uniform of the last frame drawn.
+    pub fn last_frame_uniform(&self) -> GpuFrame {
+        self.last_frame
+    }
+
+    /// The thin strands' accumulation (`stage::splat`), once some system has splatted.
+    pub fn splat_accumulation(&self) -> Option<&wgpu::Buffer> {
+        self.targets.as_ref()?.splat.as_ref().map(|s| &s.accum)
     }
 
     /// Whether the head pass is built (only while the scene shows the head).
@@ -461,14 +492,28 @@ impl Stage {
             region.0.clamp(1, output_size.0),
             region.1.clamp(1, output_size.1),
         );
+        // Thin strands drawn by a compute rasteriser read the scene depth and need an
+        // accumulation: targets are made for whether any system splats this frame.
+        let splatting = self.systems.iter().any(|s| s.splats());
         let stale = self
             .targets
             .as_ref()
-            .is_none_or(|(t, _)| t.output_size != size);
+            .is_none_or(|t| t.scene.output_size != size || t.scene.sampled_depth != splatting);
         if stale {
-            let t = SceneTargets::new(gpu, size, self.quality.msaa, self.quality.supersample)?;
-            let bg = self.downsample.bind(gpu, &t);
-            self.targets = Some((t, bg));
+            let scene = SceneTargets::new(
+                gpu,
+                size,
+                self.quality.msaa,
+                self.quality.supersample,
+                splatting,
+            )?;
+            let resolve = self.downsample.bind(gpu, &scene, None);
+            self.targets = Some(Targets {
+                scene,
+                resolve,
+                splat: None,
+                resolve_splat: false,
+            });
         }
         let view = View {
             eye: look.camera.eye,
@@ -487,14 +532,41 @@ impl Stage {
             t.end(enc, Phase::Generation);
         }
         let bounds = self.bounds();
-        let Some((targets, down_bg)) = self.targets.as_ref() else {
+        let Some(targets) = self.targets.as_mut() else {
             return Err(crate::KamiError::Gpu("scene targets missing".into()));
         };
-        let mut uniform = frame_uniform(&self.scene, look, bounds, targets.size, self.quality.msaa);
+        if splatting && targets.splat.is_none() {
+            let t = &targets.scene;
+            targets.splat = Some(splat::SplatTarget::new(
+                gpu,
+                &self.splat_layouts,
+                t.size,
+                t.samples,
+                &t.depth,
+            )?);
+        }
+        if splatting != targets.resolve_splat {
+            let accum = targets
+                .splat
+                .as_ref()
+                .filter(|_| splatting)
+                .map(|s| &s.accum);
+            targets.resolve = self.downsample.bind(gpu, &targets.scene, accum);
+            targets.resolve_splat = splatting;
+        }
+        let targets = &*targets;
+        let mut uniform = frame_uniform(
+            &self.scene,
+            look,
+            bounds,
+            targets.scene.size,
+            self.quality.msaa,
+        );
         // Samples per output pixel (widths given in pixels, such as the wisps' outline).
-        uniform.flags[1] = targets.size.1 as f32 / size.1 as f32;
+        uniform.flags[1] = targets.scene.size.1 as f32 / size.1 as f32;
         gpu.queue
             .write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&uniform));
+        self.last_frame = uniform;
         if let Some(h) = &self.head {
             h.prepare(
                 &gpu.queue,
@@ -516,8 +588,8 @@ impl Stage {
         {
             let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("scene"),
-                color_attachments: &[Some(targets.color_attachment(clear))],
-                depth_stencil_attachment: Some(targets.depth_attachment()),
+                color_attachments: &[Some(targets.scene.color_attachment(clear))],
+                depth_stencil_attachment: Some(targets.scene.depth_attachment(splatting)),
                 timestamp_writes: None,
                 occlusion_query_set: None,
                 multiview_mask: None,
@@ -534,11 +606,24 @@ impl Stage {
                 s.draw(&mut pass, &view);
             }
         }
+        if let Some(sp) = targets.splat.as_ref().filter(|_| splatting) {
+            enc.clear_buffer(&sp.accum, 0, None);
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("thin strands"),
+                timestamp_writes: None,
+            });
+            pass.set_bind_group(0, &self.frame_bind_group, &[]);
+            pass.set_bind_group(2, &sp.bind_group, &[]);
+            for s in &self.systems {
+                s.splat(&mut pass);
+            }
+        }
         if let Some(t) = self.timer.as_mut() {
             t.end(enc, Phase::Draw);
             t.begin(enc, Phase::Resolve);
         }
-        self.downsample.draw(enc, down_bg, output, size, clear);
+        self.downsample
+            .draw(enc, &targets.resolve, output, size, clear);
         self.mark(enc, Phase::Resolve, false);
         Ok(())
     }

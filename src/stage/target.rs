@@ -11,6 +11,8 @@ pub use crate::gpu::pipeline::{DEPTH_FORMAT, SCENE_FORMAT};
 
 /// The supersampled, multisampled scene buffers for one output size.
 pub struct SceneTargets {
+    /// Whether the depth can be read by the compute rasteriser for thin strands.
+    pub sampled_depth: bool,
     pub output_size: (u32, u32),
     pub size: (u32, u32),
     pub samples: u32,
@@ -26,6 +28,7 @@ impl SceneTargets {
         output_size: (u32, u32),
         samples: u32,
         factor: u32,
+        sampled_depth: bool,
     ) -> Result<SceneTargets> {
         let size = (output_size.0 * factor, output_size.1 * factor);
         gpu.check_texture_size("the supersampled scene width", size.0)?;
@@ -63,13 +66,17 @@ impl SceneTargets {
             1,
             wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
         );
-        let depth = tex(
-            "scene depth",
-            DEPTH_FORMAT,
-            samples,
-            wgpu::TextureUsages::RENDER_ATTACHMENT,
-        );
+        // Sampled by the compute rasteriser for thin strands (occlusion by the head) when
+        // it runs; only then, as a sampled multisampled depth is another kind of object on
+        // GL.
+        let depth_usage = if sampled_depth {
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING
+        } else {
+            wgpu::TextureUsages::RENDER_ATTACHMENT
+        };
+        let depth = tex("scene depth", DEPTH_FORMAT, samples, depth_usage);
         Ok(SceneTargets {
+            sampled_depth,
             output_size,
             size,
             samples,
@@ -105,12 +112,17 @@ impl SceneTargets {
         }
     }
 
-    pub fn depth_attachment(&self) -> wgpu::RenderPassDepthStencilAttachment<'_> {
+    /// `keep`: store the depth for a pass after this one (the thin strands' occlusion).
+    pub fn depth_attachment(&self, keep: bool) -> wgpu::RenderPassDepthStencilAttachment<'_> {
         wgpu::RenderPassDepthStencilAttachment {
             view: &self.depth,
             depth_ops: Some(wgpu::Operations {
                 load: wgpu::LoadOp::Clear(1.0),
-                store: wgpu::StoreOp::Discard,
+                store: if keep {
+                    wgpu::StoreOp::Store
+                } else {
+                    wgpu::StoreOp::Discard
+                },
             }),
             stencil_ops: None,
         }
@@ -123,6 +135,8 @@ pub struct DownsamplePass {
     layout: wgpu::BindGroupLayout,
     uniform: wgpu::Buffer,
     encode_srgb: bool,
+    /// Bound in place of the thin-strand accumulation when nothing is splatted.
+    no_accum: wgpu::Buffer,
 }
 
 impl DownsamplePass {
@@ -144,6 +158,7 @@ impl DownsamplePass {
                     count: None,
                 },
                 gpu::uniform_entry(1, wgpu::ShaderStages::FRAGMENT),
+                gpu::storage_entry(2, wgpu::ShaderStages::FRAGMENT, true),
             ],
         );
         let pl = gpu::pipeline::pipeline_layout(device, "downsample", &[&layout]);
@@ -174,20 +189,34 @@ impl DownsamplePass {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        let no_accum = gpu::storage_buffer(
+            device,
+            "no splat accumulation",
+            &[0u8; 4 * crate::stage::splat::WORDS as usize],
+            wgpu::BufferUsages::empty(),
+        );
         Ok(DownsamplePass {
             pipeline,
             layout,
             uniform,
             encode_srgb: !output_format.is_srgb(),
+            no_accum,
         })
     }
 
     /// A bind group reading `targets` (rebuilt when the targets are).
-    pub fn bind(&self, gpu: &Gpu, targets: &SceneTargets) -> wgpu::BindGroup {
+    /// `accum`: the thin strands' accumulation to composite (`stage::splat`), if any.
+    pub fn bind(
+        &self,
+        gpu: &Gpu,
+        targets: &SceneTargets,
+        accum: Option<&wgpu::Buffer>,
+    ) -> wgpu::BindGroup {
+        let splat = u32::from(accum.is_some());
         gpu.queue.write_buffer(
             &self.uniform,
             0,
-            bytemuck::cast_slice(&[targets.factor, u32::from(self.encode_srgb), 0, 0]),
+            bytemuck::cast_slice(&[targets.factor, u32::from(self.encode_srgb), splat, 0]),
         );
         gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("downsample"),
@@ -198,6 +227,7 @@ impl DownsamplePass {
                     resource: wgpu::BindingResource::TextureView(&targets.resolved),
                 },
                 gpu::entry(1, &self.uniform),
+                gpu::entry(2, accum.unwrap_or(&self.no_accum)),
             ],
         })
     }

@@ -60,6 +60,8 @@ pub struct View {
 /// `shaders/common/frame.wgsl`), the scene target format and its MSAA sample count.
 pub struct DrawSetup<'a> {
     pub frame_layout: &'a wgpu::BindGroupLayout,
+    /// Group 2 of a compute rasteriser for thin strands (`stage::splat`).
+    pub splat_layouts: &'a crate::stage::splat::SplatLayouts,
     pub format: wgpu::TextureFormat,
     pub samples: u32,
 }
@@ -134,6 +136,14 @@ pub trait HairSystem {
     fn draw_opaque(&self, _pass: &mut wgpu::RenderPass<'_>) {}
     /// The hair, with per-sample coverage; group 0 (the frame) is bound.
     fn draw(&self, pass: &mut wgpu::RenderPass<'_>, view: &View);
+    /// Whether this frame's hair is drawn by a compute rasteriser (`splat`) instead of
+    /// `draw`: the stage then keeps the scene depth and composites the accumulation.
+    fn splats(&self) -> bool {
+        false
+    }
+    /// Record the compute rasteriser after the scene pass; groups 0 (the frame) and 2 (the
+    /// accumulation and the scene depth, `stage::splat`) are bound.
+    fn splat(&self, _pass: &mut wgpu::ComputePass<'_>) {}
     /// Back to the rest pose.
     fn reset(&mut self, gpu: &Gpu) -> Result<()>;
     /// Rebuild draw pipelines for another MSAA sample count.

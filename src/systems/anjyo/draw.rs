@@ -7,6 +7,10 @@
 //! The screen-space level of detail (`systems::lod`) reaches the pass as a share of each
 //! group's strands (times the viewer's budget), a width factor and a node step, the last two
 //! in a small uniform (`prepare`): the vertex shader draws every step-th node and the last.
+//!
+//! With `render.strands: Compute` the same strands go through the compute rasteriser for
+//! thin strands instead (`shaders/anjyo/splat.wgsl`, f64 reference in `splat.rs`), bound to
+//! the same buffers and shaded by the same code (`shaders/common/strand_shade.wgsl`).
 
 use crate::error::Result;
 use crate::gpu::gpu_data::{linear_rgb, GpuMaterial};
@@ -14,6 +18,7 @@ use crate::gpu::pipeline::{self, DrawPipeline};
 use crate::gpu::strands::StrandBuffers;
 use crate::gpu::{self, Gpu};
 use crate::scene::Material;
+use crate::stage::splat::SplatLayouts;
 
 /// Strands of a group of `count` drawn at level of detail `fraction`: the first ones, a
 /// uniform random subset because pores are drawn in random order (Van Gelder's
@@ -28,6 +33,16 @@ pub struct StrandsPass {
     format: wgpu::TextureFormat,
     pipeline: wgpu::RenderPipeline,
     layout: wgpu::BindGroupLayout,
+    frame_layout: wgpu::BindGroupLayout,
+    splat_layouts: SplatLayouts,
+    /// The compute rasteriser for the current MSAA sample count (the depth it reads),
+    /// made on the first frame that splats.
+    splat: std::cell::OnceCell<Option<wgpu::ComputePipeline>>,
+    samples: u32,
+    device: wgpu::Device,
+    /// On GL a multisampled depth that a shader reads leaves the scene pass black
+    /// (llvmpipe), so there the compute rasteriser runs only without MSAA.
+    gl: bool,
     bound: Option<Bound>,
     /// x: width factor of the screen-space level of detail, y: node step (`prepare`).
     lod: wgpu::Buffer,
@@ -38,6 +53,9 @@ struct Bound {
     bind_group: wgpu::BindGroup,
     materials: wgpu::Buffer,
     ranges: Vec<crate::gpu::strands::DrawRange>,
+    /// Per range: first strand, one past the last drawn (the splat's level of detail).
+    drawn: wgpu::Buffer,
+    strand_count: u32,
 }
 
 impl GpuMaterial {
@@ -60,12 +78,13 @@ impl StrandsPass {
     pub fn new(
         gpu: &Gpu,
         frame_layout: &wgpu::BindGroupLayout,
+        splat_layouts: &SplatLayouts,
         color_format: wgpu::TextureFormat,
         samples: u32,
     ) -> Result<StrandsPass> {
         let device = &gpu.device;
         let module = gpu::shader_module(device, "anjyo draw", super::DRAW)?;
-        let vs = wgpu::ShaderStages::VERTEX;
+        let vs = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::COMPUTE;
         let layout = pipeline::layout(
             device,
             "strands",
@@ -74,10 +93,12 @@ impl StrandsPass {
                 gpu::storage_entry(1, vs, true),
                 gpu::storage_entry(2, vs, true),
                 gpu::uniform_entry(3, vs),
+                gpu::storage_entry(4, wgpu::ShaderStages::COMPUTE, true),
             ],
         );
         let pl = pipeline::pipeline_layout(device, "strands", &[frame_layout, &layout]);
         let pipeline = Self::pipeline(gpu, &module, &pl, color_format, samples);
+
         let lod = wgpu::util::DeviceExt::create_buffer_init(
             device,
             &wgpu::util::BufferInitDescriptor {
@@ -92,13 +113,49 @@ impl StrandsPass {
             format: color_format,
             pipeline,
             layout,
+            frame_layout: frame_layout.clone(),
+            splat_layouts: splat_layouts.clone(),
+            splat: Default::default(),
+            samples,
+            device: gpu.device.clone(),
+            gl: gpu.info.backend == wgpu::Backend::Gl,
             bound: None,
             lod,
             step: 1,
         })
     }
 
-    /// Rebuild the pipeline for another MSAA sample count (the bound hair stays).
+    /// The compute rasteriser reading a scene depth of `samples` samples.
+    fn splat_pipeline(&self) -> Result<wgpu::ComputePipeline> {
+        let (device, samples) = (&self.device, self.samples);
+        let source = if samples > 1 {
+            super::SPLAT_MSAA
+        } else {
+            super::SPLAT
+        };
+        let module = gpu::shader_module(device, "anjyo splat", source)?;
+        let pl = pipeline::pipeline_layout(
+            device,
+            "strands splat",
+            &[
+                &self.frame_layout,
+                &self.layout,
+                self.splat_layouts.for_samples(samples),
+            ],
+        );
+        Ok(
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("strands splat"),
+                layout: Some(&pl),
+                module: &module,
+                entry_point: Some("splat"),
+                compilation_options: Default::default(),
+                cache: None,
+            }),
+        )
+    }
+
+    /// Rebuild the pipelines for another MSAA sample count (the bound hair stays).
     pub fn set_samples(&mut self, gpu: &Gpu, samples: u32) {
         self.pipeline = Self::pipeline(
             gpu,
@@ -107,6 +164,8 @@ impl StrandsPass {
             self.format,
             samples,
         );
+        self.samples = samples;
+        self.splat = Default::default();
     }
 
     fn pipeline(
@@ -140,16 +199,29 @@ impl StrandsPass {
             bytemuck::cast_slice(materials),
             wgpu::BufferUsages::empty(),
         );
+        let drawn: Vec<[u32; 2]> = hair
+            .ranges
+            .iter()
+            .map(|r| [r.first_strand, r.first_strand + r.strand_count])
+            .collect();
+        let drawn = gpu::storage_buffer(
+            &gpu.device,
+            "strands drawn",
+            bytemuck::cast_slice(&drawn),
+            wgpu::BufferUsages::COPY_DST,
+        );
         let bind_group = pipeline::bind_buffers(
             &gpu.device,
             "strands",
             &self.layout,
-            &[&hair.strands, &hair.vertices, &materials, &self.lod],
+            &[&hair.strands, &hair.vertices, &materials, &self.lod, &drawn],
         );
         self.bound = Some(Bound {
             bind_group,
             materials,
             ranges: hair.ranges.clone(),
+            drawn,
+            strand_count: hair.strand_count,
         });
     }
 
@@ -160,11 +232,52 @@ impl StrandsPass {
         }
     }
 
-    /// The screen-space level of detail's width factor and node step for the next draws.
-    pub fn prepare(&mut self, queue: &wgpu::Queue, width_scale: f64, step: u32) {
+    /// The screen-space level of detail's width factor and node step for the next draws,
+    /// and the share `fraction` of each group the compute rasteriser draws.
+    pub fn prepare(&mut self, queue: &wgpu::Queue, width_scale: f64, step: u32, fraction: f64) {
         self.step = step.max(1);
         let lod = [width_scale as f32, self.step as f32, 0.0, 0.0];
         queue.write_buffer(&self.lod, 0, bytemuck::bytes_of(&lod));
+        if let Some(b) = &self.bound {
+            let drawn: Vec<[u32; 2]> = b
+                .ranges
+                .iter()
+                .map(|r| {
+                    [
+                        r.first_strand,
+                        r.first_strand + drawn_count(r.strand_count, fraction),
+                    ]
+                })
+                .collect();
+            queue.write_buffer(&b.drawn, 0, bytemuck::cast_slice(&drawn));
+        }
+    }
+
+    /// Whether the compute rasteriser can run at the current sample count (not over MSAA
+    /// targets on GL; the ribbons draw there).
+    pub fn can_splat(&self) -> bool {
+        !(self.gl && self.samples > 1)
+    }
+
+    /// Record the compute rasteriser over every strand (those past each group's drawn share
+    /// return at once); groups 0 and 2 are bound by the stage.
+    pub fn splat(&self, pass: &mut wgpu::ComputePass<'_>) {
+        let Some(b) = &self.bound else { return };
+        let groups = b.strand_count.div_ceil(64);
+        if groups == 0 {
+            return;
+        }
+        let pipeline = self.splat.get_or_init(|| match self.splat_pipeline() {
+            Ok(p) => Some(p),
+            Err(e) => {
+                log::error!("the compute rasteriser for thin strands: {e}");
+                None
+            }
+        });
+        let Some(pipeline) = pipeline else { return };
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(1, &b.bind_group, &[]);
+        pass.dispatch_workgroups(groups.min(65535), groups.div_ceil(65535), 1);
     }
 
     /// Nodes drawn per strand of a group with `nodes_per_strand` nodes.

@@ -21,6 +21,7 @@ pub mod panel;
 pub mod projective;
 pub mod projective_gpu;
 pub mod simulation;
+pub mod splat;
 
 use super::lod::{screen_lod, ScreenLod, Seen};
 use super::{Change, DrawSetup, FrameCtx, HairSystem, Kind, StepInfo, SystemStats, View};
@@ -28,7 +29,7 @@ use crate::error::Result;
 use crate::gpu::gpu_data::GpuMaterial;
 use crate::gpu::strands::{StrandBuffers, NODE, RECORD};
 use crate::gpu::Gpu;
-use crate::scene::Scene;
+use crate::scene::{Scene, StrandRaster};
 use crate::shaders::wgsl;
 use glam::DVec3;
 use groom::GroomInput;
@@ -67,7 +68,26 @@ pub const DRAW: &str = wgsl!(
     "common/frame.wgsl",
     "common/random.wgsl",
     "common/coverage.wgsl",
+    "common/strand_shade.wgsl",
     "anjyo/draw.wgsl",
+);
+
+/// The compute rasteriser for thin strands, reading a single-sampled scene depth.
+pub const SPLAT: &str = wgsl!(
+    "common/depth_single.wgsl",
+    "common/strands.wgsl",
+    "common/frame.wgsl",
+    "common/strand_shade.wgsl",
+    "anjyo/splat.wgsl",
+);
+
+/// The same over a multisampled scene depth.
+pub const SPLAT_MSAA: &str = wgsl!(
+    "common/depth_msaa.wgsl",
+    "common/strands.wgsl",
+    "common/frame.wgsl",
+    "common/strand_shade.wgsl",
+    "anjyo/splat.wgsl",
 );
 
 pub const KIND: Kind = Kind {
@@ -93,6 +113,8 @@ pub const KIND: Kind = Kind {
         ("anjyo/projective", PROJECTIVE),
         ("anjyo/follow", FOLLOW),
         ("anjyo/draw", DRAW),
+        ("anjyo/splat", SPLAT),
+        ("anjyo/splat_msaa", SPLAT_MSAA),
     ],
 };
 
@@ -130,6 +152,8 @@ pub struct AnjyoSystem {
     seg_len: f64,
     /// This frame's screen-space level of detail (`systems::lod`).
     pub screen: ScreenLod,
+    /// Ribbons or the compute rasteriser (`render.strands`).
+    raster: StrandRaster,
 }
 
 /// Check the hair buffers against the storage-binding limit before allocating them.
@@ -234,7 +258,7 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
         Change::Rebuild
     } else if old.dynamics != new.dynamics {
         Change::Resimulate
-    } else if looks(old) != looks(new) {
+    } else if looks(old) != looks(new) || old.render.strands != new.render.strands {
         Change::Redraw
     } else {
         Change::None
@@ -319,8 +343,13 @@ impl AnjyoSystem {
         } else {
             None
         };
-        let mut draw =
-            draw::StrandsPass::new(gpu, setup.frame_layout, setup.format, setup.samples)?;
+        let mut draw = draw::StrandsPass::new(
+            gpu,
+            setup.frame_layout,
+            setup.splat_layouts,
+            setup.format,
+            setup.samples,
+        )?;
         draw.set_hair(gpu, &hair, &materials(scene));
         Ok(AnjyoSystem {
             input,
@@ -334,6 +363,7 @@ impl AnjyoSystem {
             lod: 1.0,
             seg_len: longest_segment(scene),
             screen: ScreenLod::FULL,
+            raster: scene.render.strands,
         })
     }
 }
@@ -382,13 +412,29 @@ impl HairSystem for AnjyoSystem {
         self.screen = screen_lod(&seen, self.seg_len, view.lod_tolerance_px);
         // The viewer's budget multiplies on top (its widening, 1/sqrt, is the frame's).
         self.lod = self.screen.share * view.lod;
-        self.draw
-            .prepare(&gpu.queue, self.screen.width_scale, self.screen.step);
+        self.draw.prepare(
+            &gpu.queue,
+            self.screen.width_scale,
+            self.screen.step,
+            self.lod,
+        );
         Ok(())
     }
 
     fn draw(&self, pass: &mut wgpu::RenderPass<'_>, _view: &View) {
-        self.draw.draw(pass, self.lod);
+        if !self.splats() {
+            self.draw.draw(pass, self.lod);
+        }
+    }
+
+    fn splats(&self) -> bool {
+        self.raster == StrandRaster::Compute && self.draw.can_splat()
+    }
+
+    fn splat(&self, pass: &mut wgpu::ComputePass<'_>) {
+        if self.splats() {
+            self.draw.splat(pass);
+        }
     }
 
     fn reset(&mut self, gpu: &Gpu) -> Result<()> {
@@ -410,6 +456,7 @@ impl HairSystem for AnjyoSystem {
     }
 
     fn update(&mut self, gpu: &Gpu, scene: &Scene, change: Change) -> Result<()> {
+        self.raster = scene.render.strands;
         match change {
             Change::Redraw => {
                 self.materials = scene.groups.iter().map(|g| g.material.clone()).collect();

@@ -1,0 +1,94 @@
+// One node of a drawn strand, as both hair rasterisers see it: the ribbons
+// (anjyo/draw.wgsl) and the compute rasteriser for thin strands (anjyo/splat.wgsl) shade
+// and size a node the same way. Shading is Anjyo's eqs 8-9 per node (the paper colours
+// nodes and interpolates): I = I_a k_a C + I_s k_s (1 - (T.H)^2)^(n/2), with k_a per strand.
+// The screen-space level of detail (src/systems/lod.rs) keeps every lod.y-th node (and the
+// last) and widens the fewer strands drawn by lod.x.
+
+// Keep in sync with GpuMaterial in src/gpu/gpu_data.rs.
+struct Material {
+    // rgb linear colour, w k_s
+    color_ks: vec4<f32>,
+    // x shininess n, y k_d, z root width (world), w tip width ratio
+    params: vec4<f32>,
+}
+
+@group(1) @binding(0) var<storage, read> strands: array<Strand>;
+@group(1) @binding(1) var<storage, read> verts: array<vec4<f32>>;
+@group(1) @binding(2) var<storage, read> materials: array<Material>;
+// x: width factor, y: node step (StrandsPass::prepare).
+@group(1) @binding(3) var<uniform> lod: vec4<f32>;
+
+// Node i of the drawn part of a strand; the last drawn node may be cut part-way.
+fn node_pos(s: Strand, i: u32) -> vec3<f32> {
+    let p = verts[s.first_vertex + i].xyz;
+    let over = f32(i) - s.visible;
+    if over > 0.0 && i > 0u {
+        let q = verts[s.first_vertex + i - 1u].xyz;
+        return mix(p, q, clamp(over, 0.0, 1.0));
+    }
+    return p;
+}
+
+struct ShadedNode {
+    pos: vec3<f32>,
+    // Unit tangent (central difference over the drawn nodes).
+    tangent: vec3<f32>,
+    rgb: vec3<f32>,
+    // World width, tapered root to tip, times the level of detail's factors.
+    width: f32,
+}
+
+fn lod_step() -> u32 {
+    return max(u32(lod.y), 1u);
+}
+
+// The last drawn node of a strand.
+fn last_node(s: Strand) -> u32 {
+    return u32(ceil(s.visible));
+}
+
+// Node n (a multiple of the step, or the last) of strand s.
+fn shade_node(s: Strand, n: u32) -> ShadedNode {
+    var out: ShadedNode;
+    let step = lod_step();
+    let last = last_node(s);
+    let mat = materials[s.group];
+    let p = node_pos(s, n);
+    var t: vec3<f32>;
+    if last == 0u {
+        t = verts[s.first_vertex + 1u].xyz - p;
+    } else if n == 0u {
+        t = node_pos(s, min(step, last)) - p;
+    } else if n == last {
+        t = p - node_pos(s, ((n - 1u) / step) * step);
+    } else {
+        t = node_pos(s, min(n + step, last)) - node_pos(s, n - step);
+    }
+    let tl = length(t);
+    t = select(vec3<f32>(0.0, -1.0, 0.0), t / tl, tl > 1e-20);
+
+    let along = f32(n) / f32(max(s.segments, 1u));
+    // raster.z widens hair when only a share of it is drawn (level of detail).
+    out.width = mat.params.z * mix(1.0, mat.params.w, along) * frame.raster.z * lod.x;
+
+    // Anjyo eq 8: specular from the tangent alone; eq 9 with a per-strand ambient.
+    let l = frame.light_dir.xyz;
+    let v = normalize(frame.eye.xyz - p);
+    let h = normalize(l + v);
+    let th = dot(t, h);
+    let spec = mat.color_ks.w * pow(max(1.0 - th * th, 0.0), 0.5 * mat.params.x);
+    let tdl = dot(t, l);
+    let diffuse = mat.params.y * sqrt(max(1.0 - tdl * tdl, 0.0));
+    let ambient = frame.light_color.w * s.ka;
+    let intensity = frame.light_dir.w;
+    var rgb = mat.color_ks.rgb * (ambient + intensity * diffuse) + frame.light_color.rgb * (intensity * spec);
+    // The dynamics mark nodes whose segment felt the pseudo-force with w = 2.
+    if frame.flags.x > 0.5 && verts[s.first_vertex + n].w > 1.5 {
+        rgb = vec3<f32>(0.9, 0.1, 0.05);
+    }
+    out.pos = p;
+    out.tangent = t;
+    out.rgb = rgb;
+    return out;
+}

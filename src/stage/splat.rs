@@ -1,0 +1,98 @@
+//! What the compute rasteriser for thin strands (`shaders/anjyo/splat.wgsl`) writes into:
+//! one accumulation of five `u32` per scene sample, read by the resolve
+//! (`shaders/stage/downsample.wgsl`), and the scene pass's depth for occlusion. Made only
+//! once a system splats (a scene drawn with ribbons allocates nothing here).
+//!
+//! Systems bind it as group 2 of their splat pipelines; the layout differs with and
+//! without MSAA (the depth texture is multisampled or not), so both are built up front.
+
+use crate::gpu::{self, Gpu};
+
+/// `u32` words per sample: r, g, b, weight, optical depth.
+pub const WORDS: u64 = 5;
+/// Fixed-point scales; keep in sync with `shaders/anjyo/splat.wgsl`.
+pub const COLOR_SCALE: f64 = 16384.0;
+pub const DEPTH_SCALE: f64 = 4096.0;
+
+/// The group 2 layouts: single-sampled and multisampled scene depth.
+#[derive(Clone)]
+pub struct SplatLayouts {
+    single: wgpu::BindGroupLayout,
+    multi: wgpu::BindGroupLayout,
+}
+
+impl SplatLayouts {
+    pub fn new(device: &wgpu::Device) -> SplatLayouts {
+        let make = |multisampled: bool| {
+            gpu::pipeline::layout(
+                device,
+                "splat target",
+                &[
+                    gpu::storage_entry(0, wgpu::ShaderStages::COMPUTE, false),
+                    wgpu::BindGroupLayoutEntry {
+                        binding: 1,
+                        visibility: wgpu::ShaderStages::COMPUTE,
+                        ty: wgpu::BindingType::Texture {
+                            sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                            view_dimension: wgpu::TextureViewDimension::D2,
+                            multisampled,
+                        },
+                        count: None,
+                    },
+                ],
+            )
+        };
+        SplatLayouts {
+            single: make(false),
+            multi: make(true),
+        }
+    }
+
+    pub fn for_samples(&self, samples: u32) -> &wgpu::BindGroupLayout {
+        if samples > 1 {
+            &self.multi
+        } else {
+            &self.single
+        }
+    }
+}
+
+/// The accumulation for one set of scene targets and its bind group.
+pub struct SplatTarget {
+    pub accum: wgpu::Buffer,
+    pub bind_group: wgpu::BindGroup,
+}
+
+impl SplatTarget {
+    /// For targets of `size` samples with `samples` MSAA samples and depth view `depth`.
+    pub fn new(
+        gpu: &Gpu,
+        layouts: &SplatLayouts,
+        size: (u32, u32),
+        samples: u32,
+        depth: &wgpu::TextureView,
+    ) -> crate::error::Result<SplatTarget> {
+        let bytes = size.0 as u64 * size.1 as u64 * WORDS * 4;
+        gpu.check_storage_size("the thin-strand accumulation", bytes)?;
+        let accum = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("splat accumulation"),
+            size: bytes,
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_DST
+                | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        });
+        let bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("splat target"),
+            layout: layouts.for_samples(samples),
+            entries: &[
+                gpu::entry(0, &accum),
+                wgpu::BindGroupEntry {
+                    binding: 1,
+                    resource: wgpu::BindingResource::TextureView(depth),
+                },
+            ],
+        });
+        Ok(SplatTarget { accum, bind_group })
+    }
+}
