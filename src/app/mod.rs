@@ -10,6 +10,7 @@
 //! time scale 1 shows frame k, the same pose `kami render --frames k..k` writes.
 
 pub mod camera;
+pub mod panel_cache;
 pub mod panels;
 pub mod params;
 pub mod strips_mouse;
@@ -248,6 +249,8 @@ struct Gfx {
     stage: Stage,
     egui_renderer: egui_wgpu::Renderer,
     egui_state: egui_winit::State,
+    /// The panels' pixels between frames, redrawn where egui's shapes changed.
+    panels: panel_cache::PanelCache,
     /// Fractions of a frame the clock owes (time scales below 1).
     clock_debt: f64,
     /// The last edited scene the stage refused (not retried every frame; shown in red).
@@ -355,6 +358,7 @@ impl App {
             None,
             Some(gpu.device.limits().max_texture_dimension_2d as usize),
         );
+        let panels = panel_cache::PanelCache::new(&gpu.device, format);
         self.state.stats.adapter = gpu.describe();
         self.state.stats.timestamps = gpu
             .device
@@ -369,6 +373,7 @@ impl App {
             stage,
             egui_renderer,
             egui_state,
+            panels,
             clock_debt: 0.0,
             refused: None,
             mouse: Mouse::default(),
@@ -815,6 +820,9 @@ fn frame(
         .handle_platform_output(&g.window, std::mem::take(&mut output.platform_output));
     // egui's texture changes are applied now, whatever happens to this frame.
     let mut textures = std::mem::take(&mut output.textures_delta);
+    if !textures.set.is_empty() {
+        g.panels.textures_changed = true;
+    }
     for (id, deltas) in textures.set.drain() {
         for delta in deltas {
             g.egui_renderer
@@ -904,14 +912,22 @@ fn frame_body(
     // Scene width: the window minus the panel egui reserved on the right.
     let scene_w = ((panel_left * output.pixels_per_point).round().max(1.0) as u32).min(w);
 
-    let paint = ctx.tessellate(output.shapes, output.pixels_per_point);
+    // egui's shapes: tessellated and drawn into the panel cache only where they changed.
+    g.panels.prepare(
+        &g.gpu.device,
+        g.config.format,
+        ctx,
+        output.shapes,
+        output.pixels_per_point,
+        (w, h),
+    );
     let screen = egui_wgpu::ScreenDescriptor {
         size_in_pixels: [w, h],
         pixels_per_point: output.pixels_per_point,
     };
 
     let t = Instant::now();
-    draw(g, &target, (w, h), scene_w, &look, &paint, &screen)?;
+    draw(g, &target, (w, h), scene_w, &look, &screen)?;
     g.gpu.queue.present(surface_tex);
     let record_ms = t.elapsed().as_secs_f64() * 1e3;
     let st = &mut state.stats;
@@ -944,7 +960,7 @@ fn frame_body(
 
     for path in shots {
         let shot = Offscreen::with_format(&g.gpu, (w, h), g.config.format)?;
-        draw(g, &shot.view, (w, h), scene_w, &look, &paint, &screen)?;
+        draw(g, &shot.view, (w, h), scene_w, &look, &screen)?;
         let img = shot.read_rgba(&g.gpu)?;
         match img.save(&path) {
             Ok(()) => state.message = Some(format!("screenshot {}", path.display())),
@@ -986,7 +1002,6 @@ fn draw(
     size: (u32, u32),
     scene_w: u32,
     look: &Look,
-    paint: &[egui::ClippedPrimitive],
     screen: &egui_wgpu::ScreenDescriptor,
 ) -> Result<()> {
     let mut enc = g
@@ -997,31 +1012,17 @@ fn draw(
         });
     g.stage
         .render_region(&g.gpu, &mut enc, target, size, (scene_w, size.1), look)?;
-    g.egui_renderer
-        .update_buffers(&g.gpu.device, &g.gpu.queue, &mut enc, paint, screen);
     if let Some(t) = g.stage.timer() {
         t.begin(&mut enc, Phase::Panels);
     }
-    {
-        let pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("egui"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: target,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Load,
-                    store: wgpu::StoreOp::Store,
-                },
-            })],
-            depth_stencil_attachment: None,
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
-        });
-        let mut pass = pass.forget_lifetime();
-        g.egui_renderer.render(&mut pass, paint, screen);
-    }
+    g.panels.encode(
+        &g.gpu.device,
+        &g.gpu.queue,
+        &mut enc,
+        &mut g.egui_renderer,
+        target,
+        screen,
+    );
     if let Some(t) = g.stage.timer() {
         t.end(&mut enc, Phase::Panels);
         t.finish(&mut enc);
