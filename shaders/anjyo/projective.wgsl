@@ -23,6 +23,13 @@ const TAU: f32 = 6.28318530717959;
 override POLE_SIN: f32;
 override MAX_TURN: f32;
 override WORKGROUP: u32;
+// Specialisations, passed per job by the Rust side (`projective_gpu::Variant`). Software
+// adapters such as lavapipe run every branch of an `if` under a lane mask, so code that a
+// uniform flag turns off still costs its full price unless the pipeline compiles it out.
+// false: the head is the ellipsoid (params.head_center.w = 0), the SDF path compiled out.
+override SDF_HEAD: bool = true;
+// false: the job has no External Force Field (eff_field would be zero), its lookup compiled out.
+override EFF_FIELD: bool = true;
 
 // Keep in sync with GpuDynParams in src/gpu/gpu_data.rs.
 struct DynParams {
@@ -85,7 +92,8 @@ struct DynStrand {
 @group(0) @binding(7) var<storage, read> sdf_data: array<f32>;
 
 fn hull() -> HeadHull {
-    return head_hull(params.head_center, params.head_radii);
+    let h = head_hull(params.head_center, params.head_radii);
+    return HeadHull(h.e, SDF_HEAD && h.sdf);
 }
 
 fn direction(theta: f32, phi: f32) -> vec3<f32> {
@@ -148,6 +156,61 @@ fn xform_point(m: mat4x4<f32>, p: vec3<f32>) -> vec3<f32> {
 
 fn xform_vector(m: mat4x4<f32>, v: vec3<f32>) -> vec3<f32> {
     return (m * vec4<f32>(v, 0.0)).xyz;
+}
+
+// `hull_push_out` (common/ellipsoid.wgsl): the same scan, the same 20 halvings and the same
+// answer up to rounding, cheaper. Each halving takes the mid direction as normalize(lo + hi),
+// the exact bisector of two unit vectors less than pi apart, instead of cos and sin of the
+// mid angle, and works in the circle's plane (2D unit vectors, the quadric form expanded
+// once per call). A SIMD adapter runs the 20 halvings for every lane of a group when one
+// lane collides, so they dominated the collision's cost.
+fn push_out_ellipsoid(h: Hull, pivot: vec3<f32>, a0: vec3<f32>, p: vec3<f32>, d: f32) -> vec3<f32> {
+    if hull_eval(h, p) >= 0.0 {
+        return p;
+    }
+    let w = p - pivot;
+    var v = w - dot(w, a0) * a0;
+    if length(v) <= 1e-6 * d {
+        let g = hull_gradient(h, p);
+        v = g - dot(g, a0) * a0;
+        if length(v) <= 1e-7 * length(g) {
+            v = any_orthonormal(a0);
+        }
+    }
+    v = normalize(v);
+    let phi0 = atan2(dot(w, v), dot(w, a0));
+    // The circle in its plane: the point at (x, y) = (cos, sin) of an angle is
+    // pivot + d (x a0 + y v), and its quadric form is |qa + x qb + y qc|^2 - 1.
+    let qa = (pivot - h.center) / h.radii;
+    let qb = d * a0 / h.radii;
+    let qc = d * v / h.radii;
+    let step = PI / 32.0;
+    for (var n = 1u; n <= 32u; n++) {
+        for (var k = 0u; k < 2u; k++) {
+            let dir = select(-1.0, 1.0, k == 0u);
+            let phi = phi0 + dir * f32(n) * step;
+            var hi = normalize(vec2<f32>(cos(phi), sin(phi)));
+            if circle_form(qa, qb, qc, hi) >= EPS_OUT {
+                let phi_lo = phi - dir * step;
+                var lo = normalize(vec2<f32>(cos(phi_lo), sin(phi_lo)));
+                for (var b = 0u; b < 20u; b++) {
+                    let mid = normalize(lo + hi);
+                    if circle_form(qa, qb, qc, mid) >= EPS_OUT {
+                        hi = mid;
+                    } else {
+                        lo = mid;
+                    }
+                }
+                return pivot + d * normalize(hi.x * a0 + hi.y * v);
+            }
+        }
+    }
+    return pivot + d * normalize(hull_gradient(h, pivot));
+}
+
+fn circle_form(qa: vec3<f32>, qb: vec3<f32>, qc: vec3<f32>, u: vec2<f32>) -> f32 {
+    let q = qa + u.x * qb + u.y * qc;
+    return dot(q, q) - 1.0;
 }
 
 fn load_strand(si: u32) -> DynStrand {
@@ -215,7 +278,7 @@ fn advance(@builtin(global_invocation_id) id: vec3<u32>) {
         var php = a.w;
         let p_old = verts[base + i].xyz;
         var force = f_seg;
-        if substep.kick.w != 0u {
+        if EFF_FIELD && substep.kick.w != 0u {
             // Trilinear (projective::EFF_SAMPLING).
             force += eff_field(p_old, 1u) * bitcast<f32>(substep.kick.w);
         }
@@ -230,14 +293,22 @@ fn advance(@builtin(global_invocation_id) id: vec3<u32>) {
                 marked = 2.0;
             }
         }
-        if abs(sin(th)) < POLE_SIN {
+        // The trigonometry of the plane is taken from the vectors where the pole switch
+        // picks it (sin and cos of an atan2 are its arguments over their length), so each
+        // angle's sine and cosine is computed once.
+        var sth = sin(th);
+        var cth = cos(th);
+        var sph = sin(ph);
+        var cph = cos(ph);
+        if abs(sth) < POLE_SIN {
             let fh = vec3<f32>(force.x, 0.0, force.z);
             if length(fh) > 1e-6 * length(force) && length(fh) > 0.0 {
                 let pf = atan2(fh.z, fh.x);
-                let e = vec3<f32>(cos(pf), 0.0, sin(pf));
-                let dn = direction(th, ph);
+                let e = fh / length(fh);
+                let dn = vec3<f32>(sth * cph, cth, sth * sph);
                 let dp = direction(thp, php);
-                let tn = atan2(dot(dn, e), dn.y);
+                let yn = dot(dn, e);
+                let tn = atan2(yn, dn.y);
                 let tp = atan2(dot(dp, e), dp.y);
                 th = tn;
                 // tn + wrap(tp - tn) into [-pi, pi)
@@ -245,12 +316,13 @@ fn advance(@builtin(global_invocation_id) id: vec3<u32>) {
                 thp = tn + (w - TAU * floor(w / TAU)) - PI;
                 ph = pf;
                 php = pf;
+                let rn = length(vec2<f32>(yn, dn.y));
+                sth = yn / rn;
+                cth = dn.y / rn;
+                sph = e.z;
+                cph = e.x;
             }
         }
-        let sth = sin(th);
-        let cth = cos(th);
-        let sph = sin(ph);
-        let cph = cos(ph);
         let v_th = vec3<f32>(cth * cph, -sth, cth * sph);
         let v_ph = vec3<f32>(-sph, 0.0, cph);
         let cu = c_of(s, i) * 0.5 * d;
@@ -274,15 +346,19 @@ fn advance(@builtin(global_invocation_id) id: vec3<u32>) {
         var moved = false;
         if i >= 2u {
             let sigma = sigma_at(f32(i - 1u) / f32(k));
-            let bend = acos(clamp(dot(prev_dir, dir), -1.0, 1.0));
-            if bend > sigma {
+            // The bend acos(dot) exceeds sigma where the dot is below cos(sigma); the
+            // rotation by sigma about the axis is rotate_vec's Rodrigues formula with the
+            // same cosine (one cos and one sin per segment, no acos).
+            let cs = cos(sigma);
+            if clamp(dot(prev_dir, dir), -1.0, 1.0) < cs {
                 var axis = cross(prev_dir, dir);
                 if length(axis) > 1e-6 {
                     axis = normalize(axis);
                 } else {
                     axis = any_orthonormal(prev_dir);
                 }
-                dir = normalize(rotate_vec(axis * sigma, prev_dir));
+                let r = prev_dir * cs + cross(axis, prev_dir) * sin(sigma) + axis * dot(axis, prev_dir) * (1.0 - cs);
+                dir = normalize(r);
                 moved = true;
             }
         }
@@ -292,7 +368,12 @@ fn advance(@builtin(global_invocation_id) id: vec3<u32>) {
             if head_eval(hl, local) < 0.0 {
                 let lp = xform_point(substep.head_inv, prev_p);
                 let la = normalize(xform_vector(substep.head_inv, prev_dir));
-                let q = head_push_out(hl, lp, la, local, d);
+                var q: vec3<f32>;
+                if hl.sdf {
+                    q = head_push_out(hl, lp, la, local, d);
+                } else {
+                    q = push_out_ellipsoid(hl.e, lp, la, local, d);
+                }
                 dir = normalize(xform_point(substep.head, q) - prev_p);
                 pn = prev_p + dir * d;
                 moved = true;

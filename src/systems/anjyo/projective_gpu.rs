@@ -21,6 +21,7 @@ use crate::gpu::gpu_data::{GpuDynParams, GpuDynStrand, GpuStep};
 use crate::gpu::strands::StrandBuffers;
 use crate::gpu::{self, Gpu, WORKGROUP};
 use glam::DMat4;
+use std::sync::OnceLock;
 use wgpu::util::DeviceExt;
 
 const SLOT: u64 = 256;
@@ -71,8 +72,36 @@ impl StateLayout {
 /// The projective-dynamics kernel (`shaders/anjyo/projective.wgsl`).
 pub struct ProjectivePass {
     init: wgpu::ComputePipeline,
-    advance: wgpu::ComputePipeline,
+    /// `advance` per [`Variant`] (by `Variant::index`), compiled when a job first needs it.
+    advance: [OnceLock<wgpu::ComputePipeline>; 4],
+    module: wgpu::ShaderModule,
     layout: wgpu::BindGroupLayout,
+}
+
+/// What a job's `advance` kernel is specialised for (the kernel's overridable flags). A
+/// software adapter (lavapipe) executes both sides of every `if` under a lane mask, so a
+/// path that a uniform flag turns off still costs its full price unless the pipeline
+/// compiles it out: on the ellipsoid head of the gust scene the SDF sampling alone was
+/// about half of the kernel's time. A job's head and field do not change after `prepare`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Variant {
+    /// The head may be a signed distance field (`SDF_HEAD`); false for the ellipsoid.
+    pub sdf_head: bool,
+    /// The job has an External Force Field (`EFF_FIELD`).
+    pub eff_field: bool,
+}
+
+impl Variant {
+    pub fn of(setup: &DynSetup) -> Variant {
+        Variant {
+            sdf_head: setup.head.gpu_params().0[3] > 0.5,
+            eff_field: setup.forces.eff.is_some(),
+        }
+    }
+
+    fn index(self) -> usize {
+        usize::from(self.sdf_head) | usize::from(self.eff_field) << 1
+    }
 }
 
 /// Simulation buffers of one groom: parameters, the dynamic strands, the angle state and a
@@ -85,6 +114,8 @@ pub struct ProjectiveJob {
     pub state: wgpu::Buffer,
     steps: wgpu::Buffer,
     capacity: u32,
+    /// The `advance` pipeline of this job's [`Variant`].
+    advance: wgpu::ComputePipeline,
     bind_group: wgpu::BindGroup,
     dims: (u32, u32),
     pub layout: StateLayout,
@@ -148,25 +179,52 @@ impl ProjectivePass {
                 gpu::storage_entry(7, cs, true),
             ],
         });
-        let [init, advance] = gpu::compute_pipelines(
+        let [init] = gpu::compute_pipelines(
             device,
             "projective",
             &layout,
             &module,
-            ["init", "advance"],
-            &[
-                ("WORKGROUP", WORKGROUP as f64),
-                ("EPS_OUT", crate::scene::head::EPS_OUT),
-                ("SDF_EPS_OUT", crate::scene::hull::SDF_EPS_OUT),
-                ("POLE_SIN", POLE_SIN),
-                ("MAX_TURN", MAX_TURN),
-            ],
+            ["init"],
+            &Self::constants(Variant {
+                sdf_head: true,
+                eff_field: true,
+            }),
         );
         Ok(ProjectivePass {
             init,
-            advance,
+            advance: Default::default(),
+            module,
             layout,
         })
+    }
+
+    fn constants(v: Variant) -> [(&'static str, f64); 7] {
+        [
+            ("WORKGROUP", WORKGROUP as f64),
+            ("EPS_OUT", crate::scene::head::EPS_OUT),
+            ("SDF_EPS_OUT", crate::scene::hull::SDF_EPS_OUT),
+            ("POLE_SIN", POLE_SIN),
+            ("MAX_TURN", MAX_TURN),
+            ("SDF_HEAD", f64::from(u8::from(v.sdf_head))),
+            ("EFF_FIELD", f64::from(u8::from(v.eff_field))),
+        ]
+    }
+
+    /// The `advance` pipeline specialised for `v` (compiled on first use).
+    fn advance_pipeline(&self, device: &wgpu::Device, v: Variant) -> wgpu::ComputePipeline {
+        self.advance[v.index()]
+            .get_or_init(|| {
+                let [advance] = gpu::compute_pipelines(
+                    device,
+                    "projective",
+                    &self.layout,
+                    &self.module,
+                    ["advance"],
+                    &Self::constants(v),
+                );
+                advance
+            })
+            .clone()
     }
 
     /// Upload the set-up; the angle state is initialised from the nodes by `init`.
@@ -237,6 +295,7 @@ impl ProjectivePass {
             hair,
             &eff,
         );
+        let advance = self.advance_pipeline(device, Variant::of(setup));
         Ok(ProjectiveJob {
             params,
             sdf,
@@ -244,6 +303,7 @@ impl ProjectivePass {
             state,
             steps,
             capacity,
+            advance,
             bind_group,
             dims,
             layout,
@@ -345,7 +405,7 @@ impl ProjectivePass {
             label: Some("projective advance"),
             timestamp_writes: None,
         });
-        pass.set_pipeline(&self.advance);
+        pass.set_pipeline(&job.advance);
         for i in 0..substeps.len() as u32 {
             pass.set_bind_group(0, &job.bind_group, &[i * SLOT as u32]);
             pass.dispatch_workgroups(job.dims.0, job.dims.1, 1);
