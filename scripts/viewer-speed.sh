@@ -11,6 +11,8 @@ cases=(
   "assets/scenes/bob.ron"
   "assets/scenes/gust.ron --set lod=1"
   "assets/scenes/gust.ron --set lod=1 --set msaa=1"
+  "assets/scenes/gust.ron --set lod=1 --set strands=compute"
+  "assets/scenes/gust.ron --set lod=1 --set msaa=1 --set strands=compute"
   "assets/scenes/fur.ron"
   "assets/scenes/fur.ron --set lod=1"
 )

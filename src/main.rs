@@ -77,7 +77,8 @@ enum Command {
         screenshot_at: Vec<(u64, PathBuf)>,
         /// Change a setting while running, through the panels' path: [N:]KEY=VALUE, applied
         /// at frame N (default 0). Keys: color=r,g,b width ks shininess rigidity wind=x,y,z
-        /// gravity=x,y,z stiffness=root,tip damping pseudo=on|off msaa supersample play=on|off
+        /// gravity=x,y,z stiffness=root,tip damping pseudo=on|off msaa supersample
+        /// strands=ribbons|compute play=on|off
         /// lod=share.
         #[arg(long)]
         set: Vec<String>,

@@ -256,6 +256,12 @@ fn look_common(ui: &mut Ui, s: &mut ViewerState) {
         ui.radio_value(&mut r.msaa, 1, "off");
         ui.radio_value(&mut r.msaa, 4, "4x");
     });
+    ui.horizontal(|ui| {
+        ui.label("strands")
+            .on_hover_text("ribbons: two triangles per segment; compute: the compute rasteriser for thin strands (analytic coverage; kami bench raster)");
+        ui.radio_value(&mut r.strands, crate::scene::StrandRaster::Ribbons, "ribbons");
+        ui.radio_value(&mut r.strands, crate::scene::StrandRaster::Compute, "compute");
+    });
     ui.add(Slider::new(&mut r.supersample, 1..=4).text("supersampling (renders)"));
     ui.checkbox(
         &mut s.view.full_supersampling,

@@ -271,7 +271,8 @@ impl ViewerState {
     /// state, and the window loop classifies and applies the change. Keys: `color=r,g,b`,
     /// `width=w`, `ks=k`, `shininess=n`, `rigidity=EI` (all groups), `wind=x,y,z`,
     /// `gravity=x,y,z`, `stiffness=root,tip`, `damping=rate`, `pseudo=on|off`,
-    /// `msaa=1|4`, `supersample=f`, `play=on|off`, `lod=fraction` (fixed, 0..1),
+    /// `msaa=1|4`, `supersample=f`, `strands=ribbons|compute`, `play=on|off`,
+    /// `lod=fraction` (fixed, 0..1),
     /// `fur.hairs=N`, `fur.stiffness=s` (all coats), `fur.culling=on|off`,
     /// `wisps.edit=on|off` (the skeleton editor's mouse mode and overlay),
     /// `wisps.max_steps=N` (the ray march's step budget: cheap previews), `strips.edit=on|off`
@@ -483,6 +484,8 @@ mod tests {
         );
         s.apply_set("play=off").unwrap();
         assert!(!s.view.playing);
+        s.apply_set("strands=compute").unwrap();
+        assert_eq!(s.scene.render.strands, crate::scene::StrandRaster::Compute);
         let before = s.scene.clone();
         for bad in [
             "color=1,2",
@@ -494,6 +497,7 @@ mod tests {
             "lod=0",
             "msaa=4.5",
             "supersample=two",
+            "strands=triangles",
             "colour=1,1,1",
             "Wind=0,0,1",
         ] {
