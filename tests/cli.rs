@@ -62,7 +62,10 @@ fn bad_render_values_name_the_flag() {
         (vec!["--frames", "0-40"], "must look like 0..40"),
         (vec!["--frames", "0..x"], "bad last frame"),
         (vec!["--msaa", "3"], "use 1 or 4"),
-        (vec!["--strands", "lines"], "strands must be ribbons or compute"),
+        (
+            vec!["--strands", "lines"],
+            "strands must be ribbons or compute",
+        ),
         (vec!["--supersample", "9"], "--supersample"),
         (vec!["--fps", "0", "--frames", "0..1"], "--fps"),
         (vec!["--gif", "a.gif"], "--gif and --apng need --frames"),
@@ -144,7 +147,10 @@ fn bad_viewer_options_are_refused_before_the_window_opens() {
         (vec!["--set", "colr=1,1,1"], "unknown key \"colr\""),
         (vec!["--set", "msaa=3"], "render.msaa"),
         (vec!["--set", "msaa=4.5"], "is not a whole number"),
-        (vec!["--set", "strands=lines"], "strands must be ribbons or compute"),
+        (
+            vec!["--set", "strands=lines"],
+            "strands must be ribbons or compute",
+        ),
         (vec!["--set", "10:lod"], "expected KEY=VALUE"),
         (
             vec!["--screenshot-at", "30shot.png"],

@@ -158,61 +158,6 @@ fn xform_vector(m: mat4x4<f32>, v: vec3<f32>) -> vec3<f32> {
     return (m * vec4<f32>(v, 0.0)).xyz;
 }
 
-// `hull_push_out` (common/ellipsoid.wgsl): the same scan, the same 20 halvings and the same
-// answer up to rounding, cheaper. Each halving takes the mid direction as normalize(lo + hi),
-// the exact bisector of two unit vectors less than pi apart, instead of cos and sin of the
-// mid angle, and works in the circle's plane (2D unit vectors, the quadric form expanded
-// once per call). A SIMD adapter runs the 20 halvings for every lane of a group when one
-// lane collides, so they dominated the collision's cost.
-fn push_out_ellipsoid(h: Hull, pivot: vec3<f32>, a0: vec3<f32>, p: vec3<f32>, d: f32) -> vec3<f32> {
-    if hull_eval(h, p) >= 0.0 {
-        return p;
-    }
-    let w = p - pivot;
-    var v = w - dot(w, a0) * a0;
-    if length(v) <= 1e-6 * d {
-        let g = hull_gradient(h, p);
-        v = g - dot(g, a0) * a0;
-        if length(v) <= 1e-7 * length(g) {
-            v = any_orthonormal(a0);
-        }
-    }
-    v = normalize(v);
-    let phi0 = atan2(dot(w, v), dot(w, a0));
-    // The circle in its plane: the point at (x, y) = (cos, sin) of an angle is
-    // pivot + d (x a0 + y v), and its quadric form is |qa + x qb + y qc|^2 - 1.
-    let qa = (pivot - h.center) / h.radii;
-    let qb = d * a0 / h.radii;
-    let qc = d * v / h.radii;
-    let step = PI / 32.0;
-    for (var n = 1u; n <= 32u; n++) {
-        for (var k = 0u; k < 2u; k++) {
-            let dir = select(-1.0, 1.0, k == 0u);
-            let phi = phi0 + dir * f32(n) * step;
-            var hi = normalize(vec2<f32>(cos(phi), sin(phi)));
-            if circle_form(qa, qb, qc, hi) >= EPS_OUT {
-                let phi_lo = phi - dir * step;
-                var lo = normalize(vec2<f32>(cos(phi_lo), sin(phi_lo)));
-                for (var b = 0u; b < 20u; b++) {
-                    let mid = normalize(lo + hi);
-                    if circle_form(qa, qb, qc, mid) >= EPS_OUT {
-                        hi = mid;
-                    } else {
-                        lo = mid;
-                    }
-                }
-                return pivot + d * normalize(hi.x * a0 + hi.y * v);
-            }
-        }
-    }
-    return pivot + d * normalize(hull_gradient(h, pivot));
-}
-
-fn circle_form(qa: vec3<f32>, qb: vec3<f32>, qc: vec3<f32>, u: vec2<f32>) -> f32 {
-    let q = qa + u.x * qb + u.y * qc;
-    return dot(q, q) - 1.0;
-}
-
 fn load_strand(si: u32) -> DynStrand {
     let n = params.state_stride;
     return DynStrand(
@@ -372,7 +317,7 @@ fn advance(@builtin(global_invocation_id) id: vec3<u32>) {
                 if hl.sdf {
                     q = head_push_out(hl, lp, la, local, d);
                 } else {
-                    q = push_out_ellipsoid(hl.e, lp, la, local, d);
+                    q = hull_push_out(hl.e, lp, la, local, d);
                 }
                 dir = normalize(xform_point(substep.head, q) - prev_p);
                 pn = prev_p + dir * d;
