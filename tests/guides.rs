@@ -69,8 +69,24 @@ fn hair_length(f: &follow::Follower, input: &GroomInput) -> f64 {
 /// the hull would show as more).
 #[test]
 fn follower_kernel_matches_reference() {
-    let scene = gust(Some(0.25));
-    let (input, sim, gpu_nodes, rest) = run_rest(&scene, 12);
+    follower_contract(&gust(Some(0.25)));
+}
+
+/// The same on a mesh head (CGAL's `head.off`): the kernel built with its signed distance
+/// field path (`SDF_HEAD`), which the ellipsoid's pipeline compiles out.
+#[test]
+fn follower_kernel_matches_reference_on_a_mesh_head() {
+    let mut scene = common::scene("mesh_head");
+    for g in &mut scene.groups {
+        g.count /= 20;
+    }
+    scene.dynamics.as_mut().unwrap().guides = Some(0.25);
+    kami::scene::validate(&scene).unwrap();
+    follower_contract(&scene);
+}
+
+fn follower_contract(scene: &Scene) {
+    let (input, sim, gpu_nodes, rest) = run_rest(scene, 12);
     let setup = sim.follow.as_ref().expect("share 0.25 has followers");
     let mut cpu = gpu_nodes.clone();
     follow::follow(setup, &rest, sim.follow_head, &mut cpu);

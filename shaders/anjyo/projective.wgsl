@@ -26,8 +26,7 @@ override WORKGROUP: u32;
 // Specialisations, passed per job by the Rust side (`projective_gpu::Variant`). Software
 // adapters such as lavapipe run every branch of an `if` under a lane mask, so code that a
 // uniform flag turns off still costs its full price unless the pipeline compiles it out.
-// false: the head is the ellipsoid (params.head_center.w = 0), the SDF path compiled out.
-override SDF_HEAD: bool = true;
+// SDF_HEAD (common/sdf.wgsl) false: the head is the ellipsoid, the SDF path compiled out.
 // false: the job has no External Force Field (eff_field would be zero), its lookup compiled out.
 override EFF_FIELD: bool = true;
 
@@ -92,8 +91,7 @@ struct DynStrand {
 @group(0) @binding(7) var<storage, read> sdf_data: array<f32>;
 
 fn hull() -> HeadHull {
-    let h = head_hull(params.head_center, params.head_radii);
-    return HeadHull(h.e, SDF_HEAD && h.sdf);
+    return head_hull(params.head_center, params.head_radii);
 }
 
 fn direction(theta: f32, phi: f32) -> vec3<f32> {

@@ -15,9 +15,15 @@ struct HeadHull {
     sdf: bool,
 }
 
+// false: the kernel's heads are ellipsoids, the SDF path compiled out. Software adapters such
+// as lavapipe run every branch of an `if` under a lane mask, so code a uniform flag turns off
+// still costs its full price unless the pipeline removes it (`projective_gpu::Variant`,
+// `follow_gpu::FollowPass`).
+override SDF_HEAD: bool = true;
+
 // From the kernels' parameters: head_center.w = 1 selects the SDF.
 fn head_hull(center: vec4<f32>, radii: vec4<f32>) -> HeadHull {
-    return HeadHull(Hull(center.xyz, radii.xyz), center.w > 0.5);
+    return HeadHull(Hull(center.xyz, radii.xyz), SDF_HEAD && center.w > 0.5);
 }
 
 struct SdfCell {

@@ -50,7 +50,9 @@ const _: () = assert!(MAX_GUIDES <= 4);
 
 /// The follower pipeline.
 pub struct FollowPass {
-    pipeline: wgpu::ComputePipeline,
+    /// For an ellipsoid head (the SDF path compiled out) and for a mesh head's SDF.
+    ellipsoid: wgpu::ComputePipeline,
+    sdf: wgpu::ComputePipeline,
     layout: wgpu::BindGroupLayout,
 }
 
@@ -77,19 +79,29 @@ impl FollowPass {
                 gpu::storage_entry(4, cs, true),
             ],
         });
-        let [pipeline] = gpu::compute_pipelines(
-            device,
-            "follow",
-            &layout,
-            &module,
-            ["follow"],
-            &[
-                ("WORKGROUP", WORKGROUP as f64),
-                ("EPS_OUT", crate::scene::head::EPS_OUT),
-                ("SDF_EPS_OUT", crate::scene::hull::SDF_EPS_OUT),
-            ],
-        );
-        Ok(FollowPass { pipeline, layout })
+        // One pipeline per head kind: with the SDF path compiled out for an ellipsoid head
+        // (SDF_HEAD, common/sdf.wgsl), which a software adapter would otherwise run too.
+        let pipeline = |sdf: bool| {
+            let [p] = gpu::compute_pipelines(
+                device,
+                "follow",
+                &layout,
+                &module,
+                ["follow"],
+                &[
+                    ("WORKGROUP", WORKGROUP as f64),
+                    ("EPS_OUT", crate::scene::head::EPS_OUT),
+                    ("SDF_EPS_OUT", crate::scene::hull::SDF_EPS_OUT),
+                    ("SDF_HEAD", f64::from(u8::from(sdf))),
+                ],
+            );
+            p
+        };
+        Ok(FollowPass {
+            ellipsoid: pipeline(false),
+            sdf: pipeline(true),
+            layout,
+        })
     }
 
     /// Upload the followers.
@@ -191,7 +203,8 @@ impl FollowPass {
             label: Some("follow"),
             timestamp_writes: None,
         });
-        pass.set_pipeline(&self.pipeline);
+        let sdf = job.base.head_center[3] > 0.5;
+        pass.set_pipeline(if sdf { &self.sdf } else { &self.ellipsoid });
         pass.set_bind_group(0, &job.bind_group, &[]);
         pass.dispatch_workgroups(job.dims.0, job.dims.1, 1);
     }
