@@ -166,3 +166,34 @@ fn compute_image_matches_the_ribbons() {
     );
     assert!(tile < 6.0, "tile error {tile}");
 }
+
+/// The viewer's hair share reaches the compute rasteriser: drawing half the hairs after all
+/// of them (on the same stage), each widened by 1/sqrt(1/2) as the viewer's level of detail
+/// does, leaves about 0.71 of the accumulated optical depth, and all of them again all of it.
+#[test]
+fn a_smaller_share_draws_fewer_hairs() {
+    let gpu = common::gpu();
+    let scene = small(false, 1);
+    let mut stage = Stage::new(&gpu, &scene, target::OUTPUT_FORMAT, Quality::of(&scene)).unwrap();
+    let out = target::Offscreen::new(&gpu, SIZE).unwrap();
+    let mut optical_depth = |share: f64| -> f64 {
+        let mut look = stage.look();
+        look.lod = share;
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        stage
+            .render(&gpu, &mut enc, &out.view, SIZE, &look)
+            .unwrap();
+        gpu.queue.submit([enc.finish()]);
+        gpu_samples(&gpu, &stage).iter().map(|s| s[4]).sum()
+    };
+    let (all, half, again) = (optical_depth(1.0), optical_depth(0.5), optical_depth(1.0));
+    eprintln!("optical depth: all {all:.1}, half {half:.1}, all again {again:.1}");
+    assert!(
+        (0.6..0.85).contains(&(half / all)),
+        "half the hairs gave {half} of {all}"
+    );
+    assert!(
+        (again - all).abs() < 1e-9 * all,
+        "back to every hair: {again} vs {all}"
+    );
+}

@@ -55,6 +55,8 @@ struct Bound {
     ranges: Vec<crate::gpu::strands::DrawRange>,
     /// Per range: first strand, one past the last drawn (the splat's level of detail).
     drawn: wgpu::Buffer,
+    /// The share `drawn` holds (uploaded again only when it changes).
+    drawn_fraction: f64,
     strand_count: u32,
 }
 
@@ -221,6 +223,7 @@ impl StrandsPass {
             materials,
             ranges: hair.ranges.clone(),
             drawn,
+            drawn_fraction: 1.0,
             strand_count: hair.strand_count,
         });
     }
@@ -238,7 +241,8 @@ impl StrandsPass {
         self.step = step.max(1);
         let lod = [width_scale as f32, self.step as f32, 0.0, 0.0];
         queue.write_buffer(&self.lod, 0, bytemuck::bytes_of(&lod));
-        if let Some(b) = &self.bound {
+        if let Some(b) = self.bound.as_mut().filter(|b| b.drawn_fraction != fraction) {
+            b.drawn_fraction = fraction;
             let drawn: Vec<[u32; 2]> = b
                 .ranges
                 .iter()
