@@ -1,0 +1,64 @@
+//! CPU wall time of one drawn frame (no simulation) of a scene at a size with a rasteriser
+//! and a share of the hairs, median of the runs: `cargo run --release --example rasterbench
+//! -- [ribbons|compute] [msaa] [runs] [scene] [WxH] [share]`. A quick probe while changing a
+//! rasteriser (no reference image, so seconds rather than minutes; share 0.0001 gives the
+//! frame's floor without hair); `kami bench raster` is the report.
+
+use anyhow::Result;
+use kami::bench::raster::Config;
+use kami::gpu::{Gpu, Preference};
+use kami::scene::StrandRaster;
+use kami::stage::{target, Quality, Stage};
+use std::time::Instant;
+
+fn main() -> Result<()> {
+    let mut args = std::env::args().skip(1);
+    let strands = match args.next().as_deref() {
+        Some("ribbons") => StrandRaster::Ribbons,
+        _ => StrandRaster::Compute,
+    };
+    let msaa: u32 = args.next().map_or(Ok(1), |s| s.parse())?;
+    let runs: u32 = args.next().map_or(Ok(5), |s| s.parse())?;
+    let scene = args
+        .next()
+        .unwrap_or_else(|| "assets/scenes/gust.ron".into());
+    let size = args.next().unwrap_or_else(|| "1280x720".into());
+    let lod: f64 = args.next().map_or(Ok(1.0), |s| s.parse())?;
+    let (w, h) = size
+        .split_once('x')
+        .ok_or_else(|| anyhow::anyhow!("size {size}: want WIDTHxHEIGHT"))?;
+    let size = (w.parse()?, h.parse()?);
+    let scene = kami::Scene::load(&scene)?;
+    let gpu = Gpu::headless(Preference::Software)?;
+    let config = Config {
+        strands,
+        msaa,
+        supersample: 1,
+    };
+    let mut scene = scene.clone();
+    scene.render.strands = config.strands;
+    scene.render.msaa = config.msaa;
+    scene.render.supersample = 1;
+    let mut stage = Stage::new(&gpu, &scene, target::OUTPUT_FORMAT, Quality::of(&scene))?;
+    stage.seek(&gpu, 15)?;
+    let out = target::Offscreen::new(&gpu, size)?;
+    let mut look = stage.look();
+    look.lod = lod;
+    let mut times = Vec::new();
+    for _ in 0..=runs {
+        let t = Instant::now();
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        stage.render(&gpu, &mut enc, &out.view, size, &look)?;
+        gpu.queue.submit([enc.finish()]);
+        gpu.wait()?;
+        times.push(t.elapsed().as_secs_f64() * 1e3);
+    }
+    times.remove(0);
+    times.sort_by(f64::total_cmp);
+    println!(
+        "{}: {:.1} ms per frame",
+        config.name(),
+        times[times.len() / 2]
+    );
+    Ok(())
+}
