@@ -595,6 +595,10 @@ fn viewer_picks_a_strip_and_drags_its_target() {
         "10",
         "--set",
         "play=off",
+        // Full detail: under load the adaptive level of detail would draw less than
+        // `kami render` does and the frames would differ.
+        "--set",
+        "lod=1",
         "--set",
         "1:strips.edit=on",
         "--set",
