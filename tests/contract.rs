@@ -203,19 +203,17 @@ fn cantilever_converged_free_beam_matches_reference() {
     }
 }
 
-/// Projective dynamics: the WGSL pass against the f64 reference over 20 frames of the gust
-/// scene (wind, a step change, pseudo-force, collision). Decisions with thresholds (pole
-/// switch, contact) can make single strands part ways after many steps, so the tolerance is
-/// on quantiles of the per-strand largest node distance, relative to the hair length:
-/// median <= 1e-4, 99 % <= 1e-2, at most 2 % of strands beyond 1e-2 and none beyond 5e-2
-/// (measured on the 500-strand gust: median 1.3e-5, 99 % 1.5e-3, worst 3.8e-3). Angle
-/// states, compared up to whole turns: 99 % within 1e-3 rad, none beyond 0.25 rad (measured
-/// worst 0.064: the azimuth of a segment near its pole is ill-conditioned).
-#[test]
-fn projective_dynamics_matches_reference() {
+/// The projective kernel and the f64 reference after `frames` frames of `scene` (its groups
+/// thinned 20-fold): per strand the worst node distance over the strand's length, sorted;
+/// the worst angle difference (up to whole turns); the share of angle entries within 1e-3
+/// rad; and the reference itself.
+fn projective_against_reference(
+    scene: &kami::Scene,
+    frames: u32,
+) -> (Vec<f64>, f64, f64, kami::systems::anjyo::projective::CpuSim) {
     use kami::systems::anjyo::projective::{CpuSim, DynSetup};
     let gpu = common::gpu();
-    let mut scene = common::scene("gust");
+    let mut scene = scene.clone();
     for g in &mut scene.groups {
         g.count /= 20;
     }
@@ -229,7 +227,7 @@ fn projective_dynamics_matches_reference() {
         DynSetup::new(&scene, &input, &groomed.visible).unwrap(),
         groomed.nodes.clone(),
     );
-    for _ in 0..20 {
+    for _ in 0..frames {
         let mut enc = gpu.device.create_command_encoder(&Default::default());
         sim.record_frame(&gpu, &mut enc, &hair);
         gpu.queue.submit([enc.finish()]);
@@ -255,24 +253,6 @@ fn projective_dynamics_matches_reference() {
         })
         .collect();
     errs.sort_by(f64::total_cmp);
-    let n = errs.len();
-    let beyond = errs.iter().filter(|&&e| e > 1e-2).count();
-    assert!(
-        quantile(&errs, 0.5) < 1e-4,
-        "median {:.2e}",
-        quantile(&errs, 0.5)
-    );
-    assert!(
-        quantile(&errs, 0.99) < 1e-2,
-        "99% {:.2e}",
-        quantile(&errs, 0.99)
-    );
-    assert!(
-        beyond as f64 <= 0.02 * n as f64,
-        "{beyond} of {n} strands beyond 1e-2"
-    );
-    assert!(errs[n - 1] < 5e-2, "worst strand {:.2e}", errs[n - 1]);
-    // The angle state agrees too (same representation choices).
     let state = sim.read_state(&gpu).unwrap();
     let worst_angle = cpu
         .angles
@@ -280,21 +260,102 @@ fn projective_dynamics_matches_reference() {
         .zip(&state)
         .map(|(c, g)| wrapped(c[0] - g[0] as f64).max(wrapped(c[2] - g[2] as f64)))
         .fold(0.0, f64::max);
-    assert!(
-        worst_angle < 0.25,
-        "an angle differs by {worst_angle:.3} rad"
-    );
     let close = cpu
         .angles
         .iter()
         .zip(&state)
         .filter(|(c, g)| wrapped(c[0] - g[0] as f64) < 1e-3 && wrapped(c[2] - g[2] as f64) < 1e-3)
         .count();
-    assert!(
-        close as f64 >= 0.99 * state.len() as f64,
-        "only {close} of {} angle entries agree",
-        state.len()
+    (errs, worst_angle, close as f64 / state.len() as f64, cpu)
+}
+
+/// The node and angle bounds both projective contracts hold; at least `min_close` of the
+/// angle entries within 1e-3 rad.
+fn assert_projective_agrees(errs: &[f64], worst_angle: f64, close: f64, min_close: f64) {
+    let n = errs.len();
+    let beyond = errs.iter().filter(|&&e| e > 1e-2).count();
+    eprintln!(
+        "{n} strands: median {:.2e}, 99% {:.2e}, worst {:.2e}; worst angle {worst_angle:.3} rad, {:.2} % of angles within 1e-3",
+        quantile(errs, 0.5),
+        quantile(errs, 0.99),
+        errs[n - 1],
+        100.0 * close
     );
+    assert!(
+        quantile(errs, 0.5) < 1e-4,
+        "median {:.2e}",
+        quantile(errs, 0.5)
+    );
+    assert!(
+        quantile(errs, 0.99) < 1e-2,
+        "99% {:.2e}",
+        quantile(errs, 0.99)
+    );
+    assert!(
+        beyond as f64 <= 0.02 * n as f64,
+        "{beyond} of {n} strands beyond 1e-2"
+    );
+    assert!(errs[n - 1] < 5e-2, "worst strand {:.2e}", errs[n - 1]);
+    // The angle state agrees too (same representation choices).
+    assert!(
+        worst_angle < 0.25,
+        "an angle differs by {worst_angle:.3} rad"
+    );
+    assert!(
+        close >= min_close,
+        "only {:.2} % of angle entries agree",
+        100.0 * close
+    );
+}
+
+/// Projective dynamics: the WGSL pass against the f64 reference over 20 frames of the gust
+/// scene (wind, a step change, pseudo-force, collision). Decisions with thresholds (pole
+/// switch, contact) can make single strands part ways after many steps, so the tolerance is
+/// on quantiles of the per-strand largest node distance, relative to the hair length:
+/// median <= 1e-4, 99 % <= 1e-2, at most 2 % of strands beyond 1e-2 and none beyond 5e-2
+/// (measured on the 500-strand gust: median 1.3e-5, 99 % 1.5e-3, worst 3.8e-3). Angle
+/// states, compared up to whole turns: 99 % within 1e-3 rad, none beyond 0.25 rad (measured
+/// worst 0.064: the azimuth of a segment near its pole is ill-conditioned).
+#[test]
+fn projective_dynamics_matches_reference() {
+    let (errs, worst_angle, close, _) = projective_against_reference(&common::scene("gust"), 20);
+    assert_projective_agrees(&errs, worst_angle, close, 0.99);
+}
+
+/// Joint-angle stiffness (Anjyo's sigma_i, Fig. 12b): on `stiffness_smooth`, where sigma
+/// falls to 12 degrees towards the tips and the random kicks bend the hair hard, the joint
+/// clamp binds at many joints (the reference's bends sit at sigma there), and the kernel
+/// still agrees with the reference within the bounds above: a clamp that turned the
+/// segment the wrong way about its axis keeps every bend within sigma and would pass any
+/// test of the bend alone, but not this one (measured with the sign flipped: median strand
+/// 0.33, 43 % of angles agree). Measured as it is (450 strands, lavapipe): median 5.5e-5,
+/// 99 % 6.4e-3, worst 2.0e-2, 98.6 % of angles within 1e-3 (a clamp or a kick decided the
+/// other way in f32 parts a few joints), so 97 % of angles must agree here.
+#[test]
+fn projective_joint_limits_match_reference() {
+    let (errs, worst_angle, close, cpu) =
+        projective_against_reference(&common::scene("stiffness_smooth"), 20);
+    let setup = &cpu.setup;
+    let mut joints = 0;
+    let mut at_limit = 0;
+    for s in &setup.strands {
+        let node = |i: u32| cpu.nodes[(s.first_vertex + i) as usize];
+        for j in 1..s.segments {
+            let a = (node(j) - node(j - 1)).normalize();
+            let b = (node(j + 1) - node(j)).normalize();
+            let bend = a.dot(b).clamp(-1.0, 1.0).acos();
+            joints += 1;
+            if (bend - setup.sigma(s, j)).abs() < 1e-6 {
+                at_limit += 1;
+            }
+        }
+    }
+    eprintln!("{at_limit} of {joints} joints bent to their limit");
+    assert!(
+        at_limit * 20 > joints,
+        "the joint clamp binds at only {at_limit} of {joints} joints"
+    );
+    assert_projective_agrees(&errs, worst_angle, close, 0.97);
 }
 
 /// The viewer's time scale records several frames into one submission: that must be the
