@@ -45,6 +45,14 @@ fn vs(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
     return vec4<f32>(x, y, 0.0, 1.0);
 }
 
+// Without supersampling (the viewer's usual case): one load, no loop. On a software
+// rasteriser this pass touches every output pixel, and the loop alone cost a third of it.
+@fragment
+fn fs_one(@builtin(position) p: vec4<f32>) -> @location(0) vec4<f32> {
+    let px = vec2<i32>(floor(p.xy));
+    return encoded(with_hair(px, textureLoad(scene, px, 0).rgb));
+}
+
 @fragment
 fn fs(@builtin(position) p: vec4<f32>) -> @location(0) vec4<f32> {
     let f = i32(resolve.factor);
@@ -56,7 +64,10 @@ fn fs(@builtin(position) p: vec4<f32>) -> @location(0) vec4<f32> {
             sum += with_hair(px, textureLoad(scene, px, 0).rgb);
         }
     }
-    let rgb = sum / f32(f * f);
+    return encoded(sum / f32(f * f));
+}
+
+fn encoded(rgb: vec3<f32>) -> vec4<f32> {
     if resolve.encode_srgb != 0u {
         return vec4<f32>(linear_to_srgb(rgb), 1.0);
     }

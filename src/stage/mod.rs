@@ -623,7 +623,7 @@ impl Stage {
             t.begin(enc, Phase::Resolve);
         }
         self.downsample
-            .draw(enc, &targets.resolve, output, size, clear);
+            .draw(enc, &targets.resolve, targets.scene.factor, output, size, clear);
         self.mark(enc, Phase::Resolve, false);
         Ok(())
     }

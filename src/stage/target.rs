@@ -132,6 +132,8 @@ impl SceneTargets {
 /// Box-filter resolve of the supersampled scene into the output.
 pub struct DownsamplePass {
     pipeline: wgpu::RenderPipeline,
+    /// Without supersampling: a plain copy (with the thin strands and the encoding).
+    pipeline_one: wgpu::RenderPipeline,
     layout: wgpu::BindGroupLayout,
     uniform: wgpu::Buffer,
     encode_srgb: bool,
@@ -162,27 +164,31 @@ impl DownsamplePass {
             ],
         );
         let pl = gpu::pipeline::pipeline_layout(device, "downsample", &[&layout]);
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("downsample"),
-            layout: Some(&pl),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: Default::default(),
-            depth_stencil: None,
-            multisample: Default::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("fs"),
-                compilation_options: Default::default(),
-                targets: &[Some(output_format.into())],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let make = |fs: &str| {
+            device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+                label: Some("downsample"),
+                layout: Some(&pl),
+                vertex: wgpu::VertexState {
+                    module: &module,
+                    entry_point: Some("vs"),
+                    compilation_options: Default::default(),
+                    buffers: &[],
+                },
+                primitive: Default::default(),
+                depth_stencil: None,
+                multisample: Default::default(),
+                fragment: Some(wgpu::FragmentState {
+                    module: &module,
+                    entry_point: Some(fs),
+                    compilation_options: Default::default(),
+                    targets: &[Some(output_format.into())],
+                }),
+                multiview_mask: None,
+                cache: None,
+            })
+        };
+        let pipeline = make("fs");
+        let pipeline_one = make("fs_one");
         let uniform = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("downsample uniform"),
             size: std::mem::size_of::<[u32; 4]>() as u64,
@@ -197,6 +203,7 @@ impl DownsamplePass {
         );
         Ok(DownsamplePass {
             pipeline,
+            pipeline_one,
             layout,
             uniform,
             encode_srgb: !output_format.is_srgb(),
@@ -232,11 +239,13 @@ impl DownsamplePass {
         })
     }
 
-    /// Average the scene into the top-left `size` pixels of `output`, clearing the rest.
+    /// Average the scene (supersampled `factor` times) into the top-left `size` pixels of
+    /// `output`, clearing the rest.
     pub fn draw(
         &self,
         enc: &mut wgpu::CommandEncoder,
         bind_group: &wgpu::BindGroup,
+        factor: u32,
         output: &wgpu::TextureView,
         size: (u32, u32),
         clear: wgpu::Color,
@@ -258,7 +267,11 @@ impl DownsamplePass {
             multiview_mask: None,
         });
         pass.set_viewport(0.0, 0.0, size.0 as f32, size.1 as f32, 0.0, 1.0);
-        pass.set_pipeline(&self.pipeline);
+        pass.set_pipeline(if factor == 1 {
+            &self.pipeline_one
+        } else {
+            &self.pipeline
+        });
         pass.set_bind_group(0, bind_group, &[]);
         pass.draw(0..3, 0..1);
     }
