@@ -1,6 +1,6 @@
 //! CPU wall time of one drawn frame (no simulation) of a scene at a size with a rasteriser
 //! and a share of the hairs, median of the runs: `cargo run --release --example rasterbench
-//! -- [ribbons|compute] [msaa] [runs] [scene] [WxH] [share]`. A quick probe while changing a
+//! -- [ribbons|compute] [msaa[xsupersample]] [runs] [scene] [WxH] [share]`. A quick probe while changing a
 //! rasteriser (no reference image, so seconds rather than minutes; share 0.0001 gives the
 //! frame's floor without hair); `kami bench raster` is the report.
 
@@ -17,7 +17,10 @@ fn main() -> Result<()> {
         Some("ribbons") => StrandRaster::Ribbons,
         _ => StrandRaster::Compute,
     };
-    let msaa: u32 = args.next().map_or(Ok(1), |s| s.parse())?;
+    // MSAA samples, optionally times a supersampling factor: 4 or 4x2.
+    let quality = args.next().unwrap_or_else(|| "1".into());
+    let (msaa, supersample) = quality.split_once('x').unwrap_or((&quality, "1"));
+    let (msaa, supersample): (u32, u32) = (msaa.parse()?, supersample.parse()?);
     let runs: u32 = args.next().map_or(Ok(5), |s| s.parse())?;
     let scene = args
         .next()
@@ -33,12 +36,12 @@ fn main() -> Result<()> {
     let config = Config {
         strands,
         msaa,
-        supersample: 1,
+        supersample,
     };
     let mut scene = scene.clone();
     scene.render.strands = config.strands;
     scene.render.msaa = config.msaa;
-    scene.render.supersample = 1;
+    scene.render.supersample = supersample;
     let mut stage = Stage::new(&gpu, &scene, target::OUTPUT_FORMAT, Quality::of(&scene))?;
     stage.seek(&gpu, 15)?;
     let out = target::Offscreen::new(&gpu, size)?;
