@@ -622,8 +622,14 @@ impl Stage {
             t.end(enc, Phase::Draw);
             t.begin(enc, Phase::Resolve);
         }
-        self.downsample
-            .draw(enc, &targets.resolve, targets.scene.factor, output, size, clear);
+        self.downsample.draw(
+            enc,
+            &targets.resolve,
+            targets.scene.factor,
+            output,
+            size,
+            clear,
+        );
         self.mark(enc, Phase::Resolve, false);
         Ok(())
     }
