@@ -13,6 +13,7 @@ cases=(
   "assets/scenes/gust.ron --set lod=1 --set msaa=1"
   "assets/scenes/gust.ron --set lod=1 --set strands=compute"
   "assets/scenes/gust.ron --set lod=1 --set msaa=1 --set strands=compute"
+  "assets/scenes/gust.ron --set lod=0.01 --set msaa=1"
   "assets/scenes/fur.ron"
   "assets/scenes/fur.ron --set lod=1"
 )
