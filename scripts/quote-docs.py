@@ -21,6 +21,9 @@ def refresh(m):
     anchor = next((l for l in body.splitlines() if l.strip()), None)
     if anchor is None:
         sys.exit(f"empty quote of {file}")
+    # A paragraph is found by its bold lead alone: the figures after it change.
+    if anchor.startswith("**") and "**" in anchor[2:]:
+        anchor = anchor[: anchor.index("**", 2) + 2]
     lines = (root / file).read_text().splitlines()
     at = next((i for i, l in enumerate(lines) if l.startswith(anchor)), None)
     if at is None:
