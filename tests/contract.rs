@@ -72,17 +72,7 @@ fn compare(input: &GroomInput) -> Comparison {
     }
 }
 
-/// |a| up to whole turns: the GPU and the CPU may rewrap an angle by 2 pi at different
-/// steps (`projective::rewrap`), which is the same direction.
-fn wrapped(a: f64) -> f64 {
-    let t = std::f64::consts::TAU;
-    let r = a.rem_euclid(t);
-    r.min(t - r)
-}
-
-fn quantile(sorted: &[f64], q: f64) -> f64 {
-    sorted[((sorted.len() - 1) as f64 * q) as usize]
-}
+use common::{assert_projective_agrees, quantile};
 
 /// Paper mode on a real hairstyle (collision, combing loads, cuts): f32 against f64.
 /// Tolerance: 99.9 % of strands within 1e-5 of their length, every strand within 1e-3
@@ -234,78 +224,10 @@ fn projective_against_reference(
         cpu.frame();
     }
     let v = hair.read_vertices(&gpu).unwrap();
-    let offsets = input.vertex_offsets();
-    let mut errs: Vec<f64> = input
-        .roots
-        .iter()
-        .enumerate()
-        .map(|(s, r)| {
-            let len = r.seg_len * input.groups[r.group as usize].segments as f64;
-            (offsets[s]..offsets[s + 1])
-                .map(|i| {
-                    let p = v[i as usize];
-                    assert!(p.iter().all(|c| c.is_finite()));
-                    (DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) - cpu.nodes[i as usize])
-                        .length()
-                        / len
-                })
-                .fold(0.0, f64::max)
-        })
-        .collect();
-    errs.sort_by(f64::total_cmp);
+    let errs = common::strand_errors(&input, &v, &cpu.nodes);
     let state = sim.read_state(&gpu).unwrap();
-    let worst_angle = cpu
-        .angles
-        .iter()
-        .zip(&state)
-        .map(|(c, g)| wrapped(c[0] - g[0] as f64).max(wrapped(c[2] - g[2] as f64)))
-        .fold(0.0, f64::max);
-    let close = cpu
-        .angles
-        .iter()
-        .zip(&state)
-        .filter(|(c, g)| wrapped(c[0] - g[0] as f64) < 1e-3 && wrapped(c[2] - g[2] as f64) < 1e-3)
-        .count();
-    (errs, worst_angle, close as f64 / state.len() as f64, cpu)
-}
-
-/// The node and angle bounds both projective contracts hold; at least `min_close` of the
-/// angle entries within 1e-3 rad.
-fn assert_projective_agrees(errs: &[f64], worst_angle: f64, close: f64, min_close: f64) {
-    let n = errs.len();
-    let beyond = errs.iter().filter(|&&e| e > 1e-2).count();
-    eprintln!(
-        "{n} strands: median {:.2e}, 99% {:.2e}, worst {:.2e}; worst angle {worst_angle:.3} rad, {:.2} % of angles within 1e-3",
-        quantile(errs, 0.5),
-        quantile(errs, 0.99),
-        errs[n - 1],
-        100.0 * close
-    );
-    assert!(
-        quantile(errs, 0.5) < 1e-4,
-        "median {:.2e}",
-        quantile(errs, 0.5)
-    );
-    assert!(
-        quantile(errs, 0.99) < 1e-2,
-        "99% {:.2e}",
-        quantile(errs, 0.99)
-    );
-    assert!(
-        beyond as f64 <= 0.02 * n as f64,
-        "{beyond} of {n} strands beyond 1e-2"
-    );
-    assert!(errs[n - 1] < 5e-2, "worst strand {:.2e}", errs[n - 1]);
-    // The angle state agrees too (same representation choices).
-    assert!(
-        worst_angle < 0.25,
-        "an angle differs by {worst_angle:.3} rad"
-    );
-    assert!(
-        close >= min_close,
-        "only {:.2} % of angle entries agree",
-        100.0 * close
-    );
+    let (worst_angle, close) = common::angle_agreement(&cpu.angles, &state);
+    (errs, worst_angle, close, cpu)
 }
 
 /// Projective dynamics: the WGSL pass against the f64 reference over 20 frames of the gust

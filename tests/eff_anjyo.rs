@@ -221,16 +221,6 @@ fn busy_field(scene: &Scene) -> EffDesc {
     }
 }
 
-fn wrapped(a: f64) -> f64 {
-    let t = std::f64::consts::TAU;
-    let r = a.rem_euclid(t);
-    r.min(t - r)
-}
-
-fn quantile(sorted: &[f64], q: f64) -> f64 {
-    sorted[((sorted.len() - 1) as f64 * q) as usize]
-}
-
 /// The projective contract (tests/contract.rs) with an EFF: 20 frames, the same tolerances
 /// on the per-strand largest node distance relative to the hair length (median <= 1e-4,
 /// 99 % <= 1e-2, at most 2 % beyond 1e-2, none beyond 5e-2) and on the angle states. The
@@ -287,70 +277,11 @@ fn gpu_matches_the_reference_with_a_field() {
     );
 
     let v = hair.read_vertices(&gpu).unwrap();
-    let mut errs: Vec<f64> = input
-        .roots
-        .iter()
-        .enumerate()
-        .map(|(s, r)| {
-            let len = r.seg_len * input.groups[r.group as usize].segments as f64;
-            (offsets[s]..offsets[s + 1])
-                .map(|i| {
-                    let p = v[i as usize];
-                    assert!(p.iter().all(|c| c.is_finite()));
-                    (DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) - cpu.nodes[i as usize])
-                        .length()
-                        / len
-                })
-                .fold(0.0, f64::max)
-        })
-        .collect();
-    errs.sort_by(f64::total_cmp);
-    let n = errs.len();
-    let beyond = errs.iter().filter(|&&e| e > 1e-2).count();
-    eprintln!(
-        "{n} strands: the field moves tips {field_effect:.2} cm (median); GPU vs f64: median \
-         {:.2e}, 99% {:.2e}, worst {:.2e} of the hair length",
-        quantile(&errs, 0.5),
-        quantile(&errs, 0.99),
-        errs[n - 1]
-    );
-    assert!(
-        quantile(&errs, 0.5) < 1e-4,
-        "median {:.2e}",
-        quantile(&errs, 0.5)
-    );
-    assert!(
-        quantile(&errs, 0.99) < 1e-2,
-        "99% {:.2e}",
-        quantile(&errs, 0.99)
-    );
-    assert!(
-        beyond as f64 <= 0.02 * n as f64,
-        "{beyond} of {n} strands beyond 1e-2"
-    );
-    assert!(errs[n - 1] < 5e-2, "worst strand {:.2e}", errs[n - 1]);
+    let errs = common::strand_errors(&input, &v, &cpu.nodes);
+    eprintln!("the field moves tips {field_effect:.2} cm (median)");
     let state = sim.read_state(&gpu).unwrap();
-    let worst_angle = cpu
-        .angles
-        .iter()
-        .zip(&state)
-        .map(|(c, g)| wrapped(c[0] - g[0] as f64).max(wrapped(c[2] - g[2] as f64)))
-        .fold(0.0, f64::max);
-    assert!(
-        worst_angle < 0.25,
-        "an angle differs by {worst_angle:.3} rad"
-    );
-    let close = cpu
-        .angles
-        .iter()
-        .zip(&state)
-        .filter(|(c, g)| wrapped(c[0] - g[0] as f64) < 1e-3 && wrapped(c[2] - g[2] as f64) < 1e-3)
-        .count();
-    assert!(
-        close as f64 >= 0.99 * state.len() as f64,
-        "only {close} of {} angle entries agree",
-        state.len()
-    );
+    let (worst_angle, close) = common::angle_agreement(&cpu.angles, &state);
+    common::assert_projective_agrees(&errs, worst_angle, close, 0.99);
 }
 
 /// Three frames per submission are the same motion as one by one, bit for bit, across the

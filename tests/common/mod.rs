@@ -177,3 +177,100 @@ pub fn off_text(p: &[DVec3], t: &[[u32; 3]]) -> String {
     }
     s
 }
+
+/// |a| up to whole turns: the GPU and the CPU may rewrap an angle by 2 pi at different
+/// steps (`projective::rewrap`), which is the same direction.
+pub fn wrapped(a: f64) -> f64 {
+    let t = std::f64::consts::TAU;
+    let r = a.rem_euclid(t);
+    r.min(t - r)
+}
+
+pub fn quantile(sorted: &[f64], q: f64) -> f64 {
+    sorted[((sorted.len() - 1) as f64 * q) as usize]
+}
+
+/// The projective kernel's nodes (`gpu`, as read back) against the f64 reference's
+/// (`cpu`): per strand of `input` the largest node distance over the hair length, sorted.
+pub fn strand_errors(
+    input: &kami::systems::anjyo::groom::GroomInput,
+    gpu: &[[f32; 4]],
+    cpu: &[DVec3],
+) -> Vec<f64> {
+    let offsets = input.vertex_offsets();
+    let mut errs: Vec<f64> = input
+        .roots
+        .iter()
+        .enumerate()
+        .map(|(s, r)| {
+            let len = r.seg_len * input.groups[r.group as usize].segments as f64;
+            (offsets[s]..offsets[s + 1])
+                .map(|i| {
+                    let p = gpu[i as usize];
+                    assert!(p.iter().all(|c| c.is_finite()));
+                    (DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) - cpu[i as usize]).length()
+                        / len
+                })
+                .fold(0.0, f64::max)
+        })
+        .collect();
+    errs.sort_by(f64::total_cmp);
+    errs
+}
+
+/// The angle states (theta, phi) of the reference (`cpu`) and the kernel (`gpu`): the worst
+/// difference up to whole turns, and the share of entries within 1e-3 rad.
+pub fn angle_agreement(cpu: &[[f64; 4]], gpu: &[[f32; 4]]) -> (f64, f64) {
+    let diff =
+        |c: &[f64; 4], g: &[f32; 4]| wrapped(c[0] - g[0] as f64).max(wrapped(c[2] - g[2] as f64));
+    let worst = cpu
+        .iter()
+        .zip(gpu)
+        .map(|(c, g)| diff(c, g))
+        .fold(0.0, f64::max);
+    let close = cpu
+        .iter()
+        .zip(gpu)
+        .filter(|(c, g)| diff(c, g) < 1e-3)
+        .count();
+    (worst, close as f64 / gpu.len() as f64)
+}
+
+/// The projective contract's bounds: per-strand errors (sorted, relative to the hair
+/// length) median <= 1e-4, 99 % <= 1e-2, at most 2 % beyond 1e-2, none beyond 5e-2; no
+/// angle off by 0.25 rad or more, and at least `min_close` of them within 1e-3 rad.
+pub fn assert_projective_agrees(errs: &[f64], worst_angle: f64, close: f64, min_close: f64) {
+    let n = errs.len();
+    let beyond = errs.iter().filter(|&&e| e > 1e-2).count();
+    eprintln!(
+        "{n} strands: median {:.2e}, 99% {:.2e}, worst {:.2e}; worst angle {worst_angle:.3} rad, {:.2} % of angles within 1e-3",
+        quantile(errs, 0.5),
+        quantile(errs, 0.99),
+        errs[n - 1],
+        100.0 * close
+    );
+    assert!(
+        quantile(errs, 0.5) < 1e-4,
+        "median {:.2e}",
+        quantile(errs, 0.5)
+    );
+    assert!(
+        quantile(errs, 0.99) < 1e-2,
+        "99% {:.2e}",
+        quantile(errs, 0.99)
+    );
+    assert!(
+        beyond as f64 <= 0.02 * n as f64,
+        "{beyond} of {n} strands beyond 1e-2"
+    );
+    assert!(errs[n - 1] < 5e-2, "worst strand {:.2e}", errs[n - 1]);
+    assert!(
+        worst_angle < 0.25,
+        "an angle differs by {worst_angle:.3} rad"
+    );
+    assert!(
+        close >= min_close,
+        "only {:.2} % of angle entries agree",
+        100.0 * close
+    );
+}
