@@ -305,27 +305,8 @@ fn projective_on_mesh_head_matches_reference_and_stays_outside() {
     );
     let offsets = input.vertex_offsets();
     let (mut cpu_depth, mut gpu_depth) = (0.0f64, 0.0f64);
-    let rel_err = |v: &[[f32; 4]], cpu: &CpuSim| -> Vec<f64> {
-        let mut errs: Vec<f64> = input
-            .roots
-            .iter()
-            .enumerate()
-            .map(|(s, r)| {
-                let len = r.seg_len * input.groups[r.group as usize].segments as f64;
-                (offsets[s]..offsets[s + 1])
-                    .map(|i| {
-                        let p = v[i as usize];
-                        assert!(p.iter().all(|c| c.is_finite()));
-                        (DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) - cpu.nodes[i as usize])
-                            .length()
-                            / len
-                    })
-                    .fold(0.0, f64::max)
-            })
-            .collect();
-        errs.sort_by(f64::total_cmp);
-        errs
-    };
+    let rel_err =
+        |v: &[[f32; 4]], cpu: &CpuSim| -> Vec<f64> { common::strand_errors(&input, v, &cpu.nodes) };
     for f in 0..20 {
         let mut enc = gpu.device.create_command_encoder(&Default::default());
         sim.record_frame(&gpu, &mut enc, &hair);
