@@ -5,11 +5,9 @@
 //! frame's floor without hair); `kami bench raster` is the report.
 
 use anyhow::Result;
-use kami::bench::raster::Config;
+use kami::bench::raster::{draw_share, Config};
 use kami::gpu::{Gpu, Preference};
 use kami::scene::StrandRaster;
-use kami::stage::{target, Quality, Stage};
-use std::time::Instant;
 
 fn main() -> Result<()> {
     let mut args = std::env::args().skip(1);
@@ -38,30 +36,7 @@ fn main() -> Result<()> {
         msaa,
         supersample,
     };
-    let mut scene = scene.clone();
-    scene.render.strands = config.strands;
-    scene.render.msaa = config.msaa;
-    scene.render.supersample = supersample;
-    let mut stage = Stage::new(&gpu, &scene, target::OUTPUT_FORMAT, Quality::of(&scene))?;
-    stage.seek(&gpu, 15)?;
-    let out = target::Offscreen::new(&gpu, size)?;
-    let mut look = stage.look();
-    look.lod = lod;
-    let mut times = Vec::new();
-    for _ in 0..=runs {
-        let t = Instant::now();
-        let mut enc = gpu.device.create_command_encoder(&Default::default());
-        stage.render(&gpu, &mut enc, &out.view, size, &look)?;
-        gpu.queue.submit([enc.finish()]);
-        gpu.wait()?;
-        times.push(t.elapsed().as_secs_f64() * 1e3);
-    }
-    times.remove(0);
-    times.sort_by(f64::total_cmp);
-    println!(
-        "{}: {:.1} ms per frame",
-        config.name(),
-        times[times.len() / 2]
-    );
+    let d = draw_share(&gpu, &scene, config, size, 15, runs, lod)?;
+    println!("{}: {:.1} ms per frame", config.name(), d.ms);
     Ok(())
 }

@@ -845,7 +845,6 @@ fn render(gpu: &Gpu, samples: u32, look: &Look) -> image::RgbaImage {
     down.draw(
         &mut enc,
         &down_bg,
-        targets.factor,
         &out.view,
         (SIZE, SIZE),
         wgpu::Color::BLACK,

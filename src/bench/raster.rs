@@ -83,6 +83,20 @@ pub fn draw(
     frame: u64,
     runs: u32,
 ) -> Result<Drawn> {
+    draw_share(gpu, scene, config, size, frame, runs, 1.0)
+}
+
+/// `draw` with a `share` of each group's hairs (the viewer's level of detail): 0.0001 gives
+/// the frame's floor without hair (`examples/rasterbench`).
+pub fn draw_share(
+    gpu: &Gpu,
+    scene: &Scene,
+    config: Config,
+    size: (u32, u32),
+    frame: u64,
+    runs: u32,
+    share: f64,
+) -> Result<Drawn> {
     let mut scene = scene.clone();
     scene.render.strands = config.strands;
     scene.render.msaa = config.msaa;
@@ -92,7 +106,8 @@ pub fn draw(
     let mut stage = Stage::new(gpu, &scene, target::OUTPUT_FORMAT, quality)?;
     stage.seek(gpu, frame)?;
     let out = target::Offscreen::new(gpu, size)?;
-    let look = stage.look();
+    let mut look = stage.look();
+    look.lod = share;
     let mut times = Vec::new();
     // One untimed frame first: pipelines and targets are made on the first.
     for _ in 0..=runs {

@@ -90,7 +90,7 @@ pub struct Stage {
 /// strands' accumulation once some system splats.
 struct Targets {
     scene: SceneTargets,
-    resolve: wgpu::BindGroup,
+    resolve: target::ResolveBinding,
     splat: Option<splat::SplatTarget>,
     /// Whether `resolve` composites the accumulation.
     resolve_splat: bool,
@@ -622,14 +622,8 @@ impl Stage {
             t.end(enc, Phase::Draw);
             t.begin(enc, Phase::Resolve);
         }
-        self.downsample.draw(
-            enc,
-            &targets.resolve,
-            targets.scene.factor,
-            output,
-            size,
-            clear,
-        );
+        self.downsample
+            .draw(enc, &targets.resolve, output, size, clear);
         self.mark(enc, Phase::Resolve, false);
         Ok(())
     }

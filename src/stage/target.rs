@@ -129,6 +129,13 @@ impl SceneTargets {
     }
 }
 
+/// What `DownsamplePass::draw` reads: one set of scene targets (and its supersampling
+/// factor, which picks the pipeline), from `DownsamplePass::bind`.
+pub struct ResolveBinding {
+    group: wgpu::BindGroup,
+    factor: u32,
+}
+
 /// Box-filter resolve of the supersampled scene into the output.
 pub struct DownsamplePass {
     pipeline: wgpu::RenderPipeline,
@@ -218,14 +225,14 @@ impl DownsamplePass {
         gpu: &Gpu,
         targets: &SceneTargets,
         accum: Option<&wgpu::Buffer>,
-    ) -> wgpu::BindGroup {
+    ) -> ResolveBinding {
         let splat = u32::from(accum.is_some());
         gpu.queue.write_buffer(
             &self.uniform,
             0,
             bytemuck::cast_slice(&[targets.factor, u32::from(self.encode_srgb), splat, 0]),
         );
-        gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("downsample"),
             layout: &self.layout,
             entries: &[
@@ -236,16 +243,19 @@ impl DownsamplePass {
                 gpu::entry(1, &self.uniform),
                 gpu::entry(2, accum.unwrap_or(&self.no_accum)),
             ],
-        })
+        });
+        ResolveBinding {
+            group,
+            factor: targets.factor,
+        }
     }
 
-    /// Average the scene (supersampled `factor` times) into the top-left `size` pixels of
-    /// `output`, clearing the rest.
+    /// Average the scene `binding` reads into the top-left `size` pixels of `output`,
+    /// clearing the rest.
     pub fn draw(
         &self,
         enc: &mut wgpu::CommandEncoder,
-        bind_group: &wgpu::BindGroup,
-        factor: u32,
+        binding: &ResolveBinding,
         output: &wgpu::TextureView,
         size: (u32, u32),
         clear: wgpu::Color,
@@ -267,12 +277,12 @@ impl DownsamplePass {
             multiview_mask: None,
         });
         pass.set_viewport(0.0, 0.0, size.0 as f32, size.1 as f32, 0.0, 1.0);
-        pass.set_pipeline(if factor == 1 {
+        pass.set_pipeline(if binding.factor == 1 {
             &self.pipeline_one
         } else {
             &self.pipeline
         });
-        pass.set_bind_group(0, bind_group, &[]);
+        pass.set_bind_group(0, &binding.group, &[]);
         pass.draw(0..3, 0..1);
     }
 }
