@@ -16,7 +16,7 @@ use glam::{DMat4, DVec3};
 pub const CURVES: &str = wgsl!("wisps/curves.wgsl");
 
 /// The ray march and toon shading.
-pub const MARCH: &str = wgsl!("common/frame.wgsl", "wisps/march.wgsl");
+pub const MARCH: &str = wgsl!("common/frame.wgsl", "wisps/march.wgsl", "wisps/toon.wgsl");
 
 /// Neighbour slots per segment: a segment's box sees at most this many segments (the crown,
 /// where every wisp starts, is the crowded place; the shipped scenes stay far below).

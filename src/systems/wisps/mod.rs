@@ -40,6 +40,8 @@ pub const KIND: Kind = Kind {
     shaders: &[
         ("wisps/curves", march::CURVES),
         ("wisps/march", march::MARCH),
+        // The toon shading is compiled inside the march module.
+        ("wisps/toon", march::MARCH),
         ("wisps/springs", springs_gpu::SPRINGS),
     ],
 };
