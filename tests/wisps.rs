@@ -345,7 +345,7 @@ fn spline_kernel_matches_the_f64_reference() {
         .unwrap();
     gpu.queue.submit([enc.finish()]);
     let sys = stage.system::<WispsSystem>().unwrap();
-    let (segs, counts) = sys.curves.read(&gpu).unwrap();
+    let (segs, caps, counts) = sys.curves.read(&gpu).unwrap();
     let want: Vec<_> = reference_segments(&w).into_iter().flatten().collect();
     assert_eq!(segs.len(), want.len());
     let (mut worst_p, mut worst_l) = (0.0f64, 0.0f64);
@@ -375,11 +375,29 @@ fn spline_kernel_matches_the_f64_reference() {
         worst_l < 1e-5,
         "worst Lipschitz bound difference {worst_l:.2e}"
     );
-    // The neighbour lists fit their slots in the shipped scene.
-    let most = counts.iter().copied().max().unwrap();
+    // The capsules and wisp counts K against `curve::capsules`: K exactly, radii within
+    // f32 rounding of the head size.
+    let want_caps: Vec<_> =
+        kami::systems::wisps::curve::capsules(&reference_segments(&w), w.threshold)
+            .into_iter()
+            .flatten()
+            .collect();
+    let mut worst_r = 0.0f64;
+    for ((g, &k), c) in caps.iter().zip(&counts).zip(&want_caps) {
+        assert_eq!(k, c.wisps_near, "wisps near a segment");
+        worst_r = worst_r
+            .max((g.a[3] as f64 - c.influence).abs())
+            .max((g.b[3] as f64 - c.hit).abs());
+        for i in 0..3 {
+            worst_r = worst_r
+                .max((g.a[i] as f64 - c.a[i]).abs())
+                .max((g.b[i] as f64 - c.b[i]).abs());
+        }
+    }
+    eprintln!("worst capsule difference {worst_r:.2e}");
     assert!(
-        most <= kami::systems::wisps::march::SLOTS,
-        "a segment has {most} neighbours, more than the slots"
+        worst_r < 1e-4 * 11.5,
+        "worst capsule difference {worst_r:.2e}"
     );
 }
 

@@ -1,19 +1,27 @@
-// Skeletons to Bézier segments (Sakai eqs 3-7, 11-13) and each segment's neighbour list.
+// Skeletons to Bézier segments (Sakai eqs 3-7, 11-13) and each segment's bounds for the
+// tiled ray march.
 // `spline`: one invocation per wisp solves the natural cubic spline with the uniform
 // parameter of eq 4 (Thomas algorithm on the second derivatives) and writes each segment's
-// Bézier control points, its control-point AABB and its Lipschitz bound.
-// `neighbours`: one invocation per segment lists every segment whose influence box
-// (the AABB grown by its largest radius) overlaps its own: exactly the segments that can add
-// density inside its box, so the ray march of a box needs no other.
-// f64 reference: `src/systems/wisps/curve.rs`.
+// Bézier control points, its control-point AABB, its Lipschitz bound and its capsule: the
+// chord c0-c3 grown by the control points' largest distance from it (the curve lies in their
+// convex hull) plus r_max holds the segment's whole influence.
+// `overlaps`: one invocation per segment counts K, the wisps with a segment whose influence
+// box overlaps its own, and writes the hit radius: where the field reaches the threshold,
+// the wisp of largest density has density >= threshold / K there (at most K wisps add
+// density at a point of this segment's box), so its arg-max segment is within
+// r_max fd^-1(threshold / (K w_max)) of its curve. No point outside every segment's hit
+// capsule can be inside the surface: the march samples only inside them.
+// f64 reference: `src/systems/wisps/curve.rs` (`segments`, `capsules`).
 
 // Keep in sync with GpuWispParams in src/systems/wisps/march.rs.
 struct Params {
     // Applied to node positions (the head pose for still wisps; identity when the springs
     // already move the nodes in world space).
     model: mat4x4<f32>,
-    // x wisps, y segments, z neighbour slots per segment, w nodes
+    // x wisps, y segments, z unused, w nodes
     counts: vec4<u32>,
+    // x the surface threshold
+    shape: vec4<f32>,
 }
 
 // Keep in sync with GpuSegment in src/systems/wisps/march.rs.
@@ -36,8 +44,33 @@ struct Segment {
 // Per wisp: x first node, y node count.
 @group(0) @binding(3) var<storage, read> wisps: array<vec2<u32>>;
 @group(0) @binding(4) var<storage, read_write> segments: array<Segment>;
-@group(0) @binding(5) var<storage, read_write> neighbours: array<u32>;
-@group(0) @binding(6) var<storage, read_write> neighbour_counts: array<u32>;
+// Per segment: a = (c0, influence radius), b = (c3, hit radius; -1 where the segment can
+// never be the arg-max of an inside point). `spline` leaves the capsule's curve margin in b.w
+// for `overlaps`.
+@group(0) @binding(5) var<storage, read_write> capsules: array<Capsule>;
+// Per segment: K, the wisps whose influence box overlaps its own (itself included).
+@group(0) @binding(6) var<storage, read_write> overlap_counts: array<u32>;
+// Per segment PIECES + 1 entries: xyz the curve at t = k / PIECES, w the deviation of piece k
+// from its chord (the march's distance bound; `curve::pieces`).
+@group(0) @binding(7) var<storage, read_write> pieces: array<vec4<f32>>;
+
+const PIECES: u32 = 8u;
+
+fn bez_at(v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, v3: vec3<f32>, t: f32) -> vec3<f32> {
+    let u = 1.0 - t;
+    return u * u * u * v0 + 3.0 * u * u * t * v1 + 3.0 * u * t * t * v2 + t * t * t * v3;
+}
+
+fn bez_d1_at(v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, v3: vec3<f32>, t: f32) -> vec3<f32> {
+    let u = 1.0 - t;
+    return 3.0 * u * u * (v1 - v0) + 6.0 * u * t * (v2 - v1) + 3.0 * t * t * (v3 - v2);
+}
+
+// Keep in sync with GpuCapsule in src/systems/wisps/march.rs.
+struct Capsule {
+    a: vec4<f32>,
+    b: vec4<f32>,
+}
 
 const MAX_NODES: u32 = 64u;
 
@@ -102,6 +135,22 @@ fn spline(@builtin(global_invocation_id) gid: vec3<u32>) {
         seg.lo = vec4<f32>(min(min(v0, v1), min(v2, v3)), lip);
         seg.hi = vec4<f32>(max(max(v0, v1), max(v2, v3)), f32(wi));
         segments[seg0 + j] = seg;
+        let margin = max(chord_distance(v1, v0, v3), chord_distance(v2, v0, v3));
+        let h = 1.0 / f32(PIECES);
+        let first_piece = (seg0 + j) * (PIECES + 1u);
+        var pa = v0;
+        for (var k = 0u; k < PIECES; k++) {
+            let ta = f32(k) * h;
+            let tb = f32(k + 1u) * h;
+            let pb = bez_at(v0, v1, v2, v3, tb);
+            let q1 = pa + bez_d1_at(v0, v1, v2, v3, ta) * (h / 3.0);
+            let q2 = pb - bez_d1_at(v0, v1, v2, v3, tb) * (h / 3.0);
+            let dev = max(chord_distance(q1, pa, pb), chord_distance(q2, pa, pb));
+            pieces[first_piece + k] = vec4<f32>(pa, dev);
+            pa = pb;
+        }
+        pieces[first_piece + PIECES] = vec4<f32>(v3, 0.0);
+        capsules[seg0 + j] = Capsule(vec4<f32>(v0, margin + max(rw0.x, rw1.x)), vec4<f32>(v3, margin));
     }
 }
 
@@ -114,25 +163,33 @@ fn influence_hi(s: Segment) -> vec3<f32> {
 }
 
 @compute @workgroup_size(64)
-fn neighbours_of(@builtin(global_invocation_id) gid: vec3<u32>) {
+fn overlaps(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
     let count = params.counts.y;
     if (i >= count) {
         return;
     }
-    let slots = params.counts.z;
-    let lo = influence_lo(segments[i]);
-    let hi = influence_hi(segments[i]);
+    let me = segments[i];
+    let lo = influence_lo(me);
+    let hi = influence_hi(me);
+    // Segments are stored wisp by wisp: count the wisps, not the segments.
     var k = 0u;
+    var last = -1.0;
     for (var j = 0u; j < count; j++) {
         let s = segments[j];
-        if (all(influence_lo(s) <= hi) && all(lo <= influence_hi(s))) {
-            if (k < slots) {
-                neighbours[i * slots + k] = j;
-            }
+        if (s.hi.w != last && all(influence_lo(s) <= hi) && all(lo <= influence_hi(s))) {
             k++;
+            last = s.hi.w;
         }
     }
-    // More than `slots` is an overflow: the system reads the counts back in tests and warns.
-    neighbour_counts[i] = k;
+    overlap_counts[i] = k;
+    let r_max = max(me.c0.w, me.c1.w);
+    let w_max = max(me.c2.w, me.c3.w);
+    let y = params.shape.x / (f32(max(k, 1u)) * w_max);
+    var hit = -1.0;
+    if (y <= 1.0) {
+        // 1e-4 r_max: the f32 and f64 radii may differ in the last bits; stay conservative.
+        hit = r_max * (fd_inverse(y) + 1e-4) + capsules[i].b.w;
+    }
+    capsules[i].b.w = hit;
 }

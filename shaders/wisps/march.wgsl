@@ -1,12 +1,16 @@
-// Toon wisps drawn by ray marching the blobby surface (Sakai section 5). One instance per
-// Bézier segment rasterises the back faces of the segment's influence box (its control-point
-// AABB grown by its largest radius): the rasteriser is the acceleration structure, so a pixel
-// marches only the boxes that cover it, and each box only the segments in its neighbour list
-// (every segment whose density can reach inside it). Sphere tracing with steps bounded by
-// the field's Lipschitz constant, bisection on the hit, the analytic gradient for normals,
-// depth written so wisps composite with the head, strands and fur. Toon shading in the head
-// frame (eqs 14-22) with the angel halo, and a silhouette outline from a thin shell around
-// the surface. f64 reference: `src/systems/wisps/field.rs` (same steps, all segments).
+// Toon wisps drawn by ray marching the blobby surface (Sakai section 5), each pixel once.
+// One quad per screen tile that some segment's influence reaches (`shaders/wisps/tiles.wgsl`
+// lists them); a pixel takes the ray through its centre, keeps the tile's segments whose
+// influence capsule the ray crosses (their influence and shell intervals along it), and
+// marches front to back only inside shell intervals (hit capsules grown by the outline):
+// outside them no point is inside the surface or its outline, so the ray jumps the gaps.
+// At each sample the field sums only the candidates whose influence interval holds t, and a
+// step never passes the next influence entry (Segment Tracing, Galin et al. 2020, with
+// bounding capsules). Sphere tracing with steps bounded by the field's Lipschitz constant
+// and the distance step, bisection on the hit, the analytic gradient for normals, depth
+// written so wisps composite with the head, strands and fur. Toon shading in the head frame
+// (eqs 14-22, `wisps/toon.wgsl`) with the angel halo, and a silhouette outline from a thin
+// shell around the surface. f64 twin: `march_tiled` in `src/systems/wisps/field.rs`.
 
 // Keep in sync with GpuWispDraw in src/systems/wisps/march.rs.
 struct Draw {
@@ -24,8 +28,7 @@ struct Draw {
     outline: vec4<f32>,
     // x threshold, y step scale, z max steps, w refine steps
     march: vec4<f32>,
-    // x distance method (0 Newton, 1 polyline), y polyline pieces, z neighbour slots,
-    // w segments
+    // x distance method (0 Newton, 1 polyline), y polyline pieces, z unused, w segments
     method: vec4<u32>,
 }
 
@@ -39,49 +42,55 @@ struct Segment {
     hi: vec4<f32>,
 }
 
+// Keep in sync with GpuCapsule in src/systems/wisps/march.rs.
+struct Capsule {
+    a: vec4<f32>,
+    b: vec4<f32>,
+}
+
+// Keep in sync with GpuMarchView in src/systems/wisps/tiles.rs.
+struct View {
+    view_proj: mat4x4<f32>,
+    inv_view_proj: mat4x4<f32>,
+    eye: vec4<f32>,
+    size: vec4<f32>,
+    tiles: vec4<u32>,
+    flags: vec4<u32>,
+}
+
 @group(1) @binding(0) var<uniform> draw: Draw;
 @group(1) @binding(1) var<storage, read> segments: array<Segment>;
-@group(1) @binding(2) var<storage, read> neighbours: array<u32>;
-@group(1) @binding(3) var<storage, read> neighbour_counts: array<u32>;
+@group(1) @binding(2) var<storage, read> capsules: array<Capsule>;
+@group(1) @binding(3) var<storage, read> shells: array<f32>;
+@group(1) @binding(4) var<storage, read> tile_counts: array<u32>;
+@group(1) @binding(5) var<storage, read> tile_lists: array<u32>;
+@group(1) @binding(6) var<uniform> view: View;
+@group(1) @binding(7) var<storage, read_write> stats: array<atomic<u32>, 8>;
+// Per segment PIECES + 1 curve points with each piece's chord deviation (w).
+@group(1) @binding(8) var<storage, read> pieces: array<vec4<f32>>;
+
+const PIECES: u32 = 8u;
 
 struct VOut {
     @builtin(position) pos: vec4<f32>,
-    @location(0) world: vec3<f32>,
-    @location(1) @interpolate(flat) seg: u32,
 }
 
-fn box_lo(s: Segment) -> vec3<f32> {
-    return s.lo.xyz - vec3<f32>(max(s.c0.w, s.c1.w));
-}
-
-fn box_hi(s: Segment) -> vec3<f32> {
-    return s.hi.xyz + vec3<f32>(max(s.c0.w, s.c1.w));
-}
-
-// 36 vertices of a box's 12 triangles, outward-facing counter-clockwise.
-fn box_corner(v: u32) -> vec3<f32> {
-    var idx = array<u32, 36>(
-        0u, 2u, 1u, 1u, 2u, 3u, // -z
-        4u, 5u, 6u, 5u, 7u, 6u, // +z
-        0u, 1u, 4u, 1u, 5u, 4u, // -y
-        2u, 6u, 3u, 3u, 6u, 7u, // +y
-        0u, 4u, 2u, 2u, 4u, 6u, // -x
-        1u, 3u, 5u, 3u, 7u, 5u, // +x
-    );
-    let c = idx[v];
-    return vec3<f32>(f32(c & 1u), f32((c >> 1u) & 1u), f32((c >> 2u) & 1u));
-}
-
+// One quad per tile; an empty tile's is degenerate (nothing to rasterise).
 @vertex
-fn vs(@builtin(vertex_index) v: u32, @builtin(instance_index) seg: u32) -> VOut {
-    let s = segments[seg];
-    let lo = box_lo(s);
-    let hi = box_hi(s);
-    let p = mix(lo, hi, box_corner(v));
+fn vs(@builtin(vertex_index) v: u32, @builtin(instance_index) tile: u32) -> VOut {
     var out: VOut;
-    out.pos = frame.view_proj * vec4<f32>(p, 1.0);
-    out.world = p;
-    out.seg = seg;
+    if (tile_counts[tile] == 0u) {
+        out.pos = vec4<f32>(-2.0, -2.0, 0.0, 1.0);
+        return out;
+    }
+    var quad = array<vec2<u32>, 6>(
+        vec2<u32>(0u, 0u), vec2<u32>(1u, 0u), vec2<u32>(0u, 1u),
+        vec2<u32>(0u, 1u), vec2<u32>(1u, 0u), vec2<u32>(1u, 1u),
+    );
+    let side = u32(view.size.z);
+    let corner = (vec2<u32>(tile % view.tiles.x, tile / view.tiles.x) + quad[v]) * side;
+    let px = min(vec2<f32>(corner), view.size.xy);
+    out.pos = vec4<f32>(px.x / view.size.x * 2.0 - 1.0, 1.0 - px.y / view.size.y * 2.0, 0.0, 1.0);
     return out;
 }
 
@@ -223,70 +232,129 @@ struct Sample {
     // f (density minus threshold)
     f: f32,
     grad: vec3<f32>,
-    // A step along any direction that cannot reach the surface (see `safe_step`).
+    // The Lipschitz step (0 where no segment is near or f >= 0).
     step: f32,
 }
 
-// Near segments of one sample: x distance D, y largest radius, z largest weight, w wisp.
-const NEAR_MAX: u32 = 64u;
+// Candidates of this pixel's ray, in segment order: the segment, its influence interval
+// [c_in, c_out] and its shell interval [s_in, s_out] along the ray (empty: s_in > s_out).
+const RAY_SLOTS: u32 = 48u;
+var<private> c_seg: array<u32, 48>;
+var<private> c_in: array<f32, 48>;
+var<private> c_out: array<f32, 48>;
+var<private> s_in: array<f32, 48>;
+var<private> s_out: array<f32, 48>;
+var<private> n_cand: u32;
 
-// The largest s such that no point within s of the sample can be inside, from the near
-// segments' distances: a segment's density there is at most w_max fd(max(D - s, 0) / r_max)
-// (D shrinks by at most s; fd falls with distance; r and w are at most their largest along
-// the segment), so the field is below the threshold while the sum over wisps of the largest
-// such bound is. Bisection keeps the lower end, which is always safe.
-fn distance_step(near: ptr<function, array<vec4<f32>, 64>>, n: u32, s_hi: f32) -> f32 {
-    var lo = 0.0;
-    var hi = s_hi;
-    for (var it = 0; it < 6; it++) {
-        let s = 0.5 * (lo + hi);
-        var sum = 0.0;
-        var wisp = -1.0;
-        var wisp_max = 0.0;
-        for (var k = 0u; k < n; k++) {
-            let e = (*near)[k];
-            if (e.w != wisp) {
-                sum += wisp_max;
-                wisp = e.w;
-                wisp_max = 0.0;
-            }
-            wisp_max = max(wisp_max, e.z * fd(max(e.x - s, 0.0) / e.y));
-        }
-        sum += wisp_max;
-        if (sum < draw.march.x) {
-            lo = s;
-        } else {
-            hi = s;
-        }
-    }
-    return lo;
+// Per wisp of the current sample: the pieces' density bound at distance 0.
+var<private> wisp_bound: array<f32, 48>;
+
+// Piece k of candidate segment j at v: (distance at least, r at most, w at most).
+fn piece_bound(j: u32, s: Segment, k: u32, v: vec3<f32>) -> vec3<f32> {
+    let base = j * (PIECES + 1u);
+    let pa = pieces[base + k];
+    let pb = pieces[base + k + 1u];
+    let d = max(chord_distance(v, pa.xyz, pb.xyz) - pa.w, 0.0);
+    let h = 1.0 / f32(PIECES);
+    let ta = f32(k) * h;
+    let tb = f32(k + 1u) * h;
+    let r = max(mix(s.c0.w, s.c1.w, ta), mix(s.c0.w, s.c1.w, tb));
+    let w = max(mix(s.c2.w, s.c3.w, ta), mix(s.c2.w, s.c3.w, tb));
+    return vec3<f32>(d, r, w);
 }
 
-// The field at `v` from the segments in `list` (the neighbours of the box being marched that
-// the ray passes near): per wisp the largest segment density
-// (the wisp's segments are consecutive in the list), summed over wisps; and a safe step:
-// the larger of the Lipschitz step (-f / sum of the near segments' bounds) and the distance
-// step, never past where a far segment's influence begins.
-fn field(list: ptr<function, array<u32, 64>>, count: u32, v: vec3<f32>, with_step: bool) -> Sample {
+// The clear step at v (no point within it is inside the surface): each piece bounds its
+// wisp's density at distance s by w fd(max(d - s, 0) / r); each wisp gets its bound at 0
+// plus an equal share of the slack, and the step is the least s at which a piece reaches
+// its wisp's share. 0 where the bounds reach the threshold, 1e30 without segments. As
+// `field::clear_step`.
+fn clear_step(t: f32, v: vec3<f32>) -> f32 {
+    var n_w = 0u;
+    var wisp = -1.0;
+    for (var k = 0u; k < n_cand; k++) {
+        if (c_in[k] > t || c_out[k] < t) {
+            continue;
+        }
+        let j = c_seg[k];
+        let s = segments[j];
+        if (s.hi.w != wisp) {
+            wisp = s.hi.w;
+            wisp_bound[n_w] = 0.0;
+            n_w++;
+        }
+        var m = wisp_bound[n_w - 1u];
+        for (var p = 0u; p < PIECES; p++) {
+            let b = piece_bound(j, s, p, v);
+            m = max(m, b.z * fd(b.x / b.y));
+        }
+        wisp_bound[n_w - 1u] = m;
+    }
+    if (n_w == 0u) {
+        return 1e30;
+    }
+    var total = 0.0;
+    for (var i = 0u; i < n_w; i++) {
+        total += wisp_bound[i];
+    }
+    let thr = draw.march.x;
+    if (total >= thr) {
+        return 0.0;
+    }
+    let slack = (thr - total) / f32(n_w);
+    var step = 1e30;
+    var wi = 0u;
+    wisp = -1.0;
+    for (var k = 0u; k < n_cand; k++) {
+        if (c_in[k] > t || c_out[k] < t) {
+            continue;
+        }
+        let j = c_seg[k];
+        let s = segments[j];
+        if (s.hi.w != wisp) {
+            if (wisp >= 0.0) {
+                wi++;
+            }
+            wisp = s.hi.w;
+        }
+        let share = wisp_bound[wi] + slack;
+        for (var p = 0u; p < PIECES; p++) {
+            let b = piece_bound(j, s, p, v);
+            let y = share / b.z;
+            if (y < 1.0) {
+                step = min(step, b.x - b.y * fd_inverse(y));
+            }
+        }
+    }
+    return max(step, 0.0);
+}
+
+// The field at `v` = eye + t dir from the candidates whose influence interval holds t: per
+// wisp the largest segment density (a wisp's segments are consecutive), summed over wisps;
+// and the Lipschitz step: -f over the sum over wisps of each wisp's largest near bound,
+// never past where a far segment's influence begins. As `field::exact_sample`.
+fn field(t: f32, v: vec3<f32>) -> Sample {
     var out: Sample;
     var lip = 0.0;
     var far_gap = 1e30;
-    var near: array<vec4<f32>, 64>;
-    var n_near = 0u;
-    var s_hi = 1e30;
     var sum = 0.0;
     var grad = vec3<f32>(0.0);
     var wisp = -1.0;
     var wisp_max = 0.0;
     var wisp_grad = vec3<f32>(0.0);
-    for (var k = 0u; k < count; k++) {
-        let s = segments[(*list)[k]];
+    var wisp_lip = 0.0;
+    for (var k = 0u; k < n_cand; k++) {
+        if (c_in[k] > t || c_out[k] < t) {
+            continue;
+        }
+        let s = segments[c_seg[k]];
         if (s.hi.w != wisp) {
             sum += wisp_max;
             grad += wisp_grad;
+            lip += wisp_lip;
             wisp = s.hi.w;
             wisp_max = 0.0;
             wisp_grad = vec3<f32>(0.0);
+            wisp_lip = 0.0;
         }
         let r_max = max(s.c0.w, s.c1.w);
         let a = length(max(max(s.lo.xyz - v, v - s.hi.xyz), vec3<f32>(0.0)));
@@ -294,14 +362,14 @@ fn field(list: ptr<function, array<u32, 64>>, count: u32, v: vec3<f32>, with_ste
             far_gap = min(far_gap, a - r_max);
             continue;
         }
-        var t = 0.0;
+        var tc = 0.0;
         var cp = vec3<f32>(0.0);
         if (draw.method.x == 0u) {
-            t = closest_newton(s, v);
-            cp = bez(s, t);
+            tc = closest_newton(s, v);
+            cp = bez(s, tc);
         } else {
             let c = closest_polyline(s, v, draw.method.y);
-            t = c.w;
+            tc = c.w;
             cp = c.xyz;
         }
         let off = v - cp;
@@ -310,14 +378,9 @@ fn field(list: ptr<function, array<u32, 64>>, count: u32, v: vec3<f32>, with_ste
             far_gap = min(far_gap, d - r_max);
             continue;
         }
-        lip += s.lo.w;
-        if (n_near < NEAR_MAX) {
-            near[n_near] = vec4<f32>(d, r_max, max(s.c2.w, s.c3.w), s.hi.w);
-            n_near++;
-        }
-        s_hi = min(s_hi, d);
-        let r = mix(s.c0.w, s.c1.w, t);
-        let w = mix(s.c2.w, s.c3.w, t);
+        wisp_lip = max(wisp_lip, s.lo.w);
+        let r = mix(s.c0.w, s.c1.w, tc);
+        let w = mix(s.c2.w, s.c3.w, tc);
         let rho = w * fd(d / r);
         if (rho > wisp_max) {
             wisp_max = rho;
@@ -330,17 +393,83 @@ fn field(list: ptr<function, array<u32, 64>>, count: u32, v: vec3<f32>, with_ste
     }
     sum += wisp_max;
     grad += wisp_grad;
+    lip += wisp_lip;
     out.f = sum - draw.march.x;
     out.grad = grad;
-    var step = far_gap;
-    // Bisection and the normal need only f and its gradient, not a step.
-    if (with_step && n_near > 0u && out.f < 0.0) {
-        let s_lip = -out.f / lip;
-        let s_dist = distance_step(&near, n_near, min(s_hi, far_gap));
-        step = min(max(s_lip, s_dist), far_gap);
+    out.step = 0.0;
+    if (lip > 0.0 && out.f < 0.0) {
+        out.step = min(-out.f / lip, far_gap);
     }
-    out.step = step;
     return out;
+}
+
+// The interval of eye + t dir (|dir| = 1) inside the capsule round a-b of radius r (x > y:
+// none): the union of the end spheres' and the clipped cylinder's intervals. As
+// `curve::ray_capsule`.
+fn ray_capsule(o: vec3<f32>, d: vec3<f32>, a: vec3<f32>, b: vec3<f32>, r: f32) -> vec2<f32> {
+    var lo = 1e30;
+    var hi = -1e30;
+    if (r <= 0.0) {
+        return vec2<f32>(lo, hi);
+    }
+    let oa = o - a;
+    let ob = o - b;
+    let ba_ = dot(oa, d);
+    let disc_a = ba_ * ba_ - (dot(oa, oa) - r * r);
+    if (disc_a >= 0.0) {
+        let q = sqrt(disc_a);
+        lo = min(lo, -ba_ - q);
+        hi = max(hi, -ba_ + q);
+    }
+    let bb_ = dot(ob, d);
+    let disc_b = bb_ * bb_ - (dot(ob, ob) - r * r);
+    if (disc_b >= 0.0) {
+        let q = sqrt(disc_b);
+        lo = min(lo, -bb_ - q);
+        hi = max(hi, -bb_ + q);
+    }
+    let ba = b - a;
+    let baba = dot(ba, ba);
+    if (baba > 0.0) {
+        let bd = dot(ba, d);
+        let bo = dot(ba, oa);
+        let dp = d - ba * (bd / baba);
+        let op = oa - ba * (bo / baba);
+        let qa = dot(dp, dp);
+        let qb = dot(op, dp);
+        let qc = dot(op, op) - r * r;
+        var c0 = 1e30;
+        var c1 = -1e30;
+        if (qa > 1e-12) {
+            let disc = qb * qb - qa * qc;
+            if (disc >= 0.0) {
+                let q = sqrt(disc);
+                c0 = (-qb - q) / qa;
+                c1 = (-qb + q) / qa;
+            }
+        } else if (qc <= 0.0) {
+            c0 = -1e30;
+            c1 = 1e30;
+        }
+        var s0 = 1e30;
+        var s1 = -1e30;
+        if (abs(bd) > 1e-12) {
+            let u = -bo / bd;
+            let w = (baba - bo) / bd;
+            s0 = min(u, w);
+            s1 = max(u, w);
+        } else if (bo >= 0.0 && bo <= baba) {
+            s0 = -1e30;
+            s1 = 1e30;
+        }
+        let x0 = max(c0, s0);
+        let x1 = min(c1, s1);
+        if (x0 <= x1) {
+            lo = min(lo, x0);
+            hi = max(hi, x1);
+        }
+    }
+    return vec2<f32>(lo, hi);
 }
 
 struct FOut {
@@ -355,103 +484,169 @@ fn depth_of(p: vec3<f32>) -> f32 {
 
 @fragment
 fn fs(in: VOut) -> FOut {
-    let home = in.seg;
-    let s = segments[home];
-    let eye = frame.eye.xyz;
-    let to = in.world - eye;
-    let t_back = length(to);
-    let dir = to / t_back;
-    // Entry into the box (slab test); 0 when the eye is inside.
-    let inv = 1.0 / dir;
-    let ta = (box_lo(s) - eye) * inv;
-    let tb = (box_hi(s) - eye) * inv;
-    let t_enter = max(max(max(min(ta.x, tb.x), min(ta.y, tb.y)), min(ta.z, tb.z)), 0.0);
-    // Of the box's neighbours, only those whose influence box the ray crosses between
-    // t_enter and t_back can add density on the way: test each once here, not every step.
-    var list: array<u32, 64>;
-    var count = 0u;
-    let slots = draw.method.z;
-    let n_nbr = min(neighbour_counts[home], slots);
-    for (var k = 0u; k < n_nbr; k++) {
-        let j = neighbours[home * slots + k];
-        let sj = segments[j];
-        let ja = (box_lo(sj) - eye) * inv;
-        let jb = (box_hi(sj) - eye) * inv;
-        let j_in = max(max(min(ja.x, jb.x), min(ja.y, jb.y)), min(ja.z, jb.z));
-        let j_out = min(min(max(ja.x, jb.x), max(ja.y, jb.y)), max(ja.z, jb.z));
-        if (j_in <= min(j_out, t_back) && j_out >= t_enter) {
-            list[count] = j;
-            count++;
+    let pix = vec2<u32>(in.pos.xy);
+    let side = u32(view.size.z);
+    let tile = (pix.y / side) * view.tiles.x + pix.x / side;
+    let ndc = vec2<f32>(in.pos.x / view.size.x * 2.0 - 1.0, 1.0 - in.pos.y / view.size.y * 2.0);
+    let fw = view.inv_view_proj * vec4<f32>(ndc, 1.0, 1.0);
+    let eye = view.eye.xyz;
+    let to = fw.xyz / fw.w - eye;
+    let t_far = length(to);
+    let dir = to / t_far;
+    // The tile's segments whose influence this ray crosses, in order.
+    n_cand = 0u;
+    var dropped = 0u;
+    var first = 1e30;
+    var end = -1e30;
+    let count = tile_counts[tile];
+    let base = tile * view.tiles.z;
+    for (var k = 0u; k < count; k++) {
+        let j = tile_lists[base + k];
+        let c = capsules[j];
+        // A bounding sphere first: most of a tile's segments miss most of its rays.
+        let mid = 0.5 * (c.a.xyz + c.b.xyz);
+        let rad = 0.5 * length(c.b.xyz - c.a.xyz) + c.a.w;
+        let oc = eye - mid;
+        let bq = dot(oc, dir);
+        let disc = bq * bq - (dot(oc, oc) - rad * rad);
+        if (disc < 0.0 || -bq + sqrt(disc) < 0.0) {
+            continue;
         }
+        let iv = ray_capsule(eye, dir, c.a.xyz, c.b.xyz, c.a.w);
+        if (iv.x > iv.y || iv.y < 0.0 || iv.x > t_far) {
+            continue;
+        }
+        if (n_cand >= RAY_SLOTS) {
+            dropped++;
+            continue;
+        }
+        let sv = ray_capsule(eye, dir, c.a.xyz, c.b.xyz, shells[j]);
+        c_seg[n_cand] = j;
+        c_in[n_cand] = iv.x;
+        c_out[n_cand] = iv.y;
+        s_in[n_cand] = sv.x;
+        s_out[n_cand] = sv.y;
+        first = min(first, sv.x);
+        end = max(end, sv.y);
+        n_cand++;
     }
-    // Outline shell thickness per unit distance: outline pixels at the focal length in
-    // samples, times samples per output pixel.
-    let eps_per_t = draw.outline.w * max(frame.flags.y, 1.0) / frame.raster.x;
+    if (dropped > 0u) {
+        atomicAdd(&stats[0], dropped);
+    }
+    let counting = view.flags.x == 1u;
+    if (counting && n_cand > 0u) {
+        atomicAdd(&stats[4], n_cand);
+        atomicAdd(&stats[5], 1u);
+    }
+    end = min(end, t_far);
+    // Outline shell thickness per unit distance (outline pixels at the focal length).
+    let eps_per_t = view.eye.w;
     let max_steps = u32(draw.march.z);
-    var t = t_enter;
-    var t_prev = t_enter;
+    var t = max(first, 0.0);
+    var t_prev = -1.0;
     var shell_t = -1.0;
     var hit = false;
-    var left_shell = false;
-    for (var i = 0u; i < max_steps; i++) {
+    var steps = 0u;
+    loop {
+        if (steps >= max_steps || t > end) {
+            break;
+        }
+        // In some shell interval? If not, jump to the next one (nothing between is inside
+        // the surface or its outline).
+        var inside = false;
+        var next_shell = 1e30;
+        var next_in = 1e30;
+        for (var k = 0u; k < n_cand; k++) {
+            inside = inside || (s_in[k] <= t && t <= s_out[k]);
+            if (s_in[k] > t) {
+                next_shell = min(next_shell, s_in[k]);
+            }
+            if (c_in[k] > t) {
+                next_in = min(next_in, c_in[k]);
+            }
+        }
+        if (!inside) {
+            if (shell_t >= 0.0) {
+                break;
+            }
+            t = next_shell;
+            t_prev = -1.0;
+            continue;
+        }
+        steps++;
         let p = eye + t * dir;
-        let smp = field(&list, count, p, true);
+        let eps = eps_per_t * t;
+        let clear = clear_step(t, p);
+        if (clear > 2.0 * eps) {
+            // Outside, and off the outline: move by the clear step less the outline width.
+            if (shell_t >= 0.0) {
+                break;
+            }
+            t_prev = t;
+            t += max(min((clear - eps) * draw.march.y, next_in - t), 1e-6 * (1.0 + t));
+            continue;
+        }
+        let smp = field(t, p);
         if (smp.f >= 0.0) {
             hit = true;
             break;
         }
-        let eps = eps_per_t * t;
         let in_shell = smp.f + length(smp.grad) * eps >= 0.0;
         if (in_shell && shell_t < 0.0) {
             shell_t = t;
         }
         if (!in_shell && shell_t >= 0.0) {
-            left_shell = true;
             break;
         }
-        var step = smp.step * draw.march.y;
+        var step = min(max(smp.step, clear) * draw.march.y, next_in - t);
         if (in_shell) {
             step = max(step, 0.25 * eps);
-        }
-        if (step >= 1e29) {
-            break;
         }
         step = max(step, 1e-6 * (1.0 + t));
         t_prev = t;
         t += step;
-        if (t > t_back) {
-            break;
-        }
+    }
+    if (counting) {
+        atomicAdd(&stats[3], steps);
     }
     var out: FOut;
     if (hit) {
-        // Bisection between the last outside sample and the first inside one.
-        var a = t_prev;
-        var b = t;
-        for (var i = 0u; i < u32(draw.march.w); i++) {
-            let m = 0.5 * (a + b);
-            if (field(&list, count, eye + m * dir, false).f >= 0.0) {
-                b = m;
-            } else {
-                a = m;
+        var th = t;
+        if (t_prev >= 0.0) {
+            // Bisection between the last outside sample and the first inside one.
+            var a = t_prev;
+            var b = t;
+            for (var i = 0u; i < u32(draw.march.w); i++) {
+                let m = 0.5 * (a + b);
+                if (field(m, eye + m * dir).f >= 0.0) {
+                    b = m;
+                } else {
+                    a = m;
+                }
             }
+            th = 0.5 * (a + b);
         }
-        let th = 0.5 * (a + b);
         let p = eye + th * dir;
-        let g = field(&list, count, p, false).grad;
+        let g = field(th, p).grad;
         var n = -dir;
         if (dot(g, g) > 0.0) {
             n = -normalize(g);
         }
         out.color = vec4<f32>(toon(n), 1.0);
         out.depth = depth_of(p);
+        if (counting) {
+            atomicAdd(&stats[6], 1u);
+        }
         return out;
     }
-    // Only a ray that left the shell without touching the surface is on a silhouette; one
-    // still in the shell where this box ends is finished by the next box it enters.
-    if (left_shell && draw.outline.w > 0.0) {
+    // A ray that left the shell (or ran out of steps or shells in it) without touching the
+    // surface is on a silhouette.
+    if (shell_t >= 0.0 && eps_per_t > 0.0) {
         out.color = vec4<f32>(draw.outline.rgb, 1.0);
         out.depth = depth_of(eye + shell_t * dir);
+        if (counting) {
+            atomicAdd(&stats[6], 1u);
+        }
         return out;
     }
     discard;

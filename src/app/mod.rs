@@ -114,6 +114,9 @@ pub fn run(options: ViewerOptions) -> Result<()> {
             st.adapter
         );
     }
+    for w in &st.warnings {
+        println!("viewer: warning at the last check: {w}");
+    }
     if let Some(g) = &app.gfx {
         report_memory(g, app.options.memory_log.as_deref())?;
     }
@@ -731,6 +734,9 @@ fn handle_requests(g: &mut Gfx, state: &mut ViewerState, shots: &mut Vec<PathBuf
     Ok(())
 }
 
+/// Frames between reads of the systems' warnings.
+const WARNINGS_EVERY: u64 = 60;
+
 fn frame(
     g: &mut Gfx,
     state: &mut ViewerState,
@@ -755,6 +761,14 @@ fn frame(
         .is_some_and(|n| g.frames > 0 && g.frames % n == 0)
     {
         state.requests.push(Request::Open(state.path.clone()));
+    }
+    if g.frames % WARNINGS_EVERY == WARNINGS_EVERY - 1 {
+        // A read-back waits for the GPU: once a second, not every frame.
+        let now = g.stage.warnings(&g.gpu)?;
+        for w in now.iter().filter(|w| !state.stats.warnings.contains(w)) {
+            log::warn!("{w}");
+        }
+        state.stats.warnings = now;
     }
     if g.frames % MEMORY_EVERY == 0 {
         if let Some(mib) = resident_mib() {

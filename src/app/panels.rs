@@ -320,6 +320,11 @@ fn stats(ui: &mut Ui, s: &ViewerState) {
         ui.label("CPU recording");
         ui.label(format!("{:.1} ms", st.record_ms));
         ui.end_row();
+        for w in &st.warnings {
+            ui.label("warning");
+            ui.colored_label(egui::Color32::from_rgb(230, 120, 40), w);
+            ui.end_row();
+        }
         ui.label("last groom");
         ui.label(format!("{:.0} ms", st.groom_ms));
         ui.end_row();

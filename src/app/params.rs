@@ -123,6 +123,9 @@ pub enum MouseEvent {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Stats {
     pub fps: f64,
+    /// The systems' warnings about the last checked frame (`Stage::warnings`, read once a
+    /// second): shown in the Stats panel and printed at exit.
+    pub warnings: Vec<String>,
     pub frame_ms: f64,
     /// GPU simulation time (timestamps; 0 without them).
     pub sim_ms: f64,

@@ -103,6 +103,11 @@ impl Timed {
             height_px: SIZE.1 as f64,
             lod_tolerance_px: self.stage.scene().render.lod_tolerance_px,
             overlay: false,
+            // Fur generation works in world space: no projection needed.
+            view_proj: glam::DMat4::IDENTITY,
+            samples: SIZE,
+            samples_per_px: 1.0,
+            focal_samples: 1.0,
         };
         let mut enc = gpu
             .device

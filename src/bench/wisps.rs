@@ -11,6 +11,7 @@ use crate::plot::{self, Series};
 use crate::scene::wisps::{Distance, Skeleton};
 use crate::scene::Scene;
 use crate::stage::{self, target, Quality, Stage};
+use crate::systems::wisps::tiles::MarchStats;
 use crate::systems::wisps::WispsSystem;
 use glam::{DQuat, DVec3};
 use image::RgbaImage;
@@ -55,8 +56,7 @@ struct Timed {
 }
 
 impl Timed {
-    fn new(gpu: &Gpu, scene: &Scene, side: u32) -> Result<Timed> {
-        let size = (side, side);
+    fn new(gpu: &Gpu, scene: &Scene, size: (u32, u32)) -> Result<Timed> {
         stage::check_limits(gpu, scene, size)?;
         let quality = Quality {
             msaa: 1,
@@ -87,15 +87,56 @@ impl Timed {
         self.out.read_rgba(gpu)
     }
 
-    /// Most neighbours any segment's box has (a list longer than the slots drops some).
-    fn most_neighbours(&self, gpu: &Gpu) -> Result<u32> {
-        let w = self
-            .stage
-            .system::<WispsSystem>()
-            .ok_or_else(|| crate::KamiError::Gpu("no wisps in the scene".into()))?;
-        let (_, counts) = w.curves.read(gpu)?;
-        Ok(counts.into_iter().max().unwrap_or(0))
+    fn wisps(&mut self) -> Result<&mut WispsSystem> {
+        self.stage
+            .system_mut::<WispsSystem>()
+            .ok_or_else(|| crate::KamiError::Gpu("no wisps in the scene".into()))
     }
+
+    /// One frame with the march's counters on (their atomics are not in the timed frames).
+    fn counted(&mut self, gpu: &Gpu) -> Result<MarchStats> {
+        self.wisps()?.draw.counting = true;
+        self.frame(gpu)?;
+        let stats = self.wisps()?.draw.read_stats(gpu)?.unwrap_or_default();
+        self.wisps()?.draw.counting = false;
+        Ok(stats)
+    }
+}
+
+/// One measured configuration of the march.
+#[derive(Clone, Copy, Debug)]
+pub struct MarchFrame {
+    /// CPU wall milliseconds per drawn frame (submit to wait), mean after a warm-up.
+    pub ms: f64,
+    pub stats: MarchStats,
+}
+
+impl MarchFrame {
+    /// Field samples per ray that has a candidate.
+    pub fn steps_per_ray(&self) -> f64 {
+        f64::from(self.stats.steps) / f64::from(self.stats.rays.max(1))
+    }
+
+    pub fn candidates_per_ray(&self) -> f64 {
+        f64::from(self.stats.candidates) / f64::from(self.stats.rays.max(1))
+    }
+
+    /// Microseconds of the whole frame per pixel the wisps cover.
+    pub fn us_per_covered(&self) -> f64 {
+        self.ms * 1e3 / f64::from(self.stats.covered.max(1))
+    }
+}
+
+/// Time `frames` frames of `scene` (one sample per pixel) at `size` after a warm-up, then
+/// count one more.
+pub fn march_frame(gpu: &Gpu, scene: &Scene, size: (u32, u32), frames: u32) -> Result<MarchFrame> {
+    let mut t = Timed::new(gpu, scene, size)?;
+    let secs = time_mean(frames, || t.frame(gpu))?;
+    let stats = t.counted(gpu)?;
+    Ok(MarchFrame {
+        ms: secs * 1e3,
+        stats,
+    })
 }
 
 /// Run the whole bench on `scene_path` (the toon scene) and write the report into `out`.
@@ -144,9 +185,9 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
         let mut pts = Vec::new();
         let mut most = 0;
         for &side in &SIDES {
-            let mut t = Timed::new(gpu, &s, side)?;
+            let mut t = Timed::new(gpu, &s, (side, side))?;
             let secs = time_mean(frames, || t.frame(gpu))?;
-            most = t.most_neighbours(gpu)?;
+            most = t.counted(gpu)?.most_in_a_tile;
             row.push(format!("{:.1}", secs * 1e3));
             pts.push(((side * side) as f64, secs * 1e3));
             writeln!(
@@ -180,7 +221,7 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
         w.march.max_steps = 2048;
         w.march.distance = Distance::Newton;
     }
-    let mut t = Timed::new(gpu, &fine, side)?;
+    let mut t = Timed::new(gpu, &fine, (side, side))?;
     let reference = t.image(gpu)?;
     let ref_ms = time_mean(frames, || t.frame(gpu))? * 1e3;
     writeln!(
@@ -214,7 +255,7 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
             w.march.distance = distance;
             w.march.step_scale = step;
         }
-        let mut t = Timed::new(gpu, &s, side)?;
+        let mut t = Timed::new(gpu, &s, (side, side))?;
         let img = t.image(gpu)?;
         let ms = time_mean(frames, || t.frame(gpu))? * 1e3;
         let (mean, over, _) = super::backends::difference(&reference, &img);

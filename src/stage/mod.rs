@@ -24,7 +24,7 @@ use crate::gpu::{self, Gpu};
 use crate::scene::Scene;
 use crate::systems::{Change, DrawSetup, FrameCtx, HairSystem, StepInfo, SystemStats, View, KINDS};
 use camera::Camera;
-use glam::DVec3;
+use glam::{DMat4, DVec3};
 use target::{DownsamplePass, SceneTargets};
 
 /// Anti-aliasing settings.
@@ -515,6 +515,13 @@ impl Stage {
                 resolve_splat: false,
             });
         }
+        // The frame uniform first: systems that work in screen space (the wisps' tiles)
+        // prepare with the same view-projection the shaders see.
+        let bounds = self.bounds();
+        let samples = self.targets.as_ref().map_or(size, |t| t.scene.size);
+        let mut uniform = frame_uniform(&self.scene, look, bounds, samples, self.quality.msaa);
+        // Samples per output pixel (widths given in pixels, such as the wisps' outline).
+        uniform.flags[1] = samples.1 as f32 / size.1 as f32;
         let view = View {
             eye: look.camera.eye,
             fov_y: look.camera.fov_y,
@@ -522,6 +529,10 @@ impl Stage {
             height_px: size.1 as f64,
             lod_tolerance_px: self.scene.render.lod_tolerance_px,
             overlay: look.overlay,
+            view_proj: DMat4::from_cols_array_2d(&uniform.view_proj.map(|c| c.map(f64::from))),
+            samples,
+            samples_per_px: f64::from(uniform.flags[1]),
+            focal_samples: f64::from(uniform.raster[0]),
         };
         self.mark(enc, Phase::Generation, true);
         let ctx = clock(self.frame, &self.forces);
@@ -531,7 +542,6 @@ impl Stage {
         if let Some(t) = self.timer.as_mut() {
             t.end(enc, Phase::Generation);
         }
-        let bounds = self.bounds();
         let Some(targets) = self.targets.as_mut() else {
             return Err(crate::KamiError::Gpu("scene targets missing".into()));
         };
@@ -555,15 +565,6 @@ impl Stage {
             targets.resolve_splat = splatting;
         }
         let targets = &*targets;
-        let mut uniform = frame_uniform(
-            &self.scene,
-            look,
-            bounds,
-            targets.scene.size,
-            self.quality.msaa,
-        );
-        // Samples per output pixel (widths given in pixels, such as the wisps' outline).
-        uniform.flags[1] = targets.scene.size.1 as f32 / size.1 as f32;
         gpu.queue
             .write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&uniform));
         self.last_frame = uniform;
@@ -671,6 +672,15 @@ pub fn frame_uniform(
 }
 
 impl Stage {
+    /// Every system's warnings about the last drawn frame (`HairSystem::warnings`).
+    pub fn warnings(&self, gpu: &Gpu) -> Result<Vec<String>> {
+        let mut out = Vec::new();
+        for s in &self.systems {
+            out.extend(s.warnings(gpu)?);
+        }
+        Ok(out)
+    }
+
     /// Every system's strands as they are now, one groom (systems in build order).
     pub fn export(&self, gpu: &Gpu) -> Result<crate::formats::Groom> {
         let mut all = crate::formats::Groom::default();
@@ -731,6 +741,9 @@ pub fn render_animation(
         if f >= *frames.start() {
             stage.render(gpu, &mut enc, &out.view, size, &look)?;
             gpu.queue.submit([enc.finish()]);
+            for w in stage.warnings(gpu)? {
+                log::warn!("frame {f}: {w}");
+            }
             on_frame(f, out.read_rgba(gpu)?)?;
         } else {
             gpu.queue.submit([enc.finish()]);

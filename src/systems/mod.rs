@@ -54,6 +54,15 @@ pub struct View {
     pub lod_tolerance_px: f64,
     /// Show the system's diagnostic overlay (Anjyo: segments the pseudo-force acted on).
     pub overlay: bool,
+    /// The frame's view-projection, the f32 values the shaders see (screen-space work such
+    /// as the wisps' tile lists projects with exactly these).
+    pub view_proj: DMat4,
+    /// Size of the scene target in samples (supersampled).
+    pub samples: (u32, u32),
+    /// Samples per output pixel (widths given in pixels).
+    pub samples_per_px: f64,
+    /// Focal length in samples.
+    pub focal_samples: f64,
 }
 
 /// What a system's draw pipelines are built for: the shared frame bind group (group 0,
@@ -151,6 +160,12 @@ pub trait HairSystem {
     /// Take an edit classified as `Redraw` or `Resimulate` by the kind's `classify`.
     fn update(&mut self, gpu: &Gpu, scene: &Scene, change: Change) -> Result<()>;
     fn stats(&self) -> SystemStats;
+    /// What the last drawn frame dropped that its image hides (a list that overflowed), read
+    /// back from the GPU: callers ask at their own pace (the CLI after each frame, the viewer
+    /// once a second). Empty when nothing was dropped.
+    fn warnings(&self, _gpu: &Gpu) -> Result<Vec<String>> {
+        Ok(Vec::new())
+    }
     /// The hair as it is now, as polylines with widths and colours, for strand files
     /// (`kami convert scene.ron out.hair`, the viewer's Files panel); `None` for kinds that
     /// have no strands to write.

@@ -304,3 +304,180 @@ pub fn distance_brute(seg: &Segment, v: DVec3, samples: u32) -> (f64, f64) {
     }
     (out.0.sqrt(), out.1)
 }
+
+/// x with fd(x) = y (eq 9 inverted), y in (0, 1].
+pub fn fd_inverse(y: f64) -> f64 {
+    if y <= 2.0 / 3.0 {
+        1.0 - (y / 1.5).sqrt()
+    } else {
+        ((1.0 - y) / 3.0).sqrt()
+    }
+}
+
+/// Distance from `p` to the chord `a`-`b`.
+pub fn chord_distance(p: DVec3, a: DVec3, b: DVec3) -> f64 {
+    let ab = b - a;
+    let l2 = ab.length_squared();
+    let u = if l2 > 0.0 {
+        ((p - a).dot(ab) / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (a + ab * u - p).length()
+}
+
+/// A segment's bounds for the tiled march (`shaders/wisps/curves.wgsl` `spline` and
+/// `overlaps`): capsules round the chord c0-c3.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Capsule {
+    pub a: DVec3,
+    pub b: DVec3,
+    /// Holds the segment's whole influence: the control points' largest distance from the
+    /// chord (the curve lies in their hull) plus r_max.
+    pub influence: f64,
+    /// Holds every point where this segment can be the arg-max of a point inside the
+    /// surface; negative where it never can be.
+    pub hit: f64,
+    /// K: wisps whose influence box overlaps this segment's (itself included).
+    pub wisps_near: u32,
+}
+
+impl Segment {
+    /// The control-point box grown by r_max: every point the segment adds density to.
+    pub fn influence_box(&self) -> (DVec3, DVec3) {
+        let r = DVec3::splat(self.r_max());
+        (self.lo - r, self.hi + r)
+    }
+}
+
+/// The capsules of every segment of a scene (`wisps[i]` the segments of wisp i) for
+/// `threshold`. Inside the surface Σ_wisps ρ ≥ threshold with at most K wisps adding density
+/// (each has a segment whose influence box holds the point, so overlaps the arg-max
+/// segment's box), so the densest wisp's arg-max segment has w_max fd(D / r_max) ≥
+/// threshold / K: D ≤ r_max fd⁻¹(threshold / (K w_max)). 1e-4 r_max of slack covers f32.
+pub fn capsules(wisps: &[Vec<Segment>], threshold: f64) -> Vec<Vec<Capsule>> {
+    let boxes: Vec<(usize, (DVec3, DVec3))> = wisps
+        .iter()
+        .enumerate()
+        .flat_map(|(wi, w)| w.iter().map(move |s| (wi, s.influence_box())))
+        .collect();
+    wisps
+        .iter()
+        .map(|w| {
+            w.iter()
+                .map(|s| {
+                    let (lo, hi) = s.influence_box();
+                    let mut k = 0u32;
+                    let mut last = usize::MAX;
+                    for &(wi, (l, h)) in &boxes {
+                        if wi != last && l.cmple(hi).all() && lo.cmple(h).all() {
+                            k += 1;
+                            last = wi;
+                        }
+                    }
+                    let [c0, c1, c2, c3] = s.ctrl;
+                    let margin = chord_distance(c1, c0, c3).max(chord_distance(c2, c0, c3));
+                    let y = threshold / (f64::from(k.max(1)) * s.w[0].max(s.w[1]));
+                    let hit = if y <= 1.0 {
+                        s.r_max() * (fd_inverse(y) + 1e-4) + margin
+                    } else {
+                        -1.0
+                    };
+                    Capsule {
+                        a: c0,
+                        b: c3,
+                        influence: margin + s.r_max(),
+                        hit,
+                        wisps_near: k,
+                    }
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// The interval of the ray `o + t d` (|d| = 1) inside the capsule round `a`-`b` of radius
+/// `r`, or None: the union of the two end spheres' and the cylinder's intervals (the capsule
+/// is convex, so it is one interval). Same steps as `ray_capsule` in
+/// `shaders/wisps/march.wgsl`.
+pub fn ray_capsule(o: DVec3, d: DVec3, a: DVec3, b: DVec3, r: f64) -> Option<(f64, f64)> {
+    if r <= 0.0 {
+        return None;
+    }
+    let mut lo = f64::INFINITY;
+    let mut hi = f64::NEG_INFINITY;
+    for c in [a, b] {
+        let oc = o - c;
+        let bq = oc.dot(d);
+        let disc = bq * bq - (oc.length_squared() - r * r);
+        if disc >= 0.0 {
+            let s = disc.sqrt();
+            lo = lo.min(-bq - s);
+            hi = hi.max(-bq + s);
+        }
+    }
+    let ba = b - a;
+    let baba = ba.length_squared();
+    if baba > 0.0 {
+        let oa = o - a;
+        let (bd, bo) = (ba.dot(d), ba.dot(oa));
+        let dp = d - ba * (bd / baba);
+        let op = oa - ba * (bo / baba);
+        let qa = dp.length_squared();
+        let qb = op.dot(dp);
+        let qc = op.length_squared() - r * r;
+        // The infinite cylinder's interval.
+        let (c0, c1) = if qa > 1e-12 {
+            let disc = qb * qb - qa * qc;
+            if disc >= 0.0 {
+                let s = disc.sqrt();
+                ((-qb - s) / qa, (-qb + s) / qa)
+            } else {
+                (f64::INFINITY, f64::NEG_INFINITY)
+            }
+        } else if qc <= 0.0 {
+            (f64::NEG_INFINITY, f64::INFINITY)
+        } else {
+            (f64::INFINITY, f64::NEG_INFINITY)
+        };
+        // The slab 0 <= (oa + t d).ba <= |ba|² along the axis.
+        let (s0, s1) = if bd.abs() > 1e-12 {
+            let (u, v) = (-bo / bd, (baba - bo) / bd);
+            (u.min(v), u.max(v))
+        } else if (0.0..=baba).contains(&bo) {
+            (f64::NEG_INFINITY, f64::INFINITY)
+        } else {
+            (f64::INFINITY, f64::NEG_INFINITY)
+        };
+        let (x0, x1) = (c0.max(s0), c1.min(s1));
+        if x0 <= x1 {
+            lo = lo.min(x0);
+            hi = hi.max(x1);
+        }
+    }
+    (lo <= hi).then_some((lo, hi))
+}
+
+/// Pieces per segment of the march's distance bound: t in [k/8, (k+1)/8].
+pub const PIECES: usize = 8;
+
+/// The segment cut into `PIECES` pieces: the curve points at t = k/PIECES and each piece's
+/// deviation from its chord (the largest distance of its sub-curve's inner control points,
+/// B(a) + (b-a)/3 B'(a) and B(b) - (b-a)/3 B'(b), from the chord: the sub-curve lies in
+/// their hull). A point's distance to piece k is at least its chord distance less the
+/// deviation. As `spline` in `shaders/wisps/curves.wgsl` writes them.
+pub fn pieces(seg: &Segment) -> ([DVec3; PIECES + 1], [f64; PIECES]) {
+    let mut pts = [DVec3::ZERO; PIECES + 1];
+    let mut dev = [0.0; PIECES];
+    let h = 1.0 / PIECES as f64;
+    for (k, p) in pts.iter_mut().enumerate() {
+        *p = seg.point(k as f64 * h);
+    }
+    for k in 0..PIECES {
+        let (a, b) = (k as f64 * h, (k + 1) as f64 * h);
+        let q1 = pts[k] + seg.derivative(a) * (h / 3.0);
+        let q2 = pts[k + 1] - seg.derivative(b) * (h / 3.0);
+        dev[k] = chord_distance(q1, pts[k], pts[k + 1]).max(chord_distance(q2, pts[k], pts[k + 1]));
+    }
+    (pts, dev)
+}

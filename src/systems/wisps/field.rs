@@ -2,7 +2,7 @@
 //! shell, and the head-frame toon shading (eqs 14-22). f64 reference ("the truth") of the
 //! wisps ray-march shader, which follows the same steps.
 
-use super::curve::{self, Segment};
+use super::curve::{self, Capsule, Segment};
 use crate::gpu::gpu_data::linear_rgb;
 use crate::scene::wisps::{Distance, March, Tones, Toon};
 use glam::{DMat3, DMat4, DVec3, DVec4};
@@ -165,6 +165,25 @@ pub fn distance_step(near: &[(f64, f64, f64, usize)], threshold: f64, s_hi: f64)
 /// is one whose curve, by the distance method, is at least r_max away (gap D − r_max). Only
 /// near segments add to the Lipschitz sum and to the distance step.
 pub fn probe(wisps: &[Vec<Segment>], threshold: f64, p: DVec3, method: Distance) -> Probe {
+    probe_segments(
+        wisps
+            .iter()
+            .enumerate()
+            .flat_map(|(wi, w)| w.iter().map(move |s| (wi, s))),
+        threshold,
+        p,
+        method,
+    )
+}
+
+/// `probe` over the segments `segs` yields, each with its wisp; a wisp's segments must come
+/// one after the other (the per-wisp maximum is taken over a run of one wisp).
+pub fn probe_segments<'a>(
+    segs: impl Iterator<Item = (usize, &'a Segment)>,
+    threshold: f64,
+    p: DVec3,
+    method: Distance,
+) -> Probe {
     let mut out = Probe {
         f: Density {
             rho: -threshold,
@@ -176,31 +195,36 @@ pub fn probe(wisps: &[Vec<Segment>], threshold: f64, p: DVec3, method: Distance)
     };
     let mut near = Vec::new();
     let mut s_hi = f64::INFINITY;
-    for (wi, w) in wisps.iter().enumerate() {
-        let mut best = Density::default();
-        for s in w {
-            let a = s.box_distance(p);
-            let rm = s.r_max();
-            if a >= rm {
-                out.far_gap = out.far_gap.min(a - rm);
-                continue;
-            }
-            let (d, _) = curve::distance(s, p, method);
-            if d >= rm {
-                out.far_gap = out.far_gap.min(d - rm);
-                continue;
-            }
-            out.l_near += s.lipschitz;
-            near.push((d, rm, s.w[0].max(s.w[1]), wi));
-            s_hi = s_hi.min(d);
-            let dens = segment_density(s, p, method);
-            if dens.rho > best.rho {
-                best = dens;
-            }
+    let mut wisp = usize::MAX;
+    let mut best = Density::default();
+    for (wi, s) in segs {
+        if wi != wisp {
+            out.f.rho += best.rho;
+            out.f.grad += best.grad;
+            best = Density::default();
+            wisp = wi;
         }
-        out.f.rho += best.rho;
-        out.f.grad += best.grad;
+        let a = s.box_distance(p);
+        let rm = s.r_max();
+        if a >= rm {
+            out.far_gap = out.far_gap.min(a - rm);
+            continue;
+        }
+        let (d, _) = curve::distance(s, p, method);
+        if d >= rm {
+            out.far_gap = out.far_gap.min(d - rm);
+            continue;
+        }
+        out.l_near += s.lipschitz;
+        near.push((d, rm, s.w[0].max(s.w[1]), wi));
+        s_hi = s_hi.min(d);
+        let dens = segment_density(s, p, method);
+        if dens.rho > best.rho {
+            best = dens;
+        }
     }
+    out.f.rho += best.rho;
+    out.f.grad += best.grad;
     out.step = out.far_gap;
     if !near.is_empty() && out.f.rho < 0.0 {
         let s_lip = -out.f.rho / out.l_near;
@@ -373,7 +397,8 @@ pub fn shade(n: DVec3, l: DVec3, head_rot: DMat3, toon: &Toon) -> DVec3 {
 /// CPU reference image: one ray per pixel centre from `eye` through the far-plane point of
 /// the pixel (ndc z = 1 unprojected; wgpu depth 0..1), t0 = 0, t1 = distance to that point.
 /// Returns linear colours and the NDC depth (z/w under view_proj) of each hit or outline,
-/// NaN for a miss; row-major, y down. No head, no anti-aliasing.
+/// NaN for a miss; row-major, y down. No head, no anti-aliasing. Every ray is marched by
+/// `march` over every segment from the eye: the truth the tiled march is measured against.
 #[allow(clippy::too_many_arguments)]
 pub fn render_reference(
     wisps: &[Vec<Segment>],
@@ -388,7 +413,82 @@ pub fn render_reference(
     size: (u32, u32),
     background_linear: DVec3,
 ) -> (Vec<DVec3>, Vec<f64>) {
+    let eps_per_t = toon.outline_width / focal_px;
+    let trace = |ray: &Ray| march(wisps, threshold, march_params, ray, eps_per_t).0;
+    let look = Look {
+        toon,
+        light_dir,
+        head_rot,
+        eye,
+        inv_view_proj,
+        background_linear,
+    };
+    render_rays(&look, size, trace)
+}
+
+/// `render_reference` by the tiled march's steps (`march_tiled`, every segment a candidate
+/// of every ray, in f64): the GPU march's twin. Also returns the counters summed over rays.
+#[allow(clippy::too_many_arguments)]
+pub fn render_reference_tiled(
+    wisps: &[Vec<Segment>],
+    threshold: f64,
+    march_params: &March,
+    toon: &Toon,
+    light_dir: DVec3,
+    head_rot: DMat3,
+    eye: DVec3,
+    inv_view_proj: DMat4,
+    focal_px: f64,
+    size: (u32, u32),
+    background_linear: DVec3,
+) -> (Vec<DVec3>, Vec<f64>, MarchCount) {
+    let eps_per_t = toon.outline_width / focal_px;
+    let caps = curve::capsules(wisps, threshold);
+    let shells: Vec<Vec<f64>> = caps
+        .iter()
+        .map(|w| w.iter().map(|c| shell_radius(c, eye, eps_per_t)).collect())
+        .collect();
+    let total = std::cell::Cell::new(MarchCount::default());
+    let trace = |ray: &Ray| {
+        let cands = candidates(&caps, &shells, ray);
+        let (hit, n) = march_tiled(wisps, &cands, threshold, march_params, ray, eps_per_t);
+        let mut sum = total.get();
+        sum.steps += n.steps;
+        sum.candidates += n.candidates;
+        sum.overflow += n.overflow;
+        sum.exact += n.exact;
+        total.set(sum);
+        hit
+    };
+    let look = Look {
+        toon,
+        light_dir,
+        head_rot,
+        eye,
+        inv_view_proj,
+        background_linear,
+    };
+    let (c, z) = render_rays(&look, size, trace);
+    (c, z, total.get())
+}
+
+/// What a reference image is shaded with.
+struct Look<'a> {
+    toon: &'a Toon,
+    light_dir: DVec3,
+    head_rot: DMat3,
+    eye: DVec3,
+    inv_view_proj: DMat4,
+    background_linear: DVec3,
+}
+
+fn render_rays(
+    look: &Look,
+    size: (u32, u32),
+    trace: impl Fn(&Ray) -> Hit,
+) -> (Vec<DVec3>, Vec<f64>) {
     let (w, h) = size;
+    let inv_view_proj = look.inv_view_proj;
     let view_proj = inv_view_proj.inverse();
     let unproject = |x: f64, y: f64, z: f64| {
         let p = inv_view_proj * DVec4::new(x, y, z, 1.0);
@@ -398,9 +498,9 @@ pub fn render_reference(
         let c = view_proj * pos.extend(1.0);
         c.z / c.w
     };
-    let eps_per_t = toon.outline_width / focal_px;
-    let outline = linear(toon.outline);
-    let light = light_dir.normalize();
+    let outline = linear(look.toon.outline);
+    let light = look.light_dir.normalize();
+    let eye = look.eye;
     let mut colours = Vec::with_capacity((w * h) as usize);
     let mut depths = Vec::with_capacity((w * h) as usize);
     for py in 0..h {
@@ -415,17 +515,350 @@ pub fn render_reference(
                 t0: 0.0,
                 t1,
             };
-            let (hit, _) = march(wisps, threshold, march_params, &ray, eps_per_t);
-            let (c, z) = match hit {
+            let (c, z) = match trace(&ray) {
                 Hit::Surface { pos, normal, .. } => {
-                    (shade(normal, light, head_rot, toon), depth(pos))
+                    (shade(normal, light, look.head_rot, look.toon), depth(pos))
                 }
                 Hit::Outline { t } => (outline, depth(ray.at(t))),
-                Hit::Miss => (background_linear, f64::NAN),
+                Hit::Miss => (look.background_linear, f64::NAN),
             };
             colours.push(c);
             depths.push(z);
         }
     }
     (colours, depths)
+}
+
+/// Candidate slots per ray in the tiled march (`RAY_SLOTS` in `shaders/wisps/march.wgsl`):
+/// a ray crossing more influence capsules keeps the first ones and the overflow is counted.
+pub const RAY_SLOTS: usize = 48;
+
+/// The radius round a segment's chord within which the march samples: the hit capsule grown
+/// by twice the outline shell's half-width at the far side of the segment (`eps_per_t` t),
+/// so that a ray passing within the outline of the surface is sampled there. Negative where
+/// the segment can hold no hit. Same steps as `bound` in `shaders/wisps/tiles.wgsl`.
+pub fn shell_radius(c: &Capsule, eye: DVec3, eps_per_t: f64) -> f64 {
+    if c.hit < 0.0 {
+        return -1.0;
+    }
+    let far = (eye - 0.5 * (c.a + c.b)).length() + 0.5 * (c.b - c.a).length() + c.influence;
+    c.hit + 2.0 * eps_per_t * far
+}
+
+/// One segment a ray crosses: its influence interval (where it may add density) and its
+/// shell interval (where the surface or its outline may be; empty: `s_in > s_out`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Candidate {
+    pub wisp: usize,
+    pub seg: usize,
+    pub t_in: f64,
+    pub t_out: f64,
+    pub s_in: f64,
+    pub s_out: f64,
+}
+
+/// Counters of one tiled march.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MarchCount {
+    /// Field samples of the march (bisection and normal not counted).
+    pub steps: u32,
+    /// Segments whose influence the ray crosses.
+    pub candidates: u32,
+    /// Candidates beyond `RAY_SLOTS` (dropped: counted, never silent).
+    pub overflow: u32,
+    /// Samples that needed the exact field (the rest moved by the clear step).
+    pub exact: u32,
+}
+
+/// The segments whose influence capsule `ray` crosses within [t0, t1], in segment order.
+pub fn candidates(caps: &[Vec<Capsule>], shells: &[Vec<f64>], ray: &Ray) -> Vec<Candidate> {
+    let mut out = Vec::new();
+    for (wi, w) in caps.iter().enumerate() {
+        for (si, c) in w.iter().enumerate() {
+            let Some((t_in, t_out)) =
+                curve::ray_capsule(ray.origin, ray.dir, c.a, c.b, c.influence)
+            else {
+                continue;
+            };
+            if t_out < ray.t0 || t_in > ray.t1 {
+                continue;
+            }
+            let (s_in, s_out) = curve::ray_capsule(ray.origin, ray.dir, c.a, c.b, shells[wi][si])
+                .unwrap_or((f64::INFINITY, f64::NEG_INFINITY));
+            out.push(Candidate {
+                wisp: wi,
+                seg: si,
+                t_in,
+                t_out,
+                s_in,
+                s_out,
+            });
+        }
+    }
+    out
+}
+
+/// A segment with its pieces (`curve::pieces`), as the tiled march reads it.
+#[derive(Clone, Copy, Debug)]
+pub struct Pieced<'a> {
+    pub wisp: usize,
+    pub seg: &'a Segment,
+    pub pts: &'a [DVec3; curve::PIECES + 1],
+    pub dev: &'a [f64; curve::PIECES],
+}
+
+/// Upper bounds of piece k of `p`: (distance from `v` at least, r at most, w at most).
+fn piece_bound(p: &Pieced, k: usize, v: DVec3) -> (f64, f64, f64) {
+    let h = 1.0 / curve::PIECES as f64;
+    let (ta, tb) = (k as f64 * h, (k + 1) as f64 * h);
+    let d = (curve::chord_distance(v, p.pts[k], p.pts[k + 1]) - p.dev[k]).max(0.0);
+    let r = p.seg.radius(ta).max(p.seg.radius(tb));
+    let w = p.seg.weight(ta).max(p.seg.weight(tb));
+    (d, r, w)
+}
+
+/// The clear step at `v`: no point within it is inside the surface. Each piece of each
+/// segment bounds its wisp's density at distance s from `v` by w_k fd(max(d_k - s, 0) / r_k)
+/// (d_k its chord distance less its deviation, r_k and w_k the largest along it); at s = 0
+/// the wisps' bounds f_W sum to F. Where F < threshold, each wisp gets f_W plus an equal
+/// share of the slack threshold - F, and the step is the least s at which some piece's
+/// bound reaches its wisp's share (closed form through fd⁻¹): the shares sum to the
+/// threshold, so the field stays below it within the step. 0 where F reaches the threshold;
+/// +∞ without segments. `segs` in wisp order. As `clear_step` in
+/// `shaders/wisps/march.wgsl`.
+pub fn clear_step(segs: &[Pieced], threshold: f64, v: DVec3) -> f64 {
+    let mut per_wisp: Vec<f64> = Vec::new();
+    let mut wisp = usize::MAX;
+    for p in segs {
+        if p.wisp != wisp {
+            per_wisp.push(0.0);
+            wisp = p.wisp;
+        }
+        let m = per_wisp.last_mut().expect("pushed above");
+        for k in 0..curve::PIECES {
+            let (d, r, w) = piece_bound(p, k, v);
+            *m = m.max(w * fd(d / r));
+        }
+    }
+    if per_wisp.is_empty() {
+        return f64::INFINITY;
+    }
+    let total: f64 = per_wisp.iter().sum();
+    if total >= threshold {
+        return 0.0;
+    }
+    let slack = (threshold - total) / per_wisp.len() as f64;
+    let mut step = f64::INFINITY;
+    let mut wi = 0;
+    let mut wisp = usize::MAX;
+    for p in segs {
+        if p.wisp != wisp {
+            if wisp != usize::MAX {
+                wi += 1;
+            }
+            wisp = p.wisp;
+        }
+        let share = per_wisp[wi] + slack;
+        for k in 0..curve::PIECES {
+            let (d, r, w) = piece_bound(p, k, v);
+            let y = share / w;
+            if y < 1.0 {
+                step = step.min(d - r * curve::fd_inverse(y));
+            }
+        }
+    }
+    step.max(0.0)
+}
+
+/// The field at `v` (as `field`, over `segs`) with the Lipschitz step of the tiled march:
+/// -f over the sum over wisps of the largest bound of each wisp's near segments (the
+/// gradient of a maximum is one of its terms'), never past where a far segment's influence
+/// begins (as in `probe`); 0 where no segment is near. Returns (f with its gradient, step).
+pub fn exact_sample(segs: &[Pieced], threshold: f64, v: DVec3, method: Distance) -> (Density, f64) {
+    let mut f = Density {
+        rho: -threshold,
+        grad: DVec3::ZERO,
+    };
+    let mut lip = 0.0;
+    let mut far_gap = f64::INFINITY;
+    let mut wisp = usize::MAX;
+    let mut best = Density::default();
+    let mut wisp_lip: f64 = 0.0;
+    for p in segs {
+        if p.wisp != wisp {
+            f.rho += best.rho;
+            f.grad += best.grad;
+            lip += wisp_lip;
+            best = Density::default();
+            wisp_lip = 0.0;
+            wisp = p.wisp;
+        }
+        let s = p.seg;
+        let rm = s.r_max();
+        let a = s.box_distance(v);
+        if a >= rm {
+            far_gap = far_gap.min(a - rm);
+            continue;
+        }
+        let (d, _) = curve::distance(s, v, method);
+        if d >= rm {
+            far_gap = far_gap.min(d - rm);
+            continue;
+        }
+        wisp_lip = wisp_lip.max(s.lipschitz);
+        let dens = segment_density(s, v, method);
+        if dens.rho > best.rho {
+            best = dens;
+        }
+    }
+    f.rho += best.rho;
+    f.grad += best.grad;
+    lip += wisp_lip;
+    let step = if lip > 0.0 && f.rho < 0.0 {
+        (-f.rho / lip).min(far_gap)
+    } else {
+        0.0
+    };
+    (f, step)
+}
+
+/// The tiled march of one ray (`fs` in `shaders/wisps/march.wgsl`; the GPU takes the
+/// candidates from its screen tile's list, the same segments in the same order). Samples only
+/// inside shell intervals, jumping the gaps between them (no point there is inside, or in
+/// the outline); at each sample only the candidates whose influence interval holds t count,
+/// and a step never passes the next influence entry. A sample whose clear step (the pieces'
+/// bound) exceeds twice the outline half-width eps(t) is outside and off the outline: the
+/// ray moves by the clear step less eps with no exact field. Elsewhere the exact field
+/// decides: a hit is refined by bisection as in `march`, the outline shell is tested as
+/// there, and the step is the larger of the Lipschitz and clear steps.
+pub fn march_tiled(
+    wisps: &[Vec<Segment>],
+    cands: &[Candidate],
+    threshold: f64,
+    m: &March,
+    ray: &Ray,
+    eps_per_t: f64,
+) -> (Hit, MarchCount) {
+    let mut count = MarchCount {
+        steps: 0,
+        candidates: cands.len() as u32,
+        overflow: cands.len().saturating_sub(RAY_SLOTS) as u32,
+        exact: 0,
+    };
+    let cands = &cands[..cands.len().min(RAY_SLOTS)];
+    let pieced: Vec<_> = cands
+        .iter()
+        .map(|c| curve::pieces(&wisps[c.wisp][c.seg]))
+        .collect();
+    let active = |t: f64| -> Vec<Pieced> {
+        cands
+            .iter()
+            .zip(&pieced)
+            .filter(|(c, _)| c.t_in <= t && t <= c.t_out)
+            .map(|(c, (pts, dev))| Pieced {
+                wisp: c.wisp,
+                seg: &wisps[c.wisp][c.seg],
+                pts,
+                dev,
+            })
+            .collect()
+    };
+    let exact = |t: f64| exact_sample(&active(t), threshold, ray.at(t), m.distance);
+    let first = cands.iter().map(|c| c.s_in).fold(f64::INFINITY, f64::min);
+    let end = cands
+        .iter()
+        .map(|c| c.s_out)
+        .fold(f64::NEG_INFINITY, f64::max)
+        .min(ray.t1);
+    let mut t = first.max(ray.t0);
+    let mut t_prev: Option<f64> = None;
+    let mut entry: Option<f64> = None;
+    while count.steps < m.max_steps && t <= end {
+        if !cands.iter().any(|c| c.s_in <= t && t <= c.s_out) {
+            // Between shell intervals: nothing here is inside or in the outline.
+            if let Some(te) = entry {
+                return (Hit::Outline { t: te }, count);
+            }
+            let next = cands
+                .iter()
+                .map(|c| c.s_in)
+                .filter(|&s| s > t)
+                .fold(f64::INFINITY, f64::min);
+            t = next;
+            t_prev = None;
+            continue;
+        }
+        count.steps += 1;
+        let next_in = cands
+            .iter()
+            .map(|c| c.t_in)
+            .filter(|&s| s > t)
+            .fold(f64::INFINITY, f64::min);
+        let segs = active(t);
+        let clear = clear_step(&segs, threshold, ray.at(t));
+        let eps = eps_per_t * t;
+        if clear > 2.0 * eps {
+            if let Some(te) = entry {
+                return (Hit::Outline { t: te }, count);
+            }
+            let step = ((clear - eps) * m.step_scale)
+                .min(next_in - t)
+                .max(1e-6 * (1.0 + t));
+            t_prev = Some(t);
+            t += step;
+            continue;
+        }
+        count.exact += 1;
+        let (f, s_lip) = exact(t);
+        let in_shell = f.rho + f.grad.length() * eps >= 0.0;
+        if f.rho >= 0.0 {
+            let Some(mut a) = t_prev else {
+                return (
+                    Hit::Surface {
+                        t,
+                        pos: ray.at(t),
+                        normal: normal(f.grad, -ray.dir),
+                    },
+                    count,
+                );
+            };
+            let mut b = t;
+            for _ in 0..m.refine {
+                let mid = 0.5 * (a + b);
+                if exact(mid).0.rho >= 0.0 {
+                    b = mid;
+                } else {
+                    a = mid;
+                }
+            }
+            let t_hit = 0.5 * (a + b);
+            let g = exact(t_hit).0.grad;
+            return (
+                Hit::Surface {
+                    t: t_hit,
+                    pos: ray.at(t_hit),
+                    normal: normal(g, -ray.dir),
+                },
+                count,
+            );
+        }
+        if let Some(te) = entry {
+            if !in_shell {
+                return (Hit::Outline { t: te }, count);
+            }
+        } else if in_shell {
+            entry = Some(t);
+        }
+        let mut step = (s_lip.max(clear) * m.step_scale).min(next_in - t);
+        if in_shell {
+            step = step.max(0.25 * eps);
+        }
+        step = step.max(1e-6 * (1.0 + t));
+        t_prev = Some(t);
+        t += step;
+    }
+    match entry {
+        Some(te) => (Hit::Outline { t: te }, count),
+        None => (Hit::Miss, count),
+    }
 }

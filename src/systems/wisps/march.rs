@@ -1,8 +1,10 @@
 //! The wisps' GPU passes: `shaders/wisps/curves.wgsl` turns node positions into Bézier
-//! segments with their bounds and neighbour lists (compute), `shaders/wisps/march.wgsl`
-//! ray-marches and toon-shades the blobby surface inside each segment's influence box (a
-//! render pipeline writing depth). The f64 references are `curve.rs` and `field.rs`.
+//! segments with their capsule bounds (compute), `shaders/wisps/tiles.wgsl` lists each
+//! screen tile's segments (`tiles.rs`, compute), and `shaders/wisps/march.wgsl` ray-marches
+//! and toon-shades the blobby surface, each pixel once (a render pipeline writing depth).
+//! The f64 references are `curve.rs`, `tiles.rs` and `field.rs` (`march_tiled`).
 
+use super::tiles::{self, MarchStats, TilePass};
 use crate::error::{KamiError, Result};
 use crate::gpu::gpu_data::linear_rgb;
 use crate::gpu::pipeline::{self, DrawPipeline};
@@ -13,14 +15,15 @@ use bytemuck::{Pod, Zeroable};
 use glam::{DMat4, DVec3};
 
 /// Spline and neighbour kernels.
-pub const CURVES: &str = wgsl!("wisps/curves.wgsl");
+pub const CURVES: &str = wgsl!("common/chord.wgsl", "wisps/curves.wgsl");
 
 /// The ray march and toon shading.
-pub const MARCH: &str = wgsl!("common/frame.wgsl", "wisps/march.wgsl", "wisps/toon.wgsl");
-
-/// Neighbour slots per segment: a segment's box sees at most this many segments (the crown,
-/// where every wisp starts, is the crowded place; the shipped scenes stay far below).
-pub const SLOTS: u32 = 64;
+pub const MARCH: &str = wgsl!(
+    "common/frame.wgsl",
+    "common/chord.wgsl",
+    "wisps/march.wgsl",
+    "wisps/toon.wgsl"
+);
 
 const WORKGROUP: u32 = 64;
 
@@ -28,9 +31,24 @@ const WORKGROUP: u32 = 64;
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct GpuWispParams {
     pub model: [[f32; 4]; 4],
-    /// wisps, segments, neighbour slots, nodes
+    /// wisps, segments, unused, nodes
     pub counts: [u32; 4],
+    /// x the surface threshold
+    pub shape: [f32; 4],
 }
+
+/// A segment's capsules round its chord c0-c3 (`curve::Capsule`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuCapsule {
+    /// xyz c0, w the influence radius
+    pub a: [f32; 4],
+    /// xyz c3, w the hit radius (< 0: the segment holds no hit)
+    pub b: [f32; 4],
+}
+
+const _: () = assert!(std::mem::size_of::<GpuCapsule>() == 32);
+const _: () = assert!(std::mem::size_of::<GpuSegment>() == 96);
 
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
@@ -83,7 +101,7 @@ pub fn draw_uniform(wisps: &Wisps, head: DMat4, segments: u32) -> GpuWispDraw {
             wisps.march.max_steps as f32,
             wisps.march.refine as f32,
         ],
-        method: [method, pieces, SLOTS, segments],
+        method: [method, pieces, 0, segments],
     }
 }
 
@@ -101,14 +119,17 @@ pub fn node_count(wisps: &Wisps) -> u32 {
     wisps.skeletons.iter().map(|s| s.nodes.len() as u32).sum()
 }
 
-/// The spline and neighbour kernels over one set of node positions.
+/// The spline and capsule kernels over one set of node positions.
 pub struct CurvePass {
     spline: wgpu::ComputePipeline,
-    neighbours: wgpu::ComputePipeline,
+    overlaps: wgpu::ComputePipeline,
     params: wgpu::Buffer,
     pub segments: wgpu::Buffer,
-    pub neighbour_lists: wgpu::Buffer,
-    pub neighbour_counts: wgpu::Buffer,
+    pub capsules: wgpu::Buffer,
+    pub overlap_counts: wgpu::Buffer,
+    /// Per segment `curve::PIECES + 1` points (xyz) with each piece's chord deviation (w).
+    pub pieces: wgpu::Buffer,
+    threshold: f32,
     bind_group: wgpu::BindGroup,
     pub wisps: u32,
     pub segment_count: u32,
@@ -126,7 +147,6 @@ impl CurvePass {
         let n_wisps = wisps.skeletons.len() as u32;
         let n_seg = segment_count(wisps);
         let n_nodes = node_count(wisps);
-        gpu.check_storage_size("the wisp neighbour lists", n_seg as u64 * SLOTS as u64 * 4)?;
         let mut rw = Vec::with_capacity(n_nodes as usize);
         let mut ranges = Vec::with_capacity(n_wisps as usize);
         for s in &wisps.skeletons {
@@ -147,15 +167,16 @@ impl CurvePass {
                 gpu::storage_entry(4, cs, false),
                 gpu::storage_entry(5, cs, false),
                 gpu::storage_entry(6, cs, false),
+                gpu::storage_entry(7, cs, false),
             ],
         );
         let module = gpu::shader_module(device, "wisps/curves", CURVES)?;
-        let [spline, neighbours] = gpu::compute_pipelines(
+        let [spline, overlaps] = gpu::compute_pipelines(
             device,
             "wisp curves",
             &layout,
             &module,
-            ["spline", "neighbours_of"],
+            ["spline", "overlaps"],
             &[],
         );
         let params = device.create_buffer(&wgpu::BufferDescriptor {
@@ -183,8 +204,15 @@ impl CurvePass {
             "wisp segments",
             n_seg as u64 * std::mem::size_of::<GpuSegment>() as u64,
         );
-        let neighbour_lists = zeros("wisp neighbours", n_seg as u64 * SLOTS as u64 * 4);
-        let neighbour_counts = zeros("wisp neighbour counts", n_seg as u64 * 4);
+        let capsules = zeros(
+            "wisp capsules",
+            n_seg as u64 * std::mem::size_of::<GpuCapsule>() as u64,
+        );
+        let overlap_counts = zeros("wisp overlap counts", n_seg as u64 * 4);
+        let pieces = zeros(
+            "wisp pieces",
+            n_seg as u64 * (super::curve::PIECES as u64 + 1) * 16,
+        );
         let bind_group = pipeline::bind_buffers(
             device,
             "wisp curves",
@@ -195,17 +223,20 @@ impl CurvePass {
                 &node_rw,
                 &ranges,
                 &segments,
-                &neighbour_lists,
-                &neighbour_counts,
+                &capsules,
+                &overlap_counts,
+                &pieces,
             ],
         );
         Ok(CurvePass {
+            pieces,
             spline,
-            neighbours,
+            overlaps,
             params,
             segments,
-            neighbour_lists,
-            neighbour_counts,
+            capsules,
+            overlap_counts,
+            threshold: wisps.threshold as f32,
             bind_group,
             wisps: n_wisps,
             segment_count: n_seg,
@@ -223,7 +254,8 @@ impl CurvePass {
         self.last = Some(model);
         let p = GpuWispParams {
             model: model.as_mat4().to_cols_array_2d(),
-            counts: [self.wisps, self.segment_count, SLOTS, self.nodes],
+            counts: [self.wisps, self.segment_count, 0, self.nodes],
+            shape: [self.threshold, 0.0, 0.0, 0.0],
         };
         gpu.queue
             .write_buffer(&self.params, 0, bytemuck::bytes_of(&p));
@@ -234,8 +266,16 @@ impl CurvePass {
         pass.set_bind_group(0, &self.bind_group, &[]);
         pass.set_pipeline(&self.spline);
         pass.dispatch_workgroups(self.wisps.div_ceil(WORKGROUP), 1, 1);
-        pass.set_pipeline(&self.neighbours);
+        pass.set_pipeline(&self.overlaps);
         pass.dispatch_workgroups(self.segment_count.div_ceil(WORKGROUP), 1, 1);
+    }
+
+    /// A new surface threshold: the hit radii change, so the kernels run again.
+    pub fn set_threshold(&mut self, threshold: f64) {
+        if self.threshold != threshold as f32 {
+            self.threshold = threshold as f32;
+            self.last = None;
+        }
     }
 
     /// Forget the last run (the positions changed behind the pass's back: a reset).
@@ -243,28 +283,37 @@ impl CurvePass {
         self.last = None;
     }
 
-    /// The segments and neighbour counts the kernels wrote (tests, benches).
-    pub fn read(&self, gpu: &Gpu) -> Result<(Vec<GpuSegment>, Vec<u32>)> {
+    /// The segments, capsules and wisp-overlap counts K the kernels wrote (tests, benches).
+    pub fn read(&self, gpu: &Gpu) -> Result<(Vec<GpuSegment>, Vec<GpuCapsule>, Vec<u32>)> {
         let n = self.segment_count as u64;
         let segs = gpu::read_buffer::<GpuSegment>(
             gpu,
             &self.segments,
             n * std::mem::size_of::<GpuSegment>() as u64,
         )?;
-        let counts = gpu::read_buffer::<u32>(gpu, &self.neighbour_counts, n * 4)?;
-        Ok((segs, counts))
+        let caps = gpu::read_buffer::<GpuCapsule>(
+            gpu,
+            &self.capsules,
+            n * std::mem::size_of::<GpuCapsule>() as u64,
+        )?;
+        let counts = gpu::read_buffer::<u32>(gpu, &self.overlap_counts, n * 4)?;
+        Ok((segs, caps, counts))
     }
 }
 
-/// The ray-march draw.
+/// The ray-march draw: the tile lists (compute, each frame) and one quad per tile.
 pub struct MarchPass {
     module: wgpu::ShaderModule,
     pipeline_layout: wgpu::PipelineLayout,
+    layout: wgpu::BindGroupLayout,
     format: wgpu::TextureFormat,
     pipeline: wgpu::RenderPipeline,
     uniform: wgpu::Buffer,
-    bind_group: wgpu::BindGroup,
+    /// Built at the first `prepare` (the tiles need the target size).
+    tiles: Option<(TilePass, wgpu::BindGroup)>,
     segments: u32,
+    /// Count steps and candidates (benches; costs atomics per pixel).
+    pub counting: bool,
 }
 
 impl MarchPass {
@@ -277,14 +326,20 @@ impl MarchPass {
     ) -> Result<MarchPass> {
         let device = &gpu.device;
         let vf = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
+        let fs = wgpu::ShaderStages::FRAGMENT;
         let layout = pipeline::layout(
             device,
             "wisp march",
             &[
-                gpu::uniform_entry(0, vf),
-                gpu::storage_entry(1, vf, true),
-                gpu::storage_entry(2, vf, true),
-                gpu::storage_entry(3, vf, true),
+                gpu::uniform_entry(0, fs),
+                gpu::storage_entry(1, fs, true),
+                gpu::storage_entry(2, fs, true),
+                gpu::storage_entry(3, fs, true),
+                gpu::storage_entry(4, vf, true),
+                gpu::storage_entry(5, fs, true),
+                gpu::uniform_entry(6, vf),
+                gpu::storage_entry(7, fs, false),
+                gpu::storage_entry(8, fs, true),
             ],
         );
         let module = gpu::shader_module(device, "wisps/march", MARCH)?;
@@ -296,26 +351,17 @@ impl MarchPass {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let bind_group = pipeline::bind_buffers(
-            device,
-            "wisp march",
-            &layout,
-            &[
-                &uniform,
-                &curves.segments,
-                &curves.neighbour_lists,
-                &curves.neighbour_counts,
-            ],
-        );
         let pipeline = Self::pipeline(device, &module, &pipeline_layout, format, samples);
         Ok(MarchPass {
             module,
             pipeline_layout,
+            layout,
             format,
             pipeline,
             uniform,
-            bind_group,
+            tiles: None,
             segments: curves.segment_count,
+            counting: false,
         })
     }
 
@@ -333,8 +379,7 @@ impl MarchPass {
             vertex_entry: "vs",
             fragment_entry: "fs",
             topology: wgpu::PrimitiveTopology::TriangleList,
-            // Back faces: a box the eye is inside still covers its pixels.
-            cull_mode: Some(wgpu::Face::Front),
+            cull_mode: None,
             vertex_buffers: &[],
             blend: None,
             format,
@@ -358,10 +403,83 @@ impl MarchPass {
             .write_buffer(&self.uniform, 0, bytemuck::bytes_of(uniform));
     }
 
+    /// Bin this frame's segments into the tiles of `view.samples` (the buffers follow the
+    /// target size) and record the kernels. `outline_px`: the outline width in output pixels.
+    pub fn prepare(
+        &mut self,
+        gpu: &Gpu,
+        enc: &mut wgpu::CommandEncoder,
+        curves: &CurvePass,
+        view: &crate::systems::View,
+        outline_px: f64,
+    ) -> Result<()> {
+        if self
+            .tiles
+            .as_ref()
+            .is_none_or(|(t, _)| t.samples != view.samples)
+        {
+            let tp = TilePass::new(
+                gpu,
+                &curves.segments,
+                &curves.capsules,
+                self.segments,
+                view.samples,
+            )?;
+            let bg = pipeline::bind_buffers(
+                &gpu.device,
+                "wisp march",
+                &self.layout,
+                &[
+                    &self.uniform,
+                    &curves.segments,
+                    &curves.capsules,
+                    &tp.shells,
+                    &tp.counts,
+                    &tp.lists,
+                    &tp.view,
+                    &tp.stats,
+                    &curves.pieces,
+                ],
+            );
+            self.tiles = Some((tp, bg));
+        }
+        let Some((tp, _)) = &self.tiles else {
+            return Ok(());
+        };
+        // Outline shell half-width per unit distance: outline pixels at the focal length in
+        // samples, times samples per output pixel.
+        let eps_per_t = outline_px * view.samples_per_px.max(1.0) / view.focal_samples;
+        let mv = tiles::march_view(
+            view.view_proj,
+            view.eye,
+            eps_per_t,
+            view.samples,
+            tp.capacity,
+            self.segments,
+            self.counting,
+        );
+        tp.record(gpu, enc, &mv);
+        Ok(())
+    }
+
     pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>) {
+        let Some((tp, bg)) = &self.tiles else {
+            return;
+        };
+        let (tx, ty) = tp.grid();
         pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(1, &self.bind_group, &[]);
-        pass.draw(0..36, 0..self.segments);
+        pass.set_bind_group(1, bg, &[]);
+        pass.draw(0..6, 0..tx * ty);
+    }
+
+    /// The tile pass of the last frame (tests, benches).
+    pub fn tiles(&self) -> Option<&TilePass> {
+        self.tiles.as_ref().map(|(t, _)| t)
+    }
+
+    /// The last frame's counters; None before the first frame.
+    pub fn read_stats(&self, gpu: &Gpu) -> Result<Option<MarchStats>> {
+        self.tiles().map(|t| t.read_stats(gpu)).transpose()
     }
 }
 
@@ -412,11 +530,11 @@ pub fn check_limits(gpu: &Gpu, wisps: &Wisps) -> Result<()> {
         "the wisp segments",
         n_seg * std::mem::size_of::<GpuSegment>() as u64,
     )?;
-    gpu.check_storage_size("the wisp neighbour lists", n_seg * SLOTS as u64 * 4)?;
     if n_seg > 60_000 {
-        // The neighbour kernel loops over every segment; llvmpipe stops loops past 65,535.
+        // The overlap and binning kernels loop over every segment; llvmpipe stops loops past
+        // 65,535.
         return Err(KamiError::Gpu(format!(
-            "{n_seg} wisp segments: at most 60000 fit the neighbour search"
+            "{n_seg} wisp segments: at most 60000 fit the overlap and tile kernels"
         )));
     }
     Ok(())

@@ -17,6 +17,7 @@ pub mod march;
 pub mod panel;
 pub mod springs;
 pub mod springs_gpu;
+pub mod tiles;
 
 use super::{Change, DrawSetup, FrameCtx, HairSystem, Kind, StepInfo, SystemStats, View};
 use crate::error::{KamiError, Result};
@@ -43,6 +44,7 @@ pub const KIND: Kind = Kind {
         // The toon shading is compiled inside the march module.
         ("wisps/toon", march::MARCH),
         ("wisps/springs", springs_gpu::SPRINGS),
+        ("wisps/tiles", tiles::TILES),
     ],
 };
 
@@ -84,7 +86,7 @@ pub struct WispsSystem {
     pub wisps: Wisps,
     nodes: Nodes,
     pub curves: CurvePass,
-    draw: MarchPass,
+    pub draw: MarchPass,
 }
 
 impl WispsSystem {
@@ -172,13 +174,16 @@ impl HairSystem for WispsSystem {
         gpu: &Gpu,
         enc: &mut wgpu::CommandEncoder,
         ctx: &FrameCtx,
-        _view: &View,
+        view: &View,
     ) -> Result<()> {
         let model = match &self.nodes {
             Nodes::Still(_) => ctx.head,
             Nodes::Springs(_) => WORLD,
         };
+        self.curves.set_threshold(self.wisps.threshold);
         self.curves.record(gpu, enc, model, self.moving());
+        self.draw
+            .prepare(gpu, enc, &self.curves, view, self.wisps.toon.outline_width)?;
         self.draw.write(
             gpu,
             &march::draw_uniform(&self.wisps, ctx.head, self.curves.segment_count),
@@ -222,6 +227,16 @@ impl HairSystem for WispsSystem {
             simulated: if self.moving() { n } else { 0 },
             drawn: n,
         }
+    }
+
+    /// Tile lists or ray lists that overflowed in the last frame (counted by the march).
+    fn warnings(&self, gpu: &Gpu) -> Result<Vec<String>> {
+        Ok(self
+            .draw
+            .read_stats(gpu)?
+            .and_then(|s| s.warning())
+            .into_iter()
+            .collect())
     }
 
     fn as_any(&self) -> &dyn std::any::Any {
