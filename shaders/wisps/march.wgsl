@@ -27,6 +27,17 @@ struct Draw {
     // x distance method (0 Newton, 1 polyline), y polyline pieces, z neighbour slots,
     // w segments
     method: vec4<u32>,
+    // Toon controls (shaders/wisps/toon.wgsl): feathers x lit/shade, y shade/dark, z halo
+    // edge, w rim edge
+    feather: vec4<f32>,
+    // rgb linear rim colour, w rim width (0: no rim)
+    rim: vec4<f32>,
+    // x cos, y sin of the halo's latitude offset, z halo strength, w 1 when halo_shadow is
+    // the halo's colour over the shadow tones
+    halo: vec4<f32>,
+    halo_shadow: vec4<f32>,
+    // x outline taper (root to tip), yzw unused
+    taper: vec4<f32>,
 }
 
 // Keep in sync with GpuSegment in src/systems/wisps/march.rs.

@@ -1,10 +1,9 @@
 //! The blobby hair field (Sakai 2014, eqs 8-9), its sphere-traced ray march with a silhouette
-//! shell, and the head-frame toon shading (eqs 14-22). f64 reference ("the truth") of the
-//! wisps ray-march shader, which follows the same steps.
+//! shell, and a reference image shaded by `super::toon` (eqs 14-22 and the toon controls).
+//! f64 reference ("the truth") of the wisps ray-march shader, which follows the same steps.
 
 use super::curve::{self, Segment};
-use crate::gpu::gpu_data::linear_rgb;
-use crate::scene::wisps::{Distance, March, Tones, Toon};
+use crate::scene::wisps::{Distance, March, Toon};
 use glam::{DMat3, DMat4, DVec3, DVec4};
 
 /// Density profile of eq 9 (C1: fd and fd' continuous at 1/3 and 1).
@@ -322,56 +321,13 @@ pub fn march(
     }
 }
 
-/// Toon intensities (eqs 14-19) in the head's frame: (I_spec, I_diff, I_lat, I_lon).
-/// `n`, `l` (towards the light) are world directions, `head_rot` the head's rotation.
-/// Kami's up is y, so the paper's E_z is local +y, E_x local +x, E_y local +z. Both vectors
-/// are normalised here (a no-op for unit inputs). Where N or L points straight up or down
-/// (horizontal length < 1e-6) it has no longitude: the product term of eq 19 is 0.
-pub fn intensities(n: DVec3, l: DVec3, head_rot: DMat3) -> (f64, f64, f64, f64) {
-    let rt = head_rot.transpose();
-    let (n, l) = ((rt * n).normalize_or_zero(), (rt * l).normalize_or_zero());
-    let (n_lat, l_lat) = (n.y, l.y);
-    let (n_h, l_h) = (n.x.hypot(n.z), l.x.hypot(l.z));
-    let i_spec = n_lat * l_lat + n_h * l_h;
-    let i_lat = 0.5 * (n_lat + 1.0);
-    let prod = if n_h < 1e-6 || l_h < 1e-6 {
-        0.0
-    } else {
-        (l.x / l_h) * (n.x / n_h) + (l.z / l_h) * (n.z / n_h)
-    };
-    let i_lon = 0.5 * (prod + 1.0);
-    (i_spec, i_lat * i_lon, i_lat, i_lon)
-}
-
-/// sRGB scene colour to linear f64.
-pub fn linear(c: [f32; 3]) -> DVec3 {
-    let l = linear_rgb(c);
-    DVec3::new(l[0] as f64, l[1] as f64, l[2] as f64)
-}
-
-/// Toon colour (linear RGB, eqs 20-22): the diffuse tone by thresholds on I_diff plus the
-/// specular colour where I_spec > t_specular, clamped to 1.
-pub fn shade(n: DVec3, l: DVec3, head_rot: DMat3, toon: &Toon) -> DVec3 {
-    let (i_spec, i_diff, _, _) = intensities(n, l, head_rot);
-    let c_diff = if i_diff > toon.t_diffuse {
-        linear(toon.diffuse)
-    } else {
-        match toon.tones {
-            Tones::Two => linear(toon.shade),
-            Tones::Three if i_diff > toon.t_dark => linear(toon.shade),
-            Tones::Three => linear(toon.dark),
-        }
-    };
-    let c_spec = if i_spec > toon.t_specular {
-        linear(toon.specular)
-    } else {
-        DVec3::ZERO
-    };
-    (c_diff + c_spec).min(DVec3::ONE)
-}
+// The toon shading (eqs 14-22 and the toon controls) lives in `super::toon`; re-exported
+// for the callers that know it here.
+pub use super::toon::{intensities, linear, shade, shade_at};
 
 /// CPU reference image: one ray per pixel centre from `eye` through the far-plane point of
 /// the pixel (ndc z = 1 unprojected; wgpu depth 0..1), t0 = 0, t1 = distance to that point.
+/// Surfaces are shaded by `toon::shade_at` seen along the pixel's ray (the rim's V).
 /// Returns linear colours and the NDC depth (z/w under view_proj) of each hit or outline,
 /// NaN for a miss; row-major, y down. No head, no anti-aliasing.
 #[allow(clippy::too_many_arguments)]
@@ -417,9 +373,10 @@ pub fn render_reference(
             };
             let (hit, _) = march(wisps, threshold, march_params, &ray, eps_per_t);
             let (c, z) = match hit {
-                Hit::Surface { pos, normal, .. } => {
-                    (shade(normal, light, head_rot, toon), depth(pos))
-                }
+                Hit::Surface { pos, normal, .. } => (
+                    shade_at(normal, light, -ray.dir, head_rot, toon),
+                    depth(pos),
+                ),
                 Hit::Outline { t } => (outline, depth(ray.at(t))),
                 Hit::Miss => (background_linear, f64::NAN),
             };

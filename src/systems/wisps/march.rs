@@ -53,6 +53,17 @@ pub struct GpuWispDraw {
     pub outline: [f32; 4],
     pub march: [f32; 4],
     pub method: [u32; 4],
+    /// Feathers (`toon::step`): x lit/shade, y shade/dark, z halo edge, w rim edge.
+    pub feather: [f32; 4],
+    /// rgb linear rim colour, w rim width (0: no rim).
+    pub rim: [f32; 4],
+    /// x cos, y sin of the halo's latitude offset, z halo strength, w 1 when the halo has
+    /// its own colour over the shadow tones.
+    pub halo: [f32; 4],
+    /// rgb linear halo colour over the shade and dark tones, w unused.
+    pub halo_shadow: [f32; 4],
+    /// x outline taper (root to tip, `toon::outline_scale`), yzw unused.
+    pub taper: [f32; 4],
 }
 
 /// The draw uniform for `wisps` with the head pose `head`.
@@ -70,6 +81,7 @@ pub fn draw_uniform(wisps: &Wisps, head: DMat4, segments: u32) -> GpuWispDraw {
         Distance::Newton => (0, 0),
         Distance::Polyline { pieces } => (1, pieces),
     };
+    let (offset_sin, offset_cos) = t.halo_offset.to_radians().sin_cos();
     GpuWispDraw {
         head: [col(0), col(1), col(2)],
         diffuse: rgb(t.diffuse, t.t_diffuse),
@@ -84,6 +96,21 @@ pub fn draw_uniform(wisps: &Wisps, head: DMat4, segments: u32) -> GpuWispDraw {
             wisps.march.refine as f32,
         ],
         method: [method, pieces, SLOTS, segments],
+        feather: [
+            t.diffuse_feather as f32,
+            t.dark_feather as f32,
+            t.halo_feather as f32,
+            t.rim_feather as f32,
+        ],
+        rim: rgb(t.rim, t.rim_width),
+        halo: [
+            offset_cos as f32,
+            offset_sin as f32,
+            t.halo_strength as f32,
+            f32::from(u8::from(t.halo_shadow.is_some())),
+        ],
+        halo_shadow: rgb(t.halo_shadow.unwrap_or(t.specular), 0.0),
+        taper: [t.outline_taper as f32, 0.0, 0.0, 0.0],
     }
 }
 
