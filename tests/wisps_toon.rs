@@ -622,6 +622,32 @@ fn set_keys_edit_every_toon_control_or_refuse() {
     );
 }
 
+/// The Skeletons panel's per-wisp outline slider goes through the editor: the selected
+/// node's skeleton only, clamped into the valid range, one undo step per drag.
+#[test]
+fn editor_sets_a_wisps_outline_scale_with_undo() {
+    use kami::systems::wisps::edit::{Editor, Sel};
+    let mut w = Scene::from_ron(SMALL, "small.ron").unwrap().wisps.unwrap();
+    let mut ed = Editor::new();
+    assert!(ed.set_outline(&mut w, 2.0).is_err(), "needs a selection");
+    ed.select(
+        &w,
+        Some(Sel {
+            skeleton: 1,
+            node: 2,
+        }),
+    )
+    .unwrap();
+    ed.set_outline(&mut w, 2.0).unwrap();
+    ed.set_outline(&mut w, 30.0).unwrap();
+    assert_eq!((w.skeletons[0].outline, w.skeletons[1].outline), (1.0, 8.0));
+    assert!(ed.set_outline(&mut w, f64::NAN).is_err());
+    assert_eq!(w.skeletons[1].outline, 8.0);
+    assert_eq!(ed.undo_len(), 1, "one drag, one undo step");
+    ed.undo(&mut w).unwrap();
+    assert_eq!(w.skeletons[1].outline, 1.0);
+}
+
 // ---------------------------------------------------------------------------------------
 // The WGSL against the reference, headless, on known normals
 // ---------------------------------------------------------------------------------------
@@ -1177,9 +1203,11 @@ fn check_changes(
     );
     assert!(
         stray.is_empty(),
-        "{name}: pixels changed where the reference does not: {:?}",
+        "{name}: {} pixels changed where the reference does not, the first: {:?}",
+        stray.len(),
         stray
             .iter()
+            .take(12)
             .map(|i| (i % SIZE.0 as usize, i / SIZE.0 as usize))
             .collect::<Vec<_>>()
     );
@@ -1348,8 +1376,10 @@ fn ray_march_with_toon_controls_matches_the_f64_reference_image() {
         halo_feather: 0.05,
         halo_offset: 12.0,
         halo_strength: 1.4,
-        halo_shadow: Some([0.5, 0.2, 0.6]),
+        halo_shadow: Some([0.9, 0.15, 0.2]),
         t_specular: 0.9,
+        // The band crosses the shade tones too.
+        t_diffuse: 0.75,
         ..Toon::default()
     };
     scene.wisps.as_mut().unwrap().toon = t;
@@ -1392,20 +1422,27 @@ fn ray_march_with_toon_controls_matches_the_f64_reference_image() {
         SIZE,
         bg,
     );
-    let (mut over, mut shaded) = (0, 0);
+    let (mut over, mut over4, mut shaded) = (0, 0, 0);
     for (i, c) in colours.iter().enumerate() {
         let p = img.get_pixel(i as u32 % SIZE.0, i as u32 / SIZE.0);
         let worst = (0..3)
             .map(|k| (p[k] as f64 - srgb8(c[k]).round()).abs())
             .fold(0.0, f64::max);
         over += usize::from(worst > 24.0);
+        over4 += usize::from(worst > 4.0);
         shaded += usize::from((*c - bg).length() > 1e-3);
     }
     let n = (SIZE.0 * SIZE.1) as f64;
-    println!("{over} of {n} pixels over 24, {shaded} wisp pixels in the reference");
+    println!("{over} of {n} pixels over 24, {over4} over 4, {shaded} wisp pixels in the reference");
     assert!(shaded > 1000);
+    // Edge pixels (a sample on either side of the surface, the shell or a hard step) may
+    // differ: at most 0.2 % by more than 24, 1 % by more than 4.
     assert!(
         (over as f64) < 0.002 * n,
         "{over} pixels differ by more than 24"
+    );
+    assert!(
+        (over4 as f64) < 0.01 * n,
+        "{over4} pixels differ by more than 4"
     );
 }
