@@ -51,6 +51,7 @@ fn main() -> Result<()> {
         frame.raster[0] as f64,
         size,
         field::linear(scene.render.background),
+        &[],
     );
     let bg = field::linear(scene.render.background);
     let covered = c.iter().filter(|x| (**x - bg).length() > 1e-3).count();

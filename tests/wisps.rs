@@ -401,11 +401,12 @@ fn spline_kernel_matches_the_f64_reference() {
     );
 }
 
-/// The GPU ray march and toon shading (f32, proxies and neighbour lists) against
-/// `field::render_reference` (f64, every segment for every pixel) on toon_divide, outline
-/// included: the share of pixels whose colour differs by more than 24 of 255. Measured 2 of
-/// 12,288 (edge pixels where a sample falls on either side of the surface or the shell);
-/// allowed 0.2 %. Eq 14 thresholded on the diffuse intensity moves 176.
+/// The GPU ray march and toon shading (f32, tiles, capsules, clear steps) against
+/// `field::render_reference` (f64, every segment for every pixel from the eye: the truth) on
+/// toon_divide, outline included: the share of pixels whose colour differs by more than 24
+/// of 255, allowed 0.2 % (the bound before the tiled march). Also against its f64 twin
+/// `render_reference_tiled` (same steps, every segment a candidate), whose step and
+/// candidate counts must match the GPU's within 1 %.
 #[test]
 fn ray_march_matches_the_f64_reference_image() {
     use glam::{DMat3, DMat4, DVec3};
@@ -465,4 +466,221 @@ fn ray_march_matches_the_f64_reference_image() {
         (over as f64) < 0.002 * n,
         "{over} of {n} pixels differ by more than 24 from the f64 reference"
     );
+    // The twin: the same march in f64.
+    let (twin, _, count) = kami::systems::wisps::field::render_reference_tiled(
+        &reference_segments(w),
+        w.threshold,
+        &w.march,
+        &w.toon,
+        DVec3::from(scene.light.direction),
+        DMat3::IDENTITY,
+        look.camera.eye,
+        vp.inverse(),
+        frame.raster[0] as f64,
+        size,
+        bg,
+        &[],
+    );
+    let mut twin_over = 0u32;
+    for (i, c) in twin.iter().enumerate() {
+        let p = img.get_pixel(i as u32 % size.0, i as u32 / size.0);
+        let want = [srgb(c.x), srgb(c.y), srgb(c.z)];
+        let worst = (0..3).map(|k| (p[k] as i32 - want[k]).abs()).max().unwrap();
+        twin_over += u32::from(worst > 24);
+    }
+    eprintln!("{twin_over} of {n} pixels over 24 against the tiled twin, {count:?}");
+    assert!(
+        (twin_over as f64) < 0.002 * n,
+        "{twin_over} of {n} pixels differ by more than 24 from the tiled twin"
+    );
+    let stats = march_stats(&scene, size);
+    let near = |a: u32, b: u32| (a as f64 - b as f64).abs() <= 0.01 * b as f64;
+    assert!(
+        near(stats.steps, count.steps) && near(stats.candidates, count.candidates),
+        "GPU counts {stats:?} against the twin's {count:?}"
+    );
+    assert_eq!(count.overflow, 0);
+    assert!(stats.complete(), "{stats:?}");
+}
+
+/// The march's counters after one frame of `scene` at `size` (one sample per pixel).
+fn march_stats(scene: &Scene, size: (u32, u32)) -> kami::systems::wisps::tiles::MarchStats {
+    use kami::systems::wisps::WispsSystem;
+    let gpu = common::gpu();
+    let mut stage = kami::stage::Stage::new(
+        &gpu,
+        scene,
+        kami::stage::target::OUTPUT_FORMAT,
+        kami::stage::Quality::of(scene),
+    )
+    .unwrap();
+    stage.system_mut::<WispsSystem>().unwrap().draw.counting = true;
+    let out = kami::stage::target::Offscreen::new(&gpu, size).unwrap();
+    let look = stage.look();
+    let mut enc = gpu.device.create_command_encoder(&Default::default());
+    stage
+        .render(&gpu, &mut enc, &out.view, size, &look)
+        .unwrap();
+    gpu.queue.submit([enc.finish()]);
+    let sys = stage.system::<WispsSystem>().unwrap();
+    sys.draw.read_stats(&gpu).unwrap().unwrap()
+}
+
+/// Every segment whose influence capsule a pixel's ray crosses (f64) is in that pixel's
+/// tile list (GPU), and the lists are in segment order (a wisp's segments together); the
+/// lists equal the f64 binning (`tiles::tile_lists`) but for entries on a rectangle's edge.
+#[test]
+fn tile_lists_hold_every_segment_a_pixel_ray_crosses() {
+    use glam::{DMat4, DVec3, DVec4};
+    use kami::systems::wisps::{curve, tiles, WispsSystem};
+    let gpu = common::gpu();
+    let scene = one_sample("toon_divide");
+    let size = (80u32, 112u32);
+    let mut stage = kami::stage::Stage::new(
+        &gpu,
+        &scene,
+        kami::stage::target::OUTPUT_FORMAT,
+        kami::stage::Quality::of(&scene),
+    )
+    .unwrap();
+    let out = kami::stage::target::Offscreen::new(&gpu, size).unwrap();
+    let look = stage.look();
+    let mut enc = gpu.device.create_command_encoder(&Default::default());
+    stage
+        .render(&gpu, &mut enc, &out.view, size, &look)
+        .unwrap();
+    gpu.queue.submit([enc.finish()]);
+    let sys = stage.system::<WispsSystem>().unwrap();
+    let lists = sys.draw.tiles().unwrap().read_lists(&gpu).unwrap();
+    let frame = kami::stage::frame_uniform(&scene, &look, stage.bounds(), size, 1);
+    let vp = DMat4::from_cols_array_2d(&frame.view_proj.map(|c| c.map(|v| v as f64)));
+    let inv = vp.inverse();
+    let w = scene.wisps.as_ref().unwrap();
+    let segs = reference_segments(w);
+    let caps: Vec<curve::Capsule> = curve::capsules(&segs, w.threshold)
+        .into_iter()
+        .flatten()
+        .collect();
+    let boxes: Vec<_> = segs.iter().flatten().map(|s| s.influence_box()).collect();
+    let want = tiles::tile_lists(&tiles::tile_rects(&caps, &boxes, vp, size), size);
+    let (mut differ, mut entries) = (0usize, 0usize);
+    for (g, c) in lists.iter().zip(&want) {
+        assert!(
+            g.windows(2).all(|p| p[0] < p[1]),
+            "a list out of order: {g:?}"
+        );
+        entries += c.len();
+        differ += g.iter().filter(|j| !c.contains(j)).count();
+        differ += c.iter().filter(|j| !g.contains(j)).count();
+    }
+    assert!(entries > 100, "{entries} entries in the f64 lists");
+    assert!(
+        differ * 100 <= entries,
+        "{differ} of {entries} tile entries differ from the f64 binning"
+    );
+    let eye = look.camera.eye;
+    let (tx, _) = tiles::grid(size);
+    let mut crossings = 0;
+    for py in 0..size.1 {
+        for px in 0..size.0 {
+            let nx = (px as f64 + 0.5) / size.0 as f64 * 2.0 - 1.0;
+            let ny = 1.0 - (py as f64 + 0.5) / size.1 as f64 * 2.0;
+            let far = inv * DVec4::new(nx, ny, 1.0, 1.0);
+            let far = far.truncate() / far.w;
+            let dir = (far - eye).normalize();
+            let list = &lists[((py / tiles::TILE) * tx + px / tiles::TILE) as usize];
+            for (j, c) in caps.iter().enumerate() {
+                let crosses = curve::ray_capsule(eye, dir, c.a, c.b, c.influence)
+                    .is_some_and(|(a, b)| b >= 0.0 && a <= (far - eye).length());
+                if crosses {
+                    crossings += 1;
+                    assert!(
+                        list.contains(&(j as u32)),
+                        "pixel ({px}, {py}): segment {j} crosses its ray but is not in its tile"
+                    );
+                }
+            }
+        }
+    }
+    assert!(crossings > 1000, "{crossings} crossings");
+    let _ = DVec3::ZERO;
+}
+
+/// A ray through more influence capsules than its list holds (sixty thin wisps one behind
+/// the other) keeps the first and counts the rest: the stats say so, `Stage::warnings`
+/// names it, and the f64 twin counts the same overflow on the centre ray.
+#[test]
+fn overflowing_ray_lists_are_counted_and_reported() {
+    use kami::systems::wisps::field;
+    let mut skeletons = String::new();
+    for k in 0..60 {
+        let z = -12.0 + 0.4 * k as f64;
+        skeletons += &format!(
+            "Skeleton(nodes: [Node(p: (-3.0, 0.0, {z}), r: 0.5, w: 2.5), Node(p: (3.0, 0.0, {z}), r: 0.5, w: 2.5)]),"
+        );
+    }
+    let text = format!(
+        "Scene(head: Head(radii: (1.0, 1.0, 1.0), visible: false), \
+         wisps: Some(Wisps(threshold: 0.5, skeletons: [{skeletons}])), \
+         camera: CameraDesc(eye: (0.0, 0.0, 40.0), target: (0.0, 0.0, 0.0), fov_y: 20.0), \
+         render: RenderSettings(supersample: 1, msaa: 1))"
+    );
+    let scene = Scene::from_ron(&text, "stack.ron").unwrap();
+    let stats = march_stats(&scene, (32, 32));
+    assert!(stats.ray_overflow > 0, "{stats:?}");
+    assert!(!stats.complete());
+    let gpu = common::gpu();
+    let mut stage = kami::stage::Stage::new(
+        &gpu,
+        &scene,
+        kami::stage::target::OUTPUT_FORMAT,
+        kami::stage::Quality::of(&scene),
+    )
+    .unwrap();
+    let out = kami::stage::target::Offscreen::new(&gpu, (32, 32)).unwrap();
+    let look = stage.look();
+    let mut enc = gpu.device.create_command_encoder(&Default::default());
+    stage
+        .render(&gpu, &mut enc, &out.view, (32, 32), &look)
+        .unwrap();
+    gpu.queue.submit([enc.finish()]);
+    let warnings = stage.warnings(&gpu).unwrap();
+    assert!(
+        warnings.iter().any(|w| w.contains("dropped")),
+        "{warnings:?}"
+    );
+    // The f64 twin on the ray down the axis.
+    let w = scene.wisps.as_ref().unwrap();
+    let segs = reference_segments(w);
+    let caps = kami::systems::wisps::curve::capsules(&segs, w.threshold);
+    let shells: Vec<Vec<f64>> = caps
+        .iter()
+        .map(|c| c.iter().map(|c| c.hit).collect())
+        .collect();
+    let ray = field::Ray {
+        origin: glam::DVec3::new(0.0, 0.0, 40.0),
+        dir: glam::DVec3::new(0.0, 0.0, -1.0),
+        t0: 0.0,
+        t1: 100.0,
+    };
+    let cands = field::candidates(&caps, &shells, &ray);
+    assert_eq!(cands.len(), 60);
+    let lines = field::Outlines {
+        per_segment: &[],
+        taper: 0.0,
+    };
+    let (hit, count) = field::march_tiled(&segs, &cands, 0.5, &w.march, &ray, 0.0, &lines);
+    assert_eq!(count.overflow, 60 - field::RAY_SLOTS as u32);
+    assert!(matches!(hit, field::Hit::Surface { .. }), "{hit:?}");
+}
+
+/// Tile lists that cannot fit the adapter are refused before anything is allocated, with
+/// the numbers.
+#[test]
+fn tile_lists_too_large_for_the_adapter_are_refused() {
+    let gpu = common::gpu();
+    let err = kami::systems::wisps::tiles::capacity(&gpu, 500, 1 << 40).unwrap_err();
+    let text = err.to_string();
+    assert!(text.contains("tile lists"), "{text}");
+    assert!(text.contains(&format!("{}", (1u64 << 40) * 64)), "{text}");
 }

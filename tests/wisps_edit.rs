@@ -45,6 +45,7 @@ fn skel(ps: &[[f64; 3]]) -> Skeleton {
     Skeleton {
         name: String::new(),
         nodes: ps.iter().map(|&p| node(p)).collect(),
+        outline: 1.0,
     }
 }
 

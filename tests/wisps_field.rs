@@ -847,3 +847,105 @@ fn reference_image_has_surface_outline_and_background() {
     runs.dedup();
     assert_eq!(runs, vec![0, 1, 2, 1, 0], "row {row}: {kinds:?}");
 }
+
+/// A tangle of curved, tapering wisps crossing one another (the crown's case: many wisps
+/// add density at a point).
+fn tangle(rng: &mut Rng, wisps: usize) -> Vec<Vec<Segment>> {
+    (0..wisps)
+        .map(|_| {
+            let mut sk = skeleton(rng, 0.6);
+            for n in &mut sk {
+                n.0 *= 0.25;
+                n.2 = rng.range(0.3, 0.9);
+            }
+            curve::segments(&sk)
+        })
+        .collect()
+}
+
+/// Every point inside the surface lies in the hit capsule of some segment (the march
+/// samples nowhere else): on random points of crowded tangles where up to a dozen wisps
+/// blend, none inside is outside every hit capsule. Without the wisp count K (each
+/// segment's capsule as if it were alone) blended points fall outside.
+#[test]
+fn hit_capsules_hold_every_inside_point() {
+    let mut rng = Rng::new(23, 1);
+    let (mut inside, mut blended) = (0, 0);
+    for _ in 0..20 {
+        let wisps = tangle(&mut rng, 12);
+        let threshold = 0.5;
+        let caps = curve::capsules(&wisps, threshold);
+        for _ in 0..4000 {
+            let p = rand_vec(&mut rng, 3.0);
+            let f = field::field(&wisps, threshold, p, Distance::Newton);
+            if f.rho < 0.0 {
+                continue;
+            }
+            inside += 1;
+            let alone = wisps
+                .iter()
+                .filter(|w| field::wisp_density(w, p, Distance::Newton).rho > 0.0)
+                .count();
+            blended += usize::from(alone > 1);
+            let held = caps
+                .iter()
+                .flatten()
+                .any(|c| c.hit >= 0.0 && curve::chord_distance(p, c.a, c.b) <= c.hit);
+            assert!(held, "inside point {p} is in no hit capsule");
+        }
+    }
+    assert!(
+        inside > 2000 && blended > 500,
+        "{inside} inside, {blended} blended"
+    );
+}
+
+/// No point within the clear step of a sample is inside the surface: random points of the
+/// tangles, and around each many points at up to the step (on the sphere and within it).
+#[test]
+fn clear_step_never_reaches_the_surface() {
+    let mut rng = Rng::new(24, 1);
+    let (mut moved, mut long) = (0, 0);
+    for _ in 0..10 {
+        let wisps = tangle(&mut rng, 8);
+        let threshold = 0.5;
+        let pieces: Vec<Vec<_>> = wisps
+            .iter()
+            .map(|w| w.iter().map(curve::pieces).collect())
+            .collect();
+        let segs: Vec<field::Pieced> = wisps
+            .iter()
+            .enumerate()
+            .flat_map(|(wi, w)| {
+                let pieces = &pieces;
+                w.iter().enumerate().map(move |(si, s)| field::Pieced {
+                    wisp: wi,
+                    seg: s,
+                    pts: &pieces[wi][si].0,
+                    dev: &pieces[wi][si].1,
+                    outline: [1.0, 0.0, 0.0, 0.0],
+                })
+            })
+            .collect();
+        for _ in 0..400 {
+            let p = rand_vec(&mut rng, 4.0);
+            let s = field::clear_step(&segs, threshold, p);
+            if !s.is_finite() || s <= 0.0 {
+                continue;
+            }
+            moved += 1;
+            long += usize::from(s > 0.2);
+            for k in 0..60 {
+                let r = if k < 30 { s } else { s * rng.range(0.0, 1.0) };
+                let q = p + rand_unit(&mut rng) * r * 0.999_999;
+                let f = field::field(&wisps, threshold, q, Distance::Newton);
+                assert!(
+                    f.rho < 0.0,
+                    "clear step {s} at {p}: {q} is inside (f = {})",
+                    f.rho
+                );
+            }
+        }
+    }
+    assert!(moved > 1000 && long > 100, "{moved} steps, {long} over 0.2");
+}

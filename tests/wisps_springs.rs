@@ -32,6 +32,7 @@ fn skeleton(name: &str, p: &[DVec3], r: f64) -> Skeleton {
                 w: 1.0,
             })
             .collect(),
+        outline: 1.0,
     }
 }
 

@@ -30,6 +30,17 @@ struct Draw {
     march: vec4<f32>,
     // x distance method (0 Newton, 1 polyline), y polyline pieces, z unused, w segments
     method: vec4<u32>,
+    // Toon controls (shaders/wisps/toon.wgsl): feathers x lit/shade, y shade/dark, z halo
+    // edge, w rim edge
+    feather: vec4<f32>,
+    // rgb linear rim colour, w rim width (0: no rim)
+    rim: vec4<f32>,
+    // x cos, y sin of the halo's latitude offset, z halo strength, w 1 when halo_shadow is
+    // the halo's colour over the shadow tones
+    halo: vec4<f32>,
+    halo_shadow: vec4<f32>,
+    // x outline taper (root to tip), yzw unused
+    taper: vec4<f32>,
 }
 
 // Keep in sync with GpuSegment in src/systems/wisps/march.rs.
@@ -68,6 +79,8 @@ struct View {
 @group(1) @binding(7) var<storage, read_write> stats: array<atomic<u32>, 8>;
 // Per segment PIECES + 1 curve points with each piece's chord deviation (w).
 @group(1) @binding(8) var<storage, read> pieces: array<vec4<f32>>;
+// Per segment: outline scale, u at its start and end (`toon::segment_outlines`).
+@group(1) @binding(9) var<storage, read> outlines: array<vec4<f32>>;
 
 const PIECES: u32 = 8u;
 
@@ -234,6 +247,8 @@ struct Sample {
     grad: vec3<f32>,
     // The Lipschitz step (0 where no segment is near or f >= 0).
     step: f32,
+    // The outline width multiplier of the densest wisp here (1 where none is near).
+    outline: f32,
 }
 
 // Candidates of this pixel's ray, in segment order: the segment, its influence interval
@@ -342,15 +357,23 @@ fn field(t: f32, v: vec3<f32>) -> Sample {
     var wisp_max = 0.0;
     var wisp_grad = vec3<f32>(0.0);
     var wisp_lip = 0.0;
+    var wisp_o = 1.0;
+    var densest = 0.0;
+    var densest_o = 1.0;
     for (var k = 0u; k < n_cand; k++) {
         if (c_in[k] > t || c_out[k] < t) {
             continue;
         }
-        let s = segments[c_seg[k]];
+        let j = c_seg[k];
+        let s = segments[j];
         if (s.hi.w != wisp) {
             sum += wisp_max;
             grad += wisp_grad;
             lip += wisp_lip;
+            if (wisp_max > densest) {
+                densest = wisp_max;
+                densest_o = wisp_o;
+            }
             wisp = s.hi.w;
             wisp_max = 0.0;
             wisp_grad = vec3<f32>(0.0);
@@ -384,6 +407,7 @@ fn field(t: f32, v: vec3<f32>) -> Sample {
         let rho = w * fd(d / r);
         if (rho > wisp_max) {
             wisp_max = rho;
+            wisp_o = outline_scale(outlines[j], tc);
             if (d > 0.0) {
                 wisp_grad = w * fd_prime(d / r) / r * off / d;
             } else {
@@ -394,8 +418,12 @@ fn field(t: f32, v: vec3<f32>) -> Sample {
     sum += wisp_max;
     grad += wisp_grad;
     lip += wisp_lip;
+    if (wisp_max > densest) {
+        densest_o = wisp_o;
+    }
     out.f = sum - draw.march.x;
     out.grad = grad;
+    out.outline = densest_o;
     out.step = 0.0;
     if (lip > 0.0 && out.f < 0.0) {
         out.step = min(-out.f / lip, far_gap);
@@ -575,7 +603,9 @@ fn fs(in: VOut) -> FOut {
         }
         steps++;
         let p = eye + t * dir;
-        let eps = eps_per_t * t;
+        // The widest outline any wisp may draw (view.size.w, the largest outline scale)
+        // decides whether a sample is off every outline.
+        let eps = eps_per_t * t * view.size.w;
         let clear = clear_step(t, p);
         if (clear > 2.0 * eps) {
             // Outside, and off the outline: move by the clear step less the outline width.
@@ -591,7 +621,8 @@ fn fs(in: VOut) -> FOut {
             hit = true;
             break;
         }
-        let in_shell = smp.f + length(smp.grad) * eps >= 0.0;
+        let eps_here = eps_per_t * t * smp.outline;
+        let in_shell = smp.f + length(smp.grad) * eps_here >= 0.0;
         if (in_shell && shell_t < 0.0) {
             shell_t = t;
         }
@@ -600,7 +631,7 @@ fn fs(in: VOut) -> FOut {
         }
         var step = min(max(smp.step, clear) * draw.march.y, next_in - t);
         if (in_shell) {
-            step = max(step, 0.25 * eps);
+            step = max(step, 0.25 * eps_here);
         }
         step = max(step, 1e-6 * (1.0 + t));
         t_prev = t;
@@ -632,7 +663,7 @@ fn fs(in: VOut) -> FOut {
         if (dot(g, g) > 0.0) {
             n = -normalize(g);
         }
-        out.color = vec4<f32>(toon(n), 1.0);
+        out.color = vec4<f32>(toon_at(n, -dir), 1.0);
         out.depth = depth_of(p);
         if (counting) {
             atomicAdd(&stats[6], 1u);

@@ -15,7 +15,8 @@ struct View {
     inv_view_proj: mat4x4<f32>,
     // xyz the eye, w the outline shell's half-width per unit distance (0: no outline)
     eye: vec4<f32>,
-    // x width, y height (samples), z tile side (samples), w unused
+    // x width, y height (samples), z tile side (samples), w the largest outline scale of a
+    // wisp (the outline shell is that much wider)
     size: vec4<f32>,
     // x tiles across, y tiles down, z list capacity per tile, w segments
     tiles: vec4<u32>,
@@ -68,7 +69,7 @@ fn bound(@builtin(global_invocation_id) gid: vec3<u32>) {
     var shell = -1.0;
     if (c.b.w >= 0.0) {
         let far = length(view.eye.xyz - 0.5 * (a + b)) + 0.5 * length(b - a) + infl;
-        shell = c.b.w + 2.0 * view.eye.w * far;
+        shell = c.b.w + 2.0 * view.eye.w * view.size.w * far;
     }
     shells[i] = shell;
     // The influence capsule's box, cut by the influence box (both hold the influence).

@@ -278,7 +278,9 @@ impl ViewerState {
     /// `lod=fraction` (fixed, 0..1),
     /// `fur.hairs=N`, `fur.stiffness=s` (all coats), `fur.culling=on|off`,
     /// `wisps.edit=on|off` (the skeleton editor's mouse mode and overlay),
-    /// `wisps.max_steps=N` (the ray march's step budget: cheap previews), `strips.edit=on|off`
+    /// `wisps.max_steps=N` (the ray march's step budget: cheap previews), the Toon panel's
+    /// controls `wisps.toon.NAME=VALUE` and the wisps' outline scales `wisps.outline[.N]=S`
+    /// (`systems::wisps::panel::set_key`), `strips.edit=on|off`
     /// and `eff.paint=on|off` (the strips' and the EFF brush's mouse modes), `strips.key`
     /// (a first key now for the picked strip), `seek=FRAME`, `save=FILE`, and scripted mouse
     /// events `mouse.press=x,y`, `mouse.move=x,y`, `mouse.release` (window pixels).
@@ -402,6 +404,13 @@ impl ViewerState {
                     .ok_or_else(|| bad("the scene has no wisps".into()))?
                     .march
                     .max_steps = int()?;
+            }
+            k if k.starts_with("wisps.toon.") || k.starts_with("wisps.outline") => {
+                let w = next
+                    .wisps
+                    .as_mut()
+                    .ok_or_else(|| bad("the scene has no wisps".into()))?;
+                crate::systems::wisps::panel::set_key(w, key, value).map_err(bad)?;
             }
             "wisps.edit" => {
                 let edit = on()?;

@@ -387,6 +387,13 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
         })?;
     }
 
+    // The hand-written sections that follow the measured tables (from "## Toon controls" on)
+    // are kept from the report this one replaces.
+    if let Ok(old) = std::fs::read_to_string(out.join("wisps.md")) {
+        if let Some(at) = old.find("\n## Toon controls") {
+            md.push_str(&old[at..]);
+        }
+    }
     write_report(out, "wisps", &md, &csv)?;
     for (name, img) in [
         ("wisps_cost.png", cost_plot),

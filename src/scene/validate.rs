@@ -760,6 +760,12 @@ fn validate_wisps(w: &wisps::Wisps) -> Result<()> {
                 &format!("at most {MAX_WISP_NODES}"),
             ));
         }
+        within(
+            &format!("wisps.skeletons[{si}].outline"),
+            sk.outline,
+            0.0,
+            8.0,
+        )?;
         for (ni, n) in sk.nodes.iter().enumerate() {
             vec3(&format!("{f}[{ni}].p"), n.p, BIG)?;
             positive(&format!("{f}[{ni}].r"), n.r, BIG)?;
@@ -795,6 +801,18 @@ fn validate_wisps(w: &wisps::Wisps) -> Result<()> {
     within("wisps.toon.t_dark", t.t_dark, 0.0, 1.0)?;
     within("wisps.toon.t_specular", t.t_specular, -1.0, 1.0)?;
     within("wisps.toon.outline_width", t.outline_width, 0.0, 32.0)?;
+    within("wisps.toon.outline_taper", t.outline_taper, 0.0, 1.0)?;
+    within("wisps.toon.diffuse_feather", t.diffuse_feather, 0.0, 1.0)?;
+    within("wisps.toon.dark_feather", t.dark_feather, 0.0, 1.0)?;
+    within("wisps.toon.halo_feather", t.halo_feather, 0.0, 1.0)?;
+    within("wisps.toon.halo_offset", t.halo_offset, -90.0, 90.0)?;
+    within("wisps.toon.halo_strength", t.halo_strength, 0.0, 4.0)?;
+    if let Some(c) = t.halo_shadow {
+        color("wisps.toon.halo_shadow", c, 1.0)?;
+    }
+    color("wisps.toon.rim", t.rim, 1.0)?;
+    within("wisps.toon.rim_width", t.rim_width, 0.0, 1.0)?;
+    within("wisps.toon.rim_feather", t.rim_feather, 0.0, 1.0)?;
     let m = &w.march;
     if m.max_steps == 0 || m.max_steps > 4096 {
         return Err(bad(

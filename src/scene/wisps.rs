@@ -43,6 +43,10 @@ pub struct Skeleton {
     #[serde(default)]
     pub name: String,
     pub nodes: Vec<Node>,
+    /// This wisp's outline width as a multiple of `toon.outline_width` (1: as every wisp;
+    /// 0: none), before `toon.outline_taper` thins it toward the tip.
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub outline: f64,
 }
 
 /// A skeleton node (Fig. 3).
@@ -61,6 +65,10 @@ pub struct Node {
 
 fn one() -> f64 {
     1.0
+}
+
+fn is_one(v: &f64) -> bool {
+    *v == 1.0
 }
 
 /// Distance from a ray point to a skeleton's spline (section 5.1).
@@ -151,6 +159,44 @@ pub struct Toon {
     /// Outline width in pixels (0: none).
     #[serde(default = "default_outline_width")]
     pub outline_width: f64,
+    /// How much the outline thins from root to tip along each wisp's drawn length: the
+    /// width at arc-length fraction u is `outline_width * skeleton.outline * (1 - taper u)`
+    /// (0: even, 1: nothing at the tip). Read by the ray march per segment
+    /// (`systems::wisps::toon::segment_outlines`).
+    #[serde(default)]
+    pub outline_taper: f64,
+    /// Feather of the lit/shade step: the width in I_diff over which the lit tone blends
+    /// into the shade tone, centred on t_diffuse (0: the hard step of eq 20).
+    #[serde(default)]
+    pub diffuse_feather: f64,
+    /// Feather of the shade/dark step (three tones), centred on t_dark.
+    #[serde(default)]
+    pub dark_feather: f64,
+    /// Feather of the halo's edge: the width in I_spec over which it fades in, centred on
+    /// t_specular (the halo's width).
+    #[serde(default)]
+    pub halo_feather: f64,
+    /// Latitude shift of the halo band, degrees (positive: toward the crown): the band is
+    /// where cos(latitude difference to the light - offset) > t_specular.
+    #[serde(default)]
+    pub halo_offset: f64,
+    /// Multiplier of the halo colour added in the band (1: c_specular as is; 0: no halo).
+    #[serde(default = "one")]
+    pub halo_strength: f64,
+    /// The halo's colour over the shade and dark tones (blended by the lit/shade step);
+    /// `None`: c_specular everywhere.
+    #[serde(default)]
+    pub halo_shadow: Option<[f32; 3]>,
+    /// Rim light colour, added near the silhouette on the shade and dark tones (the side
+    /// facing away from the light).
+    #[serde(default = "default_rim")]
+    pub rim: [f32; 3],
+    /// Rim width: the rim is where N·V < rim_width (V towards the eye; 0: no rim).
+    #[serde(default)]
+    pub rim_width: f64,
+    /// Feather of the rim's inner edge, in N·V, centred on rim_width.
+    #[serde(default)]
+    pub rim_feather: f64,
 }
 
 fn default_lit() -> [f32; 3] {
@@ -180,6 +226,9 @@ fn default_outline() -> [f32; 3] {
 fn default_outline_width() -> f64 {
     1.5
 }
+fn default_rim() -> [f32; 3] {
+    [0.55, 0.62, 0.95]
+}
 
 impl Default for Toon {
     fn default() -> Self {
@@ -194,6 +243,16 @@ impl Default for Toon {
             t_specular: default_t_specular(),
             outline: default_outline(),
             outline_width: default_outline_width(),
+            outline_taper: 0.0,
+            diffuse_feather: 0.0,
+            dark_feather: 0.0,
+            halo_feather: 0.0,
+            halo_offset: 0.0,
+            halo_strength: 1.0,
+            halo_shadow: None,
+            rim: default_rim(),
+            rim_width: 0.0,
+            rim_feather: 0.0,
         }
     }
 }

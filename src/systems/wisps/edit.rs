@@ -252,6 +252,8 @@ enum Merge {
     Position(Sel),
     Radius(Sel),
     Weight(Sel),
+    /// A skeleton's outline scale.
+    Outline(usize),
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -497,6 +499,22 @@ impl Editor {
         })
     }
 
+    /// Set the selected node's skeleton's outline scale (`Skeleton::outline`, clamped into
+    /// [0, 8]).
+    pub fn set_outline(&mut self, w: &mut Wisps, scale: f64) -> Outcome {
+        let sel = match self.need(w) {
+            Ok(s) => s,
+            Err(e) => return self.say(Err(e)),
+        };
+        self.act(w, Some(Merge::Outline(sel.skeleton)), |w, _| {
+            if !scale.is_finite() {
+                return Err("the outline scale must be a finite number".into());
+            }
+            w.skeletons[sel.skeleton].outline = scale.clamp(0.0, 8.0);
+            Ok(format!("set the outline of skeleton {}", sel.skeleton))
+        })
+    }
+
     /// Multiply the selected node's radius by `factor` (the mouse wheel).
     pub fn scale_radius(&mut self, w: &mut Wisps, factor: f64) -> Outcome {
         match self.selected(w) {
@@ -738,6 +756,7 @@ impl Editor {
                     let sk = Skeleton {
                         name: format!("wisp {}", w.skeletons.len()),
                         nodes,
+                        outline: 1.0,
                     };
                     (sk, 0, "added a default skeleton".to_string())
                 }

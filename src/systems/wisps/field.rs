@@ -1,10 +1,9 @@
 //! The blobby hair field (Sakai 2014, eqs 8-9), its sphere-traced ray march with a silhouette
-//! shell, and the head-frame toon shading (eqs 14-22). f64 reference ("the truth") of the
-//! wisps ray-march shader, which follows the same steps.
+//! shell, and a reference image shaded by `super::toon` (eqs 14-22 and the toon controls).
+//! f64 reference ("the truth") of the wisps ray-march shader, which follows the same steps.
 
 use super::curve::{self, Capsule, Segment};
-use crate::gpu::gpu_data::linear_rgb;
-use crate::scene::wisps::{Distance, March, Tones, Toon};
+use crate::scene::wisps::{Distance, March, Toon};
 use glam::{DMat3, DMat4, DVec3, DVec4};
 
 /// Density profile of eq 9 (C1: fd and fd' continuous at 1/3 and 1).
@@ -346,56 +345,13 @@ pub fn march(
     }
 }
 
-/// Toon intensities (eqs 14-19) in the head's frame: (I_spec, I_diff, I_lat, I_lon).
-/// `n`, `l` (towards the light) are world directions, `head_rot` the head's rotation.
-/// Kami's up is y, so the paper's E_z is local +y, E_x local +x, E_y local +z. Both vectors
-/// are normalised here (a no-op for unit inputs). Where N or L points straight up or down
-/// (horizontal length < 1e-6) it has no longitude: the product term of eq 19 is 0.
-pub fn intensities(n: DVec3, l: DVec3, head_rot: DMat3) -> (f64, f64, f64, f64) {
-    let rt = head_rot.transpose();
-    let (n, l) = ((rt * n).normalize_or_zero(), (rt * l).normalize_or_zero());
-    let (n_lat, l_lat) = (n.y, l.y);
-    let (n_h, l_h) = (n.x.hypot(n.z), l.x.hypot(l.z));
-    let i_spec = n_lat * l_lat + n_h * l_h;
-    let i_lat = 0.5 * (n_lat + 1.0);
-    let prod = if n_h < 1e-6 || l_h < 1e-6 {
-        0.0
-    } else {
-        (l.x / l_h) * (n.x / n_h) + (l.z / l_h) * (n.z / n_h)
-    };
-    let i_lon = 0.5 * (prod + 1.0);
-    (i_spec, i_lat * i_lon, i_lat, i_lon)
-}
-
-/// sRGB scene colour to linear f64.
-pub fn linear(c: [f32; 3]) -> DVec3 {
-    let l = linear_rgb(c);
-    DVec3::new(l[0] as f64, l[1] as f64, l[2] as f64)
-}
-
-/// Toon colour (linear RGB, eqs 20-22): the diffuse tone by thresholds on I_diff plus the
-/// specular colour where I_spec > t_specular, clamped to 1.
-pub fn shade(n: DVec3, l: DVec3, head_rot: DMat3, toon: &Toon) -> DVec3 {
-    let (i_spec, i_diff, _, _) = intensities(n, l, head_rot);
-    let c_diff = if i_diff > toon.t_diffuse {
-        linear(toon.diffuse)
-    } else {
-        match toon.tones {
-            Tones::Two => linear(toon.shade),
-            Tones::Three if i_diff > toon.t_dark => linear(toon.shade),
-            Tones::Three => linear(toon.dark),
-        }
-    };
-    let c_spec = if i_spec > toon.t_specular {
-        linear(toon.specular)
-    } else {
-        DVec3::ZERO
-    };
-    (c_diff + c_spec).min(DVec3::ONE)
-}
+// The toon shading (eqs 14-22 and the toon controls) lives in `super::toon`; re-exported
+// for the callers that know it here.
+pub use super::toon::{intensities, linear, shade, shade_at};
 
 /// CPU reference image: one ray per pixel centre from `eye` through the far-plane point of
 /// the pixel (ndc z = 1 unprojected; wgpu depth 0..1), t0 = 0, t1 = distance to that point.
+/// Surfaces are shaded by `toon::shade_at` seen along the pixel's ray (the rim's V).
 /// Returns linear colours and the NDC depth (z/w under view_proj) of each hit or outline,
 /// NaN for a miss; row-major, y down. No head, no anti-aliasing. Every ray is marched by
 /// `march` over every segment from the eye: the truth the tiled march is measured against.
@@ -427,7 +383,9 @@ pub fn render_reference(
 }
 
 /// `render_reference` by the tiled march's steps (`march_tiled`, every segment a candidate
-/// of every ray, in f64): the GPU march's twin. Also returns the counters summed over rays.
+/// of every ray, in f64): the GPU march's twin. `outlines[wisp][segment]` as
+/// `toon::segment_outlines` (empty: every wisp's scale 1). Also returns the counters summed
+/// over rays.
 #[allow(clippy::too_many_arguments)]
 pub fn render_reference_tiled(
     wisps: &[Vec<Segment>],
@@ -441,17 +399,34 @@ pub fn render_reference_tiled(
     focal_px: f64,
     size: (u32, u32),
     background_linear: DVec3,
+    outlines: &[Vec<[f32; 4]>],
 ) -> (Vec<DVec3>, Vec<f64>, MarchCount) {
     let eps_per_t = toon.outline_width / focal_px;
+    let lines = Outlines {
+        per_segment: outlines,
+        taper: toon.outline_taper,
+    };
     let caps = curve::capsules(wisps, threshold);
     let shells: Vec<Vec<f64>> = caps
         .iter()
-        .map(|w| w.iter().map(|c| shell_radius(c, eye, eps_per_t)).collect())
+        .map(|w| {
+            w.iter()
+                .map(|c| shell_radius(c, eye, eps_per_t * lines.widest()))
+                .collect()
+        })
         .collect();
     let total = std::cell::Cell::new(MarchCount::default());
     let trace = |ray: &Ray| {
         let cands = candidates(&caps, &shells, ray);
-        let (hit, n) = march_tiled(wisps, &cands, threshold, march_params, ray, eps_per_t);
+        let (hit, n) = march_tiled(
+            wisps,
+            &cands,
+            threshold,
+            march_params,
+            ray,
+            eps_per_t,
+            &lines,
+        );
         let mut sum = total.get();
         sum.steps += n.steps;
         sum.candidates += n.candidates;
@@ -516,9 +491,10 @@ fn render_rays(
                 t1,
             };
             let (c, z) = match trace(&ray) {
-                Hit::Surface { pos, normal, .. } => {
-                    (shade(normal, light, look.head_rot, look.toon), depth(pos))
-                }
+                Hit::Surface { pos, normal, .. } => (
+                    shade_at(normal, light, -ray.dir, look.head_rot, look.toon),
+                    depth(pos),
+                ),
                 Hit::Outline { t } => (outline, depth(ray.at(t))),
                 Hit::Miss => (look.background_linear, f64::NAN),
             };
@@ -598,13 +574,50 @@ pub fn candidates(caps: &[Vec<Capsule>], shells: &[Vec<f64>], ray: &Ray) -> Vec<
     out
 }
 
-/// A segment with its pieces (`curve::pieces`), as the tiled march reads it.
+/// Per-wisp outline widths: `per_segment[wisp][segment]` as `toon::segment_outlines` (empty:
+/// scale 1 everywhere), tapered by `taper` toward the tips.
+#[derive(Clone, Copy, Debug)]
+pub struct Outlines<'a> {
+    pub per_segment: &'a [Vec<[f32; 4]>],
+    pub taper: f64,
+}
+
+impl Outlines<'_> {
+    /// The entry of one segment.
+    pub fn of(&self, wisp: usize, seg: usize) -> [f32; 4] {
+        self.per_segment
+            .get(wisp)
+            .and_then(|w| w.get(seg))
+            .copied()
+            .unwrap_or([1.0, 0.0, 0.0, 0.0])
+    }
+
+    /// The largest outline scale (the march's shells are that much wider).
+    pub fn widest(&self) -> f64 {
+        self.per_segment
+            .iter()
+            .flatten()
+            .map(|o| f64::from(o[0]))
+            .fold(
+                if self.per_segment.is_empty() {
+                    1.0
+                } else {
+                    0.0
+                },
+                f64::max,
+            )
+    }
+}
+
+/// A segment with its pieces (`curve::pieces`) and outline entry, as the tiled march reads
+/// it.
 #[derive(Clone, Copy, Debug)]
 pub struct Pieced<'a> {
     pub wisp: usize,
     pub seg: &'a Segment,
     pub pts: &'a [DVec3; curve::PIECES + 1],
     pub dev: &'a [f64; curve::PIECES],
+    pub outline: [f32; 4],
 }
 
 /// Upper bounds of piece k of `p`: (distance from `v` at least, r at most, w at most).
@@ -673,8 +686,15 @@ pub fn clear_step(segs: &[Pieced], threshold: f64, v: DVec3) -> f64 {
 /// The field at `v` (as `field`, over `segs`) with the Lipschitz step of the tiled march:
 /// -f over the sum over wisps of the largest bound of each wisp's near segments (the
 /// gradient of a maximum is one of its terms'), never past where a far segment's influence
-/// begins (as in `probe`); 0 where no segment is near. Returns (f with its gradient, step).
-pub fn exact_sample(segs: &[Pieced], threshold: f64, v: DVec3, method: Distance) -> (Density, f64) {
+/// begins (as in `probe`); 0 where no segment is near. Returns (f with its gradient, step,
+/// the outline scale of the densest wisp here (1 where none is near)).
+pub fn exact_sample(
+    segs: &[Pieced],
+    threshold: f64,
+    v: DVec3,
+    method: Distance,
+    taper: f64,
+) -> (Density, f64, f64) {
     let mut f = Density {
         rho: -threshold,
         grad: DVec3::ZERO,
@@ -684,11 +704,16 @@ pub fn exact_sample(segs: &[Pieced], threshold: f64, v: DVec3, method: Distance)
     let mut wisp = usize::MAX;
     let mut best = Density::default();
     let mut wisp_lip: f64 = 0.0;
+    let (mut wisp_o, mut densest, mut densest_o) = (1.0, 0.0, 1.0);
     for p in segs {
         if p.wisp != wisp {
             f.rho += best.rho;
             f.grad += best.grad;
             lip += wisp_lip;
+            if best.rho > densest {
+                densest = best.rho;
+                densest_o = wisp_o;
+            }
             best = Density::default();
             wisp_lip = 0.0;
             wisp = p.wisp;
@@ -709,17 +734,22 @@ pub fn exact_sample(segs: &[Pieced], threshold: f64, v: DVec3, method: Distance)
         let dens = segment_density(s, v, method);
         if dens.rho > best.rho {
             best = dens;
+            let (_, t) = curve::distance(s, v, method);
+            wisp_o = super::toon::outline_scale(p.outline, t, taper);
         }
     }
     f.rho += best.rho;
     f.grad += best.grad;
     lip += wisp_lip;
+    if best.rho > densest {
+        densest_o = wisp_o;
+    }
     let step = if lip > 0.0 && f.rho < 0.0 {
         (-f.rho / lip).min(far_gap)
     } else {
         0.0
     };
-    (f, step)
+    (f, step, densest_o)
 }
 
 /// The tiled march of one ray (`fs` in `shaders/wisps/march.wgsl`; the GPU takes the
@@ -738,6 +768,7 @@ pub fn march_tiled(
     m: &March,
     ray: &Ray,
     eps_per_t: f64,
+    lines: &Outlines,
 ) -> (Hit, MarchCount) {
     let mut count = MarchCount {
         steps: 0,
@@ -745,6 +776,7 @@ pub fn march_tiled(
         overflow: cands.len().saturating_sub(RAY_SLOTS) as u32,
         exact: 0,
     };
+    let widest = lines.widest();
     let cands = &cands[..cands.len().min(RAY_SLOTS)];
     let pieced: Vec<_> = cands
         .iter()
@@ -760,10 +792,11 @@ pub fn march_tiled(
                 seg: &wisps[c.wisp][c.seg],
                 pts,
                 dev,
+                outline: lines.of(c.wisp, c.seg),
             })
             .collect()
     };
-    let exact = |t: f64| exact_sample(&active(t), threshold, ray.at(t), m.distance);
+    let exact = |t: f64| exact_sample(&active(t), threshold, ray.at(t), m.distance, lines.taper);
     let first = cands.iter().map(|c| c.s_in).fold(f64::INFINITY, f64::min);
     let end = cands
         .iter()
@@ -796,7 +829,8 @@ pub fn march_tiled(
             .fold(f64::INFINITY, f64::min);
         let segs = active(t);
         let clear = clear_step(&segs, threshold, ray.at(t));
-        let eps = eps_per_t * t;
+        // Off every outline: the widest any wisp may draw.
+        let eps = eps_per_t * t * widest;
         if clear > 2.0 * eps {
             if let Some(te) = entry {
                 return (Hit::Outline { t: te }, count);
@@ -809,7 +843,8 @@ pub fn march_tiled(
             continue;
         }
         count.exact += 1;
-        let (f, s_lip) = exact(t);
+        let (f, s_lip, o) = exact(t);
+        let eps = eps_per_t * t * o;
         let in_shell = f.rho + f.grad.length() * eps >= 0.0;
         if f.rho >= 0.0 {
             let Some(mut a) = t_prev else {

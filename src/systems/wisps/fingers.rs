@@ -934,6 +934,7 @@ pub fn skeleton_from_track(
     Ok(Skeleton {
         name: params.name.clone(),
         nodes,
+        outline: 1.0,
     })
 }
 
@@ -951,6 +952,7 @@ pub fn skeleton_ron(skeleton: &Skeleton) -> String {
                 w: round(n.w),
             })
             .collect(),
+        outline: skeleton.outline,
     };
     let cfg = ron::ser::PrettyConfig::new()
         .struct_names(true)

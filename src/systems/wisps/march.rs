@@ -71,6 +71,17 @@ pub struct GpuWispDraw {
     pub outline: [f32; 4],
     pub march: [f32; 4],
     pub method: [u32; 4],
+    /// Feathers (`toon::step`): x lit/shade, y shade/dark, z halo edge, w rim edge.
+    pub feather: [f32; 4],
+    /// rgb linear rim colour, w rim width (0: no rim).
+    pub rim: [f32; 4],
+    /// x cos, y sin of the halo's latitude offset, z halo strength, w 1 when the halo has
+    /// its own colour over the shadow tones.
+    pub halo: [f32; 4],
+    /// rgb linear halo colour over the shade and dark tones, w unused.
+    pub halo_shadow: [f32; 4],
+    /// x outline taper (root to tip, `toon::outline_scale`), yzw unused.
+    pub taper: [f32; 4],
 }
 
 /// The draw uniform for `wisps` with the head pose `head`.
@@ -88,6 +99,7 @@ pub fn draw_uniform(wisps: &Wisps, head: DMat4, segments: u32) -> GpuWispDraw {
         Distance::Newton => (0, 0),
         Distance::Polyline { pieces } => (1, pieces),
     };
+    let (offset_sin, offset_cos) = t.halo_offset.to_radians().sin_cos();
     GpuWispDraw {
         head: [col(0), col(1), col(2)],
         diffuse: rgb(t.diffuse, t.t_diffuse),
@@ -102,6 +114,21 @@ pub fn draw_uniform(wisps: &Wisps, head: DMat4, segments: u32) -> GpuWispDraw {
             wisps.march.refine as f32,
         ],
         method: [method, pieces, 0, segments],
+        feather: [
+            t.diffuse_feather as f32,
+            t.dark_feather as f32,
+            t.halo_feather as f32,
+            t.rim_feather as f32,
+        ],
+        rim: rgb(t.rim, t.rim_width),
+        halo: [
+            offset_cos as f32,
+            offset_sin as f32,
+            t.halo_strength as f32,
+            f32::from(u8::from(t.halo_shadow.is_some())),
+        ],
+        halo_shadow: rgb(t.halo_shadow.unwrap_or(t.specular), 0.0),
+        taper: [t.outline_taper as f32, 0.0, 0.0, 0.0],
     }
 }
 
@@ -312,6 +339,10 @@ pub struct MarchPass {
     /// Built at the first `prepare` (the tiles need the target size).
     tiles: Option<(TilePass, wgpu::BindGroup)>,
     segments: u32,
+    /// Per segment: outline scale and u at its ends (`toon::segment_outlines`).
+    outlines: wgpu::Buffer,
+    /// The largest outline scale of any wisp.
+    outline_max: f32,
     /// Count steps and candidates (benches; costs atomics per pixel).
     pub counting: bool,
 }
@@ -320,11 +351,20 @@ impl MarchPass {
     pub fn new(
         gpu: &Gpu,
         curves: &CurvePass,
+        wisps: &Wisps,
         frame_layout: &wgpu::BindGroupLayout,
         format: wgpu::TextureFormat,
         samples: u32,
     ) -> Result<MarchPass> {
         let device = &gpu.device;
+        let seg_outlines = super::toon::segment_outlines(wisps);
+        let outline_max = seg_outlines.iter().map(|o| o[0]).fold(0.0f32, f32::max);
+        let outlines = gpu::storage_buffer(
+            device,
+            "wisp outlines",
+            bytemuck::cast_slice(&seg_outlines),
+            wgpu::BufferUsages::empty(),
+        );
         let vf = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
         let fs = wgpu::ShaderStages::FRAGMENT;
         let layout = pipeline::layout(
@@ -340,6 +380,7 @@ impl MarchPass {
                 gpu::uniform_entry(6, vf),
                 gpu::storage_entry(7, fs, false),
                 gpu::storage_entry(8, fs, true),
+                gpu::storage_entry(9, fs, true),
             ],
         );
         let module = gpu::shader_module(device, "wisps/march", MARCH)?;
@@ -361,6 +402,8 @@ impl MarchPass {
             uniform,
             tiles: None,
             segments: curves.segment_count,
+            outlines,
+            outline_max,
             counting: false,
         })
     }
@@ -439,6 +482,7 @@ impl MarchPass {
                     &tp.view,
                     &tp.stats,
                     &curves.pieces,
+                    &self.outlines,
                 ],
             );
             self.tiles = Some((tp, bg));
@@ -453,6 +497,7 @@ impl MarchPass {
             view.view_proj,
             view.eye,
             eps_per_t,
+            self.outline_max,
             view.samples,
             tp.capacity,
             self.segments,

@@ -1,7 +1,8 @@
 //! Sakai's toon wisps: skeletons (`crate::scene::wisps`) interpolated by natural cubic
 //! splines and converted to Bézier segments (`curve`, on the GPU in `march::CurvePass`), the
 //! blobby density around them (`field`, the f64 reference of the ray march in
-//! `shaders/wisps/march.wgsl`), mass springs with RK4 (`springs`, on the GPU in
+//! `shaders/wisps/march.wgsl`), the toon shading and its controls (`toon`, the f64 reference
+//! of `shaders/wisps/toon.wgsl`), mass springs with RK4 (`springs`, on the GPU in
 //! `springs_gpu`), the depth-camera fingertip tracker that draws skeletons (`fingers`) and
 //! the Toon and Skeleton panels (`panel`).
 //!
@@ -18,6 +19,7 @@ pub mod panel;
 pub mod springs;
 pub mod springs_gpu;
 pub mod tiles;
+pub mod toon;
 
 use super::{Change, DrawSetup, FrameCtx, HairSystem, Kind, StepInfo, SystemStats, View};
 use crate::error::{KamiError, Result};
@@ -124,6 +126,7 @@ impl WispsSystem {
         let draw = MarchPass::new(
             gpu,
             &curves,
+            &wisps,
             setup.frame_layout,
             setup.format,
             setup.samples,

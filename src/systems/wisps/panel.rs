@@ -1,4 +1,6 @@
-//! The Toon panel (thresholds and colours of eqs 20-22, tones, outline, the ray march) and
+//! The Toon panel (thresholds and colours of eqs 20-22, tones, the toon controls: feathers,
+//! the halo's width, offset, strength and shadow colour, the rim light, the outline and its
+//! taper; the ray march), its `--set` keys (`set_key`), and
 //! the Skeletons panel (the skeleton editor of Fig. 9: the skeletons and their nodes, the
 //! selected node's radius, weight and position, adding and deleting nodes and skeletons,
 //! undo and redo, and the mouse mode of the 3D view). They only edit `ViewerState` (the
@@ -254,6 +256,16 @@ fn node_fields(ui: &mut Ui, w: &mut Wisps, ed: &mut Editor, sel: Sel) {
     if moved && p != n.p {
         let _ = ed.set_position(w, p);
     }
+    let before = w.skeletons[sel.skeleton].outline;
+    let mut o = before;
+    if ui
+        .add(Slider::new(&mut o, 0.0..=4.0).text("outline × (this wisp)"))
+        .on_hover_text("this wisp's outline width as a multiple of the Toon panel's")
+        .changed()
+        && o != before
+    {
+        let _ = ed.set_outline(w, o);
+    }
 }
 
 fn colour(ui: &mut Ui, label: &str, c: &mut [f32; 3]) {
@@ -278,14 +290,38 @@ fn toon(ui: &mut Ui, s: &mut ViewerState) {
     if t.tones == Tones::Three {
         colour(ui, "dark", &mut t.dark);
     }
-    colour(ui, "halo (c_specular)", &mut t.specular);
     ui.add(Slider::new(&mut t.t_diffuse, 0.0..=1.0).text("t_diffuse"));
+    ui.add(Slider::new(&mut t.diffuse_feather, 0.0..=0.5).text("lit/shade feather"))
+        .on_hover_text("0: a hard step; else the width in I_diff of a smooth blend");
     if t.tones == Tones::Three {
         ui.add(Slider::new(&mut t.t_dark, 0.0..=1.0).text("t_dark"));
+        ui.add(Slider::new(&mut t.dark_feather, 0.0..=0.5).text("shade/dark feather"));
     }
-    ui.add(Slider::new(&mut t.t_specular, 0.5..=1.0).text("t_specular (halo width)"));
+    ui.separator();
+    colour(ui, "halo (c_specular)", &mut t.specular);
+    ui.add(Slider::new(&mut t.t_specular, 0.5..=1.0).text("t_specular (halo width)"))
+        .on_hover_text("close to 1: a thin band");
+    ui.add(Slider::new(&mut t.halo_feather, 0.0..=0.2).text("halo feather"));
+    ui.add(Slider::new(&mut t.halo_offset, -45.0..=45.0).text("halo offset (° latitude)"))
+        .on_hover_text("moves the band up (toward the crown) or down");
+    ui.add(Slider::new(&mut t.halo_strength, 0.0..=2.0).text("halo strength"));
+    let mut own = t.halo_shadow.is_some();
+    ui.checkbox(&mut own, "halo colour of its own over the shade tones");
+    match (own, t.halo_shadow.as_mut()) {
+        (true, Some(c)) => colour(ui, "halo over shade", c),
+        (true, None) => t.halo_shadow = Some(t.specular),
+        (false, _) => t.halo_shadow = None,
+    }
+    ui.separator();
+    colour(ui, "rim light", &mut t.rim);
+    ui.add(Slider::new(&mut t.rim_width, 0.0..=1.0).text("rim width (N·V)"))
+        .on_hover_text("0: no rim; the rim lights the shadow side where N·V is below this");
+    ui.add(Slider::new(&mut t.rim_feather, 0.0..=0.5).text("rim feather"));
+    ui.separator();
     colour(ui, "outline", &mut t.outline);
     ui.add(Slider::new(&mut t.outline_width, 0.0..=6.0).text("outline (pixels)"));
+    ui.add(Slider::new(&mut t.outline_taper, 0.0..=1.0).text("outline taper (to the tip)"))
+        .on_hover_text("1: the outline thins to nothing at each wisp's tip");
     ui.separator();
     ui.add(
         Slider::new(&mut w.threshold, 0.05..=1.4)
@@ -387,4 +423,85 @@ pub fn overlay(ctx: &egui::Context, w: &Wisps, ed: &Editor, view: &super::edit::
             painter.circle_filled(c, dot, col);
         }
     }
+}
+
+/// The Toon panel's controls as `--set` keys: `wisps.toon.NAME=VALUE` for every field of
+/// `scene::wisps::Toon` (numbers; colours as `r,g,b`; `halo_shadow=r,g,b|none`;
+/// `tones=two|three`), and each skeleton's outline scale: `wisps.outline=S` (every skeleton)
+/// or `wisps.outline.N=S` (skeleton N). The caller validates the scene afterwards (ranges,
+/// finiteness, with the field's name).
+pub fn set_key(w: &mut Wisps, key: &str, value: &str) -> Result<(), String> {
+    let num = || -> Result<f64, String> {
+        value
+            .trim()
+            .parse::<f64>()
+            .map_err(|_| format!("{value:?} is not a number"))
+    };
+    let rgb = || -> Result<[f32; 3], String> {
+        let v: Vec<f32> = value
+            .split(',')
+            .map(|x| x.trim().parse::<f32>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| format!("{value:?} is not r,g,b"))?;
+        <[f32; 3]>::try_from(v).map_err(|_| format!("{value:?} is not r,g,b"))
+    };
+    if let Some(i) = key.strip_prefix("wisps.outline.") {
+        let n = w.skeletons.len();
+        let sk = i
+            .parse::<usize>()
+            .ok()
+            .and_then(|i| w.skeletons.get_mut(i))
+            .ok_or_else(|| format!("no skeleton {i:?} (the scene has {n})"))?;
+        sk.outline = num()?;
+        return Ok(());
+    }
+    if key == "wisps.outline" {
+        let s = num()?;
+        w.skeletons.iter_mut().for_each(|sk| sk.outline = s);
+        return Ok(());
+    }
+    let name = key
+        .strip_prefix("wisps.toon.")
+        .ok_or_else(|| format!("unknown key {key:?}"))?;
+    let t = &mut w.toon;
+    match name {
+        "tones" => {
+            t.tones = match value.trim() {
+                "two" | "2" => Tones::Two,
+                "three" | "3" => Tones::Three,
+                _ => return Err("expected two or three".into()),
+            }
+        }
+        "halo_shadow" => {
+            t.halo_shadow = match value.trim() {
+                "none" => None,
+                _ => Some(rgb()?),
+            }
+        }
+        "diffuse" => t.diffuse = rgb()?,
+        "shade" => t.shade = rgb()?,
+        "dark" => t.dark = rgb()?,
+        "specular" => t.specular = rgb()?,
+        "outline" => t.outline = rgb()?,
+        "rim" => t.rim = rgb()?,
+        _ => {
+            let field = match name {
+                "t_diffuse" => &mut t.t_diffuse,
+                "t_dark" => &mut t.t_dark,
+                "t_specular" => &mut t.t_specular,
+                "outline_width" => &mut t.outline_width,
+                "outline_taper" => &mut t.outline_taper,
+                "diffuse_feather" => &mut t.diffuse_feather,
+                "dark_feather" => &mut t.dark_feather,
+                "halo_feather" => &mut t.halo_feather,
+                "halo_offset" => &mut t.halo_offset,
+                "halo_strength" => &mut t.halo_strength,
+                "rim_width" => &mut t.rim_width,
+                "rim_feather" => &mut t.rim_feather,
+                _ => return Err(format!("unknown key {key:?}")),
+            };
+            *field = num()?;
+        }
+    }
+    Ok(())
 }

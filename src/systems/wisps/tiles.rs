@@ -31,7 +31,7 @@ pub struct GpuMarchView {
     pub inv_view_proj: [[f32; 4]; 4],
     /// xyz the eye, w the outline shell's half-width per unit distance (0: no outline).
     pub eye: [f32; 4],
-    /// width, height (samples), tile side, unused.
+    /// width, height (samples), tile side, the largest outline scale of a wisp.
     pub size: [f32; 4],
     /// tiles across, tiles down, list capacity, segments.
     pub tiles: [u32; 4],
@@ -101,10 +101,12 @@ pub fn capacity(gpu: &Gpu, segments: u32, tiles: u64) -> Result<u32> {
 }
 
 /// The view uniform for the march.
+#[allow(clippy::too_many_arguments)]
 pub fn march_view(
     view_proj: DMat4,
     eye: DVec3,
     eps_per_t: f64,
+    outline_max: f32,
     samples: (u32, u32),
     capacity: u32,
     segments: u32,
@@ -116,7 +118,7 @@ pub fn march_view(
         view_proj: view_proj.as_mat4().to_cols_array_2d(),
         inv_view_proj: view_proj.inverse().as_mat4().to_cols_array_2d(),
         eye: [e.x, e.y, e.z, eps_per_t as f32],
-        size: [samples.0 as f32, samples.1 as f32, TILE as f32, 0.0],
+        size: [samples.0 as f32, samples.1 as f32, TILE as f32, outline_max],
         tiles: [tx, ty, capacity, segments],
         flags: [u32::from(counting), 0, 0, 0],
     }
