@@ -475,6 +475,7 @@ fn mesh_head_springs_stay_out_of_the_sdf() {
     let frames = 48u32;
     let tolerance = -kami::scene::hull::SDF_EPS_OUT;
     let mut deep = [f64::INFINITY; 3];
+    let mut apart: Vec<f64> = Vec::new();
     for (case, collide) in [(0usize, true), (1, false)] {
         let sp = Springs {
             collide,
@@ -482,6 +483,8 @@ fn mesh_head_springs_stay_out_of_the_sdf() {
         };
         let lat = Lattice::build(&placed, &sp, head, &forces).unwrap();
         let mut gs = springs_gpu::SpringsGpu::new(&gpu, &lat, &sp, head, &forces).unwrap();
+        let m = Motion::new(&sp, head).unwrap();
+        let mut st = State::rest(&lat);
         for frame in 0..frames as u64 {
             let mut enc = gpu.device.create_command_encoder(&Default::default());
             gs.record(&gpu, &mut enc, &forces, frame, 1).unwrap();
@@ -494,21 +497,34 @@ fn mesh_head_springs_stay_out_of_the_sdf() {
                 .collect();
             let h = forces.head_at((frame + 1) as f64);
             deep[case] = deep[case].min(lowest(&lat, &got, &hull, h));
-        }
-        if collide {
-            // The f64 reference, frame by frame.
-            let m = Motion::new(&sp, head).unwrap();
-            let mut st = State::rest(&lat);
-            for frame in 0..frames as u64 {
+            if collide {
+                // The f64 reference, frame by frame, from its own rest state.
                 springs::run_frames(&lat, &m, &forces, &mut st, frame, 1);
-                let h = forces.head_at((frame + 1) as f64);
                 deep[2] = deep[2].min(lowest(&lat, &st.x, &hull, h));
+                apart.push(
+                    got.iter()
+                        .zip(&st.x)
+                        .map(|(g, c)| (*g - *c).length())
+                        .fold(0.0, f64::max),
+                );
             }
         }
     }
+    // Not bounded: this stiff lattice under a 25 degree turn is chaotic (f32 and f64 part
+    // by 1e-4 after 2 frames and 0.4 after 8, growing about 4x a frame in between, and as
+    // much with collision off, measured), as the toon_shake settings are (see
+    // `gpu_matches_cpu` in tests/wisps_springs.rs). The force sampling's contract is
+    // `gpu_springs_match_f64_under_wind_and_eff`.
+    let every = |k: usize| {
+        apart
+            .iter()
+            .step_by(k)
+            .map(|v| (v * 1e3).round() / 1e3)
+            .collect::<Vec<_>>()
+    };
     eprintln!(
-        "toon_mesh_head, {frames} frames: lowest SDF of a free point at a frame's end: GPU {:.4}, f64 reference {:.4}, GPU without collision {:.3}",
-        deep[0], deep[2], deep[1]
+        "toon_mesh_head, {frames} frames: lowest SDF of a free point at a frame's end: GPU {:+.2e}, f64 reference {:+.2e}, GPU without collision {:.3}; worst |GPU - f64| every 8 frames {:?}",
+        deep[0], deep[2], deep[1], every(8)
     );
     assert!(
         deep[0] >= tolerance,
