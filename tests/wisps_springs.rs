@@ -36,9 +36,13 @@ fn skeleton(name: &str, p: &[DVec3], r: f64) -> Skeleton {
     }
 }
 
+/// Standard gravity in cm/s², the scene's shared gravity of these cases (the springs keep
+/// none of their own).
+const G: DVec3 = DVec3::new(0.0, -980.0, 0.0);
+
 fn still(head: &Head) -> Forces {
     Forces {
-        gravity: DVec3::ZERO,
+        gravity: G,
         wind: Vec::new(),
         head_motion: Vec::new(),
         center: DVec3::from(head.center),
@@ -166,7 +170,9 @@ fn eq24_full_lattice_balances_or_refuses() {
     let p = styled(&head, 0.9, 8, 10.0);
     let sp = springs_with(400.0, true);
     let w = wisps(vec![skeleton("bang", &p, 1.0)], sp.clone(), vec![]);
-    let err = Lattice::build(&w, &sp, &head).unwrap_err().to_string();
+    let err = Lattice::build(&w, &sp, &head, &still(&head))
+        .unwrap_err()
+        .to_string();
     eprintln!("refusal: {err}");
     assert!(
         err.contains("wisp 0 (`bang`)") && err.contains("stiffness"),
@@ -180,10 +186,10 @@ fn eq24_full_lattice_balances_or_refuses() {
         .expect("the refusal names a stiffness");
     let sp = springs_with(above * 1.01, true);
     let w = wisps(vec![skeleton("bang", &p, 1.0)], sp.clone(), vec![]);
-    let lat = Lattice::build(&w, &sp, &head).unwrap();
+    let lat = Lattice::build(&w, &sp, &head, &still(&head)).unwrap();
     let fit = lat.fit.unwrap();
     let x: Vec<DVec3> = lat.points.iter().map(|p| p.rest).collect();
-    let f = lat.static_forces(&x, DVec3::from(sp.gravity));
+    let f = lat.static_forces(&x, G);
     let weight = sp.mass * 980.0;
     let worst = f.iter().map(|v| v.length()).fold(0.0, f64::max) / weight;
     eprintln!(
@@ -216,11 +222,11 @@ fn eq24_full_lattice_balances_or_refuses() {
             bundles,
         );
         let t = std::time::Instant::now();
-        let lat = Lattice::build(&w, &sp, &head).unwrap();
+        let lat = Lattice::build(&w, &sp, &head, &still(&head)).unwrap();
         let took = t.elapsed();
         let fit = lat.fit.unwrap();
         let x: Vec<DVec3> = lat.points.iter().map(|p| p.rest).collect();
-        let f = lat.static_forces(&x, DVec3::from(sp.gravity));
+        let f = lat.static_forces(&x, G);
         let worst = f.iter().map(|v| v.length()).fold(0.0, f64::max) / weight;
         eprintln!(
             "bundled {bundled}: {} components, {} springs, net force {worst:.2e} of a weight, {} refinement passes, built in {took:?}",
@@ -247,8 +253,8 @@ fn held_shape_holds_and_unheld_sags() {
             ..springs_with(2e4, hold)
         };
         let w = wisps(vec![skeleton("bang", &p, 1.0)], sp.clone(), vec![]);
-        let lat = Lattice::build(&w, &sp, &head).unwrap();
-        let m = Motion::new(&sp, &head);
+        let lat = Lattice::build(&w, &sp, &head, &still(&head)).unwrap();
+        let m = Motion::new(&sp, &head).unwrap();
         let mut st = State::rest(&lat);
         springs::run_frames(&lat, &m, &still(&head), &mut st, 0, 300);
         let d = drift(&lat, &st);
@@ -361,8 +367,8 @@ fn pinned_points_follow_the_head() {
             ..springs_with(2e4, true)
         };
         let w = wisps(vec![skeleton("bang", &p, 1.0)], sp.clone(), vec![]);
-        let lat = Lattice::build(&w, &sp, &head).unwrap();
-        let m = Motion::new(&sp, &head);
+        let lat = Lattice::build(&w, &sp, &head, &still(&head)).unwrap();
+        let m = Motion::new(&sp, &head).unwrap();
         let mut st = State::rest(&lat);
         let (mut pin_err, mut lag): (f64, f64) = (0.0, 0.0);
         let tip = lat.primaries() as usize - 1;
@@ -426,8 +432,8 @@ fn collision_keeps_points_out_of_the_head() {
             ..springs_with(2e4, false)
         };
         let w = wisps(vec![skeleton("draped", &p, 0.5)], sp.clone(), vec![]);
-        let lat = Lattice::build(&w, &sp, &head).unwrap();
-        let m = Motion::new(&sp, &head);
+        let lat = Lattice::build(&w, &sp, &head, &still(&head)).unwrap();
+        let m = Motion::new(&sp, &head).unwrap();
         let mut st = State::rest(&lat);
         let mut worst = f64::INFINITY;
         for frame in 0..60u64 {
@@ -476,14 +482,14 @@ fn stiff_case_stays_bounded_at_largest_stable_step() {
     let w = wisps(vec![skeleton("bang", &p, 1.0)], sp.clone(), vec![]);
     let f = shake(&head, 25.0, 6.0, 4);
     let rows = springs::work_precision(&w, &head, &f, 1.0, &[64, 128]).unwrap();
-    let lat = Lattice::build(&w, &sp, &head).unwrap();
+    let lat = Lattice::build(&w, &sp, &head, &still(&head)).unwrap();
     let reach = springs::reach(&lat);
     for integrator in [Integrator::Rk4, Integrator::SemiImplicitEuler] {
         let row = rows.iter().find(|r| r.integrator == integrator).unwrap();
         let dt = row.largest_stable_dt;
         let m = Motion {
             integrator,
-            ..Motion::new(&sp, &head)
+            ..Motion::new(&sp, &head).unwrap()
         };
         let dframes = dt / sp.frame_time;
         let steps = (10.0 / dt) as u64;
@@ -540,8 +546,8 @@ fn bundle_holds_then_releases() {
             sp.clone(),
             bundles,
         );
-        let lat = Lattice::build(&w, &sp, &head).unwrap();
-        let m = Motion::new(&sp, &head);
+        let lat = Lattice::build(&w, &sp, &head, &still(&head)).unwrap();
+        let m = Motion::new(&sp, &head).unwrap();
         let mut st = State::rest(&lat);
         let c = &mut change[bundle as usize];
         for frame in 0..90 {
@@ -614,9 +620,9 @@ fn gpu_matches_cpu() {
             sp.clone(),
             vec![],
         );
-        let lat = Lattice::build(&w, &sp, &head).unwrap();
-        let m = Motion::new(&sp, &head);
-        let mut gs = springs_gpu::SpringsGpu::new(&gpu, &lat, &sp, &head).unwrap();
+        let lat = Lattice::build(&w, &sp, &head, &still(&head)).unwrap();
+        let m = Motion::new(&sp, &head).unwrap();
+        let mut gs = springs_gpu::SpringsGpu::new(&gpu, &lat, &sp, &head, &f).unwrap();
         assert_eq!(gs.primaries(), 14);
         let mut st = State::rest(&lat);
         let t = std::time::Instant::now();
@@ -686,9 +692,9 @@ fn gpu_collision_matches_cpu() {
             ..springs_with(2e4, false)
         };
         let w = wisps(vec![skeleton("draped", &p, 0.5)], sp.clone(), vec![]);
-        let lat = Lattice::build(&w, &sp, &head).unwrap();
-        let m = Motion::new(&sp, &head);
-        let mut gs = springs_gpu::SpringsGpu::new(&gpu, &lat, &sp, &head).unwrap();
+        let lat = Lattice::build(&w, &sp, &head, &still(&head)).unwrap();
+        let m = Motion::new(&sp, &head).unwrap();
+        let mut gs = springs_gpu::SpringsGpu::new(&gpu, &lat, &sp, &head, &f).unwrap();
         let mut st = State::rest(&lat);
         let mut history = Vec::new();
         let (mut worst, mut deep): (f64, f64) = (0.0, f64::INFINITY);

@@ -4,6 +4,10 @@
 // dispatches for RK4 (rk1..rk4, stage states ping-ponged between scratch regions A and B so
 // no dispatch writes what its neighbours read) or two for semi-implicit Euler (kick, drift).
 // Kinematic points (inverse mass 0) take the head pose of the stage time.
+// The forces are the scene's shared ones, as accelerations: gravity and the keyed uniform
+// wind per substep (the slot), the EFF sampled at the point (forces/eff.wgsl, eff_field,
+// trilinear) times the gust scale of the stage's time. The head hull is the ellipsoid or a
+// mesh head's SDF (common/sdf.wgsl; SDF_HEAD false compiles the SDF path out).
 
 // Passed by the Rust side (`gpu::WORKGROUP`, `springs::NEWTON`).
 override WORKGROUP: u32;
@@ -15,17 +19,20 @@ struct Params {
     row_stride: u32,
     collide: u32,
     _p0: u32,
-    // xyz gravity, w step length (seconds)
-    gravity: vec4<f32>,
-    // xyz hull centre, w c_damp
+    // x step length (seconds), y c_damp
+    step: vec4<f32>,
+    // xyz hull centre, w 1 when the hull is the SDF in sdf_data (HeadHull::gpu_params)
     hull_center: vec4<f32>,
     hull_radii: vec4<f32>,
 }
 
-// One 256-byte slot per substep: x is the substep's index in this recording; its head poses
-// are heads[2x] (start), heads[2x + 1] (middle) and heads[2x + 2] (end).
+// One 256-byte slot per substep (keep in sync with GpuSubstep): index.x is the substep's
+// index in this recording; its head poses are heads[2x] (start), heads[2x + 1] (middle) and
+// heads[2x + 2] (end). field[k] is gravity plus the keyed wind at the start (k = 0), middle
+// (1) and end (2), w the EFF's gust scale there.
 struct Substep {
     index: vec4<u32>,
+    field: array<vec4<f32>, 3>,
 }
 
 // Keep in sync with GpuMassPoint.
@@ -53,6 +60,11 @@ struct Edge {
 // Regions of `count` entries: 0 velocity, 1 A.x, 2 A.v, 3 B.x, 4 B.v, 5 sum of k_x,
 // 6 sum of k_v.
 @group(0) @binding(6) var<storage, read_write> scratch: array<vec4<f32>>;
+// The scene's EFF (forces/eff.wgsl; flagged absent in eff.dims.w for none).
+@group(0) @binding(7) var<uniform> eff: EffGrid;
+@group(0) @binding(8) var<storage, read> eff_cells: array<vec4<f32>>;
+// The mesh head's SDF (common/sdf.wgsl; a placeholder for an ellipsoid head).
+@group(0) @binding(9) var<storage, read> sdf_data: array<f32>;
 
 const VEL: u32 = 0u;
 const AX: u32 = 1u;
@@ -86,8 +98,15 @@ fn neighbour(src: u32, o: u32) -> vec3<f32> {
     return scratch[at(src, o)].xyz;
 }
 
-// Eq 23 over the mass: spring forces, damping, gravity.
-fn accel(p: u32, xp: vec3<f32>, vp: vec3<f32>, src: u32) -> vec3<f32> {
+// The shared fields at world x at stage time k (0 start, 1 middle, 2 end): gravity, the
+// keyed wind and the EFF (springs::field_accel).
+fn field_accel(x: vec3<f32>, k: u32) -> vec3<f32> {
+    let f = substep.field[k];
+    return f.xyz + eff_field(x, 1u) * f.w;
+}
+
+// Eq 23 over the mass: spring forces, damping, and the shared fields at stage time k.
+fn accel(p: u32, xp: vec3<f32>, vp: vec3<f32>, src: u32, k: u32) -> vec3<f32> {
     let pt = points[p];
     var f = vec3<f32>(0.0);
     for (var e = pt.edges.x; e < pt.edges.y; e++) {
@@ -98,7 +117,7 @@ fn accel(p: u32, xp: vec3<f32>, vp: vec3<f32>, src: u32) -> vec3<f32> {
             f += d * (ed.k * (l - ed.rest) / l);
         }
     }
-    return (f - params.hull_center.w * vp) * pt.rest.w + params.gravity.xyz;
+    return (f - params.step.y * vp) * pt.rest.w + field_accel(xp, k);
 }
 
 // Head-local point of a rigid pose.
@@ -107,40 +126,48 @@ fn unpose(m: mat4x4<f32>, x: vec3<f32>) -> vec3<f32> {
     return transpose(r) * (x - m[3].xyz);
 }
 
-// Ours (see springs::collide): out of the posed hull by Newton steps along the gradient,
-// without velocity into the surface relative to the moving head.
+// Ours (see springs::push_out and springs::collide): out of the posed hull (ellipsoid or
+// SDF) by Newton steps along the gradient, without velocity into the surface relative to
+// the moving head.
 fn collide(x: ptr<function, vec3<f32>>, v: ptr<function, vec3<f32>>) {
     if params.collide == 0u {
         return;
     }
     let h0 = head(0u);
     let h1 = head(2u);
-    let hl = Hull(params.hull_center.xyz, params.hull_radii.xyz);
+    let hl = head_hull(params.hull_center, params.hull_radii);
     var q = unpose(h1, *x);
-    if hull_eval(hl, q) >= 0.0 {
+    if head_eval(hl, q) >= 0.0 {
         return;
     }
-    let goal = 1.5 * EPS_OUT;
+    let eps = head_eps(hl);
+    let goal = 1.5 * eps;
     for (var i = 0u; i < NEWTON; i++) {
-        let e = hull_eval(hl, q);
-        if e >= EPS_OUT && e <= 2.0 * EPS_OUT {
+        let e = head_eval(hl, q);
+        if e >= eps && e <= 2.0 * eps {
             break;
         }
-        let g = hull_gradient(hl, q);
+        let g = head_gradient(hl, q);
         let g2 = dot(g, g);
         if g2 < 1e-24 {
-            q = hl.center + vec3<f32>(0.0, hl.radii.y, 0.0);
+            if hl.sdf {
+                q += vec3<f32>(0.0, goal - e, 0.0);
+            } else {
+                q = hl.e.center + vec3<f32>(0.0, hl.e.radii.y, 0.0);
+            }
             continue;
         }
         q -= g * ((e - goal) / g2);
     }
-    let e = hull_eval(hl, q);
-    if e < EPS_OUT {
-        q = hl.center + (q - hl.center) * sqrt((1.0 + goal) / max(e + 1.0, 1e-12));
+    if !hl.sdf {
+        let e = hull_eval(hl.e, q);
+        if e < EPS_OUT {
+            q = hl.e.center + (q - hl.e.center) * sqrt((1.0 + goal) / max(e + 1.0, 1e-12));
+        }
     }
     *x = (h1 * vec4<f32>(q, 1.0)).xyz;
-    let n = normalize((h1 * vec4<f32>(hull_gradient(hl, q), 0.0)).xyz);
-    let surface = ((h1 - h0) * vec4<f32>(q, 1.0)).xyz / params.gravity.w;
+    let n = normalize((h1 * vec4<f32>(head_gradient(hl, q), 0.0)).xyz);
+    let surface = ((h1 - h0) * vec4<f32>(q, 1.0)).xyz / params.step.x;
     let into = dot(*v - surface, n);
     if into < 0.0 {
         *v -= into * n;
@@ -167,10 +194,10 @@ fn rk1(@builtin(global_invocation_id) id: vec3<u32>) {
         scratch[at(AX, p)] = posed(p, head(1u));
         return;
     }
-    let h = params.gravity.w;
+    let h = params.step.x;
     let x0 = pos[p].xyz;
     let v0 = scratch[at(VEL, p)].xyz;
-    let a = accel(p, x0, v0, 0u);
+    let a = accel(p, x0, v0, 0u, 0u);
     scratch[at(SX, p)] = vec4<f32>(v0, 0.0);
     scratch[at(SV, p)] = vec4<f32>(a, 0.0);
     scratch[at(AX, p)] = vec4<f32>(x0 + 0.5 * h * v0, 1.0);
@@ -187,9 +214,9 @@ fn rk2(@builtin(global_invocation_id) id: vec3<u32>) {
         scratch[at(BX, p)] = posed(p, head(1u));
         return;
     }
-    let h = params.gravity.w;
+    let h = params.step.x;
     let vs = scratch[at(AV, p)].xyz;
-    let a = accel(p, scratch[at(AX, p)].xyz, vs, AX);
+    let a = accel(p, scratch[at(AX, p)].xyz, vs, AX, 1u);
     scratch[at(SX, p)] += vec4<f32>(2.0 * vs, 0.0);
     scratch[at(SV, p)] += vec4<f32>(2.0 * a, 0.0);
     scratch[at(BX, p)] = vec4<f32>(pos[p].xyz + 0.5 * h * vs, 1.0);
@@ -206,9 +233,9 @@ fn rk3(@builtin(global_invocation_id) id: vec3<u32>) {
         scratch[at(AX, p)] = posed(p, head(2u));
         return;
     }
-    let h = params.gravity.w;
+    let h = params.step.x;
     let vs = scratch[at(BV, p)].xyz;
-    let a = accel(p, scratch[at(BX, p)].xyz, vs, BX);
+    let a = accel(p, scratch[at(BX, p)].xyz, vs, BX, 1u);
     scratch[at(SX, p)] += vec4<f32>(2.0 * vs, 0.0);
     scratch[at(SV, p)] += vec4<f32>(2.0 * a, 0.0);
     scratch[at(AX, p)] = vec4<f32>(pos[p].xyz + h * vs, 1.0);
@@ -225,9 +252,9 @@ fn rk4(@builtin(global_invocation_id) id: vec3<u32>) {
         pos[p] = posed(p, head(2u));
         return;
     }
-    let h = params.gravity.w;
+    let h = params.step.x;
     let vs = scratch[at(AV, p)].xyz;
-    let a = accel(p, scratch[at(AX, p)].xyz, vs, AX);
+    let a = accel(p, scratch[at(AX, p)].xyz, vs, AX, 2u);
     var x = pos[p].xyz + h / 6.0 * (scratch[at(SX, p)].xyz + vs);
     var v = scratch[at(VEL, p)].xyz + h / 6.0 * (scratch[at(SV, p)].xyz + a);
     collide(&x, &v);
@@ -243,8 +270,8 @@ fn kick(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let v0 = scratch[at(VEL, p)].xyz;
-    let a = accel(p, pos[p].xyz, v0, 0u);
-    scratch[at(VEL, p)] = vec4<f32>(v0 + params.gravity.w * a, 0.0);
+    let a = accel(p, pos[p].xyz, v0, 0u, 0u);
+    scratch[at(VEL, p)] = vec4<f32>(v0 + params.step.x * a, 0.0);
 }
 
 // Second half: positions with the new velocities, then the collision.
@@ -259,7 +286,7 @@ fn drift(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     var v = scratch[at(VEL, p)].xyz;
-    var x = pos[p].xyz + params.gravity.w * v;
+    var x = pos[p].xyz + params.step.x * v;
     collide(&x, &v);
     pos[p] = vec4<f32>(x, 1.0);
     scratch[at(VEL, p)] = vec4<f32>(v, 0.0);

@@ -124,6 +124,7 @@ pub fn validate(s: &Scene) -> Result<()> {
     }
     if let Some(w) = &s.wisps {
         validate_wisps(w)?;
+        wisps_on_shared_forces(s, w)?;
     }
     if let Some(st) = &s.strips {
         validate_strips(st)?;
@@ -731,6 +732,48 @@ fn validate_fur(f: &fur::Fur) -> Result<()> {
 pub const MAX_WISPS: usize = 4096;
 pub const MAX_WISP_NODES: usize = 64;
 
+/// The wisps in the scene's shared forces: a gravity of their own (`wisps.springs.gravity`,
+/// read before the springs fell under the shared one) is accepted with a warning when it
+/// equals the shared gravity (`dynamics.gravity`, what `forces::Forces::from_scene` reads;
+/// zero without dynamics) and refused otherwise; on a mesh head every root must lie over
+/// the scalp (`wisps::place_root`, refused naming the skeleton's root).
+fn wisps_on_shared_forces(s: &Scene, w: &super::wisps::Wisps) -> Result<()> {
+    if let Some(g) = w.springs.as_ref().and_then(|sp| sp.gravity) {
+        vec3("wisps.springs.gravity", g, 1e9)?;
+        let shared = s.dynamics.as_ref().map_or([0.0; 3], |d| d.gravity);
+        if g == shared {
+            log::warn!(
+                "`wisps.springs.gravity` = {g:?} is no longer read (the wisps fall under the \
+                 scene's shared gravity, `dynamics.gravity`, which equals it): remove it"
+            );
+        } else {
+            return Err(bad(
+                "wisps.springs.gravity",
+                format!("{g:?}"),
+                &format!(
+                    "the wisps no longer keep a gravity of their own: they fall under the \
+                     scene's shared gravity, `dynamics.gravity` (now {shared:?}, world units/s² \
+                     for the springs); move the value there (dynamics: Some(Dynamics(gravity: \
+                     ({:?}, {:?}, {:?})))) and remove it here",
+                    g[0], g[1], g[2]
+                ),
+            ));
+        }
+    }
+    // Roots on a mesh head, checked here when the mesh can be read now, so that a root off
+    // the scalp names the scene file; a mesh that cannot be read yet (a path relative to the
+    // scene file is resolved after validation) is placed, and refused, when the wisps are
+    // built, and its own errors name the mesh file.
+    if s.head.mesh.is_some() {
+        if let Ok(Some(mesh)) = super::hull::head_mesh(&s.head) {
+            for si in 0..w.skeletons.len() {
+                super::wisps::place_root(w, si, &s.head, &mesh)?;
+            }
+        }
+    }
+    Ok(())
+}
+
 fn validate_wisps(w: &wisps::Wisps) -> Result<()> {
     use wisps::Distance;
     if w.skeletons.is_empty() {
@@ -840,7 +883,6 @@ fn validate_wisps(w: &wisps::Wisps) -> Result<()> {
         positive("wisps.springs.ring", sp.ring, 1.0)?;
         positive("wisps.springs.stiffness", sp.stiffness, 1e12)?;
         within("wisps.springs.damping", sp.damping, 0.0, 1e9)?;
-        vec3("wisps.springs.gravity", sp.gravity, 1e9)?;
         positive("wisps.springs.frame_time", sp.frame_time, 10.0)?;
         if sp.substeps == 0 || sp.substeps > 1000 {
             return Err(bad(

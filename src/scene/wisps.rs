@@ -6,8 +6,20 @@
 //! gravity (7.1).
 //!
 //! Coordinates are world units (the head's, centimetres in the shipped scenes); spring
-//! time is seconds.
+//! time is seconds. The springs feel the scene's shared forces (`crate::forces::Forces`:
+//! gravity, keyed wind, the EFF, head motion); they keep no gravity of their own.
+//!
+//! **On a mesh head** (`head.mesh`) every wisp is moved onto the scalp before anything is
+//! built (`on_mesh_head`): its skeleton is translated so that its root lies on the mesh's
+//! scalp, as Anjyo's pores do (the nearest point of the mesh, which must be a scalp
+//! triangle, then onto the SDF's zero level set by Newton steps, the hull the springs
+//! collide with). The drawn shape is kept.
 
+use crate::error::{KamiError, Result};
+use crate::scene::hull::HeadMeshData;
+use crate::scene::sdf::closest_point_triangle;
+use crate::scene::Head;
+use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
 /// Toon wisps of a scene.
@@ -288,9 +300,13 @@ pub struct Springs {
     /// c_damp of eq 23 (force per unit velocity).
     #[serde(default = "default_damping")]
     pub damping: f64,
-    /// Gravity acceleration g (world units / s^2).
-    #[serde(default = "default_g")]
-    pub gravity: [f64; 3],
+    /// No longer read: the springs fall under the scene's shared gravity
+    /// (`dynamics.gravity`, read by `forces::Forces`) like Anjyo's strands. Kept so
+    /// that old scene files get a clear word: equal to the shared gravity it is accepted with
+    /// a warning, anything else is refused naming the file and the field
+    /// (`scene::validate`). Never written back.
+    #[serde(default, deserialize_with = "old_gravity", skip_serializing)]
+    pub gravity: Option<[f64; 3]>,
     /// Seconds per rendered frame.
     #[serde(default = "default_frame_time")]
     pub frame_time: f64,
@@ -303,10 +319,17 @@ pub struct Springs {
     /// `false` uses the drawn lengths (the wisps sag).
     #[serde(default = "yes")]
     pub hold_shape: bool,
-    /// Push mass points out of the head ellipsoid after each step (not in the paper, whose
-    /// future work asks for it).
+    /// Push mass points out of the head after each step (not in the paper, whose future work
+    /// asks for it): the ellipsoid, or a mesh head's signed distance field.
     #[serde(default = "yes")]
     pub collide: bool,
+}
+
+/// The old field as old files wrote it (a bare vector, not `Some(..)`).
+fn old_gravity<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> std::result::Result<Option<[f64; 3]>, D::Error> {
+    <[f64; 3]>::deserialize(d).map(Some)
 }
 
 fn default_sub_mass() -> f64 {
@@ -317,9 +340,6 @@ fn default_stiffness() -> f64 {
 }
 fn default_damping() -> f64 {
     0.6
-}
-fn default_g() -> [f64; 3] {
-    [0.0, -980.0, 0.0]
 }
 fn default_frame_time() -> f64 {
     1.0 / 30.0
@@ -339,7 +359,7 @@ impl Default for Springs {
             ring: 1.0,
             stiffness: default_stiffness(),
             damping: default_damping(),
-            gravity: default_g(),
+            gravity: None,
             frame_time: default_frame_time(),
             substeps: default_substeps(),
             integrator: Integrator::Rk4,
@@ -357,4 +377,125 @@ pub struct Bundle {
     /// Indices into `skeletons`.
     pub wisps: Vec<usize>,
     pub release_from: usize,
+}
+
+/// Newton steps that move a root onto the SDF's zero level set.
+pub const ROOT_NEWTON: u32 = 8;
+/// A root lies on the field's zero level set within this (scene units).
+pub const ROOT_TOLERANCE: f64 = 1e-4;
+
+/// Where a wisp's root goes on a mesh head, and how far it moved.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Placed {
+    /// On the SDF's zero level set, over a scalp triangle.
+    pub root: DVec3,
+    /// The scalp triangle nearest the drawn root.
+    pub triangle: u32,
+    /// `root` minus the drawn root: the whole skeleton moves by it.
+    pub offset: DVec3,
+}
+
+/// The farthest a drawn root may lie from the mesh: the root node's radius of influence or
+/// a quarter of the head's smallest radius, whichever is larger. Farther, the wisp was not
+/// drawn for this head, and moving it would only hide the mistake.
+pub fn root_reach(node: &Node, head: &Head) -> f64 {
+    let r = head.radii.iter().copied().fold(f64::INFINITY, f64::min);
+    node.r.max(0.25 * r)
+}
+
+/// Place skeleton `si`'s root on the scalp of `mesh` (see the module doc). Refused, naming
+/// the wisp and the field, when the root is far from the mesh, nearest a triangle off the
+/// scalp, or where the field cannot follow the mesh (features thinner than a cell).
+pub fn place_root(wisps: &Wisps, si: usize, head: &Head, mesh: &HeadMeshData) -> Result<Placed> {
+    let sk = &wisps.skeletons[si];
+    let field = format!("wisps.skeletons[{si}].nodes[0].p");
+    let name = if sk.name.is_empty() {
+        format!("wisp {si}")
+    } else {
+        format!("wisp {si} (`{}`)", sk.name)
+    };
+    let node = sk.nodes.first().ok_or_else(|| KamiError::Invalid {
+        file: String::new(),
+        field: format!("wisps.skeletons[{si}].nodes"),
+        value: "[]".into(),
+        allowed: "a skeleton has at least two nodes".into(),
+    })?;
+    let drawn = DVec3::from(node.p);
+    let refuse = |allowed: String| KamiError::Invalid {
+        file: String::new(),
+        field: field.clone(),
+        value: format!("{:?}", node.p),
+        allowed,
+    };
+    let m = &mesh.mesh;
+    let mut best = (f64::INFINITY, DVec3::ZERO, 0u32);
+    for (t, tri) in m.triangles.iter().enumerate() {
+        let [a, b, c] = tri.map(|i| m.positions[i as usize]);
+        let q = closest_point_triangle(drawn, a, b, c);
+        let d = (q - drawn).length_squared();
+        if d < best.0 {
+            best = (d, q, t as u32);
+        }
+    }
+    let (d2, on_mesh, triangle) = best;
+    let reach = root_reach(node, head);
+    let dist = d2.sqrt();
+    // Also refuses a mesh without triangles (infinite) or a NaN.
+    if dist.is_nan() || dist > reach {
+        return Err(refuse(format!(
+            "{name}: its root is {dist:.3} from the head mesh; a root on a mesh head must be \
+             drawn within {reach:.3} of it (the root's radius or a quarter of the head's \
+             smallest radius), where it is moved onto the scalp"
+        )));
+    }
+    if mesh.scalp.binary_search(&triangle).is_err() {
+        return Err(refuse(format!(
+            "{name}: its root is nearest triangle {triangle} of the head mesh, which is not \
+             scalp (head.mesh.scalp): draw the root over the scalp or widen the scalp regions"
+        )));
+    }
+    let sdf = &mesh.sdf;
+    let mut root = on_mesh;
+    for _ in 0..ROOT_NEWTON {
+        let s = sdf.sample(root);
+        if s.abs() < ROOT_TOLERANCE {
+            break;
+        }
+        let g = sdf.gradient(root);
+        let l2 = g.length_squared();
+        if l2 <= 1e-12 {
+            break;
+        }
+        root -= s * g / l2;
+    }
+    let followed = (root - on_mesh).length() <= 0.25 * sdf.cell;
+    if !(followed && sdf.sample(root).abs() < ROOT_TOLERANCE) {
+        return Err(refuse(format!(
+            "{name}: the head's signed distance field cannot follow the mesh under its root \
+             (a feature thinner than a cell of {:.3}): draw the root elsewhere or raise \
+             head.mesh.resolution",
+            sdf.cell
+        )));
+    }
+    Ok(Placed {
+        root,
+        triangle,
+        offset: root - drawn,
+    })
+}
+
+/// The wisps with every skeleton translated so its root lies on the scalp of the mesh head
+/// (`place_root`); unchanged on an ellipsoid head.
+pub fn on_mesh_head(wisps: &Wisps, head: &Head) -> Result<Wisps> {
+    let Some(mesh) = crate::scene::hull::head_mesh(head)? else {
+        return Ok(wisps.clone());
+    };
+    let mut out = wisps.clone();
+    for si in 0..wisps.skeletons.len() {
+        let placed = place_root(wisps, si, head, &mesh)?;
+        for n in &mut out.skeletons[si].nodes {
+            n.p = (DVec3::from(n.p) + placed.offset).to_array();
+        }
+    }
+    Ok(out)
 }

@@ -9,6 +9,11 @@
 //! Every frame the curve kernels rebuild the segments from the node positions (the springs'
 //! primaries, or the drawn nodes under the head pose), and the march draws the surface as
 //! opaque geometry with depth, before any strand hair or fur.
+//!
+//! The springs feel the scene's shared forces (`crate::forces::Forces`: gravity, keyed
+//! wind, the EFF, head motion) and collide with the scene's head hull (the ellipsoid or a
+//! mesh head's SDF); on a mesh head the wisps' roots are moved onto its scalp first
+//! (`crate::scene::wisps::on_mesh_head`).
 
 pub mod curve;
 pub mod edit;
@@ -39,7 +44,13 @@ pub const KIND: Kind = Kind {
     build,
     classify,
     panels: panel::PANELS,
-    scenes: &["toon", "toon_divide", "toon_shake"],
+    scenes: &[
+        "toon",
+        "toon_divide",
+        "toon_shake",
+        "toon_wind",
+        "toon_mesh_head",
+    ],
     shaders: &[
         ("wisps/curves", march::CURVES),
         ("wisps/march", march::MARCH),
@@ -55,18 +66,38 @@ fn build(gpu: &Gpu, scene: &Scene, setup: &DrawSetup) -> Result<Box<dyn HairSyst
 }
 
 /// Toon colours, thresholds and march settings are uniforms: a `Redraw`. Skeletons, springs
-/// and the head (collision, rest lengths) build the system again.
+/// and the head (collision, rest lengths, a mesh head's scalp and SDF) build the system
+/// again, and so do the shared gravity (the natural lengths hold the drawn shape under it)
+/// and the EFF's grid (its buffers); the EFF's cells (the brush) are uploaded again from the
+/// next step (`Resimulate`). Keyed wind, the EFF's gust keys and head motion are read from
+/// the stage's forces at every step: no change.
 pub fn classify(old: &Scene, new: &Scene) -> Change {
+    let grid = |s: &Scene| {
+        crate::forces::Forces::from_scene(s)
+            .eff
+            .map(|e| (e.dims(), e.origin(), e.cell_size()))
+    };
     let shape = |s: &Scene| {
         s.wisps.clone().map(|mut w| {
             w.toon = Default::default();
             w.march = Default::default();
             w.threshold = 0.0;
-            (w, s.head.center, s.head.radii)
+            let gravity = s.dynamics.as_ref().map(|d| d.gravity);
+            let moving = w.springs.is_some();
+            (
+                w,
+                s.head.center,
+                s.head.radii,
+                s.head.mesh.clone(),
+                moving.then(|| (gravity, grid(s))),
+            )
         })
     };
+    let moving = new.wisps.as_ref().is_some_and(|w| w.springs.is_some());
     if shape(old) != shape(new) {
         Change::Rebuild
+    } else if moving && old.eff != new.eff {
+        Change::Resimulate
     } else if old.wisps != new.wisps {
         Change::Redraw
     } else {
@@ -100,15 +131,27 @@ impl WispsSystem {
             allowed: "a wisps block (the wisps system is built only for scenes with wisps)".into(),
         })?;
         march::check_limits(gpu, &wisps)?;
+        // On a mesh head the roots go onto its scalp (the drawn shape moves with them).
+        let wisps = crate::scene::wisps::on_mesh_head(&wisps, &scene.head)?;
         let nodes = match &wisps.springs {
             Some(sp) => {
-                // The natural lengths are solved here (eq 24), once per build.
-                let lattice = springs::Lattice::build(&wisps, sp, &scene.head)?;
+                let forces = crate::forces::Forces::from_scene(scene);
+                if forces.gravity == DVec3::ZERO {
+                    log::warn!(
+                        "the wisps' springs feel no gravity: the scene's shared gravity \
+                         (dynamics.gravity) is zero (set dynamics: Some(Dynamics(gravity: \
+                         (0.0, -980.0, 0.0))) for the weight in cm/s²)"
+                    );
+                }
+                // The natural lengths are solved here (eq 24), once per build, under the
+                // shared gravity.
+                let lattice = springs::Lattice::build(&wisps, sp, &scene.head, &forces)?;
                 Nodes::Springs(Box::new(springs_gpu::SpringsGpu::new(
                     gpu,
                     &lattice,
                     sp,
                     &scene.head,
+                    &forces,
                 )?))
             }
             None => Nodes::Still(crate::gpu::storage_buffer(
@@ -141,6 +184,14 @@ impl WispsSystem {
 
     fn moving(&self) -> bool {
         self.wisps.springs.is_some()
+    }
+
+    /// The mass springs on the GPU, when the wisps move (tests and tools read them back).
+    pub fn springs(&self) -> Option<&springs_gpu::SpringsGpu> {
+        match &self.nodes {
+            Nodes::Springs(s) => Some(s),
+            Nodes::Still(_) => None,
+        }
     }
 }
 
@@ -212,9 +263,18 @@ impl HairSystem for WispsSystem {
         self.draw.set_samples(gpu, samples);
     }
 
-    /// A `Redraw`: toon colours, thresholds and march settings.
-    fn update(&mut self, _gpu: &Gpu, scene: &Scene, change: Change) -> Result<()> {
-        if let (Change::Redraw, Some(w)) = (change, &scene.wisps) {
+    /// A `Redraw`: toon colours, thresholds and march settings; a `Resimulate`: those and
+    /// the EFF's cells (same grid).
+    fn update(&mut self, gpu: &Gpu, scene: &Scene, change: Change) -> Result<()> {
+        if change == Change::Resimulate {
+            if let (Nodes::Springs(s), Some(e)) = (
+                &self.nodes,
+                crate::forces::Forces::from_scene(scene).eff.as_deref(),
+            ) {
+                s.write_eff_cells(gpu, e)?;
+            }
+        }
+        if let (Change::Redraw | Change::Resimulate, Some(w)) = (change, &scene.wisps) {
             self.wisps.toon = w.toon.clone();
             self.wisps.march = w.march;
             self.wisps.threshold = w.threshold;

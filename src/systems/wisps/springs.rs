@@ -14,10 +14,17 @@
 //! i of skeleton s), then the 8 subs of every node in the same order. The renderer reads the
 //! primaries straight from the positions buffer.
 //!
-//! **Forces (eq 23).** f_p = sum_s k_s (l_s - l_s,natural) d_s,p + g m_p - c_damp v_p, on
-//! primaries of mass `mass` and subs of mass `mass * sub_mass`; time in seconds, one step is
-//! `frame_time / substeps`. Integrated by the paper's RK4 or by semi-implicit Euler (one
-//! force evaluation a step); kinematic points take the head pose at each stage time.
+//! **Forces (eq 23, and the scene's shared fields).** f_p = sum_s k_s (l_s - l_s,natural)
+//! d_s,p + (g + w(t) + e(x_p, t)) m_p - c_damp v_p, on primaries of mass `mass` and subs of
+//! mass `mass * sub_mass`; time in seconds, one step is `frame_time / substeps`. g, w and e
+//! are the scene's `Forces` (`crate::forces`), read as accelerations (world units / s²), as
+//! the strips read them: g the shared gravity, w the keyed uniform wind (`forces::wind_at`)
+//! and e the External Force Field sampled trilinearly at the point with its gust scale
+//! (`Forces::eff_at`; `shaders/forces/eff.wgsl` on the GPU), all at the stage's time (RK4:
+//! the step's start, middle, middle, end; semi-implicit Euler: its start). The paper has
+//! gravity alone. Integrated by the paper's RK4 or by semi-implicit Euler (one force
+//! evaluation a step); kinematic points take the head pose at each stage time, which is how
+//! head motion acts (the lattice is integrated in world space).
 //!
 //! **Natural lengths (7.1, eq 24).** With `hold_shape`, sum_s k_s (l_s,init - l_s,nat) d_s,p
 //! = -g m_p at every free point: 3 equations per point, one unknown per spring, fewer
@@ -28,15 +35,18 @@
 //! singular systems (a chain of primaries alone) factor, removed again by iterated
 //! refinement. The residual is checked; natural lengths <= 0 are refused.
 //!
-//! **Ours, not the paper's:** the collision with the head ellipsoid (the paper lists it as
-//! future work): after each step a free point inside the posed hull is moved back to the
-//! surface by Newton steps on the quadric along its gradient, and its velocity into the
-//! surface (relative to the moving head) is removed. Wind is not applied (the paper has only
-//! gravity and damping).
+//! **Ours, not the paper's:** the collision with the head (the paper lists it as future
+//! work), against the scene's `HeadHull`: the ellipsoid, or a mesh head's signed distance
+//! field (`scene::sdf`, `shaders/common/sdf.wgsl`). After each step a free point inside the
+//! posed hull is moved back to the surface by Newton steps on the hull's implicit function
+//! (quadric form or signed distance) along its gradient, to `1.5 eps_out` outside, and its
+//! velocity into the surface (relative to the moving head) is removed. On a mesh head the
+//! roots lie on its scalp (`scene::wisps::on_mesh_head`, done by the caller).
 
 use crate::error::{KamiError, Result};
-use crate::forces::Forces;
-use crate::scene::head::{Ellipsoid, EPS_OUT};
+use crate::forces::{wind_at, Forces};
+use crate::scene::hull::{head_hull, HeadHull};
+use crate::scene::strips::Sampling;
 use crate::scene::wisps::{Integrator, Springs, Wisps};
 use crate::scene::Head;
 use glam::{DMat4, DQuat, DVec3};
@@ -49,6 +59,8 @@ pub const RING: usize = 8;
 pub const NEWTON: u32 = 8;
 /// Eq 24 is refused when the relative residual stays above this.
 pub const FIT_TOLERANCE: f64 = 1e-6;
+/// How the springs sample the EFF (the GPU twin passes 1, trilinear, to `eff_field`).
+pub const EFF_SAMPLING: Sampling = Sampling::Trilinear;
 
 /// A mass point.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -122,32 +134,36 @@ impl State {
     }
 }
 
-/// Motion parameters (everything but the lattice): changing them needs no new lattice.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// Motion parameters (everything but the lattice and the forces): changing them needs no
+/// new lattice. The forces (gravity, wind, EFF, head motion) are the scene's `Forces`,
+/// passed to every step.
+#[derive(Clone, Debug, PartialEq)]
 pub struct Motion {
     /// c_damp.
     pub damping: f64,
-    pub gravity: DVec3,
     /// Seconds per frame.
     pub frame_time: f64,
     pub substeps: u32,
     pub integrator: Integrator,
-    /// The head hull when collision is on.
-    pub hull: Option<Ellipsoid>,
+    /// The head hull (ellipsoid or mesh SDF) when collision is on.
+    pub hull: Option<HeadHull>,
 }
 
 impl Motion {
-    pub fn new(springs: &Springs, head: &Head) -> Motion {
-        Motion {
+    /// The springs' settings on `head` (a mesh head's field is built, or taken from the
+    /// cache, when collision is on).
+    pub fn new(springs: &Springs, head: &Head) -> Result<Motion> {
+        Ok(Motion {
             damping: springs.damping,
-            gravity: DVec3::from(springs.gravity),
             frame_time: springs.frame_time,
             substeps: springs.substeps,
             integrator: springs.integrator,
-            hull: springs
-                .collide
-                .then(|| Ellipsoid::new(head.center, head.radii)),
-        }
+            hull: if springs.collide {
+                Some(head_hull(head)?)
+            } else {
+                None
+            },
+        })
     }
 }
 
@@ -220,9 +236,16 @@ impl Lattice {
         }
     }
 
-    /// The lattice of Fig. 10 for `wisps`, with natural lengths solved by eq 24 when
-    /// `springs.hold_shape`. `head` is only used to warn about free points drawn inside it.
-    pub fn build(wisps: &Wisps, springs: &Springs, head: &Head) -> Result<Lattice> {
+    /// The lattice of Fig. 10 for `wisps`, with natural lengths solved by eq 24 under the
+    /// shared gravity `forces.gravity` when `springs.hold_shape`. `head` is only used to warn
+    /// about free points drawn inside it. On a mesh head, pass the wisps placed on its scalp
+    /// (`scene::wisps::on_mesh_head`).
+    pub fn build(
+        wisps: &Wisps,
+        springs: &Springs,
+        head: &Head,
+        forces: &Forces,
+    ) -> Result<Lattice> {
         let mut offsets = vec![0u32];
         for sk in &wisps.skeletons {
             offsets.push(offsets.last().unwrap() + sk.nodes.len() as u32);
@@ -315,7 +338,7 @@ impl Lattice {
             .collect();
         let mut lattice = Lattice::new(points, list, offsets, names);
         if springs.collide {
-            let hull = Ellipsoid::new(head.center, head.radii);
+            let hull = head_hull(head)?;
             let inside = lattice
                 .points
                 .iter()
@@ -329,7 +352,7 @@ impl Lattice {
             }
         }
         if springs.hold_shape {
-            lattice.hold_shape(DVec3::from(springs.gravity), springs.stiffness)?;
+            lattice.hold_shape(forces.gravity, springs.stiffness)?;
         }
         Ok(lattice)
     }
@@ -675,15 +698,39 @@ fn band_solve(l: &[f64], n: usize, bw: usize, b: &[f64]) -> Vec<f64> {
     x
 }
 
-/// Accelerations of eq 23 (f_p / m_p) of the free points; kinematic points get zero.
-pub fn accelerations(lattice: &Lattice, motion: &Motion, x: &[DVec3], v: &[DVec3]) -> Vec<DVec3> {
+/// The shared fields' acceleration at world point `x` at `frame` (fractional): gravity,
+/// the keyed uniform wind and the EFF (trilinear, with its gust scale). What the kernel's
+/// `field_accel` computes.
+pub fn field_accel(forces: &Forces, x: DVec3, frame: f64) -> DVec3 {
+    forces.gravity + wind_at(&forces.wind, frame) + forces.eff_at(x, frame, EFF_SAMPLING)
+}
+
+/// Accelerations of eq 23 (f_p / m_p) of the free points at `frame` (fractional), with the
+/// scene's forces; kinematic points get zero.
+pub fn accelerations(
+    lattice: &Lattice,
+    motion: &Motion,
+    forces: &Forces,
+    frame: f64,
+    x: &[DVec3],
+    v: &[DVec3],
+) -> Vec<DVec3> {
+    // The uniform part once; the EFF per point.
+    let uniform = forces.gravity + wind_at(&forces.wind, frame);
+    let eff = forces.eff.as_ref().map(|e| (e, e.scale_at(frame)));
     (0..x.len())
         .map(|p| {
             let pt = &lattice.points[p];
             if pt.pinned {
                 DVec3::ZERO
             } else {
-                (lattice.spring_force(p, x) - motion.damping * v[p]) / pt.mass + motion.gravity
+                let field = match eff {
+                    Some((e, scale)) if scale != 0.0 => {
+                        uniform + e.sample(x[p], EFF_SAMPLING) * scale
+                    }
+                    _ => uniform,
+                };
+                (lattice.spring_force(p, x) - motion.damping * v[p]) / pt.mass + field
             }
         })
         .collect()
@@ -697,30 +744,38 @@ fn pin(lattice: &Lattice, x: &mut [DVec3], head: DMat4) {
     }
 }
 
-/// Move a head-local point that is inside the hull back onto it (to the quadric value
-/// 1.5 `EPS_OUT`) by Newton steps along the gradient; from inside the first step lands
-/// outside (the quadric is convex) and the rest converge from outside.
-pub fn push_out(hull: &Ellipsoid, q: DVec3) -> DVec3 {
-    let target = 1.5 * EPS_OUT;
+/// Move a head-local point that is inside the hull back onto it (to the implicit value
+/// 1.5 `eps_out`: the quadric form, or the signed distance) by Newton steps along the
+/// gradient. On the ellipsoid the first step from inside lands outside (the quadric is
+/// convex) and the rest converge from outside; a signed distance has a unit gradient, so
+/// one step lands on the level set up to the field's curvature within a cell.
+pub fn push_out(hull: &HeadHull, q: DVec3) -> DVec3 {
+    let eps = hull.eps_out();
+    let target = 1.5 * eps;
     let mut q = q;
     for _ in 0..NEWTON {
         let e = hull.eval(q);
-        if (EPS_OUT..=2.0 * EPS_OUT).contains(&e) {
+        if (eps..=2.0 * eps).contains(&e) {
             break;
         }
         let g = hull.gradient(q);
         let g2 = g.length_squared();
         if g2 < 1e-24 {
-            // The centre: any way out.
-            q = hull.center + DVec3::Y * hull.radii.y;
+            // A flat spot (the ellipsoid's centre, a plateau of the field): any way out.
+            q = match hull {
+                HeadHull::Ellipsoid(h) => h.center + DVec3::Y * h.radii.y,
+                HeadHull::Sdf(_) => q + DVec3::Y * (target - e),
+            };
             continue;
         }
         q -= g * ((e - target) / g2);
     }
-    let e = hull.eval(q);
-    if e < EPS_OUT {
-        // Not converged (never seen): scale out from the centre onto the quadric value.
-        q = hull.center + (q - hull.center) * ((1.0 + target) / (e + 1.0).max(1e-12)).sqrt();
+    if let HeadHull::Ellipsoid(h) = hull {
+        let e = h.eval(q);
+        if e < eps {
+            // Not converged (never seen): scale out from the centre onto the quadric value.
+            q = h.center + (q - h.center) * ((1.0 + target) / (e + 1.0).max(1e-12)).sqrt();
+        }
     }
     q
 }
@@ -728,7 +783,7 @@ pub fn push_out(hull: &Ellipsoid, q: DVec3) -> DVec3 {
 /// The collision (ours): a free point inside the head posed by `h1` is pushed out and loses
 /// its velocity into the surface relative to the head moving from `h0` over `dt` seconds.
 pub fn collide(
-    hull: &Ellipsoid,
+    hull: &HeadHull,
     h0: DMat4,
     h1: DMat4,
     h1_inv: DMat4,
@@ -766,9 +821,11 @@ pub fn step(
     let h1 = forces.head_at(frame + dframes);
     pin(lattice, &mut state.x, h0);
     let n = state.x.len();
+    // Stage times (frames): the forces are read where the stages are.
+    let (t0, tm, t1) = (frame, frame + 0.5 * dframes, frame + dframes);
     match motion.integrator {
         Integrator::SemiImplicitEuler => {
-            let a = accelerations(lattice, motion, &state.x, &state.v);
+            let a = accelerations(lattice, motion, forces, t0, &state.x, &state.v);
             for (p, a) in a.iter().enumerate() {
                 if !lattice.points[p].pinned {
                     state.v[p] += h * *a;
@@ -777,7 +834,7 @@ pub fn step(
             }
         }
         Integrator::Rk4 => {
-            let hm = forces.head_at(frame + 0.5 * dframes);
+            let hm = forces.head_at(tm);
             let (x0, v0) = (&state.x, &state.v);
             // x0 + c vs, v0 + c a; kinematic points at the stage's head pose.
             let stage = |vs: &[DVec3], a: &[DVec3], c: f64, head: DMat4| {
@@ -794,13 +851,13 @@ pub fn step(
                 }
                 (x, v)
             };
-            let a1 = accelerations(lattice, motion, x0, v0);
+            let a1 = accelerations(lattice, motion, forces, t0, x0, v0);
             let (x2, v2) = stage(v0, &a1, 0.5 * h, hm);
-            let a2 = accelerations(lattice, motion, &x2, &v2);
+            let a2 = accelerations(lattice, motion, forces, tm, &x2, &v2);
             let (x3, v3) = stage(&v2, &a2, 0.5 * h, hm);
-            let a3 = accelerations(lattice, motion, &x3, &v3);
+            let a3 = accelerations(lattice, motion, forces, tm, &x3, &v3);
             let (x4, v4) = stage(&v3, &a3, h, h1);
-            let a4 = accelerations(lattice, motion, &x4, &v4);
+            let a4 = accelerations(lattice, motion, forces, t1, &x4, &v4);
             let dx: Vec<DVec3> = (0..n)
                 .map(|p| v0[p] + 2.0 * v2[p] + 2.0 * v3[p] + v4[p])
                 .collect();
@@ -1056,8 +1113,8 @@ pub fn work_precision(
     ladder: &[u32],
 ) -> Result<Vec<Row>> {
     let springs = wisps.springs.clone().unwrap_or_default();
-    let lattice = Lattice::build(wisps, &springs, head)?;
-    let base = Motion::new(&springs, head);
+    let lattice = Lattice::build(wisps, &springs, head, forces)?;
+    let base = Motion::new(&springs, head)?;
     let frames = (seconds / springs.frame_time).round().max(1.0);
     let mut bounds = Bounds {
         reach: reach(&lattice),
@@ -1069,7 +1126,7 @@ pub fn work_precision(
     let m = Motion {
         integrator: Integrator::Rk4,
         substeps: finest,
-        ..base
+        ..base.clone()
     };
     let mut reference = State::rest(&lattice);
     let mut omega = omega_max(&lattice);
@@ -1092,7 +1149,10 @@ pub fn work_precision(
     bounds.speed = SPEED_LIMIT * top.max(1e-300);
     let mut rows = Vec::new();
     for integrator in [Integrator::Rk4, Integrator::SemiImplicitEuler] {
-        let m = Motion { integrator, ..base };
+        let m = Motion {
+            integrator,
+            ..base.clone()
+        };
         let stable_at = |dt: f64| {
             run_for(
                 &lattice,

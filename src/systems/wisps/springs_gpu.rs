@@ -5,21 +5,37 @@
 //! Buffers: `positions` holds every point as `vec4<f32>` (xyz world), all primaries first
 //! in (skeleton, node) order, so the renderer binds its first `primaries()` entries as the
 //! skeleton nodes. The head poses of a recording are uploaded per half substep (RK4 needs
-//! the middle of each step), written with `queue.write_buffer` before the submission that
-//! runs them: record once per submission.
+//! the middle of each step), and per substep its slot (`GpuSubstep`: gravity plus the keyed
+//! wind at the step's start, middle and end, each with the EFF's gust scale there), written
+//! with `queue.write_buffer` before the submission that runs them: record once per
+//! submission. The scene's forces are read from the `Forces` handed to `record` (the
+//! stage's, each frame): head motion, keyed wind and the gust scale act from the next
+//! recording; the EFF's cells are uploaded at `new` (`forces::eff::EffGpu`, sampled with
+//! `shaders/forces/eff.wgsl`) and the shared gravity also sets the natural lengths, so those
+//! two build the system again (`super::classify`). The head hull is the ellipsoid or a mesh
+//! head's SDF (`shaders/common/sdf.wgsl`, the `SDF_HEAD` constant compiles the SDF path out
+//! on ellipsoid heads).
 
 use super::springs::{Lattice, NEWTON};
 use crate::error::Result;
-use crate::forces::Forces;
+use crate::forces::eff::EffGpu;
+use crate::forces::{wind_at, Forces};
 use crate::gpu::{self, Gpu, WORKGROUP};
 use crate::scene::head::EPS_OUT;
+use crate::scene::hull::{head_hull, HeadHull, SDF_EPS_OUT};
 use crate::scene::wisps::{Integrator, Springs};
 use crate::scene::Head;
 use crate::shaders::wgsl;
 use bytemuck::{Pod, Zeroable};
 
-/// The kernel's module (the wisps kind lists it as `("wisps/springs", SPRINGS)`).
-pub const SPRINGS: &str = wgsl!("common/ellipsoid.wgsl", "wisps/springs.wgsl");
+/// The kernel's module (the wisps kind lists it as `("wisps/springs", SPRINGS)`): the EFF
+/// (`forces/eff.wgsl`, the same text every kind samples), the hulls, then the kernel.
+pub const SPRINGS: &str = wgsl!(
+    "forces/eff.wgsl",
+    "common/ellipsoid.wgsl",
+    "common/sdf.wgsl",
+    "wisps/springs.wgsl"
+);
 
 /// Bytes per substep slot of the dynamic uniform (the adapters' offset alignment).
 const SLOT: u64 = 256;
@@ -34,13 +50,26 @@ pub struct GpuSpringParams {
     pub row_stride: u32,
     pub collide: u32,
     pub _pad: u32,
-    /// xyz gravity, w step length (seconds).
-    pub gravity: [f32; 4],
-    /// xyz hull centre, w c_damp.
+    /// x step length (seconds), y c_damp.
+    pub step: [f32; 4],
+    /// xyz hull centre, w 1 when the hull is the SDF (`HeadHull::gpu_params`).
     pub hull_center: [f32; 4],
     pub hull_radii: [f32; 4],
 }
 const _: () = assert!(std::mem::size_of::<GpuSpringParams>() == 64);
+
+/// One substep's slot of the dynamic uniform. Keep in sync with `struct Substep`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuSubstep {
+    /// x: the substep's index in the recording (its head poses).
+    pub index: [u32; 4],
+    /// Gravity plus the keyed wind (xyz) and the EFF's gust scale (w) at the step's start,
+    /// middle and end.
+    pub field: [[f32; 4]; 3],
+}
+const _: () = assert!(std::mem::size_of::<GpuSubstep>() == 64);
+const _: () = assert!(std::mem::size_of::<GpuSubstep>() as u64 <= SLOT);
 
 /// Keep in sync with `struct MassPoint`.
 #[repr(C)]
@@ -77,6 +106,8 @@ pub struct SpringsGpu {
     scratch: wgpu::Buffer,
     heads: wgpu::Buffer,
     steps: wgpu::Buffer,
+    eff: EffGpu,
+    sdf: wgpu::Buffer,
     /// Substeps the `heads` and `steps` buffers hold.
     capacity: u32,
     bind_group: wgpu::BindGroup,
@@ -89,10 +120,28 @@ pub struct SpringsGpu {
 }
 
 impl SpringsGpu {
-    pub fn new(gpu: &Gpu, lattice: &Lattice, springs: &Springs, head: &Head) -> Result<Self> {
+    /// Upload `lattice` (built for `forces`, see `Lattice::build`) with the motion settings
+    /// of `springs`, the hull of `head` (its SDF for a mesh head) and the EFF of `forces`.
+    pub fn new(
+        gpu: &Gpu,
+        lattice: &Lattice,
+        springs: &Springs,
+        head: &Head,
+        forces: &Forces,
+    ) -> Result<Self> {
         let device = &gpu.device;
         let count = lattice.points.len() as u32;
         let dims = gpu.dispatch_dims(count, WORKGROUP)?;
+        let hull = head_hull(head)?;
+        let eff = EffGpu::new(gpu, forces.eff.as_deref())?;
+        let words = hull.gpu_sdf();
+        gpu.check_storage_size("the head's signed distance field", 4 * words.len() as u64)?;
+        let sdf = gpu::storage_buffer(
+            device,
+            "wisps head sdf",
+            bytemuck::cast_slice(&words),
+            wgpu::BufferUsages::empty(),
+        );
         let module = gpu::shader_module(device, "wisps springs", SPRINGS)?;
         let cs = wgpu::ShaderStages::COMPUTE;
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -105,6 +154,9 @@ impl SpringsGpu {
                 gpu::storage_entry(4, cs, true),
                 gpu::storage_entry(5, cs, false),
                 gpu::storage_entry(6, cs, false),
+                gpu::uniform_entry(7, cs),
+                gpu::storage_entry(8, cs, true),
+                gpu::storage_entry(9, cs, true),
             ],
         });
         let [pin, rk1, rk2, rk3, rk4, kick, drift] = gpu::compute_pipelines(
@@ -117,6 +169,8 @@ impl SpringsGpu {
                 ("WORKGROUP", WORKGROUP as f64),
                 ("NEWTON", NEWTON as f64),
                 ("EPS_OUT", EPS_OUT),
+                ("SDF_EPS_OUT", SDF_EPS_OUT),
+                ("SDF_HEAD", f64::from(u8::from(hull.sdf().is_some()))),
             ],
         );
         let records: Vec<GpuMassPoint> = lattice
@@ -188,7 +242,13 @@ impl SpringsGpu {
         });
         let (heads, steps) = Self::per_substep(gpu, 1)?;
         let bind_group = Self::bind(
-            device, &layout, &params, &steps, &points, &edges, &heads, &positions, &scratch,
+            device,
+            &layout,
+            [
+                &params, &steps, &points, &edges, &heads, &positions, &scratch,
+            ],
+            &eff,
+            &sdf,
         );
         let mut me = SpringsGpu {
             pin,
@@ -203,6 +263,8 @@ impl SpringsGpu {
             scratch,
             heads,
             steps,
+            eff,
+            sdf,
             capacity: 1,
             bind_group,
             dims,
@@ -212,7 +274,7 @@ impl SpringsGpu {
             integrator: springs.integrator,
             rest,
         };
-        me.update_params(gpu, springs, head);
+        me.update_params(gpu, springs, &hull);
         Ok(me)
     }
 
@@ -226,34 +288,24 @@ impl SpringsGpu {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let mut slots = vec![0u8; capacity as usize * SLOT as usize];
-        for i in 0..capacity as usize {
-            slots[i * SLOT as usize..i * SLOT as usize + 4]
-                .copy_from_slice(&(i as u32).to_le_bytes());
-        }
-        use wgpu::util::DeviceExt;
-        let steps = gpu
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("wisps substeps"),
-                contents: &slots,
-                usage: wgpu::BufferUsages::UNIFORM,
-            });
+        let steps = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("wisps substeps"),
+            size: capacity as u64 * SLOT,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
         Ok((heads, steps))
     }
 
-    #[allow(clippy::too_many_arguments)]
+    /// `buffers`: params, substep slots, points, edges, head poses, positions, scratch.
     fn bind(
         device: &wgpu::Device,
         layout: &wgpu::BindGroupLayout,
-        params: &wgpu::Buffer,
-        steps: &wgpu::Buffer,
-        points: &wgpu::Buffer,
-        edges: &wgpu::Buffer,
-        heads: &wgpu::Buffer,
-        positions: &wgpu::Buffer,
-        scratch: &wgpu::Buffer,
+        buffers: [&wgpu::Buffer; 7],
+        eff: &EffGpu,
+        sdf: &wgpu::Buffer,
     ) -> wgpu::BindGroup {
+        let [params, steps, points, edges, heads, positions, scratch] = buffers;
         device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("wisps springs"),
             layout,
@@ -272,35 +324,29 @@ impl SpringsGpu {
                 gpu::entry(4, heads),
                 gpu::entry(5, positions),
                 gpu::entry(6, scratch),
+                gpu::entry(7, &eff.grid),
+                gpu::entry(8, &eff.cells),
+                gpu::entry(9, sdf),
             ],
         })
     }
 
-    /// Take motion settings that keep the lattice (damping, gravity, step, integrator,
-    /// collision); stiffness, masses and `hold_shape` need a new lattice.
-    pub fn update_params(&mut self, gpu: &Gpu, springs: &Springs, head: &Head) {
+    /// Take motion settings that keep the lattice (damping, step, integrator, collision);
+    /// stiffness, masses and `hold_shape` need a new lattice, and so does another kind of
+    /// hull (the pipelines compile the SDF path in or out).
+    pub fn update_params(&mut self, gpu: &Gpu, springs: &Springs, hull: &HeadHull) {
         self.substeps = springs.substeps.max(1);
         self.integrator = springs.integrator;
         let dt = springs.frame_time / self.substeps as f64;
-        let g = springs.gravity;
+        let (hull_center, hull_radii) = hull.gpu_params();
         let p = GpuSpringParams {
             count: self.count,
             row_stride: self.dims.0 * WORKGROUP,
             collide: u32::from(springs.collide),
             _pad: 0,
-            gravity: [g[0] as f32, g[1] as f32, g[2] as f32, dt as f32],
-            hull_center: [
-                head.center[0] as f32,
-                head.center[1] as f32,
-                head.center[2] as f32,
-                springs.damping as f32,
-            ],
-            hull_radii: [
-                head.radii[0] as f32,
-                head.radii[1] as f32,
-                head.radii[2] as f32,
-                0.0,
-            ],
+            step: [dt as f32, springs.damping as f32, 0.0, 0.0],
+            hull_center,
+            hull_radii,
         };
         gpu.queue
             .write_buffer(&self.params, 0, bytemuck::bytes_of(&p));
@@ -337,13 +383,17 @@ impl SpringsGpu {
             self.bind_group = Self::bind(
                 &gpu.device,
                 &self.layout,
-                &self.params,
-                &self.steps,
-                &self.points,
-                &self.edges,
-                &self.heads,
-                &self.positions,
-                &self.scratch,
+                [
+                    &self.params,
+                    &self.steps,
+                    &self.points,
+                    &self.edges,
+                    &self.heads,
+                    &self.positions,
+                    &self.scratch,
+                ],
+                &self.eff,
+                &self.sdf,
             );
         }
         let half = 2.0 * self.substeps as f64;
@@ -355,6 +405,9 @@ impl SpringsGpu {
             .collect();
         gpu.queue
             .write_buffer(&self.heads, 0, bytemuck::cast_slice(&poses));
+        let slots = substep_slots(forces, from_frame, self.substeps, steps);
+        gpu.queue
+            .write_buffer(&self.steps, 0, bytemuck::cast_slice(&slots));
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
             label: Some("wisps springs"),
             timestamp_writes: None,
@@ -375,6 +428,12 @@ impl SpringsGpu {
             }
         }
         Ok(())
+    }
+
+    /// Upload the cells of `eff`, a field on the grid this pass was built with (the EFF
+    /// brush); refused for another grid.
+    pub fn write_eff_cells(&self, gpu: &Gpu, eff: &crate::forces::eff::Eff) -> Result<()> {
+        self.eff.write_cells(gpu, eff)
     }
 
     /// Every point, `vec4<f32>` xyz world, primaries first.
@@ -410,4 +469,40 @@ impl SpringsGpu {
     pub fn read_positions(&self, gpu: &Gpu) -> Result<Vec<[f32; 4]>> {
         gpu::read_buffer(gpu, &self.positions, self.count as u64 * 16)
     }
+}
+
+/// The substep slots of a recording of `steps` substeps (`substeps` a frame) from frame
+/// `from_frame`, one `SLOT` of bytes each: the GPU's side of `springs::field_accel` (the
+/// EFF's cells are sampled in the kernel, scaled by `w`).
+pub fn substep_slots(forces: &Forces, from_frame: u64, substeps: u32, steps: u32) -> Vec<u8> {
+    let slot_bytes = SLOT as usize;
+    let mut out = vec![0u8; steps as usize * slot_bytes];
+    let s = substeps.max(1);
+    let per = s as f64;
+    for i in 0..steps {
+        // The stage times exactly as `springs::run_frames` and `springs::step` compute them,
+        // so that a step key (an abrupt gust) falls on the same side of a stage time.
+        let start = (from_frame + (i / s) as u64) as f64 + (i % s) as f64 / per;
+        let mut slot = GpuSubstep {
+            index: [i, 0, 0, 0],
+            ..Default::default()
+        };
+        for (k, f) in slot.field.iter_mut().enumerate() {
+            let t = match k {
+                0 => start,
+                1 => start + 0.5 * (1.0 / per),
+                _ => start + 1.0 / per,
+            };
+            let g = forces.gravity + wind_at(&forces.wind, t);
+            *f = [
+                g.x as f32,
+                g.y as f32,
+                g.z as f32,
+                forces.eff_scale(t) as f32,
+            ];
+        }
+        let at = i as usize * slot_bytes;
+        out[at..at + std::mem::size_of::<GpuSubstep>()].copy_from_slice(bytemuck::bytes_of(&slot));
+    }
+    out
 }
