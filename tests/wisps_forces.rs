@@ -42,6 +42,7 @@ fn wisps(skeletons: Vec<Skeleton>, springs: Springs) -> Wisps {
 fn skeleton(name: &str, p: &[DVec3], r: f64) -> Skeleton {
     Skeleton {
         name: name.into(),
+        outline: 1.0,
         nodes: p
             .iter()
             .map(|p| Node {

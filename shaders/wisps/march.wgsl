@@ -521,11 +521,11 @@ fn fs(in: VOut) -> FOut {
     let to = fw.xyz / fw.w - eye;
     let t_far = length(to);
     let dir = to / t_far;
-    // The tile's segments whose influence this ray crosses, in order.
+    // The tile's segments whose influence this ray crosses. A full list keeps the nearest
+    // (by influence entry) and remembers where the first dropped one begins, t_drop: the
+    // march is exact before it, and a ray whose answer lies beyond it is counted.
     n_cand = 0u;
-    var dropped = 0u;
-    var first = 1e30;
-    var end = -1e30;
+    var t_drop = 1e30;
     let count = tile_counts[tile];
     let base = tile * view.tiles.z;
     for (var k = 0u; k < count; k++) {
@@ -544,22 +544,59 @@ fn fs(in: VOut) -> FOut {
         if (iv.x > iv.y || iv.y < 0.0 || iv.x > t_far) {
             continue;
         }
+        var slot = n_cand;
         if (n_cand >= RAY_SLOTS) {
-            dropped++;
-            continue;
+            // Full: replace the farthest entry if this one begins nearer.
+            slot = 0u;
+            for (var q = 1u; q < RAY_SLOTS; q++) {
+                if (c_in[q] > c_in[slot]) {
+                    slot = q;
+                }
+            }
+            if (iv.x >= c_in[slot]) {
+                t_drop = min(t_drop, iv.x);
+                continue;
+            }
+            t_drop = min(t_drop, c_in[slot]);
+        } else {
+            n_cand++;
         }
         let sv = ray_capsule(eye, dir, c.a.xyz, c.b.xyz, shells[j]);
-        c_seg[n_cand] = j;
-        c_in[n_cand] = iv.x;
-        c_out[n_cand] = iv.y;
-        s_in[n_cand] = sv.x;
-        s_out[n_cand] = sv.y;
-        first = min(first, sv.x);
-        end = max(end, sv.y);
-        n_cand++;
+        c_seg[slot] = j;
+        c_in[slot] = iv.x;
+        c_out[slot] = iv.y;
+        s_in[slot] = sv.x;
+        s_out[slot] = sv.y;
     }
-    if (dropped > 0u) {
-        atomicAdd(&stats[0], dropped);
+    if (t_drop < 1e30) {
+        // Back into segment order (the per-wisp maximum needs a wisp's segments together).
+        for (var a = 1u; a < n_cand; a++) {
+            var b = a;
+            while (b > 0u && c_seg[b - 1u] > c_seg[b]) {
+                let sg = c_seg[b];
+                c_seg[b] = c_seg[b - 1u];
+                c_seg[b - 1u] = sg;
+                let i0 = c_in[b];
+                c_in[b] = c_in[b - 1u];
+                c_in[b - 1u] = i0;
+                let o0 = c_out[b];
+                c_out[b] = c_out[b - 1u];
+                c_out[b - 1u] = o0;
+                let i1 = s_in[b];
+                s_in[b] = s_in[b - 1u];
+                s_in[b - 1u] = i1;
+                let o1 = s_out[b];
+                s_out[b] = s_out[b - 1u];
+                s_out[b - 1u] = o1;
+                b--;
+            }
+        }
+    }
+    var first = 1e30;
+    var end = -1e30;
+    for (var k = 0u; k < n_cand; k++) {
+        first = min(first, s_in[k]);
+        end = max(end, s_out[k]);
     }
     let counting = view.flags.x == 1u;
     if (counting && n_cand > 0u) {
@@ -639,6 +676,16 @@ fn fs(in: VOut) -> FOut {
     }
     if (counting) {
         atomicAdd(&stats[3], steps);
+    }
+    // The answer lies beyond a dropped candidate (or there is none and one was dropped).
+    var decided = 1e30;
+    if (hit) {
+        decided = t;
+    } else if (shell_t >= 0.0 && eps_per_t > 0.0) {
+        decided = shell_t;
+    }
+    if (t_drop <= t_far && decided >= t_drop) {
+        atomicAdd(&stats[0], 1u);
     }
     var out: FOut;
     if (hit) {

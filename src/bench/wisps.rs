@@ -1,8 +1,10 @@
-//! `kami bench wisps`: Sakai's toon wisps. The ray march's cost per frame against wisp count
-//! and image size; its image error against the step size and the distance method (against
-//! the march at a quarter of the safe step with Newton's distance and 16 bisections); and
-//! the mass springs' work–precision table (`springs::work_precision`). Writes wisps.md,
-//! wisps.csv, wisps_cost.png, wisps_error.png and wisps_springs.png.
+//! `kami bench wisps`: Sakai's toon wisps. The tiled ray march's cost per frame against
+//! wisp count and image size beside the march before it (`wisps_before.csv`), with steps and
+//! candidates per ray and µs per covered pixel, and at the viewer's 1280x720; the image
+//! error of each march variant (step, bisections, distance method) against the f64
+//! reference (`field::render_reference`); and the mass springs' work–precision table
+//! (`springs::work_precision`). Writes wisps.md, wisps.csv, wisps_cost.png,
+//! wisps_error.png and wisps_springs.png, keeping wisps.md's hand-written part.
 
 use super::{provenance, time_mean, write_report, Report};
 use crate::error::Result;
@@ -20,6 +22,16 @@ use std::path::Path;
 
 /// Image sides of the cost sweep (square images, one sample per pixel).
 pub const SIDES: [u32; 3] = [96, 192, 384];
+
+/// The viewer's default window: the size of the issue's goal.
+pub const VIEWER: (u32, u32) = (1280, 720);
+
+/// Side of the error table's images (the f64 reference marches every segment per ray).
+pub const ERROR_SIDE: u32 = 128;
+
+/// The line that opens the hand-written part of `wisps.md`, kept when the bench writes the
+/// report again.
+pub const HAND_WRITTEN: &str = "<!-- hand-written below";
 
 /// Wisp counts of the cost sweep, as multiples of the scene's own.
 pub const COPIES: [usize; 3] = [1, 2, 4];
@@ -139,9 +151,86 @@ pub fn march_frame(gpu: &Gpu, scene: &Scene, size: (u32, u32), frames: u32) -> R
     })
 }
 
+/// The report of the march before the tiled march (the per-box march with 64-slot
+/// neighbour lists), written by this bench at commit cf4fdeb and kept beside the report.
+pub const BEFORE: &str = "wisps_before.csv";
+
+/// Rows `cost,wisps,segments,side,...,ms_per_frame,...` of the report before.
+fn before_costs(out: &Path) -> Vec<(usize, u32, f64)> {
+    let Ok(text) = std::fs::read_to_string(out.join(BEFORE)) else {
+        return Vec::new();
+    };
+    text.lines()
+        .filter_map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            if f.len() < 6 || f[0] != "cost" {
+                return None;
+            }
+            Some((f[1].parse().ok()?, f[3].parse().ok()?, f[5].parse().ok()?))
+        })
+        .collect()
+}
+
+/// The scene's wisps as the f64 reference takes them (rest pose, head still).
+fn reference_segments(scene: &Scene) -> Vec<Vec<crate::systems::wisps::curve::Segment>> {
+    scene.wisps.as_ref().map_or_else(Vec::new, |w| {
+        w.skeletons
+            .iter()
+            .map(|s| {
+                let nodes: Vec<(DVec3, f64, f64)> = s
+                    .nodes
+                    .iter()
+                    .map(|n| (DVec3::from(n.p), n.r, n.w))
+                    .collect();
+                crate::systems::wisps::curve::segments(&nodes)
+            })
+            .collect()
+    })
+}
+
+/// The f64 truth (`field::render_reference`: every segment, every ray from the eye) of a
+/// still scene at `size`, as an sRGB image.
+fn truth_image(gpu: &Gpu, scene: &Scene, size: (u32, u32)) -> Result<RgbaImage> {
+    use crate::systems::wisps::field;
+    let stage = Stage::new(gpu, scene, target::OUTPUT_FORMAT, Quality::of(scene))?;
+    let look = stage.look();
+    let frame = stage::frame_uniform(scene, &look, stage.bounds(), size, 1);
+    let vp = glam::DMat4::from_cols_array_2d(&frame.view_proj.map(|c| c.map(f64::from)));
+    let Some(w) = scene.wisps.as_ref() else {
+        return Err(crate::KamiError::Gpu("no wisps in the scene".into()));
+    };
+    let bg = field::linear(scene.render.background);
+    let (colours, _) = field::render_reference(
+        &reference_segments(scene),
+        w.threshold,
+        &w.march,
+        &w.toon,
+        DVec3::from(scene.light.direction),
+        glam::DMat3::IDENTITY,
+        look.camera.eye,
+        vp.inverse(),
+        f64::from(frame.raster[0]),
+        size,
+        bg,
+    );
+    let srgb = |v: f64| {
+        let v = v.clamp(0.0, 1.0);
+        let s = if v <= 0.0031308 {
+            12.92 * v
+        } else {
+            1.055 * v.powf(1.0 / 2.4) - 0.055
+        };
+        (s * 255.0).round() as u8
+    };
+    Ok(RgbaImage::from_fn(size.0, size.1, |x, y| {
+        let c = colours[(y * size.0 + x) as usize];
+        image::Rgba([srgb(c.x), srgb(c.y), srgb(c.z), 255])
+    }))
+}
+
 /// Run the whole bench on `scene_path` (the toon scene) and write the report into `out`.
 pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Report> {
-    let scene = Scene::load(scene_path)?;
+    let mut scene = Scene::load(scene_path)?;
     if scene.wisps.is_none() {
         return Err(crate::KamiError::Invalid {
             file: scene_path.display().to_string(),
@@ -150,28 +239,42 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
             allowed: "a scene with toon wisps (assets/scenes/toon.ron)".into(),
         });
     }
+    // The truth reference draws no head: neither do the images compared with it.
+    scene.head.visible = false;
     let mut md = String::new();
     let mut csv = String::from(
-        "table,wisps,segments,side,variant,ms_per_frame,mean_error,share_over_24,most_neighbours\n",
+        "table,wisps,segments,side,variant,ms_per_frame,mean_error,share_over_24,steps_per_ray,candidates_per_ray,us_per_covered_pixel,most_in_a_tile,before_ms\n",
     );
     writeln!(md, "# Toon wisps (Sakai)\n\n{}\n", provenance()).ok();
     writeln!(
         md,
-        "Adapter: {}. One sample per pixel, the scene's camera; mean of {frames} frames after \
-         one warm-up. Still wisps: the spline kernels run once, so a frame is the ray march.\n",
+        "Adapter: {}. One sample per pixel, the scene's camera, no head; mean of {frames} \
+         frames after one warm-up, then one more frame with the march's counters on (its \
+         atomics are not in the timed frames). Still wisps: the spline kernels run once, so a \
+         frame is the tile binning and the ray march.\n",
         gpu.describe()
     )
     .ok();
 
-    // 1. Cost against wisp count and image size.
-    writeln!(md, "## Ray march cost per frame\n").ok();
+    // 1. Cost against wisp count and image size, before and after.
+    let before = before_costs(out);
     writeln!(
         md,
-        "| wisps | segments | most neighbours | {} |",
-        SIDES.map(|s| format!("{s}² ms")).join(" | ")
+        "## Ray march cost per frame\n\nBefore: the per-box march with 64-slot neighbour \
+         lists (`{BEFORE}`, written by this bench at commit cf4fdeb on the same kind of \
+         machine). After: the tiled march (one quad per screen tile, each pixel marched once \
+         over its tile's candidates, clear steps from the pieces' bound). Steps: field \
+         samples per ray that has a candidate; candidates: segments whose influence capsule \
+         the ray crosses; µs per covered pixel: the whole frame over the pixels the wisps \
+         draw.\n"
     )
     .ok();
-    writeln!(md, "|---|---|---|{}", "---|".repeat(SIDES.len())).ok();
+    writeln!(
+        md,
+        "| wisps | segments | side | before ms | after ms | speed-up | steps per ray | candidates per ray | µs per covered pixel | most segments in a tile | overflows |"
+    )
+    .ok();
+    writeln!(md, "|---|---|---|---|---|---|---|---|---|---|---|").ok();
     let mut cost_series = Vec::new();
     for (i, &copies) in COPIES.iter().enumerate() {
         let s = multiplied(&scene, copies);
@@ -181,29 +284,82 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
             .as_ref()
             .map(crate::systems::wisps::march::segment_count)
             .unwrap_or(0);
-        let mut row = Vec::new();
         let mut pts = Vec::new();
-        let mut most = 0;
+        let mut pts_before = Vec::new();
         for &side in &SIDES {
-            let mut t = Timed::new(gpu, &s, (side, side))?;
-            let secs = time_mean(frames, || t.frame(gpu))?;
-            most = t.counted(gpu)?.most_in_a_tile;
-            row.push(format!("{:.1}", secs * 1e3));
-            pts.push(((side * side) as f64, secs * 1e3));
+            let f = march_frame(gpu, &s, (side, side), frames)?;
+            let was = before.iter().find(|b| b.0 == w && b.1 == side).map(|b| b.2);
+            let was_text = was.map_or("-".into(), |b| format!("{b:.1}"));
+            let gain = was.map_or("-".into(), |b| format!("{:.1}x", b / f.ms));
             writeln!(
-                csv,
-                "cost,{w},{segs},{side},newton,{:.3},,,{most}",
-                secs * 1e3
+                md,
+                "| {w} | {segs} | {side}² | {was_text} | {:.1} | {gain} | {:.1} | {:.1} | {:.2} | {} | {} |",
+                f.ms,
+                f.steps_per_ray(),
+                f.candidates_per_ray(),
+                f.us_per_covered(),
+                f.stats.most_in_a_tile,
+                f.stats.ray_overflow + f.stats.tile_overflow
             )
             .ok();
+            writeln!(
+                csv,
+                "cost,{w},{segs},{side},tiled,{:.3},,,{:.3},{:.3},{:.4},{},{}",
+                f.ms,
+                f.steps_per_ray(),
+                f.candidates_per_ray(),
+                f.us_per_covered(),
+                f.stats.most_in_a_tile,
+                was.map_or(String::new(), |b| format!("{b:.3}"))
+            )
+            .ok();
+            pts.push(((side * side) as f64, f.ms));
+            if let Some(b) = was {
+                pts_before.push(((side * side) as f64, b));
+            }
         }
-        writeln!(md, "| {w} | {segs} | {most} | {} |", row.join(" | ")).ok();
         cost_series.push(Series {
-            name: format!("{w} wisps"),
+            name: format!("{w} wisps, tiled"),
             color: plot::palette(i),
             points: pts,
         });
+        if !pts_before.is_empty() {
+            cost_series.push(Series {
+                name: format!("{w} wisps, before"),
+                color: plot::palette(i + 3),
+                points: pts_before,
+            });
+        }
     }
+    // The viewer's default size, the issue's goal (10 fps there).
+    let view = march_frame(gpu, &scene, VIEWER, frames)?;
+    writeln!(
+        md,
+        "\nAt the viewer's size, {}x{} (22 wisps): **{:.1} ms per frame** ({:.2} fps for the \
+         march alone), {:.1} steps and {:.1} candidates per ray, {:.2} µs per covered pixel, \
+         {} pixels covered.\n",
+        VIEWER.0,
+        VIEWER.1,
+        view.ms,
+        1e3 / view.ms,
+        view.steps_per_ray(),
+        view.candidates_per_ray(),
+        view.us_per_covered(),
+        view.stats.covered
+    )
+    .ok();
+    writeln!(
+        csv,
+        "cost,22,,{}x{},tiled,{:.3},,,{:.3},{:.3},{:.4},{},",
+        VIEWER.0,
+        VIEWER.1,
+        view.ms,
+        view.steps_per_ray(),
+        view.candidates_per_ray(),
+        view.us_per_covered(),
+        view.stats.most_in_a_tile
+    )
+    .ok();
     let cost_plot = plot::loglog(
         "Toon wisps: ray march per frame",
         "pixels",
@@ -212,62 +368,66 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
         None,
     );
 
-    // 2. Image error against step size and distance method, at 256x256.
-    let side = 192;
-    let mut fine = scene.clone();
-    if let Some(w) = fine.wisps.as_mut() {
-        w.march.step_scale = 0.25;
-        w.march.refine = 16;
-        w.march.max_steps = 2048;
-        w.march.distance = Distance::Newton;
-    }
-    let mut t = Timed::new(gpu, &fine, (side, side))?;
-    let reference = t.image(gpu)?;
-    let ref_ms = time_mean(frames, || t.frame(gpu))? * 1e3;
+    // 2. Image error of each variant against the f64 truth.
+    let size = (ERROR_SIDE, ERROR_SIDE);
+    let truth = truth_image(gpu, &scene, size)?;
     writeln!(
         md,
-        "\n## Ray march error against step and distance ({side}², against the reference: \
-         Newton distance, 0.25 of the safe step, 16 bisections, {ref_ms:.1} ms)\n"
+        "## Ray march error against the f64 reference ({ERROR_SIDE}², against \
+         `field::render_reference`: every segment for every ray from the eye, in f64, with the \
+         scene's march settings)\n"
     )
     .ok();
     writeln!(
         md,
-        "| distance | step scale | ms per frame | mean error (of 255) | pixels off by > 24 |"
+        "| variant | ms per frame | steps per ray | mean error (of 255) | pixels off by > 24 |"
     )
     .ok();
     writeln!(md, "|---|---|---|---|---|").ok();
-    let mut variants: Vec<(String, Distance, f64)> = Vec::new();
+    let mut variants: Vec<(String, Distance, f64, u32)> = Vec::new();
     for step in [0.5, 1.0, 2.0, 4.0] {
-        variants.push(("Newton".into(), Distance::Newton, step));
+        variants.push((format!("Newton, step {step}"), Distance::Newton, step, 8));
+    }
+    for refine in [4, 16] {
+        variants.push((
+            format!("Newton, {refine} bisections"),
+            Distance::Newton,
+            1.0,
+            refine,
+        ));
     }
     for pieces in [1, 2, 4, 8] {
         variants.push((
             format!("polyline {pieces}"),
             Distance::Polyline { pieces },
             1.0,
+            8,
         ));
     }
     let mut newton_pts = Vec::new();
     let mut poly_pts = Vec::new();
-    for (name, distance, step) in variants {
+    for (name, distance, step, refine) in variants {
         let mut s = scene.clone();
         if let Some(w) = s.wisps.as_mut() {
             w.march.distance = distance;
             w.march.step_scale = step;
+            w.march.refine = refine;
         }
-        let mut t = Timed::new(gpu, &s, (side, side))?;
+        let mut t = Timed::new(gpu, &s, size)?;
         let img = t.image(gpu)?;
         let ms = time_mean(frames, || t.frame(gpu))? * 1e3;
-        let (mean, over, _) = super::backends::difference(&reference, &img);
+        let counted = t.counted(gpu)?;
+        let steps = f64::from(counted.steps) / f64::from(counted.rays.max(1));
+        let (mean, over, _) = super::backends::difference(&truth, &img);
         writeln!(
             md,
-            "| {name} | {step} | {ms:.1} | {mean:.3} | {:.3} % |",
+            "| {name} | {ms:.1} | {steps:.1} | {mean:.3} | {:.3} % |",
             over * 100.0
         )
         .ok();
         writeln!(
             csv,
-            "error,,,{side},{name} step {step},{ms:.3},{mean:.5},{over:.6},"
+            "error,,,{ERROR_SIDE},{name},{ms:.3},{mean:.5},{over:.6},{steps:.3},,,,"
         )
         .ok();
         let p = (ms, mean.max(1e-4));
@@ -283,12 +443,12 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
         "mean error (of 255)",
         &[
             Series {
-                name: "Newton, step 0.5-4".into(),
+                name: "Newton, step 0.5-4, 4-16 bisections".into(),
                 color: plot::palette(0),
                 points: newton_pts,
             },
             Series {
-                name: "polyline 1-8, step 1".into(),
+                name: "polyline 1-8".into(),
                 color: plot::palette(1),
                 points: poly_pts,
             },
@@ -297,8 +457,8 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
     );
     writeln!(
         md,
-        "\nSteps above 1 leave the Lipschitz-safe bound and may skip thin wisps; they are \
-         here to show what the bound buys.\n"
+        "\nSteps above 1 leave the safe bound and may skip thin wisps; they are here to show \
+         what the bound buys.\n"
     )
     .ok();
 
@@ -387,10 +547,11 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
         })?;
     }
 
-    // The hand-written sections that follow the measured tables (from "## Toon controls" on)
-    // are kept from the report this one replaces.
+    // The hand-written sections after the measured tables are kept from the report this
+    // one replaces.
     if let Ok(old) = std::fs::read_to_string(out.join("wisps.md")) {
-        if let Some(at) = old.find("\n## Toon controls") {
+        if let Some(at) = old.find(HAND_WRITTEN) {
+            md.push('\n');
             md.push_str(&old[at..]);
         }
     }

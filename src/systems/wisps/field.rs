@@ -506,7 +506,8 @@ fn render_rays(
 }
 
 /// Candidate slots per ray in the tiled march (`RAY_SLOTS` in `shaders/wisps/march.wgsl`):
-/// a ray crossing more influence capsules keeps the first ones and the overflow is counted.
+/// a ray crossing more influence capsules keeps the nearest (`keep_nearest`), and a ray
+/// whose answer lies beyond a dropped one is counted.
 pub const RAY_SLOTS: usize = 48;
 
 /// The radius round a segment's chord within which the march samples: the hit capsule grown
@@ -540,7 +541,8 @@ pub struct MarchCount {
     pub steps: u32,
     /// Segments whose influence the ray crosses.
     pub candidates: u32,
-    /// Candidates beyond `RAY_SLOTS` (dropped: counted, never silent).
+    /// 1 where the ray's answer lies beyond a candidate its full list (`RAY_SLOTS`) dropped:
+    /// counted, never silent.
     pub overflow: u32,
     /// Samples that needed the exact field (the rest moved by the clear step).
     pub exact: u32,
@@ -752,6 +754,35 @@ pub fn exact_sample(
     (f, step, densest_o)
 }
 
+/// A full ray list's choice (`fs` in `shaders/wisps/march.wgsl`): the first `RAY_SLOTS`
+/// candidates, then each later one replaces the kept one of farthest influence entry (the
+/// first such slot) if it begins nearer; back in segment order. Returns them and t_drop,
+/// where the first dropped candidate begins (+∞: none dropped).
+pub fn keep_nearest(cands: &[Candidate]) -> (Vec<Candidate>, f64) {
+    let mut kept: Vec<Candidate> = Vec::with_capacity(RAY_SLOTS);
+    let mut t_drop = f64::INFINITY;
+    for c in cands {
+        if kept.len() < RAY_SLOTS {
+            kept.push(*c);
+            continue;
+        }
+        let mut slot = 0;
+        for q in 1..RAY_SLOTS {
+            if kept[q].t_in > kept[slot].t_in {
+                slot = q;
+            }
+        }
+        if c.t_in >= kept[slot].t_in {
+            t_drop = t_drop.min(c.t_in);
+            continue;
+        }
+        t_drop = t_drop.min(kept[slot].t_in);
+        kept[slot] = *c;
+    }
+    kept.sort_by_key(|c| (c.wisp, c.seg));
+    (kept, t_drop)
+}
+
 /// The tiled march of one ray (`fs` in `shaders/wisps/march.wgsl`; the GPU takes the
 /// candidates from its screen tile's list, the same segments in the same order). Samples only
 /// inside shell intervals, jumping the gaps between them (no point there is inside, or in
@@ -770,14 +801,36 @@ pub fn march_tiled(
     eps_per_t: f64,
     lines: &Outlines,
 ) -> (Hit, MarchCount) {
+    let (kept, t_drop) = keep_nearest(cands);
+    let (hit, mut count) = march_kept(wisps, &kept, threshold, m, ray, eps_per_t, lines);
+    count.candidates = cands.len() as u32;
+    let decided = match hit {
+        Hit::Surface { t, .. } | Hit::Outline { t } => t,
+        Hit::Miss => f64::INFINITY,
+    };
+    if t_drop <= ray.t1 && decided >= t_drop {
+        count.overflow = 1;
+    }
+    (hit, count)
+}
+
+/// `march_tiled` over the candidates a full list kept.
+fn march_kept(
+    wisps: &[Vec<Segment>],
+    cands: &[Candidate],
+    threshold: f64,
+    m: &March,
+    ray: &Ray,
+    eps_per_t: f64,
+    lines: &Outlines,
+) -> (Hit, MarchCount) {
     let mut count = MarchCount {
         steps: 0,
         candidates: cands.len() as u32,
-        overflow: cands.len().saturating_sub(RAY_SLOTS) as u32,
+        overflow: 0,
         exact: 0,
     };
     let widest = lines.widest();
-    let cands = &cands[..cands.len().min(RAY_SLOTS)];
     let pieced: Vec<_> = cands
         .iter()
         .map(|c| curve::pieces(&wisps[c.wisp][c.seg]))

@@ -44,7 +44,8 @@ const _: () = assert!(std::mem::size_of::<GpuMarchView>() == 192);
 /// What one frame of the march counted (`stats` in the shaders).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct MarchStats {
-    /// Candidates dropped because a ray's list was full (`field::RAY_SLOTS`).
+    /// Rays whose answer lies beyond a candidate their full list dropped (a full list keeps
+    /// the `field::RAY_SLOTS` nearest).
     pub ray_overflow: u32,
     /// Tiles whose list overflowed its capacity.
     pub tile_overflow: u32,
@@ -70,7 +71,7 @@ impl MarchStats {
     pub fn warning(&self) -> Option<String> {
         (!self.complete()).then(|| {
             format!(
-                "wisps: {} tile list(s) overflowed (most segments in a tile: {}), {} ray candidate(s) dropped: the image may miss wisp density",
+                "wisps: {} tile list(s) overflowed (most segments in a tile: {}), {} ray(s) reached a candidate their full list dropped: the image may miss wisp density",
                 self.tile_overflow, self.most_in_a_tile, self.ray_overflow
             )
         })
