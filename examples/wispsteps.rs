@@ -26,18 +26,7 @@ fn main() -> Result<()> {
     let frame = kami::stage::frame_uniform(&scene, &look, stage.bounds(), size, 1);
     let vp = DMat4::from_cols_array_2d(&frame.view_proj.map(|c| c.map(|v| v as f64)));
     let w = scene.wisps.as_ref().unwrap();
-    let segs: Vec<Vec<curve::Segment>> = w
-        .skeletons
-        .iter()
-        .map(|s| {
-            let nodes: Vec<(DVec3, f64, f64)> = s
-                .nodes
-                .iter()
-                .map(|n| (DVec3::from(n.p), n.r, n.w))
-                .collect();
-            curve::segments(&nodes)
-        })
-        .collect();
+    let segs = curve::drawn_segments(w);
     let t = std::time::Instant::now();
     let (c, _, n) = field::render_reference_tiled(
         &segs,

@@ -306,18 +306,30 @@ fn bundle_naming_a_missing_wisp_is_refused() {
 fn reference_segments(
     w: &kami::scene::wisps::Wisps,
 ) -> Vec<Vec<kami::systems::wisps::curve::Segment>> {
-    use glam::DVec3;
-    w.skeletons
-        .iter()
-        .map(|s| {
-            let nodes: Vec<(DVec3, f64, f64)> = s
-                .nodes
-                .iter()
-                .map(|n| (DVec3::from(n.p), n.r, n.w))
-                .collect();
-            kami::systems::wisps::curve::segments(&nodes)
-        })
-        .collect()
+    kami::systems::wisps::curve::drawn_segments(w)
+}
+
+/// A device and a stage of `scene` on it that has drawn one frame at `size` (the wisps'
+/// march counting when `counting`).
+fn drawn(scene: &Scene, size: (u32, u32), counting: bool) -> (kami::gpu::Gpu, kami::stage::Stage) {
+    use kami::systems::wisps::WispsSystem;
+    let gpu = common::gpu();
+    let mut stage = kami::stage::Stage::new(
+        &gpu,
+        scene,
+        kami::stage::target::OUTPUT_FORMAT,
+        kami::stage::Quality::of(scene),
+    )
+    .unwrap();
+    stage.system_mut::<WispsSystem>().unwrap().draw.counting = counting;
+    let out = kami::stage::target::Offscreen::new(&gpu, size).unwrap();
+    let look = stage.look();
+    let mut enc = gpu.device.create_command_encoder(&Default::default());
+    stage
+        .render(&gpu, &mut enc, &out.view, size, &look)
+        .unwrap();
+    gpu.queue.submit([enc.finish()]);
+    (gpu, stage)
 }
 
 /// The spline kernel (f32, one invocation per wisp) against `curve::segments` (f64): control
@@ -327,23 +339,9 @@ fn reference_segments(
 #[test]
 fn spline_kernel_matches_the_f64_reference() {
     use kami::systems::wisps::WispsSystem;
-    let gpu = common::gpu();
     let scene = one_sample("toon");
     let w = scene.wisps.clone().unwrap();
-    let mut stage = kami::stage::Stage::new(
-        &gpu,
-        &scene,
-        kami::stage::target::OUTPUT_FORMAT,
-        kami::stage::Quality::of(&scene),
-    )
-    .unwrap();
-    let out = kami::stage::target::Offscreen::new(&gpu, (32, 32)).unwrap();
-    let look = stage.look();
-    let mut enc = gpu.device.create_command_encoder(&Default::default());
-    stage
-        .render(&gpu, &mut enc, &out.view, (32, 32), &look)
-        .unwrap();
-    gpu.queue.submit([enc.finish()]);
+    let (gpu, stage) = drawn(&scene, (32, 32), false);
     let sys = stage.system::<WispsSystem>().unwrap();
     let (segs, caps, counts) = sys.curves.read(&gpu).unwrap();
     let want: Vec<_> = reference_segments(&w).into_iter().flatten().collect();
@@ -506,22 +504,7 @@ fn ray_march_matches_the_f64_reference_image() {
 /// The march's counters after one frame of `scene` at `size` (one sample per pixel).
 fn march_stats(scene: &Scene, size: (u32, u32)) -> kami::systems::wisps::tiles::MarchStats {
     use kami::systems::wisps::WispsSystem;
-    let gpu = common::gpu();
-    let mut stage = kami::stage::Stage::new(
-        &gpu,
-        scene,
-        kami::stage::target::OUTPUT_FORMAT,
-        kami::stage::Quality::of(scene),
-    )
-    .unwrap();
-    stage.system_mut::<WispsSystem>().unwrap().draw.counting = true;
-    let out = kami::stage::target::Offscreen::new(&gpu, size).unwrap();
-    let look = stage.look();
-    let mut enc = gpu.device.create_command_encoder(&Default::default());
-    stage
-        .render(&gpu, &mut enc, &out.view, size, &look)
-        .unwrap();
-    gpu.queue.submit([enc.finish()]);
+    let (gpu, stage) = drawn(scene, size, true);
     let sys = stage.system::<WispsSystem>().unwrap();
     sys.draw.read_stats(&gpu).unwrap().unwrap()
 }
@@ -533,23 +516,10 @@ fn march_stats(scene: &Scene, size: (u32, u32)) -> kami::systems::wisps::tiles::
 fn tile_lists_hold_every_segment_a_pixel_ray_crosses() {
     use glam::{DMat4, DVec3, DVec4};
     use kami::systems::wisps::{curve, tiles, WispsSystem};
-    let gpu = common::gpu();
     let scene = one_sample("toon_divide");
     let size = (80u32, 112u32);
-    let mut stage = kami::stage::Stage::new(
-        &gpu,
-        &scene,
-        kami::stage::target::OUTPUT_FORMAT,
-        kami::stage::Quality::of(&scene),
-    )
-    .unwrap();
-    let out = kami::stage::target::Offscreen::new(&gpu, size).unwrap();
+    let (gpu, stage) = drawn(&scene, size, false);
     let look = stage.look();
-    let mut enc = gpu.device.create_command_encoder(&Default::default());
-    stage
-        .render(&gpu, &mut enc, &out.view, size, &look)
-        .unwrap();
-    gpu.queue.submit([enc.finish()]);
     let sys = stage.system::<WispsSystem>().unwrap();
     let lists = sys.draw.tiles().unwrap().read_lists(&gpu).unwrap();
     let frame = kami::stage::frame_uniform(&scene, &look, stage.bounds(), size, 1);
@@ -641,21 +611,7 @@ fn overflowing_ray_lists_are_counted_and_reported() {
     let stats = march_stats(&scene, (32, 32));
     assert!(stats.ray_overflow > 0, "{stats:?}");
     assert!(!stats.complete());
-    let gpu = common::gpu();
-    let mut stage = kami::stage::Stage::new(
-        &gpu,
-        &scene,
-        kami::stage::target::OUTPUT_FORMAT,
-        kami::stage::Quality::of(&scene),
-    )
-    .unwrap();
-    let out = kami::stage::target::Offscreen::new(&gpu, (32, 32)).unwrap();
-    let look = stage.look();
-    let mut enc = gpu.device.create_command_encoder(&Default::default());
-    stage
-        .render(&gpu, &mut enc, &out.view, (32, 32), &look)
-        .unwrap();
-    gpu.queue.submit([enc.finish()]);
+    let (gpu, stage) = drawn(&scene, (32, 32), false);
     let warnings = stage.warnings(&gpu).unwrap();
     assert!(
         warnings.iter().any(|w| w.contains("dropped")),

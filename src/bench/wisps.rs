@@ -171,23 +171,6 @@ fn before_costs(out: &Path) -> Vec<(usize, u32, f64)> {
         .collect()
 }
 
-/// The scene's wisps as the f64 reference takes them (rest pose, head still).
-fn reference_segments(scene: &Scene) -> Vec<Vec<crate::systems::wisps::curve::Segment>> {
-    scene.wisps.as_ref().map_or_else(Vec::new, |w| {
-        w.skeletons
-            .iter()
-            .map(|s| {
-                let nodes: Vec<(DVec3, f64, f64)> = s
-                    .nodes
-                    .iter()
-                    .map(|n| (DVec3::from(n.p), n.r, n.w))
-                    .collect();
-                crate::systems::wisps::curve::segments(&nodes)
-            })
-            .collect()
-    })
-}
-
 /// The f64 truth (`field::render_reference`: every segment, every ray from the eye) of a
 /// still scene at `size`, as an sRGB image.
 fn truth_image(gpu: &Gpu, scene: &Scene, size: (u32, u32)) -> Result<RgbaImage> {
@@ -201,7 +184,7 @@ fn truth_image(gpu: &Gpu, scene: &Scene, size: (u32, u32)) -> Result<RgbaImage> 
     };
     let bg = field::linear(scene.render.background);
     let (colours, _) = field::render_reference(
-        &reference_segments(scene),
+        &crate::systems::wisps::curve::drawn_segments(w),
         w.threshold,
         &w.march,
         &w.toon,

@@ -149,6 +149,23 @@ pub fn segments(nodes: &[(DVec3, f64, f64)]) -> Vec<Segment> {
         .collect()
 }
 
+/// The segments of every wisp of `wisps` as drawn (the rest pose, head still): what the f64
+/// references of a still scene take.
+pub fn drawn_segments(wisps: &crate::scene::wisps::Wisps) -> Vec<Vec<Segment>> {
+    wisps
+        .skeletons
+        .iter()
+        .map(|s| {
+            let nodes: Vec<(DVec3, f64, f64)> = s
+                .nodes
+                .iter()
+                .map(|n| (DVec3::from(n.p), n.r, n.w))
+                .collect();
+            segments(&nodes)
+        })
+        .collect()
+}
+
 /// See `segments`.
 pub fn lipschitz(ctrl: &[DVec3; 4], r: [f64; 2], w: [f64; 2]) -> f64 {
     let s = (0.5 * (ctrl[3] - ctrl[0]).length()).max(1e-9);

@@ -217,16 +217,7 @@ impl CurvePass {
             gpu::storage_buffer(device, "wisp node r,w", bytemuck::cast_slice(&rw), empty);
         let ranges =
             gpu::storage_buffer(device, "wisp ranges", bytemuck::cast_slice(&ranges), empty);
-        let zeros = |label, bytes: u64| {
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: bytes.max(256),
-                usage: wgpu::BufferUsages::STORAGE
-                    | wgpu::BufferUsages::COPY_SRC
-                    | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            })
-        };
+        let zeros = |label, bytes: u64| tiles::storage(device, label, bytes);
         let segments = zeros(
             "wisp segments",
             n_seg as u64 * std::mem::size_of::<GpuSegment>() as u64,

@@ -209,7 +209,8 @@ pub struct TilePass {
     segments: u32,
 }
 
-fn storage(device: &wgpu::Device, label: &str, bytes: u64) -> wgpu::Buffer {
+/// A zeroed storage buffer that kernels write and tests read back (at least 256 bytes).
+pub fn storage(device: &wgpu::Device, label: &str, bytes: u64) -> wgpu::Buffer {
     device.create_buffer(&wgpu::BufferDescriptor {
         label: Some(label),
         size: bytes.max(256),
