@@ -1053,18 +1053,7 @@ fn reference_hits(scene: &Scene) -> ReferenceHits {
     let vp = DMat4::from_cols_array_2d(&frame.view_proj.map(|c| c.map(|v| v as f64)));
     let inv = vp.inverse();
     let w = scene.wisps.as_ref().unwrap();
-    let segs: Vec<Vec<curve::Segment>> = w
-        .skeletons
-        .iter()
-        .map(|s| {
-            let nodes: Vec<(DVec3, f64, f64)> = s
-                .nodes
-                .iter()
-                .map(|n| (DVec3::from(n.p), n.r, n.w))
-                .collect();
-            curve::segments(&nodes)
-        })
-        .collect();
+    let segs = curve::drawn_segments(w);
     let eye = look.camera.eye;
     let eps_per_t = w.toon.outline_width / frame.raster[0] as f64;
     let mut hits = Vec::new();
@@ -1396,18 +1385,7 @@ fn ray_march_with_toon_controls_matches_the_f64_reference_image() {
     let frame = kami::stage::frame_uniform(&scene, &look, stage.bounds(), SIZE, 1);
     let vp = DMat4::from_cols_array_2d(&frame.view_proj.map(|c| c.map(|v| v as f64)));
     let w = scene.wisps.as_ref().unwrap();
-    let segs: Vec<Vec<curve::Segment>> = w
-        .skeletons
-        .iter()
-        .map(|s| {
-            let nodes: Vec<(DVec3, f64, f64)> = s
-                .nodes
-                .iter()
-                .map(|n| (DVec3::from(n.p), n.r, n.w))
-                .collect();
-            curve::segments(&nodes)
-        })
-        .collect();
+    let segs = curve::drawn_segments(w);
     let bg = field::linear(scene.render.background);
     let (colours, _) = field::render_reference(
         &segs,

@@ -255,10 +255,8 @@ struct Sample {
 // [c_in, c_out] and its shell interval [s_in, s_out] along the ray (empty: s_in > s_out).
 const RAY_SLOTS: u32 = 48u;
 var<private> c_seg: array<u32, 48>;
-var<private> c_in: array<f32, 48>;
-var<private> c_out: array<f32, 48>;
-var<private> s_in: array<f32, 48>;
-var<private> s_out: array<f32, 48>;
+// x c_in, y c_out, z s_in, w s_out
+var<private> c_iv: array<vec4<f32>, 48>;
 var<private> n_cand: u32;
 
 // Per wisp of the current sample: the pieces' density bound at distance 0.
@@ -287,7 +285,7 @@ fn clear_step(t: f32, v: vec3<f32>) -> f32 {
     var n_w = 0u;
     var wisp = -1.0;
     for (var k = 0u; k < n_cand; k++) {
-        if (c_in[k] > t || c_out[k] < t) {
+        if (c_iv[k].x > t || c_iv[k].y < t) {
             continue;
         }
         let j = c_seg[k];
@@ -320,7 +318,7 @@ fn clear_step(t: f32, v: vec3<f32>) -> f32 {
     var wi = 0u;
     wisp = -1.0;
     for (var k = 0u; k < n_cand; k++) {
-        if (c_in[k] > t || c_out[k] < t) {
+        if (c_iv[k].x > t || c_iv[k].y < t) {
             continue;
         }
         let j = c_seg[k];
@@ -361,7 +359,7 @@ fn field(t: f32, v: vec3<f32>) -> Sample {
     var densest = 0.0;
     var densest_o = 1.0;
     for (var k = 0u; k < n_cand; k++) {
-        if (c_in[k] > t || c_out[k] < t) {
+        if (c_iv[k].x > t || c_iv[k].y < t) {
             continue;
         }
         let j = c_seg[k];
@@ -549,24 +547,21 @@ fn fs(in: VOut) -> FOut {
             // Full: replace the farthest entry if this one begins nearer.
             slot = 0u;
             for (var q = 1u; q < RAY_SLOTS; q++) {
-                if (c_in[q] > c_in[slot]) {
+                if (c_iv[q].x > c_iv[slot].x) {
                     slot = q;
                 }
             }
-            if (iv.x >= c_in[slot]) {
+            if (iv.x >= c_iv[slot].x) {
                 t_drop = min(t_drop, iv.x);
                 continue;
             }
-            t_drop = min(t_drop, c_in[slot]);
+            t_drop = min(t_drop, c_iv[slot].x);
         } else {
             n_cand++;
         }
         let sv = ray_capsule(eye, dir, c.a.xyz, c.b.xyz, shells[j]);
         c_seg[slot] = j;
-        c_in[slot] = iv.x;
-        c_out[slot] = iv.y;
-        s_in[slot] = sv.x;
-        s_out[slot] = sv.y;
+        c_iv[slot] = vec4<f32>(iv, sv);
     }
     if (t_drop < 1e30) {
         // Back into segment order (the per-wisp maximum needs a wisp's segments together).
@@ -576,18 +571,9 @@ fn fs(in: VOut) -> FOut {
                 let sg = c_seg[b];
                 c_seg[b] = c_seg[b - 1u];
                 c_seg[b - 1u] = sg;
-                let i0 = c_in[b];
-                c_in[b] = c_in[b - 1u];
-                c_in[b - 1u] = i0;
-                let o0 = c_out[b];
-                c_out[b] = c_out[b - 1u];
-                c_out[b - 1u] = o0;
-                let i1 = s_in[b];
-                s_in[b] = s_in[b - 1u];
-                s_in[b - 1u] = i1;
-                let o1 = s_out[b];
-                s_out[b] = s_out[b - 1u];
-                s_out[b - 1u] = o1;
+                let iv = c_iv[b];
+                c_iv[b] = c_iv[b - 1u];
+                c_iv[b - 1u] = iv;
                 b--;
             }
         }
@@ -595,8 +581,8 @@ fn fs(in: VOut) -> FOut {
     var first = 1e30;
     var end = -1e30;
     for (var k = 0u; k < n_cand; k++) {
-        first = min(first, s_in[k]);
-        end = max(end, s_out[k]);
+        first = min(first, c_iv[k].z);
+        end = max(end, c_iv[k].w);
     }
     let counting = view.flags.x == 1u;
     if (counting && n_cand > 0u) {
@@ -622,12 +608,12 @@ fn fs(in: VOut) -> FOut {
         var next_shell = 1e30;
         var next_in = 1e30;
         for (var k = 0u; k < n_cand; k++) {
-            inside = inside || (s_in[k] <= t && t <= s_out[k]);
-            if (s_in[k] > t) {
-                next_shell = min(next_shell, s_in[k]);
+            inside = inside || (c_iv[k].z <= t && t <= c_iv[k].w);
+            if (c_iv[k].z > t) {
+                next_shell = min(next_shell, c_iv[k].z);
             }
-            if (c_in[k] > t) {
-                next_in = min(next_in, c_in[k]);
+            if (c_iv[k].x > t) {
+                next_in = min(next_in, c_iv[k].x);
             }
         }
         if (!inside) {

@@ -196,7 +196,6 @@ pub fn tile_lists(rects: &[[i32; 4]], samples: (u32, u32)) -> Vec<Vec<u32>> {
 pub struct TilePass {
     bound: wgpu::ComputePipeline,
     bin: wgpu::ComputePipeline,
-    layout: wgpu::BindGroupLayout,
     pub view: wgpu::Buffer,
     pub rects: wgpu::Buffer,
     pub shells: wgpu::Buffer,
@@ -288,7 +287,6 @@ impl TilePass {
         Ok(TilePass {
             bound,
             bin,
-            layout,
             view,
             rects,
             shells,
@@ -309,7 +307,6 @@ impl TilePass {
 
     /// Write the view and record both kernels (and clear the stats).
     pub fn record(&self, gpu: &Gpu, enc: &mut wgpu::CommandEncoder, view: &GpuMarchView) {
-        let _ = &self.layout;
         gpu.queue
             .write_buffer(&self.view, 0, bytemuck::bytes_of(view));
         enc.clear_buffer(&self.stats, 0, None);
