@@ -69,49 +69,52 @@ impl Target {
     }
 
     /// Tokens of the format, inserted whole: random bytes rarely spell `end_header`.
-    fn dictionary(self) -> &'static [&'static str] {
+    fn dictionary(self) -> Vec<&'static str> {
         match self {
-            Target::Scene => SCENE_WORDS,
-            Target::Obj => OBJ_WORDS,
-            Target::Off => OFF_WORDS,
-            Target::Ply => PLY_WORDS,
-            Target::Hair => HAIR_WORDS,
-            Target::Lines => LINE_WORDS,
-            Target::Usda => USDA_WORDS,
+            Target::Scene => scene_words(),
+            Target::Obj => OBJ_WORDS.to_vec(),
+            Target::Off => OFF_WORDS.to_vec(),
+            Target::Ply => PLY_WORDS.to_vec(),
+            Target::Hair => HAIR_WORDS.to_vec(),
+            Target::Lines => LINE_WORDS.to_vec(),
+            Target::Usda => USDA_WORDS.to_vec(),
         }
     }
 }
 
+/// The scene words every kind shares (head, camera, light, render settings, the forces,
+/// RON's own tokens); each kind adds its block's words (`systems::Kind::fuzz_words`).
 #[rustfmt::skip]
 const SCENE_WORDS: &[&str] = &[
-    "Scene(", "Head(", "HairGroup(", "Roots(", "EllipsoidDesc(", "Material(", "CameraDesc(",
-    "Light(", "RenderSettings(", "Dynamics(", "WindKey(", "HeadKey(", "Inertia(",
-    "PseudoForce(", "Stiffness(", "Fluctuation(", "Cut(", "Fur(", "Region(", "Coat(",
-    "FurMaterial(", "Culling(", "MeshMotion(", "Some(", "None", "true", "false", "NaN", "inf",
-    "-inf", "Normal", "Blend(dir: (1.0, 0.0, 0.0), weight: 0.5)", "Paper", "Converged(",
-    "Uniform(force: (1.0, 0.0, 0.0))", "Toward(point: (0.0, 0.0, 0.0), strength: 1.0)",
-    "Above(0.0)", "Below(0.0)", "HalfSpace(normal: (0.0, 0.0, 1.0), offset: 0.0)",
-    "ByPoreHeight(low: (0.0, 1), high: (1.0, 2))", "Near(center: (0.0, 0.0, 0.0), radius: 1.0)",
-    "Step", "Linear", "Critter", "File(\"x.obj\")", "CgalDemo(\"lion-head.off\")", "Line",
-    "Polyline", "Curve", "Tube", "seed:", "head:", "center:", "radii:", "color:", "visible:",
-    "gravity:", "groups:", "camera:", "light:", "render:", "dynamics:", "fur:", "name:",
-    "roots:", "count:", "segments:", "length:", "length_jitter:", "direction:",
-    "direction_jitter:", "rigidity:", "bending:", "loads:", "cuts:", "material:", "dynamic:",
-    "theta:", "phi:", "on:", "hairline: Some([(0.0, 90.0), (180.0, 60.0)])", "rule:", "ka:",
-    "ka_spread:", "ks:", "shininess:", "kd:", "width:", "tip_width:", "eye:", "target:", "up:",
-    "fov_y:", "intensity:", "ambient:", "size:", "background:", "msaa:", "supersample:",
-    "min_width:", "dt:", "steps_per_frame:", "density:", "damping:", "wind:", "head_motion:",
-    "inertia:", "pseudo_force:", "stiffness:", "fluctuation:", "collision:", "max_substeps:",
-    "frame:", "force:", "interp:", "rotate:", "translate:", "root:", "tip:", "top:",
-    "top_height:", "top_blend:", "alpha:", "epsilon_pore:", "epsilon_tip:", "near:", "start:",
-    "end:", "amplitude:", "period:", "mesh:", "hairs:", "regions:", "coats:", "culling:",
-    "motion:", "skin:", "radius:", "length_scale:", "share:", "relative_length:",
-    "normal_randomize:", "end_randomize:", "direction_weight:", "style:", "diffuse:",
-    "specular:", "enabled:", "full_distance:", "wavelength:", "axis:", "max_iterations:",
-    "tolerance:", "#![enable(implicit_some)]", "#![enable(unwrap_newtypes)]",
-    "#![enable(unwrap_variant_newtypes)]", "r#", "\"", "b\"", "'", "//", "/*", "*/", "0x", "(",
-    ")", "[", "]", "{", "}", ",", ":",
+    "Scene(", "Head(", "EllipsoidDesc(", "CameraDesc(", "Light(", "RenderSettings(",
+    "WindKey(", "HeadKey(", "Some(", "None", "true", "false", "NaN", "inf", "-inf", "Step",
+    "Linear", "File(\"x.obj\")", "seed:", "head:", "center:", "radii:", "color:", "visible:",
+    "gravity:", "camera:", "light:", "render:", "name:", "length:", "direction:", "material:",
+    "shininess:", "width:", "eye:", "target:", "up:", "fov_y:", "intensity:", "ambient:",
+    "size:", "background:", "msaa:", "supersample:", "min_width:", "strands:", "wind:",
+    "head_motion:", "frame:", "force:", "interp:", "rotate:", "translate:", "amplitude:",
+    "period:", "mesh:", "radius:", "diffuse:", "specular:", "axis:", "#![enable(implicit_some)]",
+    "#![enable(unwrap_newtypes)]", "#![enable(unwrap_variant_newtypes)]", "r#", "\"", "b\"",
+    "'", "//", "/*", "*/", "0x", "(", ")", "[", "]", "{", "}", ",", ":",
 ];
+
+/// The External Force Field's words (`forces::eff`): the scene's `eff:` block.
+#[rustfmt::skip]
+const EFF_WORDS: &[&str] = &[
+    "eff:", "EffDesc(", "EffSample(", "Blower(", "GustKey(", "extent:", "resolution:",
+    "source:", "strength:", "samples:", "blowers:", "file:", "gust:", "at:", "toward:",
+    "spread:", "scale:", "head_capture:",
+];
+
+/// Every scene word: the shared ones, the EFF's and each kind's, in `KINDS` order.
+fn scene_words() -> Vec<&'static str> {
+    let mut all = SCENE_WORDS.to_vec();
+    all.extend_from_slice(EFF_WORDS);
+    for kind in crate::systems::KINDS {
+        all.extend_from_slice(kind.fuzz_words);
+    }
+    all
+}
 
 #[rustfmt::skip]
 const OBJ_WORDS: &[&str] = &[
@@ -499,7 +502,7 @@ pub fn check_mesh(m: &Mesh) -> Result<(), Finding> {
 /// The deterministic mutator.
 pub struct Mutator {
     rng: Rng,
-    dict: &'static [&'static str],
+    dict: Vec<&'static str>,
 }
 
 impl Mutator {
@@ -599,8 +602,9 @@ impl Mutator {
             }
             6 | 7 => self.replace_number(d),
             8 | 9 => {
-                let dict = self.dict;
-                let word = self.pick(dict).as_bytes();
+                let i = self.below(self.dict.len());
+                let word: &'static str = self.dict[i];
+                let word = word.as_bytes();
                 // At a token boundary half the time, so the word stays a word.
                 let mut at = self.below(len + 1);
                 if self.below(2) == 0 {

@@ -166,9 +166,6 @@ enum Bench {
         #[arg(long, default_value = "bench_out")]
         out: PathBuf,
     },
-    /// Projective dynamics: error against cost over a sweep of dt and segment counts on the
-    /// gust scene and the hard cases, GPU and CPU cost at the paper's size, and the rigid
-    /// pendulum's period; writes dynamics.md, dynamics.csv and dynamics.png.
     /// GPU time per pass (simulation, generation, draw, resolve, whole frame) over a sweep of
     /// strand counts and segments per strand, from timestamp queries (a labelled CPU-side
     /// fallback where the adapter has none), and the simulation's memory bandwidth against
@@ -208,6 +205,9 @@ enum Bench {
         #[arg(long)]
         software: bool,
     },
+    /// Projective dynamics: error against cost over a sweep of dt and segment counts on the
+    /// gust scene and the hard cases, GPU and CPU cost at the paper's size, and the rigid
+    /// pendulum's period; writes dynamics.md, dynamics.csv and dynamics.png.
     Dynamics {
         #[arg(long, default_value = "assets/scenes/gust.ron")]
         scene: PathBuf,
@@ -427,12 +427,24 @@ fn preference(software: bool) -> Preference {
     }
 }
 
-fn main() -> Result<()> {
+/// A user's mistake prints one clear message (the error and its causes, `{:#}`) and exits
+/// with status 1: returning the error from `main` would print anyhow's captured backtrace
+/// too whenever `RUST_BACKTRACE` is set.
+fn main() -> std::process::ExitCode {
     env_logger::Builder::from_env(
         env_logger::Env::default().default_filter_or("warn,wgpu_hal::gles::egl=off"),
     )
     .init();
-    let cli = Cli::parse();
+    match run(Cli::parse()) {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("Error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Render {
             scene,
@@ -481,28 +493,13 @@ fn main() -> Result<()> {
             let gpu = Gpu::headless(preference(software))?;
             let t = std::time::Instant::now();
             let (hairs, segs) = s.counts();
-            // Toon wisps are skeletons, not strands: named on their own.
-            let segs = match &s.wisps {
-                Some(w) => format!(
-                    "{segs} segments, {} toon wisps ({} spline segments)",
-                    w.skeletons.len(),
-                    kami::systems::wisps::march::segment_count(w)
-                ),
-                None => format!("{segs} segments"),
-            };
-            // Strips are ribbons on chains of sticks: named on their own too.
-            let segs = match &s.strips {
-                Some(st) => {
-                    let n: u64 = st.layers.iter().map(|l| u64::from(l.count)).sum();
-                    let sticks: u64 = st
-                        .layers
-                        .iter()
-                        .map(|l| u64::from(l.count) * u64::from(l.sticks))
-                        .sum();
-                    format!("{segs}, {n} strips ({sticks} sticks)")
+            // What each kind adds to the counts (toon wisps, strips), in `KINDS` order.
+            let mut segs = format!("{segs} segments");
+            for kind in kami::systems::KINDS {
+                if let Some(more) = (kind.summary)(&s) {
+                    segs = format!("{segs}, {more}");
                 }
-                None => segs,
-            };
+            }
             match frames {
                 None => {
                     let out = out.unwrap_or_else(|| PathBuf::from("kami.png"));
@@ -518,10 +515,7 @@ fn main() -> Result<()> {
                     );
                 }
                 Some((first, last)) => {
-                    let moves = s.dynamics.is_some()
-                        || s.strips.is_some()
-                        || s.fur.as_ref().is_some_and(|f| f.moves())
-                        || s.wisps.as_ref().is_some_and(|w| w.springs.is_some());
+                    let moves = kami::systems::KINDS.iter().any(|k| (k.moves)(&s));
                     if !moves {
                         log::warn!(
                             "{} has no dynamics: every frame is the same still",

@@ -2,7 +2,7 @@
 
 #[test]
 fn every_shader_validates() {
-    let all = kami::shaders::all();
+    let all = kami::stage::shaders();
     assert!(all.len() >= 8, "the registry lost modules: {all:?}");
     for (name, source) in all {
         let module = naga::front::wgsl::parse_str(source).unwrap_or_else(|e| {
@@ -45,7 +45,7 @@ fn registry_lists_every_shader_file() {
         files.len() >= 16,
         "the walk found too few shaders: {files:?}"
     );
-    let all = kami::shaders::all();
+    let all = kami::stage::shaders();
     for path in files {
         let rel = path.strip_prefix(&root).unwrap().with_extension("");
         let rel = rel.to_str().unwrap().replace('\\', "/");
@@ -58,7 +58,7 @@ fn registry_lists_every_shader_file() {
         } else {
             assert!(
                 all.iter().any(|(n, _)| *n == rel),
-                "shaders/{rel}.wgsl is not in kami::shaders::all() (a Kind's `shaders` or shaders::STAGE)"
+                "shaders/{rel}.wgsl is not in kami::stage::shaders() (a Kind's `shaders`, shaders::STAGE or the forces')"
             );
         }
     }

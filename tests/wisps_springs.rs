@@ -579,7 +579,7 @@ fn bundle_holds_then_releases() {
     );
 }
 
-/// The WGSL module validates (the wisps kind registers it in `shaders::all`).
+/// The WGSL module validates (the wisps kind registers it in `stage::shaders`).
 #[test]
 fn springs_shader_validates() {
     let src = kami::systems::wisps::springs_gpu::SPRINGS;

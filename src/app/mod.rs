@@ -3,7 +3,8 @@
 //! clock, one render path, two targets); egui is drawn on top in the same frame. The panels
 //! edit `params::ViewerState`; each frame the stage takes the edited scene and each hair
 //! system classifies the edit (`systems::Change`): rebuild for its shape, new parameters for
-//! the next step, new uniforms for the look.
+//! the next step, new uniforms for the look. The kinds' mouse tools, keys and overlays are
+//! hosted through `systems::ui::KindUi`: the viewer names no kind.
 //!
 //! The clock: the first frame drawn is frame 0 (the rest pose); while playing, each drawn
 //! frame advances `time_scale` frames (fractions accumulate), so drawn frame k of a run at
@@ -13,14 +14,15 @@ pub mod camera;
 pub mod panel_cache;
 pub mod panels;
 pub mod params;
-pub mod strips_mouse;
 
 use crate::error::{KamiError, Result};
 use crate::gpu::timing::Phase;
+use crate::gpu::view::ScreenView;
 use crate::gpu::{self, Gpu, Preference};
 use crate::scene::Scene;
 use crate::stage::{self, target::Offscreen, Look, Stage};
-use crate::systems::wisps::{edit, panel as wisp_panel};
+use crate::systems::ui::{self as kind_ui, Mods, Tool};
+use crate::systems::KINDS;
 use camera::OrbitCamera;
 use glam::DVec2;
 use params::{Request, ViewerState};
@@ -164,83 +166,49 @@ struct Mouse {
     pan: bool,
     shift: bool,
     ctrl: bool,
-    /// A skeleton node is being dragged (the skeleton editor's mouse mode).
-    node_drag: bool,
-    /// The last left press in the skeleton editor's mouse mode (double clicks).
-    last_click: Option<(Instant, (f64, f64))>,
-    /// What a press in the strips' mouse modes holds (a target, a paint stroke).
-    strips: strips_mouse::Gesture,
 }
 
-/// Two left presses closer than this in time and `DOUBLE_PX` on screen are a double click.
-const DOUBLE_S: f64 = 0.4;
-const DOUBLE_PX: f64 = 6.0;
-
-/// Whether the mouse edits skeletons (the Skeletons panel's toggle, a scene with wisps, a
-/// view drawn).
-fn editing(s: &ViewerState) -> bool {
-    s.view.edit_skeletons && s.scene.wisps.is_some() && s.edit_view.is_some()
+impl Mouse {
+    fn mods(&self) -> Mods {
+        Mods {
+            shift: self.shift,
+            ctrl: self.ctrl,
+        }
+    }
 }
 
-/// A left press in the skeleton editor's mouse mode: a double click away from the nodes
-/// adds a node at the cursor after the selected one; a press on a node selects it and
-/// starts dragging it. Returns false when the press is not the editor's (it orbits).
-fn edit_press(mouse: &mut Mouse, s: &mut ViewerState) -> bool {
-    let (Some(p), Some(view)) = (mouse.pos, s.edit_view) else {
-        return false;
-    };
-    let cursor = DVec2::new(p.0, p.1);
-    if cursor.x > view.size.x || cursor.y > view.size.y {
-        return false;
-    }
-    let Some(w) = s.scene.wisps.as_mut() else {
-        return false;
-    };
-    let now = Instant::now();
-    let double = mouse.last_click.is_some_and(|(t, q)| {
-        now.duration_since(t).as_secs_f64() < DOUBLE_S
-            && (DVec2::new(q.0, q.1) - cursor).length() < DOUBLE_PX
-    });
-    let hit = edit::pick(&w.skeletons, &view, cursor, edit::PICK_PX);
-    if double && hit.is_none() {
-        mouse.last_click = None;
-        let _ = s.editor.add_at(w, &view, cursor);
-        return true;
-    }
-    mouse.last_click = Some((now, p));
-    if hit.is_some() && s.editor.select_at(w, &view, cursor).is_some() {
-        mouse.node_drag = s.editor.begin_drag(w, &view, cursor).is_ok();
-        return true;
-    }
-    false
+/// The first kind (in `KINDS` order) whose mouse mode is on: a left press goes to it.
+fn mouse_kind(s: &ViewerState) -> Option<usize> {
+    s.kinds.iter().position(|k| k.mouse_mode(&s.scene, &s.host))
 }
 
-/// The wheel in the skeleton editor's mouse mode: over the selected node it scales the
-/// node's radius (Shift: its weight). Returns false when it is not the editor's (it zooms).
-fn edit_wheel(mouse: &Mouse, s: &mut ViewerState, steps: f64) -> bool {
-    if !editing(s) {
-        return false;
+/// What kind `i`'s tools see of the stage: its system and the clock.
+fn tool(g: &Gfx, i: usize) -> Tool<'_> {
+    Tool {
+        gpu: &g.gpu,
+        system: g
+            .stage
+            .systems()
+            .iter()
+            .find(|s| s.kind() == KINDS[i].name)
+            .map(|s| s.as_ref()),
+        ctx: g.stage.ctx(),
     }
-    let (Some(p), Some(view), Some(w)) = (mouse.pos, s.edit_view, s.scene.wisps.as_mut()) else {
+}
+
+/// A left press at `cursor` for kind `i`'s mouse mode: whether its tool took it.
+fn press(g: &Gfx, s: &mut ViewerState, i: usize, cursor: DVec2) -> Result<bool> {
+    let t = tool(g, i);
+    s.kinds[i].press(&mut s.scene, &mut s.host, &t, cursor)
+}
+
+/// The cursor moved with a press held: to the kind holding it. Returns whether one did.
+fn drag(g: &Gfx, s: &mut ViewerState, cursor: DVec2) -> bool {
+    let Some(i) = s.kinds.iter().position(|k| k.holding()) else {
         return false;
     };
-    let Some(sel) = s.editor.selected(w) else {
-        return false;
-    };
-    let n = w.skeletons[sel.skeleton].nodes[sel.node];
-    let node = glam::DVec3::from(n.p);
-    let (Some(q), Some(r)) = (view.project(node), view.radius_px(node, n.r)) else {
-        return false;
-    };
-    if (q.truncate() - DVec2::new(p.0, p.1)).length() > r.max(edit::PICK_PX) {
-        return false;
-    }
-    let factor = (0.1 * steps).exp();
-    let _ = if mouse.shift {
-        s.editor.scale_weight(w, factor)
-    } else {
-        s.editor.scale_radius(w, factor)
-    };
+    let t = tool(g, i);
+    s.kinds[i].drag(&mut s.scene, &mut s.host, &t, cursor);
     true
 }
 
@@ -410,15 +378,14 @@ impl ApplicationHandler for App {
     fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
         let Some(g) = self.gfx.as_mut() else { return };
         let response = g.egui_state.on_window_event(&g.window, &event);
-        // The skeleton editor: a button or key closes the open gesture (so a slider drag,
-        // or a run of wheel turns on one node, is one undo entry), and a left release ends
-        // a node drag even over the panels.
+        // The kinds' tools: a button or key closes an open gesture (so a slider drag, or a
+        // run of wheel turns, is one undo entry), and a left release ends a drag even over
+        // the panels.
         if matches!(
             event,
             WindowEvent::MouseInput { .. } | WindowEvent::KeyboardInput { .. }
-        ) && !self.state.editor.dragging()
-        {
-            self.state.editor.end_gesture();
+        ) {
+            self.state.kinds.iter_mut().for_each(|k| k.input());
         }
         if let WindowEvent::MouseInput {
             state: ElementState::Released,
@@ -426,11 +393,7 @@ impl ApplicationHandler for App {
             ..
         } = event
         {
-            if g.mouse.node_drag {
-                g.mouse.node_drag = false;
-                self.state.editor.end_drag();
-            }
-            strips_mouse::release(&mut g.mouse.strips);
+            self.state.kinds.iter_mut().for_each(|k| k.release());
         }
         match event {
             WindowEvent::CloseRequested => event_loop.exit(),
@@ -451,7 +414,7 @@ impl ApplicationHandler for App {
                             self.error = Some(e);
                             event_loop.exit();
                         }
-                        other => self.state.error = Some(other.to_string()),
+                        other => self.state.host.error = Some(other.to_string()),
                     }
                 }
                 if self
@@ -469,29 +432,19 @@ impl ApplicationHandler for App {
             }
             WindowEvent::MouseInput { state, button, .. } => {
                 let down = state == ElementState::Pressed;
+                let mode = if down { mouse_kind(&self.state) } else { None };
                 match button {
-                    // Skeleton edit mode: a press on a node picks (and drags) it instead of
-                    // orbiting.
-                    MouseButton::Left if down && editing(&self.state) => {
-                        g.mouse.orbit = !edit_press(&mut g.mouse, &mut self.state);
-                    }
-                    // The strips' mouse modes: a press on a target drags it, on a strip
-                    // picks it; the EFF brush paints a stroke.
-                    MouseButton::Left if down && strips_mouse::on(&self.state) => {
+                    // A kind's mouse mode (the skeleton editor, the strips' picking and
+                    // dragging, the EFF brush): a press its tool takes does not orbit.
+                    MouseButton::Left if mode.is_some() => {
                         let cursor = g.mouse.pos.map(|p| DVec2::new(p.0, p.1));
-                        let took = cursor.map(|c| {
-                            strips_mouse::press(
-                                &g.stage,
-                                &g.gpu,
-                                &mut g.mouse.strips,
-                                &mut self.state,
-                                c,
-                            )
-                        });
+                        let took = cursor
+                            .zip(mode)
+                            .map(|(c, i)| press(g, &mut self.state, i, c));
                         g.mouse.orbit = match took {
                             Some(Ok(took)) => !took,
                             Some(Err(e)) => {
-                                self.state.error = Some(e.to_string());
+                                self.state.host.error = Some(e.to_string());
                                 false
                             }
                             None => true,
@@ -504,22 +457,8 @@ impl ApplicationHandler for App {
             }
             WindowEvent::CursorMoved { position, .. } => {
                 let p = (position.x, position.y);
-                if g.mouse.node_drag {
-                    // (An undo during the drag ends it: then the cursor moves nothing.)
-                    if let (true, Some(view), Some(w)) = (
-                        self.state.editor.dragging(),
-                        self.state.edit_view,
-                        self.state.scene.wisps.as_mut(),
-                    ) {
-                        let _ = self.state.editor.drag_to(w, &view, DVec2::new(p.0, p.1));
-                    }
-                } else if g.mouse.strips.active() {
-                    strips_mouse::drag(
-                        &g.stage,
-                        &mut g.mouse.strips,
-                        &mut self.state,
-                        DVec2::new(p.0, p.1),
-                    );
+                if drag(g, &mut self.state, DVec2::new(p.0, p.1)) {
+                    // A kind's tool holds the press.
                 } else if let Some(last) = g.mouse.pos {
                     let (dx, dy) = (p.0 - last.0, p.1 - last.1);
                     if g.mouse.pan || (g.mouse.orbit && g.mouse.shift) {
@@ -535,47 +474,39 @@ impl ApplicationHandler for App {
                     MouseScrollDelta::LineDelta(_, y) => y as f64,
                     MouseScrollDelta::PixelDelta(p) => p.y / 40.0,
                 };
-                if !edit_wheel(&g.mouse, &mut self.state, steps) {
+                let (mods, s) = (g.mouse.mods(), &mut self.state);
+                let took = g.mouse.pos.is_some_and(|p| {
+                    let cursor = DVec2::new(p.0, p.1);
+                    s.kinds
+                        .iter_mut()
+                        .any(|k| k.wheel(&mut s.scene, &s.host, cursor, steps, mods))
+                });
+                if !took {
                     g.camera.zoom(steps);
                 }
             }
             WindowEvent::PinchGesture { delta, .. } => g.camera.zoom(delta * 8.0),
             WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Pressed => {
-                let st = &mut self.state;
+                // The kinds' keys first (undo and redo, the editor's Delete and Escape,
+                // the strips' K), then the viewer's own.
+                let key = match event.logical_key.as_ref() {
+                    Key::Character(c) => Some(kind_ui::Key::Char(c)),
+                    Key::Named(NamedKey::Delete) => Some(kind_ui::Key::Delete),
+                    Key::Named(NamedKey::Escape) => Some(kind_ui::Key::Escape),
+                    _ => None,
+                };
+                let (mods, s) = (g.mouse.mods(), &mut self.state);
+                let took = key.is_some_and(|key| {
+                    s.kinds
+                        .iter_mut()
+                        .any(|k| k.key(&mut s.scene, &mut s.host, key, mods))
+                });
+                if took {
+                    return;
+                }
                 match event.logical_key.as_ref() {
-                    // The skeleton editor: undo and redo whenever the scene has wisps;
-                    // Delete and Escape in its mouse mode.
-                    Key::Character(c)
-                        if g.mouse.ctrl
-                            && st.scene.wisps.is_some()
-                            && matches!(c.to_ascii_lowercase().as_str(), "z" | "y") =>
-                    {
-                        let redo = c.eq_ignore_ascii_case("y") || g.mouse.shift;
-                        if let Some(w) = st.scene.wisps.as_mut() {
-                            let _ = if redo {
-                                st.editor.redo(w)
-                            } else {
-                                st.editor.undo(w)
-                            };
-                        }
-                    }
-                    Key::Named(NamedKey::Delete) if editing(st) => {
-                        if let Some(w) = st.scene.wisps.as_mut() {
-                            let _ = st.editor.delete_node(w);
-                        }
-                    }
-                    Key::Named(NamedKey::Escape) if editing(st) => {
-                        if let Some(w) = st.scene.wisps.as_ref() {
-                            let _ = st.editor.select(w, None);
-                        }
-                    }
-                    Key::Character(c) if st.view.edit_strips && c.eq_ignore_ascii_case("k") => {
-                        if let Err(e) = st.add_strip_edit() {
-                            st.error = Some(e.to_string());
-                        }
-                    }
                     Key::Named(NamedKey::Space) => {
-                        self.state.view.playing = !self.state.view.playing
+                        self.state.host.playing = !self.state.host.playing
                     }
                     Key::Character(c) => match c.to_ascii_lowercase().as_str() {
                         "f" => self.state.requests.push(Request::FrameScene),
@@ -607,11 +538,13 @@ fn apply(g: &mut Gfx, state: &mut ViewerState) -> Result<()> {
     }
     if let Err(e) = crate::scene::validate(&state.scene) {
         // Keep what is drawn; say what is wrong.
-        state.error = Some(e.to_string());
+        state.host.error = Some(e.to_string());
         return Ok(());
     }
-    let edits = |sc: &Scene| sc.strips.as_ref().map(|st| st.edits.clone());
-    let edits_changed = edits(g.stage.scene()) != edits(&state.scene);
+    let replay = state
+        .kinds
+        .iter()
+        .any(|k| k.replays(g.stage.scene(), &state.scene));
     let t = Instant::now();
     // A refused edit leaves the stage drawing what it had; the error shows in the panel.
     let applied = match g.stage.apply(&g.gpu, &state.scene) {
@@ -622,18 +555,18 @@ fn apply(g: &mut Gfx, state: &mut ViewerState) -> Result<()> {
         }
     };
     g.refused = None;
-    // The strips' pose read for picking may belong to the old strips.
-    state.strip_pose = None;
+    // What the tools read back may belong to the old systems.
+    state.kinds.iter_mut().for_each(|k| k.stale());
     if applied.restarted {
         g.clock_debt = 0.0;
         state.stats.groom_ms = t.elapsed().as_secs_f64() * 1e3;
     }
-    // A key-frame edit changes the clip from its first key on: replay it to the frame
-    // shown (or where the edit asked to look).
-    if edits_changed && !applied.restarted && state.seek.is_none() {
-        state.seek = Some(g.stage.frame());
+    // An edit of the past (the strips' key frames change the clip from their first key
+    // on): replay it to the frame shown (or where the edit asked to look).
+    if replay && !applied.restarted && state.host.seek.is_none() {
+        state.host.seek = Some(g.stage.frame());
     }
-    state.error = None;
+    state.host.error = None;
     Ok(())
 }
 
@@ -658,12 +591,11 @@ fn handle_requests(g: &mut Gfx, state: &mut ViewerState, shots: &mut Vec<PathBuf
                         g.camera = OrbitCamera::from_desc(&scene.camera);
                         state.stats.groom_ms = took.as_secs_f64() * 1e3;
                         state.scene = scene;
-                        state.group = 0;
-                        state.editor = Default::default();
-                        state.error = None;
-                        state.message = Some(format!("opened {path}"));
+                        state.kinds.iter_mut().for_each(|k| k.opened());
+                        state.host.error = None;
+                        state.host.message = Some(format!("opened {path}"));
                     }
-                    Err(e) => state.error = Some(e.to_string()),
+                    Err(e) => state.host.error = Some(e.to_string()),
                 }
             }
             Request::Save(path) => {
@@ -677,8 +609,8 @@ fn handle_requests(g: &mut Gfx, state: &mut ViewerState, shots: &mut Vec<PathBuf
                         let _ = std::fs::remove_file(&tmp);
                     });
                 match saved {
-                    Ok(()) => state.message = Some(format!("saved {path}")),
-                    Err(e) => state.error = Some(format!("cannot save {path}: {e}")),
+                    Ok(()) => state.host.message = Some(format!("saved {path}")),
+                    Err(e) => state.host.error = Some(format!("cannot save {path}: {e}")),
                 }
             }
             Request::Export(path) => {
@@ -688,14 +620,14 @@ fn handle_requests(g: &mut Gfx, state: &mut ViewerState, shots: &mut Vec<PathBuf
                 });
                 match written {
                     Ok(groom) => {
-                        state.message = Some(format!(
+                        state.host.message = Some(format!(
                             "exported {} strands ({} points) at frame {} to {path}",
                             groom.counts.len(),
                             groom.points.len(),
                             g.stage.frame()
                         ))
                     }
-                    Err(e) => state.error = Some(format!("cannot export {path}: {e}")),
+                    Err(e) => state.host.error = Some(format!("cannot export {path}: {e}")),
                 }
             }
             Request::Screenshot(path) => shots.push(PathBuf::from(path)),
@@ -717,17 +649,19 @@ fn handle_requests(g: &mut Gfx, state: &mut ViewerState, shots: &mut Vec<PathBuf
                 let (c, r) = g.stage.bounds();
                 g.camera.frame(c, r);
             }
+            // Scripted gestures take the real mouse's path through the kinds' tools.
             Request::Mouse(ev) => match ev {
                 params::MouseEvent::Press(x, y) => {
                     g.mouse.pos = Some((x, y));
-                    let c = DVec2::new(x, y);
-                    strips_mouse::press(&g.stage, &g.gpu, &mut g.mouse.strips, state, c)?;
+                    if let Some(i) = mouse_kind(state) {
+                        press(g, state, i, DVec2::new(x, y))?;
+                    }
                 }
                 params::MouseEvent::Move(x, y) => {
                     g.mouse.pos = Some((x, y));
-                    strips_mouse::drag(&g.stage, &mut g.mouse.strips, state, DVec2::new(x, y));
+                    drag(g, state, DVec2::new(x, y));
                 }
-                params::MouseEvent::Release => strips_mouse::release(&mut g.mouse.strips),
+                params::MouseEvent::Release => state.kinds.iter_mut().for_each(|k| k.release()),
             },
         }
     }
@@ -787,47 +721,23 @@ fn frame(
     let mut panel_left = f32::MAX;
     let no_panels = options.no_panels;
     let (win_w, win_h) = (g.config.width, g.config.height);
-    let (camera, head, bounds) = (g.camera.camera(), g.stage.ctx().head, g.stage.bounds());
-    let forces = g.stage.ctx().forces;
+    let (camera, bounds) = (g.camera.camera(), g.stage.bounds());
+    let clock = g.stage.ctx();
     let mut output = ctx.run_ui(raw, |ui| {
         if !no_panels {
             panel_left = panels::show(ui, state);
         }
-        // The 3D view as drawn this frame (the region left of the panels), for the skeleton
-        // editor's picking and its overlay.
+        // The 3D view as drawn this frame (the region left of the panels), for the kinds'
+        // picking and overlays: with the head's pose (skeleton nodes) and without it (EFF
+        // cells, strips and targets are in world space).
         let ppp = ui.ctx().pixels_per_point();
         let scene_w = ((panel_left * ppp).round().max(1.0) as u32).min(win_w);
         let size = DVec2::new(f64::from(scene_w), f64::from(win_h.max(1)));
-        let view = edit::View::from_camera(&camera, head, size, bounds);
-        state.edit_view = Some(view);
-        // EFF cells, strips and targets are in world space: projected without the head pose.
-        let world = edit::View::from_camera(&camera, glam::DMat4::IDENTITY, size, bounds);
-        state.world_view = Some(world);
-        let strips_mode = state.view.edit_strips || state.view.paint_eff;
-        if state.view.eff_arrows || (strips_mode && state.scene.strips.is_some()) {
-            let picked = state
-                .strip_pose
-                .as_ref()
-                .filter(|_| state.view.edit_strips)
-                .and_then(|(_, p)| p.get(state.key_strip as usize));
-            crate::systems::strips::panel::overlay(
-                ui.ctx(),
-                &state.scene,
-                &mut state.brush.cache,
-                &world,
-                ppp,
-                crate::systems::strips::panel::Show {
-                    arrows: state.view.eff_arrows || state.view.paint_eff,
-                    targets: state.view.eff_arrows || state.view.edit_strips,
-                    picked: picked.map(|p| p.as_slice()),
-                    forces: Some(forces),
-                },
-            );
-        }
-        if state.view.edit_skeletons {
-            if let Some(w) = &state.scene.wisps {
-                wisp_panel::overlay(ui.ctx(), w, &state.editor, &view, ppp);
-            }
+        let at = |model| ScreenView::from_camera(&camera, model, size, bounds);
+        state.host.head_view = Some(at(clock.head));
+        state.host.world_view = Some(at(glam::DMat4::IDENTITY));
+        for k in &mut state.kinds {
+            k.overlay(ui.ctx(), &state.scene, &state.host, &clock, ppp);
         }
     });
     g.egui_state
@@ -861,16 +771,16 @@ fn frame_body(
 ) -> Result<()> {
     handle_requests(g, state, &mut shots)?;
     apply(g, state)?;
-    if let Some(f) = state.seek.take() {
+    if let Some(f) = state.host.seek.take() {
         g.stage.seek(&g.gpu, f)?;
         g.clock_debt = 0.0;
-        state.strip_pose = None;
+        state.kinds.iter_mut().for_each(|k| k.stale());
     }
 
     // The clock: `time_scale` frames per drawn frame, from the second drawn frame on. The
     // motion is submitted on its own (the strips' picking reads it back) and never waited
     // for: the GPU times of every pass come back from timestamps a few frames later.
-    if state.view.playing && g.frames > 0 {
+    if state.host.playing && g.frames > 0 {
         g.clock_debt += state.view.time_scale;
         let due = (g.clock_debt.floor() as u32).min(4);
         g.clock_debt -= g.clock_debt.floor();
@@ -888,13 +798,15 @@ fn frame_body(
             }
         }
     }
-    // The picked strip's outline follows it (one read-back a frame, in the mouse mode only).
-    if state.view.edit_strips && state.scene.strips.is_some() {
-        strips_mouse::pose(&g.stage, &g.gpu, state)?;
+    // The kinds' tools read back what they follow (the picked strip's outline).
+    for i in 0..state.kinds.len() {
+        let t = tool(g, i);
+        state.kinds[i].frame(&state.scene, &t)?;
     }
     let counts = g.stage.stats();
     state.stats.simulated = counts.simulated;
     state.stats.frame = g.stage.frame();
+    state.host.frame = state.stats.frame;
     state.stats.strands = counts.strands;
     state.stats.segments = counts.segments;
 
@@ -921,7 +833,7 @@ fn frame_body(
     let look = Look {
         camera: g.camera.camera(),
         lod: state.view.hair_fraction,
-        overlay: state.view.overlay,
+        overlay: state.host.overlay,
     };
     // Scene width: the window minus the panel egui reserved on the right.
     let scene_w = ((panel_left * output.pixels_per_point).round().max(1.0) as u32).min(w);
@@ -977,8 +889,8 @@ fn frame_body(
         draw(g, &shot.view, (w, h), scene_w, &look, &screen)?;
         let img = shot.read_rgba(&g.gpu)?;
         match img.save(&path) {
-            Ok(()) => state.message = Some(format!("screenshot {}", path.display())),
-            Err(e) => state.error = Some(format!("cannot write {}: {e}", path.display())),
+            Ok(()) => state.host.message = Some(format!("screenshot {}", path.display())),
+            Err(e) => state.host.error = Some(format!("cannot write {}: {e}", path.display())),
         }
     }
     // Level of detail: keep the frame inside the budget by drawing a share of the hairs.

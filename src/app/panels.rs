@@ -1,13 +1,15 @@
 //! The viewer's egui panels. The shell draws the stage's own panels — Files, Forces (the
 //! shared force fields), Look (light, background, anti-aliasing, level of detail),
 //! Simulation (the clock: play, step, reset, time scale) and Stats — around the panels each
-//! hair system brings (`systems::Kind::panels`, in `KINDS` order). Every panel only edits
-//! `ViewerState`; the window loop hands the edited scene to the stage, which classifies the
-//! edit per system (`systems::Change`) and applies it.
+//! kind in the scene brings (`systems::Kind::panels`, in `KINDS` order; `visible`). Every
+//! panel only edits `ViewerState` (a kind's panels its scene, `Host` and the kind's own
+//! state); the window loop hands the edited scene to the stage, which classifies the edit
+//! per system (`systems::Change`) and applies it.
 
 use super::params::{Request, ViewerState};
-use crate::scene::{Dynamics, Interp, WindKey};
-use crate::systems::KINDS;
+use crate::scene::{Dynamics, Interp, Scene, WindKey};
+use crate::systems::ui::PanelCx;
+use crate::systems::{Panel, KINDS};
 use egui::{Color32, Slider, Ui};
 
 /// Shipped scenes offered by the Files panel: every kind's, in `KINDS` order.
@@ -23,6 +25,23 @@ pub fn shipped() -> Vec<&'static str> {
     all
 }
 
+/// The kinds' panels shown for `scene`, as (index in `KINDS`, panel): every panel of each
+/// kind the scene has, and on scenes without a kind only the panels that offer to add it
+/// (`Panel::adds`).
+pub fn visible(scene: &Scene) -> Vec<(usize, &'static Panel)> {
+    let mut shown = Vec::new();
+    for (i, kind) in KINDS.iter().enumerate() {
+        let here = (kind.in_scene)(scene);
+        shown.extend(
+            kind.panels
+                .iter()
+                .filter(|p| here || p.adds)
+                .map(|p| (i, p)),
+        );
+    }
+    shown
+}
+
 /// Draw all panels in a right-hand side panel; returns the panel's left edge (points), where
 /// the scene view ends.
 pub fn show(ui: &mut Ui, s: &mut ViewerState) -> f32 {
@@ -32,21 +51,31 @@ pub fn show(ui: &mut Ui, s: &mut ViewerState) -> f32 {
         .show(ui, |ui| {
             egui::ScrollArea::vertical().show(ui, |ui| {
                 ui.heading("Kami");
-                if let Some(e) = &s.error {
+                if let Some(e) = &s.host.error {
                     ui.colored_label(Color32::from_rgb(255, 110, 90), e);
                 }
-                if let Some(m) = &s.message {
+                if let Some(m) = &s.host.message {
                     ui.label(m);
                 }
                 ui.collapsing("Files", |ui| files(ui, s));
-                for kind in KINDS {
-                    for panel in kind.panels {
-                        let open = (panel.open)(&s.scene);
-                        egui::CollapsingHeader::new(panel.title)
-                            .id_salt((kind.name, panel.title))
-                            .default_open(open)
-                            .show(ui, |ui| (panel.show)(ui, s));
-                    }
+                for (i, panel) in visible(&s.scene) {
+                    let open = (panel.open)(&s.scene);
+                    egui::CollapsingHeader::new(panel.title)
+                        .id_salt((KINDS[i].name, panel.title))
+                        .default_open(open)
+                        .show(ui, |ui| {
+                            let mut cx = PanelCx {
+                                scene: &mut s.scene,
+                                host: &mut s.host,
+                                state: s.kinds[i].as_mut(),
+                            };
+                            (panel.show)(ui, &mut cx)
+                        });
+                }
+                // A panel asked for a scene file (the Fur panel's example).
+                if let Some(path) = s.host.open.take() {
+                    s.path = path;
+                    s.requests.push(Request::Open(s.path.clone()));
                 }
                 ui.collapsing("Forces", |ui| forces(ui, s));
                 ui.collapsing("Look", |ui| look_common(ui, s));
@@ -54,8 +83,8 @@ pub fn show(ui: &mut Ui, s: &mut ViewerState) -> f32 {
                 egui::CollapsingHeader::new("Stats").default_open(true).show(ui, |ui| stats(ui, s));
                 ui.separator();
                 ui.small("Drag: orbit · right/middle or shift-drag: pan · wheel: zoom · F: frame · Space: play · N: step · R: reset · S: screenshot");
-                if s.view.edit_strips {
-                    ui.small("Strips: click a strip to pick it · K: first key now · drag a pink marker: move its target");
+                for help in s.kinds.iter().filter_map(|k| k.help()) {
+                    ui.small(help);
                 }
             });
         })
@@ -68,9 +97,9 @@ pub fn show(ui: &mut Ui, s: &mut ViewerState) -> f32 {
 /// drawn frame.
 fn playback(ui: &mut Ui, s: &mut ViewerState) {
     ui.horizontal(|ui| {
-        let label = if s.view.playing { "Pause" } else { "Play" };
+        let label = if s.host.playing { "Pause" } else { "Play" };
         if ui.button(label).clicked() {
-            s.view.playing = !s.view.playing;
+            s.host.playing = !s.host.playing;
         }
         if ui.button("Step").clicked() {
             s.requests.push(Request::Step);
@@ -132,7 +161,8 @@ fn files(ui: &mut Ui, s: &mut ViewerState) {
     });
 }
 
-pub fn need_dynamics(ui: &mut Ui, s: &mut ViewerState) -> bool {
+/// The Forces panel's fields live in the dynamics block: without it, offer to add it.
+fn need_dynamics(ui: &mut Ui, s: &mut ViewerState) -> bool {
     if s.scene.dynamics.is_none() {
         ui.label("this scene is static");
         if ui.button("Enable dynamics").clicked() {

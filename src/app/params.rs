@@ -1,10 +1,14 @@
 //! The viewer's editable state, kept in plain structs so the panel logic is testable without
 //! a window: the panels edit a `Scene` (and a few viewer-only settings); the stage then
 //! classifies the edit per hair system (`systems::Change`) and applies it, so static
-//! parameters re-groom at once and dynamic ones act from the next step.
+//! parameters re-groom at once and dynamic ones act from the next step. Each kind's own
+//! state (its editor, brush, mouse modes) is a `systems::ui::KindUi` made by its `Kind`: the
+//! viewer holds it without knowing its type.
 
 use crate::error::{KamiError, Result};
 use crate::scene::{Dynamics, Interp, Scene, WindKey};
+use crate::systems::ui::{self, Host, KindUi};
+use crate::systems::KINDS;
 
 /// An exponential moving average of a frame-time measurement, for the Stats panel.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -30,11 +34,8 @@ impl Ema {
 /// Viewer-only settings the panels edit besides the scene.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ViewSettings {
-    pub playing: bool,
     /// Simulated frames per displayed frame (fractions accumulate).
     pub time_scale: f64,
-    /// Hair systems' diagnostic overlays (Anjyo: segments the pseudo-force acted on).
-    pub overlay: bool,
     /// Adapt the share of hairs drawn to keep the frame time under `frame_budget_ms`.
     pub adaptive_lod: bool,
     pub hair_fraction: f64,
@@ -45,17 +46,6 @@ pub struct ViewSettings {
     /// Set by the adaptive level of detail when even the fewest hairs miss the budget: draw
     /// without MSAA in the viewer (the scene's setting is kept for renders and saving).
     pub msaa_dropped: bool,
-    /// Edit the wisps' skeletons with the mouse in the 3D view (left click picks and drags
-    /// a node, the wheel sets its radius, ...) and draw them over the view.
-    pub edit_skeletons: bool,
-    /// Draw the EFF's cells as arrows and the key-frame targets over the view.
-    pub eff_arrows: bool,
-    /// The strips' mouse mode (Key frames panel): a left press on a target marker drags
-    /// it, on a strip picks it; `K` sets a first key for the picked strip.
-    pub edit_strips: bool,
-    /// The EFF brush's mouse mode (EFF panel): a left drag paints the drag's direction into
-    /// the cells under the cursor.
-    pub paint_eff: bool,
 }
 
 impl ViewSettings {
@@ -79,18 +69,12 @@ impl ViewSettings {
 impl Default for ViewSettings {
     fn default() -> Self {
         ViewSettings {
-            playing: true,
             time_scale: 1.0,
-            overlay: false,
             adaptive_lod: true,
             hair_fraction: 1.0,
             frame_budget_ms: 80.0,
             full_supersampling: false,
             msaa_dropped: false,
-            edit_skeletons: false,
-            eff_arrows: false,
-            edit_strips: false,
-            paint_eff: false,
         }
     }
 }
@@ -178,7 +162,6 @@ impl Stats {
 }
 
 /// Everything the panels edit.
-#[derive(Clone, Debug)]
 pub struct ViewerState {
     pub scene: Scene,
     pub view: ViewSettings,
@@ -189,34 +172,22 @@ pub struct ViewerState {
     /// Head motion keys kept while head motion is switched off.
     pub parked_head_motion: Vec<crate::scene::HeadKey>,
     pub requests: Vec<Request>,
-    /// The last error (failed load, bad value), shown in the UI.
-    pub error: Option<String>,
-    pub message: Option<String>,
     pub stats: Stats,
-    /// Hair group edited by the per-group panels.
-    pub group: usize,
-    /// The toon wisps' skeleton editor (selection, undo history); the Skeletons panel and
-    /// the mouse mode (`view.edit_skeletons`) drive it. A scene opened afresh starts a new
-    /// one.
-    pub editor: crate::systems::wisps::edit::Editor,
-    /// The 3D view as last drawn (the scene region, in window pixels), for the skeleton
-    /// editor: picking, dragging, the overlay. None before the first frame.
-    pub edit_view: Option<crate::systems::wisps::edit::View>,
-    /// The same view without the head pose: world points (strips, targets, EFF cells).
-    pub world_view: Option<crate::systems::wisps::edit::View>,
-    /// The EFF panel's brush and file path.
-    pub brush: crate::systems::strips::panel::Brush,
-    /// The Key frames panel's strip and edit length.
-    pub key_strip: u32,
-    pub key_span: u32,
-    /// Simulate again from the rest pose to this frame after this frame's edits apply (the
-    /// timeline's scrub, a key-frame edit's replay), see `Stage::seek`.
-    pub seek: Option<u64>,
-    /// What the timeline's pointer holds, and the timeline's length (frames) when it took
-    /// hold.
-    pub timeline_grab: Option<(crate::systems::strips::pick::TimelineGrab, u32)>,
-    /// The strips as last read back for the mouse mode: (frame, world polylines).
-    pub strip_pose: Option<(u64, Vec<Vec<glam::DVec3>>)>,
+    /// What the kinds' panels and tools share with the viewer: the clock, messages, the
+    /// 3D view as last drawn.
+    pub host: Host,
+    /// Each kind's state in the viewer, in `KINDS` order (made by `Kind::ui`).
+    pub kinds: Vec<Box<dyn KindUi>>,
+}
+
+impl std::fmt::Debug for ViewerState {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ViewerState")
+            .field("path", &self.path)
+            .field("view", &self.view)
+            .field("host", &self.host)
+            .finish_non_exhaustive()
+    }
 }
 
 impl ViewerState {
@@ -228,227 +199,81 @@ impl ViewerState {
             export_path: "kami-hair.hair".into(),
             parked_head_motion: Vec::new(),
             requests: Vec::new(),
-            error: None,
-            message: None,
             stats: Stats::default(),
-            group: 0,
-            editor: Default::default(),
-            edit_view: None,
-            world_view: None,
-            brush: Default::default(),
-            key_strip: 0,
-            key_span: 20,
-            seek: None,
-            timeline_grab: None,
-            strip_pose: None,
+            host: Host::default(),
+            kinds: KINDS.iter().map(|k| (k.ui)()).collect(),
         }
-    }
-
-    /// A key-frame edit of the picked strip (`key_strip`) whose first key is the current
-    /// frame and second `key_span` frames later; the clip is shown at the second key,
-    /// paused, so its target can be dragged at once.
-    pub fn add_strip_edit(&mut self) -> Result<()> {
-        use crate::scene::MAX_STRIP_EDITS;
-        let count = self.scene.strips.as_ref().map_or(0, |st| st.edits.len());
-        if count >= MAX_STRIP_EDITS {
-            return Err(KamiError::Option(format!(
-                "a scene holds at most {MAX_STRIP_EDITS} key-frame edits"
-            )));
-        }
-        let frame = u32::try_from(self.stats.frame).unwrap_or(u32::MAX - 1_000);
-        let e = crate::systems::strips::panel::new_edit(
-            &self.scene,
-            self.key_strip,
-            frame,
-            self.key_span,
-        )?;
-        self.seek = Some(u64::from(e.to));
-        self.view.playing = false;
-        if let Some(st) = self.scene.strips.as_mut() {
-            st.edits.push(e);
-        }
-        Ok(())
     }
 
     /// Apply a `--set KEY=VALUE` override through the same path as the panels: it edits the
-    /// state, and the window loop classifies and applies the change. Keys: `color=r,g,b`,
-    /// `width=w`, `ks=k`, `shininess=n`, `rigidity=EI` (all groups), `wind=x,y,z`,
-    /// `gravity=x,y,z`, `stiffness=root,tip`, `damping=rate`, `pseudo=on|off`,
-    /// `msaa=1|4`, `supersample=f`, `strands=ribbons|compute`, `play=on|off`,
-    /// `lod=fraction` (fixed, 0..1),
-    /// `fur.hairs=N`, `fur.stiffness=s` (all coats), `fur.culling=on|off`,
-    /// `wisps.edit=on|off` (the skeleton editor's mouse mode and overlay),
-    /// `wisps.max_steps=N` (the ray march's step budget: cheap previews), the Toon panel's
-    /// controls `wisps.toon.NAME=VALUE` and the wisps' outline scales `wisps.outline[.N]=S`
-    /// (`systems::wisps::panel::set_key`), `strips.edit=on|off`
-    /// and `eff.paint=on|off` (the strips' and the EFF brush's mouse modes), `strips.key`
-    /// (a first key now for the picked strip), `seek=FRAME`, `save=FILE`, and scripted mouse
-    /// events `mouse.press=x,y`, `mouse.move=x,y`, `mouse.release` (window pixels).
+    /// state, and the window loop classifies and applies the change. Each kind's keys come
+    /// first (`KindUi::set`: Anjyo's `color`, `width`, `ks`, `shininess`, `rigidity`,
+    /// `stiffness`, `damping`, `pseudo`; `fur.*`; `wisps.*`; `strips.*` and `eff.paint`),
+    /// then the viewer's own: `wind=x,y,z`, `gravity=x,y,z`, `msaa=1|4`, `supersample=f`,
+    /// `strands=ribbons|compute`, `play=on|off`, `lod=fraction` (fixed, 0..1),
+    /// `seek=FRAME`, `save=FILE`, `export=FILE`, and scripted mouse events
+    /// `mouse.press=x,y`, `mouse.move=x,y`, `mouse.release` (window pixels).
     pub fn apply_set(&mut self, assignment: &str) -> Result<()> {
         let bad = |m: String| KamiError::Option(format!("--set {assignment}: {m}"));
-        // Actions without a value: `strips.key`, `mouse.release`.
-        let (key, value) = match assignment {
-            "strips.key" | "mouse.release" => (assignment, ""),
-            _ => assignment
-                .split_once('=')
-                .ok_or_else(|| bad("expected KEY=VALUE".into()))?,
+        // Actions have no value (`strips.key`, `mouse.release`).
+        let (key, value) = match assignment.split_once('=') {
+            Some((k, v)) => (k, Some(v)),
+            None => (assignment, None),
         };
-        let nums = |n: usize| -> Result<Vec<f64>> {
-            let v: Vec<f64> = value
-                .split(',')
-                .map(|x| x.trim().parse::<f64>())
-                .collect::<std::result::Result<_, _>>()
-                .map_err(|_| bad(format!("{value:?} is not {n} number(s)")))?;
-            if v.len() != n || v.iter().any(|x| !x.is_finite()) {
-                return Err(bad(format!("{value:?} is not {n} finite number(s)")));
-            }
-            Ok(v)
-        };
-        // Counts (samples, factors, hairs) are whole numbers: 4.5 is a typo, not 4.
-        let int = || -> Result<u32> {
-            value
-                .trim()
-                .parse::<u32>()
-                .map_err(|_| bad(format!("{value:?} is not a whole number")))
-        };
-        let on = || match value {
-            "on" | "true" | "1" => Ok(true),
-            "off" | "false" | "0" => Ok(false),
-            _ => Err(bad("expected on or off".into())),
-        };
+        let nums = |n: usize| ui::nums(value, n).map_err(bad);
+        let int = || ui::int(value).map_err(bad);
+        let on = || ui::on(value).map_err(bad);
+        let text = || value.ok_or_else(|| bad("expected KEY=VALUE".into()));
         let mut next = self.scene.clone();
-        match key {
-            "color" => {
-                let c = nums(3)?;
-                for g in &mut next.groups {
-                    g.material.color = [c[0] as f32, c[1] as f32, c[2] as f32];
+        let kind = self
+            .kinds
+            .iter_mut()
+            .find_map(|k| k.set(&mut next, &mut self.host, key, value));
+        match kind {
+            Some(outcome) => outcome.map_err(bad)?,
+            None => match key {
+                "wind" => {
+                    let w = nums(3)?;
+                    dynamics(&mut next).wind = vec![WindKey {
+                        frame: 0.0,
+                        force: [w[0], w[1], w[2]],
+                        interp: Interp::Step,
+                    }];
                 }
-            }
-            "width" => {
-                let w = nums(1)?[0];
-                next.groups.iter_mut().for_each(|g| g.material.width = w);
-            }
-            "ks" => {
-                let k = nums(1)?[0];
-                next.groups.iter_mut().for_each(|g| g.material.ks = k);
-            }
-            "shininess" => {
-                let n = nums(1)?[0];
-                next.groups
-                    .iter_mut()
-                    .for_each(|g| g.material.shininess = n);
-            }
-            "rigidity" => {
-                let e = nums(1)?[0];
-                next.groups.iter_mut().for_each(|g| g.rigidity = e);
-            }
-            "wind" => {
-                let w = nums(3)?;
-                dynamics(&mut next).wind = vec![WindKey {
-                    frame: 0.0,
-                    force: [w[0], w[1], w[2]],
-                    interp: Interp::Step,
-                }];
-            }
-            "gravity" => {
-                let g = nums(3)?;
-                dynamics(&mut next).gravity = [g[0], g[1], g[2]];
-            }
-            "stiffness" => {
-                let s = nums(2)?;
-                let d = dynamics(&mut next);
-                d.stiffness.root = s[0];
-                d.stiffness.tip = s[1];
-            }
-            "damping" => dynamics(&mut next).damping = nums(1)?[0],
-            "pseudo" => {
-                dynamics(&mut next).pseudo_force = on()?.then(|| crate::scene::PseudoForce {
-                    alpha: -0.75,
-                    epsilon_pore: 0.1,
-                    epsilon_tip: 1.0,
-                    near: 1.5,
-                });
-            }
-            "msaa" => next.render.msaa = int()?,
-            "supersample" => next.render.supersample = int()?,
-            "strands" => {
-                next.render.strands =
-                    crate::scene::StrandRaster::parse(value.trim()).map_err(bad)?
-            }
-            "play" => self.view.playing = on()?,
-            "lod" => {
-                let f = nums(1)?[0];
-                if !(0.01..=1.0).contains(&f) {
-                    return Err(bad("the share of hairs must be in [0.01, 1]".into()));
+                "gravity" => {
+                    let g = nums(3)?;
+                    dynamics(&mut next).gravity = [g[0], g[1], g[2]];
                 }
-                self.view.adaptive_lod = false;
-                self.view.hair_fraction = f;
-            }
-            "fur.hairs" | "fur.stiffness" | "fur.culling" => {
-                let f = next
-                    .fur
-                    .as_mut()
-                    .ok_or_else(|| bad("the scene has no fur".into()))?;
-                match key {
-                    "fur.hairs" => f.hairs = int()?,
-                    "fur.stiffness" => {
-                        let v = nums(1)?[0];
-                        f.coats.iter_mut().for_each(|c| c.stiffness = v);
+                "msaa" => next.render.msaa = int()?,
+                "supersample" => next.render.supersample = int()?,
+                "strands" => {
+                    next.render.strands =
+                        crate::scene::StrandRaster::parse(text()?.trim()).map_err(bad)?
+                }
+                "play" => self.host.playing = on()?,
+                "lod" => {
+                    let f = nums(1)?[0];
+                    if !(0.01..=1.0).contains(&f) {
+                        return Err(bad("the share of hairs must be in [0.01, 1]".into()));
                     }
-                    _ => f.culling.enabled = on()?,
+                    self.view.adaptive_lod = false;
+                    self.view.hair_fraction = f;
                 }
-            }
-            "wisps.max_steps" => {
-                next.wisps
-                    .as_mut()
-                    .ok_or_else(|| bad("the scene has no wisps".into()))?
-                    .march
-                    .max_steps = int()?;
-            }
-            k if k.starts_with("wisps.toon.") || k.starts_with("wisps.outline") => {
-                let w = next
-                    .wisps
-                    .as_mut()
-                    .ok_or_else(|| bad("the scene has no wisps".into()))?;
-                crate::systems::wisps::panel::set_key(w, key, value).map_err(bad)?;
-            }
-            "wisps.edit" => {
-                let edit = on()?;
-                if edit && next.wisps.is_none() {
-                    return Err(bad("the scene has no wisps".into()));
+                "seek" => self.host.seek = Some(int()? as u64),
+                "save" => self.requests.push(Request::Save(text()?.to_string())),
+                "export" => self.requests.push(Request::Export(text()?.to_string())),
+                "mouse.press" | "mouse.move" => {
+                    let v = nums(2)?;
+                    self.requests.push(Request::Mouse(if key == "mouse.press" {
+                        MouseEvent::Press(v[0], v[1])
+                    } else {
+                        MouseEvent::Move(v[0], v[1])
+                    }));
                 }
-                self.view.edit_skeletons = edit;
-            }
-            "strips.edit" | "eff.paint" => {
-                let on = on()?;
-                if on && next.strips.is_none() {
-                    return Err(bad("the scene has no strips".into()));
-                }
-                if on && key == "eff.paint" && next.eff.is_none() {
-                    return Err(bad("the scene has no EFF".into()));
-                }
-                if key == "strips.edit" {
-                    self.view.edit_strips = on;
-                    self.view.paint_eff &= !on;
-                } else {
-                    self.view.paint_eff = on;
-                    self.view.edit_strips &= !on;
-                }
-            }
-            "strips.key" => return self.add_strip_edit().map_err(|e| bad(e.to_string())),
-            "seek" => self.seek = Some(int()? as u64),
-            "save" => self.requests.push(Request::Save(value.to_string())),
-            "export" => self.requests.push(Request::Export(value.to_string())),
-            "mouse.press" | "mouse.move" => {
-                let v = nums(2)?;
-                self.requests.push(Request::Mouse(if key == "mouse.press" {
-                    MouseEvent::Press(v[0], v[1])
-                } else {
-                    MouseEvent::Move(v[0], v[1])
-                }));
-            }
-            "mouse.release" => self.requests.push(Request::Mouse(MouseEvent::Release)),
-            _ => return Err(bad(format!("unknown key {key:?}"))),
+                "mouse.release" => self.requests.push(Request::Mouse(MouseEvent::Release)),
+                _ if value.is_none() => return Err(bad("expected KEY=VALUE".into())),
+                _ => return Err(bad(format!("unknown key {key:?}"))),
+            },
         }
         crate::scene::validate(&next).map_err(|e| bad(e.to_string()))?;
         self.scene = next;
@@ -495,7 +320,7 @@ mod tests {
             [0.0, 0.0, -300.0]
         );
         s.apply_set("play=off").unwrap();
-        assert!(!s.view.playing);
+        assert!(!s.host.playing);
         s.apply_set("strands=compute").unwrap();
         assert_eq!(s.scene.render.strands, crate::scene::StrandRaster::Compute);
         let before = s.scene.clone();

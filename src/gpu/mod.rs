@@ -7,8 +7,10 @@
 
 pub mod gpu_data;
 pub mod pipeline;
+pub mod splat;
 pub mod strands;
 pub mod timing;
+pub mod view;
 
 use crate::error::{KamiError, Result};
 use std::sync::{Arc, Mutex};

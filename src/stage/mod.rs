@@ -13,7 +13,8 @@
 
 pub mod camera;
 pub mod head;
-pub mod splat;
+/// The thin strands' accumulation lives in `gpu` (systems bind its layouts); named here too.
+pub use crate::gpu::splat;
 pub mod target;
 
 use crate::error::Result;
@@ -26,6 +27,18 @@ use crate::systems::{Change, DrawSetup, FrameCtx, HairSystem, StepInfo, SystemSt
 use camera::Camera;
 use glam::{DMat4, DVec3};
 use target::{DownsamplePass, SceneTargets};
+
+/// Every WGSL module, as (path under `shaders/` without `.wgsl`, composed source): the
+/// stage's own, the forces', and each kind's from its `Kind` (the kinds feed the registry;
+/// `gpu` and `shaders` name none). `tests/shader_validation.rs` runs naga over all of them.
+pub fn shaders() -> Vec<(&'static str, &'static str)> {
+    let mut all = crate::shaders::STAGE.to_vec();
+    all.push(("forces/eff", crate::forces::eff::EFF_MODULE));
+    for kind in KINDS {
+        all.extend_from_slice(kind.shaders);
+    }
+    all
+}
 
 /// Anti-aliasing settings.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -2,17 +2,20 @@
 //! come) is one self-contained module behind the `HairSystem` interface, listed once in
 //! `KINDS`. The stage (`crate::stage`) knows systems only through this module: it asks each
 //! kind the scene names to build itself, hands every system the same clock (`FrameCtx`)
-//! each frame, and draws them all into one depth-tested pass. The viewer's panels, its Files
-//! list, the limits check and the scene bounds iterate `KINDS` too, so adding a kind is a
-//! new folder plus one line in `KINDS`.
+//! each frame, and draws them all into one depth-tested pass. The viewer's panels, tools
+//! and `--set` keys, its Files list, the CLI's summary line, the shader registry, the
+//! fuzzer's words, the limits check and the scene bounds iterate `KINDS` too, so adding a
+//! kind is a new folder plus one line in `KINDS` (docs/adding-a-kind.md).
 //!
 //! A system owns everything of its kind: CPU references, GPU passes, draw pipelines, its
-//! shaders (`shaders/<kind>/`) and its egui panels. It knows no window.
+//! shaders (`shaders/<kind>/`), its egui panels and its viewer state (`ui::KindUi`). It
+//! knows no window and imports neither `app` nor `stage`.
 
 pub mod anjyo;
 pub mod fur;
 pub mod lod;
 pub mod strips;
+pub mod ui;
 pub mod wisps;
 
 use crate::error::Result;
@@ -69,8 +72,8 @@ pub struct View {
 /// `shaders/common/frame.wgsl`), the scene target format and its MSAA sample count.
 pub struct DrawSetup<'a> {
     pub frame_layout: &'a wgpu::BindGroupLayout,
-    /// Group 2 of a compute rasteriser for thin strands (`stage::splat`).
-    pub splat_layouts: &'a crate::stage::splat::SplatLayouts,
+    /// Group 2 of a compute rasteriser for thin strands (`gpu::splat`).
+    pub splat_layouts: &'a crate::gpu::splat::SplatLayouts,
     pub format: wgpu::TextureFormat,
     pub samples: u32,
 }
@@ -182,14 +185,20 @@ pub struct Panel {
     pub title: &'static str,
     /// Open when the viewer starts with this scene.
     pub open: fn(&Scene) -> bool,
-    pub show: fn(&mut egui::Ui, &mut crate::app::params::ViewerState),
+    /// Shown on scenes without this kind too, because it offers to add the kind (the Fur
+    /// panel's example); other panels show only while the scene has the kind.
+    pub adds: bool,
+    pub show: fn(&mut egui::Ui, &mut ui::PanelCx),
 }
 
-/// A kind of hair: how to find it in a scene, build it, classify edits of it, and what it
-/// brings to the viewer and the shader registry.
+/// A kind of hair: its whole contract with the rest of Kami. The stage builds it and
+/// classifies edits of it; the viewer hosts its panels, tools and `--set` keys (`ui`); the
+/// CLI prints its summary and asks whether it moves; the fuzzer adds its words; the shader
+/// registry (`stage::shaders`) adds its modules.
 pub struct Kind {
     pub name: &'static str,
-    /// Whether the scene names hair of this kind (only those systems are built).
+    /// Whether the scene names hair of this kind (only those systems are built, and only
+    /// those kinds' panels show).
     pub in_scene: fn(&Scene) -> bool,
     /// Check, before anything is allocated, that the scene's hair of this kind fits the
     /// adapter's limits.
@@ -198,10 +207,20 @@ pub struct Kind {
     /// What an edit from the first scene to the second asks of this kind.
     pub classify: fn(&Scene, &Scene) -> Change,
     pub panels: &'static [Panel],
+    /// The kind's state in the viewer: mouse tools, overlays, `--set` keys.
+    pub ui: fn() -> Box<dyn ui::KindUi>,
+    /// What the CLI's summary line says of this kind beyond the scene's hair and segment
+    /// counts (`kami render`), when the scene has it.
+    pub summary: fn(&Scene) -> Option<String>,
+    /// Whether the scene's hair of this kind moves over frames (`kami render --frames`
+    /// warns when nothing does).
+    pub moves: fn(&Scene) -> bool,
     /// Shipped scenes (stems under `assets/scenes/`) offered by the viewer's Files panel.
     pub scenes: &'static [&'static str],
     /// (path under `shaders/` without `.wgsl`, composed source) of every WGSL module.
     pub shaders: &'static [(&'static str, &'static str)],
+    /// Tokens of the kind's scene block for the scene fuzzer's dictionary (`fuzz`).
+    pub fuzz_words: &'static [&'static str],
 }
 
 /// Every kind of hair Kami knows, in drawing order.

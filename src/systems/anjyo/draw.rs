@@ -15,10 +15,10 @@
 use crate::error::Result;
 use crate::gpu::gpu_data::{linear_rgb, GpuMaterial};
 use crate::gpu::pipeline::{self, DrawPipeline};
+use crate::gpu::splat::SplatLayouts;
 use crate::gpu::strands::StrandBuffers;
 use crate::gpu::{self, Gpu};
 use crate::scene::Material;
-use crate::stage::splat::SplatLayouts;
 
 /// Strands of a group of `count` drawn at level of detail `fraction`: the first ones, a
 /// uniform random subset because pores are drawn in random order (Van Gelder's

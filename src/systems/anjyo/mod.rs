@@ -97,6 +97,10 @@ pub const KIND: Kind = Kind {
     build,
     classify,
     panels: panel::PANELS,
+    ui: || Box::<panel::AnjyoUi>::default(),
+    // The hair and segment counts (`Scene::counts`) are Anjyo's and fur's already.
+    summary: |_| None,
+    moves: |s| s.dynamics.is_some(),
     scenes: &[
         "gust",
         "bob",
@@ -116,7 +120,27 @@ pub const KIND: Kind = Kind {
         ("anjyo/splat", SPLAT),
         ("anjyo/splat_msaa", SPLAT_MSAA),
     ],
+    fuzz_words: FUZZ_WORDS,
 };
+
+/// The words of Anjyo's blocks (hair groups, their roots and cuts, the dynamics) for the
+/// scene fuzzer.
+#[rustfmt::skip]
+const FUZZ_WORDS: &[&str] = &[
+    "HairGroup(", "Roots(", "Material(", "Dynamics(", "Inertia(", "PseudoForce(",
+    "Stiffness(", "Fluctuation(", "Cut(", "Normal", "Blend(dir: (1.0, 0.0, 0.0), weight: 0.5)",
+    "Paper", "Converged(", "Uniform(force: (1.0, 0.0, 0.0))",
+    "Toward(point: (0.0, 0.0, 0.0), strength: 1.0)", "Above(0.0)", "Below(0.0)",
+    "HalfSpace(normal: (0.0, 0.0, 1.0), offset: 0.0)", "ByPoreHeight(low: (0.0, 1), high: (1.0, 2))",
+    "Near(center: (0.0, 0.0, 0.0), radius: 1.0)", "groups:", "dynamics:", "roots:", "count:",
+    "segments:", "length_jitter:", "direction_jitter:", "rigidity:", "bending:", "loads:",
+    "cuts:", "dynamic:", "theta:", "phi:", "on:", "hairline: Some([(0.0, 90.0), (180.0, 60.0)])",
+    "rule:", "ka:", "ka_spread:", "ks:", "kd:", "tip_width:", "dt:", "steps_per_frame:",
+    "density:", "damping:", "inertia:", "pseudo_force:", "stiffness:", "fluctuation:",
+    "collision:", "max_substeps:", "root:", "tip:", "top:", "top_height:", "top_blend:",
+    "alpha:", "epsilon_pore:", "epsilon_tip:", "near:", "start:", "end:", "max_iterations:",
+    "tolerance:", "guides:",
+];
 
 /// The head's signed distance field as a storage buffer for the kernels that collide with
 /// the head (cantilever, projective, follow); a placeholder word for an ellipsoid head.

@@ -1,10 +1,10 @@
 //! Anjyo's panels in the viewer: Stiffness (EI, bending mode, joint-angle stiffness and
-//! inertia profiles), Pseudo-force, Hair look (per group) and Dynamics. They only edit
-//! `ViewerState`; the stage classifies the edit with `super::classify` and applies it.
+//! inertia profiles), Pseudo-force, Hair look (per group) and Dynamics, and Anjyo's `--set`
+//! keys. They edit the scene and `AnjyoUi` (the group the panels edit); the stage
+//! classifies the edit with `super::classify` and applies it.
 
-use crate::app::panels::need_dynamics;
-use crate::app::params::ViewerState;
-use crate::scene::{Bending, Fluctuation, PseudoForce};
+use crate::scene::{Bending, Dynamics, Fluctuation, PseudoForce, Scene};
+use crate::systems::ui::{self, Host, KindUi, PanelCx};
 use crate::systems::Panel;
 use egui::{Color32, Slider, Ui};
 
@@ -12,56 +12,151 @@ pub const PANELS: &[Panel] = &[
     Panel {
         title: "Stiffness",
         open: |s| !s.groups.is_empty(),
+        adds: false,
         show: stiffness,
     },
     Panel {
         title: "Pseudo-force",
         open: |_| false,
+        adds: false,
         show: pseudo,
     },
     Panel {
         title: "Hair look",
         open: |_| false,
+        adds: false,
         show: look,
     },
     Panel {
         title: "Dynamics",
         open: |s| s.dynamics.is_some() && !s.groups.is_empty(),
+        adds: false,
         show: dynamics,
     },
 ];
 
-fn group_picker(ui: &mut Ui, s: &mut ViewerState) {
-    if s.scene.groups.is_empty() {
-        return;
+/// Anjyo's state in the viewer: the hair group the per-group panels edit.
+#[derive(Debug, Default)]
+pub struct AnjyoUi {
+    pub group: usize,
+}
+
+impl KindUi for AnjyoUi {
+    fn as_any_mut(&mut self) -> &mut dyn std::any::Any {
+        self
     }
-    s.group = s.group.min(s.scene.groups.len() - 1);
-    let name = |i: usize, s: &ViewerState| {
-        let n = &s.scene.groups[i].name;
+
+    fn opened(&mut self) {
+        self.group = 0;
+    }
+
+    /// `color=r,g,b`, `width=w`, `ks=k`, `shininess=n`, `rigidity=EI` (every group),
+    /// `stiffness=root,tip`, `damping=rate`, `pseudo=on|off`.
+    fn set(
+        &mut self,
+        scene: &mut Scene,
+        _host: &mut Host,
+        key: &str,
+        value: Option<&str>,
+    ) -> Option<Result<(), String>> {
+        let groups = |f: &dyn Fn(&mut crate::scene::HairGroup, f64),
+                      scene: &mut Scene|
+         -> Result<(), String> {
+            let v = ui::nums(value, 1)?[0];
+            scene.groups.iter_mut().for_each(|g| f(g, v));
+            Ok(())
+        };
+        Some(match key {
+            "color" => ui::nums(value, 3).map(|c| {
+                for g in &mut scene.groups {
+                    g.material.color = [c[0] as f32, c[1] as f32, c[2] as f32];
+                }
+            }),
+            "width" => groups(&|g, v| g.material.width = v, scene),
+            "ks" => groups(&|g, v| g.material.ks = v, scene),
+            "shininess" => groups(&|g, v| g.material.shininess = v, scene),
+            "rigidity" => groups(&|g, v| g.rigidity = v, scene),
+            "stiffness" => ui::nums(value, 2).map(|s| {
+                let d = dynamics_of(scene);
+                d.stiffness.root = s[0];
+                d.stiffness.tip = s[1];
+            }),
+            "damping" => ui::nums(value, 1).map(|v| dynamics_of(scene).damping = v[0]),
+            "pseudo" => ui::on(value).map(|on| {
+                dynamics_of(scene).pseudo_force = on.then(default_pseudo_force);
+            }),
+            _ => return None,
+        })
+    }
+}
+
+/// The scene's dynamics, created with defaults if absent.
+fn dynamics_of(scene: &mut Scene) -> &mut Dynamics {
+    scene.dynamics.get_or_insert_with(Dynamics::default)
+}
+
+/// The pseudo-force field as switched on by the panel and `--set pseudo=on`.
+fn default_pseudo_force() -> PseudoForce {
+    PseudoForce {
+        alpha: -0.75,
+        epsilon_pore: 0.1,
+        epsilon_tip: 1.0,
+        near: 1.5,
+    }
+}
+
+/// Anjyo's motion needs the scene's dynamics: without them, say so and offer to add them.
+fn need_dynamics(ui: &mut Ui, scene: &mut Scene) -> bool {
+    if scene.dynamics.is_none() {
+        ui.label("this scene is static");
+        if ui.button("Enable dynamics").clicked() {
+            scene.dynamics = Some(Dynamics {
+                gravity: [0.0, -150.0, 0.0],
+                damping: 0.5,
+                ..Default::default()
+            });
+        }
+        return false;
+    }
+    true
+}
+
+/// Pick the group the per-group panels edit; returns it (None without groups).
+fn group_picker(ui: &mut Ui, cx: &mut PanelCx) -> Option<usize> {
+    let st = ui::state::<AnjyoUi>(cx.state)?;
+    let groups = &cx.scene.groups;
+    if groups.is_empty() {
+        return None;
+    }
+    st.group = st.group.min(groups.len() - 1);
+    let name = |i: usize| {
+        let n = &groups[i].name;
         if n.is_empty() {
             format!("group {i}")
         } else {
             n.clone()
         }
     };
-    let current = name(s.group, s);
     egui::ComboBox::from_label("group")
-        .selected_text(current)
+        .selected_text(name(st.group))
         .show_ui(ui, |ui| {
-            for i in 0..s.scene.groups.len() {
-                let n = name(i, s);
-                ui.selectable_value(&mut s.group, i, n);
+            for i in 0..groups.len() {
+                ui.selectable_value(&mut st.group, i, name(i));
             }
         });
+    Some(st.group)
 }
 
-fn stiffness(ui: &mut Ui, s: &mut ViewerState) {
-    if s.scene.groups.is_empty() {
+fn stiffness(ui: &mut Ui, cx: &mut PanelCx) {
+    if cx.scene.groups.is_empty() {
         ui.label("no hair groups (fur stiffness: see Fur)");
         return;
     }
-    group_picker(ui, s);
-    let g = &mut s.scene.groups[s.group];
+    let Some(group) = group_picker(ui, cx) else {
+        return;
+    };
+    let s = &mut *cx.scene;
+    let g = &mut s.groups[group];
     if let Some(f) = &g.file {
         // Imported strands are not bent: their rest pose is the file's.
         ui.label(format!(
@@ -69,9 +164,9 @@ fn stiffness(ui: &mut Ui, s: &mut ViewerState) {
             f.path, g.count, g.segments
         ));
     } else {
-        bending(ui, s);
+        bending(ui, s, group);
     }
-    let Some(d) = s.scene.dynamics.as_mut() else {
+    let Some(d) = s.dynamics.as_mut() else {
         ui.label("joint-angle stiffness and inertia act in dynamics (Dynamics panel)");
         return;
     };
@@ -119,8 +214,8 @@ fn stiffness(ui: &mut Ui, s: &mut ViewerState) {
 
 /// A small plot of `f(t)` in [0, 1] for t in [0, 1].
 /// The cantilever's rigidity and bending mode of the picked (grown) group.
-fn bending(ui: &mut Ui, s: &mut ViewerState) {
-    let g = &mut s.scene.groups[s.group];
+fn bending(ui: &mut Ui, s: &mut Scene, group: usize) {
+    let g = &mut s.groups[group];
     ui.add(
         Slider::new(&mut g.rigidity, 1.0..=5000.0)
             .logarithmic(true)
@@ -144,8 +239,7 @@ fn bending(ui: &mut Ui, s: &mut ViewerState) {
     }
     if ui.small_button("use this EI for every group").clicked() {
         let e = g.rigidity;
-        s.scene
-            .groups
+        s.groups
             .iter_mut()
             .filter(|g| g.file.is_none())
             .for_each(|g| g.rigidity = e);
@@ -182,22 +276,17 @@ fn profile_plot(ui: &mut Ui, f: impl Fn(f64) -> f64, label: &str) {
     );
 }
 
-fn pseudo(ui: &mut Ui, s: &mut ViewerState) {
-    if !need_dynamics(ui, s) {
+fn pseudo(ui: &mut Ui, cx: &mut PanelCx) {
+    if !need_dynamics(ui, cx.scene) {
         return;
     }
-    let d = s.scene.dynamics.as_mut().unwrap();
+    let Some(d) = cx.scene.dynamics.as_mut() else {
+        return;
+    };
     let mut on = d.pseudo_force.is_some();
     ui.checkbox(&mut on, "pseudo-force field (Anjyo 3.2.2)");
     match (on, d.pseudo_force.is_some()) {
-        (true, false) => {
-            d.pseudo_force = Some(PseudoForce {
-                alpha: -0.75,
-                epsilon_pore: 0.1,
-                epsilon_tip: 1.0,
-                near: 1.5,
-            })
-        }
+        (true, false) => d.pseudo_force = Some(default_pseudo_force()),
         (false, true) => d.pseudo_force = None,
         _ => {}
     }
@@ -207,15 +296,15 @@ fn pseudo(ui: &mut Ui, s: &mut ViewerState) {
         ui.add(Slider::new(&mut p.epsilon_tip, 0.0..=1.0).text("ε at the tip"));
         ui.add(Slider::new(&mut p.near, 0.0..=10.0).text("near the head (distance)"));
     }
-    ui.checkbox(&mut s.view.overlay, "show affected segments (red)");
+    ui.checkbox(&mut cx.host.overlay, "show affected segments (red)");
 }
 
-fn look(ui: &mut Ui, s: &mut ViewerState) {
-    if s.scene.groups.is_empty() {
+fn look(ui: &mut Ui, cx: &mut PanelCx) {
+    let Some(group) = group_picker(ui, cx) else {
         return;
-    }
-    group_picker(ui, s);
-    let m = &mut s.scene.groups[s.group].material;
+    };
+    let s = &mut *cx.scene;
+    let m = &mut s.groups[group].material;
     ui.horizontal(|ui| {
         ui.label("hair colour");
         ui.color_edit_button_rgb(&mut m.color);
@@ -237,18 +326,18 @@ fn look(ui: &mut Ui, s: &mut ViewerState) {
     ui.add(Slider::new(&mut m.ka_spread, 0.0..=1.0).text("k_a spread (per strand)"));
     if ui.small_button("use this look for every group").clicked() {
         let m = m.clone();
-        s.scene
-            .groups
-            .iter_mut()
-            .for_each(|g| g.material = m.clone());
+        s.groups.iter_mut().for_each(|g| g.material = m.clone());
     }
 }
 
-fn dynamics(ui: &mut Ui, s: &mut ViewerState) {
-    if !need_dynamics(ui, s) {
+fn dynamics(ui: &mut Ui, cx: &mut PanelCx) {
+    if !need_dynamics(ui, cx.scene) {
         return;
     }
-    let d = s.scene.dynamics.as_mut().unwrap();
+    let s = &mut *cx.scene;
+    let Some(d) = s.dynamics.as_mut() else {
+        return;
+    };
     ui.add(
         Slider::new(&mut d.dt, 0.005..=2.0)
             .logarithmic(true)
@@ -302,6 +391,6 @@ fn dynamics(ui: &mut Ui, s: &mut ViewerState) {
         );
     }
     if ui.small_button("Disable dynamics").clicked() {
-        s.scene.dynamics = None;
+        s.dynamics = None;
     }
 }

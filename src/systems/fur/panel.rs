@@ -1,16 +1,52 @@
 //! The Fur panel: hairs, length, culling, regions, the body wave, and each coat's shape,
-//! style and material, with Figure 2's two looks. It only edits `ViewerState`; the stage
-//! classifies the edit with `super::classify` and applies it.
+//! style and material, with Figure 2's two looks, and fur's `--set` keys. It only edits
+//! the scene; the stage classifies the edit with `super::classify` and applies it.
 
-use crate::app::params::{Request, ViewerState};
+use crate::scene::Scene;
+use crate::systems::ui::{self, Host, KindUi, PanelCx};
 use crate::systems::Panel;
 use egui::{Slider, Ui};
 
 pub const PANELS: &[Panel] = &[Panel {
     title: "Fur",
     open: |s| s.fur.is_some(),
+    // On a scene without fur it offers the critter's.
+    adds: true,
     show: fur,
 }];
+
+/// Fur's state in the viewer: none, only its `--set` keys.
+#[derive(Debug, Default)]
+pub struct FurUi;
+
+impl KindUi for FurUi {
+    fn as_any_mut(&mut self) -> &mut dyn std::any::Any {
+        self
+    }
+
+    /// `fur.hairs=N`, `fur.stiffness=s` (every coat), `fur.culling=on|off`.
+    fn set(
+        &mut self,
+        scene: &mut Scene,
+        _host: &mut Host,
+        key: &str,
+        value: Option<&str>,
+    ) -> Option<Result<(), String>> {
+        if !matches!(key, "fur.hairs" | "fur.stiffness" | "fur.culling") {
+            return None;
+        }
+        let Some(f) = scene.fur.as_mut() else {
+            return Some(Err("the scene has no fur".into()));
+        };
+        Some(match key {
+            "fur.hairs" => ui::int(value).map(|n| f.hairs = n),
+            "fur.stiffness" => {
+                ui::nums(value, 1).map(|v| f.coats.iter_mut().for_each(|c| c.stiffness = v[0]))
+            }
+            _ => ui::on(value).map(|on| f.culling.enabled = on),
+        })
+    }
+}
 
 /// Three drag values for a direction vector (normalised where it is used).
 fn vector(ui: &mut Ui, label: &str, v: &mut [f64; 3]) {
@@ -76,13 +112,12 @@ fn fur_regions(ui: &mut Ui, f: &mut crate::scene::fur::Fur) {
     }
 }
 
-fn fur(ui: &mut Ui, s: &mut ViewerState) {
+fn fur(ui: &mut Ui, cx: &mut PanelCx) {
     use crate::scene::fur::{Coat, FurMaterial, FurStyle};
-    let Some(f) = s.scene.fur.as_mut() else {
+    let Some(f) = cx.scene.fur.as_mut() else {
         ui.label("this scene has no fur");
         if ui.button("Add fur on the critter").clicked() {
-            s.path = "assets/scenes/fur.ron".into();
-            s.requests.push(Request::Open(s.path.clone()));
+            cx.host.open = Some("assets/scenes/fur.ron".into());
         }
         return;
     };

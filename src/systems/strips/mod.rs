@@ -13,6 +13,7 @@ pub mod panel;
 pub mod pick;
 pub mod ribbon;
 pub mod texture;
+pub mod tools;
 
 use super::{Change, DrawSetup, FrameCtx, HairSystem, Kind, Panel, StepInfo, SystemStats, View};
 use crate::error::{KamiError, Result};
@@ -48,11 +49,54 @@ pub const KIND: Kind = Kind {
     build,
     classify,
     panels: PANELS,
+    ui: || Box::<tools::StripsUi>::default(),
+    // Strips are ribbons on chains of sticks: named on their own.
+    summary: |s| {
+        s.strips.as_ref().map(|st| {
+            let n: u64 = st.layers.iter().map(|l| u64::from(l.count)).sum();
+            let sticks: u64 = st
+                .layers
+                .iter()
+                .map(|l| u64::from(l.count) * u64::from(l.sticks))
+                .sum();
+            format!("{n} strips ({sticks} sticks)")
+        })
+    },
+    moves: |s| s.strips.is_some(),
     scenes: &["strips", "eff_capture", "strips_turn"],
     shaders: &[
         ("strips/dynamics", dynamics_gpu::DYNAMICS),
         ("strips/ribbon", ribbon::RIBBON),
         ("strips/draw", ribbon::DRAW),
+    ],
+    fuzz_words: &[
+        "Strips(",
+        "Layer(",
+        "Motion(",
+        "Look(",
+        "Edit(",
+        "Nearest",
+        "Trilinear",
+        "strips:",
+        "layers:",
+        "motion:",
+        "look:",
+        "edits:",
+        "polar:",
+        "azimuth:",
+        "sticks:",
+        "droop:",
+        "curl:",
+        "stiffness_tip:",
+        "spring:",
+        "steps_per_second:",
+        "sampling:",
+        "preload:",
+        "tip_shade:",
+        "alpha_cutoff:",
+        "strip:",
+        "from:",
+        "to:",
     ],
 };
 
@@ -60,16 +104,19 @@ pub const PANELS: &[Panel] = &[
     Panel {
         title: "Strips",
         open: |s| s.strips.is_some(),
+        adds: false,
         show: panel::strips,
     },
     Panel {
         title: "EFF",
         open: |s| s.strips.is_some() && s.eff.is_some(),
+        adds: false,
         show: panel::eff,
     },
     Panel {
         title: "Key frames",
         open: |s| s.strips.is_some(),
+        adds: false,
         show: panel::keyframes,
     },
 ];

@@ -1,18 +1,20 @@
 //! The Strips panel (eq 1's stiffness τ, damping I2 and inertia I1, the forces of eq 2, the
-//! simulation rate, the layers of the layer model and the look). It only edits
-//! `ViewerState`; the stage classifies the edit with `super::classify`: motion parameters
-//! act from the next step, layers rebuild the strips, the look redraws.
+//! simulation rate, the layers of the layer model and the look), the EFF panel and the Key
+//! frames panel. They edit the scene and the strips' viewer state (`tools::StripsUi`); the
+//! stage classifies the edit with `super::classify`: motion parameters act from the next
+//! step, layers rebuild the strips, the look redraws.
 
-use crate::app::params::ViewerState;
+use super::tools::StripsUi;
 use crate::forces::eff::{Eff, EffDesc, EffSample, GustKey};
 use crate::forces::Forces;
 use crate::scene::strips::{Edit, Layer, Sampling, Strips};
 use crate::scene::{Interp, Scene};
+use crate::systems::ui::{self, PanelCx};
 use egui::{Color32, ComboBox, DragValue, Slider, Ui};
 use glam::DVec3;
 
-pub fn strips(ui: &mut Ui, s: &mut ViewerState) {
-    let Some(st) = s.scene.strips.as_mut() else {
+pub fn strips(ui: &mut Ui, cx: &mut PanelCx) {
+    let Some(st) = cx.scene.strips.as_mut() else {
         ui.label("this scene has no strips");
         return;
     };
@@ -255,15 +257,19 @@ pub fn built(
 
 /// The EFF panel: the grid, the outside force, the gust keys, arrows in the view, a brush
 /// that paints direction and strength into the cells, and load/save of EFF files.
-pub fn eff(ui: &mut Ui, s: &mut ViewerState) {
-    if s.scene.eff.is_none() {
+pub fn eff(ui: &mut Ui, cx: &mut PanelCx) {
+    let Some(s) = ui::state::<StripsUi>(cx.state) else {
+        return;
+    };
+    let (scene, host) = (&mut *cx.scene, &mut *cx.host);
+    if scene.eff.is_none() {
         ui.label("this scene has no External Force Field");
         if ui.button("add one (a gust from the front-left)").clicked() {
-            s.scene.eff = Some(crate::forces::eff::front_left_gust());
+            scene.eff = Some(crate::forces::eff::front_left_gust());
         }
         return;
     }
-    let field = built(&s.scene, &mut s.brush.cache);
+    let field = built(scene, &mut s.brush.cache);
     if let Some(e) = &field {
         let d = e.dims();
         ui.label(format!(
@@ -277,11 +283,8 @@ pub fn eff(ui: &mut Ui, s: &mut ViewerState) {
             e.max_force()
         ));
     }
-    ui.checkbox(
-        &mut s.view.eff_arrows,
-        "draw the cells as arrows in the view",
-    );
-    let Some(desc) = s.scene.eff.as_mut() else {
+    ui.checkbox(&mut s.eff_arrows, "draw the cells as arrows in the view");
+    let Some(desc) = scene.eff.as_mut() else {
         return;
     };
     if let Some(f) = &desc.file {
@@ -364,10 +367,10 @@ pub fn eff(ui: &mut Ui, s: &mut ViewerState) {
             if let Some(e) = &field {
                 let dir = DVec3::from(b.direction).normalize_or_zero();
                 let n = paint_into(desc, e, DVec3::from(b.center), b.radius, dir * b.strength);
-                s.message = Some(format!("painted {n} cells"));
+                host.message = Some(format!("painted {n} cells"));
             }
         }
-        let mut mouse = s.view.paint_eff;
+        let mut mouse = s.paint_eff;
         if ui
             .checkbox(&mut mouse, "paint with the mouse")
             .on_hover_text(
@@ -377,8 +380,8 @@ pub fn eff(ui: &mut Ui, s: &mut ViewerState) {
             )
             .changed()
         {
-            s.view.paint_eff = mouse;
-            s.view.edit_strips &= !mouse;
+            s.paint_eff = mouse;
+            s.edit_strips &= !mouse;
         }
     });
     ui.separator();
@@ -389,8 +392,8 @@ pub fn eff(ui: &mut Ui, s: &mut ViewerState) {
     ui.horizontal(|ui| {
         if ui.button("save the field").clicked() {
             match field.as_ref().map(|e| e.save(&b.path)) {
-                Some(Ok(())) => s.message = Some(format!("saved {}", b.path)),
-                Some(Err(e)) => s.error = Some(e.to_string()),
+                Some(Ok(())) => host.message = Some(format!("saved {}", b.path)),
+                Some(Err(e)) => host.error = Some(e.to_string()),
                 None => {}
             }
         }
@@ -402,7 +405,7 @@ pub fn eff(ui: &mut Ui, s: &mut ViewerState) {
             };
             match crate::forces::eff::resolve(&mut next, std::path::Path::new("")) {
                 Ok(()) => *desc = next,
-                Err(e) => s.error = Some(e.to_string()),
+                Err(e) => host.error = Some(e.to_string()),
             }
         }
     });
@@ -410,19 +413,23 @@ pub fn eff(ui: &mut Ui, s: &mut ViewerState) {
 
 /// The key-frame timeline (section 4): each edit pulls one strip toward a target between
 /// two key frames; the clip re-simulates as soon as an edit changes.
-pub fn keyframes(ui: &mut Ui, s: &mut ViewerState) {
-    let frame = s.stats.frame;
-    let Some(st) = s.scene.strips.as_ref() else {
+pub fn keyframes(ui: &mut Ui, cx: &mut PanelCx) {
+    let Some(s) = ui::state::<StripsUi>(cx.state) else {
+        return;
+    };
+    let (scene, host) = (&mut *cx.scene, &mut *cx.host);
+    let frame = host.frame;
+    let Some(st) = scene.strips.as_ref() else {
         ui.label("this scene has no strips");
         return;
     };
     let strips: u32 = st.layers.iter().map(|l| l.count).sum();
     ui.horizontal(|ui| {
         ui.label(format!("frame {frame}"));
-        ui.checkbox(&mut s.view.playing, "play");
+        ui.checkbox(&mut host.playing, "play");
     });
-    timeline(ui, s);
-    let mut mouse = s.view.edit_strips;
+    timeline(ui, scene, host, s);
+    let mut mouse = s.edit_strips;
     if ui
         .checkbox(&mut mouse, "pick strips and drag targets with the mouse")
         .on_hover_text(
@@ -431,8 +438,8 @@ pub fn keyframes(ui: &mut Ui, s: &mut ViewerState) {
         )
         .changed()
     {
-        s.view.edit_strips = mouse;
-        s.view.paint_eff &= !mouse;
+        s.edit_strips = mouse;
+        s.paint_eff &= !mouse;
     }
     ui.add(Slider::new(&mut s.key_strip, 0..=strips.saturating_sub(1)).text("strip"));
     ui.add(Slider::new(&mut s.key_span, 2..=120).text("frames to the second key"));
@@ -441,15 +448,12 @@ pub fn keyframes(ui: &mut Ui, s: &mut ViewerState) {
         .on_hover_text("the clip then shows the second key: drag the target there")
         .clicked()
     {
-        if let Err(e) = s.add_strip_edit() {
-            s.error = Some(e.to_string());
+        if let Err(e) = s.add_edit(scene, host) {
+            host.error = Some(e.to_string());
         }
     }
-    ui.checkbox(
-        &mut s.view.eff_arrows,
-        "show targets and the field in the view",
-    );
-    let Some(st) = s.scene.strips.as_mut() else {
+    ui.checkbox(&mut s.eff_arrows, "show targets and the field in the view");
+    let Some(st) = scene.strips.as_mut() else {
         return;
     };
     let mut remove = None;
@@ -489,21 +493,20 @@ pub fn keyframes(ui: &mut Ui, s: &mut ViewerState) {
 /// The key-frame timeline: a frame ruler with the clock, and a row per edit with its two
 /// keys and the release after them. A press on the ruler or between keys scrubs (the clip
 /// is simulated again to that frame); a press on a key drags it.
-fn timeline(ui: &mut Ui, s: &mut ViewerState) {
+fn timeline(ui: &mut Ui, scene: &mut Scene, host: &mut crate::systems::ui::Host, s: &mut StripsUi) {
     use super::pick::{move_key, Timeline, TimelineGrab};
     use egui::{pos2, vec2, Align2, FontId, Rect, Sense, Stroke};
-    let Some(st) = s.scene.strips.as_ref() else {
+    let Some(st) = scene.strips.as_ref() else {
         return;
     };
     const RULER: f32 = 18.0;
     const ROW: f32 = 14.0;
-    let clip = s.scene.head_capture.as_ref().map(|h| h.keys.len() as u32);
+    let clip = scene.head_capture.as_ref().map(|h| h.keys.len() as u32);
     // While a key or the clock is held the timeline keeps its length: it would otherwise
     // grow under the pointer as the key (or the clock) moves right.
-    let frames = s.timeline_grab.map_or_else(
-        || Timeline::span(&st.edits, s.stats.frame, clip),
-        |(_, f)| f,
-    );
+    let frames = s
+        .timeline_grab
+        .map_or_else(|| Timeline::span(&st.edits, host.frame, clip), |(_, f)| f);
     let height = RULER + ROW * st.edits.len().max(1) as f32 + 4.0;
     let (rect, resp) =
         ui.allocate_exact_size(vec2(ui.available_width(), height), Sense::click_and_drag());
@@ -579,7 +582,7 @@ fn timeline(ui: &mut Ui, s: &mut ViewerState) {
             Color32::from_gray(200),
         );
     }
-    let now = x(s.stats.frame as f64);
+    let now = x(host.frame as f64);
     painter.line_segment(
         [pos2(now, rect.top()), pos2(now, rect.bottom())],
         Stroke::new(2.0, Color32::from_rgb(255, 210, 90)),
@@ -594,9 +597,9 @@ fn timeline(ui: &mut Ui, s: &mut ViewerState) {
     if resp.clicked() {
         // A click scrubs; only a drag moves keys.
         s.timeline_grab = None;
-        if u64::from(at) != s.stats.frame {
-            s.seek = Some(u64::from(at));
-            s.view.playing = false;
+        if u64::from(at) != host.frame {
+            host.seek = Some(u64::from(at));
+            host.playing = false;
         }
         return;
     }
@@ -610,7 +613,7 @@ fn timeline(ui: &mut Ui, s: &mut ViewerState) {
     }
     match s.timeline_grab.map(|(g, _)| g) {
         Some(g @ (TimelineGrab::From(i) | TimelineGrab::To(i))) => {
-            if let Some(e) = s.scene.strips.as_mut().and_then(|st| st.edits.get_mut(i)) {
+            if let Some(e) = scene.strips.as_mut().and_then(|st| st.edits.get_mut(i)) {
                 move_key(e, g, at);
                 s.key_strip = e.strip;
                 let shown = if matches!(g, TimelineGrab::To(_)) {
@@ -618,13 +621,13 @@ fn timeline(ui: &mut Ui, s: &mut ViewerState) {
                 } else {
                     e.from
                 };
-                s.seek = Some(u64::from(shown));
-                s.view.playing = false;
+                host.seek = Some(u64::from(shown));
+                host.playing = false;
             }
         }
-        Some(TimelineGrab::Scrub) if u64::from(at) != s.stats.frame => {
-            s.seek = Some(u64::from(at));
-            s.view.playing = false;
+        Some(TimelineGrab::Scrub) if u64::from(at) != host.frame => {
+            host.seek = Some(u64::from(at));
+            host.playing = false;
         }
         _ => {}
     }
@@ -699,7 +702,7 @@ pub fn overlay(
     ctx: &egui::Context,
     scene: &Scene,
     cache: &mut Option<(EffDesc, std::sync::Arc<Eff>)>,
-    view: &crate::systems::wisps::edit::View,
+    view: &crate::gpu::view::ScreenView,
     ppp: f32,
     show: Show<'_>,
 ) {

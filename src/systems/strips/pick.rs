@@ -2,8 +2,8 @@
 //! drag its target at the second key) and the key-frame timeline's geometry. Pure functions
 //! of the projected view, so the viewer's gestures are tested without a window.
 
+use crate::gpu::view::ScreenView as View;
 use crate::scene::strips::Edit;
-use crate::systems::wisps::edit::View;
 use glam::{DMat4, DVec2, DVec3};
 
 /// How near (pixels) the cursor must come to a strip's centre line or a target marker.

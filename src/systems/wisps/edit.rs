@@ -16,8 +16,7 @@
 //! any other action) closes it.
 
 use crate::scene::wisps::{Node, Skeleton, Wisps};
-use crate::stage::camera::Camera;
-use glam::{DMat4, DVec2, DVec3, DVec4};
+use glam::{DVec2, DVec3};
 use std::collections::VecDeque;
 
 /// Most undo entries kept.
@@ -48,79 +47,9 @@ pub struct Sel {
     pub node: usize,
 }
 
-/// Where the nodes land on screen: `mvp` takes a node position (the head's rest frame) to
-/// clip space (wgpu: depth 0..1), and the viewport is `size` pixels, origin top left, y down.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct View {
-    pub mvp: DMat4,
-    pub size: DVec2,
-}
-
-impl View {
-    pub fn new(mvp: DMat4, size: DVec2) -> View {
-        View { mvp, size }
-    }
-
-    /// The viewer's view: `camera` (near and far planes fitted to `bounds` as the stage
-    /// does), the head pose `model`, a viewport `size` pixels.
-    pub fn from_camera(camera: &Camera, model: DMat4, size: DVec2, bounds: (DVec3, f64)) -> View {
-        use glam::dcamera::rh;
-        let (near, far) = camera.clip_planes(bounds.0, bounds.1);
-        let view = rh::view::look_at_mat4(camera.eye, camera.target, camera.up);
-        let aspect = size.x / size.y.max(1e-9);
-        let proj = rh::proj::directx::perspective(camera.fov_y, aspect, near, far);
-        View {
-            mvp: proj * view * model,
-            size,
-        }
-    }
-
-    /// (x, y) in pixels and the depth (normalised device z) of `p`; None behind the eye or
-    /// when not finite.
-    pub fn project(&self, p: DVec3) -> Option<DVec3> {
-        let c = self.mvp * p.extend(1.0);
-        if c.w.is_nan() || c.w <= 1e-12 {
-            return None;
-        }
-        let n = c.truncate() / c.w;
-        let out = DVec3::new(
-            (n.x + 1.0) * 0.5 * self.size.x,
-            (1.0 - n.y) * 0.5 * self.size.y,
-            n.z,
-        );
-        out.is_finite().then_some(out)
-    }
-
-    /// The point at pixel `px` and normalised depth `depth` (the inverse of `project`).
-    pub fn unproject(&self, px: DVec2, depth: f64) -> Option<DVec3> {
-        let ndc = DVec4::new(
-            px.x / self.size.x * 2.0 - 1.0,
-            1.0 - px.y / self.size.y * 2.0,
-            depth,
-            1.0,
-        );
-        let c = self.mvp.inverse() * ndc;
-        if c.w.abs() < 1e-300 {
-            return None;
-        }
-        let p = c.truncate() / c.w;
-        p.is_finite().then_some(p)
-    }
-
-    /// World units per pixel at `p`, across the screen (None behind the eye).
-    pub fn units_per_px(&self, p: DVec3) -> Option<f64> {
-        let s = self.project(p)?;
-        let a = self.unproject(s.truncate(), s.z)?;
-        let b = self.unproject(s.truncate() + DVec2::X, s.z)?;
-        let u = (b - a).length();
-        (u.is_finite() && u > 0.0).then_some(u)
-    }
-
-    /// Radius in pixels of a sphere of radius `r` about `p` (for the overlay's circles).
-    pub fn radius_px(&self, p: DVec3, r: f64) -> Option<f64> {
-        Some(r / self.units_per_px(p)?)
-    }
-}
+/// Where the nodes land on screen (`gpu::view::ScreenView`, shared with the other kinds'
+/// mouse tools): node positions are in the head's rest frame.
+pub use crate::gpu::view::ScreenView as View;
 
 fn pos(n: &Node) -> DVec3 {
     DVec3::from(n.p)

@@ -24,6 +24,7 @@ pub mod panel;
 pub mod springs;
 pub mod springs_gpu;
 pub mod tiles;
+pub mod tools;
 pub mod toon;
 
 use super::{Change, DrawSetup, FrameCtx, HairSystem, Kind, StepInfo, SystemStats, View};
@@ -44,6 +45,18 @@ pub const KIND: Kind = Kind {
     build,
     classify,
     panels: panel::PANELS,
+    ui: || Box::<tools::WispsUi>::default(),
+    // Toon wisps are skeletons, not strands: named on their own.
+    summary: |s| {
+        s.wisps.as_ref().map(|w| {
+            format!(
+                "{} toon wisps ({} spline segments)",
+                w.skeletons.len(),
+                march::segment_count(w)
+            )
+        })
+    },
+    moves: |s| s.wisps.as_ref().is_some_and(|w| w.springs.is_some()),
     scenes: &[
         "toon",
         "toon_divide",
@@ -58,6 +71,67 @@ pub const KIND: Kind = Kind {
         ("wisps/toon", march::MARCH),
         ("wisps/springs", springs_gpu::SPRINGS),
         ("wisps/tiles", tiles::TILES),
+    ],
+    fuzz_words: &[
+        "Wisps(",
+        "Skeleton(",
+        "Node(",
+        "March(",
+        "Toon(",
+        "Springs(",
+        "Bundle(",
+        "Placed(",
+        "Newton",
+        "Polyline(pieces: 4)",
+        "Two",
+        "Three",
+        "Rk4",
+        "SemiImplicitEuler",
+        "wisps:",
+        "skeletons:",
+        "threshold:",
+        "toon:",
+        "march:",
+        "springs:",
+        "bundles:",
+        "nodes:",
+        "outline:",
+        "p:",
+        "r:",
+        "w:",
+        "distance:",
+        "max_steps:",
+        "refine:",
+        "step_scale:",
+        "tones:",
+        "shade:",
+        "dark:",
+        "t_diffuse:",
+        "t_dark:",
+        "t_specular:",
+        "outline_width:",
+        "outline_taper:",
+        "diffuse_feather:",
+        "dark_feather:",
+        "halo_feather:",
+        "halo_offset:",
+        "halo_strength:",
+        "halo_shadow:",
+        "rim:",
+        "rim_width:",
+        "rim_feather:",
+        "mass:",
+        "sub_mass:",
+        "ring:",
+        "frame_time:",
+        "substeps:",
+        "integrator:",
+        "hold_shape:",
+        "collide:",
+        "release_from:",
+        "root:",
+        "triangle:",
+        "offset:",
     ],
 };
 

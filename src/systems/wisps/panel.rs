@@ -3,13 +3,14 @@
 //! taper; the ray march), its `--set` keys (`set_key`), and
 //! the Skeletons panel (the skeleton editor of Fig. 9: the skeletons and their nodes, the
 //! selected node's radius, weight and position, adding and deleting nodes and skeletons,
-//! undo and redo, and the mouse mode of the 3D view). They only edit `ViewerState` (the
-//! Skeletons panel through `edit::Editor`); the stage classifies the edit with
-//! `super::classify` and applies it.
+//! undo and redo, and the mouse mode of the 3D view). They edit the scene and the wisps'
+//! viewer state (`tools::WispsUi`: the Skeletons panel goes through its `edit::Editor`);
+//! the stage classifies the edit with `super::classify` and applies it.
 
 use super::edit::{Editor, Sel};
-use crate::app::params::ViewerState;
+use super::tools::WispsUi;
 use crate::scene::wisps::{Distance, Tones, Wisps};
+use crate::systems::ui::{self, Host, PanelCx};
 use crate::systems::Panel;
 use egui::{Button, Color32, DragValue, Slider, SliderClamping, Ui};
 use glam::{DVec2, DVec3};
@@ -18,11 +19,13 @@ pub const PANELS: &[Panel] = &[
     Panel {
         title: "Toon",
         open: |s| s.wisps.is_some(),
+        adds: false,
         show: toon,
     },
     Panel {
         title: "Skeletons",
         open: |s| s.wisps.is_some(),
+        adds: false,
         show: skeletons,
     },
 ];
@@ -48,8 +51,8 @@ pub fn outcome(ui: &mut Ui, ed: &Editor) {
 
 /// Where a copy of a skeleton goes: `amount` along the screen's right (in the head's frame,
 /// at `p`'s depth) in the last drawn view; along +z without one.
-fn screen_right(s: &ViewerState, p: DVec3, amount: f64) -> DVec3 {
-    let right = s.edit_view.and_then(|v| {
+fn screen_right(host: &Host, p: DVec3, amount: f64) -> DVec3 {
+    let right = host.head_view.and_then(|v| {
         let q = v.project(p)?;
         let a = v.unproject(q.truncate(), q.z)?;
         let b = v.unproject(q.truncate() + DVec2::X, q.z)?;
@@ -58,32 +61,35 @@ fn screen_right(s: &ViewerState, p: DVec3, amount: f64) -> DVec3 {
     right.unwrap_or(DVec3::Z) * amount
 }
 
-fn skeletons(ui: &mut Ui, s: &mut ViewerState) {
-    let Some(w) = s.scene.wisps.as_ref() else {
+fn skeletons(ui: &mut Ui, cx: &mut PanelCx) {
+    let Some(st) = ui::state::<WispsUi>(cx.state) else {
+        return;
+    };
+    let Some(w) = cx.scene.wisps.as_ref() else {
         ui.label("this scene has no toon wisps");
         return;
     };
     // A copy goes beside the original (by its largest radius, to the screen's right); a new
     // skeleton hangs from the top of the head.
-    let shift = match s.editor.selected(w) {
+    let shift = match st.editor.selected(w) {
         Some(sel) => {
             let sk = &w.skeletons[sel.skeleton];
             let r = sk.nodes.iter().map(|n| n.r).fold(0.0, f64::max);
-            screen_right(s, DVec3::from(sk.nodes[0].p), 1.5 * r)
+            screen_right(cx.host, DVec3::from(sk.nodes[0].p), 1.5 * r)
         }
         None => DVec3::ZERO,
     };
-    let head = &s.scene.head;
+    let head = &cx.scene.head;
     let top = DVec3::from(head.center) + DVec3::new(0.0, head.radii[1], 0.0);
-    ui.checkbox(&mut s.view.edit_skeletons, "edit skeletons with the mouse")
+    ui.checkbox(&mut st.edit, "edit skeletons with the mouse")
         .on_hover_text(MOUSE_HELP);
-    if s.view.edit_skeletons {
+    if st.edit {
         ui.small(MOUSE_HELP);
     }
-    let Some(w) = s.scene.wisps.as_mut() else {
+    let Some(w) = cx.scene.wisps.as_mut() else {
         return;
     };
-    let ed = &mut s.editor;
+    let ed = &mut st.editor;
     ui.horizontal(|ui| {
         if ui
             .add_enabled(ed.can_undo(), Button::new("Undo"))
@@ -275,8 +281,8 @@ fn colour(ui: &mut Ui, label: &str, c: &mut [f32; 3]) {
     });
 }
 
-fn toon(ui: &mut Ui, s: &mut ViewerState) {
-    let Some(w) = s.scene.wisps.as_mut() else {
+fn toon(ui: &mut Ui, cx: &mut PanelCx) {
+    let Some(w) = cx.scene.wisps.as_mut() else {
         ui.label("this scene has no toon wisps");
         return;
     };
