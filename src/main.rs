@@ -1,7 +1,7 @@
 //! The `kami` command line: render scenes to PNG and run the benchmarks.
 
 use anyhow::{bail, Result};
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use kami::gpu::{Gpu, Preference};
 use std::path::PathBuf;
 
@@ -139,22 +139,6 @@ enum Command {
 
 #[derive(Subcommand)]
 enum Bench {
-    /// Cantilever grooming: CPU reference and GPU kernel throughput on the largest scene,
-    /// render time per frame, and tip-drop error against the exact elastica for both
-    /// bending modes.
-    Groom {
-        /// Scene to time (default: the largest shipped scene).
-        #[arg(long, default_value = "assets/scenes/bob.ron")]
-        scene: PathBuf,
-        /// Frames to time for the render figure.
-        #[arg(long, default_value_t = 10)]
-        frames: u32,
-        /// Directory for the report files (groom.md, groom.csv).
-        #[arg(long, default_value = "bench_out")]
-        out: PathBuf,
-        #[arg(long)]
-        software: bool,
-    },
     /// Every shipped scene rendered on both software adapters (lavapipe over Vulkan, llvmpipe
     /// over GL) and compared pixel by pixel: the margin under the snapshot tolerances; writes
     /// backends.md and backends.csv.
@@ -205,47 +189,6 @@ enum Bench {
         #[arg(long)]
         software: bool,
     },
-    /// Projective dynamics: error against cost over a sweep of dt and segment counts on the
-    /// gust scene and the hard cases, GPU and CPU cost at the paper's size, and the rigid
-    /// pendulum's period; writes dynamics.md, dynamics.csv and dynamics.png.
-    Dynamics {
-        #[arg(long, default_value = "assets/scenes/gust.ron")]
-        scene: PathBuf,
-        /// Directory for the report files.
-        #[arg(long, default_value = "bench_out")]
-        out: PathBuf,
-        #[arg(long)]
-        software: bool,
-    },
-    /// Guides and followers: simulation time per frame and the followers' position error
-    /// against simulating every strand, for guide shares 1 .. 0.05 at frames 10, 20 and 30
-    /// of the gust; writes guides.md, guides.csv and guides.png.
-    Guides {
-        #[arg(long, default_value = "assets/scenes/gust.ron")]
-        scene: PathBuf,
-        /// Directory for the report files.
-        #[arg(long, default_value = "bench_out")]
-        out: PathBuf,
-        #[arg(long)]
-        software: bool,
-    },
-    /// Van Gelder & Wilhelms' fur: hairs/s per style at 900x900 against the paper's rates,
-    /// the Figure 9 image at 500,000 hairs, and distance-based culling (image error against
-    /// the full-density render versus hairs drawn and time); writes fur.md, fur.csv and
-    /// fur_culling.png.
-    Fur {
-        /// Folder holding the shipped fur scenes (fur_line.ron ... fur_fig9.ron).
-        #[arg(long, default_value = "assets/scenes")]
-        scenes: PathBuf,
-        /// Frames to time per figure.
-        #[arg(long, default_value_t = 5)]
-        frames: u32,
-        /// Directory for the report files.
-        #[arg(long, default_value = "bench_out")]
-        out: PathBuf,
-        #[arg(long)]
-        software: bool,
-    },
     /// Screen-space level of detail of strand hair: image error against full detail and
     /// strands/segments drawn as the head gets smaller on screen; writes lod.md, lod.csv and
     /// lod.png.
@@ -279,21 +222,6 @@ enum Bench {
         #[arg(long)]
         software: bool,
     },
-    /// Sakai's toon wisps: ray-march ms per frame against wisp count and image size, image
-    /// error against step size and distance method, and the mass springs' work-precision
-    /// table; writes wisps.md, wisps.csv and three plots (cost, error, springs).
-    Wisps {
-        #[arg(long, default_value = "assets/scenes/toon.ron")]
-        scene: PathBuf,
-        /// Frames to time per figure.
-        #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=1000))]
-        frames: u32,
-        /// Directory for the report files.
-        #[arg(long, default_value = "bench_out")]
-        out: PathBuf,
-        #[arg(long)]
-        software: bool,
-    },
     /// The mesh head's signed distance field: build time and error against the exact
     /// signed distance at several grid resolutions; writes sdf.md, sdf.csv and sdf.png.
     Sdf {
@@ -302,21 +230,6 @@ enum Bench {
         /// Directory for the report files.
         #[arg(long, default_value = "bench_out")]
         out: PathBuf,
-    },
-    /// Kazama's strips: dynamics and full-frame ms against strip count (strips per second),
-    /// the angular-spring solver's work-precision table, and the EFF fit; writes strips.md,
-    /// strips.csv, strips_speed.png, strips_precision.png and capture.md/.csv/.png.
-    Strips {
-        #[arg(long, default_value = "assets/scenes/strips.ron")]
-        scene: PathBuf,
-        /// Frames to time per figure.
-        #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=1000))]
-        frames: u32,
-        /// Directory for the report files.
-        #[arg(long, default_value = "bench_out")]
-        out: PathBuf,
-        #[arg(long)]
-        software: bool,
     },
 }
 
@@ -435,13 +348,101 @@ fn main() -> std::process::ExitCode {
         env_logger::Env::default().default_filter_or("warn,wgpu_hal::gles::egl=off"),
     )
     .init();
-    match run(Cli::parse()) {
+    let matches = cli().get_matches();
+    let done = match kind_bench(&matches) {
+        Some((bench, args)) => run_kind_bench(bench, args),
+        None => run(Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit())),
+    };
+    match done {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("Error: {e:#}");
             std::process::ExitCode::FAILURE
         }
     }
+}
+
+/// The command line: the derived commands, and under `bench` one subcommand per entry of
+/// the kinds' bench table (`kami::bench::kinds::KIND_BENCHES`), so the CLI names no kind.
+fn cli() -> clap::Command {
+    use kami::bench::kinds::KIND_BENCHES;
+    Cli::command().mut_subcommand("bench", |b| {
+        KIND_BENCHES
+            .iter()
+            .fold(b, |b, k| b.subcommand(kind_bench_command(k)))
+    })
+}
+
+/// `kami bench <name>` for one kind's bench: its input, `--frames` where it takes one,
+/// `--out` and `--software`.
+fn kind_bench_command(k: &kami::bench::kinds::KindBench) -> clap::Command {
+    use clap::{value_parser, Arg, ArgAction};
+    let (input, value, default, help) = k.input;
+    let mut c = clap::Command::new(k.name).about(k.about).arg(
+        Arg::new("input")
+            .long(input)
+            .value_name(value)
+            .default_value(default)
+            .value_parser(value_parser!(PathBuf))
+            .help(help),
+    );
+    if let Some((frames, help)) = k.frames {
+        c = c.arg(
+            Arg::new("frames")
+                .long("frames")
+                .value_name("FRAMES")
+                .default_value(frames)
+                .value_parser(value_parser!(u32).range(1..=1000))
+                .help(help),
+        );
+    }
+    c.arg(
+        Arg::new("out")
+            .long("out")
+            .value_name("OUT")
+            .default_value("bench_out")
+            .value_parser(value_parser!(PathBuf))
+            .help(k.out),
+    )
+    .arg(
+        Arg::new("software")
+            .long("software")
+            .action(ArgAction::SetTrue),
+    )
+}
+
+/// The kind's bench the command line asks for, if it does.
+fn kind_bench(
+    m: &clap::ArgMatches,
+) -> Option<(&'static kami::bench::kinds::KindBench, &clap::ArgMatches)> {
+    let ("bench", b) = m.subcommand()? else {
+        return None;
+    };
+    let (name, args) = b.subcommand()?;
+    let bench = kami::bench::kinds::KIND_BENCHES
+        .iter()
+        .find(|k| k.name == name)?;
+    Some((bench, args))
+}
+
+fn run_kind_bench(k: &kami::bench::kinds::KindBench, m: &clap::ArgMatches) -> Result<()> {
+    let path = |id: &str| {
+        m.get_one::<PathBuf>(id)
+            .cloned()
+            .ok_or_else(|| anyhow::anyhow!("kami bench {}: no --{id}", k.name))
+    };
+    let (input, out) = (path("input")?, path("out")?);
+    let frames = m.get_one::<u32>("frames").copied().unwrap_or(1);
+    let gpu = Gpu::headless(preference(m.get_flag("software")))?;
+    let report = (k.run)(&gpu, &input, frames, &out)?;
+    println!("{}", report.markdown);
+    let files: Vec<String> = k
+        .files
+        .iter()
+        .map(|f| format!("{}/{f}", out.display()))
+        .collect();
+    println!("wrote {}", files.join(", "));
+    Ok(())
 }
 
 fn run(cli: Cli) -> Result<()> {
@@ -612,20 +613,6 @@ fn run(cli: Cli) -> Result<()> {
             })?;
         }
         Command::Bench { which } => match which {
-            Bench::Groom {
-                scene,
-                frames,
-                out,
-                software,
-            } => {
-                if frames == 0 {
-                    bail!("--frames must be at least 1");
-                }
-                let gpu = Gpu::headless(preference(software))?;
-                let report = kami::bench::groom(&gpu, &scene, frames, &out)?;
-                println!("{}", report.markdown);
-                println!("wrote {0}/groom.md, {0}/groom.csv", out.display());
-            }
             Bench::Backends { scenes, out } => {
                 let report = kami::bench::backends::run(&scenes, &out)?;
                 println!("{}", report.markdown);
@@ -663,49 +650,6 @@ fn run(cli: Cli) -> Result<()> {
                     out.display()
                 );
             }
-            Bench::Dynamics {
-                scene,
-                out,
-                software,
-            } => {
-                let gpu = Gpu::headless(preference(software))?;
-                let report = kami::bench::dynamics(&gpu, &scene, &out)?;
-                println!("{}", report.markdown);
-                println!(
-                    "wrote {0}/dynamics.md, {0}/dynamics.csv, {0}/dynamics.png",
-                    out.display()
-                );
-            }
-            Bench::Guides {
-                scene,
-                out,
-                software,
-            } => {
-                let gpu = Gpu::headless(preference(software))?;
-                let report = kami::bench::guides::run(&gpu, &scene, &out)?;
-                println!("{}", report.markdown);
-                println!(
-                    "wrote {0}/guides.md, {0}/guides.csv, {0}/guides.png",
-                    out.display()
-                );
-            }
-            Bench::Fur {
-                scenes,
-                frames,
-                out,
-                software,
-            } => {
-                if frames == 0 {
-                    bail!("--frames must be at least 1");
-                }
-                let gpu = Gpu::headless(preference(software))?;
-                let report = kami::bench::fur::run(&gpu, &scenes, &out, frames)?;
-                println!("{}", report.markdown);
-                println!(
-                    "wrote {0}/fur.md, {0}/fur.csv, {0}/fur_culling.png",
-                    out.display()
-                );
-            }
             Bench::Lod {
                 scene,
                 out,
@@ -736,34 +680,6 @@ fn run(cli: Cli) -> Result<()> {
                 let report = kami::bench::sdf::run(&scene, &out)?;
                 println!("{}", report.markdown);
                 println!("wrote {0}/sdf.md, {0}/sdf.csv, {0}/sdf.png", out.display());
-            }
-            Bench::Wisps {
-                scene,
-                frames,
-                out,
-                software,
-            } => {
-                let gpu = Gpu::headless(preference(software))?;
-                let report = kami::bench::wisps::run(&gpu, &scene, frames, &out)?;
-                println!("{}", report.markdown);
-                println!(
-                    "wrote {0}/wisps.md, {0}/wisps.csv, {0}/wisps_cost.png, {0}/wisps_error.png, {0}/wisps_springs.png",
-                    out.display()
-                );
-            }
-            Bench::Strips {
-                scene,
-                frames,
-                out,
-                software,
-            } => {
-                let gpu = Gpu::headless(preference(software))?;
-                let report = kami::bench::strips::run(&gpu, &scene, frames, &out)?;
-                println!("{}", report.markdown);
-                println!(
-                    "wrote {0}/strips.md, {0}/strips.csv, {0}/strips_speed.png, {0}/strips_precision.png, {0}/strips_sampling.csv, {0}/strips_sampling.png, {0}/capture.md, {0}/capture.csv, {0}/capture.png",
-                    out.display()
-                );
             }
         },
         Command::Fingers {

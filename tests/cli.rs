@@ -240,7 +240,24 @@ fn bench_help_describes_each_bench_under_its_name() {
     };
     assert!(line("dynamics").contains("Projective dynamics"), "{help}");
     assert!(line("scale").contains("GPU time per pass"), "{help}");
+    // The kinds' benches come from one table (`bench::kinds`): each listed with its text.
+    for k in kami::bench::kinds::KIND_BENCHES {
+        let first = k.about.split_whitespace().next().unwrap();
+        assert!(line(k.name).contains(first), "{}: {help}", k.name);
+    }
     let out = kami(&["bench", "dynamics", "--help"]);
     let help = String::from_utf8_lossy(&out.stdout);
     assert!(help.contains("Projective dynamics"), "{help}");
+    // A table bench's options: its input (`--scenes` for fur), `--frames`, `--out`.
+    let out = kami(&["bench", "fur", "--help"]);
+    let help = String::from_utf8_lossy(&out.stdout);
+    for opt in [
+        "--scenes <SCENES>",
+        "--frames <FRAMES>",
+        "--out <OUT>",
+        "--software",
+    ] {
+        assert!(help.contains(opt), "no {opt} in:\n{help}");
+    }
+    refused(&["bench", "wisps", "--frames", "0"], "--frames");
 }

@@ -665,3 +665,38 @@ fn viewer_picks_a_strip_and_drags_its_target() {
         "frame 19 looks like frame 20 ({share_19})"
     );
 }
+
+/// Only the kinds a scene has show their panels (once, every kind's panels showed on every
+/// scene); a panel that offers to add its kind (Fur's example) shows everywhere.
+#[test]
+fn only_the_kinds_in_the_scene_show_their_panels() {
+    use kami::app::panels::visible;
+    let root = common::root();
+    let titles = |stem: &str| -> Vec<&'static str> {
+        let scene = kami::scene::Scene::load(root.join(format!("assets/scenes/{stem}.ron")))
+            .unwrap_or_else(|e| panic!("{stem}: {e}"));
+        visible(&scene).into_iter().map(|(_, p)| p.title).collect()
+    };
+    let anjyo = ["Stiffness", "Pseudo-force", "Hair look", "Dynamics"];
+    let wisps = ["Toon", "Skeletons"];
+    let strips = ["Strips", "EFF", "Key frames"];
+    for (stem, shown, hidden) in [
+        ("gust", &anjyo[..], [&wisps[..], &strips[..]].concat()),
+        ("toon", &wisps[..], [&anjyo[..], &strips[..]].concat()),
+        ("strips", &strips[..], [&anjyo[..], &wisps[..]].concat()),
+    ] {
+        let got = titles(stem);
+        for t in shown.iter().chain(["Fur"].iter()) {
+            assert!(got.contains(t), "{stem}: no {t} panel in {got:?}");
+        }
+        for t in &hidden {
+            assert!(!got.contains(t), "{stem}: the {t} panel shows in {got:?}");
+        }
+    }
+    // A scene with two kinds shows both.
+    let both = titles("hair_and_fur");
+    assert!(
+        both.contains(&"Stiffness") && both.contains(&"Fur"),
+        "{both:?}"
+    );
+}

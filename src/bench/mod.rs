@@ -4,6 +4,7 @@
 pub mod backends;
 pub mod fur;
 pub mod guides;
+pub mod kinds;
 pub mod lod;
 pub mod raster;
 pub mod scale;

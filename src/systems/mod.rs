@@ -230,3 +230,62 @@ pub const KINDS: &[&Kind] = &[&anjyo::KIND, &fur::KIND, &wisps::KIND, &strips::K
 pub fn kind(name: &str) -> Option<&'static Kind> {
     KINDS.iter().copied().find(|k| k.name == name)
 }
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    /// The `.rs` files under `dir`, recursively.
+    fn sources(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
+        for e in std::fs::read_dir(dir).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                sources(&p, out);
+            } else if p.extension().is_some_and(|x| x == "rs") {
+                out.push(p);
+            }
+        }
+    }
+
+    /// Layers point one way: systems import neither the viewer (`app`) nor the stage, and
+    /// `gpu` and the shader list below them name no system.
+    #[test]
+    fn layers_point_one_way() {
+        let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+        let mut bad = Vec::new();
+        let rules: [(&str, &[&str]); 3] = [
+            ("systems", &["crate::app", "crate::stage"]),
+            ("gpu", &["crate::systems", "crate::stage", "crate::app"]),
+            (
+                "shaders.rs",
+                &["crate::systems", "crate::stage", "crate::app"],
+            ),
+        ];
+        for (below, banned) in rules {
+            let mut files = Vec::new();
+            let at = src.join(below);
+            if at.is_dir() {
+                sources(&at, &mut files);
+            } else {
+                files.push(at);
+            }
+            for f in files {
+                let text = std::fs::read_to_string(&f).unwrap();
+                // Code only: comments and string literals (these rules) may name a layer.
+                let code = text
+                    .lines()
+                    .filter(|l| !l.trim_start().starts_with("//") && !l.contains('"'));
+                for (n, line) in code.enumerate() {
+                    for b in banned.iter().filter(|b| line.contains(**b)) {
+                        bad.push(format!("{}: {b} in {line:?} (code line {n})", f.display()));
+                    }
+                }
+            }
+        }
+        assert!(
+            bad.is_empty(),
+            "layers pointing back up:\n{}",
+            bad.join("\n")
+        );
+    }
+}
