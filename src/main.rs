@@ -432,7 +432,9 @@ fn run_kind_bench(k: &kami::bench::kinds::KindBench, m: &clap::ArgMatches) -> Re
             .ok_or_else(|| anyhow::anyhow!("kami bench {}: no --{id}", k.name))
     };
     let (input, out) = (path("input")?, path("out")?);
-    let frames = m.get_one::<u32>("frames").copied().unwrap_or(1);
+    // Benches without `--frames` get 1 (unused by them).
+    let frames = m.try_get_one::<u32>("frames").ok().flatten().copied();
+    let frames = frames.unwrap_or(1);
     let gpu = Gpu::headless(preference(m.get_flag("software")))?;
     let report = (k.run)(&gpu, &input, frames, &out)?;
     println!("{}", report.markdown);

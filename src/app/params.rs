@@ -207,9 +207,8 @@ impl ViewerState {
 
     /// Apply a `--set KEY=VALUE` override through the same path as the panels: it edits the
     /// state, and the window loop classifies and applies the change. Each kind's keys come
-    /// first (`KindUi::set`: Anjyo's `color`, `width`, `ks`, `shininess`, `rigidity`,
-    /// `stiffness`, `damping`, `pseudo`; `fur.*`; `wisps.*`; `strips.*` and `eff.paint`),
-    /// then the viewer's own: `wind=x,y,z`, `gravity=x,y,z`, `msaa=1|4`, `supersample=f`,
+    /// first (`KindUi::set`, listed on each kind's implementation), then the viewer's own:
+    /// `wind=x,y,z`, `gravity=x,y,z`, `msaa=1|4`, `supersample=f`,
     /// `strands=ribbons|compute`, `play=on|off`, `lod=fraction` (fixed, 0..1),
     /// `seek=FRAME`, `save=FILE`, `export=FILE`, and scripted mouse events
     /// `mouse.press=x,y`, `mouse.move=x,y`, `mouse.release` (window pixels).
