@@ -8,8 +8,8 @@
 //!
 //! Layers point one way: `gpu` is the leaf; `scene` knows no GPU; `forces` reads the scene;
 //! `systems` build on `gpu`, `scene` and `forces`; `stage` knows systems only through the
-//! `HairSystem` interface; `app` and `bench` sit on top. One exception: a kind's egui panels
-//! (`systems::Panel`) edit the viewer's plain-data state, `app::params::ViewerState`.
+//! `HairSystem` interface; `app` and `bench` sit on top. A kind's panels and mouse tools
+//! take UI-neutral state (`systems::ui`) that the viewer hosts without knowing its type.
 
 pub mod app;
 pub mod bench;
