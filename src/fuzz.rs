@@ -116,6 +116,33 @@ fn scene_words() -> Vec<&'static str> {
     all
 }
 
+#[cfg(test)]
+mod words {
+    /// The scene fuzzer knows every kind's block and the EFF (once, its words lacked the
+    /// wisps, the strips and the EFF).
+    #[test]
+    fn scene_words_hold_every_kind_and_the_eff() {
+        let words = super::scene_words();
+        for w in [
+            "Wisps(",
+            "Strips(",
+            "EffDesc(",
+            "HairGroup(",
+            "Fur(",
+            "Scene(",
+        ] {
+            assert!(words.contains(&w), "no {w} among the scene words");
+        }
+        for kind in crate::systems::KINDS {
+            assert!(
+                !kind.fuzz_words.is_empty(),
+                "{} has no fuzz words",
+                kind.name
+            );
+        }
+    }
+}
+
 #[rustfmt::skip]
 const OBJ_WORDS: &[&str] = &[
     "v ", "vn ", "vt ", "vp ", "f ", "l 1 2\n", "p 1\n", "o x\n", "g x\n", "s off\n", "s 1\n",
