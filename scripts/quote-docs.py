@@ -15,7 +15,8 @@ import re
 import sys
 
 root = pathlib.Path(__file__).resolve().parent.parent
-pattern = re.compile(r"(<!-- quote (\S+) -->\n)(.*?)(<!-- end quote -->)", re.S)
+# Markers open a line, as tests/docs.rs reads them (a marker quoted inside `code` is not one).
+pattern = re.compile(r"^([ \t]*<!-- quote (\S+) -->\n)(.*?)([ \t]*<!-- end quote -->)", re.S | re.M)
 
 
 def paragraphs(lines):
