@@ -5,7 +5,8 @@
 //! A quoted plain-text report may keep its code fence inside the block: fence lines are not
 //! compared. Regenerate a report with the command in its first line, then
 //! `scripts/quote-docs.py` copies the changed lines into every page; this test says which
-//! block of which page no longer matches.
+//! block of which page no longer matches. A hand-written page may not carry a table of
+//! measured figures outside such a block.
 
 mod common;
 
@@ -140,6 +141,58 @@ fn quotes_in_the_readme_and_docs_match_the_reports() {
     }
 }
 
+/// Whether a table cell reads as a measured figure: a decimal number, maybe with a unit
+/// (`12.5`, `3.1x`, `0.2 %`, `74.1 ms`); whole numbers (counts, sizes, defaults) are not.
+fn measured(cell: &str) -> bool {
+    let c = cell.trim();
+    let c = ["x", "%", "ms", "s"]
+        .iter()
+        .find_map(|u| c.strip_suffix(u))
+        .unwrap_or(c)
+        .trim()
+        .replace(',', "");
+    c.contains('.') && c.parse::<f64>().is_ok()
+}
+
+/// Rows of a page's tables, outside its quote blocks, that hold a measured figure:
+/// (line, row).
+fn typed_rows(text: &str) -> Vec<(usize, String)> {
+    let mut inside = false;
+    let mut out = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let t = line.trim();
+        if t.starts_with("<!-- quote ") {
+            inside = true;
+        } else if t == "<!-- end quote -->" {
+            inside = false;
+        } else if !inside && t.starts_with('|') && t.split('|').any(measured) {
+            out.push((i + 1, t.to_string()));
+        }
+    }
+    out
+}
+
+#[test]
+fn hand_written_pages_type_no_measured_table() {
+    let root = common::root();
+    for path in pages(&root) {
+        let page = path.strip_prefix(&root).unwrap().display().to_string();
+        let text = std::fs::read_to_string(&path).unwrap();
+        // A report a command wrote holds its own tables.
+        if names_its_command(&text) {
+            continue;
+        }
+        let rows = typed_rows(&text);
+        assert!(
+            rows.is_empty(),
+            "{page}:{}: a table of measured figures typed by hand; quote it from the report \
+             that holds it (<!-- quote FILE --> ... <!-- end quote -->):\n{}",
+            rows[0].0,
+            rows[0].1
+        );
+    }
+}
+
 #[test]
 fn quote_markers_are_parsed() {
     let q = quotes(
@@ -150,6 +203,14 @@ fn quote_markers_are_parsed() {
     assert_eq!(q[0].0, "docs/x.md");
     assert_eq!(q[0].1, vec!["| 1 |", "", "| 2 |"]);
     assert_eq!(q[0].2, 2);
+    let typed = "| a | ms |\n|---|---:|\n| ribbons | 410.1 |\n| count | 12 |\n";
+    assert_eq!(
+        typed_rows(typed),
+        vec![(3, "| ribbons | 410.1 |".to_string())]
+    );
+    assert!(typed_rows(&format!("<!-- quote r.md -->\n{typed}<!-- end quote -->\n")).is_empty());
+    assert!(measured(" 3.1x ") && measured("0.2 %") && measured("74.1 ms"));
+    assert!(!measured("12") && !measured("`0.5`") && !measured("1,000"));
 }
 
 #[test]
