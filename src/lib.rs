@@ -22,7 +22,6 @@ pub mod forces;
 pub mod formats;
 pub mod fuzz;
 pub mod gpu;
-pub mod plot;
 pub mod rng;
 pub mod scene;
 pub mod shaders;

@@ -4,8 +4,8 @@
 //! back. `kami bench strips` writes the report (capture.md, capture.csv, capture.png) and
 //! quotes it in strips.md.
 
+use crate::bench::plot::{self, Series};
 use crate::error::{KamiError, Result};
-use crate::plot::{self, Series};
 use crate::systems::strips::capture::{
     field_error, fit, motion_error, simulate_markers, Capture, FieldError, FIT_STEP,
 };

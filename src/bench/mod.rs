@@ -6,6 +6,7 @@ pub mod capture;
 pub mod fur;
 pub mod guides;
 pub mod lod;
+pub mod plot;
 pub mod raster;
 pub mod scale;
 pub mod sdf;
@@ -737,9 +738,9 @@ pub fn dynamics(gpu: &Gpu, gust_path: &Path, out: &Path) -> Result<Report> {
                 "not reached".into()
             }
         );
-        series.push(crate::plot::Series {
+        series.push(crate::bench::plot::Series {
             name: name.clone(),
-            color: crate::plot::palette(ci),
+            color: crate::bench::plot::palette(ci),
             points,
         });
     }
@@ -806,7 +807,7 @@ pub fn dynamics(gpu: &Gpu, gust_path: &Path, out: &Path) -> Result<Report> {
         path: out.to_path_buf(),
         source,
     })?;
-    let plot = crate::plot::loglog(
+    let plot = crate::bench::plot::loglog(
         "PROJECTIVE DYNAMICS: ERROR VS COST",
         "CPU US PER STRAND PER UNIT TIME",
         "RMS ERROR / HAIR LENGTH",

@@ -9,10 +9,10 @@
 pub mod precision;
 
 use super::{provenance, time_mean, write_report, Report};
+use crate::bench::plot::{self, Series};
 use crate::error::Result;
 use crate::forces::Forces;
 use crate::gpu::Gpu;
-use crate::plot::{self, Series};
 use crate::scene::strips::Sampling;
 use crate::scene::Scene;
 use crate::stage::{self, target, Quality, Stage};

@@ -9,9 +9,9 @@
 pub mod springs;
 
 use super::{provenance, time_mean, write_report, Report};
+use crate::bench::plot::{self, Series};
 use crate::error::Result;
 use crate::gpu::Gpu;
-use crate::plot::{self, Series};
 use crate::scene::wisps::{Distance, Skeleton};
 use crate::scene::Scene;
 use crate::stage::{self, target, Quality, Stage};
