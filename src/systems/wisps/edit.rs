@@ -62,15 +62,14 @@ impl View {
     }
 
     /// The viewer's view: `camera` (near and far planes fitted to `bounds` as the stage
-    /// does), the head pose `model`, a viewport `size` pixels.
+    /// does), the head pose `model`, a viewport `size` pixels. The view-projection is the
+    /// stage's own (`Camera::view_proj`, the f32 matrix the shaders draw with), so a node
+    /// lands where it is drawn.
     pub fn from_camera(camera: &Camera, model: DMat4, size: DVec2, bounds: (DVec3, f64)) -> View {
-        use glam::dcamera::rh;
         let (near, far) = camera.clip_planes(bounds.0, bounds.1);
-        let view = rh::view::look_at_mat4(camera.eye, camera.target, camera.up);
         let aspect = size.x / size.y.max(1e-9);
-        let proj = rh::proj::directx::perspective(camera.fov_y, aspect, near, far);
         View {
-            mvp: proj * view * model,
+            mvp: camera.view_proj(aspect, near, far).as_dmat4() * model,
             size,
         }
     }
