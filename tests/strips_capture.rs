@@ -6,10 +6,11 @@
 mod common;
 
 use glam::{DMat4, DQuat, DVec3};
+use kami::bench::capture;
 use kami::bvh::{self, Bvh, HeadCapture, Mapping, CMU_CM_PER_UNIT};
 use kami::forces::eff::Eff;
 use kami::systems::strips::capture::{
-    self, capture_of, field_error, marker_points, motion_error, wind_samples, Capture,
+    capture_of, field_error, marker_points, motion_error, wind_samples, Capture,
 };
 use kami::systems::strips::RestStrip;
 use kami::KamiError;

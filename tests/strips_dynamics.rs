@@ -7,6 +7,7 @@
 mod common;
 
 use glam::{DMat4, DVec3};
+use kami::bench::strips::precision::*;
 use kami::forces::eff::EffGpu;
 use kami::forces::Forces;
 use kami::scene::strips::Motion;

@@ -4,6 +4,7 @@
 mod common;
 
 use glam::{DVec3, Vec3};
+use kami::bench::wisps::springs as study;
 use kami::forces::Forces;
 use kami::scene::wisps::{Bundle, Integrator, Node, Skeleton, Springs, Wisps};
 use kami::scene::{Ellipsoid, Head, HeadKey, Interp};
@@ -288,7 +289,7 @@ fn held_shape_holds_and_unheld_sags() {
     );
 }
 
-fn fit_slope(rows: &[springs::Row]) -> f64 {
+fn fit_slope(rows: &[study::Row]) -> f64 {
     let pts: Vec<(f64, f64)> = rows
         .iter()
         .filter(|r| r.stable)
@@ -315,7 +316,7 @@ fn integrator_orders() {
         ..springs_with(2e4, false)
     };
     let w = wisps(vec![skeleton("bang", &p, 1.0)], sp, vec![]);
-    let rows = springs::work_precision(&w, &head, &still(&head), 0.5, &[32, 64, 128, 256]).unwrap();
+    let rows = study::work_precision(&w, &head, &still(&head), 0.5, &[32, 64, 128, 256]).unwrap();
     for r in &rows {
         eprintln!(
             "{:?} dt {:.3e} error {:.3e} order {:?} stable {} {:.0} ns/step, largest stable dt {:.3e} (predicted {:.3e})",
@@ -481,7 +482,7 @@ fn stiff_case_stays_bounded_at_largest_stable_step() {
     };
     let w = wisps(vec![skeleton("bang", &p, 1.0)], sp.clone(), vec![]);
     let f = shake(&head, 25.0, 6.0, 4);
-    let rows = springs::work_precision(&w, &head, &f, 1.0, &[64, 128]).unwrap();
+    let rows = study::work_precision(&w, &head, &f, 1.0, &[64, 128]).unwrap();
     let lat = Lattice::build(&w, &sp, &head, &still(&head)).unwrap();
     let reach = springs::reach(&lat);
     for integrator in [Integrator::Rk4, Integrator::SemiImplicitEuler] {

@@ -4,9 +4,9 @@
 //! and `guides.png`.
 
 use super::{provenance, write_report, Report};
+use crate::bench::plot::{self, Series};
 use crate::error::Result;
 use crate::gpu::Gpu;
-use crate::plot::{self, Series};
 use crate::scene::Scene;
 use crate::systems::anjyo::groom::prepare;
 use crate::systems::anjyo::simulation::Simulation;

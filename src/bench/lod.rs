@@ -9,8 +9,8 @@
 
 use super::fur::model_error;
 use super::{provenance, write_report, Report};
+use crate::bench::plot::{self, Series};
 use crate::error::Result;
-use crate::plot::{self, Series};
 use crate::scene::Scene;
 use crate::stage::{self, target, Quality, Stage};
 use crate::systems::anjyo::{scene_bounds, AnjyoSystem};

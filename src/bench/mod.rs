@@ -2,10 +2,12 @@
 //! Markdown (for the README) plus CSV, and says which adapter and CPU produced it.
 
 pub mod backends;
+pub mod capture;
 pub mod fur;
 pub mod guides;
 pub mod kinds;
 pub mod lod;
+pub mod plot;
 pub mod raster;
 pub mod scale;
 pub mod sdf;
@@ -23,7 +25,7 @@ use crate::systems::anjyo::elastica;
 use crate::systems::anjyo::groom::prepare;
 use glam::DVec3;
 use std::fmt::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 pub struct Report {
@@ -61,6 +63,28 @@ pub fn provenance() -> String {
             .map(|n| n.get())
             .unwrap_or(1)
     )
+}
+
+/// A bench's default input (a shipped scene or the folder of them), named by its path in
+/// the repository, e.g. `assets/scenes/gust.ron`: that path when it exists from the working
+/// directory (run from a checkout: the reports name it as before), else the same path
+/// under the folder Kami was built from (a `kami` installed with `cargo install --path`,
+/// run from anywhere; `--help` shows the path in use). Nothing is embedded, unlike the
+/// viewer's default scene: the scenes name their EFF, mesh and capture files relative to
+/// themselves, and `bench backends` and `bench fur` read a whole folder, so they are read
+/// where they lie. A path given on the command line is the user's and is never searched
+/// for: only defaults go through here.
+pub fn shipped(path: &str) -> PathBuf {
+    shipped_from(Path::new(""), path)
+}
+
+/// `shipped` seen from the working directory `cwd`: a relative answer is relative to it.
+pub fn shipped_from(cwd: &Path, path: &str) -> PathBuf {
+    if cwd.join(path).exists() {
+        PathBuf::from(path)
+    } else {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
+    }
 }
 
 /// Write `<stem>.md` and `<stem>.csv` into `out` (created if missing).
@@ -715,9 +739,9 @@ pub fn dynamics(gpu: &Gpu, gust_path: &Path, out: &Path) -> Result<Report> {
                 "not reached".into()
             }
         );
-        series.push(crate::plot::Series {
+        series.push(crate::bench::plot::Series {
             name: name.clone(),
-            color: crate::plot::palette(ci),
+            color: crate::bench::plot::palette(ci),
             points,
         });
     }
@@ -784,7 +808,7 @@ pub fn dynamics(gpu: &Gpu, gust_path: &Path, out: &Path) -> Result<Report> {
         path: out.to_path_buf(),
         source,
     })?;
-    let plot = crate::plot::loglog(
+    let plot = crate::bench::plot::loglog(
         "PROJECTIVE DYNAMICS: ERROR VS COST",
         "CPU US PER STRAND PER UNIT TIME",
         "RMS ERROR / HAIR LENGTH",

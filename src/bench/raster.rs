@@ -7,9 +7,9 @@
 
 use super::fur::model_error;
 use super::{provenance, write_report, Report};
+use crate::bench::plot::{self, Series};
 use crate::error::Result;
 use crate::gpu::Gpu;
-use crate::plot::{self, Series};
 use crate::scene::{Scene, StrandRaster};
 use crate::stage::{self, target, Quality, Stage};
 use image::RgbaImage;

@@ -449,14 +449,14 @@ pub fn run(gpu: &Gpu, base_path: &Path, sweep: &Sweep, out: &Path) -> Result<Rep
         if pts.is_empty() {
             continue;
         }
-        series.push(crate::plot::Series {
+        series.push(crate::bench::plot::Series {
             name: format!("FRAME K={k}"),
-            color: crate::plot::palette(i),
+            color: crate::bench::plot::palette(i),
             points: pts.iter().map(|p| (p.strands as f64, p.frame_ms)).collect(),
         });
-        series.push(crate::plot::Series {
+        series.push(crate::bench::plot::Series {
             name: format!("SIM K={k}"),
-            color: crate::plot::palette(i + 5),
+            color: crate::bench::plot::palette(i + 5),
             points: pts
                 .iter()
                 .filter_map(|p| p.sim_cost.map(|s| (p.strands as f64, s)))
@@ -464,7 +464,7 @@ pub fn run(gpu: &Gpu, base_path: &Path, sweep: &Sweep, out: &Path) -> Result<Rep
         });
     }
     super::write_report(out, "scale", &md, &csv)?;
-    let plot = crate::plot::loglog(
+    let plot = crate::bench::plot::loglog(
         "FRAME AND SIMULATION TIME VS STRANDS",
         "STRANDS",
         "MS PER FRAME",

@@ -4,8 +4,8 @@
 //! points near the surface and through the box. Writes `sdf.md`, `sdf.csv` and `sdf.png`.
 
 use super::{provenance, write_report, Report};
+use crate::bench::plot::{self, Series};
 use crate::error::Result;
-use crate::plot::{self, Series};
 use crate::scene::hull::build_head_mesh;
 use crate::scene::sdf::Triangles;
 use crate::scene::Scene;

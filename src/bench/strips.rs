@@ -6,17 +6,20 @@
 //! strips_speed.png, strips_precision.png, strips_sampling.csv, strips_sampling.png, and
 //! capture.md/.csv/.png.
 
+pub mod precision;
+
 use super::{provenance, time_mean, write_report, Report};
+use crate::bench::plot::{self, Series};
 use crate::error::Result;
 use crate::forces::Forces;
 use crate::gpu::Gpu;
-use crate::plot::{self, Series};
 use crate::scene::strips::Sampling;
 use crate::scene::Scene;
 use crate::stage::{self, target, Quality, Stage};
-use crate::systems::strips::dynamics::{self, PrecisionRow, Setup};
+use crate::systems::strips::dynamics::{self, Setup};
 use crate::systems::strips::hom;
 use glam::DVec3;
+use precision::PrecisionRow;
 use std::fmt::Write;
 use std::path::Path;
 use std::time::Instant;
@@ -249,11 +252,11 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
 
     // 2. Work against precision of the angular-spring solver (f64 CPU reference).
     let setup = Setup::gust();
-    let rows = dynamics::work_precision(&setup, &RATES, PRECISION_FRAMES)?;
+    let rows = precision::work_precision(&setup, &RATES, PRECISION_FRAMES)?;
     let seconds = PRECISION_FRAMES as f64 * setup.motion.frame_time;
-    let order = dynamics::observed_order(&rows);
-    let largest = dynamics::largest_stable_dt(&setup, seconds, STABLE_CAP)?;
-    let to_one = dynamics::dt_for_error(&rows, 0.01);
+    let order = precision::observed_order(&rows);
+    let largest = precision::largest_stable_dt(&setup, seconds, STABLE_CAP)?;
+    let to_one = precision::dt_for_error(&rows, 0.01);
     let reference = (16.0 * RATES.iter().copied().fold(0.0, f64::max)).max(3840.0);
     writeln!(
         md,
@@ -318,7 +321,7 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
         md,
         "- Largest stable dt over {seconds:.2} s (rates within {}x the reference's, searched \
          up to {STABLE_CAP} s): {}.",
-        dynamics::SPEED_LIMIT,
+        precision::SPEED_LIMIT,
         if largest >= STABLE_CAP {
             format!("≥ {:.0} ms (the cap)", STABLE_CAP * 1e3)
         } else {
@@ -379,7 +382,7 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
 
     // 4. EFF fit: the capture round trip writes capture.md, capture.csv and capture.png
     // into `out`; its tables are quoted here (headings demoted) so strips.md stands alone.
-    crate::systems::strips::capture::write_report(out)?;
+    super::capture::write_report(out)?;
     let cap_path = out.join("capture.md");
     let cap = std::fs::read_to_string(&cap_path).map_err(|source| crate::KamiError::Io {
         path: cap_path.clone(),
@@ -387,7 +390,7 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
     })?;
     writeln!(
         md,
-        "## EFF fit\n\nFrom `systems::strips::capture::write_report` (also written as \
+        "## EFF fit\n\nFrom `bench::capture::write_report` (also written as \
          capture.md, capture.csv, capture.png).\n"
     )
     .ok();

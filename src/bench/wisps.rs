@@ -6,10 +6,12 @@
 //! (`springs::work_precision`). Writes wisps.md, wisps.csv, wisps_cost.png,
 //! wisps_error.png and wisps_springs.png, keeping wisps.md's hand-written part.
 
+pub mod springs;
+
 use super::{provenance, time_mean, write_report, Report};
+use crate::bench::plot::{self, Series};
 use crate::error::Result;
 use crate::gpu::Gpu;
-use crate::plot::{self, Series};
 use crate::scene::wisps::{Distance, Skeleton};
 use crate::scene::Scene;
 use crate::stage::{self, target, Quality, Stage};
@@ -459,13 +461,7 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
         few.bundles.clear();
         let forces = crate::forces::Forces::from_scene(&shake);
         let ladder = [16, 32, 64, 128];
-        let rows = crate::systems::wisps::springs::work_precision(
-            &few,
-            &shake.head,
-            &forces,
-            0.5,
-            &ladder,
-        )?;
+        let rows = springs::work_precision(&few, &shake.head, &forces, 0.5, &ladder)?;
         let sp = few.springs.clone().unwrap_or_default();
         writeln!(
             md,
@@ -476,7 +472,7 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
              smaller less {} %.\n",
             sp.stiffness,
             sp.damping,
-            crate::systems::wisps::springs::STABLE_MARGIN * 100.0
+            springs::STABLE_MARGIN * 100.0
         )
         .ok();
         writeln!(md, "| integrator | steps per frame | dt (ms) | error | order | stable | ns per step | largest stable dt (ms) |").ok();

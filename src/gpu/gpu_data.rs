@@ -122,7 +122,11 @@ pub struct GpuFrame {
     /// (1/sqrt(share of hairs drawn)); w: MSAA samples per pixel (1 without MSAA), for the
     /// per-sample coverage of `shaders/common/coverage.wgsl`.
     pub raster: [f32; 4],
-    /// x: 1 to show the segments the pseudo-force acted on.
+    /// x: 1 while the systems' diagnostic overlay is on (`systems::View::overlay`; Anjyo's
+    /// strand shading then marks the segments the pseudo-force acted on); y: samples per
+    /// output pixel along y (supersampling; set by `Stage::render` and read back as
+    /// `systems::View::samples_per_px`, for widths given in output pixels such as the wisps'
+    /// outline); z, w: unused (0).
     pub flags: [f32; 4],
 }
 assert_size!(GpuFrame, 160);

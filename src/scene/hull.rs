@@ -27,6 +27,15 @@ pub enum HeadHull {
 }
 
 impl HeadHull {
+    /// The hull of `head` whose mesh data (`head_mesh`) the caller already holds: the mesh's
+    /// SDF, or the ellipsoid without a mesh (`head_hull` looks the mesh up itself).
+    pub fn of(head: &Head, mesh: Option<&HeadMeshData>) -> HeadHull {
+        match mesh {
+            Some(m) => HeadHull::Sdf(m.sdf.clone()),
+            None => HeadHull::Ellipsoid(Ellipsoid::new(head.center, head.radii)),
+        }
+    }
+
     /// Negative inside (quadric form or signed distance).
     pub fn eval(&self, p: DVec3) -> f64 {
         match self {
@@ -280,10 +289,7 @@ fn stamp(source: &MeshSource) -> Option<(u64, std::time::SystemTime)> {
 
 /// The scene's collision hull.
 pub fn head_hull(head: &Head) -> Result<HeadHull> {
-    Ok(match head_mesh(head)? {
-        Some(m) => HeadHull::Sdf(m.sdf.clone()),
-        None => HeadHull::Ellipsoid(Ellipsoid::new(head.center, head.radii)),
-    })
+    Ok(HeadHull::of(head, head_mesh(head)?.as_deref()))
 }
 
 impl HeadMeshData {

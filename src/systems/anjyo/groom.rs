@@ -301,10 +301,7 @@ pub fn prepare(scene: &Scene) -> Result<GroomInput> {
         });
     }
     Ok(GroomInput {
-        head: match &head_mesh {
-            Some(m) => HeadHull::Sdf(m.sdf.clone()),
-            None => HeadHull::Ellipsoid(head),
-        },
+        head: HeadHull::of(&scene.head, head_mesh.as_deref()),
         roots,
         groups,
     })

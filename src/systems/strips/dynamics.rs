@@ -30,11 +30,12 @@
 //! any τ, I2 and dt are stable in it: the stiff joints near the root and the light joints at
 //! the tip (whose ω0 = √(τ/I1) is large) need no small step. H is taken at a predicted
 //! midpoint (a half step with H at the start, then the full step from the start with H at
-//! the middle), which makes the scheme second order for the coupling through H (measured
-//! 2.01 by `work_precision` on `Setup::gust`). H itself is explicit, so a stiff force bounds
-//! the step: the collision force of strips lying on the head allows ~1/30 s at κ = 1
-//! (`largest_stable_dt`), 1/240 s at κ = 1000. Steps run at the fixed rate `motion.steps_per_second`, rounded to a
-//! whole number of steps per rendered frame (`steps_per_frame`), whatever the frame rate.
+//! the middle), which makes the scheme second order for the coupling through H (the order
+//! `bench::strips::precision` measures on `Setup::gust` is in docs/strips.md). H itself is
+//! explicit, so a stiff force bounds the step: the collision force of strips lying on the
+//! head allows ~1/30 s at κ = 1 (`bench::strips::precision::largest_stable_dt`), 1/240 s
+//! at κ = 1000. Steps run at the fixed rate `motion.steps_per_second`, rounded to a whole
+//! number of steps per rendered frame (`steps_per_frame`), whatever the frame rate.
 //!
 //! **Forces (eq 2), accelerations at each control point** (world units / s²): gravity
 //! `motion.gravity`; the wind Ω of `Forces::wind_at_point` (uniform keyed wind + EFF); the
@@ -57,7 +58,6 @@ use crate::scene::strips::Motion;
 use crate::scene::{Head, HeadKey, Interp, WindKey};
 use glam::{DMat3, DMat4, DVec3, DVec4};
 use std::f64::consts::{PI, TAU};
-use std::time::Instant;
 
 /// Most extra forces the GPU kernel takes (a uniform array; `dynamics_gpu` refuses more).
 pub const MAX_EXTRA: usize = 16;
@@ -1137,7 +1137,7 @@ pub fn demo_strip(
     }
 }
 
-/// A representative scene for the solver's accuracy (tests, `work_precision`, the bench).
+/// A representative scene for the solver's accuracy (tests, `bench::strips::precision`).
 #[derive(Clone, Debug)]
 pub struct Setup {
     pub rest: Vec<RestStrip>,
@@ -1209,201 +1209,4 @@ impl Setup {
             extra,
         }
     }
-}
-
-/// One line of the solver's work–precision table.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PrecisionRow {
-    /// Effective rate (a whole number of steps per frame).
-    pub steps_per_second: f64,
-    /// Step length, seconds.
-    pub dt: f64,
-    /// Largest tip distance from the fine reference over every frame and strip (world units).
-    pub tip_error: f64,
-    /// The same relative to the strip's length (largest over strips).
-    pub tip_error_rel: f64,
-    /// Wall time of the f64 reference per strip and step, nanoseconds.
-    pub ns_per_strip_step: f64,
-    /// Finite with rates below `SPEED_LIMIT` × the reference's all along.
-    pub stable: bool,
-}
-
-/// Trial runs whose rates pass this many times the reference's top rate count as unstable.
-pub const SPEED_LIMIT: f64 = 4.0;
-
-/// Tips of every strip at every frame (index frame × strips + strip) and the top rate.
-fn tips(setup: &Setup, motion: &Motion, frames: u32) -> Result<(Vec<DVec3>, f64, u64)> {
-    let mut rig = Rig::posed(&setup.rest, motion, &setup.head)?;
-    rig.set_pose(setup.forces.head_at(0.0));
-    let mut out = Vec::new();
-    let mut top: f64 = 0.0;
-    let stride = rig.stride();
-    for f in 0..frames as u64 {
-        rig.run_frames(&setup.forces, &setup.head, motion, &setup.extra, f, 1);
-        let r = rig.max_rate();
-        top = if r.is_nan() || top.is_nan() {
-            f64::NAN
-        } else {
-            top.max(r)
-        };
-        let p = rig.points();
-        out.extend((0..rig.strip_count()).map(|s| p[s * stride + stride - 1]));
-    }
-    let steps = frames as u64 * steps_per_frame(motion) as u64;
-    Ok((out, top, steps))
-}
-
-/// Work against precision of the solver on `setup` over `frames` frames: for each rate in
-/// `rates` (steps per second), the largest tip error against the f64 reference at 16× the
-/// finest rate (at least 3840 steps/s), and the f64 cost per strip and step.
-pub fn work_precision(setup: &Setup, rates: &[f64], frames: u32) -> Result<Vec<PrecisionRow>> {
-    check_extra(&setup.extra)?;
-    let finest = rates.iter().copied().fold(0.0, f64::max);
-    let fine = Motion {
-        steps_per_second: (16.0 * finest).max(3840.0),
-        ..setup.motion.clone()
-    };
-    let (reference, top, _) = tips(setup, &fine, frames)?;
-    let rig = Rig::new(&setup.rest, &setup.motion)?;
-    let lengths: Vec<f64> = (0..rig.strip_count()).map(|s| rig.length(s)).collect();
-    let mut rows = Vec::new();
-    for &rate in rates {
-        let m = Motion {
-            steps_per_second: rate,
-            ..setup.motion.clone()
-        };
-        check_motion(&m)?;
-        let t = Instant::now();
-        let (got, rate_top, steps) = tips(setup, &m, frames)?;
-        let ns = t.elapsed().as_nanos() as f64;
-        let (mut abs, mut rel) = (0.0f64, 0.0f64);
-        for (i, (a, b)) in got.iter().zip(&reference).enumerate() {
-            let e = (*a - *b).length();
-            let e = if e.is_finite() { e } else { f64::INFINITY };
-            abs = abs.max(e);
-            rel = rel.max(e / lengths[i % lengths.len().max(1)]);
-        }
-        let stable = rate_top.is_finite() && rate_top <= SPEED_LIMIT * top && abs.is_finite();
-        rows.push(PrecisionRow {
-            steps_per_second: steps_per_frame(&m) as f64 / m.frame_time,
-            dt: step_length(&m),
-            tip_error: abs,
-            tip_error_rel: rel,
-            ns_per_strip_step: ns / (steps.max(1) as f64 * lengths.len().max(1) as f64),
-            stable,
-        });
-    }
-    Ok(rows)
-}
-
-/// Observed order: the least-squares slope of log error against log dt over the stable rows
-/// with an error above rounding (None with fewer than two).
-pub fn observed_order(rows: &[PrecisionRow]) -> Option<f64> {
-    let pts: Vec<(f64, f64)> = rows
-        .iter()
-        .filter(|r| r.stable && r.tip_error_rel > 1e-12 && r.tip_error_rel.is_finite())
-        .map(|r| (r.dt.ln(), r.tip_error_rel.ln()))
-        .collect();
-    if pts.len() < 2 {
-        return None;
-    }
-    let n = pts.len() as f64;
-    let (mx, my) = (
-        pts.iter().map(|p| p.0).sum::<f64>() / n,
-        pts.iter().map(|p| p.1).sum::<f64>() / n,
-    );
-    let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
-    let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
-    (sxx > 0.0).then(|| sxy / sxx)
-}
-
-/// The step giving relative tip error `target` (0.01 for 1 %): log-log interpolation
-/// between the rows that bracket it, else extrapolation along the observed order from the
-/// nearest row. None without stable rows.
-pub fn dt_for_error(rows: &[PrecisionRow], target: f64) -> Option<f64> {
-    let mut r: Vec<&PrecisionRow> = rows
-        .iter()
-        .filter(|r| r.stable && r.tip_error_rel > 0.0 && r.tip_error_rel.is_finite())
-        .collect();
-    r.sort_by(|a, b| a.dt.total_cmp(&b.dt));
-    for w in r.windows(2) {
-        let (a, b) = (w[0], w[1]);
-        if (a.tip_error_rel - target) * (b.tip_error_rel - target) <= 0.0
-            && a.tip_error_rel != b.tip_error_rel
-        {
-            let t = (target.ln() - a.tip_error_rel.ln())
-                / (b.tip_error_rel.ln() - a.tip_error_rel.ln());
-            return Some((a.dt.ln() + t * (b.dt.ln() - a.dt.ln())).exp());
-        }
-    }
-    let order = observed_order(rows)?.max(0.5);
-    let near = r.iter().min_by(|a, b| {
-        (a.tip_error_rel.ln() - target.ln())
-            .abs()
-            .total_cmp(&(b.tip_error_rel.ln() - target.ln()).abs())
-    })?;
-    Some(near.dt * (target / near.tip_error_rel).powf(1.0 / order))
-}
-
-/// Largest step (seconds, to 1 %) at which `setup` stays stable over `seconds` of motion,
-/// stepping `Rig::step` directly (not tied to frames); searched up to `cap` seconds, which
-/// it returns when every step up to it is stable.
-pub fn largest_stable_dt(setup: &Setup, seconds: f64, cap: f64) -> Result<f64> {
-    check_extra(&setup.extra)?;
-    let fine = Motion {
-        steps_per_second: 3840.0,
-        ..setup.motion.clone()
-    };
-    let frames = (seconds / fine.frame_time).ceil().max(1.0) as u32;
-    let (_, top, _) = tips(setup, &fine, frames)?;
-    let limit = SPEED_LIMIT * top.max(1e-9);
-    let ft = setup.motion.frame_time;
-    let stable_at = |dt: f64| -> Result<bool> {
-        let mut rig = Rig::posed(&setup.rest, &setup.motion, &setup.head)?;
-        rig.set_pose(setup.forces.head_at(0.0));
-        let steps = (seconds / dt).ceil() as u64;
-        for i in 0..steps {
-            let env = Env {
-                forces: &setup.forces,
-                frame: i as f64 * dt / ft,
-                head: &setup.head,
-                motion: &setup.motion,
-                extra: &setup.extra,
-            };
-            rig.step(&env, dt);
-            let r = rig.max_rate();
-            let calm = r <= limit;
-            if !calm {
-                return Ok(false);
-            }
-        }
-        Ok(true)
-    };
-    let mut lo = ft / 8.0;
-    while !stable_at(lo)? {
-        lo *= 0.5;
-        if lo < 1e-7 {
-            return Ok(0.0);
-        }
-    }
-    let mut hi = lo * 2.0;
-    while hi <= cap {
-        if !stable_at(hi)? {
-            break;
-        }
-        lo = hi;
-        hi *= 2.0;
-    }
-    if hi > cap {
-        return Ok(if stable_at(cap)? { cap } else { lo });
-    }
-    while hi / lo > 1.01 {
-        let mid = (lo * hi).sqrt();
-        if stable_at(mid)? {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    Ok(lo)
 }
