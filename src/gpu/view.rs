@@ -25,13 +25,17 @@ impl Camera {
         (near, far)
     }
 
-    /// View-projection for an aspect ratio (width / height), wgpu depth range 0..1: the
-    /// f32 matrix the shaders see.
-    pub fn view_proj(&self, aspect: f64, near: f64, far: f64) -> Mat4 {
+    /// View-projection in f64 for an aspect ratio (width / height), wgpu depth range 0..1.
+    pub fn view_proj_f64(&self, aspect: f64, near: f64, far: f64) -> DMat4 {
         use glam::dcamera::rh;
         let view = rh::view::look_at_mat4(self.eye, self.target, self.up);
         let proj = rh::proj::directx::perspective(self.fov_y, aspect, near, far);
-        (proj * view).as_mat4()
+        proj * view
+    }
+
+    /// The same as the f32 matrix the shaders see.
+    pub fn view_proj(&self, aspect: f64, near: f64, far: f64) -> Mat4 {
+        self.view_proj_f64(aspect, near, far).as_mat4()
     }
 
     /// Focal length in pixels for an image `height` pixels tall: a world length l at
@@ -58,8 +62,9 @@ impl ScreenView {
 
     /// The viewer's view: `camera` (near and far planes fitted to `bounds` as the stage
     /// does), the model pose `model`, a viewport `size` pixels. The view-projection is the
-    /// stage's own (`Camera::view_proj`, the f32 matrix the shaders draw with), so a point
-    /// lands where it is drawn.
+    /// stage's own (`Camera::view_proj`) kept in f64: a point lands where it is drawn (to
+    /// f32 rounding), and a node dragged in a plane parallel to the screen stays in it
+    /// (`tests/wisps_edit.rs`; the f32 matrix moved it by 1e-9 of its depth).
     pub fn from_camera(
         camera: &Camera,
         model: DMat4,
@@ -69,7 +74,7 @@ impl ScreenView {
         let (near, far) = camera.clip_planes(bounds.0, bounds.1);
         let aspect = size.x / size.y.max(1e-9);
         ScreenView {
-            mvp: camera.view_proj(aspect, near, far).as_dmat4() * model,
+            mvp: camera.view_proj_f64(aspect, near, far) * model,
             size,
         }
     }
