@@ -144,7 +144,7 @@ enum Bench {
     /// backends.md and backends.csv.
     Backends {
         /// Folder holding the shipped scenes.
-        #[arg(long, default_value = "assets/scenes")]
+        #[arg(long, default_value_os_t = kami::bench::shipped("assets/scenes"))]
         scenes: PathBuf,
         /// Directory for the report files.
         #[arg(long, default_value = "bench_out")]
@@ -155,7 +155,7 @@ enum Bench {
     /// fallback where the adapter has none), and the simulation's memory bandwidth against
     /// a buffer copy; writes scale.md, scale.csv and scale.png.
     Scale {
-        #[arg(long, default_value = "assets/scenes/gust.ron")]
+        #[arg(long, default_value_os_t = kami::bench::shipped("assets/scenes/gust.ron"))]
         scene: PathBuf,
         /// Strand counts, comma separated.
         #[arg(long, value_delimiter = ',', default_value = "1000,10000,100000,1000000", value_parser = parse_count)]
@@ -193,7 +193,7 @@ enum Bench {
     /// strands/segments drawn as the head gets smaller on screen; writes lod.md, lod.csv and
     /// lod.png.
     Lod {
-        #[arg(long, default_value = "assets/scenes/gust.ron")]
+        #[arg(long, default_value_os_t = kami::bench::shipped("assets/scenes/gust.ron"))]
         scene: PathBuf,
         /// Directory for the report files.
         #[arg(long, default_value = "bench_out")]
@@ -205,7 +205,7 @@ enum Bench {
     /// strands, ms per drawn frame against the image error from a 64-samples-per-pixel
     /// reference; writes raster.md, raster.csv, raster.png and each image.
     Raster {
-        #[arg(long, default_value = "assets/scenes/gust.ron")]
+        #[arg(long, default_value_os_t = kami::bench::shipped("assets/scenes/gust.ron"))]
         scene: PathBuf,
         /// Image size as WIDTHxHEIGHT.
         #[arg(long, value_parser = parse_size, default_value = "1280x720")]
@@ -225,7 +225,7 @@ enum Bench {
     /// The mesh head's signed distance field: build time and error against the exact
     /// signed distance at several grid resolutions; writes sdf.md, sdf.csv and sdf.png.
     Sdf {
-        #[arg(long, default_value = "assets/scenes/mesh_head.ron")]
+        #[arg(long, default_value_os_t = kami::bench::shipped("assets/scenes/mesh_head.ron"))]
         scene: PathBuf,
         /// Directory for the report files.
         #[arg(long, default_value = "bench_out")]
@@ -382,7 +382,13 @@ fn kind_bench_command(k: &kami::bench::kinds::KindBench) -> clap::Command {
         Arg::new("input")
             .long(input)
             .value_name(value)
-            .default_value(default)
+            // The shipped default found from any directory (`bench::shipped`); leaked once,
+            // as clap keeps a default for the program's life.
+            .default_value(&*Box::leak(
+                kami::bench::shipped(default)
+                    .into_os_string()
+                    .into_boxed_os_str(),
+            ))
             .value_parser(value_parser!(PathBuf))
             .help(help),
     );
