@@ -133,14 +133,20 @@ fn largest_jump(tip: &[DVec3], ft: f64, range: std::ops::Range<usize>) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// The largest change per frame of the tip acceleration a key-frame edit adds, as a share
+/// of its force: the ramps' steepest change is pi / 18 (0.17) of the force a frame, which
+/// the strip's response (its root and the head) raises to 0.43 on the shipped scene; the
+/// same edit with its ramps replaced by a step jumps by 3.1 times its force.
+const EDIT_JUMP: f64 = 1.0;
+
 /// Key-frame editing (section 4, eq 4): a strip at the nape swung 20° away from the head at
 /// frame 24
 /// from a first key at frame 6. The solved extra force brings its tip within
 /// `keyframe::TOLERANCE` (0.05 cm) of the target at the second key (f64), the GPU within
-/// 0.1 cm, and the tip's acceleration changes from frame to frame by no more than 1.5 times
-/// the largest change of the unedited clip plus a quarter of the edit's force (the ramps
-/// start and end with zero slope and change by at most pi / 18 of the force a frame over
-/// this edit's 9-frame release; a step in force would jump by the whole force).
+/// 0.1 cm, and what the edit adds to the tip's path (edited minus unedited) changes its
+/// acceleration from frame to frame by no more than the edit's own force (`EDIT_JUMP`: the
+/// ramps start and end with zero slope and change by at most pi / 18 of the force a frame
+/// over this edit's 9-frame release; a step in force jumps by more than the whole force).
 #[test]
 fn key_frame_edit_reaches_its_target_without_a_jump() {
     let mut scene = common::scene("strips");
@@ -199,16 +205,19 @@ fn key_frame_edit_reaches_its_target_without_a_jump() {
     // From before the first key to after the release (half the edit past the second key).
     let window = (from as usize - 2)..(to as usize + 12);
     let jump = largest_jump(&tip, ft, window.clone());
-    let free_jump = largest_jump(&free_tip, ft, window);
+    let free_jump = largest_jump(&free_tip, ft, window.clone());
+    // What the edit adds to the tip's path, apart from the clip's own motion (the gust).
+    let added: Vec<DVec3> = tip.iter().zip(&free_tip).map(|(e, f)| *e - *f).collect();
+    let edit_jump = largest_jump(&added, ft, window);
     let force = extra[0].accel.length();
     eprintln!(
         "largest change of tip acceleration per frame: edited {jump:.1}, unedited \
-         {free_jump:.1} cm/s² (extra force {force:.1} cm/s²)"
+         {free_jump:.1}, the edit's own {edit_jump:.1} cm/s² (extra force {force:.1} cm/s²)"
     );
     assert!(
-        jump <= 1.5 * free_jump + 0.25 * force,
-        "the edit's acceleration jumps by {jump} cm/s² per frame (unedited {free_jump}, \
-         extra force {force})"
+        edit_jump <= EDIT_JUMP * force,
+        "the edit's acceleration jumps by {edit_jump} cm/s² per frame, more than {EDIT_JUMP} \
+         of its force {force} (edited {jump}, unedited {free_jump})"
     );
     // The same edit in the scene, on the GPU.
     scene.strips.as_mut().unwrap().edits = vec![edit];
