@@ -9,7 +9,7 @@
 //! the global allocator), or an input accepted while breaking a promise: a scene holding a
 //! non-finite number or not surviving `to_ron`, a mesh with non-finite positions, normals
 //! that are not unit length, indices out of range, or bounds that overflow when fitted.
-//! `tests/fuzz.rs` runs a short fixed-seed pass; `examples/fuzz.rs` the long one
+//! `tests/it/fuzz.rs` runs a short fixed-seed pass; `examples/fuzz.rs` the long one
 //! (docs/fuzzing.md).
 
 use crate::rng::Rng;
