@@ -272,6 +272,12 @@ impl Stage {
         self.targets.as_ref()?.splat.as_ref().map(|s| &s.accum)
     }
 
+    /// The scene pass's depth (NDC, per sample) at the last output size: what the compute
+    /// rasteriser tests hair against. For tests, which run the f64 reference on it.
+    pub fn scene_depth(&self) -> Option<&wgpu::TextureView> {
+        Some(&self.targets.as_ref()?.scene.depth)
+    }
+
     /// Whether the head pass is built (only while the scene shows the head).
     pub fn has_head(&self) -> bool {
         self.head.is_some()

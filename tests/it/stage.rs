@@ -1,0 +1,359 @@
+//! The stage: it builds only the systems a scene names, keeps every system on one clock,
+//! classifies edits per system, and resets to the rest pose.
+
+use crate::common;
+use crate::common::stage;
+
+use kami::stage::Stage;
+use kami::systems::anjyo::AnjyoSystem;
+use kami::systems::fur::FurSystem;
+use kami::systems::{anjyo, fur, Change};
+
+fn kinds(s: &Stage) -> Vec<&'static str> {
+    s.systems().iter().map(|s| s.kind()).collect()
+}
+
+/// The gust with a tenth of its hairs (the test is about bookkeeping, not looks).
+fn small_gust() -> kami::Scene {
+    let mut s = common::scene("gust");
+    for g in &mut s.groups {
+        g.count /= 10;
+    }
+    s
+}
+
+fn vertices(gpu: &kami::gpu::Gpu, s: &Stage) -> Vec<[f32; 4]> {
+    s.system::<AnjyoSystem>()
+        .unwrap()
+        .hair
+        .read_vertices(gpu)
+        .unwrap()
+}
+
+fn advance(gpu: &kami::gpu::Gpu, s: &mut Stage, frames: u32) {
+    let mut enc = gpu.device.create_command_encoder(&Default::default());
+    s.advance(gpu, &mut enc, frames).unwrap();
+    gpu.queue.submit([enc.finish()]);
+}
+
+#[test]
+fn only_the_systems_a_scene_names_are_built() {
+    let gpu = common::gpu();
+    let bob = stage(gpu, &common::scene("bob"));
+    assert_eq!(kinds(&bob), ["anjyo"]);
+    assert!(
+        bob.system::<AnjyoSystem>().unwrap().sim.is_none(),
+        "a still groom allocates no simulation"
+    );
+    assert!(bob.has_head());
+    let fur = stage(gpu, &common::scene("fur"));
+    assert_eq!(kinds(&fur), ["fur"]);
+    assert!(!fur.has_head(), "an invisible head builds no head pass");
+    let both = stage(gpu, &common::scene("hair_and_fur"));
+    assert_eq!(kinds(&both), ["anjyo", "fur"]);
+    // The bounds hold both systems' spheres.
+    let (c, r) = both.bounds();
+    for s in both.systems() {
+        let (sc, sr) = s.bounds();
+        assert!(
+            (sc - c).length() + sr <= r + 1e-9,
+            "{} sticks out",
+            s.kind()
+        );
+    }
+}
+
+#[test]
+fn one_clock_for_every_system_and_reset_returns_to_rest() {
+    let gpu = common::gpu();
+    let mut s = stage(gpu, &small_gust());
+    let rest = vertices(gpu, &s);
+    advance(gpu, &mut s, 5);
+    assert_eq!(s.frame(), 5);
+    let moved = vertices(gpu, &s);
+    let most = rest
+        .iter()
+        .zip(&moved)
+        .map(|(a, b)| (0..3).map(|i| (a[i] - b[i]).abs()).fold(0.0f32, f32::max))
+        .fold(0.0f32, f32::max);
+    assert!(most > 1.0, "the hair did not move in 5 frames ({most})");
+    // Five frames in one submission are five frames one by one.
+    let mut t = stage(gpu, &small_gust());
+    for _ in 0..5 {
+        advance(gpu, &mut t, 1);
+    }
+    assert_eq!(vertices(gpu, &t), moved);
+    s.reset(gpu).unwrap();
+    assert_eq!(s.frame(), 0);
+    assert_eq!(vertices(gpu, &s), rest, "reset is the groomed rest pose");
+    // And from rest the same motion again.
+    advance(gpu, &mut s, 5);
+    assert_eq!(vertices(gpu, &s), moved);
+}
+
+#[test]
+fn edits_rebuild_resimulate_or_redraw_one_system() {
+    let gpu = common::gpu();
+    let scene = small_gust();
+    let mut s = stage(gpu, &scene);
+    advance(gpu, &mut s, 3);
+
+    let mut look = scene.clone();
+    look.groups[0].material.color = [0.9, 0.5, 0.1];
+    let a = s.apply(gpu, &look).unwrap();
+    assert_eq!(a.changes, [("anjyo", Change::Redraw)]);
+    assert!(!a.restarted);
+    assert_eq!(s.frame(), 3, "a look change keeps the pose");
+
+    let mut damp = look.clone();
+    damp.dynamics.as_mut().unwrap().damping = 2.0;
+    let a = s.apply(gpu, &damp).unwrap();
+    assert_eq!(a.changes, [("anjyo", Change::Resimulate)]);
+    assert_eq!(s.frame(), 3);
+
+    let mut stiff = damp.clone();
+    stiff.groups[1].rigidity *= 2.0;
+    let a = s.apply(gpu, &stiff).unwrap();
+    assert_eq!(a.changes, [("anjyo", Change::Rebuild)]);
+    assert!(a.restarted);
+    assert_eq!(s.frame(), 0, "a new rest pose restarts the clock");
+
+    // Adding fur builds the fur system beside the hair; taking the hair away frees it.
+    let mut with_fur = stiff.clone();
+    with_fur.fur = common::scene("fur").fur;
+    let a = s.apply(gpu, &with_fur).unwrap();
+    assert_eq!(
+        a.changes,
+        [("anjyo", Change::None), ("fur", Change::Rebuild)]
+    );
+    assert_eq!(kinds(&s), ["anjyo", "fur"]);
+    let mut fur_only = with_fur.clone();
+    fur_only.groups.clear();
+    s.apply(gpu, &fur_only).unwrap();
+    assert_eq!(kinds(&s), ["fur"]);
+    assert!(s.system::<FurSystem>().is_some());
+}
+
+/// Each kind's classification, without a GPU.
+#[test]
+fn each_kind_classifies_its_own_edits() {
+    let a = common::scene("gust");
+    let same = |b: &kami::Scene| (anjyo::classify(&a, b), fur::classify(&a, b));
+    let mut b = a.clone();
+    b.groups[0].material.width = 0.2;
+    assert_eq!(same(&b), (Change::Redraw, Change::None));
+    let mut b = a.clone();
+    b.groups[0].material.ka_spread = 0.5;
+    assert_eq!(
+        same(&b).0,
+        Change::Rebuild,
+        "k_a is drawn per strand at groom"
+    );
+    let mut b = a.clone();
+    b.dynamics = None;
+    assert_eq!(same(&b).0, Change::Rebuild);
+    let mut b = a.clone();
+    b.render.msaa = 1;
+    b.light.intensity = 2.0;
+    assert_eq!(same(&b), (Change::None, Change::None), "the stage's own");
+
+    let f = common::scene("fur");
+    let mut g = f.clone();
+    g.fur.as_mut().unwrap().coats[0].material.shininess = 5.0;
+    assert_eq!(fur::classify(&f, &g), Change::Redraw);
+    g.fur.as_mut().unwrap().hairs += 1;
+    assert_eq!(fur::classify(&f, &g), Change::Rebuild);
+    let mut g = f.clone();
+    g.fur.as_mut().unwrap().coats[1].stiffness = 0.1;
+    assert_eq!(fur::classify(&f, &g), Change::Rebuild, "shape, not look");
+    let mut g = f.clone();
+    g.seed += 1;
+    assert_eq!(fur::classify(&f, &g), Change::Rebuild);
+    assert_eq!(
+        anjyo::classify(&f, &g),
+        Change::Rebuild,
+        "the seed draws the pores too"
+    );
+}
+
+/// An edit the stage refuses (here fur beyond the adapter's limits, together with a hair
+/// edit that would rebuild the hair) leaves the stage as it was: both systems, the clock,
+/// the scene. It used to keep only the kinds handled before the failing one.
+#[test]
+fn a_refused_edit_keeps_what_was_drawn() {
+    let gpu = common::gpu();
+    let mut scene = small_gust();
+    scene.fur = common::scene("fur").fur;
+    let mut s = stage(gpu, &scene);
+    advance(gpu, &mut s, 2);
+    let before = vertices(gpu, &s);
+    let mut bad = scene.clone();
+    bad.groups[1].rigidity *= 2.0;
+    bad.fur.as_mut().unwrap().hairs = 3_900_000;
+    kami::scene::validate(&bad).unwrap();
+    assert!(
+        s.apply(gpu, &bad).is_err(),
+        "3.9 M fur hairs should be refused"
+    );
+    assert_eq!(kinds(&s), ["anjyo", "fur"]);
+    assert_eq!(s.frame(), 2);
+    assert_eq!(*s.scene(), scene);
+    assert_eq!(vertices(gpu, &s), before, "the hair kept its pose");
+    // And the stage still takes a good edit afterwards.
+    let mut good = scene.clone();
+    good.groups[1].rigidity *= 2.0;
+    assert!(s.apply(gpu, &good).unwrap().restarted);
+    assert_eq!(kinds(&s), ["anjyo", "fur"]);
+}
+
+/// One submission that keeps llvmpipe busy for longer than the 2.1 s that wgpu's GL backend
+/// allows one fence wait: `Gpu::wait` must keep waiting, not report a timeout (the clean-clone
+/// CI once failed a snapshot this way), and the work must be complete when it returns. It is
+/// a draw, not a dispatch, because llvmpipe's GL runs compute at submit and defers drawing.
+#[test]
+fn wait_outlasts_one_fence_timeout() {
+    let gpu = common::gpu();
+    let rounds: u32 = std::env::var("KAMI_TEST_WAIT_ROUNDS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(16_000);
+    assert!(
+        rounds < 65_535,
+        "KAMI_TEST_WAIT_ROUNDS: llvmpipe ends longer loops"
+    );
+    let src = "
+        @group(0) @binding(0) var<uniform> rounds: vec4<u32>;
+        @vertex
+        fn vs(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
+            let p = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
+            return vec4<f32>(p * 2.0 - 1.0, 0.0, 1.0);
+        }
+        @fragment
+        fn fs(@builtin(position) pos: vec4<f32>) -> @location(0) vec4<u32> {
+            var x = u32(pos.x) + u32(pos.y) * 256u + 1u;
+            // llvmpipe ends a loop after 65,535 iterations in all (nested ones count
+            // together), so each iteration takes eight steps (xorshift and a multiply,
+            // which the compiler cannot fold into one).
+            for (var r = 0u; r < rounds.x; r++) {
+                STEPS
+            }
+            return vec4<u32>(x, 0u, 0u, 0u);
+        }";
+    let step = "x ^= x << 13u; x ^= x >> 17u; x ^= x << 5u; x = x * 747796405u + 2891336453u;\n";
+    let src = src.replace("STEPS", &step.repeat(8));
+    let module = kami::gpu::shader_module(&gpu.device, "busy", &src).unwrap();
+    use wgpu::util::DeviceExt;
+    let uni = gpu
+        .device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("rounds"),
+            contents: bytemuck::cast_slice(&[rounds, 0, 0, 0]),
+            usage: wgpu::BufferUsages::UNIFORM,
+        });
+    let side = 256u32;
+    let format = wgpu::TextureFormat::R32Uint;
+    let target = gpu.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("busy target"),
+        size: wgpu::Extent3d {
+            width: side,
+            height: side,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    });
+    let pipe = gpu
+        .device
+        .create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("busy"),
+            layout: None,
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
+            primitive: Default::default(),
+            depth_stencil: None,
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs"),
+                compilation_options: Default::default(),
+                targets: &[Some(format.into())],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+    let bind = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &pipe.get_bind_group_layout(0),
+        entries: &[kami::gpu::entry(0, &uni)],
+    });
+    let out = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("busy readback"),
+        size: (side * side * 4) as u64,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let view = target.create_view(&Default::default());
+    let mut enc = gpu.device.create_command_encoder(&Default::default());
+    {
+        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("busy"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            ..Default::default()
+        });
+        pass.set_pipeline(&pipe);
+        pass.set_bind_group(0, &bind, &[]);
+        pass.draw(0..3, 0..1);
+    }
+    let t = std::time::Instant::now();
+    gpu.queue.submit([enc.finish()]);
+    let submitted = t.elapsed().as_secs_f64();
+    gpu.wait().unwrap();
+    let waited = t.elapsed().as_secs_f64() - submitted;
+    // Read back in a second submission (on GL the copy would draw inside the first submit).
+    let mut enc = gpu.device.create_command_encoder(&Default::default());
+    enc.copy_texture_to_buffer(
+        target.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &out,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(side * 4),
+                rows_per_image: None,
+            },
+        },
+        target.size(),
+    );
+    gpu.queue.submit([enc.finish()]);
+    let got: Vec<u32> = kami::gpu::map_read(gpu, &out).unwrap();
+    // The same steps on the CPU, for a few pixels.
+    for (px, py) in [(0u32, 0u32), (1, 0), (77, 130), (side - 1, side - 1)] {
+        let mut x = px + py * side + 1;
+        for _ in 0..rounds * 8 {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            x = x.wrapping_mul(747796405).wrapping_add(2891336453);
+        }
+        assert_eq!(got[(px + py * side) as usize], x, "pixel ({px}, {py})");
+    }
+    eprintln!(
+        "{}: submit {submitted:.2} s, wait {waited:.2} s",
+        gpu.describe()
+    );
+}
