@@ -6,7 +6,7 @@ Each block between `<!-- quote FILE -->` and `<!-- end quote -->` is replaced by
 paragraphs (runs of non-blank lines) of FILE as the block holds, starting at the line that
 begins with the block's first line (a table's header, or a paragraph's bold lead), so after
 regenerating a report, this copies its new lines in. A block whose lines sit in a code fence
-keeps the fence. `tests/docs.rs` checks the result.
+keeps the fence. `tests/it/docs.rs` checks the result.
 
 Usage: scripts/quote-docs.py [PAGE.md ...]   (default: README.md and every docs/**/*.md)
 """
@@ -15,7 +15,7 @@ import re
 import sys
 
 root = pathlib.Path(__file__).resolve().parent.parent
-# Markers open a line, as tests/docs.rs reads them (a marker quoted inside `code` is not one).
+# Markers open a line, as tests/it/docs.rs reads them (a marker quoted inside `code` is not one).
 pattern = re.compile(r"^([ \t]*<!-- quote (\S+) -->\n)(.*?)([ \t]*<!-- end quote -->)", re.S | re.M)
 
 

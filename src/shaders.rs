@@ -3,7 +3,7 @@
 //! the same stem as the Rust module that runs it). The stage's modules are listed here;
 //! each hair system lists its own in its `Kind`, and the stage assembles the registry
 //! (`stage::shaders`): this module sits below everything that includes WGSL, so it names
-//! no kind. `tests/shader_validation.rs` runs naga over every module in the registry
+//! no kind. `tests/it/shader_validation.rs` runs naga over every module in the registry
 //! without a GPU, and checks that every file under `shaders/` is in one.
 
 /// Concatenate shader files (paths under `shaders/`) into one WGSL source.

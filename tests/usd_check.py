@@ -1,5 +1,5 @@
 """Open a usda with Pixar's USD (pip install usd-core) and print its BasisCurves, for
-tests/formats.rs: curve count, vertex counts, points and widths, floats as repr (exact)."""
+tests/it/formats.rs: curve count, vertex counts, points and widths, floats as repr (exact)."""
 import sys
 
 from pxr import Usd, UsdGeom

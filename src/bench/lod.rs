@@ -4,7 +4,7 @@
 //! bounding sphere fills the frame, and the same frame is rendered with every strand and
 //! segment (`render.lod_tolerance_px = 0`) and with the level of detail (the scene's
 //! tolerance). Errors as `kami bench fur` measures culling (`fur::model_error`), with the
-//! floor of full detail drawn from another seed. `tests/lod.rs` asserts on the same
+//! floor of full detail drawn from another seed. `tests/it/lod.rs` asserts on the same
 //! measurement.
 
 use super::fur::model_error;
@@ -117,7 +117,7 @@ k-th node is drawn, k the largest step whose chord error (the sagitta `k^2 l the
 segments of length l turning by theta per node, in pixels at the sphere's nearest point) stays \
 under `render.lod_tolerance_px` (0.5 px by default; 0 turns the whole level of detail off). \
 The viewer's frame-budget share multiplies on top. Where the head fills the frame (k = 1, and \
-the gust scene's own camera) nothing changes, bit for bit (`tests/lod.rs`); the snapshot tests of \
+the gust scene's own camera) nothing changes, bit for bit (`tests/it/lod.rs`); the snapshot tests of \
 the shipped scenes pass unchanged except `hair_and_fur_06`, where the critter is small on screen and \
 its polyline fur now skips nodes (re-accepted).
 

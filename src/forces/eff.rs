@@ -1263,7 +1263,7 @@ fn kd_nearest2(
 
 /// A gust from the front-left: a jet aimed past the face, a weaker low stream that lifts
 /// the ends, and the outside force from the source toward the head (12³ cells over 60 cm).
-/// `assets/eff/front_left_gust.eff` is this field built (`tests/eff.rs` keeps it current);
+/// `assets/eff/front_left_gust.eff` is this field built (`tests/it/eff.rs` keeps it current);
 /// the capture round trip blows it, and the EFF panel starts a scene's field with it.
 pub fn front_left_gust() -> EffDesc {
     EffDesc {

@@ -64,7 +64,7 @@ impl ScreenView {
     /// does), the model pose `model`, a viewport `size` pixels. The view-projection is the
     /// stage's own (`Camera::view_proj`) kept in f64: a point lands where it is drawn (to
     /// f32 rounding), and a node dragged in a plane parallel to the screen stays in it
-    /// (`tests/wisps_edit.rs`; the f32 matrix moved it by 1e-9 of its depth).
+    /// (`tests/it/wisps_edit.rs`; the f32 matrix moved it by 1e-9 of its depth).
     pub fn from_camera(
         camera: &Camera,
         model: DMat4,

@@ -1049,7 +1049,7 @@ impl Scene {
 pub const MAX_NESTING: usize = 64;
 
 /// ron as scenes are read. The nesting limit is set here, not left to ron's default, because
-/// deep nesting must stay an error and never become a stack overflow (tests/bad_input.rs nests
+/// deep nesting must stay an error and never become a stack overflow (tests/it/bad_input.rs nests
 /// 100,000 deep on a small stack).
 fn ron_options() -> ron::Options {
     ron::Options::default().with_recursion_limit(MAX_NESTING)

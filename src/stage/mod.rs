@@ -30,7 +30,7 @@ use target::{DownsamplePass, SceneTargets};
 
 /// Every WGSL module, as (path under `shaders/` without `.wgsl`, composed source): the
 /// stage's own, the forces', and each kind's from its `Kind` (the kinds feed the registry;
-/// `gpu` and `shaders` name none). `tests/shader_validation.rs` runs naga over all of them.
+/// `gpu` and `shaders` name none). `tests/it/shader_validation.rs` runs naga over all of them.
 pub fn shaders() -> Vec<(&'static str, &'static str)> {
     let mut all = crate::shaders::STAGE.to_vec();
     all.push(("forces/eff", crate::forces::eff::EFF_MODULE));

@@ -221,7 +221,7 @@ fn busy_field(scene: &Scene) -> EffDesc {
     }
 }
 
-/// The projective contract (tests/contract.rs) with an EFF: 20 frames, the same tolerances
+/// The projective contract (tests/it/contract.rs) with an EFF: 20 frames, the same tolerances
 /// on the per-strand largest node distance relative to the hair length (median <= 1e-4,
 /// 99 % <= 1e-2, at most 2 % beyond 1e-2, none beyond 5e-2) and on the angle states. The
 /// field must matter: without it the f64 tips end up elsewhere by centimetres.

@@ -298,7 +298,7 @@ fn malformed_gltf_is_refused_with_the_file_named() {
 }
 
 /// fur_creature mid-stride (frame 12, a quarter of the loop), half its hairs. Tolerance as
-/// tests/snapshot.rs: mean |difference| 0.25 of 255, at most 0.2% of pixels off by more
+/// tests/it/snapshot.rs: mean |difference| 0.25 of 255, at most 0.2% of pixels off by more
 /// than 24.
 #[test]
 fn fur_creature_frame_12() {

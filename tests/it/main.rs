@@ -5,6 +5,7 @@
 //! tests read stays where it was (`tests/snapshots`, `tests/fuzz_corpus`, `tests/usd_check.py`).
 
 mod bad_input;
+mod bench_paths;
 mod cli;
 mod common;
 mod contract;

@@ -344,7 +344,7 @@ fn cantilever_on_mesh_head_matches_reference_and_stays_outside() {
 /// The projective kernel against the f64 reference: after one frame every strand within
 /// 1e-3 of its length; after 20 frames the median within 1e-4, at most 10 % of strands
 /// beyond 1e-2 and none beyond 0.5 (measured: 13 of 200 beyond 1e-2, worst 0.22 — looser
-/// than the ellipsoid's 2 % and 5e-2 in tests/contract.rs: hair sliding over the SDF meets
+/// than the ellipsoid's 2 % and 5e-2 in tests/it/contract.rs: hair sliding over the SDF meets
 /// its trilinear gradient's jumps at cell faces, where f32 and f64 can take different
 /// push-out planes and pseudo-force decisions, and the strands then part ways). No node of
 /// either inside the head by more than 1e-3 (CPU, every frame) / 2e-3 (GPU, every 5th).
@@ -489,7 +489,7 @@ fn bad_mesh_head_input_is_a_clear_error() {
 }
 
 /// The shipped scene at frame 12 of its gust (a quarter of its hairs). Tolerance: that of
-/// tests/snapshot.rs (mean 0.25 of 255, 0.2 % of pixels off by more than 24).
+/// tests/it/snapshot.rs (mean 0.25 of 255, 0.2 % of pixels off by more than 24).
 #[test]
 fn mesh_head_frame_12_snapshot() {
     let gpu = common::gpu();

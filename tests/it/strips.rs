@@ -3,7 +3,7 @@
 //! editing (eq 4) reaching its target without a jump in acceleration, how edits are
 //! classified, and clear errors for bad strips.
 //!
-//! Snapshot tolerance as in `tests/snapshot.rs` (mean <= 0.25 of 255, at most 0.2 % of
+//! Snapshot tolerance as in `tests/it/snapshot.rs` (mean <= 0.25 of 255, at most 0.2 % of
 //! pixels off by more than 24), one sample per pixel.
 
 use crate::common;

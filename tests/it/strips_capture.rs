@@ -936,7 +936,7 @@ fn capture_scene_loads_the_fitted_field() {
 // ---------------------------------------------------------------------------------------
 // assets/scenes/strips_turn.ron: the layered strips on the CMU head turning
 
-/// Snapshot tolerance of the strips snapshots (`tests/strips.rs`): mean <= 0.25 of 255, at
+/// Snapshot tolerance of the strips snapshots (`tests/it/strips.rs`): mean <= 0.25 of 255, at
 /// most 0.2 % of pixels off by more than 24, one sample per pixel.
 const TOL: common::Tolerance = common::Tolerance {
     mean: 0.25,

@@ -2,7 +2,7 @@
 //! target in the projected view, dragging a target in the plane facing the eye, the
 //! timeline's geometry, the EFF brush's strokes, and the stage's seek that replays the clip
 //! after an edit. The window-level gesture is `viewer_picks_a_strip_and_drags_its_target`
-//! in tests/viewer.rs.
+//! in tests/it/viewer.rs.
 
 use crate::common;
 

@@ -735,7 +735,7 @@ fn ribbon_pass_rejects_a_short_points_buffer_and_stride() {
 }
 
 /// The two modules validate with naga without a GPU (until the strips kind lists them in
-/// `kami::stage::shaders()`, which `tests/shader_validation.rs` walks).
+/// `kami::stage::shaders()`, which `tests/it/shader_validation.rs` walks).
 #[test]
 fn ribbon_shaders_validate() {
     for (name, source) in [

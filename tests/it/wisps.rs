@@ -1,7 +1,7 @@
 //! Toon wisps through the stage: snapshots of the shipped scenes, depth composition with the
 //! head, and clear errors for bad skeletons.
 //!
-//! Snapshot tolerance as in `tests/snapshot.rs` (mean <= 0.25 of 255, at most 0.2 % of
+//! Snapshot tolerance as in `tests/it/snapshot.rs` (mean <= 0.25 of 255, at most 0.2 % of
 //! pixels off by more than 24), at one sample per pixel: the ray march is the costly pass on
 //! the software adapter.
 

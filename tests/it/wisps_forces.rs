@@ -19,7 +19,7 @@ use kami::systems::strips::StripsSystem;
 use kami::systems::wisps::springs::{self, Lattice, Motion, Point, State};
 use kami::systems::wisps::{springs_gpu, WispsSystem};
 
-/// As the other wisps snapshots (`tests/wisps.rs`).
+/// As the other wisps snapshots (`tests/it/wisps.rs`).
 const TOL: Tolerance = Tolerance {
     mean: 0.25,
     threshold: 24,
@@ -172,7 +172,7 @@ fn reference_reads_the_shared_forces() {
 /// EFF (trilinear, its gust keys), recorded a frame per submission and then many at once,
 /// for both integrators. Bound: the worst mass point within 2e-5 of the wisp length (about
 /// ten times the worst measured on llvmpipe and lavapipe, five times tighter than the
-/// head-motion contract in `tests/wisps_springs.rs`). Collision off, so the bound
+/// head-motion contract in `tests/it/wisps_springs.rs`). Collision off, so the bound
 /// measures the force sampling, not contact decisions; the wind and the EFF each move the
 /// points by far more than the bound (checked), so a kernel that dropped either fails.
 #[test]
@@ -514,7 +514,7 @@ fn mesh_head_springs_stay_out_of_the_sdf() {
     // Not bounded: this stiff lattice under a 25 degree turn is chaotic (f32 and f64 part
     // by 1e-4 after 2 frames and 0.4 after 8, growing about 4x a frame in between, and as
     // much with collision off, measured), as the toon_shake settings are (see
-    // `gpu_matches_cpu` in tests/wisps_springs.rs). The force sampling's contract is
+    // `gpu_matches_cpu` in tests/it/wisps_springs.rs). The force sampling's contract is
     // `gpu_springs_match_f64_under_wind_and_eff`.
     let every = |k: usize| {
         apart

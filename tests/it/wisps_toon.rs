@@ -1341,7 +1341,7 @@ fn each_control_changes_the_image_where_the_reference_says() {
 }
 
 /// The f64 reference image (`field::render_reference`, V along each ray) and the GPU agree
-/// with the view-independent controls on, as `tests/wisps.rs` checks the defaults.
+/// with the view-independent controls on, as `tests/it/wisps.rs` checks the defaults.
 #[test]
 fn ray_march_with_toon_controls_matches_the_f64_reference_image() {
     let mut scene = Scene::from_ron(SMALL, "small.ron").unwrap();

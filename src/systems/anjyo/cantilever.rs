@@ -11,7 +11,7 @@
 //!
 //! Because each segment turns by the deflection of its end (`M d^2 / 2EI`, half of the
 //! end slope `M d / EI`), the paper's beam is, in the limit d -> 0, an Euler–Bernoulli beam
-//! of rigidity 2EI: small-load tip drop tends to G/16, not G/8 (see `tests/numerics.rs` and
+//! of rigidity 2EI: small-load tip drop tends to G/16, not G/8 (see `tests/it/numerics.rs` and
 //! the bend benchmark). Scenes are tuned with this EI, so the paper mode keeps it.
 //!
 //! **Converged mode.** Joint `j` (node p_j) turns the hair by the rotation vector

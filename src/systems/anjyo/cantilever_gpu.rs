@@ -1,5 +1,5 @@
 //! The cantilever bending kernel (`shaders/anjyo/cantilever.wgsl`): the f32 twin of the f64
-//! reference in `cantilever.rs`, one invocation per strand; `tests/contract.rs` compares them.
+//! reference in `cantilever.rs`, one invocation per strand; `tests/it/contract.rs` compares them.
 
 use super::groom::{BendMode, GroomInput, LoadField, ResolvedLoad};
 use crate::error::Result;

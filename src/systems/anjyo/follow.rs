@@ -2,7 +2,7 @@
 //! solver simulates only a share of each dynamic group's strands, the *guides*; every other
 //! strand, a *follower*, is rebuilt after each frame's substeps from its nearest guides
 //! (`shaders/anjyo/follow.wgsl`, one invocation per follower; this file holds the set-up and
-//! the f64 reference, `tests/guides.rs` compares them). The scene's `dynamics.guides` picks
+//! the f64 reference, `tests/it/guides.rs` compares them). The scene's `dynamics.guides` picks
 //! the share; absent (or 1) every strand is simulated and nothing here runs.
 //!
 //! - **Which strands guide**: per dynamic group, `ceil(share * count)` pores picked by

@@ -1,7 +1,7 @@
 //! The follower kernel (`shaders/anjyo/follow.wgsl`): the f32 twin of `follow::follow`,
 //! one invocation per follower, dispatched once per submission after the projective
 //! substeps (a follower depends only on its guides' nodes and the head pose at that moment,
-//! so once per submission is the same as once per frame). `tests/guides.rs` compares it
+//! so once per submission is the same as once per frame). `tests/it/guides.rs` compares it
 //! with the f64 reference.
 //!
 //! Its two GPU structs live here rather than in `gpu::gpu_data` because nothing else reads

@@ -1,6 +1,6 @@
 //! The projective-dynamics kernel (`shaders/anjyo/projective.wgsl`): the f32 twin of the f64
 //! reference in `projective.rs`, one invocation per strand and one substep per dispatch;
-//! `tests/contract.rs` and `tests/eff_anjyo.rs` (with an External Force Field) compare them.
+//! `tests/it/contract.rs` and `tests/it/eff_anjyo.rs` (with an External Force Field) compare them.
 //! The EFF is bound beside the substeps; each substep carries its own gust scale, so several
 //! frames recorded in one submission each see their own.
 //!

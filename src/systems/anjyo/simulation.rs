@@ -1,6 +1,6 @@
 //! `Simulation` drives the projective-dynamics kernel over a groom: positions stay on the
 //! GPU, the CPU only schedules forces (`projective::DynSetup::schedule`). The f64 reference
-//! of the same step is `projective::CpuSim` (`tests/contract.rs` compares them). With a
+//! of the same step is `projective::CpuSim` (`tests/it/contract.rs` compares them). With a
 //! guide share (`dynamics.guides`) the kernel simulates only the guides and the follower
 //! kernel (`follow_gpu`) rebuilds the other strands after each submission's substeps.
 

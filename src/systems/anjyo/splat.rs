@@ -1,7 +1,7 @@
 //! The f64 reference of the compute rasteriser for thin strands
 //! (`shaders/anjyo/splat.wgsl` with `shaders/common/strand_shade.wgsl`): the same node shading,
 //! the same column walk and coverage, the same accumulation, in f64 and without fixed
-//! point. The contract test (`tests/splat.rs`) bounds the GPU's worst sample against it.
+//! point. The contract test (`tests/it/splat.rs`) bounds the GPU's worst sample against it.
 
 use crate::gpu::gpu_data::{GpuFrame, GpuMaterial, GpuStrand};
 use glam::{DMat4, DVec2, DVec3, DVec4};

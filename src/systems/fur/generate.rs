@@ -1,6 +1,6 @@
 //! Fur generation on the GPU (`shaders/fur/generate.wgsl`): the f32 twin of the f64
 //! reference `setup::hair_points`, one invocation per hair slot, refilled every frame from
-//! the root table and the (moving) mesh; `tests/fur.rs` compares them.
+//! the root table and the (moving) mesh; `tests/it/fur.rs` compares them.
 
 use super::setup::{FurSetup, TABLE};
 use crate::error::Result;

@@ -1,6 +1,6 @@
 //! The strips' motion kernel (`shaders/strips/dynamics.wgsl`): the f32 twin of the f64
 //! reference in `dynamics.rs`, one invocation per strip, one dispatch per step;
-//! `tests/strips_dynamics.rs` compares them.
+//! `tests/it/strips_dynamics.rs` compares them.
 //!
 //! What the CPU prepares in f64 and uploads: per joint its reference frame, rest angles,
 //! outboard moment and the exact propagators of a full and a half step (they depend only on

@@ -19,7 +19,7 @@
 //! previous direction; a side vector within 0.6° of the tangent is replaced by
 //! normal × tangent (or any perpendicular); a fold of more than 172° skips the rotation.
 //! `ribbon_reference` is the f64 twin of the kernel with the same branches;
-//! `tests/strips_render.rs` bounds the worst difference.
+//! `tests/it/strips_render.rs` bounds the worst difference.
 //!
 //! Points bind group: made on the first `record` and cached with a clone of the buffer
 //! handle; a later `record` with another buffer (the dynamics rebuilt) makes a new one.

@@ -124,7 +124,7 @@ pub fn power_eval([a, b, c, d]: [DVec3; 4], t: f64) -> DVec3 {
 /// Lipschitz bound: |fd'| ≤ 2 and |∇D| = 1, while r(t*) and w(t*) move with the closest
 /// parameter t* at a rate |∇t*| ≈ 1/|B'|; s = |v3 - v0|/2 (clamped ≥ 1e-9) stands in for the
 /// least |B'|, so L = 2 w_max/r_min (1 + 2|Δr|/s) + 2|Δw|/s. Tested against finite
-/// differences (tests/wisps_field.rs): the taper terms are needed just before a thin end; the
+/// differences (tests/it/wisps_field.rs): the taper terms are needed just before a thin end; the
 /// bound assumes ρ_e continuous, true for turns up to ~0.7 rad per node (from ~1 rad the
 /// closest point jumps within r and Newton can stop in a local minimum).
 pub fn segments(nodes: &[(DVec3, f64, f64)]) -> Vec<Segment> {

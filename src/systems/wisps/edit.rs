@@ -1,7 +1,7 @@
 //! The skeleton editor (Sakai, section 6 and Fig. 9): picking, dragging and editing the
 //! nodes of the wisps' skeletons, with undo and redo. Pure logic on `Wisps` and a `View`
 //! (a model-view-projection matrix and a viewport in pixels), no window: the viewer's
-//! Skeletons panel and its mouse mode call it, and `tests/wisps_edit.rs` drives it directly.
+//! Skeletons panel and its mouse mode call it, and `tests/it/wisps_edit.rs` drives it directly.
 //!
 //! Every operation returns `Ok(message)` or `Err(reason)` and never panics. An edit is first
 //! made on a copy, then checked by the scene validator (`crate::scene::validate`, through

@@ -1,6 +1,6 @@
 //! The mass-spring kernel (`shaders/wisps/springs.wgsl`): the f32 twin of the f64 reference
 //! in `springs.rs`, one invocation per mass point, four dispatches per RK4 substep or two
-//! per semi-implicit Euler substep; `tests/wisps_springs.rs` compares them.
+//! per semi-implicit Euler substep; `tests/it/wisps_springs.rs` compares them.
 //!
 //! Buffers: `positions` holds every point as `vec4<f32>` (xyz world), all primaries first
 //! in (skeleton, node) order, so the renderer binds its first `primaries()` entries as the

@@ -4,7 +4,7 @@
 //! (t_specular), latitude offset, strength and colour over the shadow tones, a rim light on
 //! the shadow side near the silhouette, and the per-wisp outline width tapered toward the
 //! tips (data for the ray march). The f64 reference of `shaders/wisps/toon.wgsl`, which
-//! follows the same steps in the same order; `tests/wisps_toon.rs` holds the two together.
+//! follows the same steps in the same order; `tests/it/wisps_toon.rs` holds the two together.
 //!
 //! With every new control at its default (feathers 0, offset 0, strength 1, no halo shadow
 //! colour, rim width 0, taper 0) the colour is bit for bit the hard-step shading of eqs
@@ -17,7 +17,7 @@ use crate::scene::wisps::{Tones, Toon, Wisps};
 use glam::{DMat3, DMat4, DVec3};
 
 // The draw uniform stays a whole number of vec4s (its WGSL twin is `struct Draw` in
-// `shaders/wisps/march.wgsl`; `tests/wisps_toon.rs` compares the sizes).
+// `shaders/wisps/march.wgsl`; `tests/it/wisps_toon.rs` compares the sizes).
 const _: () = assert!(std::mem::size_of::<GpuWispDraw>() == 240);
 const _: () = assert!(std::mem::size_of::<GpuWispDraw>() % 16 == 0);
 
