@@ -5,6 +5,7 @@ use crate::common;
 use crate::common::kami;
 use crate::common::scratch;
 use std::path::Path;
+use std::process::Command;
 
 /// Files in `dir` (names), to show nothing was left behind.
 fn listing(dir: &Path) -> Vec<String> {
