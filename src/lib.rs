@@ -13,7 +13,6 @@
 
 pub mod app;
 pub mod bench;
-pub mod bvh;
 pub mod error;
 pub mod forces;
 pub mod formats;
@@ -27,4 +26,6 @@ pub mod stage;
 pub mod systems;
 
 pub use error::{KamiError, Result};
+/// The BVH reader lives with the scene that reads it (`scene::bvh`); kept at its old path.
+pub use scene::bvh;
 pub use scene::Scene;

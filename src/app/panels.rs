@@ -137,10 +137,13 @@ pub fn need_dynamics(ui: &mut Ui, s: &mut ViewerState) -> bool {
         ui.label("this scene is static");
         if ui.button("Enable dynamics").clicked() {
             s.scene.dynamics = Some(Dynamics {
-                gravity: [0.0, -150.0, 0.0],
                 damping: 0.5,
                 ..Default::default()
             });
+            // Hair set moving falls: a weightless world gets a gentle gravity (Forces panel).
+            if s.scene.forces.gravity == [0.0; 3] {
+                s.scene.forces.gravity = [0.0, -150.0, 0.0];
+            }
         }
         return false;
     }
@@ -156,11 +159,9 @@ fn vec3_edit(ui: &mut Ui, label: &str, v: &mut [f64; 3], speed: f64) {
     });
 }
 
+/// The world's forces (`scene.forces`), shared by every kind: no kind's dynamics needed.
 fn forces(ui: &mut Ui, s: &mut ViewerState) {
-    if !need_dynamics(ui, s) {
-        return;
-    }
-    let d = s.scene.dynamics.as_mut().unwrap();
+    let d = &mut s.scene.forces;
     vec3_edit(ui, "gravity", &mut d.gravity, 1.0);
     ui.label("wind keys (frame, force, step/linear):");
     let mut remove = None;

@@ -344,7 +344,8 @@ impl ViewerState {
             }
             "wind" => {
                 let w = nums(3)?;
-                dynamics(&mut next).wind = vec![WindKey {
+                moving(&mut next);
+                next.forces.wind = vec![WindKey {
                     frame: 0.0,
                     force: [w[0], w[1], w[2]],
                     interp: Interp::Step,
@@ -352,7 +353,8 @@ impl ViewerState {
             }
             "gravity" => {
                 let g = nums(3)?;
-                dynamics(&mut next).gravity = [g[0], g[1], g[2]];
+                moving(&mut next);
+                next.forces.gravity = [g[0], g[1], g[2]];
             }
             "stiffness" => {
                 let s = nums(2)?;
@@ -424,7 +426,7 @@ impl ViewerState {
                 if on && next.strips.is_none() {
                     return Err(bad("the scene has no strips".into()));
                 }
-                if on && key == "eff.paint" && next.eff.is_none() {
+                if on && key == "eff.paint" && next.forces.eff.is_none() {
                     return Err(bad("the scene has no EFF".into()));
                 }
                 if key == "strips.edit" {
@@ -461,6 +463,14 @@ fn dynamics(scene: &mut Scene) -> &mut Dynamics {
     scene.dynamics.get_or_insert_with(Dynamics::default)
 }
 
+/// A force set on hair groups that stand still sets them moving (as it did when the forces
+/// sat in their dynamics block).
+fn moving(scene: &mut Scene) {
+    if !scene.groups.is_empty() {
+        dynamics(scene);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -491,7 +501,7 @@ mod tests {
             .all(|g| g.material.color == [0.8, 0.6, 0.2]));
         s.apply_set("wind=0,0,-300").unwrap();
         assert_eq!(
-            s.scene.dynamics.as_ref().unwrap().wind[0].force,
+            s.scene.forces.wind[0].force,
             [0.0, 0.0, -300.0]
         );
         s.apply_set("play=off").unwrap();

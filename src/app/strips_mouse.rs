@@ -62,7 +62,7 @@ pub fn press(
         return Ok(false);
     }
     if s.view.paint_eff {
-        if s.scene.eff.is_none() {
+        if s.scene.forces.eff.is_none() {
             return Ok(false);
         }
         g.paint = Some(cursor);
@@ -129,7 +129,7 @@ pub fn drag(stage: &Stage, g: &mut Gesture, s: &mut ViewerState, cursor: DVec2) 
             return;
         };
         let field = panel::built(&s.scene, &mut s.brush.cache);
-        if let (Some(field), Some(desc)) = (field, s.scene.eff.as_mut()) {
+        if let (Some(field), Some(desc)) = (field, s.scene.forces.eff.as_mut()) {
             let dir = (b - a).normalize_or_zero();
             let n = panel::paint_into(desc, &field, b, s.brush.radius, dir * s.brush.strength);
             s.message = Some(format!("painted {n} cells"));

@@ -627,7 +627,7 @@ pub fn round_trip_wind() -> crate::forces::eff::EffDesc {
 }
 
 /// Markers of `strips` simulated for `frames` frames in the EFF `eff` (still air without
-/// one) plus a uniform wind `uniform`, on a still default head, passed through the marker
+/// one) plus a uniform wind `uniform`, under Earth's gravity on a still default head, passed through the marker
 /// file's text (4 decimals) so that what is fitted is exactly what a file would hold.
 pub fn simulate_markers(
     strips: &crate::scene::strips::Strips,
@@ -638,7 +638,8 @@ pub fn simulate_markers(
     let head = crate::scene::Head::default();
     let rest = super::hom::build(strips, &head)?;
     let forces = crate::forces::Forces {
-        gravity: DVec3::from(strips.motion.gravity),
+        // The capture studio is on Earth (the strips' gravity before it joined the forces).
+        gravity: DVec3::from(crate::scene::forces::EARTH_GRAVITY),
         wind: vec![crate::scene::WindKey {
             frame: 0.0,
             force: uniform.to_array(),

@@ -454,13 +454,6 @@ pub fn check_motion(m: &Motion) -> Result<()> {
             ));
         }
     }
-    if !m.gravity.iter().all(|g| g.is_finite()) {
-        return Err(invalid(
-            "strips.motion.gravity".into(),
-            format!("{:?}", m.gravity),
-            "finite numbers",
-        ));
-    }
     let spf = m.frame_time * m.steps_per_second;
     if spf > 1e6 {
         return Err(invalid(
@@ -845,7 +838,7 @@ impl Rig {
     fn accel(&self, env: &Env, hf: &HeadFrame, s: usize, k: usize, x: DVec3) -> DVec3 {
         let m = env.motion;
         let st = &self.strips[s];
-        let mut a = DVec3::from(m.gravity);
+        let mut a = env.forces.gravity;
         a += env.forces.wind_at_point(x, hf.frame, m.sampling);
         a -= (hf.accel * DVec4::new(x.x, x.y, x.z, 1.0)).truncate();
         if m.spring > 0.0 {

@@ -64,7 +64,7 @@ pub const PANELS: &[Panel] = &[
     },
     Panel {
         title: "EFF",
-        open: |s| s.strips.is_some() && s.eff.is_some(),
+        open: |s| s.strips.is_some() && s.forces.eff.is_some(),
         show: panel::eff,
     },
     Panel {
@@ -123,10 +123,7 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
     // the clip, see `Stage::seek`), no new pipelines while a target is dragged.
     if a.motion != b.motion
         || a.edits != b.edits
-        || old.eff != new.eff
-        || old.head_capture != new.head_capture
-        || old.dynamics.as_ref().map(|d| (&d.wind, &d.head_motion))
-            != new.dynamics.as_ref().map(|d| (&d.wind, &d.head_motion))
+        || old.forces != new.forces
     {
         return Change::Resimulate;
     }

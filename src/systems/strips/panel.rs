@@ -61,12 +61,7 @@ fn motion(ui: &mut Ui, st: &mut Strips) {
             .logarithmic(true)
             .text("collision κ (Ψ)"),
     );
-    ui.horizontal(|ui| {
-        ui.label("gravity");
-        for c in &mut m.gravity {
-            ui.add(DragValue::new(c).speed(10.0).range(-1e5..=1e5));
-        }
-    });
+    ui.label("gravity, wind and head motion: the Forces panel");
     ui.add(
         Slider::new(&mut m.steps_per_second, 15.0..=2000.0)
             .logarithmic(true)
@@ -242,7 +237,7 @@ pub fn built(
     scene: &Scene,
     cache: &mut Option<(EffDesc, std::sync::Arc<Eff>)>,
 ) -> Option<std::sync::Arc<Eff>> {
-    let desc = scene.eff.as_ref()?;
+    let desc = scene.forces.eff.as_ref()?;
     if let Some((d, e)) = cache.as_ref() {
         if d == desc {
             return Some(e.clone());
@@ -256,10 +251,10 @@ pub fn built(
 /// The EFF panel: the grid, the outside force, the gust keys, arrows in the view, a brush
 /// that paints direction and strength into the cells, and load/save of EFF files.
 pub fn eff(ui: &mut Ui, s: &mut ViewerState) {
-    if s.scene.eff.is_none() {
+    if s.scene.forces.eff.is_none() {
         ui.label("this scene has no External Force Field");
         if ui.button("add one (a gust from the front-left)").clicked() {
-            s.scene.eff = Some(crate::forces::eff::front_left_gust());
+            s.scene.forces.eff = Some(crate::forces::eff::front_left_gust());
         }
         return;
     }
@@ -281,7 +276,7 @@ pub fn eff(ui: &mut Ui, s: &mut ViewerState) {
         &mut s.view.eff_arrows,
         "draw the cells as arrows in the view",
     );
-    let Some(desc) = s.scene.eff.as_mut() else {
+    let Some(desc) = s.scene.forces.eff.as_mut() else {
         return;
     };
     if let Some(f) = &desc.file {
@@ -497,7 +492,7 @@ fn timeline(ui: &mut Ui, s: &mut ViewerState) {
     };
     const RULER: f32 = 18.0;
     const ROW: f32 = 14.0;
-    let clip = s.scene.head_capture.as_ref().map(|h| h.keys.len() as u32);
+    let clip = s.scene.forces.head_capture.as_ref().map(|h| h.keys.len() as u32);
     // While a key or the clock is held the timeline keeps its length: it would otherwise
     // grow under the pointer as the key (or the clock) moves right.
     let frames = s.timeline_grab.map_or_else(
