@@ -246,8 +246,8 @@ fn imported_roots_ride_a_captured_head() {
     .unwrap();
     kami::bvh::resolve(&mut hc, std::path::Path::new(""))
         .expect("CMU 01_01 comes with Debian's assimp-testmodels (.ci/run installs it)");
-    scene.head_capture = Some(hc);
-    scene.dynamics.as_mut().unwrap().head_motion.clear();
+    scene.forces.head_capture = Some(hc);
+    scene.forces.head_motion.clear();
     let input = prepare(&scene).unwrap();
     let hair = cantilever_gpu::groom_gpu(&gpu, &input).unwrap();
     let mut sim = Simulation::new(&gpu, &scene, &input, &hair)

@@ -955,7 +955,7 @@ fn strips_turn_scene_swings_the_hair() {
     use kami::forces::Forces;
     use kami::systems::strips::{dynamics, hom};
     let scene = turn_scene();
-    assert_eq!(scene.head_capture.as_ref().unwrap().keys.len(), 90);
+    assert_eq!(scene.forces.head_capture.as_ref().unwrap().keys.len(), 90);
     let forces = Forces::from_scene(&scene);
     assert!(forces.head_moves());
     // A few degrees of drift to frame 12 (measured 5° at frame 8), the fast part of the turn

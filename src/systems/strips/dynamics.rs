@@ -656,12 +656,13 @@ impl Rig {
         })
     }
 
-    /// `new`, then gravity preloading on `head` when `motion.preload` asks for it: the rig
-    /// every simulation of a scene uses (CPU reference and GPU alike).
-    pub fn posed(rest: &[RestStrip], motion: &Motion, head: &Head) -> Result<Rig> {
+    /// `new`, then gravity preloading on `head` under the scene's `gravity`
+    /// (`Forces::gravity`) when `motion.preload` asks for it: the rig every simulation of a
+    /// scene uses (CPU reference and GPU alike).
+    pub fn posed(rest: &[RestStrip], motion: &Motion, head: &Head, gravity: DVec3) -> Result<Rig> {
         let mut rig = Rig::new(rest, motion)?;
         if motion.preload {
-            rig.preload(motion, head);
+            rig.preload(motion, head, gravity);
         }
         Ok(rig)
     }
@@ -675,9 +676,9 @@ impl Rig {
     /// head at its rest pose: head keys whose first pose is turned (not a capture, which
     /// starts at rest) see gravity from another side and swing from frame 0. Called on a
     /// fresh rig (state at Φg) by `posed`.
-    fn preload(&mut self, motion: &Motion, head: &Head) {
+    fn preload(&mut self, motion: &Motion, head: &Head, gravity: DVec3) {
         let still = Forces {
-            gravity: DVec3::ZERO,
+            gravity,
             wind: Vec::new(),
             head_motion: Vec::new(),
             center: DVec3::ZERO,
@@ -1075,7 +1076,7 @@ pub fn simulate(
     frames: u32,
 ) -> Result<Vec<Vec<DVec3>>> {
     check_extra(extra)?;
-    let mut rig = Rig::posed(rest, motion, head)?;
+    let mut rig = Rig::posed(rest, motion, head, forces.gravity)?;
     rig.set_pose(forces.head_at(0.0));
     let mut out = Vec::with_capacity(frames as usize + 1);
     out.push(rig.points());
@@ -1170,7 +1171,7 @@ impl Setup {
             interp: Interp::Linear,
         };
         let forces = Forces {
-            gravity: DVec3::ZERO,
+            gravity: DVec3::from(crate::scene::forces::EARTH_GRAVITY),
             wind: vec![
                 key(0.0, [0.0; 3]),
                 key(6.0, [600.0, 0.0, 300.0]),
@@ -1226,7 +1227,7 @@ pub const SPEED_LIMIT: f64 = 4.0;
 
 /// Tips of every strip at every frame (index frame × strips + strip) and the top rate.
 fn tips(setup: &Setup, motion: &Motion, frames: u32) -> Result<(Vec<DVec3>, f64, u64)> {
-    let mut rig = Rig::posed(&setup.rest, motion, &setup.head)?;
+    let mut rig = Rig::posed(&setup.rest, motion, &setup.head, setup.forces.gravity)?;
     rig.set_pose(setup.forces.head_at(0.0));
     let mut out = Vec::new();
     let mut top: f64 = 0.0;
@@ -1352,7 +1353,8 @@ pub fn largest_stable_dt(setup: &Setup, seconds: f64, cap: f64) -> Result<f64> {
     let limit = SPEED_LIMIT * top.max(1e-9);
     let ft = setup.motion.frame_time;
     let stable_at = |dt: f64| -> Result<bool> {
-        let mut rig = Rig::posed(&setup.rest, &setup.motion, &setup.head)?;
+        let mut rig =
+            Rig::posed(&setup.rest, &setup.motion, &setup.head, setup.forces.gravity)?;
         rig.set_pose(setup.forces.head_at(0.0));
         let steps = (seconds / dt).ceil() as u64;
         for i in 0..steps {

@@ -163,7 +163,7 @@ impl StripsSystem {
         let forces = Forces::from_scene(scene);
         let rest = hom::build(&strips, &head)?;
         let solved = keyframe::solve(&rest, &strips.motion, &forces, &head, &strips.edits)?;
-        let rig = dynamics::Rig::posed(&rest, &strips.motion, &head)?;
+        let rig = dynamics::Rig::posed(&rest, &strips.motion, &head, forces.gravity)?;
         let eff = EffGpu::new(gpu, forces.eff.as_deref())?;
         let mut dynamics = dynamics_gpu::DynamicsGpu::new(gpu, &rig, &strips.motion, &head, &eff)?;
         dynamics.set_extra(gpu, &solved.iter().map(|s| s.extra).collect::<Vec<_>>())?;
@@ -272,7 +272,8 @@ impl HairSystem for StripsSystem {
                 // Everything that can fail first, so a refused edit leaves the GPU as it was.
                 let forces = Forces::from_scene(scene);
                 // τ, I1 and I2 act from the next step too: new joint constants, same pose.
-                let rig = dynamics::Rig::posed(&self.rest, &st.motion, &scene.head)?;
+                let rig =
+                    dynamics::Rig::posed(&self.rest, &st.motion, &scene.head, forces.gravity)?;
                 let solved =
                     keyframe::solve(&self.rest, &st.motion, &forces, &scene.head, &st.edits)?;
                 let extra: Vec<dynamics::ExtraForce> = solved.iter().map(|s| s.extra).collect();
