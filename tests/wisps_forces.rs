@@ -587,7 +587,7 @@ fn bad_wisps_forces_and_roots_are_refused() {
         &own("(0.0, -900.0, 0.0)"),
         "old_toon.ron",
         "wisps.springs.gravity",
-        "dynamics.gravity",
+        "forces.gravity",
     );
     // Equal to the shared gravity: accepted (with a warning), and not written back.
     let loaded = Scene::from_ron(&own("(0.0, -980.0, 0.0)"), "old_toon.ron").unwrap();
@@ -597,7 +597,7 @@ fn bad_wisps_forces_and_roots_are_refused() {
         !part[..part.find(')').unwrap()].contains("gravity"),
         "the old field was written back: {part}"
     );
-    // Without a shared gravity (none in dynamics: zero) an old file's -980 is refused.
+    // Without a shared gravity (none in the forces block: zero) an old file's -980 is refused.
     let shared = "        gravity: (0.0, -980.0, 0.0),\n";
     assert!(shake.contains(shared));
     refused_text(

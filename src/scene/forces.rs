@@ -140,3 +140,122 @@ pub(crate) const MOVED: &[(&str, &str, &str)] = &[
          old default was (0.0, -980.0, 0.0), and without the block there is no gravity)",
     ),
 ];
+
+#[cfg(test)]
+mod tests {
+    use crate::error::KamiError;
+    use crate::scene::Scene;
+
+    /// A small valid scene in the old form: `field` spliced in where it used to sit.
+    fn old(top: &str, dynamics: &str, motion: &str) -> String {
+        format!(
+            "Scene(\n    head: Head(radii: (9.6, 11.5, 7.8)),\n{top}    strips: Some(Strips(\n        \
+             layers: [Layer(count: 2, polar: 60.0, azimuth: (0.0, 90.0), length: 10.0, sticks: 4)],\n        \
+             motion: Motion({motion}),\n    )),\n    dynamics: Some(Dynamics({dynamics})),\n)\n"
+        )
+    }
+
+    /// Every field of the old format that held a force fails with a parse error that names
+    /// the file and the line, the old field and where it is now.
+    #[test]
+    fn old_forms_name_the_moved_field_and_where_it_goes() {
+        let cases = [
+            (
+                old("", "gravity: (0.0, -150.0, 0.0)", ""),
+                7,
+                "`dynamics.gravity` moved",
+                "forces: ForcesDesc(gravity:",
+            ),
+            (
+                old("", "wind: [WindKey(frame: 0.0, force: (1.0, 0.0, 0.0))]", ""),
+                7,
+                "`dynamics.wind` moved",
+                "forces: ForcesDesc(wind:",
+            ),
+            (
+                old("", "head_motion: [HeadKey(frame: 0.0)]", ""),
+                7,
+                "`dynamics.head_motion` moved",
+                "forces: ForcesDesc(head_motion:",
+            ),
+            (
+                old("    eff: Some(EffDesc()),\n", "", ""),
+                3,
+                "the top-level `eff` moved",
+                "forces: ForcesDesc(eff: Some(EffDesc(",
+            ),
+            (
+                old("    head_capture: Some(HeadCapture(file: \"x.bvh\")),\n", "", ""),
+                3,
+                "the top-level `head_capture` moved",
+                "ForcesDesc(head_capture:",
+            ),
+            (
+                old("    gravity: (0.0, -1.0, 0.0),\n", "", ""),
+                3,
+                "is now `groom_load`",
+                "forces: ForcesDesc(gravity:",
+            ),
+            (
+                old("", "", "gravity: (0.0, -980.0, 0.0)"),
+                5,
+                "`strips.motion.gravity` moved",
+                "forces: ForcesDesc(gravity: (x, y, z))",
+            ),
+        ];
+        for (text, want_line, what, where_now) in cases {
+            match Scene::from_ron(&text, "old.ron") {
+                Err(KamiError::Parse {
+                    path,
+                    line,
+                    message,
+                    ..
+                }) => {
+                    assert_eq!((path.as_str(), line), ("old.ron", want_line), "{message}");
+                    assert!(
+                        message.contains(what) && message.contains(where_now),
+                        "expected {what:?} and {where_now:?} in: {message}\n{text}"
+                    );
+                }
+                other => panic!("expected a parse error for\n{text}\ngot {other:?}"),
+            }
+        }
+        // The same scene in the new form loads.
+        let new = old("    forces: ForcesDesc(gravity: (0.0, -980.0, 0.0)),\n", "", "");
+        let scene = Scene::from_ron(&new, "new.ron").unwrap();
+        assert_eq!(scene.forces.gravity, super::EARTH_GRAVITY);
+    }
+
+    /// Every shipped scene is in the new form and loads (its files read, every value
+    /// checked); the ones that move under the world's forces say so in their `forces` block.
+    #[test]
+    fn every_shipped_scene_loads() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes");
+        let mut names: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "ron"))
+            .collect();
+        names.sort();
+        assert!(names.len() >= 26, "{} scenes in {}", names.len(), dir.display());
+        for p in &names {
+            let scene = Scene::load(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+            let f = &scene.forces;
+            // Strips and wisps on springs fall under Earth's gravity in every shipped scene.
+            let falls = scene.strips.is_some()
+                || scene
+                    .wisps
+                    .as_ref()
+                    .is_some_and(|w| w.springs.is_some());
+            if falls {
+                assert_eq!(f.gravity, super::EARTH_GRAVITY, "{}", p.display());
+            }
+            if let Some(hc) = &f.head_capture {
+                assert!(!hc.keys.is_empty(), "{}: the capture was read", p.display());
+            }
+            if let Some(e) = &f.eff {
+                assert_eq!(e.file.is_some(), e.loaded.is_some(), "{}", p.display());
+            }
+        }
+    }
+}
