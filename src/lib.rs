@@ -26,6 +26,4 @@ pub mod stage;
 pub mod systems;
 
 pub use error::{KamiError, Result};
-/// The BVH reader lives with the scene that reads it (`scene::bvh`); kept at its old path.
-pub use scene::bvh;
 pub use scene::Scene;

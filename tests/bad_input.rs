@@ -209,7 +209,11 @@ fn extreme_valid_scene_renders_finite_hair() {
         "rigidity: 50.0,",
         "rigidity: 1e-9, bending: Converged(max_iterations: 40),",
     )
-    .replacen("    ],\n)", "    ],\n    groom_load: (1e9, -1e9, 0.0),\n)", 1);
+    .replacen(
+        "    ],\n)",
+        "    ],\n    groom_load: (1e9, -1e9, 0.0),\n)",
+        1,
+    );
     let scene = Scene::from_ron(&text, "extreme.ron").unwrap();
     let input = kami::systems::anjyo::groom::prepare(&scene).unwrap();
     let hair = kami::systems::anjyo::cantilever_gpu::groom_gpu(&gpu, &input).unwrap();

@@ -735,16 +735,25 @@ fn bad_blocks_are_refused_naming_the_field() {
     let base = desc([4, 4, 4], 20.0);
     type Spoil = Box<dyn Fn(&mut EffDesc)>;
     let cases: Vec<(&str, Spoil)> = vec![
-        ("forces.eff.resolution", Box::new(|d| d.resolution = [4, 0, 4])),
+        (
+            "forces.eff.resolution",
+            Box::new(|d| d.resolution = [4, 0, 4]),
+        ),
         (
             "forces.eff.resolution",
             Box::new(|d| d.resolution = [129, 128, 128]),
         ),
-        ("forces.eff.resolution", Box::new(|d| d.resolution = [u32::MAX; 3])),
+        (
+            "forces.eff.resolution",
+            Box::new(|d| d.resolution = [u32::MAX; 3]),
+        ),
         ("forces.eff.extent", Box::new(|d| d.extent = 0.0)),
         ("forces.eff.extent", Box::new(|d| d.extent = -3.0)),
         ("forces.eff.extent", Box::new(|d| d.extent = f64::NAN)),
-        ("forces.eff.center[1]", Box::new(|d| d.center[1] = f64::INFINITY)),
+        (
+            "forces.eff.center[1]",
+            Box::new(|d| d.center[1] = f64::INFINITY),
+        ),
         ("forces.eff.strength", Box::new(|d| d.strength = f64::NAN)),
         (
             "forces.eff.head[2]",
@@ -848,10 +857,12 @@ fn a_scene_reads_its_eff_file() {
     grid.save(dir.join("eff/wind.eff")).unwrap();
     let bob = std::fs::read_to_string(common::root().join("assets/scenes/bob.ron")).unwrap();
     let end = bob.rfind(')').unwrap();
-    let with = |block: &str| format!(
-        "{}\n    forces: ForcesDesc(eff: Some({block})),\n)",
-        bob[..end].trim_end()
-    );
+    let with = |block: &str| {
+        format!(
+            "{}\n    forces: ForcesDesc(eff: Some({block})),\n)",
+            bob[..end].trim_end()
+        )
+    };
     let scene_path = dir.join("scene.ron");
     std::fs::write(
         &scene_path,

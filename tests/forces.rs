@@ -100,7 +100,10 @@ fn wisps(scene: &Scene, frames: u32) -> DVec3 {
 /// further than in the still world; wind: along -z by more than `least` further.
 fn check(kind: &str, run: impl Fn(&Scene) -> DVec3, scene: &Scene, calm: f64, least: f64) {
     let (s, g, w) = (run(&still(scene)), run(&falling(scene)), run(&windy(scene)));
-    eprintln!("{kind}: still {:.3e}, gravity {g:.3}, wind {w:.3}", s.length());
+    eprintln!(
+        "{kind}: still {:.3e}, gravity {g:.3}, wind {w:.3}",
+        s.length()
+    );
     assert!(s.length() < calm, "{kind}: moved {s} in a still world");
     assert!((g - s).y < -least, "{kind}: gravity moved the tips by {g}");
     assert!((w - s).z < -least, "{kind}: the wind moved the tips by {w}");

@@ -240,11 +240,11 @@ fn imported_roots_ride_a_captured_head() {
     let scene = source_scene();
     let out = kami::stage::export_scene(&gpu, &scene, 0).unwrap();
     let mut scene = imported_scene(scene, out, 12);
-    let mut hc: kami::bvh::HeadCapture = ron::from_str(
+    let mut hc: kami::scene::bvh::HeadCapture = ron::from_str(
         r#"(file: "/usr/share/assimp/models/BVH/01_01.bvh", start: 880, frames: Some(30), translate: 0.0)"#,
     )
     .unwrap();
-    kami::bvh::resolve(&mut hc, std::path::Path::new(""))
+    kami::scene::bvh::resolve(&mut hc, std::path::Path::new(""))
         .expect("CMU 01_01 comes with Debian's assimp-testmodels (.ci/run installs it)");
     scene.forces.head_capture = Some(hc);
     scene.forces.head_motion.clear();

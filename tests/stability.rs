@@ -635,9 +635,7 @@ fn gpu_hard_cases_stay_finite_and_outside() {
     for s in &cases {
         let input = prepare(s).unwrap();
         let v = run_gpu(&gpu, s, &input, 30);
-        let pose =
-            kami::forces::head_at(&s.forces.head_motion, DVec3::ZERO, 30.0)
-                .inverse();
+        let pose = kami::forces::head_at(&s.forces.head_motion, DVec3::ZERO, 30.0).inverse();
         let offsets = input.vertex_offsets();
         for (i, r) in input.roots.iter().enumerate() {
             for j in offsets[i]..offsets[i + 1] {

@@ -6,8 +6,8 @@
 mod common;
 
 use glam::{DMat4, DQuat, DVec3};
-use kami::bvh::{self, Bvh, HeadCapture, Mapping, CMU_CM_PER_UNIT};
 use kami::forces::eff::Eff;
+use kami::scene::bvh::{self, Bvh, HeadCapture, Mapping, CMU_CM_PER_UNIT};
 use kami::systems::strips::capture::{
     self, capture_of, field_error, marker_points, motion_error, wind_samples, Capture,
 };

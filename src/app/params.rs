@@ -272,8 +272,8 @@ impl ViewerState {
 
     /// Apply a `--set KEY=VALUE` override through the same path as the panels: it edits the
     /// state, and the window loop classifies and applies the change. Keys: `color=r,g,b`,
-    /// `width=w`, `ks=k`, `shininess=n`, `rigidity=EI` (all groups), `wind=x,y,z`,
-    /// `gravity=x,y,z`, `stiffness=root,tip`, `damping=rate`, `pseudo=on|off`,
+    /// `width=w`, `ks=k`, `shininess=n`, `rigidity=EI` (all groups), `wind=x,y,z` and
+    /// `gravity=x,y,z` (the scene's `forces` block; they set still hair groups moving), `stiffness=root,tip`, `damping=rate`, `pseudo=on|off`,
     /// `msaa=1|4`, `supersample=f`, `strands=ribbons|compute`, `play=on|off`,
     /// `lod=fraction` (fixed, 0..1),
     /// `fur.hairs=N`, `fur.stiffness=s` (all coats), `fur.culling=on|off`,
@@ -500,10 +500,7 @@ mod tests {
             .iter()
             .all(|g| g.material.color == [0.8, 0.6, 0.2]));
         s.apply_set("wind=0,0,-300").unwrap();
-        assert_eq!(
-            s.scene.forces.wind[0].force,
-            [0.0, 0.0, -300.0]
-        );
+        assert_eq!(s.scene.forces.wind[0].force, [0.0, 0.0, -300.0]);
         s.apply_set("play=off").unwrap();
         assert!(!s.view.playing);
         s.apply_set("strands=compute").unwrap();

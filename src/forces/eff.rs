@@ -555,9 +555,7 @@ impl Eff {
         }
         w.flush().map_err(io)
     }
-
 }
-
 
 /// The cells a blower defines, with their forces.
 fn blower_cells(b: &Blower, g: &Grid) -> Vec<(usize, DVec3)> {
@@ -694,7 +692,6 @@ pub fn front_left_gust() -> EffDesc {
         ..EffDesc::default()
     }
 }
-
 
 /// The `EffGrid` uniform of `shaders/forces/eff.wgsl`.
 #[repr(C)]

@@ -116,12 +116,7 @@ impl Forces {
 
     /// The wind at world point `p` at `frame`: the uniform keyed wind plus the EFF (scaled
     /// by its gust keys at `frame`).
-    pub fn wind_at_point(
-        &self,
-        p: DVec3,
-        frame: f64,
-        sampling: crate::scene::Sampling,
-    ) -> DVec3 {
+    pub fn wind_at_point(&self, p: DVec3, frame: f64, sampling: crate::scene::Sampling) -> DVec3 {
         wind_at(&self.wind, frame) + self.eff_at(p, frame, sampling)
     }
 

@@ -12,8 +12,8 @@
 //! cannot be used is refused with the line where it broke; counts are checked before
 //! anything is reserved.
 
-use crate::error::{KamiError, Result};
 use super::forces::{HeadKey, Interp};
+use crate::error::{KamiError, Result};
 use glam::{DMat3, DMat4, DQuat, DVec3, EulerRot};
 use serde::{Deserialize, Serialize};
 use std::path::Path;

@@ -396,7 +396,10 @@ pub(crate) fn finite3(field: &str, v: [f64; 3]) -> Result<()> {
 
 /// Cells in a grid of `dims`, refused (naming `field`) when zero along an axis or beyond
 /// `MAX_CELLS`, computed without overflow and before anything is allocated.
-pub(crate) fn cell_total(field: &str, dims: [u32; 3]) -> std::result::Result<u64, (String, String)> {
+pub(crate) fn cell_total(
+    field: &str,
+    dims: [u32; 3],
+) -> std::result::Result<u64, (String, String)> {
     if dims.contains(&0) {
         return Err((
             format!("{dims:?}"),
@@ -510,7 +513,6 @@ impl EffDesc {
         }
         Ok(())
     }
-
 
     /// The grid this block describes (without a file).
     pub fn grid(&self) -> Grid {

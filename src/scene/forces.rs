@@ -167,7 +167,11 @@ mod tests {
                 "forces: ForcesDesc(gravity:",
             ),
             (
-                old("", "wind: [WindKey(frame: 0.0, force: (1.0, 0.0, 0.0))]", ""),
+                old(
+                    "",
+                    "wind: [WindKey(frame: 0.0, force: (1.0, 0.0, 0.0))]",
+                    "",
+                ),
                 7,
                 "`dynamics.wind` moved",
                 "forces: ForcesDesc(wind:",
@@ -185,7 +189,11 @@ mod tests {
                 "forces: ForcesDesc(eff: Some(EffDesc(",
             ),
             (
-                old("    head_capture: Some(HeadCapture(file: \"x.bvh\")),\n", "", ""),
+                old(
+                    "    head_capture: Some(HeadCapture(file: \"x.bvh\")),\n",
+                    "",
+                    "",
+                ),
                 3,
                 "the top-level `head_capture` moved",
                 "ForcesDesc(head_capture:",
@@ -221,7 +229,11 @@ mod tests {
             }
         }
         // The same scene in the new form loads.
-        let new = old("    forces: ForcesDesc(gravity: (0.0, -980.0, 0.0)),\n", "", "");
+        let new = old(
+            "    forces: ForcesDesc(gravity: (0.0, -980.0, 0.0)),\n",
+            "",
+            "",
+        );
         let scene = Scene::from_ron(&new, "new.ron").unwrap();
         assert_eq!(scene.forces.gravity, super::EARTH_GRAVITY);
     }
@@ -237,16 +249,18 @@ mod tests {
             .filter(|p| p.extension().is_some_and(|e| e == "ron"))
             .collect();
         names.sort();
-        assert!(names.len() >= 26, "{} scenes in {}", names.len(), dir.display());
+        assert!(
+            names.len() >= 26,
+            "{} scenes in {}",
+            names.len(),
+            dir.display()
+        );
         for p in &names {
             let scene = Scene::load(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
             let f = &scene.forces;
             // Strips and wisps on springs fall under Earth's gravity in every shipped scene.
-            let falls = scene.strips.is_some()
-                || scene
-                    .wisps
-                    .as_ref()
-                    .is_some_and(|w| w.springs.is_some());
+            let falls =
+                scene.strips.is_some() || scene.wisps.as_ref().is_some_and(|w| w.springs.is_some());
             if falls {
                 assert_eq!(f.gravity, super::EARTH_GRAVITY, "{}", p.display());
             }

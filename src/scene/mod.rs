@@ -969,22 +969,20 @@ impl Scene {
         let mut scene = Scene::from_bytes(&bytes, &path.display().to_string())?;
         // The head capture, read now so that errors name its file.
         if let Some(hc) = scene.forces.head_capture.as_mut() {
-            bvh::resolve(hc, path.parent().unwrap_or(Path::new(""))).map_err(
-                |e| match e {
-                    KamiError::Invalid {
-                        field,
-                        value,
-                        allowed,
-                        ..
-                    } => KamiError::Invalid {
-                        file: path.display().to_string(),
-                        field,
-                        value,
-                        allowed,
-                    },
-                    other => other,
+            bvh::resolve(hc, path.parent().unwrap_or(Path::new(""))).map_err(|e| match e {
+                KamiError::Invalid {
+                    field,
+                    value,
+                    allowed,
+                    ..
+                } => KamiError::Invalid {
+                    file: path.display().to_string(),
+                    field,
+                    value,
+                    allowed,
                 },
-            )?;
+                other => other,
+            })?;
         }
         // Strand files the hair groups name, read now so that errors name them.
         resolve_strand_files(

@@ -253,15 +253,19 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
     // The guide share decides which strands are simulated: a new set-up.
     let guides = |s: &Scene| s.dynamics.as_ref().map(|d| d.guides);
     // The world's forces the dynamics read each step (the EFF and a capture: the stage's).
-    let world = |s: &Scene| (s.forces.gravity, s.forces.wind.clone(), s.forces.head_motion.clone());
+    let world = |s: &Scene| {
+        (
+            s.forces.gravity,
+            s.forces.wind.clone(),
+            s.forces.head_motion.clone(),
+        )
+    };
     if groom_view(old) != groom_view(new)
         || old.dynamics.is_some() != new.dynamics.is_some()
         || guides(old) != guides(new)
     {
         Change::Rebuild
-    } else if old.dynamics != new.dynamics
-        || (new.dynamics.is_some() && world(old) != world(new))
-    {
+    } else if old.dynamics != new.dynamics || (new.dynamics.is_some() && world(old) != world(new)) {
         Change::Resimulate
     } else if looks(old) != looks(new) || old.render.strands != new.render.strands {
         Change::Redraw

@@ -37,7 +37,8 @@
 //! whole number of steps per rendered frame (`steps_per_frame`), whatever the frame rate.
 //!
 //! **Forces (eq 2), accelerations at each control point** (world units / s²): gravity
-//! `motion.gravity`; the wind Ω of `Forces::wind_at_point` (uniform keyed wind + EFF); the
+//! `Forces::gravity` (the scene's `forces.gravity`); the wind Ω of `Forces::wind_at_point`
+//! (uniform keyed wind + EFF); the
 //! head motion Ξ, the inertial force of the head's acceleration at the point (the head
 //! frame's acceleration at that material point, a second difference of the keyed pose over
 //! ±max(frame_time, dt): linear keys have velocity kinks whose impulse this spreads over a
@@ -1353,8 +1354,12 @@ pub fn largest_stable_dt(setup: &Setup, seconds: f64, cap: f64) -> Result<f64> {
     let limit = SPEED_LIMIT * top.max(1e-9);
     let ft = setup.motion.frame_time;
     let stable_at = |dt: f64| -> Result<bool> {
-        let mut rig =
-            Rig::posed(&setup.rest, &setup.motion, &setup.head, setup.forces.gravity)?;
+        let mut rig = Rig::posed(
+            &setup.rest,
+            &setup.motion,
+            &setup.head,
+            setup.forces.gravity,
+        )?;
         rig.set_pose(setup.forces.head_at(0.0));
         let steps = (seconds / dt).ceil() as u64;
         for i in 0..steps {

@@ -121,10 +121,7 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
     }
     // An edit's keys or target: solve the extra forces again (the viewer then replays
     // the clip, see `Stage::seek`), no new pipelines while a target is dragged.
-    if a.motion != b.motion
-        || a.edits != b.edits
-        || old.forces != new.forces
-    {
+    if a.motion != b.motion || a.edits != b.edits || old.forces != new.forces {
         return Change::Resimulate;
     }
     if a.look != b.look {

@@ -492,7 +492,12 @@ fn timeline(ui: &mut Ui, s: &mut ViewerState) {
     };
     const RULER: f32 = 18.0;
     const ROW: f32 = 14.0;
-    let clip = s.scene.forces.head_capture.as_ref().map(|h| h.keys.len() as u32);
+    let clip = s
+        .scene
+        .forces
+        .head_capture
+        .as_ref()
+        .map(|h| h.keys.len() as u32);
     // While a key or the clock is held the timeline keeps its length: it would otherwise
     // grow under the pointer as the key (or the clock) moves right.
     let frames = s.timeline_grab.map_or_else(
