@@ -629,15 +629,15 @@ fn head_capture_bad_values_are_refused() {
         KamiError::Invalid { field: f, .. } => assert_eq!(f, field),
         e => panic!("{e}"),
     };
-    invalid(run(&|h| h.scale = 0.0), "head_capture.scale");
-    invalid(run(&|h| h.fps = f64::NAN), "head_capture.fps");
+    invalid(run(&|h| h.scale = 0.0), "forces.head_capture.scale");
+    invalid(run(&|h| h.fps = f64::NAN), "forces.head_capture.fps");
     invalid(
         run(&|h| h.translate = f64::INFINITY),
-        "head_capture.translate",
+        "forces.head_capture.translate",
     );
-    invalid(run(&|h| h.start = 2752), "head_capture.start");
-    invalid(run(&|h| h.frames = Some(689)), "head_capture.frames");
-    invalid(run(&|h| h.frames = Some(0)), "head_capture.frames");
+    invalid(run(&|h| h.start = 2752), "forces.head_capture.start");
+    invalid(run(&|h| h.frames = Some(689)), "forces.head_capture.frames");
+    invalid(run(&|h| h.frames = Some(0)), "forces.head_capture.frames");
     data_err(
         run(&|h| h.joint = "Hed".into()),
         CMU,
