@@ -87,7 +87,7 @@ impl Target {
 #[rustfmt::skip]
 const SCENE_WORDS: &[&str] = &[
     "Scene(", "Head(", "EllipsoidDesc(", "CameraDesc(", "Light(", "RenderSettings(",
-    "WindKey(", "HeadKey(", "Some(", "None", "true", "false", "NaN", "inf", "-inf", "Step",
+    "forces:", "ForcesDesc(", "groom_load:", "WindKey(", "HeadKey(", "Some(", "None", "true", "false", "NaN", "inf", "-inf", "Step",
     "Linear", "File(\"x.obj\")", "seed:", "head:", "center:", "radii:", "color:", "visible:",
     "gravity:", "camera:", "light:", "render:", "name:", "length:", "direction:", "material:",
     "shininess:", "width:", "eye:", "target:", "up:", "fov_y:", "intensity:", "ambient:",
@@ -98,7 +98,7 @@ const SCENE_WORDS: &[&str] = &[
     "'", "//", "/*", "*/", "0x", "(", ")", "[", "]", "{", "}", ",", ":",
 ];
 
-/// The External Force Field's words (`forces::eff`): the scene's `eff:` block.
+/// The External Force Field's words (`scene::eff`): the `eff:` field of the scene's `forces` block.
 #[rustfmt::skip]
 const EFF_WORDS: &[&str] = &[
     "eff:", "EffDesc(", "EffSample(", "Blower(", "GustKey(", "extent:", "resolution:",

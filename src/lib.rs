@@ -16,7 +16,6 @@
 
 pub mod app;
 pub mod bench;
-pub mod bvh;
 pub mod error;
 pub mod forces;
 pub mod formats;

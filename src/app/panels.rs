@@ -7,7 +7,7 @@
 //! per system (`systems::Change`) and applies it.
 
 use super::params::{Request, ViewerState};
-use crate::scene::{Dynamics, Interp, Scene, WindKey};
+use crate::scene::{Interp, Scene, WindKey};
 use crate::systems::ui::PanelCx;
 use crate::systems::{Panel, KINDS};
 use egui::{Color32, Slider, Ui};
@@ -161,22 +161,6 @@ fn files(ui: &mut Ui, s: &mut ViewerState) {
     });
 }
 
-/// The Forces panel's fields live in the dynamics block: without it, offer to add it.
-fn need_dynamics(ui: &mut Ui, s: &mut ViewerState) -> bool {
-    if s.scene.dynamics.is_none() {
-        ui.label("this scene is static");
-        if ui.button("Enable dynamics").clicked() {
-            s.scene.dynamics = Some(Dynamics {
-                gravity: [0.0, -150.0, 0.0],
-                damping: 0.5,
-                ..Default::default()
-            });
-        }
-        return false;
-    }
-    true
-}
-
 fn vec3_edit(ui: &mut Ui, label: &str, v: &mut [f64; 3], speed: f64) {
     ui.horizontal(|ui| {
         ui.label(label);
@@ -186,11 +170,9 @@ fn vec3_edit(ui: &mut Ui, label: &str, v: &mut [f64; 3], speed: f64) {
     });
 }
 
+/// The world's forces (`scene.forces`), shared by every kind: no kind's dynamics needed.
 fn forces(ui: &mut Ui, s: &mut ViewerState) {
-    if !need_dynamics(ui, s) {
-        return;
-    }
-    let d = s.scene.dynamics.as_mut().unwrap();
+    let d = &mut s.scene.forces;
     vec3_edit(ui, "gravity", &mut d.gravity, 1.0);
     ui.label("wind keys (frame, force, step/linear):");
     let mut remove = None;

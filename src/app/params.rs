@@ -208,7 +208,8 @@ impl ViewerState {
     /// Apply a `--set KEY=VALUE` override through the same path as the panels: it edits the
     /// state, and the window loop classifies and applies the change. Each kind's keys come
     /// first (`KindUi::set`, listed on each kind's implementation), then the viewer's own:
-    /// `wind=x,y,z`, `gravity=x,y,z`, `msaa=1|4`, `supersample=f`,
+    /// `wind=x,y,z` and `gravity=x,y,z` (the scene's `forces` block; on a
+    /// scene with hair groups they set still groups moving), `msaa=1|4`, `supersample=f`,
     /// `strands=ribbons|compute`, `play=on|off`, `lod=fraction` (fixed, 0..1),
     /// `seek=FRAME`, `save=FILE`, `export=FILE`, and scripted mouse events
     /// `mouse.press=x,y`, `mouse.move=x,y`, `mouse.release` (window pixels).
@@ -233,7 +234,8 @@ impl ViewerState {
             None => match key {
                 "wind" => {
                     let w = nums(3)?;
-                    dynamics(&mut next).wind = vec![WindKey {
+                    moving(&mut next);
+                    next.forces.wind = vec![WindKey {
                         frame: 0.0,
                         force: [w[0], w[1], w[2]],
                         interp: Interp::Step,
@@ -241,7 +243,8 @@ impl ViewerState {
                 }
                 "gravity" => {
                     let g = nums(3)?;
-                    dynamics(&mut next).gravity = [g[0], g[1], g[2]];
+                    moving(&mut next);
+                    next.forces.gravity = [g[0], g[1], g[2]];
                 }
                 "msaa" => next.render.msaa = int()?,
                 "supersample" => next.render.supersample = int()?,
@@ -285,6 +288,14 @@ fn dynamics(scene: &mut Scene) -> &mut Dynamics {
     scene.dynamics.get_or_insert_with(Dynamics::default)
 }
 
+/// A force set on hair groups that stand still sets them moving (as it did when the forces
+/// sat in their dynamics block).
+fn moving(scene: &mut Scene) {
+    if !scene.groups.is_empty() {
+        dynamics(scene);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -314,10 +325,7 @@ mod tests {
             .iter()
             .all(|g| g.material.color == [0.8, 0.6, 0.2]));
         s.apply_set("wind=0,0,-300").unwrap();
-        assert_eq!(
-            s.scene.dynamics.as_ref().unwrap().wind[0].force,
-            [0.0, 0.0, -300.0]
-        );
+        assert_eq!(s.scene.forces.wind[0].force, [0.0, 0.0, -300.0]);
         s.apply_set("play=off").unwrap();
         assert!(!s.host.playing);
         s.apply_set("strands=compute").unwrap();

@@ -31,7 +31,8 @@ pub fn difference(a: &image::RgbaImage, b: &image::RgbaImage) -> (f64, f64, u8) 
 }
 
 fn frames_of(scene: &Scene) -> Vec<u32> {
-    if scene.dynamics.is_some() {
+    // Scenes in motion: Anjyo's dynamics or the wisps' springs.
+    if scene.dynamics.is_some() || scene.wisps.as_ref().is_some_and(|w| w.springs.is_some()) {
         vec![0, MOTION_FRAME]
     } else {
         vec![0]

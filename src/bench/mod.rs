@@ -369,7 +369,6 @@ pub fn pendulum_periods(amplitude: f64, dt: f64) -> (f64, f64) {
     use crate::systems::anjyo::projective::{CpuSim, DynSetup, DynStrand};
     let params = crate::scene::Dynamics {
         dt,
-        gravity: [0.0, -1.0, 0.0],
         collision: false,
         ..Default::default()
     };
@@ -384,7 +383,7 @@ pub fn pendulum_periods(amplitude: f64, dt: f64) -> (f64, f64) {
     };
     let mut setup = DynSetup {
         forces: crate::forces::Forces {
-            gravity: DVec3::from(params.gravity),
+            gravity: DVec3::new(0.0, -1.0, 0.0),
             wind: Vec::new(),
             head_motion: Vec::new(),
             center: DVec3::ZERO,
@@ -450,10 +449,10 @@ fn retime(scene: &Scene, spf: u32, frame_time: f64) -> Scene {
     let d = s.dynamics.as_mut().expect("a dynamic scene");
     let old = d.dt * d.steps_per_frame as f64;
     let k = old / frame_time;
-    for w in &mut d.wind {
+    for w in &mut s.forces.wind {
         w.frame *= k;
     }
-    for h in &mut d.head_motion {
+    for h in &mut s.forces.head_motion {
         h.frame *= k;
     }
     d.steps_per_frame = spf;
@@ -494,9 +493,8 @@ fn dynamic_cases(gust: &Scene) -> Vec<(String, Scene)> {
         g.direction = crate::scene::Direction::Normal;
         g.loads.clear();
         g.cuts.clear();
-        let d = s.dynamics.as_mut().unwrap();
-        d.wind = wind;
-        d.gravity = gravity;
+        s.forces.wind = wind;
+        s.forces.gravity = gravity;
         s
     };
     let key = |frame: f64, force: [f64; 3]| WindKey {
@@ -537,10 +535,9 @@ fn dynamic_cases(gust: &Scene) -> Vec<(String, Scene)> {
         single((0.0, 8.0), vec![key(0.0, [-200.0, 0.0, 0.0])], [0.0; 3]),
     ));
     let mut whip = base.clone();
-    let d = whip.dynamics.as_mut().unwrap();
-    d.wind.clear();
-    d.gravity = [0.0, -150.0, 0.0];
-    d.head_motion = vec![
+    whip.forces.wind.clear();
+    whip.forces.gravity = [0.0, -150.0, 0.0];
+    whip.forces.head_motion = vec![
         HeadKey {
             frame: 0.0,
             rotate: [0.0; 3],
@@ -562,7 +559,7 @@ fn dynamic_cases(gust: &Scene) -> Vec<(String, Scene)> {
     ];
     cases.push(("HEAD WHIP".into(), whip));
     let mut steps = base.clone();
-    steps.dynamics.as_mut().unwrap().wind = vec![
+    steps.forces.wind = vec![
         key(0.0, [0.0, -100.0, 0.0]),
         key(5.0, [1e4, 0.0, 0.0]),
         key(15.0, [-1e4, -2e3, 0.0]),

@@ -1,5 +1,6 @@
 //! The force fields every hair system samples, in one place: gravity, keyed uniform wind (a
-//! step key is Anjyo's gust) and a keyed rigid head motion. The stage builds one `Forces`
+//! step key is Anjyo's gust) and a keyed rigid head motion, from the scene's `forces` block
+//! (`scene::forces`, where the units are). The stage builds one `Forces`
 //! from the scene and hands it to every system each frame with the clock (`FrameCtx`); the
 //! head pass and the systems' roots take the head pose from here, so everything in a frame
 //! agrees on where the head is. Everything here is uniform in space and evaluated on the CPU
@@ -72,9 +73,8 @@ fn keyed<K, V: Copy>(
     }
 }
 
-/// The scene's shared force fields. Today they are read from the scene's `dynamics` block
-/// (where the scene format keeps them); a scene without dynamics has no forces besides a
-/// still head.
+/// The scene's shared force fields, evaluated from its `forces` block (`scene::forces`, which
+/// also says how each kind reads these accelerations).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Forces {
     pub gravity: DVec3,
@@ -82,40 +82,25 @@ pub struct Forces {
     pub head_motion: Vec<HeadKey>,
     /// The head's centre: keyed rotations turn about it.
     pub center: DVec3,
-    /// The External Force Field (built once from the scene's `eff` block).
+    /// The External Force Field (built once from the block's `eff`).
     pub eff: Option<std::sync::Arc<eff::Eff>>,
 }
 
 impl Forces {
     pub fn from_scene(scene: &Scene) -> Forces {
-        let center = DVec3::from(scene.head.center);
+        let f = &scene.forces;
         // Keyed head motion wins; else a head capture's keys (read when the scene loaded).
-        let captured = || {
-            scene
-                .head_capture
-                .as_ref()
-                .map(|h| h.keys.clone())
-                .unwrap_or_default()
+        let head_motion = match (&f.head_motion, &f.head_capture) {
+            (keys, _) if !keys.is_empty() => keys.clone(),
+            (_, Some(capture)) => capture.keys.clone(),
+            _ => Vec::new(),
         };
-        match &scene.dynamics {
-            Some(d) => Forces {
-                gravity: DVec3::from(d.gravity),
-                wind: d.wind.clone(),
-                head_motion: if d.head_motion.is_empty() {
-                    captured()
-                } else {
-                    d.head_motion.clone()
-                },
-                center,
-                eff: eff_of(scene),
-            },
-            None => Forces {
-                gravity: DVec3::ZERO,
-                wind: Vec::new(),
-                head_motion: captured(),
-                center,
-                eff: eff_of(scene),
-            },
+        Forces {
+            gravity: DVec3::from(f.gravity),
+            wind: f.wind.clone(),
+            head_motion,
+            center: DVec3::from(scene.head.center),
+            eff: eff_of(scene),
         }
     }
 
@@ -131,17 +116,12 @@ impl Forces {
 
     /// The wind at world point `p` at `frame`: the uniform keyed wind plus the EFF (scaled
     /// by its gust keys at `frame`).
-    pub fn wind_at_point(
-        &self,
-        p: DVec3,
-        frame: f64,
-        sampling: crate::scene::strips::Sampling,
-    ) -> DVec3 {
+    pub fn wind_at_point(&self, p: DVec3, frame: f64, sampling: crate::scene::Sampling) -> DVec3 {
         wind_at(&self.wind, frame) + self.eff_at(p, frame, sampling)
     }
 
     /// The EFF alone at `p` and `frame` (zero without one).
-    pub fn eff_at(&self, p: DVec3, frame: f64, sampling: crate::scene::strips::Sampling) -> DVec3 {
+    pub fn eff_at(&self, p: DVec3, frame: f64, sampling: crate::scene::Sampling) -> DVec3 {
         self.eff
             .as_ref()
             .map_or(DVec3::ZERO, |e| e.sample_at(p, frame, sampling))
@@ -161,7 +141,7 @@ impl Forces {
 
 /// The scene's EFF, built (its files were read and checked when the scene was loaded).
 fn eff_of(scene: &Scene) -> Option<std::sync::Arc<eff::Eff>> {
-    let desc = scene.eff.as_ref()?;
+    let desc = scene.forces.eff.as_ref()?;
     match eff::Eff::build(desc) {
         Ok(e) => Some(std::sync::Arc::new(e)),
         Err(e) => {

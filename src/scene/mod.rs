@@ -1,6 +1,7 @@
 //! Scene files: what to show. A scene is a RON file (`assets/scenes/*.ron`) naming the head
-//! ellipsoid, the hair groups with their pores, loads, cuts and looks, and the camera and
-//! light. `load` parses it and `validate` checks every number before anything reaches the GPU,
+//! (an ellipsoid or a mesh), the world's forces (`forces`: gravity, wind, the EFF, head
+//! motion), each kind's hair (Anjyo's groups and dynamics, fur, wisps, strips), and the
+//! camera and light. `load` parses it and `validate` checks every number before anything reaches the GPU,
 //! so a bad file fails with the field, the value and the allowed range. Every struct and
 //! struct variant denies unknown fields: a misspelt optional field is an error, not silently
 //! its default.
@@ -11,6 +12,9 @@
 //! towards +z, in degrees. Lengths are in centimetres by convention (any unit works: only
 //! ratios matter to the bending).
 
+pub mod bvh;
+pub mod eff;
+pub mod forces;
 pub mod fur;
 pub(crate) mod head;
 pub mod hull;
@@ -21,6 +25,8 @@ pub mod strips;
 mod validate;
 pub mod wisps;
 
+pub use eff::Sampling;
+pub use forces::{ForcesDesc, HeadKey, Interp, WindKey};
 pub use head::Ellipsoid;
 pub use validate::{validate, MAX_SEGMENTS, MAX_SIZE, MAX_STRANDS, MAX_STRIP_EDITS};
 
@@ -38,10 +44,15 @@ pub struct Scene {
     /// The head hull (a default head when absent: fur scenes need none).
     #[serde(default)]
     pub head: Head,
-    /// Weight of hair per unit length (a load, in the same units as `rigidity`).
-    #[serde(default = "default_gravity")]
-    pub gravity: [f64; 3],
-    /// Hair groups (Anjyo); may be empty when the scene has fur.
+    /// The load Anjyo's groom is styled under: the hair's weight per unit length, in the
+    /// units of `rigidity` (a setting of the groom, not a force of the world: hair in motion
+    /// falls under `forces.gravity`).
+    #[serde(default = "default_groom_load")]
+    pub groom_load: [f64; 3],
+    /// The world's forces, shared by every kind (`scene::forces`).
+    #[serde(default)]
+    pub forces: ForcesDesc,
+    /// Anjyo's hair groups; empty when the scene shows only other kinds (fur, wisps, strips).
     #[serde(default)]
     pub groups: Vec<HairGroup>,
     #[serde(default)]
@@ -63,17 +74,9 @@ pub struct Scene {
     /// Directable strips (Kazama et al.): layered reed strips on damped angular springs.
     #[serde(default)]
     pub strips: Option<strips::Strips>,
-    /// The External Force Field: a wind grid around the head that every hair system with
-    /// dynamics samples (`crate::forces::eff`).
-    #[serde(default)]
-    pub eff: Option<crate::forces::eff::EffDesc>,
-    /// Head motion from a BVH motion capture (one joint's motion moves the head), read when
-    /// the scene is loaded. When the scene's `dynamics` also keys head motion, those keys win.
-    #[serde(default)]
-    pub head_capture: Option<crate::bvh::HeadCapture>,
 }
 
-fn default_gravity() -> [f64; 3] {
+fn default_groom_load() -> [f64; 3] {
     [0.0, -1.0, 0.0]
 }
 
@@ -885,7 +888,8 @@ impl Scene {
                 radii,
                 ..Default::default()
             },
-            gravity: default_gravity(),
+            groom_load: default_groom_load(),
+            forces: ForcesDesc::default(),
             groups: vec![HairGroup {
                 name,
                 file: Some(StrandFile {
@@ -923,8 +927,6 @@ impl Scene {
             fur: None,
             wisps: None,
             strips: None,
-            eff: None,
-            head_capture: None,
         };
         validate(&scene).map_err(|e| match e {
             KamiError::Invalid {
@@ -966,23 +968,21 @@ impl Scene {
         let bytes = std::fs::read(path).map_err(io)?;
         let mut scene = Scene::from_bytes(&bytes, &path.display().to_string())?;
         // The head capture, read now so that errors name its file.
-        if let Some(hc) = scene.head_capture.as_mut() {
-            crate::bvh::resolve(hc, path.parent().unwrap_or(Path::new(""))).map_err(
-                |e| match e {
-                    KamiError::Invalid {
-                        field,
-                        value,
-                        allowed,
-                        ..
-                    } => KamiError::Invalid {
-                        file: path.display().to_string(),
-                        field,
-                        value,
-                        allowed,
-                    },
-                    other => other,
+        if let Some(hc) = scene.forces.head_capture.as_mut() {
+            bvh::resolve(hc, path.parent().unwrap_or(Path::new(""))).map_err(|e| match e {
+                KamiError::Invalid {
+                    field,
+                    value,
+                    allowed,
+                    ..
+                } => KamiError::Invalid {
+                    file: path.display().to_string(),
+                    field,
+                    value,
+                    allowed,
                 },
-            )?;
+                other => other,
+            })?;
         }
         // Strand files the hair groups name, read now so that errors name them.
         resolve_strand_files(
@@ -991,8 +991,8 @@ impl Scene {
             &path.display().to_string(),
         )?;
         // Files the EFF names, read now so that errors name them.
-        if let Some(eff) = scene.eff.as_mut() {
-            crate::forces::eff::resolve(eff, path.parent().unwrap_or(Path::new("")))?;
+        if let Some(eff) = scene.forces.eff.as_mut() {
+            eff::resolve(eff, path.parent().unwrap_or(Path::new("")))?;
         }
         // A head mesh named relative to the scene file.
         if let Some(m) = scene.head.mesh.as_mut().and_then(|h| h.source.file_mut()) {
@@ -1065,6 +1065,21 @@ fn parse_error(e: ron::error::SpannedError, origin: &str) -> KamiError {
             ron::Error::ExceededRecursionLimit => {
                 format!("brackets nested deeper than {MAX_NESTING} levels")
             }
+            // A field of the old scene format that moved to the `forces` block: say where.
+            ron::Error::NoSuchStructField {
+                ref found,
+                outer: Some(ref outer),
+                ..
+            } if forces::MOVED
+                .iter()
+                .any(|(o, f, _)| o == outer && f == found) =>
+            {
+                let (_, _, why) = forces::MOVED
+                    .iter()
+                    .find(|(o, f, _)| o == outer && f == found)
+                    .expect("just matched");
+                why.to_string()
+            }
             code => code.to_string(),
         },
     }
@@ -1091,7 +1106,9 @@ fn utf8_error(bytes: &[u8], e: std::str::Utf8Error, origin: &str) -> KamiError {
 /// Anjyo's projective dynamics (section 3): each segment's zenith and azimuth follow
 /// `theta'' = c_i u_i F_theta`, `phi'' = c_i v_i F_phi`, integrated by the recurrences
 /// (4)' and (5)'. Forces are per segment, in the paper's units (Fig. 10 uses |F| = 200 with
-/// dt = 0.1, d = rho = 1, k = 18).
+/// dt = 0.1, d = rho = 1, k = 18); they come from the scene's `forces` block (gravity, wind,
+/// the EFF, head motion), read as `F` = the acceleration (`scene::forces`: units). This
+/// block holds only the solver's settings.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Dynamics {
@@ -1109,16 +1126,6 @@ pub struct Dynamics {
     /// the step size beyond discretisation error.
     #[serde(default)]
     pub damping: f64,
-    /// Constant force on every segment (gravity, in force units).
-    #[serde(default)]
-    pub gravity: [f64; 3],
-    /// Uniform wind force over time; empty means none.
-    #[serde(default)]
-    pub wind: Vec<WindKey>,
-    /// Rigid head motion over time; empty means the head stays still. Roots follow the
-    /// head, the collision ellipsoid moves with it, and hair feels the roots' acceleration.
-    #[serde(default)]
-    pub head_motion: Vec<HeadKey>,
     #[serde(default)]
     pub inertia: Inertia,
     /// The pseudo-force field (3.2.2); absent means off.
@@ -1151,9 +1158,6 @@ impl Default for Dynamics {
             steps_per_frame: 1,
             density: 1.0,
             damping: 0.0,
-            gravity: [0.0; 3],
-            wind: Vec::new(),
-            head_motion: Vec::new(),
             inertia: Inertia::default(),
             pseudo_force: None,
             stiffness: Stiffness::default(),
@@ -1173,44 +1177,6 @@ fn one_u32() -> u32 {
 }
 fn default_max_substeps() -> u32 {
     64
-}
-
-/// How a keyed value moves from this key to the next.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub enum Interp {
-    /// Hold this value until the next key (the paper's gust is a step).
-    #[default]
-    Step,
-    /// Blend linearly towards the next key.
-    Linear,
-}
-
-/// Wind from frame `frame` on.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct WindKey {
-    pub frame: f64,
-    pub force: [f64; 3],
-    #[serde(default)]
-    pub interp: Interp,
-}
-
-/// Head pose at frame `frame`: rotation (degrees about x, then y, then z, about the head's
-/// center) and translation.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct HeadKey {
-    pub frame: f64,
-    #[serde(default)]
-    pub rotate: [f64; 3],
-    #[serde(default)]
-    pub translate: [f64; 3],
-    #[serde(default = "linear")]
-    pub interp: Interp,
-}
-
-fn linear() -> Interp {
-    Interp::Linear
 }
 
 /// Inertia arrangement (3.2.1): c_i = 1/I_i scaled along the strand (`root` at the pore to

@@ -2,14 +2,16 @@
 //! a set of reed-shaped strips (textured ribbons tapering to the tip) arranged in layers
 //! around the head, as stylists' layer model does. Each strip follows a chain of rigid
 //! sticks whose joints are damped angular springs with two degrees of freedom (eq 1),
-//! driven by gravity, the wind of the External Force Field (`crate::forces::eff`), the head's
-//! motion, a spring and the collision with the head (eq 2). Key-frame edits (section 4) add
+//! driven by the scene's shared forces (gravity, the wind of the External Force Field, the
+//! head's motion: `scene::forces`), a spring and the collision with the head (eq 2). Key-frame edits (section 4) add
 //! extra forces to the field.
 //!
 //! Coordinates are world units (centimetres in the shipped scenes, like the head); time is
 //! seconds.
 
 use serde::{Deserialize, Serialize};
+
+pub use super::eff::Sampling;
 
 /// Strips of a scene.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -84,7 +86,9 @@ fn default_color() -> [f32; 3] {
     [0.16, 0.09, 0.05]
 }
 
-/// Eq 1, `I1 Φ'' + I2 Φ' + τ (Φ − Φ0) = H`, per joint, and the forces of eq 2.
+/// Eq 1, `I1 Φ'' + I2 Φ' + τ (Φ − Φ0) = H`, per joint, and the forces of eq 2: the solver's
+/// settings only. Gravity g, the wind and the head's motion are the scene's `forces` block,
+/// read as a force per unit mass of a stick (`scene::forces`: units).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Motion {
@@ -106,9 +110,6 @@ pub struct Motion {
     /// Collision strength κ of Ψ (eq 2); 0 turns the collision force off.
     #[serde(default = "default_collision")]
     pub collision: f64,
-    /// Gravity g (force per unit mass of a stick, world units / s²).
-    #[serde(default = "default_gravity")]
-    pub gravity: [f64; 3],
     /// Seconds of motion per rendered frame.
     #[serde(default = "default_frame_time")]
     pub frame_time: f64,
@@ -141,9 +142,6 @@ fn default_stiffness_tip() -> f64 {
 fn default_collision() -> f64 {
     1.0
 }
-fn default_gravity() -> [f64; 3] {
-    [0.0, -980.0, 0.0]
-}
 fn default_frame_time() -> f64 {
     1.0 / 30.0
 }
@@ -160,23 +158,12 @@ impl Default for Motion {
             stiffness_tip: default_stiffness_tip(),
             spring: 0.0,
             collision: default_collision(),
-            gravity: default_gravity(),
             frame_time: default_frame_time(),
             steps_per_second: default_rate(),
             sampling: Sampling::default(),
             preload: false,
         }
     }
-}
-
-/// How a control point reads the EFF's cells.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub enum Sampling {
-    /// The cell the point is in (the paper: "when a control point moves into a grid cube").
-    Nearest,
-    /// Trilinear between the eight cell centres around the point (smooth in space).
-    #[default]
-    Trilinear,
 }
 
 /// How strips look.

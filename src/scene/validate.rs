@@ -110,7 +110,8 @@ pub fn validate(s: &Scene) -> Result<()> {
     if let Some(m) = &s.head.mesh {
         validate_head_mesh(m)?;
     }
-    vec3("gravity", s.gravity, 1e9)?;
+    vec3("groom_load", s.groom_load, 1e9)?;
+    validate_forces(&s.forces)?;
 
     if s.groups.is_empty() && s.fur.is_none() && s.wisps.is_none() && s.strips.is_none() {
         return Err(bad(
@@ -207,6 +208,48 @@ pub fn validate(s: &Scene) -> Result<()> {
     Ok(())
 }
 
+/// The world's forces (`forces`): finite values, keys in frame order, the EFF block (its
+/// file and the head capture's are read and checked when the scene loads).
+fn validate_forces(f: &crate::scene::ForcesDesc) -> Result<()> {
+    vec3("forces.gravity", f.gravity, 1e9)?;
+    for (i, k) in f.wind.iter().enumerate() {
+        within(&format!("forces.wind[{i}].frame"), k.frame, -1e9, 1e9)?;
+        vec3(&format!("forces.wind[{i}].force"), k.force, 1e9)?;
+        if i > 0 && k.frame <= f.wind[i - 1].frame {
+            return Err(bad(
+                &format!("forces.wind[{i}].frame"),
+                k.frame,
+                "keys must be in increasing frame order",
+            ));
+        }
+    }
+    for (i, k) in f.head_motion.iter().enumerate() {
+        within(
+            &format!("forces.head_motion[{i}].frame"),
+            k.frame,
+            -1e9,
+            1e9,
+        )?;
+        vec3(&format!("forces.head_motion[{i}].rotate"), k.rotate, 1e5)?;
+        vec3(
+            &format!("forces.head_motion[{i}].translate"),
+            k.translate,
+            BIG,
+        )?;
+        if i > 0 && k.frame <= f.head_motion[i - 1].frame {
+            return Err(bad(
+                &format!("forces.head_motion[{i}].frame"),
+                k.frame,
+                "keys must be in increasing frame order",
+            ));
+        }
+    }
+    if let Some(e) = &f.eff {
+        e.validate()?;
+    }
+    Ok(())
+}
+
 fn validate_dynamics(d: &Dynamics) -> Result<()> {
     positive("dynamics.dt", d.dt, 10.0)?;
     if d.steps_per_frame == 0 || d.steps_per_frame > 1000 {
@@ -218,39 +261,6 @@ fn validate_dynamics(d: &Dynamics) -> Result<()> {
     }
     positive("dynamics.density", d.density, 1e6)?;
     within("dynamics.damping", d.damping, 0.0, 1e4)?;
-    vec3("dynamics.gravity", d.gravity, 1e9)?;
-    for (i, k) in d.wind.iter().enumerate() {
-        within(&format!("dynamics.wind[{i}].frame"), k.frame, -1e9, 1e9)?;
-        vec3(&format!("dynamics.wind[{i}].force"), k.force, 1e9)?;
-        if i > 0 && k.frame <= d.wind[i - 1].frame {
-            return Err(bad(
-                &format!("dynamics.wind[{i}].frame"),
-                k.frame,
-                "keys must be in increasing frame order",
-            ));
-        }
-    }
-    for (i, k) in d.head_motion.iter().enumerate() {
-        within(
-            &format!("dynamics.head_motion[{i}].frame"),
-            k.frame,
-            -1e9,
-            1e9,
-        )?;
-        vec3(&format!("dynamics.head_motion[{i}].rotate"), k.rotate, 1e5)?;
-        vec3(
-            &format!("dynamics.head_motion[{i}].translate"),
-            k.translate,
-            BIG,
-        )?;
-        if i > 0 && k.frame <= d.head_motion[i - 1].frame {
-            return Err(bad(
-                &format!("dynamics.head_motion[{i}].frame"),
-                k.frame,
-                "keys must be in increasing frame order",
-            ));
-        }
-    }
     let inr = &d.inertia;
     positive("dynamics.inertia.root", inr.root, 1e6)?;
     positive("dynamics.inertia.tip", inr.tip, 1e6)?;
@@ -734,17 +744,17 @@ pub const MAX_WISP_NODES: usize = 64;
 
 /// The wisps in the scene's shared forces: a gravity of their own (`wisps.springs.gravity`,
 /// read before the springs fell under the shared one) is accepted with a warning when it
-/// equals the shared gravity (`dynamics.gravity`, what `forces::Forces::from_scene` reads;
-/// zero without dynamics) and refused otherwise; on a mesh head every root must lie over
+/// equals the shared gravity (`forces.gravity`, what `forces::Forces::from_scene` reads;
+/// zero without the block) and refused otherwise; on a mesh head every root must lie over
 /// the scalp (`wisps::place_root`, refused naming the skeleton's root).
 fn wisps_on_shared_forces(s: &Scene, w: &super::wisps::Wisps) -> Result<()> {
     if let Some(g) = w.springs.as_ref().and_then(|sp| sp.gravity) {
         vec3("wisps.springs.gravity", g, 1e9)?;
-        let shared = s.dynamics.as_ref().map_or([0.0; 3], |d| d.gravity);
+        let shared = s.forces.gravity;
         if g == shared {
             log::warn!(
                 "`wisps.springs.gravity` = {g:?} is no longer read (the wisps fall under the \
-                 scene's shared gravity, `dynamics.gravity`, which equals it): remove it"
+                 scene's shared gravity, `forces.gravity`, which equals it): remove it"
             );
         } else {
             return Err(bad(
@@ -752,9 +762,9 @@ fn wisps_on_shared_forces(s: &Scene, w: &super::wisps::Wisps) -> Result<()> {
                 format!("{g:?}"),
                 &format!(
                     "the wisps no longer keep a gravity of their own: they fall under the \
-                     scene's shared gravity, `dynamics.gravity` (now {shared:?}, world units/s² \
-                     for the springs); move the value there (dynamics: Some(Dynamics(gravity: \
-                     ({:?}, {:?}, {:?})))) and remove it here",
+                     scene's shared gravity, `forces.gravity` (now {shared:?}, world units/s²); \
+                     move the value there (forces: ForcesDesc(gravity: ({:?}, {:?}, {:?}))) and \
+                     remove it here",
                     g[0], g[1], g[2]
                 ),
             ));
@@ -990,7 +1000,6 @@ fn validate_strips(st: &strips::Strips) -> Result<()> {
     within("strips.motion.stiffness_tip", m.stiffness_tip, 0.0, 1.0)?;
     within("strips.motion.spring", m.spring, 0.0, 1e9)?;
     within("strips.motion.collision", m.collision, 0.0, 1e9)?;
-    vec3("strips.motion.gravity", m.gravity, 1e9)?;
     positive("strips.motion.frame_time", m.frame_time, 10.0)?;
     positive("strips.motion.steps_per_second", m.steps_per_second, 1e6)?;
     let steps = m.frame_time * m.steps_per_second;

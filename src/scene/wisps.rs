@@ -301,7 +301,7 @@ pub struct Springs {
     #[serde(default = "default_damping")]
     pub damping: f64,
     /// No longer read: the springs fall under the scene's shared gravity
-    /// (`dynamics.gravity`, read by `forces::Forces`) like Anjyo's strands. Kept so
+    /// (`forces.gravity`, read by `forces::Forces`) like Anjyo's strands. Kept so
     /// that old scene files get a clear word: equal to the shared gravity it is accepted with
     /// a warning, anything else is refused naming the file and the field
     /// (`scene::validate`). Never written back.

@@ -118,13 +118,13 @@ fn scene_level_values_are_checked() {
         ("    ],\n    render: RenderSettings(msaa: 2),\n)", "render.msaa"),
         ("    ],\n    render: RenderSettings(supersample: 9),\n)", "render.supersample"),
         ("    ],\n    render: RenderSettings(size: (0, 100)),\n)", "render.size.0"),
-        ("    ],\n    gravity: (0.0, NaN, 0.0),\n)", "gravity[1]"),
+        ("    ],\n    groom_load: (0.0, NaN, 0.0),\n)", "groom_load[1]"),
         ("    ],\n    dynamics: Some(Dynamics(dt: 0.0)),\n)", "dynamics.dt"),
         ("    ],\n    dynamics: Some(Dynamics(dt: NaN)),\n)", "dynamics.dt"),
         ("    ],\n    dynamics: Some(Dynamics(damping: -1.0)),\n)", "dynamics.damping"),
-        ("    ],\n    dynamics: Some(Dynamics(wind: [WindKey(frame: 5.0, force: (1.0, 0.0, 0.0)), WindKey(frame: 5.0, force: (0.0, 1.0, 0.0))])),\n)", "dynamics.wind[1].frame"),
-        ("    ],\n    dynamics: Some(Dynamics(wind: [WindKey(frame: 0.0, force: (inf, 0.0, 0.0))])),\n)", "dynamics.wind[0].force[0]"),
-        ("    ],\n    dynamics: Some(Dynamics(head_motion: [HeadKey(frame: 0.0, rotate: (0.0, NaN, 0.0))])),\n)", "dynamics.head_motion[0].rotate[1]"),
+        ("    ],\n    forces: ForcesDesc(wind: [WindKey(frame: 5.0, force: (1.0, 0.0, 0.0)), WindKey(frame: 5.0, force: (0.0, 1.0, 0.0))]),\n)", "forces.wind[1].frame"),
+        ("    ],\n    forces: ForcesDesc(wind: [WindKey(frame: 0.0, force: (inf, 0.0, 0.0))]),\n)", "forces.wind[0].force[0]"),
+        ("    ],\n    forces: ForcesDesc(head_motion: [HeadKey(frame: 0.0, rotate: (0.0, NaN, 0.0))]),\n)", "forces.head_motion[0].rotate[1]"),
         ("    ],\n    dynamics: Some(Dynamics(pseudo_force: Some(PseudoForce(alpha: -2.0, epsilon_pore: 0.1, near: 1.0)))),\n)", "dynamics.pseudo_force.alpha"),
         ("    ],\n    dynamics: Some(Dynamics(stiffness: Stiffness(tip: 200.0))),\n)", "dynamics.stiffness.tip"),
         ("    ],\n    dynamics: Some(Dynamics(stiffness: Stiffness(start: 0.5, end: 0.5))),\n)", "dynamics.stiffness.end"),
@@ -196,7 +196,11 @@ fn extreme_valid_scene_renders_finite_hair() {
         "rigidity: 50.0,",
         "rigidity: 1e-9, bending: Converged(max_iterations: 40),",
     )
-    .replacen("    ],\n)", "    ],\n    gravity: (1e9, -1e9, 0.0),\n)", 1);
+    .replacen(
+        "    ],\n)",
+        "    ],\n    groom_load: (1e9, -1e9, 0.0),\n)",
+        1,
+    );
     let scene = Scene::from_ron(&text, "extreme.ron").unwrap();
     let input = kami::systems::anjyo::groom::prepare(&scene).unwrap();
     let hair = kami::systems::anjyo::cantilever_gpu::groom_gpu(gpu, &input).unwrap();

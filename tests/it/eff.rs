@@ -735,30 +735,39 @@ fn bad_blocks_are_refused_naming_the_field() {
     let base = desc([4, 4, 4], 20.0);
     type Spoil = Box<dyn Fn(&mut EffDesc)>;
     let cases: Vec<(&str, Spoil)> = vec![
-        ("eff.resolution", Box::new(|d| d.resolution = [4, 0, 4])),
         (
-            "eff.resolution",
+            "forces.eff.resolution",
+            Box::new(|d| d.resolution = [4, 0, 4]),
+        ),
+        (
+            "forces.eff.resolution",
             Box::new(|d| d.resolution = [129, 128, 128]),
         ),
-        ("eff.resolution", Box::new(|d| d.resolution = [u32::MAX; 3])),
-        ("eff.extent", Box::new(|d| d.extent = 0.0)),
-        ("eff.extent", Box::new(|d| d.extent = -3.0)),
-        ("eff.extent", Box::new(|d| d.extent = f64::NAN)),
-        ("eff.center[1]", Box::new(|d| d.center[1] = f64::INFINITY)),
-        ("eff.strength", Box::new(|d| d.strength = f64::NAN)),
         (
-            "eff.head[2]",
+            "forces.eff.resolution",
+            Box::new(|d| d.resolution = [u32::MAX; 3]),
+        ),
+        ("forces.eff.extent", Box::new(|d| d.extent = 0.0)),
+        ("forces.eff.extent", Box::new(|d| d.extent = -3.0)),
+        ("forces.eff.extent", Box::new(|d| d.extent = f64::NAN)),
+        (
+            "forces.eff.center[1]",
+            Box::new(|d| d.center[1] = f64::INFINITY),
+        ),
+        ("forces.eff.strength", Box::new(|d| d.strength = f64::NAN)),
+        (
+            "forces.eff.head[2]",
             Box::new(|d| d.head = Some([0.0, 0.0, f64::NAN])),
         ),
         (
-            "eff.source",
+            "forces.eff.source",
             Box::new(|d| {
                 d.source = [0.0; 3];
                 d.strength = 1.0
             }),
         ),
         (
-            "eff.samples[1].force[0]",
+            "forces.eff.samples[1].force[0]",
             Box::new(|d| {
                 d.samples = vec![
                     sample(DVec3::ZERO, A),
@@ -767,11 +776,11 @@ fn bad_blocks_are_refused_naming_the_field() {
             }),
         ),
         (
-            "eff.samples[0].at",
+            "forces.eff.samples[0].at",
             Box::new(|d| d.samples = vec![sample(DVec3::new(10.5, 0.0, 0.0), A)]),
         ),
         (
-            "eff.blowers[0].radius",
+            "forces.eff.blowers[0].radius",
             Box::new(|d| {
                 d.blowers = vec![Blower {
                     at: [0.0; 3],
@@ -783,7 +792,7 @@ fn bad_blocks_are_refused_naming_the_field() {
             }),
         ),
         (
-            "eff.blowers[0].toward",
+            "forces.eff.blowers[0].toward",
             Box::new(|d| {
                 d.blowers = vec![Blower {
                     at: [0.0; 3],
@@ -795,7 +804,7 @@ fn bad_blocks_are_refused_naming_the_field() {
             }),
         ),
         (
-            "eff.gust[1].frame",
+            "forces.eff.gust[1].frame",
             Box::new(|d| {
                 d.gust = vec![
                     GustKey {
@@ -824,8 +833,8 @@ fn bad_blocks_are_refused_naming_the_field() {
         extent,
         ..EffDesc::default()
     };
-    assert_eq!(field_of(&file(30.0)), "eff.extent");
-    assert_eq!(field_of(&file(60.0)), "eff.file");
+    assert_eq!(field_of(&file(30.0)), "forces.eff.extent");
+    assert_eq!(field_of(&file(60.0)), "forces.eff.file");
     assert!(Eff::build(&base).is_ok());
     // Extra samples (a capture fit): non-finite refused, outside the grid left out.
     assert!(Eff::from_samples(&base, &[(DVec3::ZERO, DVec3::NAN)]).is_err());
@@ -848,7 +857,12 @@ fn a_scene_reads_its_eff_file() {
     grid.save(dir.join("eff/wind.eff")).unwrap();
     let bob = std::fs::read_to_string(common::root().join("assets/scenes/bob.ron")).unwrap();
     let end = bob.rfind(')').unwrap();
-    let with = |block: &str| format!("{}\n    eff: Some({block}),\n)", bob[..end].trim_end());
+    let with = |block: &str| {
+        format!(
+            "{}\n    forces: ForcesDesc(eff: Some({block})),\n)",
+            bob[..end].trim_end()
+        )
+    };
     let scene_path = dir.join("scene.ron");
     std::fs::write(
         &scene_path,
@@ -892,7 +906,7 @@ fn a_scene_reads_its_eff_file() {
     assert!(err.contains("none.eff"), "{err}");
     std::fs::write(&scene_path, with("EffDesc(resolution: (0, 4, 4))")).unwrap();
     let err = kami::Scene::load(&scene_path).unwrap_err().to_string();
-    assert!(err.contains("eff.resolution"), "{err}");
+    assert!(err.contains("forces.eff.resolution"), "{err}");
 }
 
 /// The example EFF shipped in assets/eff/: a gust from the front-left of the head (+z is the

@@ -20,9 +20,8 @@ fn still_scene(thin: u32) -> Scene {
     for g in &mut scene.groups {
         g.count /= thin;
     }
-    let dynamics = scene.dynamics.as_mut().unwrap();
-    dynamics.wind.clear();
-    dynamics.gravity = [0.0; 3];
+    scene.forces.wind.clear();
+    scene.forces.gravity = [0.0; 3];
     scene
 }
 
@@ -134,7 +133,7 @@ fn a_field_in_one_half_moves_only_the_strands_in_that_half() {
         .fold(0.0, f64::max);
     assert!(settle < 1e-3, "still air moved a node {settle} cm");
 
-    scene.eff = Some(half_field(&scene, DVec3::new(200.0, 0.0, 0.0)));
+    scene.forces.eff = Some(half_field(&scene, DVec3::new(200.0, 0.0, 0.0)));
     let mut medians = Vec::new();
     for (name, calm, blown) in [
         ("f64", &calm_cpu, run_cpu(&scene)),
@@ -232,7 +231,7 @@ fn gpu_matches_the_reference_with_a_field() {
     for g in &mut scene.groups {
         g.count /= 20;
     }
-    scene.eff = Some(busy_field(&scene));
+    scene.forces.eff = Some(busy_field(&scene));
     let input = prepare(&scene).unwrap();
     let groomed = cantilever::bend_all(&input);
     let hair = cantilever_gpu::groom_gpu(gpu, &input).unwrap();
@@ -245,9 +244,10 @@ fn gpu_matches_the_reference_with_a_field() {
     );
     let mut without = CpuSim::new(
         DynSetup::new(
-            &Scene {
-                eff: None,
-                ..scene.clone()
+            &{
+                let mut s = scene.clone();
+                s.forces.eff = None;
+                s
             },
             &input,
             &groomed.visible,
@@ -293,7 +293,7 @@ fn several_frames_per_submission_see_their_own_gust() {
     for g in &mut scene.groups {
         g.count /= 50;
     }
-    scene.eff = Some(busy_field(&scene));
+    scene.forces.eff = Some(busy_field(&scene));
     let input = prepare(&scene).unwrap();
     let mut runs = Vec::new();
     for per_submit in [1, 3] {
@@ -327,13 +327,13 @@ fn a_uniform_field_is_the_same_as_a_uniform_wind() {
     let c = DVec3::from(scene.head.center);
     let w = DVec3::new(3000.0, -500.0, 800.0);
     let mut wind = scene.clone();
-    wind.dynamics.as_mut().unwrap().wind = vec![kami::scene::WindKey {
+    wind.forces.wind = vec![kami::scene::WindKey {
         frame: 0.0,
         force: w.to_array(),
         interp: Interp::Step,
     }];
     let mut field = scene.clone();
-    field.eff = Some(EffDesc {
+    field.forces.eff = Some(EffDesc {
         center: c.to_array(),
         extent: 30.0,
         resolution: [3, 4, 5],

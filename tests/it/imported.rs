@@ -240,14 +240,14 @@ fn imported_roots_ride_a_captured_head() {
     let scene = source_scene();
     let out = kami::stage::export_scene(gpu, &scene, 0).unwrap();
     let mut scene = imported_scene(scene, out, 12);
-    let mut hc: kami::bvh::HeadCapture = ron::from_str(
+    let mut hc: kami::scene::bvh::HeadCapture = ron::from_str(
         r#"(file: "/usr/share/assimp/models/BVH/01_01.bvh", start: 880, frames: Some(30), translate: 0.0)"#,
     )
     .unwrap();
-    kami::bvh::resolve(&mut hc, std::path::Path::new(""))
+    kami::scene::bvh::resolve(&mut hc, std::path::Path::new(""))
         .expect("CMU 01_01 comes with Debian's assimp-testmodels (.ci/run installs it)");
-    scene.head_capture = Some(hc);
-    scene.dynamics.as_mut().unwrap().head_motion.clear();
+    scene.forces.head_capture = Some(hc);
+    scene.forces.head_motion.clear();
     let input = prepare(&scene).unwrap();
     let hair = cantilever_gpu::groom_gpu(gpu, &input).unwrap();
     let mut sim = Simulation::new(gpu, &scene, &input, &hair)

@@ -12,6 +12,7 @@ mod contract;
 mod docs;
 mod eff;
 mod eff_anjyo;
+mod forces;
 mod formats;
 mod fur;
 mod fur_skinned;

@@ -352,7 +352,7 @@ fn cantilever_on_mesh_head_matches_reference_and_stays_outside() {
 fn projective_on_mesh_head_matches_reference_and_stays_outside() {
     let gpu = common::gpu();
     let mut scene = few(mesh_scene(), 20);
-    let dy = scene.dynamics.as_mut().unwrap();
+    let dy = &mut scene.forces;
     dy.wind = vec![
         kami::scene::WindKey {
             frame: 0.0,

@@ -8,7 +8,9 @@
 
 use crate::common;
 use glam::DVec3;
-use kami::scene::{Direction, Dynamics, HeadKey, Interp, PseudoForce, Roots, Scene, WindKey};
+use kami::scene::{
+    Direction, Dynamics, ForcesDesc, HeadKey, Interp, PseudoForce, Roots, Scene, WindKey,
+};
 use kami::systems::anjyo::groom::prepare;
 use kami::systems::anjyo::projective::{CpuSim, DynSetup};
 use kami::systems::anjyo::{cantilever, cantilever_gpu};
@@ -20,7 +22,7 @@ fn scene(
     count: u32,
     k: u32,
     length: f64,
-    dynamics: Dynamics,
+    dynamics: Dyn,
 ) -> Scene {
     let mut s = common::scene("gust");
     s.groups.truncate(1);
@@ -39,14 +41,40 @@ fn scene(
     g.direction_jitter = 0.0;
     g.loads.clear();
     g.cuts.clear();
-    s.dynamics = Some(dynamics);
+    s.dynamics = Some(dynamics.d);
+    s.forces = dynamics.f;
     kami::scene::validate(&s).unwrap();
     s
 }
 
-fn dynamics(force: [f64; 3]) -> Dynamics {
-    let mut d = common::scene("gust").dynamics.unwrap();
-    d.wind = vec![WindKey {
+/// Anjyo's solver settings with the world's forces they run in (the scene's `forces`);
+/// derefs to the settings.
+#[derive(Clone)]
+struct Dyn {
+    d: Dynamics,
+    f: ForcesDesc,
+}
+
+impl std::ops::Deref for Dyn {
+    type Target = Dynamics;
+    fn deref(&self) -> &Dynamics {
+        &self.d
+    }
+}
+
+impl std::ops::DerefMut for Dyn {
+    fn deref_mut(&mut self) -> &mut Dynamics {
+        &mut self.d
+    }
+}
+
+fn dynamics(force: [f64; 3]) -> Dyn {
+    let gust = common::scene("gust");
+    let mut d = Dyn {
+        d: gust.dynamics.unwrap(),
+        f: gust.forces,
+    };
+    d.f.wind = vec![WindKey {
         frame: 0.0,
         force,
         interp: Interp::Step,
@@ -275,7 +303,7 @@ fn hundred_segment_strands() {
 #[test]
 fn force_steps_of_1e4_and_more() {
     let mut d = dynamics([0.0, -100.0, 0.0]);
-    d.wind = vec![
+    d.f.wind = vec![
         WindKey {
             frame: 0.0,
             force: [0.0; 3],
@@ -328,7 +356,7 @@ fn segments_parallel_to_y_and_antiparallel_to_the_force() {
 #[test]
 fn zero_force_keeps_the_groom() {
     let mut d = dynamics([0.0; 3]);
-    d.gravity = [0.0; 3];
+    d.f.gravity = [0.0; 3];
     let s = scene((10.0, 100.0), (0.0, 360.0), 50, 18, 18.0, d);
     let input = prepare(&s).unwrap();
     let groomed = cantilever::bend_all(&input).nodes;
@@ -347,7 +375,7 @@ fn zero_force_keeps_the_groom() {
 #[test]
 fn fast_head_whips() {
     let mut d = dynamics([0.0, -100.0, 0.0]);
-    d.head_motion = vec![
+    d.f.head_motion = vec![
         HeadKey {
             frame: 0.0,
             rotate: [0.0; 3],
@@ -375,13 +403,13 @@ fn fast_head_whips() {
     ];
     let s = scene((10.0, 110.0), (0.0, 360.0), 60, 18, 18.0, d.clone());
     let r = run(&s, 200);
-    let pose = kami::forces::head_at(&d.head_motion, DVec3::ZERO, 200.0);
+    let pose = kami::forces::head_at(&d.f.head_motion, DVec3::ZERO, 200.0);
     no_node_inside(&r, pose);
     moved(&r, 0.3);
     settles(&r, 0.05);
     // `run` checked after every frame that the roots sit on the posed head and no node is
     // inside it; that means something only while the head is away from rest, mid-whip.
-    let mid = kami::forces::head_at(&d.head_motion, DVec3::ZERO, 2.0);
+    let mid = kami::forces::head_at(&d.f.head_motion, DVec3::ZERO, 2.0);
     let turned = mid.transform_vector3(DVec3::Z).angle_between(DVec3::Z);
     assert!(turned > 0.5, "mid-whip the head turned only {turned} rad");
     assert!(
@@ -395,7 +423,7 @@ fn pores_at_the_poles_and_hair_hanging_straight_down() {
     // Pores round the bottom pole with hair hanging straight down (theta = pi, v_i -> 0):
     // a sideways force must still move it (the azimuth equation alone would not).
     let mut d = dynamics([0.0, 0.0, 0.0]);
-    d.wind = vec![
+    d.f.wind = vec![
         WindKey {
             frame: 0.0,
             force: [0.0, -200.0, 0.0],
@@ -564,7 +592,7 @@ fn rigid_pendulum_period_matches_elliptic_integral() {
 fn gpu_hard_cases_stay_finite_and_outside() {
     let gpu = common::gpu();
     let mut whip = dynamics([3e4, -1e4, 0.0]);
-    whip.head_motion = vec![
+    whip.f.head_motion = vec![
         HeadKey {
             frame: 0.0,
             rotate: [0.0; 3],
@@ -607,9 +635,7 @@ fn gpu_hard_cases_stay_finite_and_outside() {
     for s in &cases {
         let input = prepare(s).unwrap();
         let v = run_gpu(gpu, s, &input, 30);
-        let pose =
-            kami::forces::head_at(&s.dynamics.as_ref().unwrap().head_motion, DVec3::ZERO, 30.0)
-                .inverse();
+        let pose = kami::forces::head_at(&s.forces.head_motion, DVec3::ZERO, 30.0).inverse();
         let offsets = input.vertex_offsets();
         for (i, r) in input.roots.iter().enumerate() {
             for j in offsets[i]..offsets[i + 1] {

@@ -244,12 +244,9 @@ fn edits_are_classified_by_what_they_touch() {
         with(&|s| s.strips.as_mut().unwrap().look.specular[0] = 0.9),
         Change::Redraw
     );
+    assert_eq!(with(&|s| s.forces.gravity[1] = -500.0), Change::Resimulate);
     assert_eq!(
-        with(&|s| s.strips.as_mut().unwrap().motion.gravity[1] = -500.0),
-        Change::Resimulate
-    );
-    assert_eq!(
-        with(&|s| s.eff.as_mut().unwrap().gust.clear()),
+        with(&|s| s.forces.eff.as_mut().unwrap().gust.clear()),
         Change::Resimulate
     );
     // A key-frame edit re-solves its extra force; the viewer then replays the clip.

@@ -7,8 +7,8 @@ use crate::common;
 
 use glam::{DMat4, DQuat, DVec3};
 use kami::bench::capture;
-use kami::bvh::{self, Bvh, HeadCapture, Mapping, CMU_CM_PER_UNIT};
 use kami::forces::eff::Eff;
+use kami::scene::bvh::{self, Bvh, HeadCapture, Mapping, CMU_CM_PER_UNIT};
 use kami::systems::strips::capture::{
     capture_of, field_error, marker_points, motion_error, wind_samples, Capture,
 };
@@ -630,15 +630,15 @@ fn head_capture_bad_values_are_refused() {
         KamiError::Invalid { field: f, .. } => assert_eq!(f, field),
         e => panic!("{e}"),
     };
-    invalid(run(&|h| h.scale = 0.0), "head_capture.scale");
-    invalid(run(&|h| h.fps = f64::NAN), "head_capture.fps");
+    invalid(run(&|h| h.scale = 0.0), "forces.head_capture.scale");
+    invalid(run(&|h| h.fps = f64::NAN), "forces.head_capture.fps");
     invalid(
         run(&|h| h.translate = f64::INFINITY),
-        "head_capture.translate",
+        "forces.head_capture.translate",
     );
-    invalid(run(&|h| h.start = 2752), "head_capture.start");
-    invalid(run(&|h| h.frames = Some(689)), "head_capture.frames");
-    invalid(run(&|h| h.frames = Some(0)), "head_capture.frames");
+    invalid(run(&|h| h.start = 2752), "forces.head_capture.start");
+    invalid(run(&|h| h.frames = Some(689)), "forces.head_capture.frames");
+    invalid(run(&|h| h.frames = Some(0)), "forces.head_capture.frames");
     data_err(
         run(&|h| h.joint = "Hed".into()),
         CMU,
@@ -956,7 +956,7 @@ fn strips_turn_scene_swings_the_hair() {
     use kami::forces::Forces;
     use kami::systems::strips::{dynamics, hom};
     let scene = turn_scene();
-    assert_eq!(scene.head_capture.as_ref().unwrap().keys.len(), 90);
+    assert_eq!(scene.forces.head_capture.as_ref().unwrap().keys.len(), 90);
     let forces = Forces::from_scene(&scene);
     assert!(forces.head_moves());
     // A few degrees of drift to frame 12 (measured 5° at frame 8), the fast part of the turn

@@ -164,7 +164,7 @@ fn the_timeline_grabs_keys_and_scrubs_elsewhere() {
 fn eff_strokes_become_samples_and_repeat_without_piling_up() {
     let mut scene = common::scene("strips");
     let field = kami::forces::Forces::from_scene(&scene).eff.unwrap();
-    let desc = scene.eff.as_mut().unwrap();
+    let desc = scene.forces.eff.as_mut().unwrap();
     let before = desc.samples.len();
     let center = field.cell_center(field.index([3, 4, 5]));
     let force = DVec3::new(0.0, 900.0, 0.0);
@@ -178,7 +178,7 @@ fn eff_strokes_become_samples_and_repeat_without_piling_up() {
     let at = built.cells()[built.index([3, 4, 5])];
     assert!((at - force).length() < 1e-6, "{at} vs {force}");
     // Once more at the same place, with a new force: as many samples, the new force.
-    let desc = scene.eff.as_mut().unwrap();
+    let desc = scene.forces.eff.as_mut().unwrap();
     let again = DVec3::new(-500.0, 0.0, 0.0);
     let m = panel::paint_into(desc, &built, center, 1.6 * field.cell_size().x, again);
     assert_eq!(m, n);

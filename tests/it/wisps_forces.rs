@@ -315,7 +315,7 @@ fn toon_wind_blows_the_wisps_downwind() {
     );
     let frames = 16;
     let mut still = scene.clone();
-    still.dynamics.as_mut().unwrap().wind.clear();
+    still.forces.wind.clear();
     let (windy, strips_windy) = run_stage(&scene, frames);
     let (calm, strips_calm) = run_stage(&still, frames);
     let drift = |run: &[Vec<DVec3>]| -> Vec<f64> {
@@ -587,7 +587,7 @@ fn bad_wisps_forces_and_roots_are_refused() {
         &own("(0.0, -900.0, 0.0)"),
         "old_toon.ron",
         "wisps.springs.gravity",
-        "dynamics.gravity",
+        "forces.gravity",
     );
     // Equal to the shared gravity: accepted (with a warning), and not written back.
     let loaded = Scene::from_ron(&own("(0.0, -980.0, 0.0)"), "old_toon.ron").unwrap();
@@ -597,7 +597,7 @@ fn bad_wisps_forces_and_roots_are_refused() {
         !part[..part.find(')').unwrap()].contains("gravity"),
         "the old field was written back: {part}"
     );
-    // Without a shared gravity (none in dynamics: zero) an old file's -980 is refused.
+    // Without a shared gravity (none in the forces block: zero) an old file's -980 is refused.
     let shared = "        gravity: (0.0, -980.0, 0.0),\n";
     assert!(shake.contains(shared));
     refused_text(
@@ -650,39 +650,39 @@ fn forces_edits_are_classified() {
         classify(&shake, &s)
     };
     let wind = edit(&|s| {
-        s.dynamics.as_mut().unwrap().wind = vec![WindKey {
+        s.forces.wind = vec![WindKey {
             frame: 3.0,
             force: [100.0, 0.0, 0.0],
             interp: Interp::Step,
         }]
     });
-    let head_motion = edit(&|s| s.dynamics.as_mut().unwrap().head_motion.truncate(2));
-    let gravity = edit(&|s| s.dynamics.as_mut().unwrap().gravity = [0.0, -500.0, 0.0]);
-    let no_dynamics = edit(&|s| s.dynamics = None);
+    let head_motion = edit(&|s| s.forces.head_motion.truncate(2));
+    let gravity = edit(&|s| s.forces.gravity = [0.0, -500.0, 0.0]);
+    let no_forces = edit(&|s| s.forces = Default::default());
     let mesh = edit(&|s| s.head = common::scene("toon_mesh_head").head);
     let mut with_eff = shake.clone();
-    with_eff.eff = Some(eff::front_left_gust());
+    with_eff.forces.eff = Some(eff::front_left_gust());
     let add_eff = classify(&shake, &with_eff);
     let mut stronger = with_eff.clone();
-    stronger.eff.as_mut().unwrap().blowers[0].strength *= 2.0;
+    stronger.forces.eff.as_mut().unwrap().blowers[0].strength *= 2.0;
     let cells = classify(&with_eff, &stronger);
     let mut finer = with_eff.clone();
-    finer.eff.as_mut().unwrap().resolution = [16, 16, 16];
+    finer.forces.eff.as_mut().unwrap().resolution = [16, 16, 16];
     let grid = classify(&with_eff, &finer);
     let mut gust = with_eff.clone();
-    gust.eff.as_mut().unwrap().gust = vec![GustKey {
+    gust.forces.eff.as_mut().unwrap().gust = vec![GustKey {
         frame: 0.0,
         scale: 2.0,
         interp: Interp::Step,
     }];
     let gust_keys = classify(&with_eff, &gust);
     eprintln!(
-        "wind {wind:?}, head motion {head_motion:?}, gravity {gravity:?}, no dynamics {no_dynamics:?}, mesh head {mesh:?}, EFF added {add_eff:?}, cells {cells:?}, grid {grid:?}, gust keys {gust_keys:?}"
+        "wind {wind:?}, head motion {head_motion:?}, gravity {gravity:?}, no forces {no_forces:?}, mesh head {mesh:?}, EFF added {add_eff:?}, cells {cells:?}, grid {grid:?}, gust keys {gust_keys:?}"
     );
     assert_eq!(wind, Change::None);
     assert_eq!(head_motion, Change::None);
     assert_eq!(gravity, Change::Rebuild);
-    assert_eq!(no_dynamics, Change::Rebuild);
+    assert_eq!(no_forces, Change::Rebuild);
     assert_eq!(mesh, Change::Rebuild);
     assert_eq!(add_eff, Change::Rebuild);
     assert_eq!(cells, Change::Resimulate);

@@ -34,7 +34,7 @@ pub const SPEED_LIMIT: f64 = 4.0;
 
 /// Tips of every strip at every frame (index frame × strips + strip) and the top rate.
 fn tips(setup: &Setup, motion: &Motion, frames: u32) -> Result<(Vec<DVec3>, f64, u64)> {
-    let mut rig = Rig::posed(&setup.rest, motion, &setup.head)?;
+    let mut rig = Rig::posed(&setup.rest, motion, &setup.head, setup.forces.gravity)?;
     rig.set_pose(setup.forces.head_at(0.0));
     let mut out = Vec::new();
     let mut top: f64 = 0.0;
@@ -160,7 +160,12 @@ pub fn largest_stable_dt(setup: &Setup, seconds: f64, cap: f64) -> Result<f64> {
     let limit = SPEED_LIMIT * top.max(1e-9);
     let ft = setup.motion.frame_time;
     let stable_at = |dt: f64| -> Result<bool> {
-        let mut rig = Rig::posed(&setup.rest, &setup.motion, &setup.head)?;
+        let mut rig = Rig::posed(
+            &setup.rest,
+            &setup.motion,
+            &setup.head,
+            setup.forces.gravity,
+        )?;
         rig.set_pose(setup.forces.head_at(0.0));
         let steps = (seconds / dt).ceil() as u64;
         for i in 0..steps {

@@ -174,7 +174,7 @@ pub fn prepare(scene: &Scene) -> Result<GroomInput> {
     let head = scene.head_ellipsoid();
     let head_mesh = crate::scene::hull::head_mesh(&scene.head)?;
     let gravity = ResolvedLoad {
-        field: LoadField::Uniform(DVec3::from(scene.gravity)),
+        field: LoadField::Uniform(DVec3::from(scene.groom_load)),
         planes: vec![],
     };
     let mut roots = Vec::new();

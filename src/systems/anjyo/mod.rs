@@ -257,8 +257,9 @@ pub fn materials(scene: &Scene) -> Vec<GpuMaterial> {
 }
 
 /// What an edit asks of the strands: pores, lengths, rigidity, loads, cuts, head, grooming
-/// gravity or per-strand k_a re-groom (and restart the motion from the new rest pose);
-/// dynamics switched on or off, or a new guide share, rebuild; dynamics parameters act from the next step;
+/// load or per-strand k_a re-groom (and restart the motion from the new rest pose);
+/// dynamics switched on or off, or a new guide share, rebuild; dynamics parameters and the
+/// world's gravity, wind and head motion act from the next step;
 /// colours, k_s, n and widths are new uniforms.
 pub fn classify(old: &Scene, new: &Scene) -> Change {
     // Groups with their look-only fields made equal: what is left is the groom.
@@ -270,17 +271,25 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
             g.material.ka = ka;
             g.material.ka_spread = spread;
         }
-        (s.seed, s.head.center, s.head.radii, s.gravity, groups)
+        (s.seed, s.head.center, s.head.radii, s.groom_load, groups)
     };
     let looks = |s: &Scene| -> Vec<_> { s.groups.iter().map(|g| g.material.clone()).collect() };
     // The guide share decides which strands are simulated: a new set-up.
     let guides = |s: &Scene| s.dynamics.as_ref().map(|d| d.guides);
+    // The world's forces the dynamics read each step (the EFF and a capture: the stage's).
+    let world = |s: &Scene| {
+        (
+            s.forces.gravity,
+            s.forces.wind.clone(),
+            s.forces.head_motion.clone(),
+        )
+    };
     if groom_view(old) != groom_view(new)
         || old.dynamics.is_some() != new.dynamics.is_some()
         || guides(old) != guides(new)
     {
         Change::Rebuild
-    } else if old.dynamics != new.dynamics {
+    } else if old.dynamics != new.dynamics || (new.dynamics.is_some() && world(old) != world(new)) {
         Change::Resimulate
     } else if looks(old) != looks(new) || old.render.strands != new.render.strands {
         Change::Redraw

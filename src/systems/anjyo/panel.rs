@@ -111,10 +111,13 @@ fn need_dynamics(ui: &mut Ui, scene: &mut Scene) -> bool {
         ui.label("this scene is static");
         if ui.button("Enable dynamics").clicked() {
             scene.dynamics = Some(Dynamics {
-                gravity: [0.0, -150.0, 0.0],
                 damping: 0.5,
                 ..Default::default()
             });
+            // Hair set moving falls: a weightless world gets a gentle gravity (Forces panel).
+            if scene.forces.gravity == [0.0; 3] {
+                scene.forces.gravity = [0.0, -150.0, 0.0];
+            }
         }
         return false;
     }

@@ -584,7 +584,7 @@ pub fn motion_error(a: &Capture, b: &Capture) -> (f64, f64) {
 pub const FIT_STEP: usize = 1;
 
 /// Markers of `strips` simulated for `frames` frames in the EFF `eff` (still air without
-/// one) plus a uniform wind `uniform`, on a still default head, passed through the marker
+/// one) plus a uniform wind `uniform`, under Earth's gravity on a still default head, passed through the marker
 /// file's text (4 decimals) so that what is fitted is exactly what a file would hold.
 pub fn simulate_markers(
     strips: &crate::scene::strips::Strips,
@@ -595,7 +595,8 @@ pub fn simulate_markers(
     let head = crate::scene::Head::default();
     let rest = super::hom::build(strips, &head)?;
     let forces = crate::forces::Forces {
-        gravity: DVec3::from(strips.motion.gravity),
+        // The capture studio is on Earth (the strips' gravity before it joined the forces).
+        gravity: DVec3::from(crate::scene::forces::EARTH_GRAVITY),
         wind: vec![crate::scene::WindKey {
             frame: 0.0,
             force: uniform.to_array(),

@@ -38,7 +38,8 @@
 //! number of steps per rendered frame (`steps_per_frame`), whatever the frame rate.
 //!
 //! **Forces (eq 2), accelerations at each control point** (world units / s²): gravity
-//! `motion.gravity`; the wind Ω of `Forces::wind_at_point` (uniform keyed wind + EFF); the
+//! `Forces::gravity` (the scene's `forces.gravity`); the wind Ω of `Forces::wind_at_point`
+//! (uniform keyed wind + EFF); the
 //! head motion Ξ, the inertial force of the head's acceleration at the point (the head
 //! frame's acceleration at that material point, a second difference of the keyed pose over
 //! ±max(frame_time, dt): linear keys have velocity kinks whose impulse this spreads over a
@@ -454,13 +455,6 @@ pub fn check_motion(m: &Motion) -> Result<()> {
             ));
         }
     }
-    if !m.gravity.iter().all(|g| g.is_finite()) {
-        return Err(invalid(
-            "strips.motion.gravity".into(),
-            format!("{:?}", m.gravity),
-            "finite numbers",
-        ));
-    }
     let spf = m.frame_time * m.steps_per_second;
     if spf > 1e6 {
         return Err(invalid(
@@ -663,12 +657,13 @@ impl Rig {
         })
     }
 
-    /// `new`, then gravity preloading on `head` when `motion.preload` asks for it: the rig
-    /// every simulation of a scene uses (CPU reference and GPU alike).
-    pub fn posed(rest: &[RestStrip], motion: &Motion, head: &Head) -> Result<Rig> {
+    /// `new`, then gravity preloading on `head` under the scene's `gravity`
+    /// (`Forces::gravity`) when `motion.preload` asks for it: the rig every simulation of a
+    /// scene uses (CPU reference and GPU alike).
+    pub fn posed(rest: &[RestStrip], motion: &Motion, head: &Head, gravity: DVec3) -> Result<Rig> {
         let mut rig = Rig::new(rest, motion)?;
         if motion.preload {
-            rig.preload(motion, head);
+            rig.preload(motion, head, gravity);
         }
         Ok(rig)
     }
@@ -682,9 +677,9 @@ impl Rig {
     /// head at its rest pose: head keys whose first pose is turned (not a capture, which
     /// starts at rest) see gravity from another side and swing from frame 0. Called on a
     /// fresh rig (state at Φg) by `posed`.
-    fn preload(&mut self, motion: &Motion, head: &Head) {
+    fn preload(&mut self, motion: &Motion, head: &Head, gravity: DVec3) {
         let still = Forces {
-            gravity: DVec3::ZERO,
+            gravity,
             wind: Vec::new(),
             head_motion: Vec::new(),
             center: DVec3::ZERO,
@@ -845,7 +840,7 @@ impl Rig {
     fn accel(&self, env: &Env, hf: &HeadFrame, s: usize, k: usize, x: DVec3) -> DVec3 {
         let m = env.motion;
         let st = &self.strips[s];
-        let mut a = DVec3::from(m.gravity);
+        let mut a = env.forces.gravity;
         a += env.forces.wind_at_point(x, hf.frame, m.sampling);
         a -= (hf.accel * DVec4::new(x.x, x.y, x.z, 1.0)).truncate();
         if m.spring > 0.0 {
@@ -1082,7 +1077,7 @@ pub fn simulate(
     frames: u32,
 ) -> Result<Vec<Vec<DVec3>>> {
     check_extra(extra)?;
-    let mut rig = Rig::posed(rest, motion, head)?;
+    let mut rig = Rig::posed(rest, motion, head, forces.gravity)?;
     rig.set_pose(forces.head_at(0.0));
     let mut out = Vec::with_capacity(frames as usize + 1);
     out.push(rig.points());
@@ -1177,7 +1172,7 @@ impl Setup {
             interp: Interp::Linear,
         };
         let forces = Forces {
-            gravity: DVec3::ZERO,
+            gravity: DVec3::from(crate::scene::forces::EARTH_GRAVITY),
             wind: vec![
                 key(0.0, [0.0; 3]),
                 key(6.0, [600.0, 0.0, 300.0]),

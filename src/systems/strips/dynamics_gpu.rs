@@ -127,6 +127,9 @@ pub struct DynamicsGpu {
     rig: Rig,
     motion: Motion,
     head: Head,
+    /// The scene's gravity (`Forces::gravity`) in the params uniform: taken from the forces
+    /// each `record`, rewritten only when it changes.
+    gravity: glam::DVec3,
     extra: Vec<ExtraForce>,
     rest_state: Vec<[f32; 4]>,
     rest_points: Vec<[f32; 4]>,
@@ -306,6 +309,7 @@ impl DynamicsGpu {
             joint_count,
             rig: rig.clone(),
             motion: motion.clone(),
+            gravity: glam::DVec3::ZERO,
             head: head.clone(),
             extra: Vec::new(),
             rest_state,
@@ -420,7 +424,7 @@ impl DynamicsGpu {
         Ok(())
     }
 
-    /// Take the forces' settings of `motion` (gravity, spring, collision, sampling, frame
+    /// Take the forces' settings of `motion` (spring, collision, sampling, frame
     /// time and step rate), the joints' constants of the rig (see `set_rig`) and the hull
     /// of `head`.
     pub fn update_params(&mut self, gpu: &Gpu, motion: &Motion, head: &Head) {
@@ -477,9 +481,9 @@ impl DynamicsGpu {
             row_stride: self.dims.0 * WORKGROUP,
             extras: self.extra.len() as u32,
             gravity: [
-                m.gravity[0] as f32,
-                m.gravity[1] as f32,
-                m.gravity[2] as f32,
+                self.gravity.x as f32,
+                self.gravity.y as f32,
+                self.gravity.z as f32,
                 m.spring as f32,
             ],
             hull_center: [
@@ -533,6 +537,10 @@ impl DynamicsGpu {
         })?;
         if steps == 0 || self.count == 0 {
             return Ok(());
+        }
+        if forces.gravity != self.gravity {
+            self.gravity = forces.gravity;
+            self.write_params(gpu);
         }
         if steps > self.capacity {
             let capacity = steps.next_power_of_two();

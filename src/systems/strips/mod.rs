@@ -109,7 +109,7 @@ pub const PANELS: &[Panel] = &[
     },
     Panel {
         title: "EFF",
-        open: |s| s.strips.is_some() && s.eff.is_some(),
+        open: |s| s.strips.is_some() && s.forces.eff.is_some(),
         adds: false,
         show: panel::eff,
     },
@@ -168,13 +168,7 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
     }
     // An edit's keys or target: solve the extra forces again (the viewer then replays
     // the clip, see `Stage::seek`), no new pipelines while a target is dragged.
-    if a.motion != b.motion
-        || a.edits != b.edits
-        || old.eff != new.eff
-        || old.head_capture != new.head_capture
-        || old.dynamics.as_ref().map(|d| (&d.wind, &d.head_motion))
-            != new.dynamics.as_ref().map(|d| (&d.wind, &d.head_motion))
-    {
+    if a.motion != b.motion || a.edits != b.edits || old.forces != new.forces {
         return Change::Resimulate;
     }
     if a.look != b.look {
@@ -213,7 +207,7 @@ impl StripsSystem {
         let forces = Forces::from_scene(scene);
         let rest = hom::build(&strips, &head)?;
         let solved = keyframe::solve(&rest, &strips.motion, &forces, &head, &strips.edits)?;
-        let rig = dynamics::Rig::posed(&rest, &strips.motion, &head)?;
+        let rig = dynamics::Rig::posed(&rest, &strips.motion, &head, forces.gravity)?;
         let eff = EffGpu::new(gpu, forces.eff.as_deref())?;
         let mut dynamics = dynamics_gpu::DynamicsGpu::new(gpu, &rig, &strips.motion, &head, &eff)?;
         dynamics.set_extra(gpu, &solved.iter().map(|s| s.extra).collect::<Vec<_>>())?;
@@ -322,7 +316,8 @@ impl HairSystem for StripsSystem {
                 // Everything that can fail first, so a refused edit leaves the GPU as it was.
                 let forces = Forces::from_scene(scene);
                 // τ, I1 and I2 act from the next step too: new joint constants, same pose.
-                let rig = dynamics::Rig::posed(&self.rest, &st.motion, &scene.head)?;
+                let rig =
+                    dynamics::Rig::posed(&self.rest, &st.motion, &scene.head, forces.gravity)?;
                 let solved =
                     keyframe::solve(&self.rest, &st.motion, &forces, &scene.head, &st.edits)?;
                 let extra: Vec<dynamics::ExtraForce> = solved.iter().map(|s| s.extra).collect();

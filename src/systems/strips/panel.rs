@@ -63,12 +63,7 @@ fn motion(ui: &mut Ui, st: &mut Strips) {
             .logarithmic(true)
             .text("collision κ (Ψ)"),
     );
-    ui.horizontal(|ui| {
-        ui.label("gravity");
-        for c in &mut m.gravity {
-            ui.add(DragValue::new(c).speed(10.0).range(-1e5..=1e5));
-        }
-    });
+    ui.label("gravity, wind and head motion: the Forces panel");
     ui.add(
         Slider::new(&mut m.steps_per_second, 15.0..=2000.0)
             .logarithmic(true)
@@ -244,7 +239,7 @@ pub fn built(
     scene: &Scene,
     cache: &mut Option<(EffDesc, std::sync::Arc<Eff>)>,
 ) -> Option<std::sync::Arc<Eff>> {
-    let desc = scene.eff.as_ref()?;
+    let desc = scene.forces.eff.as_ref()?;
     if let Some((d, e)) = cache.as_ref() {
         if d == desc {
             return Some(e.clone());
@@ -262,10 +257,10 @@ pub fn eff(ui: &mut Ui, cx: &mut PanelCx) {
         return;
     };
     let (scene, host) = (&mut *cx.scene, &mut *cx.host);
-    if scene.eff.is_none() {
+    if scene.forces.eff.is_none() {
         ui.label("this scene has no External Force Field");
         if ui.button("add one (a gust from the front-left)").clicked() {
-            scene.eff = Some(crate::forces::eff::front_left_gust());
+            scene.forces.eff = Some(crate::forces::eff::front_left_gust());
         }
         return;
     }
@@ -284,7 +279,7 @@ pub fn eff(ui: &mut Ui, cx: &mut PanelCx) {
         ));
     }
     ui.checkbox(&mut s.eff_arrows, "draw the cells as arrows in the view");
-    let Some(desc) = scene.eff.as_mut() else {
+    let Some(desc) = scene.forces.eff.as_mut() else {
         return;
     };
     if let Some(f) = &desc.file {
@@ -501,7 +496,11 @@ fn timeline(ui: &mut Ui, scene: &mut Scene, host: &mut crate::systems::ui::Host,
     };
     const RULER: f32 = 18.0;
     const ROW: f32 = 14.0;
-    let clip = scene.head_capture.as_ref().map(|h| h.keys.len() as u32);
+    let clip = scene
+        .forces
+        .head_capture
+        .as_ref()
+        .map(|h| h.keys.len() as u32);
     // While a key or the clock is held the timeline keeps its length: it would otherwise
     // grow under the pointer as the key (or the clock) moves right.
     let frames = s

@@ -138,7 +138,7 @@ impl KindUi for StripsUi {
                 if on && scene.strips.is_none() {
                     return Err("the scene has no strips".into());
                 }
-                if on && key == "eff.paint" && scene.eff.is_none() {
+                if on && key == "eff.paint" && scene.forces.eff.is_none() {
                     return Err("the scene has no EFF".into());
                 }
                 if key == "strips.edit" {
@@ -173,7 +173,7 @@ impl KindUi for StripsUi {
             return Ok(false);
         }
         if self.paint_eff {
-            if scene.eff.is_none() {
+            if scene.forces.eff.is_none() {
                 return Ok(false);
             }
             self.gesture.paint = Some(cursor);
@@ -247,7 +247,7 @@ impl KindUi for StripsUi {
                 return;
             };
             let field = panel::built(scene, &mut self.brush.cache);
-            if let (Some(field), Some(desc)) = (field, scene.eff.as_mut()) {
+            if let (Some(field), Some(desc)) = (field, scene.forces.eff.as_mut()) {
                 let dir = (b - a).normalize_or_zero();
                 let b_ = &self.brush;
                 let n = panel::paint_into(desc, &field, b, b_.radius, dir * b_.strength);

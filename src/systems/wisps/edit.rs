@@ -91,7 +91,8 @@ pub fn check(w: &Wisps) -> std::result::Result<(), String> {
     let probe = Scene {
         seed: 0,
         head: Head::default(),
-        gravity: [0.0, -1.0, 0.0],
+        groom_load: [0.0, -1.0, 0.0],
+        forces: Default::default(),
         groups: Vec::new(),
         camera: CameraDesc::default(),
         light: Light::default(),
@@ -100,8 +101,6 @@ pub fn check(w: &Wisps) -> std::result::Result<(), String> {
         fur: None,
         wisps: Some(w.clone()),
         strips: None,
-        eff: None,
-        head_capture: None,
     };
     crate::scene::validate(&probe).map_err(|e| e.to_string())
 }

@@ -156,7 +156,7 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
             w.toon = Default::default();
             w.march = Default::default();
             w.threshold = 0.0;
-            let gravity = s.dynamics.as_ref().map(|d| d.gravity);
+            let gravity = s.forces.gravity;
             let moving = w.springs.is_some();
             (
                 w,
@@ -170,7 +170,7 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
     let moving = new.wisps.as_ref().is_some_and(|w| w.springs.is_some());
     if shape(old) != shape(new) {
         Change::Rebuild
-    } else if moving && old.eff != new.eff {
+    } else if moving && old.forces.eff != new.forces.eff {
         Change::Resimulate
     } else if old.wisps != new.wisps {
         Change::Redraw
@@ -213,8 +213,8 @@ impl WispsSystem {
                 if forces.gravity == DVec3::ZERO {
                     log::warn!(
                         "the wisps' springs feel no gravity: the scene's shared gravity \
-                         (dynamics.gravity) is zero (set dynamics: Some(Dynamics(gravity: \
-                         (0.0, -980.0, 0.0))) for the weight in cm/s²)"
+                         (forces.gravity) is zero (set forces: ForcesDesc(gravity: \
+                         (0.0, -980.0, 0.0)) for the weight in cm/s²)"
                     );
                 }
                 // The natural lengths are solved here (eq 24), once per build, under the

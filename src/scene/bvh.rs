@@ -12,8 +12,8 @@
 //! cannot be used is refused with the line where it broke; counts are checked before
 //! anything is reserved.
 
+use super::forces::{HeadKey, Interp};
 use crate::error::{KamiError, Result};
-use crate::scene::{HeadKey, Interp};
 use glam::{DMat3, DMat4, DQuat, DVec3, EulerRot};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -507,7 +507,7 @@ fn one_u32() -> u32 {
 fn invalid(field: &str, value: impl std::fmt::Display, allowed: &str) -> KamiError {
     KamiError::Invalid {
         file: String::new(),
-        field: format!("head_capture.{field}"),
+        field: format!("forces.head_capture.{field}"),
         value: value.to_string(),
         allowed: allowed.to_string(),
     }
