@@ -13,7 +13,7 @@ use crate::bench::plot::{self, Series};
 use crate::error::Result;
 use crate::forces::Forces;
 use crate::gpu::Gpu;
-use crate::scene::strips::Sampling;
+use crate::scene::Sampling;
 use crate::scene::Scene;
 use crate::stage::{self, target, Quality, Stage};
 use crate::systems::strips::dynamics::{self, Setup};

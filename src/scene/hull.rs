@@ -163,7 +163,7 @@ pub fn in_scalp(regions: &[ScalpRegion], center: DVec3, p: DVec3) -> bool {
 /// Read the mesh file a source names.
 pub fn load_source(source: &MeshSource) -> Result<Mesh> {
     match source {
-        MeshSource::Critter => Ok(crate::systems::fur::critter::critter()),
+        MeshSource::Critter => Ok(super::critter::critter()),
         MeshSource::File(path) => Mesh::load(path),
         MeshSource::CgalDemo(name) => {
             let dir = std::env::temp_dir().join("kami-cgal-data");

@@ -13,6 +13,7 @@
 //! ratios matter to the bending).
 
 pub mod bvh;
+pub mod critter;
 pub mod eff;
 pub mod forces;
 pub mod fur;

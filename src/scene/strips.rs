@@ -11,7 +11,7 @@
 
 use serde::{Deserialize, Serialize};
 
-pub use super::eff::Sampling;
+use super::eff::Sampling;
 
 /// Strips of a scene.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -9,9 +9,9 @@ use kami::gpu::{Gpu, Preference};
 use kami::systems::fur::generate::FurGpu;
 use kami::systems::fur::setup::{slot_hair, FurSetup, HairPoints};
 use std::alloc::{GlobalAlloc, Layout};
-use std::cell::Cell;
+use std::cell::{Cell, RefCell};
 use std::path::{Path, PathBuf};
-use std::sync::OnceLock;
+use std::sync::{Mutex, MutexGuard, OnceLock};
 
 /// The device every test shares: one per process, so one per backend (`KAMI_BACKEND` is
 /// read once, when the first test asks). A software adapter (llvmpipe or lavapipe), made
@@ -29,9 +29,33 @@ use std::sync::OnceLock;
 /// Without a software adapter, wgpu would hand over a hardware one, whose images and f32
 /// rounding differ from those the snapshot tolerances were measured on: that fails too,
 /// unless `KAMI_TEST_HARDWARE=1` asks for it, and then the binary says so on stderr.
+///
+/// On GL the tests take turns: wgpu's GL backend runs every call under one EGL context lock
+/// and panics after 6 s without it ("Could not lock adapter context"), so one test's long
+/// frame or fence wait would fail another's `create_buffer`. A test's first `gpu()` takes a
+/// process-wide turn that its thread keeps until it ends (the harness runs each test on a
+/// thread of its own); no test shares the device with a thread it spawns.
 pub fn gpu() -> &'static Gpu {
     static GPU: OnceLock<Gpu> = OnceLock::new();
-    GPU.get_or_init(new_gpu)
+    let gpu = GPU.get_or_init(new_gpu);
+    if gpu.info.backend == wgpu::Backend::Gl {
+        GL_TURN_HELD.with(|held| {
+            let mut held = held.borrow_mut();
+            if held.is_none() {
+                // A test that panicked in its turn leaves nothing half-done on the device.
+                *held = Some(GL_TURN.lock().unwrap_or_else(|e| e.into_inner()));
+            }
+        });
+    }
+    gpu
+}
+
+/// Whose turn it is on the GL device (`gpu`).
+static GL_TURN: Mutex<()> = Mutex::new(());
+
+thread_local! {
+    /// This thread's turn on the GL device, released when the thread (the test) ends.
+    static GL_TURN_HELD: RefCell<Option<MutexGuard<'static, ()>>> = const { RefCell::new(None) };
 }
 
 fn new_gpu() -> Gpu {

@@ -13,7 +13,7 @@ use kami::forces::eff::{
 };
 use kami::forces::Forces;
 use kami::rng::pcg_hash;
-use kami::scene::strips::Sampling;
+use kami::scene::Sampling;
 use kami::scene::{Interp, WindKey};
 use std::path::PathBuf;
 

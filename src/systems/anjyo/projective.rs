@@ -81,7 +81,7 @@ pub struct StepForces {
 }
 
 /// How segments read the EFF.
-pub const EFF_SAMPLING: crate::scene::strips::Sampling = crate::scene::strips::Sampling::Trilinear;
+pub const EFF_SAMPLING: crate::scene::Sampling = crate::scene::Sampling::Trilinear;
 
 /// Forces of step `n` (from t_n to t_n + dt) split into `substeps`, for substep `s`.
 pub fn step_forces(forces: &Forces, dyn_: &Dynamics, n: u64, substeps: u32, s: u32) -> StepForces {

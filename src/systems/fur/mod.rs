@@ -14,7 +14,6 @@
 //! ribbon styles draw every k-th node by the same chord-error rule as strand hair (k per coat,
 //! from its longest hair's segment length); tubes keep all their segments.
 
-pub mod critter;
 pub mod draw;
 pub mod generate;
 pub mod panel;

@@ -78,7 +78,7 @@ impl FurSetup {
     /// Load or generate the mesh and allocate the roots of every coat.
     pub fn new(fur: &Fur, seed: u64) -> Result<FurSetup> {
         let mesh = match &fur.mesh {
-            MeshSource::Critter => super::critter::critter(),
+            MeshSource::Critter => crate::scene::critter::critter(),
             MeshSource::File(path) => Mesh::load(path)?,
             MeshSource::CgalDemo(name) => {
                 let dir = std::env::temp_dir().join("kami-cgal-data");

@@ -19,8 +19,9 @@ use crate::forces::eff::EffGpu;
 use crate::forces::Forces;
 use crate::gpu::{self, Gpu, WORKGROUP};
 use crate::scene::head::EPS_OUT;
-use crate::scene::strips::{Motion, Sampling};
+use crate::scene::strips::Motion;
 use crate::scene::Head;
+use crate::scene::Sampling;
 use crate::shaders::wgsl;
 use bytemuck::{Pod, Zeroable};
 

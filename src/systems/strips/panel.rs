@@ -7,7 +7,8 @@
 use super::tools::StripsUi;
 use crate::forces::eff::{Eff, EffDesc, EffSample, GustKey};
 use crate::forces::Forces;
-use crate::scene::strips::{Edit, Layer, Sampling, Strips};
+use crate::scene::strips::{Edit, Layer, Strips};
+use crate::scene::Sampling;
 use crate::scene::{Interp, Scene};
 use crate::systems::ui::{self, PanelCx};
 use egui::{Color32, ComboBox, DragValue, Slider, Ui};

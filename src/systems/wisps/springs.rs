@@ -46,9 +46,9 @@
 use crate::error::{KamiError, Result};
 use crate::forces::{wind_at, Forces};
 use crate::scene::hull::{head_hull, HeadHull};
-use crate::scene::strips::Sampling;
 use crate::scene::wisps::{Integrator, Springs, Wisps};
 use crate::scene::Head;
+use crate::scene::Sampling;
 use glam::{DMat4, DQuat, DVec3};
 use std::collections::HashSet;
 
