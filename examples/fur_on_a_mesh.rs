@@ -6,7 +6,7 @@
 use anyhow::Result;
 use glam::DVec3;
 use kami::gpu::{Gpu, Preference};
-use kami::scene::fur::MeshSource;
+use kami::scene::MeshSource;
 
 fn main() -> Result<()> {
     let mut args = std::env::args().skip(1);
@@ -26,7 +26,7 @@ fn main() -> Result<()> {
     for c in &mut fur.coats {
         c.material.width *= 0.7;
     }
-    kami::scene::validate(&scene)?;
+    kami::systems::scene::validate(&scene)?;
     // Frame the fitted mesh and its fur.
     let radius = 1.6 + 0.12;
     let fov = scene.camera.fov_y.to_radians();

@@ -14,7 +14,7 @@
 
 use crate::rng::Rng;
 use crate::scene::mesh::Mesh;
-use crate::scene::Scene;
+use crate::systems::Scene;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::{Cell, RefCell};
 use std::collections::HashSet;
@@ -401,7 +401,7 @@ pub fn check_groom(g: &crate::formats::Groom) -> Result<(), Finding> {
 /// What an accepted scene promises: every number finite (validate checks them all), and
 /// saving it gives a file that loads as the same scene.
 pub fn check_scene(s: &Scene) -> Result<(), Finding> {
-    if let Err(e) = crate::scene::validate(s) {
+    if let Err(e) = crate::systems::scene::validate(s) {
         return Err(Finding::new(
             "accepted scene fails validate",
             format!("accepted scene fails validate: {e}"),

@@ -28,4 +28,4 @@ pub mod stage;
 pub mod systems;
 
 pub use error::{KamiError, Result};
-pub use scene::Scene;
+pub use systems::Scene;

@@ -478,7 +478,7 @@ fn run(cli: Cli) -> Result<()> {
             if let Some(f) = supersample {
                 s.render.supersample = f;
             }
-            kami::scene::validate(&s)?;
+            kami::systems::scene::validate(&s)?;
             let size = size.unwrap_or(s.render.size);
             // Every output is checked before the GPU work, so a typo costs nothing.
             match frames {

@@ -19,9 +19,9 @@ use crate::error::{KamiError, Result};
 use crate::gpu::timing::Phase;
 use crate::gpu::view::ScreenView;
 use crate::gpu::{self, Gpu, Preference};
-use crate::scene::Scene;
 use crate::stage::{self, target::Offscreen, Look, Stage};
 use crate::systems::ui::{self as kind_ui, Mods, Tool};
+use crate::systems::Scene;
 use crate::systems::KINDS;
 use camera::OrbitCamera;
 use glam::DVec2;
@@ -82,7 +82,10 @@ pub fn run(options: ViewerOptions) -> Result<()> {
         Some(p) => (Scene::load(p)?, p.display().to_string()),
         None => (
             Scene::from_ron(DEFAULT_SCENE, "gust.ron (built in)")?,
-            "assets/scenes/gust.ron".to_string(),
+            // The shipped file behind it, found from any working directory (a reload reads it).
+            crate::bench::shipped("assets/scenes/gust.ron")
+                .display()
+                .to_string(),
         ),
     };
     for (_, set) in &options.sets {
@@ -536,7 +539,7 @@ fn apply(g: &mut Gfx, state: &mut ViewerState) -> Result<()> {
     if state.scene == *g.stage.scene() || g.refused.as_ref() == Some(&state.scene) {
         return Ok(());
     }
-    if let Err(e) = crate::scene::validate(&state.scene) {
+    if let Err(e) = crate::systems::scene::validate(&state.scene) {
         // Keep what is drawn; say what is wrong.
         state.host.error = Some(e.to_string());
         return Ok(());

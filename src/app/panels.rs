@@ -7,8 +7,9 @@
 //! per system (`systems::Change`) and applies it.
 
 use super::params::{Request, ViewerState};
-use crate::scene::{Interp, Scene, WindKey};
+use crate::scene::{Interp, WindKey};
 use crate::systems::ui::PanelCx;
+use crate::systems::Scene;
 use crate::systems::{Panel, KINDS};
 use egui::{Color32, Slider, Ui};
 

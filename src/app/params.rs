@@ -6,8 +6,9 @@
 //! viewer holds it without knowing its type.
 
 use crate::error::{KamiError, Result};
-use crate::scene::{Dynamics, Interp, Scene, WindKey};
+use crate::scene::{Interp, WindKey};
 use crate::systems::ui::{self, Host, KindUi};
+use crate::systems::Scene;
 use crate::systems::KINDS;
 
 /// An exponential moving average of a frame-time measurement, for the Stats panel.
@@ -208,8 +209,8 @@ impl ViewerState {
     /// Apply a `--set KEY=VALUE` override through the same path as the panels: it edits the
     /// state, and the window loop classifies and applies the change. Each kind's keys come
     /// first (`KindUi::set`, listed on each kind's implementation), then the viewer's own:
-    /// `wind=x,y,z` and `gravity=x,y,z` (the scene's `forces` block; on a
-    /// scene with hair groups they set still groups moving), `msaa=1|4`, `supersample=f`,
+    /// `wind=x,y,z` and `gravity=x,y,z` (the scene's `forces` block; each kind's
+    /// `KindUi::force_set` may set its still hair moving), `msaa=1|4`, `supersample=f`,
     /// `strands=ribbons|compute`, `play=on|off`, `lod=fraction` (fixed, 0..1),
     /// `seek=FRAME`, `save=FILE`, `export=FILE`, and scripted mouse events
     /// `mouse.press=x,y`, `mouse.move=x,y`, `mouse.release` (window pixels).
@@ -234,7 +235,7 @@ impl ViewerState {
             None => match key {
                 "wind" => {
                     let w = nums(3)?;
-                    moving(&mut next);
+                    self.kinds.iter_mut().for_each(|k| k.force_set(&mut next));
                     next.forces.wind = vec![WindKey {
                         frame: 0.0,
                         force: [w[0], w[1], w[2]],
@@ -243,7 +244,7 @@ impl ViewerState {
                 }
                 "gravity" => {
                     let g = nums(3)?;
-                    moving(&mut next);
+                    self.kinds.iter_mut().for_each(|k| k.force_set(&mut next));
                     next.forces.gravity = [g[0], g[1], g[2]];
                 }
                 "msaa" => next.render.msaa = int()?,
@@ -277,22 +278,9 @@ impl ViewerState {
                 _ => return Err(bad(format!("unknown key {key:?}"))),
             },
         }
-        crate::scene::validate(&next).map_err(|e| bad(e.to_string()))?;
+        crate::systems::scene::validate(&next).map_err(|e| bad(e.to_string()))?;
         self.scene = next;
         Ok(())
-    }
-}
-
-/// The scene's dynamics, created with defaults if absent.
-fn dynamics(scene: &mut Scene) -> &mut Dynamics {
-    scene.dynamics.get_or_insert_with(Dynamics::default)
-}
-
-/// A force set on hair groups that stand still sets them moving (as it did when the forces
-/// sat in their dynamics block).
-fn moving(scene: &mut Scene) {
-    if !scene.groups.is_empty() {
-        dynamics(scene);
     }
 }
 
@@ -351,5 +339,18 @@ mod tests {
             s.scene, before,
             "a refused --set leaves the scene as it was"
         );
+    }
+
+    /// A world force set from the command line on still hair groups sets them moving
+    /// (Anjyo's `KindUi::force_set`), and the viewer itself names no kind for it.
+    #[test]
+    fn a_force_set_on_still_groups_sets_them_moving() {
+        for key in ["wind=0,0,-300", "gravity=0,-980,0"] {
+            let mut still = gust();
+            still.dynamics = None;
+            let mut s = ViewerState::new(still, String::new());
+            s.apply_set(key).unwrap();
+            assert!(s.scene.dynamics.is_some(), "{key}");
+        }
     }
 }

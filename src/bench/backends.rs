@@ -5,7 +5,7 @@
 use super::{provenance, write_report, Report};
 use crate::error::{KamiError, Result};
 use crate::gpu::{Gpu, Preference};
-use crate::scene::Scene;
+use crate::systems::Scene;
 use std::fmt::Write;
 use std::path::Path;
 

@@ -20,8 +20,8 @@ pub const ROUND_TRIP_FRAMES: u32 = 30;
 /// The strands of the round trip: the paper's 27 motion strands as three layers of the
 /// layer model (under, middle, crown) of different lengths, so that they carry 4 to 10
 /// markers, on Kami's default head.
-pub fn round_trip_strips() -> crate::scene::strips::Strips {
-    use crate::scene::strips::{Layer, Motion, Strips};
+pub fn round_trip_strips() -> crate::systems::strips::block::Strips {
+    use crate::systems::strips::block::{Layer, Motion, Strips};
     let layer = |name: &str, polar: f64, azimuth: [f64; 2], length: f64, droop: f64| Layer {
         name: name.into(),
         count: 9,

@@ -6,10 +6,10 @@
 use super::{cpu_name, time_mean, Report};
 use crate::error::Result;
 use crate::gpu::Gpu;
-use crate::scene::fur::FurStyle;
-use crate::scene::Scene;
 use crate::stage::{self, target, Look, Quality, Stage};
+use crate::systems::fur::block::FurStyle;
 use crate::systems::fur::FurSystem;
+use crate::systems::Scene;
 use crate::systems::{FrameCtx, HairSystem, View};
 use glam::DVec3;
 use image::RgbaImage;

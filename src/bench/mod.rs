@@ -17,12 +17,13 @@ pub mod wisps;
 
 use crate::error::Result;
 use crate::gpu::Gpu;
-use crate::scene::{Bending, Scene};
 use crate::stage::{target, Quality, Stage};
+use crate::systems::anjyo::block::Bending;
 use crate::systems::anjyo::cantilever::{self, Beam};
 use crate::systems::anjyo::cantilever_gpu::CantileverPass;
 use crate::systems::anjyo::elastica;
 use crate::systems::anjyo::groom::prepare;
+use crate::systems::Scene;
 use glam::DVec3;
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
@@ -367,7 +368,7 @@ pub fn elliptic_k(k: f64) -> f64 {
 /// period 4 K(sin(amplitude/2)) / omega0).
 pub fn pendulum_periods(amplitude: f64, dt: f64) -> (f64, f64) {
     use crate::systems::anjyo::projective::{CpuSim, DynSetup, DynStrand};
-    let params = crate::scene::Dynamics {
+    let params = crate::systems::anjyo::block::Dynamics {
         dt,
         collision: false,
         ..Default::default()
@@ -431,7 +432,8 @@ pub fn pendulum_periods(amplitude: f64, dt: f64) -> (f64, f64) {
 // ---------------------------------------------------------------------------------------
 // Dynamics: speed against error
 
-use crate::scene::{HeadKey, Interp, Roots, WindKey};
+use crate::scene::{HeadKey, Interp, WindKey};
+use crate::systems::anjyo::block::Roots;
 use crate::systems::anjyo::projective::{step_forces, CpuSim, DynSetup};
 use crate::systems::anjyo::AnjyoSystem;
 
@@ -490,7 +492,7 @@ fn dynamic_cases(gust: &Scene) -> Vec<(String, Scene)> {
         g.count = 150;
         g.segments = 18;
         g.length = 18.0;
-        g.direction = crate::scene::Direction::Normal;
+        g.direction = crate::systems::anjyo::block::Direction::Normal;
         g.loads.clear();
         g.cuts.clear();
         s.forces.wind = wind;
@@ -512,7 +514,7 @@ fn dynamic_cases(gust: &Scene) -> Vec<(String, Scene)> {
         let d = free.dynamics.as_mut().unwrap();
         d.collision = false;
         d.pseudo_force = None;
-        free.groups[0].roots.on = Some(crate::scene::EllipsoidDesc {
+        free.groups[0].roots.on = Some(crate::systems::anjyo::block::EllipsoidDesc {
             center: [0.0, 40.0, 0.0],
             radii: [2.0, 2.0, 2.0],
         });

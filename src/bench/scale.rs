@@ -10,9 +10,9 @@ use super::{cpu_name, provenance, Report};
 use crate::error::{KamiError, Result};
 use crate::gpu::timing::{GpuTimer, PassTimes, Phase};
 use crate::gpu::Gpu;
-use crate::scene::Scene;
 use crate::stage::{self, target, Quality, Stage};
 use crate::systems::anjyo::AnjyoSystem;
+use crate::systems::Scene;
 use std::fmt::Write;
 use std::path::Path;
 use std::time::Instant;
@@ -99,7 +99,7 @@ pub fn scaled(base: &Scene, strands: u32, segments: u32) -> Result<Scene> {
         left -= c;
         g.segments = segments;
     }
-    crate::scene::validate(&s)?;
+    crate::systems::scene::validate(&s)?;
     Ok(s)
 }
 
@@ -299,7 +299,7 @@ pub fn run(gpu: &Gpu, base_path: &Path, sweep: &Sweep, out: &Path) -> Result<Rep
     if let Some(f) = sweep.supersample {
         base.render.supersample = f;
     }
-    crate::scene::validate(&base)?;
+    crate::systems::scene::validate(&base)?;
     if base.dynamics.is_none() || !base.groups.iter().any(|g| g.dynamic) {
         return Err(KamiError::Invalid {
             file: base_path.display().to_string(),

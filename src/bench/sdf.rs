@@ -8,7 +8,7 @@ use crate::bench::plot::{self, Series};
 use crate::error::Result;
 use crate::scene::hull::build_head_mesh;
 use crate::scene::sdf::Triangles;
-use crate::scene::Scene;
+use crate::systems::Scene;
 use glam::DVec3;
 use std::fmt::Write;
 use std::path::Path;

@@ -14,10 +14,10 @@ use crate::error::Result;
 use crate::forces::Forces;
 use crate::gpu::Gpu;
 use crate::scene::Sampling;
-use crate::scene::Scene;
 use crate::stage::{self, target, Quality, Stage};
 use crate::systems::strips::dynamics::{self, Setup};
 use crate::systems::strips::hom;
+use crate::systems::Scene;
 use glam::DVec3;
 use precision::PrecisionRow;
 use std::fmt::Write;
@@ -502,14 +502,14 @@ pub fn sampling_motion(scene: &Scene, frames: u32) -> Result<SamplingReport> {
             allowed: "a scene with strips".into(),
         });
     };
-    let forces = Forces::from_scene(scene);
+    let forces = Forces::new(&scene.forces, &scene.head);
     let rest = hom::build(st, &scene.head)?;
     let samplings = [Sampling::Nearest, Sampling::Trilinear];
     let mut clips = Vec::new();
     let mut ns_per_strip_step = [0.0; 2];
     let spf = dynamics::steps_per_frame(&st.motion);
     for (i, &sampling) in samplings.iter().enumerate() {
-        let motion = crate::scene::strips::Motion {
+        let motion = crate::systems::strips::block::Motion {
             sampling,
             ..st.motion.clone()
         };

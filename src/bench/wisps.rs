@@ -12,11 +12,11 @@ use super::{provenance, time_mean, write_report, Report};
 use crate::bench::plot::{self, Series};
 use crate::error::Result;
 use crate::gpu::Gpu;
-use crate::scene::wisps::{Distance, Skeleton};
-use crate::scene::Scene;
 use crate::stage::{self, target, Quality, Stage};
+use crate::systems::wisps::block::{Distance, Skeleton};
 use crate::systems::wisps::tiles::MarchStats;
 use crate::systems::wisps::WispsSystem;
+use crate::systems::Scene;
 use glam::{DQuat, DVec3};
 use image::RgbaImage;
 use std::fmt::Write;
@@ -459,7 +459,7 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
             .filter_map(|&i| w.skeletons.get(i).cloned())
             .collect();
         few.bundles.clear();
-        let forces = crate::forces::Forces::from_scene(&shake);
+        let forces = crate::forces::Forces::new(&shake.forces, &shake.head);
         let ladder = [16, 32, 64, 128];
         let rows = springs::work_precision(&few, &shake.head, &forces, 0.5, &ladder)?;
         let sp = few.springs.clone().unwrap_or_default();

@@ -11,7 +11,7 @@
 
 pub mod eff;
 
-use crate::scene::{HeadKey, Interp, Scene, WindKey};
+use crate::scene::{ForcesDesc, Head, HeadKey, Interp, WindKey};
 use glam::{DMat4, DQuat, DVec3, EulerRot};
 
 /// Wind force at `frame` (fractional).
@@ -87,8 +87,9 @@ pub struct Forces {
 }
 
 impl Forces {
-    pub fn from_scene(scene: &Scene) -> Forces {
-        let f = &scene.forces;
+    /// The world's forces of a scene's `forces` block, about its head (`head.center`, the
+    /// point head motion turns about).
+    pub fn new(f: &ForcesDesc, head: &Head) -> Forces {
         // Keyed head motion wins; else a head capture's keys (read when the scene loaded).
         let head_motion = match (&f.head_motion, &f.head_capture) {
             (keys, _) if !keys.is_empty() => keys.clone(),
@@ -99,8 +100,8 @@ impl Forces {
             gravity: DVec3::from(f.gravity),
             wind: f.wind.clone(),
             head_motion,
-            center: DVec3::from(scene.head.center),
-            eff: eff_of(scene),
+            center: DVec3::from(head.center),
+            eff: eff_of(f),
         }
     }
 
@@ -140,8 +141,8 @@ impl Forces {
 }
 
 /// The scene's EFF, built (its files were read and checked when the scene was loaded).
-fn eff_of(scene: &Scene) -> Option<std::sync::Arc<eff::Eff>> {
-    let desc = scene.forces.eff.as_ref()?;
+fn eff_of(f: &ForcesDesc) -> Option<std::sync::Arc<eff::Eff>> {
+    let desc = f.eff.as_ref()?;
     match eff::Eff::build(desc) {
         Ok(e) => Some(std::sync::Arc::new(e)),
         Err(e) => {

@@ -10,7 +10,7 @@
 use super::head::{push_out_implicit, Ellipsoid, EPS_OUT};
 use super::mesh::Mesh;
 use super::sdf::{Sdf, Triangles};
-use super::{fur::MeshSource, Head, HeadMesh, ScalpRegion};
+use super::{Head, HeadMesh, MeshSource, ScalpRegion};
 use crate::error::{KamiError, Result};
 use glam::{DMat4, DVec3};
 use std::path::Path;

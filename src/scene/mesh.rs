@@ -1027,3 +1027,40 @@ fn obj_error_line(text: &str) -> Option<usize> {
     }
     None
 }
+
+/// Where a mesh comes from: a fur block's body or a mesh head.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub enum MeshSource {
+    /// Kami's own furry critter (no download needed).
+    Critter,
+    /// An OBJ, OFF or PLY file; a relative path is taken from the scene file's folder.
+    File(String),
+    /// A mesh of the CGAL demo data in Debian's `libcgal-demo` (e.g. "lion-head.off"),
+    /// extracted on first use into the system's temporary folder.
+    CgalDemo(String),
+    /// A skinned, animated glTF 2.0 mesh (`.gltf` or `.glb`; relative to the scene file's
+    /// folder): the first node with a mesh and a skin, posed by `animation` (by name; absent:
+    /// the file's first one) with linear blend skinning, looping. Scene frames are
+    /// converted to seconds by `fps`. See docs/fur_skinned.md.
+    Gltf {
+        file: String,
+        #[serde(default)]
+        animation: Option<String>,
+        #[serde(default = "fps")]
+        fps: f64,
+    },
+}
+
+fn fps() -> f64 {
+    24.0
+}
+
+impl MeshSource {
+    /// The file named relative to the scene file, if the source is a file.
+    pub fn file_mut(&mut self) -> Option<&mut String> {
+        match self {
+            MeshSource::File(f) | MeshSource::Gltf { file: f, .. } => Some(f),
+            _ => None,
+        }
+    }
+}

@@ -22,7 +22,7 @@ use crate::forces::Forces;
 use crate::gpu::gpu_data::{linear_rgb, GpuFrame};
 use crate::gpu::timing::{GpuTimer, Phase};
 use crate::gpu::{self, Gpu};
-use crate::scene::Scene;
+use crate::systems::Scene;
 use crate::systems::{Change, DrawSetup, FrameCtx, HairSystem, StepInfo, SystemStats, View, KINDS};
 use camera::Camera;
 use glam::{DMat4, DVec3};
@@ -177,7 +177,7 @@ impl Stage {
         let frame_bind_group =
             gpu::pipeline::bind_buffers(device, "frame", &frame_layout, &[&frame_buffer]);
         let mut stage = Stage {
-            forces: Forces::from_scene(scene),
+            forces: Forces::new(&scene.forces, &scene.head),
             scene: scene.clone(),
             frame: 0,
             systems: Vec::new(),
@@ -469,7 +469,7 @@ impl Stage {
             }
         }
         self.scene = new.clone();
-        self.forces = Forces::from_scene(new);
+        self.forces = Forces::new(&new.forces, &new.head);
         self.ensure_head(gpu)?;
         if applied.restarted {
             // Systems built just now are at rest already.

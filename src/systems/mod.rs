@@ -1,19 +1,21 @@
-//! Hair systems: each kind of hair (Anjyo's strands, Van Gelder's fur, and the kinds to
-//! come) is one self-contained module behind the `HairSystem` interface, listed once in
-//! `KINDS`. The stage (`crate::stage`) knows systems only through this module: it asks each
+//! Hair systems: each kind of hair (Anjyo's strands, Van Gelder's fur, Sakai's wisps,
+//! Kazama's strips and the kinds to come) is one self-contained module behind the
+//! `HairSystem` interface, listed once in `KINDS`. The stage (`crate::stage`) knows systems only through this module: it asks each
 //! kind the scene names to build itself, hands every system the same clock (`FrameCtx`)
 //! each frame, and draws them all into one depth-tested pass. The viewer's panels, tools
 //! and `--set` keys, its Files list, the CLI's summary line, the shader registry, the
-//! fuzzer's words, the limits check and the scene bounds iterate `KINDS` too, so adding a
-//! kind is a new folder plus one line in `KINDS` (docs/adding-a-kind.md).
+//! fuzzer's words, the limits check, the scene bounds and the scene's checks and files
+//! iterate `KINDS` too, so adding a kind is a new folder, one line in `KINDS` and its
+//! block's field in `Scene` (`scene.rs`; docs/adding-a-kind.md).
 //!
-//! A system owns everything of its kind: CPU references, GPU passes, draw pipelines, its
+//! A system owns everything of its kind: its scene block (`<kind>/block.rs`), CPU references, GPU passes, draw pipelines, its
 //! shaders (`shaders/<kind>/`), its egui panels and its viewer state (`ui::KindUi`). It
 //! knows no window and imports neither `app` nor `stage`.
 
 pub mod anjyo;
 pub mod fur;
 pub mod lod;
+pub mod scene;
 pub mod strips;
 pub mod ui;
 pub mod wisps;
@@ -21,8 +23,9 @@ pub mod wisps;
 use crate::error::Result;
 use crate::forces::Forces;
 use crate::gpu::Gpu;
-use crate::scene::Scene;
 use glam::{DMat4, DVec3};
+pub use scene::Scene;
+use std::path::Path;
 
 /// The one clock of a frame, handed to every system: frames since the rest pose, the shared
 /// force fields and the head pose at that frame.
@@ -197,9 +200,25 @@ pub struct Panel {
 /// registry (`stage::shaders`) adds its modules.
 pub struct Kind {
     pub name: &'static str,
+    /// The scene field holding the kind's block (`groups`, `fur`...), for messages.
+    pub block: &'static str,
+    /// What one says a scene needs at least one of ("hair group", "fur"...).
+    pub called: &'static str,
     /// Whether the scene names hair of this kind (only those systems are built, and only
     /// those kinds' panels show).
     pub in_scene: fn(&Scene) -> bool,
+    /// Check every field of the kind's block (`systems/<kind>/block.rs`), before anything is
+    /// built; errors name the field, the loader adds the file.
+    pub validate: fn(&Scene) -> Result<()>,
+    /// Read or resolve the files the kind's block names, relative to the scene file's
+    /// folder (the path) when relative; the `&str` names the scene in errors.
+    pub read_files: fn(&mut Scene, &Path, &str) -> Result<()>,
+    /// Strands and segments the kind grows (the CLI's counts and the scene's strand limit);
+    /// (0, 0) for kinds that grow no strands.
+    pub counts: fn(&Scene) -> (u64, u64),
+    /// The field the strand limit names when this kind's strands count towards it
+    /// (`groups[..].count`); `None` when the kind grows no counted strands.
+    pub counted: Option<&'static str>,
     /// Check, before anything is allocated, that the scene's hair of this kind fits the
     /// adapter's limits.
     pub check_limits: fn(&Gpu, &Scene) -> Result<()>,

@@ -9,7 +9,7 @@ use super::{FrameCtx, HairSystem};
 use crate::error::Result;
 use crate::gpu::view::ScreenView;
 use crate::gpu::Gpu;
-use crate::scene::Scene;
+use crate::systems::Scene;
 use glam::DVec2;
 use std::any::Any;
 
@@ -107,6 +107,10 @@ pub trait KindUi: Any {
     ) -> Option<std::result::Result<(), String>> {
         None
     }
+
+    /// A world force was set from the command line (`--set wind=` or `gravity=`, on the
+    /// viewer's copy `scene`): a kind whose hair stands still may set it moving.
+    fn force_set(&mut self, _scene: &mut Scene) {}
 
     /// A scene was opened afresh (Files, a reload): drop what belonged to the old one.
     fn opened(&mut self) {}

@@ -277,7 +277,7 @@ fn fur_beyond_the_adapter_is_refused_before_allocating() {
     let gpu = common::gpu();
     let mut scene = common::scene("fur");
     scene.fur.as_mut().unwrap().hairs = 4_000_000;
-    kami::scene::validate(&scene).unwrap();
+    kami::systems::scene::validate(&scene).unwrap();
     refused_as_too_large(gpu, &scene, "fur");
 }
 

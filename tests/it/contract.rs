@@ -3,7 +3,7 @@
 
 use crate::common;
 use glam::DVec3;
-use kami::scene::Bending;
+use kami::systems::anjyo::block::Bending;
 use kami::systems::anjyo::groom::{prepare, GroomInput};
 use kami::systems::anjyo::{cantilever, cantilever_gpu};
 
@@ -157,10 +157,10 @@ fn cantilever_converged_free_beam_matches_reference() {
     let mut scene = common::scene("bob");
     // One group of horizontal hairs far from the head: pores on a small ellipsoid in front.
     let mut g = scene.groups[0].clone();
-    g.roots = kami::scene::Roots {
+    g.roots = kami::systems::anjyo::block::Roots {
         theta: (80.0, 100.0),
         phi: (-10.0, 10.0),
-        on: Some(kami::scene::EllipsoidDesc {
+        on: Some(kami::systems::anjyo::block::EllipsoidDesc {
             center: [60.0, 0.0, 0.0],
             radii: [0.5, 0.5, 0.5],
         }),

@@ -870,7 +870,7 @@ fn a_scene_reads_its_eff_file() {
     )
     .unwrap();
     let scene = kami::Scene::load(&scene_path).unwrap();
-    let forces = Forces::from_scene(&scene);
+    let forces = Forces::new(&scene.forces, &scene.head);
     let e = forces.eff.as_ref().expect("the scene's EFF is built");
     assert_eq!(e.cells(), grid.cells());
     assert_eq!(e.outside(), grid.outside());
@@ -884,7 +884,7 @@ fn a_scene_reads_its_eff_file() {
     )
     .unwrap();
     let scene = kami::Scene::load(&scene_path).unwrap();
-    let e = Forces::from_scene(&scene).eff.unwrap();
+    let e = Forces::new(&scene.forces, &scene.head).eff.unwrap();
     assert_eq!(e.cells()[0], DVec3::new(0.0, 9.0, 0.0));
     assert_eq!(e.sample(p, Sampling::Nearest), B);
     assert_eq!(e.defined().iter().filter(|d| **d).count(), 2);

@@ -8,11 +8,12 @@ use crate::common;
 
 use glam::DVec3;
 use kami::forces::eff::{Blower, EffDesc, EffSample, GustKey};
-use kami::scene::{Interp, Scene};
+use kami::scene::Interp;
 use kami::systems::anjyo::groom::{prepare, GroomInput};
 use kami::systems::anjyo::projective::{CpuSim, DynSetup};
 use kami::systems::anjyo::simulation::Simulation;
 use kami::systems::anjyo::{cantilever, cantilever_gpu};
+use kami::systems::Scene;
 
 /// The gust scene, `1/thin` of its strands, still air: only the EFF can move the hair.
 fn still_scene(thin: u32) -> Scene {

@@ -1,13 +1,14 @@
 //! The scene's one `forces` block reaches every kind: gravity and keyed wind, set once at the
 //! scene's top level, move Anjyo's strands, the strips and the wisps' springs. Each kind's f64
-//! reference is fed the way the stage feeds it (`Forces::from_scene`), from a shipped scene
+//! reference is fed the way the stage feeds it (`Forces::new`), from a shipped scene
 //! whose world is replaced: still (nothing moves), gravity alone (everything falls), wind
 //! alone (everything goes downwind).
 
 use crate::common;
 use glam::DVec3;
 use kami::forces::Forces;
-use kami::scene::{ForcesDesc, Interp, Scene, WindKey};
+use kami::scene::{ForcesDesc, Interp, WindKey};
+use kami::systems::Scene;
 
 /// Still air, no gravity, a still head.
 fn still(scene: &Scene) -> Scene {
@@ -62,7 +63,7 @@ fn strips(scene: &Scene, frames: u32) -> DVec3 {
     use kami::systems::strips::{dynamics, hom};
     let st = scene.strips.as_ref().unwrap();
     let rest = hom::build(st, &scene.head).unwrap();
-    let forces = Forces::from_scene(scene);
+    let forces = Forces::new(&scene.forces, &scene.head);
     let clip = dynamics::simulate(&rest, &st.motion, &forces, &scene.head, &[], frames).unwrap();
     let stride = clip[0].len() / rest.len();
     mean((0..rest.len()).map(|s| {
@@ -77,13 +78,15 @@ fn wisps(scene: &Scene, frames: u32) -> DVec3 {
     use kami::systems::wisps::springs::{self, Lattice, Motion, State};
     let w = scene.wisps.as_ref().unwrap();
     let sp = w.springs.as_ref().unwrap();
-    let lattice = Lattice::build(w, sp, &scene.head, &Forces::from_scene(&still(scene))).unwrap();
+    let still = still(scene);
+    let lattice =
+        Lattice::build(w, sp, &scene.head, &Forces::new(&still.forces, &still.head)).unwrap();
     let motion = Motion::new(sp, &scene.head).unwrap();
     let mut state = State::rest(&lattice);
     springs::run_frames(
         &lattice,
         &motion,
-        &Forces::from_scene(scene),
+        &Forces::new(&scene.forces, &scene.head),
         &mut state,
         0,
         frames,

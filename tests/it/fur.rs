@@ -12,8 +12,8 @@ use crate::common;
 use crate::common::gpu_hairs;
 
 use glam::DVec3;
-use kami::scene::fur::{Fur, FurStyle, MeshMotion};
 use kami::scene::mesh::Mesh;
+use kami::systems::fur::block::{Fur, FurStyle, MeshMotion};
 use kami::systems::fur::setup::{culling_factor, deform, hair_points, slot_hair, FurSetup, TABLE};
 
 const SIGMAS: f64 = 4.5;

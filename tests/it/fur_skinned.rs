@@ -7,8 +7,9 @@ use crate::common;
 
 use common::{check_snapshot, Tolerance};
 use glam::DVec3;
-use kami::scene::fur::{Fur, MeshSource};
 use kami::scene::skinned::{self, Channel, Interpolation, Property};
+use kami::scene::MeshSource;
+use kami::systems::fur::block::Fur;
 use kami::systems::fur::setup::{hair_points, FurSetup, TABLE};
 use std::path::{Path, PathBuf};
 

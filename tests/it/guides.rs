@@ -17,7 +17,7 @@ fn gust(share: Option<f64>) -> Scene {
         g.count /= 20;
     }
     scene.dynamics.as_mut().unwrap().guides = share;
-    kami::scene::validate(&scene).unwrap();
+    kami::systems::scene::validate(&scene).unwrap();
     scene
 }
 
@@ -109,7 +109,7 @@ fn follower_kernel_matches_reference_on_a_mesh_head() {
         g.count /= 20;
     }
     scene.dynamics.as_mut().unwrap().guides = Some(0.25);
-    kami::scene::validate(&scene).unwrap();
+    kami::systems::scene::validate(&scene).unwrap();
     follower_contract(&scene);
 }
 
@@ -362,7 +362,7 @@ fn the_share_is_validated_and_rebuilds() {
 fn followers_ride_a_turning_head() {
     let mut scene = common::scene("imported_groom");
     scene.dynamics.as_mut().unwrap().guides = Some(0.25);
-    kami::scene::validate(&scene).unwrap();
+    kami::systems::scene::validate(&scene).unwrap();
     let (input, sim, gpu_nodes, rest) = run_rest(&scene, 8);
     let setup = sim.follow.as_ref().expect("share 0.25 has followers");
     let head = sim.follow_head;

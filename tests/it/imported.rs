@@ -7,7 +7,7 @@ use crate::common;
 
 use glam::DVec3;
 use kami::formats::Groom;
-use kami::scene::{HairGroup, StrandFile};
+use kami::systems::anjyo::block::{HairGroup, StrandFile};
 use kami::systems::anjyo::groom::prepare;
 use kami::systems::anjyo::projective::{CpuSim, DynSetup};
 use kami::systems::anjyo::{cantilever, cantilever_gpu, simulation::Simulation};
@@ -49,7 +49,7 @@ fn imported_scene(mut scene: kami::Scene, groom: Groom, segments: u32) -> kami::
         material,
         dynamic: true,
     }];
-    kami::scene::validate(&scene).unwrap();
+    kami::systems::scene::validate(&scene).unwrap();
     scene
 }
 
@@ -200,7 +200,9 @@ fn bad_imports_are_refused_with_the_place() {
 
     let mut cut = bad.clone();
     cut.groups[0].cuts = source_scene_cut();
-    let e = kami::scene::validate(&cut).unwrap_err().to_string();
+    let e = kami::systems::scene::validate(&cut)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("groups[0].cuts"), "{e}");
 
     let text = r#"Scene(groups: [HairGroup(file: Some(StrandFile(path: "nowhere.hair")), count: 10, segments: 8)])"#;
@@ -220,7 +222,7 @@ fn bad_imports_are_refused_with_the_place() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-fn source_scene_cut() -> Vec<kami::scene::Cut> {
+fn source_scene_cut() -> Vec<kami::systems::anjyo::block::Cut> {
     common::scene("bob")
         .groups
         .iter()
@@ -253,7 +255,7 @@ fn imported_roots_ride_a_captured_head() {
     let mut sim = Simulation::new(gpu, &scene, &input, &hair)
         .unwrap()
         .unwrap();
-    let forces = kami::forces::Forces::from_scene(&scene);
+    let forces = kami::forces::Forces::new(&scene.forces, &scene.head);
     let offsets = input.vertex_offsets();
     let mut turned = 0.0f64;
     for frame in 1..=24u64 {

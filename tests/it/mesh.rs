@@ -167,8 +167,8 @@ fn awkward_meshes_are_accepted() {
     let (c, r) = m.bounds();
     assert!(r < 2.0 && c.length() < 2.0, "bounds {c} {r}");
     // Fur on it: hairs only on the triangles with area.
-    let fur = kami::scene::fur::Fur {
-        mesh: kami::scene::fur::MeshSource::Critter,
+    let fur = kami::systems::fur::block::Fur {
+        mesh: kami::scene::MeshSource::Critter,
         size: None,
         hairs: 3000,
         length: 0.1,
@@ -187,8 +187,8 @@ fn awkward_meshes_are_accepted() {
     assert!(a.count[0] > 0 && a.count[3] > 0 && a.count[4] > 0);
 }
 
-pub fn coat() -> kami::scene::fur::Coat {
-    kami::scene::fur::Coat {
+pub fn coat() -> kami::systems::fur::block::Coat {
+    kami::systems::fur::block::Coat {
         name: "c".into(),
         share: 1.0,
         relative_length: 1.0,
@@ -349,7 +349,7 @@ fn cgal_lion_head_loads_and_takes_fur() {
         "only {outward} normals point away from the centre"
     );
     let mut fur = common_fur();
-    fur.mesh = kami::scene::fur::MeshSource::CgalDemo("lion-head.off".into());
+    fur.mesh = kami::scene::MeshSource::CgalDemo("lion-head.off".into());
     fur.size = Some(1.6);
     fur.hairs = 50_000;
     let s = kami::systems::fur::setup::FurSetup::new(&fur, 3).unwrap();
@@ -360,9 +360,9 @@ fn cgal_lion_head_loads_and_takes_fur() {
     assert!((total - 50_000.0).abs() < 4.5 * 50_000f64.sqrt().max(1.0) / 2.0);
 }
 
-fn common_fur() -> kami::scene::fur::Fur {
-    kami::scene::fur::Fur {
-        mesh: kami::scene::fur::MeshSource::Critter,
+fn common_fur() -> kami::systems::fur::block::Fur {
+    kami::systems::fur::block::Fur {
+        mesh: kami::scene::MeshSource::Critter,
         size: None,
         hairs: 1000,
         length: 0.1,
@@ -414,7 +414,7 @@ fn bad_mesh_sources_are_refused_when_the_scene_loads() {
     }
     // A CGAL mesh that does not exist.
     let mut fur = common_fur();
-    fur.mesh = kami::scene::fur::MeshSource::CgalDemo("no-such-mesh.off".into());
+    fur.mesh = kami::scene::MeshSource::CgalDemo("no-such-mesh.off".into());
     let e = kami::systems::fur::setup::FurSetup::new(&fur, 1)
         .unwrap_err()
         .to_string();

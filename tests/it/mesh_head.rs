@@ -433,7 +433,7 @@ fn projective_on_mesh_head_matches_reference_and_stays_outside() {
 /// triangle are errors naming the field.
 #[test]
 fn bad_mesh_head_input_is_a_clear_error() {
-    use kami::scene::{fur::MeshSource, ScalpRegion};
+    use kami::scene::{MeshSource, ScalpRegion};
     let mut scene = mesh_scene();
     scene.head.mesh.as_mut().unwrap().source = MeshSource::File("/nonexistent/head.obj".into());
     let e = prepare(&scene).unwrap_err().to_string();
@@ -483,7 +483,9 @@ fn bad_mesh_head_input_is_a_clear_error() {
     ] {
         let mut scene = mesh_scene();
         edit(scene.head.mesh.as_mut().unwrap());
-        let e = kami::scene::validate(&scene).unwrap_err().to_string();
+        let e = kami::systems::scene::validate(&scene)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains(field), "{field}: {e}");
     }
 }
@@ -524,7 +526,7 @@ fn a_replaced_mesh_file_is_read_again() {
     write(9.0, 12);
     let mut scene = mesh_scene();
     let m = scene.head.mesh.as_mut().unwrap();
-    m.source = kami::scene::fur::MeshSource::File(path.display().to_string());
+    m.source = kami::scene::MeshSource::File(path.display().to_string());
     m.scale = 1.0;
     m.rotate = [0.0; 3];
     m.translate = [0.0; 3];

@@ -5,10 +5,12 @@
 
 use crate::common;
 
-use kami::gpu::gpu_data::{GpuMaterial, GpuStrand};
-use kami::scene::{Scene, StrandRaster};
+use kami::gpu::gpu_data::GpuStrand;
+use kami::scene::StrandRaster;
 use kami::stage::{splat as target_splat, target, Quality, Stage};
+use kami::systems::anjyo::gpu_data::GpuMaterial;
 use kami::systems::anjyo::{self, splat, AnjyoSystem};
+use kami::systems::Scene;
 
 /// A small gust: few hairs, a small image, no dynamics (frame 0 is the groom).
 fn small(head: bool, msaa: u32) -> Scene {

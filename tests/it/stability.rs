@@ -8,12 +8,12 @@
 
 use crate::common;
 use glam::DVec3;
-use kami::scene::{
-    Direction, Dynamics, ForcesDesc, HeadKey, Interp, PseudoForce, Roots, Scene, WindKey,
-};
+use kami::scene::{ForcesDesc, HeadKey, Interp, WindKey};
+use kami::systems::anjyo::block::{Direction, Dynamics, PseudoForce, Roots};
 use kami::systems::anjyo::groom::prepare;
 use kami::systems::anjyo::projective::{CpuSim, DynSetup};
 use kami::systems::anjyo::{cantilever, cantilever_gpu};
+use kami::systems::Scene;
 
 /// A small scene: one group of `count` hairs of `k` segments from a polar patch.
 fn scene(
@@ -43,7 +43,7 @@ fn scene(
     g.cuts.clear();
     s.dynamics = Some(dynamics.d);
     s.forces = dynamics.f;
-    kami::scene::validate(&s).unwrap();
+    kami::systems::scene::validate(&s).unwrap();
     s
 }
 

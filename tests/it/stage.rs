@@ -190,7 +190,7 @@ fn a_refused_edit_keeps_what_was_drawn() {
     let mut bad = scene.clone();
     bad.groups[1].rigidity *= 2.0;
     bad.fur.as_mut().unwrap().hairs = 3_900_000;
-    kami::scene::validate(&bad).unwrap();
+    kami::systems::scene::validate(&bad).unwrap();
     assert!(
         s.apply(gpu, &bad).is_err(),
         "3.9 M fur hairs should be refused"

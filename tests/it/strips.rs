@@ -10,8 +10,8 @@ use crate::common;
 use common::{check_snapshot, Tolerance};
 use glam::DVec3;
 use kami::forces::Forces;
-use kami::scene::strips::Edit;
 use kami::stage::{target, Quality, Stage};
+use kami::systems::strips::block::Edit;
 use kami::systems::strips::{dynamics, hom, keyframe, StripsSystem};
 use kami::systems::Change;
 use kami::{KamiError, Scene};
@@ -94,7 +94,7 @@ fn shipped_scene_on_the_gpu_matches_the_f64_reference() {
     let st = scene.strips.as_ref().unwrap();
     let frames = 30;
     let (gp, stride) = gpu_points(gpu, &scene, frames);
-    let forces = Forces::from_scene(&scene);
+    let forces = Forces::new(&scene.forces, &scene.head);
     assert!(forces.eff.is_some(), "the scene's EFF file was read");
     let rest = hom::build(st, &scene.head).unwrap();
     let clip = dynamics::simulate(&rest, &st.motion, &forces, &scene.head, &[], frames).unwrap();
@@ -151,7 +151,7 @@ const EDIT_JUMP: f64 = 1.0;
 fn key_frame_edit_reaches_its_target_without_a_jump() {
     let mut scene = common::scene("strips");
     let st = scene.strips.as_ref().unwrap().clone();
-    let forces = Forces::from_scene(&scene);
+    let forces = Forces::new(&scene.forces, &scene.head);
     let rest = hom::build(&st, &scene.head).unwrap();
     // The middle strip of the nape layer: it hangs down the back of the head.
     let s = st.layers[0].count as usize / 2;
@@ -256,7 +256,7 @@ fn edits_are_classified_by_what_they_touch() {
             .as_mut()
             .unwrap()
             .edits
-            .push(kami::scene::strips::Edit {
+            .push(kami::systems::strips::block::Edit {
                 strip: 3,
                 from: 2,
                 to: 12,
@@ -354,7 +354,7 @@ fn panel_adds_an_edit_that_solves() {
     let e = kami::systems::strips::panel::new_edit(&scene, 11, 4, 16).unwrap();
     assert_eq!((e.strip, e.from, e.to), (11, 4, 20));
     let st = scene.strips.as_ref().unwrap();
-    let forces = Forces::from_scene(&scene);
+    let forces = Forces::new(&scene.forces, &scene.head);
     let rest = hom::build(st, &scene.head).unwrap();
     let clip = dynamics::simulate(
         std::slice::from_ref(&rest[11]),
@@ -369,7 +369,7 @@ fn panel_adds_an_edit_that_solves() {
     let d = (DVec3::from(e.target) - tip).length();
     assert!((d - 5.0).abs() < 1e-9, "target {d} cm from the tip");
     scene.strips.as_mut().unwrap().edits.push(e);
-    kami::scene::validate(&scene).unwrap();
+    kami::systems::scene::validate(&scene).unwrap();
     let st = scene.strips.as_ref().unwrap();
     let solved = keyframe::solve(&rest, &st.motion, &forces, &scene.head, &st.edits).unwrap();
     // Not every target is exactly reachable by a force field (the strip bends rather than

@@ -925,9 +925,9 @@ fn report_is_written() {
 
 #[test]
 fn capture_scene_loads_the_fitted_field() {
-    let scene = kami::scene::Scene::load(root().join("assets/scenes/eff_capture.ron")).unwrap();
+    let scene = kami::systems::Scene::load(root().join("assets/scenes/eff_capture.ron")).unwrap();
     assert!(scene.strips.is_some());
-    let forces = kami::forces::Forces::from_scene(&scene);
+    let forces = kami::forces::Forces::new(&scene.forces, &scene.head);
     let e = forces.eff.expect("the scene's EFF");
     let shipped = Eff::load(root().join("assets/eff/capture.eff")).unwrap();
     assert_eq!(e.cells(), shipped.cells());
@@ -957,7 +957,7 @@ fn strips_turn_scene_swings_the_hair() {
     use kami::systems::strips::{dynamics, hom};
     let scene = turn_scene();
     assert_eq!(scene.forces.head_capture.as_ref().unwrap().keys.len(), 90);
-    let forces = Forces::from_scene(&scene);
+    let forces = Forces::new(&scene.forces, &scene.head);
     assert!(forces.head_moves());
     // A few degrees of drift to frame 12 (measured 5° at frame 8), the fast part of the turn
     // in frames 12-18 (measured 52° at 18), about half a turn by frame 60 (measured 176°;

@@ -7,8 +7,8 @@
 use crate::common;
 
 use glam::{DMat4, DQuat, DVec2, DVec3};
-use kami::scene::strips::Edit;
 use kami::stage::Stage;
+use kami::systems::strips::block::Edit;
 use kami::systems::strips::pick::{self, Timeline, TimelineGrab};
 use kami::systems::strips::{panel, StripsSystem};
 use kami::systems::wisps::edit::View;
@@ -163,7 +163,9 @@ fn the_timeline_grabs_keys_and_scrubs_elsewhere() {
 #[test]
 fn eff_strokes_become_samples_and_repeat_without_piling_up() {
     let mut scene = common::scene("strips");
-    let field = kami::forces::Forces::from_scene(&scene).eff.unwrap();
+    let field = kami::forces::Forces::new(&scene.forces, &scene.head)
+        .eff
+        .unwrap();
     let desc = scene.forces.eff.as_mut().unwrap();
     let before = desc.samples.len();
     let center = field.cell_center(field.index([3, 4, 5]));
@@ -174,7 +176,9 @@ fn eff_strokes_become_samples_and_repeat_without_piling_up() {
         "a brush of 1.6 cells paints the centre and its neighbours: {n}"
     );
     assert_eq!(desc.samples.len(), before + n);
-    let built = kami::forces::Forces::from_scene(&scene).eff.unwrap();
+    let built = kami::forces::Forces::new(&scene.forces, &scene.head)
+        .eff
+        .unwrap();
     let at = built.cells()[built.index([3, 4, 5])];
     assert!((at - force).length() < 1e-6, "{at} vs {force}");
     // Once more at the same place, with a new force: as many samples, the new force.
@@ -183,7 +187,9 @@ fn eff_strokes_become_samples_and_repeat_without_piling_up() {
     let m = panel::paint_into(desc, &built, center, 1.6 * field.cell_size().x, again);
     assert_eq!(m, n);
     assert_eq!(desc.samples.len(), before + n);
-    let built = kami::forces::Forces::from_scene(&scene).eff.unwrap();
+    let built = kami::forces::Forces::new(&scene.forces, &scene.head)
+        .eff
+        .unwrap();
     let at = built.cells()[built.index([3, 4, 5])];
     assert!((at - again).length() < 1e-6, "{at} vs {again}");
 }

@@ -447,7 +447,7 @@ fn viewer_draws_the_skeleton_overlay_over_the_nodes() {
         scene_w > 300 && scene_w < 700,
         "the 3D view is {scene_w} px wide: panels missing?"
     );
-    let scene = kami::scene::Scene::load(
+    let scene = kami::systems::Scene::load(
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes/toon.ron"),
     )
     .unwrap();
@@ -532,7 +532,7 @@ fn viewer_picks_a_strip_and_drags_its_target() {
     let runtime = dir.join("xdg");
     std::fs::create_dir_all(&runtime).unwrap();
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let scene = kami::scene::Scene::load(root.join("assets/scenes/strips.ron")).unwrap();
+    let scene = kami::systems::Scene::load(root.join("assets/scenes/strips.ron")).unwrap();
     let (w, h) = (480u32, 360u32);
     let camera = kami::app::camera::OrbitCamera::from_desc(&scene.camera).camera();
     // x and y of a projection do not depend on the clip planes.
@@ -543,7 +543,7 @@ fn viewer_picks_a_strip_and_drags_its_target() {
         (DVec3::from(scene.head.center), 60.0),
     );
     let st = scene.strips.as_ref().unwrap();
-    let forces = kami::forces::Forces::from_scene(&scene);
+    let forces = kami::forces::Forces::new(&scene.forces, &scene.head);
     let head0 = forces.head_at(0.0);
     let rest: Vec<Vec<DVec3>> = hom::build(st, &scene.head)
         .unwrap()
@@ -623,7 +623,7 @@ fn viewer_picks_a_strip_and_drags_its_target() {
         .unwrap()
         .replace("\"../eff/", &format!("\"{}/assets/eff/", root.display()));
     std::fs::write(&saved, text).unwrap();
-    let got = kami::scene::Scene::load(&saved).unwrap();
+    let got = kami::systems::Scene::load(&saved).unwrap();
     let edits = &got.strips.as_ref().unwrap().edits;
     assert_eq!(edits.len(), 1, "{edits:?}");
     let e = &edits[0];
@@ -673,7 +673,7 @@ fn only_the_kinds_in_the_scene_show_their_panels() {
     use kami::app::panels::visible;
     let root = common::root();
     let titles = |stem: &str| -> Vec<&'static str> {
-        let scene = kami::scene::Scene::load(root.join(format!("assets/scenes/{stem}.ron")))
+        let scene = kami::systems::Scene::load(root.join(format!("assets/scenes/{stem}.ron")))
             .unwrap_or_else(|e| panic!("{stem}: {e}"));
         visible(&scene).into_iter().map(|(_, p)| p.title).collect()
     };

@@ -6,7 +6,7 @@
 use crate::common;
 
 use glam::DVec3;
-use kami::scene::fur::MeshSource;
+use kami::scene::MeshSource;
 
 /// The unit UV sphere of the mesh tests as OFF, every face passed through `reverse`.
 fn sphere_off(rings: u32, sectors: u32, reverse: impl Fn([u32; 3]) -> [u32; 3]) -> String {

@@ -290,7 +290,7 @@ fn bundle_naming_a_missing_wisp_is_refused() {
 
 /// The f64 nodes of a scene's wisps as the reference takes them (rest pose, head still).
 fn reference_segments(
-    w: &kami::scene::wisps::Wisps,
+    w: &kami::systems::wisps::block::Wisps,
 ) -> Vec<Vec<kami::systems::wisps::curve::Segment>> {
     kami::systems::wisps::curve::drawn_segments(w)
 }

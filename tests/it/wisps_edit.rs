@@ -3,10 +3,10 @@
 //! random operations that must each leave a scene that passes validation.
 
 use glam::{DMat4, DVec2, DVec3};
-use kami::scene::wisps::{Bundle, Node, Skeleton, Wisps};
-use kami::scene::Scene;
 use kami::stage::camera::Camera;
+use kami::systems::wisps::block::{Bundle, Node, Skeleton, Wisps};
 use kami::systems::wisps::edit::{self, Editor, Sel, View, HISTORY, PICK_PX, TAPER};
+use kami::systems::Scene;
 
 fn toon() -> Scene {
     Scene::from_ron(include_str!("../../assets/scenes/toon.ron"), "toon.ron").unwrap()
@@ -63,7 +63,7 @@ fn px(view: &View, p: [f64; 3]) -> DVec2 {
 fn valid(scene: &Scene, w: &Wisps) -> Result<(), String> {
     let mut s = scene.clone();
     s.wisps = Some(w.clone());
-    kami::scene::validate(&s).map_err(|e| e.to_string())
+    kami::systems::scene::validate(&s).map_err(|e| e.to_string())
 }
 
 #[test]

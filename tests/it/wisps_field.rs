@@ -5,7 +5,7 @@
 
 use glam::{DMat3, DMat4, DVec3};
 use kami::rng::Rng;
-use kami::scene::wisps::{Distance, March, Tones, Toon};
+use kami::systems::wisps::block::{Distance, March, Tones, Toon};
 use kami::systems::wisps::curve::{self, Segment};
 use kami::systems::wisps::field::{self, Hit, Ray};
 

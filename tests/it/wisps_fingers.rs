@@ -149,7 +149,7 @@ fn skeleton_follows_the_drawn_path() {
         r_err = r_err.max((n.r - nearest.1).abs());
         assert_eq!(n.w, 1.0);
     }
-    let ends = |s: &kami::scene::wisps::Skeleton| {
+    let ends = |s: &kami::systems::wisps::block::Skeleton| {
         let (a, b) = (s.nodes[0].p, s.nodes[s.nodes.len() - 1].p);
         let d = |p: [f64; 3], q: [f64; 3]| glam::DVec3::from(p).distance(glam::DVec3::from(q));
         (d(a, path[0]), d(b, path[path.len() - 1]))
@@ -443,7 +443,7 @@ fn the_cli_writes_and_tracks_a_sequence() {
     ]);
     let written = std::fs::read_to_string(&sk_path).unwrap();
     assert_eq!(printed.trim(), written.trim());
-    let sk: kami::scene::wisps::Skeleton = ron::from_str(&written).unwrap();
+    let sk: kami::systems::wisps::block::Skeleton = ron::from_str(&written).unwrap();
     assert_eq!(sk.name, "hand");
     assert!(sk.nodes.len() >= 10);
 }

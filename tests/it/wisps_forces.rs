@@ -11,13 +11,14 @@ use glam::{DVec3, Vec3};
 use kami::forces::eff::{self, Eff, GustKey};
 use kami::forces::Forces;
 use kami::scene::hull::{head_mesh, in_scalp, HeadHull};
-use kami::scene::wisps::{Integrator, Node, Skeleton, Springs, Wisps};
 use kami::scene::Sampling;
-use kami::scene::{Ellipsoid, Head, Interp, Scene, WindKey};
+use kami::scene::{Ellipsoid, Head, Interp, WindKey};
 use kami::stage::{target, Quality, Stage};
 use kami::systems::strips::StripsSystem;
+use kami::systems::wisps::block::{Integrator, Node, Skeleton, Springs, Wisps};
 use kami::systems::wisps::springs::{self, Lattice, Motion, Point, State};
 use kami::systems::wisps::{springs_gpu, WispsSystem};
+use kami::systems::Scene;
 
 /// As the other wisps snapshots (`tests/it/wisps.rs`).
 const TOL: Tolerance = Tolerance {
@@ -307,7 +308,7 @@ fn run_stage(scene: &Scene, frames: u32) -> (Vec<Vec<DVec3>>, Vec<DVec3>) {
 #[test]
 fn toon_wind_blows_the_wisps_downwind() {
     let scene = common::scene("toon_wind");
-    let wind = Forces::from_scene(&scene).wind;
+    let wind = Forces::new(&scene.forces, &scene.head).wind;
     let down = -DVec3::Z;
     assert!(
         kami::forces::wind_at(&wind, 16.0).normalize().dot(down) > 0.99,
@@ -388,7 +389,7 @@ fn mesh_head_roots_lie_on_the_scalp() {
     let head = &scene.head;
     let mesh = head_mesh(head).unwrap().unwrap();
     let drawn = scene.wisps.as_ref().unwrap();
-    let placed = kami::scene::wisps::on_mesh_head(drawn, head).unwrap();
+    let placed = kami::systems::wisps::block::on_mesh_head(drawn, head).unwrap();
     let regions = &head.mesh.as_ref().unwrap().scalp;
     let center = DVec3::from(head.center);
     let (mut off, mut moved): (f64, f64) = (0.0, 0.0);
@@ -429,7 +430,7 @@ fn mesh_head_roots_lie_on_the_scalp() {
         );
     }
     let sp = placed.springs.clone().unwrap();
-    let forces = Forces::from_scene(&scene);
+    let forces = Forces::new(&scene.forces, &scene.head);
     let lat = Lattice::build(&placed, &sp, head, &forces).unwrap();
     let deepest = lat
         .points
@@ -441,7 +442,7 @@ fn mesh_head_roots_lie_on_the_scalp() {
         "{} roots: largest |SDF| at a root {off:.2e}, moved by up to {moved:.3}, shape kept to {kept:.1e}; lowest SDF of a free point drawn {deepest:.3}",
         placed.skeletons.len()
     );
-    assert!(off < kami::scene::wisps::ROOT_TOLERANCE);
+    assert!(off < kami::systems::wisps::block::ROOT_TOLERANCE);
     assert!(kept < 1e-12);
     assert!(
         deepest > 0.0,
@@ -471,8 +472,9 @@ fn mesh_head_springs_stay_out_of_the_sdf() {
     let scene = common::scene("toon_mesh_head");
     let head = &scene.head;
     let hull = kami::scene::hull::head_hull(head).unwrap();
-    let forces = Forces::from_scene(&scene);
-    let placed = kami::scene::wisps::on_mesh_head(scene.wisps.as_ref().unwrap(), head).unwrap();
+    let forces = Forces::new(&scene.forces, &scene.head);
+    let placed =
+        kami::systems::wisps::block::on_mesh_head(scene.wisps.as_ref().unwrap(), head).unwrap();
     let frames = 48u32;
     let tolerance = -kami::scene::hull::SDF_EPS_OUT;
     let mut deep = [f64::INFINITY; 3];

@@ -6,8 +6,8 @@ use crate::common;
 use glam::{DVec3, Vec3};
 use kami::bench::wisps::springs as study;
 use kami::forces::Forces;
-use kami::scene::wisps::{Bundle, Integrator, Node, Skeleton, Springs, Wisps};
 use kami::scene::{Ellipsoid, Head, HeadKey, Interp};
+use kami::systems::wisps::block::{Bundle, Integrator, Node, Skeleton, Springs, Wisps};
 use kami::systems::wisps::springs::{self, Lattice, Motion, Point, Spring, State};
 use kami::systems::wisps::springs_gpu;
 

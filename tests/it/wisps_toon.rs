@@ -1,4 +1,4 @@
-//! The toon controls of the wisps (`scene::wisps::Toon`: feathers, the halo's width, offset,
+//! The toon controls of the wisps (`wisps::block::Toon`: feathers, the halo's width, offset,
 //! strength and shadow colour, the rim light, the outline taper and per-wisp outline scale):
 //! the f64 reference `systems::wisps::toon` against the old hard-step shading and against
 //! what each control promises; `shaders/wisps/toon.wgsl` run headless on known normals
@@ -10,7 +10,7 @@ use crate::common;
 use crate::common::invalid;
 
 use glam::{DMat3, DMat4, DVec3};
-use kami::scene::wisps::{Tones, Toon};
+use kami::systems::wisps::block::{Tones, Toon};
 use kami::systems::wisps::toon::{self, shade, shade_at};
 use kami::systems::wisps::{curve, field, march};
 use kami::Scene;

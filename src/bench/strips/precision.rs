@@ -5,7 +5,7 @@
 //! pose, run frames or single steps, read points and joint rates).
 
 use crate::error::Result;
-use crate::scene::strips::Motion;
+use crate::systems::strips::block::Motion;
 use crate::systems::strips::dynamics::{
     check_extra, check_motion, step_length, steps_per_frame, Env, Rig, Setup,
 };

@@ -7,8 +7,8 @@
 
 use crate::error::{KamiError, Result};
 use crate::forces::Forces;
-use crate::scene::wisps::{Integrator, Wisps};
 use crate::scene::Head;
+use crate::systems::wisps::block::{Integrator, Wisps};
 use crate::systems::wisps::springs::{
     bounded, max_speed, omega_max, omega_max_at, primary_error, reach, run_frames, step, Lattice,
     Motion, State,

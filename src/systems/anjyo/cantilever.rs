@@ -35,7 +35,7 @@
 
 use super::groom::{BendMode, GroomInput, GroupParams, StrandRoot};
 use crate::scene::hull::HeadHull;
-use crate::scene::CutRule;
+use crate::systems::anjyo::block::CutRule;
 use glam::{DQuat, DVec3};
 
 /// One beam to bend.

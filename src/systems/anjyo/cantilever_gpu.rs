@@ -1,12 +1,12 @@
 //! The cantilever bending kernel (`shaders/anjyo/cantilever.wgsl`): the f32 twin of the f64
 //! reference in `cantilever.rs`, one invocation per strand; `tests/it/contract.rs` compares them.
 
+use super::gpu_data::{GpuCut, GpuGroomGroup, GpuGroomParams, GpuLoad, GpuRoot};
 use super::groom::{BendMode, GroomInput, LoadField, ResolvedLoad};
 use crate::error::Result;
-use crate::gpu::gpu_data::{GpuCut, GpuGroomGroup, GpuGroomParams, GpuLoad, GpuRoot};
 use crate::gpu::strands::StrandBuffers;
 use crate::gpu::{self, Gpu, WORKGROUP};
-use crate::scene::CutRule;
+use crate::systems::anjyo::block::CutRule;
 use wgpu::util::DeviceExt;
 
 /// The cantilever kernel (`shaders/anjyo/cantilever.wgsl`): long-lived pipelines and layout.

@@ -12,13 +12,14 @@
 //! thin strands instead (`shaders/anjyo/splat.wgsl`, f64 reference in `splat.rs`), bound to
 //! the same buffers and shaded by the same code (`shaders/common/strand_shade.wgsl`).
 
+use super::gpu_data::GpuMaterial;
 use crate::error::Result;
-use crate::gpu::gpu_data::{linear_rgb, GpuMaterial};
+use crate::gpu::gpu_data::linear_rgb;
 use crate::gpu::pipeline::{self, DrawPipeline};
 use crate::gpu::splat::SplatLayouts;
 use crate::gpu::strands::StrandBuffers;
 use crate::gpu::{self, Gpu};
-use crate::scene::Material;
+use crate::systems::anjyo::block::Material;
 
 /// Strands of a group of `count` drawn at level of detail `fraction`: the first ones, a
 /// uniform random subset because pores are drawn in random order (Van Gelder's

@@ -43,7 +43,7 @@
 use super::groom::GroomInput;
 use super::projective::DynSetup;
 use crate::scene::hull::HeadHull;
-use crate::scene::Scene;
+use crate::systems::Scene;
 use glam::{DMat4, DVec3};
 
 /// Guides per follower.

@@ -10,7 +10,9 @@ use crate::gpu::Gpu;
 use crate::rng::hash_unit;
 use crate::rng::Rng;
 use crate::scene::hull::{HeadHull, HeadMeshData};
-use crate::scene::{head::phi_in_range, Bending, CutRule, Direction, Ellipsoid, Load, Scene};
+use crate::scene::{head::phi_in_range, Ellipsoid};
+use crate::systems::anjyo::block::{Bending, CutRule, Direction, Load};
+use crate::systems::Scene;
 use glam::DVec3;
 
 /// One hair's root, as drawn from the scene's seed.

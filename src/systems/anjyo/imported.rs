@@ -1,14 +1,19 @@
 //! Grooms made in other tools as live Anjyo hair: a hair group that names a strand file
-//! (`crate::scene::StrandFile`) takes its rest pose from the file instead of the cantilever.
+//! (`crate::systems::anjyo::block::StrandFile`) takes its rest pose from the file instead of the cantilever.
 //! Each strand is resampled to the group's `segments` equal segments along its arc length,
 //! because the projective dynamics (Anjyo section 3) moves strands of one segment length.
 //! The root is the strand's first point, so it rides the head like a groomed pore.
 
+use super::block::{
+    resolve_strand_files, Bending, Direction, HairGroup, Material, Roots, StrandFile,
+};
 use super::groom::StrandRoot;
 use crate::error::{KamiError, Result};
 use crate::rng::Rng;
-use crate::scene::HairGroup;
+use crate::scene::{CameraDesc, Head, MAX_SEGMENTS, MAX_STRANDS};
+use crate::systems::Scene;
 use glam::DVec3;
+use std::path::Path;
 
 /// `segments + 1` nodes along the polyline `points`, each exactly one segment length d
 /// from the last (the projective dynamics rebuilds strands from angles and d, so unequal
@@ -145,6 +150,128 @@ pub fn group_roots(seed: u64, gi: usize, g: &HairGroup) -> Result<(Vec<StrandRoo
         nodes.extend(n);
     }
     Ok((roots, nodes))
+}
+
+/// A scene showing one strand file (`.hair`, `.obj` polylines, `.usda`): the strands as
+/// one static hair group, over a head ellipsoid fitted under their roots (the file
+/// carries no head; name one in a scene file for collisions that matter), the width
+/// from the file's root widths or 0.4 % of the mean strand length, and a camera that
+/// frames it all. What `kami view groom.hair` and the Files panel open
+/// (`Scene::from_strand_file`).
+pub fn scene_of(path: &Path) -> Result<Scene> {
+    let groom = crate::formats::read(path)?;
+    let origin = path.display().to_string();
+    if groom.counts.is_empty() {
+        return Err(KamiError::Data {
+            path: origin,
+            line: None,
+            message: "the file has no strands".into(),
+        });
+    }
+    let n = groom.counts.len();
+    let mut roots = Vec::with_capacity(n);
+    let mut lengths = Vec::with_capacity(n);
+    let mut root_widths = Vec::new();
+    let mut at = 0usize;
+    for &c in &groom.counts {
+        let pts = &groom.points[at..at + c as usize];
+        roots.push(glam::DVec3::from(pts[0].map(f64::from)));
+        lengths.push(
+            pts.windows(2)
+                .map(|w| {
+                    (glam::DVec3::from(w[1].map(f64::from))
+                        - glam::DVec3::from(w[0].map(f64::from)))
+                    .length()
+                })
+                .sum::<f64>(),
+        );
+        if let Some(w) = &groom.widths {
+            root_widths.push(w[at] as f64);
+        }
+        at += c as usize;
+    }
+    let mean_len = lengths.iter().sum::<f64>() / n as f64;
+    let (lo, hi) = roots.iter().fold(
+        (glam::DVec3::splat(f64::MAX), glam::DVec3::splat(f64::MIN)),
+        |(lo, hi), r| (lo.min(*r), hi.max(*r)),
+    );
+    // Roots cover the scalp: the crown at the top, the nape at the bottom. The ellipsoid
+    // has its centre at the lowest root's height and sits inside every root.
+    let mid = 0.5 * (lo + hi);
+    let half = (0.5 * (hi - lo)).max(glam::DVec3::splat(1e-3 * mean_len.max(1e-9)));
+    let r0 = glam::DVec3::new(half.x, (hi.y - lo.y).max(half.y), half.z);
+    let center = [mid.x, lo.y, mid.z];
+    // Shrunk until every root is outside it, with a 2 % margin.
+    let c0 = glam::DVec3::from(center);
+    let k = roots
+        .iter()
+        .map(|r| ((*r - c0) / r0).length())
+        .fold(f64::MAX, f64::min)
+        .clamp(1e-3, 1.0);
+    let radii = (r0 * 0.98 * k).to_array();
+    let mut segs: Vec<u32> = groom.counts.iter().map(|&c| c - 1).collect();
+    segs.sort_unstable();
+    let segments = segs[segs.len() / 2].clamp(4, MAX_SEGMENTS.min(64));
+    let width = if root_widths.is_empty() {
+        0.004 * mean_len
+    } else {
+        root_widths.iter().sum::<f64>() / root_widths.len() as f64
+    };
+    let reach = roots
+        .iter()
+        .zip(&lengths)
+        .map(|(r, l)| (*r - glam::DVec3::from(center)).length() + l)
+        .fold(0.0, f64::max)
+        .max(1e-6);
+    let c = glam::DVec3::from(center);
+    let eye = c + glam::DVec3::new(2.6, 0.6, 1.9).normalize() * reach * 2.3;
+    let name = path
+        .file_name()
+        .map(|f| f.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let mut scene = Scene {
+        head: Head {
+            center,
+            radii,
+            ..Default::default()
+        },
+        groups: vec![HairGroup {
+            name,
+            file: Some(StrandFile {
+                path: origin.clone(),
+                scale: 1.0,
+                rotate: [0.0; 3],
+                translate: [0.0; 3],
+                groom: None,
+            }),
+            roots: Roots::default(),
+            count: (n as u64).min(MAX_STRANDS) as u32,
+            segments,
+            length: 0.0,
+            length_jitter: 0.0,
+            direction: Direction::default(),
+            direction_jitter: 0.0,
+            rigidity: 0.0,
+            bending: Bending::default(),
+            loads: vec![],
+            cuts: vec![],
+            material: Material {
+                width,
+                ..Default::default()
+            },
+            dynamic: true,
+        }],
+        camera: CameraDesc {
+            eye: eye.to_array(),
+            target: [c.x, c.y, c.z],
+            ..Default::default()
+        },
+        ..Scene::default()
+    };
+    crate::systems::scene::validate(&scene).map_err(|e| crate::scene::in_file(e, &origin))?;
+    // The file is read again through the group, as a scene file naming it would.
+    resolve_strand_files(&mut scene, Path::new(""), &origin)?;
+    Ok(scene)
 }
 
 #[cfg(test)]

@@ -9,12 +9,14 @@
 //! projective kernel from the forces of the stage's clock. A copy of the rest pose is kept
 //! (only for dynamic scenes) so `reset` needs no re-groom.
 
+pub mod block;
 pub mod cantilever;
 pub mod cantilever_gpu;
 pub mod draw;
 pub mod elastica;
 pub mod follow;
 pub mod follow_gpu;
+pub mod gpu_data;
 pub mod groom;
 pub mod imported;
 pub mod panel;
@@ -26,12 +28,13 @@ pub mod splat;
 use super::lod::{screen_lod, ScreenLod, Seen};
 use super::{Change, DrawSetup, FrameCtx, HairSystem, Kind, StepInfo, SystemStats, View};
 use crate::error::Result;
-use crate::gpu::gpu_data::GpuMaterial;
 use crate::gpu::strands::{StrandBuffers, NODE, RECORD};
 use crate::gpu::Gpu;
-use crate::scene::{Scene, StrandRaster};
+use crate::scene::StrandRaster;
 use crate::shaders::wgsl;
+use crate::systems::Scene;
 use glam::DVec3;
+use gpu_data::GpuMaterial;
 use groom::GroomInput;
 use simulation::Simulation;
 
@@ -92,7 +95,13 @@ pub const SPLAT_MSAA: &str = wgsl!(
 
 pub const KIND: Kind = Kind {
     name: "anjyo",
+    block: "groups",
+    called: "hair group",
     in_scene: |s| !s.groups.is_empty(),
+    validate: block::validate,
+    read_files: block::read_files,
+    counts,
+    counted: Some("groups[..].count"),
     check_limits,
     build,
     classify,
@@ -168,7 +177,7 @@ pub struct AnjyoSystem {
     rest: Option<wgpu::Buffer>,
     draw: draw::StrandsPass,
     /// The groups' looks, for strand-file export.
-    materials: Vec<crate::scene::Material>,
+    materials: Vec<crate::systems::anjyo::block::Material>,
     bounds: (DVec3, f64),
     counts: (u64, u64),
     lod: f64,
@@ -302,7 +311,7 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
 /// segment shortened to the fractional part; widths tapered root to tip as the ribbon draws
 /// them; the group's colour.
 pub fn export_strands(
-    materials: &[crate::scene::Material],
+    materials: &[crate::systems::anjyo::block::Material],
     records: &[crate::gpu::gpu_data::GpuStrand],
     nodes: &[[f32; 4]],
 ) -> crate::formats::Groom {

@@ -3,9 +3,10 @@
 //! keys. They edit the scene and `AnjyoUi` (the group the panels edit); the stage
 //! classifies the edit with `super::classify` and applies it.
 
-use crate::scene::{Bending, Dynamics, Fluctuation, PseudoForce, Scene};
+use crate::systems::anjyo::block::{Bending, Dynamics, Fluctuation, PseudoForce};
 use crate::systems::ui::{self, Host, KindUi, PanelCx};
 use crate::systems::Panel;
+use crate::systems::Scene;
 use egui::{Color32, Slider, Ui};
 
 pub const PANELS: &[Panel] = &[
@@ -50,6 +51,14 @@ impl KindUi for AnjyoUi {
         self.group = 0;
     }
 
+    /// Still hair groups start moving under a force set from the command line, as they did
+    /// when the forces sat in their dynamics block.
+    fn force_set(&mut self, scene: &mut Scene) {
+        if !scene.groups.is_empty() {
+            dynamics_of(scene);
+        }
+    }
+
     /// `color=r,g,b`, `width=w`, `ks=k`, `shininess=n`, `rigidity=EI` (every group),
     /// `stiffness=root,tip`, `damping=rate`, `pseudo=on|off`.
     fn set(
@@ -59,7 +68,7 @@ impl KindUi for AnjyoUi {
         key: &str,
         value: Option<&str>,
     ) -> Option<Result<(), String>> {
-        let groups = |f: &dyn Fn(&mut crate::scene::HairGroup, f64),
+        let groups = |f: &dyn Fn(&mut crate::systems::anjyo::block::HairGroup, f64),
                       scene: &mut Scene|
          -> Result<(), String> {
             let v = ui::nums(value, 1)?[0];

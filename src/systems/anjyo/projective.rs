@@ -48,7 +48,8 @@ use super::groom::GroomInput;
 use crate::forces::Forces;
 use crate::rng::pcg_hash;
 use crate::scene::hull::HeadHull;
-use crate::scene::{Dynamics, Scene};
+use crate::systems::anjyo::block::Dynamics;
+use crate::systems::Scene;
 use glam::{DMat4, DVec3};
 use std::f64::consts::{PI, TAU};
 
@@ -193,7 +194,7 @@ impl DynSetup {
         let mut setup = DynSetup {
             seed: (scene.seed ^ (scene.seed >> 32)) as u32,
             params,
-            forces: Forces::from_scene(scene),
+            forces: Forces::new(&scene.forces, &scene.head),
             head: input.head.clone(),
             strands,
             state_len,

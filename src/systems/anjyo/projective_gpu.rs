@@ -14,10 +14,11 @@
 //! the groom and the other systems read them so: each segment's node read and write is
 //! `(segments + 1) * 16` bytes from its neighbour's, the one uncoalesced access left.
 
+use super::gpu_data::{GpuDynParams, GpuDynStrand};
 use super::projective::{DynSetup, StepForces, MAX_TURN, POLE_SIN};
 use crate::error::Result;
 use crate::forces::eff::{EffGpu, EFF_WGSL};
-use crate::gpu::gpu_data::{GpuDynParams, GpuDynStrand, GpuStep};
+use crate::gpu::gpu_data::GpuStep;
 use crate::gpu::strands::StrandBuffers;
 use crate::gpu::{self, Gpu, WORKGROUP};
 use glam::DMat4;

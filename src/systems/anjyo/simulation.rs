@@ -12,7 +12,7 @@ use super::projective_gpu::{ProjectiveJob, ProjectivePass};
 use crate::error::Result;
 use crate::gpu::strands::StrandBuffers;
 use crate::gpu::Gpu;
-use crate::scene::Scene;
+use crate::systems::Scene;
 use crate::systems::StepInfo;
 
 /// The GPU simulation of a groomed scene.
@@ -145,7 +145,7 @@ impl Simulation {
     }
 
     /// Parameters changed without changing which strands are simulated.
-    pub fn update_params(&mut self, gpu: &Gpu, params: crate::scene::Dynamics) {
+    pub fn update_params(&mut self, gpu: &Gpu, params: crate::systems::anjyo::block::Dynamics) {
         if let (Some(f), Some((fp, fj))) = (self.follow.as_mut(), self.follow_gpu.as_mut()) {
             f.collision = params.collision;
             fp.set_collision(fj, params.collision);

@@ -3,7 +3,8 @@
 //! the same column walk and coverage, the same accumulation, in f64 and without fixed
 //! point. The contract test (`tests/it/splat.rs`) bounds the GPU's worst sample against it.
 
-use crate::gpu::gpu_data::{GpuFrame, GpuMaterial, GpuStrand};
+use super::gpu_data::GpuMaterial;
+use crate::gpu::gpu_data::{GpuFrame, GpuStrand};
 use glam::{DMat4, DVec2, DVec3, DVec4};
 
 /// Per sample: sum rgb a wt (3), sum a wt, sum -ln(1 - a); the GPU's words divided by

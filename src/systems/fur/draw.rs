@@ -3,12 +3,13 @@
 //! draw per coat over the hairs the generator wrote this frame.
 
 use super::generate::{motion_uniform, style_code, FurGpu};
+use super::gpu_data::{GpuFurMaterial, GpuSkin};
 use super::setup::FurSetup;
 use crate::error::Result;
-use crate::gpu::gpu_data::{linear_rgb, GpuFurMaterial, GpuSkin};
+use crate::gpu::gpu_data::linear_rgb;
 use crate::gpu::pipeline::{self, DrawPipeline};
 use crate::gpu::{self, Gpu};
-use crate::scene::fur::FurStyle;
+use crate::systems::fur::block::FurStyle;
 
 pub struct FurPass {
     module: wgpu::ShaderModule,

@@ -2,12 +2,12 @@
 //! reference `setup::hair_points`, one invocation per hair slot, refilled every frame from
 //! the root table and the (moving) mesh; `tests/it/fur.rs` compares them.
 
+use super::gpu_data::GpuFurCoat;
 use super::setup::{FurSetup, TABLE};
 use crate::error::Result;
-use crate::gpu::gpu_data::GpuFurCoat;
 use crate::gpu::strands::StrandBuffers;
 use crate::gpu::{self, Gpu, WORKGROUP};
-use crate::scene::fur::{FurStyle, MeshMotion};
+use crate::systems::fur::block::{FurStyle, MeshMotion};
 use glam::DVec3;
 
 /// Bytes of one coat's uniform record (the dynamic-offset alignment).

@@ -14,8 +14,10 @@
 //! ribbon styles draw every k-th node by the same chord-error rule as strand hair (k per coat,
 //! from its longest hair's segment length); tubes keep all their segments.
 
+pub mod block;
 pub mod draw;
 pub mod generate;
+pub mod gpu_data;
 pub mod panel;
 pub mod setup;
 
@@ -23,8 +25,8 @@ use super::{Change, DrawSetup, FrameCtx, HairSystem, Kind, StepInfo, SystemStats
 use crate::error::Result;
 use crate::gpu::strands::{NODE, RECORD};
 use crate::gpu::Gpu;
-use crate::scene::Scene;
 use crate::shaders::wgsl;
+use crate::systems::Scene;
 use glam::DVec3;
 use setup::{culling_factor, FurSetup};
 
@@ -50,7 +52,13 @@ pub const SKIN: &str = wgsl!("common/frame.wgsl", "common/deform.wgsl", "fur/ski
 
 pub const KIND: Kind = Kind {
     name: "fur",
+    block: "fur",
+    called: "fur",
     in_scene: |s| s.fur.is_some(),
+    validate: block::validate,
+    read_files: block::read_files,
+    counts: block::counts,
+    counted: Some("fur.hairs"),
     check_limits,
     build,
     classify,

@@ -2,9 +2,9 @@
 //! style and material, with Figure 2's two looks, and fur's `--set` keys. It only edits
 //! the scene; the stage classifies the edit with `super::classify` and applies it.
 
-use crate::scene::Scene;
 use crate::systems::ui::{self, Host, KindUi, PanelCx};
 use crate::systems::Panel;
+use crate::systems::Scene;
 use egui::{Slider, Ui};
 
 pub const PANELS: &[Panel] = &[Panel {
@@ -64,7 +64,7 @@ fn vector(ui: &mut Ui, label: &str, v: &mut [f64; 3]) {
 }
 
 /// The body-segment direction and the regions with their own length and direction.
-fn fur_regions(ui: &mut Ui, f: &mut crate::scene::fur::Fur) {
+fn fur_regions(ui: &mut Ui, f: &mut crate::systems::fur::block::Fur) {
     vector(ui, "direction", &mut f.direction);
     let mut remove = None;
     for (i, r) in f.regions.iter_mut().enumerate() {
@@ -103,7 +103,7 @@ fn fur_regions(ui: &mut Ui, f: &mut crate::scene::fur::Fur) {
         f.regions.remove(i);
     }
     if ui.small_button("add a region").clicked() {
-        f.regions.push(crate::scene::fur::Region {
+        f.regions.push(crate::systems::fur::block::Region {
             center: [0.0; 3],
             radius: 0.5,
             length_scale: 1.0,
@@ -113,7 +113,7 @@ fn fur_regions(ui: &mut Ui, f: &mut crate::scene::fur::Fur) {
 }
 
 fn fur(ui: &mut Ui, cx: &mut PanelCx) {
-    use crate::scene::fur::{Coat, FurMaterial, FurStyle};
+    use crate::systems::fur::block::{Coat, FurMaterial, FurStyle};
     let Some(f) = cx.scene.fur.as_mut() else {
         ui.label("this scene has no fur");
         if ui.button("Add fur on the critter").clicked() {
@@ -139,7 +139,7 @@ fn fur(ui: &mut Ui, cx: &mut PanelCx) {
     ui.checkbox(&mut moving, "animated body wave");
     match (moving, f.motion.is_some()) {
         (true, false) => {
-            f.motion = Some(crate::scene::fur::MeshMotion {
+            f.motion = Some(crate::systems::fur::block::MeshMotion {
                 amplitude: 0.18,
                 wavelength: 4.0,
                 period: 24.0,

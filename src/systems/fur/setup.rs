@@ -28,9 +28,10 @@
 
 use crate::error::{KamiError, Result};
 use crate::rng::{pcg_hash, Rng};
-use crate::scene::fur::{Coat, Fur, FurStyle, MeshMotion, MeshSource, CURVE_SEGMENTS};
 use crate::scene::mesh::Mesh;
 use crate::scene::skinned::{self, Skin};
+use crate::scene::MeshSource;
+use crate::systems::fur::block::{Coat, Fur, FurStyle, MeshMotion, CURVE_SEGMENTS};
 use glam::{DMat4, DVec3};
 
 /// Entries of the barycentric table (the paper's 2048).

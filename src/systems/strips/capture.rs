@@ -587,7 +587,7 @@ pub const FIT_STEP: usize = 1;
 /// one) plus a uniform wind `uniform`, under Earth's gravity on a still default head, passed through the marker
 /// file's text (4 decimals) so that what is fitted is exactly what a file would hold.
 pub fn simulate_markers(
-    strips: &crate::scene::strips::Strips,
+    strips: &crate::systems::strips::block::Strips,
     eff: Option<std::sync::Arc<crate::forces::eff::Eff>>,
     uniform: DVec3,
     frames: u32,
@@ -633,7 +633,7 @@ pub fn fit(
     desc: &crate::forces::eff::EffDesc,
     capture: &Capture,
     baseline: &Capture,
-    strips: &crate::scene::strips::Strips,
+    strips: &crate::systems::strips::block::Strips,
 ) -> Result<crate::forces::eff::Eff> {
     let frame_time = strips.motion.frame_time;
     let shown = wind_samples(capture, Some(baseline), frame_time, FIT_STEP)?;

@@ -55,8 +55,8 @@ use super::RestStrip;
 use crate::error::{KamiError, Result};
 use crate::forces::Forces;
 use crate::scene::head::Ellipsoid;
-use crate::scene::strips::Motion;
 use crate::scene::{Head, HeadKey, Interp, WindKey};
+use crate::systems::strips::block::Motion;
 use glam::{DMat3, DMat4, DVec3, DVec4};
 use std::f64::consts::{PI, TAU};
 

@@ -19,10 +19,10 @@ use crate::forces::eff::EffGpu;
 use crate::forces::Forces;
 use crate::gpu::{self, Gpu, WORKGROUP};
 use crate::scene::head::EPS_OUT;
-use crate::scene::strips::Motion;
 use crate::scene::Head;
 use crate::scene::Sampling;
 use crate::shaders::wgsl;
+use crate::systems::strips::block::Motion;
 use bytemuck::{Pod, Zeroable};
 
 /// The kernel's module: the EFF (`forces/eff.wgsl`, the same text as `EFF_WGSL`), the hull,

@@ -26,8 +26,8 @@
 use super::RestStrip;
 use crate::error::{KamiError, Result};
 use crate::scene::head::Ellipsoid;
-use crate::scene::strips::{Layer, Strips};
 use crate::scene::Head;
+use crate::systems::strips::block::{Layer, Strips};
 use glam::DVec3;
 
 /// Gap between the shells of successive layers, as a share of the head's mean radius

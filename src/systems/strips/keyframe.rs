@@ -18,8 +18,8 @@ use super::dynamics::{self, ExtraForce};
 use super::RestStrip;
 use crate::error::{KamiError, Result};
 use crate::forces::Forces;
-use crate::scene::strips::{Edit, Motion};
 use crate::scene::Head;
+use crate::systems::strips::block::{Edit, Motion};
 use glam::DVec3;
 
 /// How close (world units) the solved tip must come to the target.

@@ -4,6 +4,7 @@
 //! points and drawn with a generated strand texture (`ribbon`, `texture`), the marker
 //! capture round trip that fits the EFF (`capture`) and key-frame editing (`keyframe`).
 
+pub mod block;
 pub mod capture;
 pub mod dynamics;
 pub mod dynamics_gpu;
@@ -20,8 +21,9 @@ use crate::error::{KamiError, Result};
 use crate::forces::eff::EffGpu;
 use crate::forces::Forces;
 use crate::gpu::Gpu;
-use crate::scene::strips::Strips;
-use crate::scene::{Head, Scene};
+use crate::scene::Head;
+use crate::systems::strips::block::Strips;
+use crate::systems::Scene;
 use glam::DVec3;
 use ribbon::RibbonPass;
 
@@ -44,7 +46,13 @@ pub struct RestStrip {
 
 pub const KIND: Kind = Kind {
     name: "strips",
+    block: "strips",
+    called: "strips",
     in_scene: |s| s.strips.is_some(),
+    validate: block::validate,
+    read_files: |_, _, _| Ok(()),
+    counts: |_| (0, 0),
+    counted: None,
     check_limits,
     build,
     classify,
@@ -159,7 +167,7 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
         };
     };
     let grid = |s: &Scene| {
-        Forces::from_scene(s)
+        Forces::new(&s.forces, &s.head)
             .eff
             .map(|e| (e.dims(), e.origin(), e.cell_size()))
     };
@@ -204,7 +212,7 @@ impl StripsSystem {
         })?;
         check_limits(gpu, scene)?;
         let head = scene.head.clone();
-        let forces = Forces::from_scene(scene);
+        let forces = Forces::new(&scene.forces, &scene.head);
         let rest = hom::build(&strips, &head)?;
         let solved = keyframe::solve(&rest, &strips.motion, &forces, &head, &strips.edits)?;
         let rig = dynamics::Rig::posed(&rest, &strips.motion, &head, forces.gravity)?;
@@ -314,7 +322,7 @@ impl HairSystem for StripsSystem {
             }
             Change::Resimulate => {
                 // Everything that can fail first, so a refused edit leaves the GPU as it was.
-                let forces = Forces::from_scene(scene);
+                let forces = Forces::new(&scene.forces, &scene.head);
                 // τ, I1 and I2 act from the next step too: new joint constants, same pose.
                 let rig =
                     dynamics::Rig::posed(&self.rest, &st.motion, &scene.head, forces.gravity)?;

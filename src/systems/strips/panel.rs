@@ -7,10 +7,11 @@
 use super::tools::StripsUi;
 use crate::forces::eff::{Eff, EffDesc, EffSample, GustKey};
 use crate::forces::Forces;
-use crate::scene::strips::{Edit, Layer, Strips};
+use crate::scene::Interp;
 use crate::scene::Sampling;
-use crate::scene::{Interp, Scene};
+use crate::systems::strips::block::{Edit, Layer, Strips};
 use crate::systems::ui::{self, PanelCx};
+use crate::systems::Scene;
 use egui::{Color32, ComboBox, DragValue, Slider, Ui};
 use glam::DVec3;
 
@@ -246,7 +247,7 @@ pub fn built(
             return Some(e.clone());
         }
     }
-    let e = Forces::from_scene(scene).eff?;
+    let e = Forces::new(&scene.forces, &scene.head).eff?;
     *cache = Some((desc.clone(), e.clone()));
     Some(e)
 }
@@ -648,7 +649,7 @@ pub fn new_edit(scene: &Scene, strip: u32, from: u32, span: u32) -> crate::Resul
     let r = rest
         .get(strip as usize)
         .ok_or_else(|| crate::KamiError::Option(format!("no strip {strip}")))?;
-    let forces = Forces::from_scene(scene);
+    let forces = Forces::new(&scene.forces, &scene.head);
     let to = from + span.max(1);
     let clip = super::dynamics::simulate(
         std::slice::from_ref(r),
@@ -757,7 +758,7 @@ pub fn overlay(
         let forces = match show.forces {
             Some(f) => f,
             None => {
-                own = Forces::from_scene(scene);
+                own = Forces::new(&scene.forces, &scene.head);
                 &own
             }
         };

@@ -3,7 +3,7 @@
 //! of the projected view, so the viewer's gestures are tested without a window.
 
 use crate::gpu::view::ScreenView as View;
-use crate::scene::strips::Edit;
+use crate::systems::strips::block::Edit;
 use glam::{DMat4, DVec2, DVec3};
 
 /// How near (pixels) the cursor must come to a strip's centre line or a target marker.

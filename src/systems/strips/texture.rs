@@ -20,7 +20,7 @@
 use crate::error::Result;
 use crate::gpu::Gpu;
 use crate::rng::Rng;
-use crate::scene::strips::Look;
+use crate::systems::strips::block::Look;
 
 /// Share of the strip length over which the hair ends are spread.
 pub const TIP_SPREAD: f64 = 0.18;

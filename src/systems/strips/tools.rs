@@ -9,8 +9,8 @@ use super::pick::{self, TimelineGrab};
 use super::StripsSystem;
 use crate::error::{KamiError, Result};
 use crate::gpu::Gpu;
-use crate::scene::Scene;
 use crate::systems::ui::{self, Host, Key, KindUi, Mods, Tool};
+use crate::systems::Scene;
 use crate::systems::{FrameCtx, HairSystem};
 use glam::{DVec2, DVec3};
 
@@ -83,7 +83,7 @@ impl StripsUi {
     /// frame and second `key_span` frames later; the clip is shown at the second key,
     /// paused, so its target can be dragged at once.
     pub fn add_edit(&mut self, scene: &mut Scene, host: &mut Host) -> Result<()> {
-        use crate::scene::MAX_STRIP_EDITS;
+        use crate::systems::strips::block::MAX_STRIP_EDITS;
         let count = scene.strips.as_ref().map_or(0, |st| st.edits.len());
         if count >= MAX_STRIP_EDITS {
             return Err(KamiError::Option(format!(

@@ -3,7 +3,7 @@
 //! a point to a segment (eq 10). f64 reference of the ray-march shader: the GPU follows the
 //! same steps, so every choice is written down here.
 
-use crate::scene::wisps::Distance;
+use crate::systems::wisps::block::Distance;
 use glam::DVec3;
 
 /// One skeleton edge as a cubic Bézier with the end nodes' radius and weight (lerped in t).
@@ -151,7 +151,7 @@ pub fn segments(nodes: &[(DVec3, f64, f64)]) -> Vec<Segment> {
 
 /// The segments of every wisp of `wisps` as drawn (the rest pose, head still): what the f64
 /// references of a still scene take.
-pub fn drawn_segments(wisps: &crate::scene::wisps::Wisps) -> Vec<Vec<Segment>> {
+pub fn drawn_segments(wisps: &crate::systems::wisps::block::Wisps) -> Vec<Vec<Segment>> {
     wisps
         .skeletons
         .iter()

@@ -4,7 +4,7 @@
 //! Skeletons panel and its mouse mode call it, and `tests/it/wisps_edit.rs` drives it directly.
 //!
 //! Every operation returns `Ok(message)` or `Err(reason)` and never panics. An edit is first
-//! made on a copy, then checked by the scene validator (`crate::scene::validate`, through
+//! made on a copy, then checked by the scene validator (`crate::systems::scene::validate`, through
 //! `check`); a refused edit leaves the wisps and the history as they were. So whatever the
 //! sequence of operations, the skeletons stay valid: 2 to 64 nodes, finite positions,
 //! radius and weight in (0, 1e6], neighbouring nodes distinct.
@@ -15,7 +15,7 @@
 //! clicks of a mouse wheel — merge into one entry until `end_gesture` (or `end_drag`, or
 //! any other action) closes it.
 
-use crate::scene::wisps::{Node, Skeleton, Wisps};
+use crate::systems::wisps::block::{Node, Skeleton, Wisps};
 use glam::{DVec2, DVec3};
 use std::collections::VecDeque;
 
@@ -87,22 +87,11 @@ pub fn pick(skeletons: &[Skeleton], view: &View, cursor: DVec2, radius_px: f64) 
 
 /// The scene validator's verdict on `w` (in an otherwise default scene).
 pub fn check(w: &Wisps) -> std::result::Result<(), String> {
-    use crate::scene::{CameraDesc, Head, Light, RenderSettings, Scene};
-    let probe = Scene {
-        seed: 0,
-        head: Head::default(),
-        groom_load: [0.0, -1.0, 0.0],
-        forces: Default::default(),
-        groups: Vec::new(),
-        camera: CameraDesc::default(),
-        light: Light::default(),
-        render: RenderSettings::default(),
-        dynamics: None,
-        fur: None,
+    let probe = crate::systems::Scene {
         wisps: Some(w.clone()),
-        strips: None,
+        ..Default::default()
     };
-    crate::scene::validate(&probe).map_err(|e| e.to_string())
+    crate::systems::scene::validate(&probe).map_err(|e| e.to_string())
 }
 
 /// Why node `i` of `sk` cannot stay as it is: not finite, out of range, or on a neighbour
@@ -156,7 +145,7 @@ fn label(w: &Wisps, s: usize) -> String {
 #[derive(Clone, Debug, PartialEq)]
 struct Snapshot {
     skeletons: Vec<Skeleton>,
-    bundles: Vec<crate::scene::wisps::Bundle>,
+    bundles: Vec<crate::systems::wisps::block::Bundle>,
     selection: Option<Sel>,
     /// What the action did (for the Undo/Redo messages).
     what: String,

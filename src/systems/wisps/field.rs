@@ -3,7 +3,7 @@
 //! f64 reference ("the truth") of the wisps ray-march shader, which follows the same steps.
 
 use super::curve::{self, Capsule, Segment};
-use crate::scene::wisps::{Distance, March, Toon};
+use crate::systems::wisps::block::{Distance, March, Toon};
 use glam::{DMat3, DMat4, DVec3, DVec4};
 
 /// Density profile of eq 9 (C1: fd and fd' continuous at 1/3 and 1).

@@ -12,7 +12,7 @@
 //! a camera reports is this z, not the length of the ray). Pixel centres sit at integer (u, v).
 
 use crate::error::{KamiError, Result};
-use crate::scene::wisps::{Node, Skeleton};
+use crate::systems::wisps::block::{Node, Skeleton};
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 use std::io::{BufReader, Read};

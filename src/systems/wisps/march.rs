@@ -9,8 +9,8 @@ use crate::error::{KamiError, Result};
 use crate::gpu::gpu_data::linear_rgb;
 use crate::gpu::pipeline::{self, DrawPipeline};
 use crate::gpu::{self, Gpu};
-use crate::scene::wisps::{Distance, Tones, Wisps};
 use crate::shaders::wgsl;
+use crate::systems::wisps::block::{Distance, Tones, Wisps};
 use bytemuck::{Pod, Zeroable};
 use glam::{DMat4, DVec3};
 

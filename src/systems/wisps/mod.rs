@@ -1,4 +1,4 @@
-//! Sakai's toon wisps: skeletons (`crate::scene::wisps`) interpolated by natural cubic
+//! Sakai's toon wisps: skeletons (the scene block, `block`) interpolated by natural cubic
 //! splines and converted to Bézier segments (`curve`, on the GPU in `march::CurvePass`), the
 //! blobby density around them (`field`, the f64 reference of the ray march in
 //! `shaders/wisps/march.wgsl`), the toon shading and its controls (`toon`, the f64 reference
@@ -13,8 +13,9 @@
 //! The springs feel the scene's shared forces (`crate::forces::Forces`: gravity, keyed
 //! wind, the EFF, head motion) and collide with the scene's head hull (the ellipsoid or a
 //! mesh head's SDF); on a mesh head the wisps' roots are moved onto its scalp first
-//! (`crate::scene::wisps::on_mesh_head`).
+//! (`crate::systems::wisps::block::on_mesh_head`).
 
+pub mod block;
 pub mod curve;
 pub mod edit;
 pub mod field;
@@ -30,14 +31,20 @@ pub mod toon;
 use super::{Change, DrawSetup, FrameCtx, HairSystem, Kind, StepInfo, SystemStats, View};
 use crate::error::{KamiError, Result};
 use crate::gpu::Gpu;
-use crate::scene::wisps::Wisps;
-use crate::scene::Scene;
+use crate::systems::wisps::block::Wisps;
+use crate::systems::Scene;
 use glam::{DMat4, DVec3};
 use march::{CurvePass, MarchPass};
 
 pub const KIND: Kind = Kind {
     name: "wisps",
+    block: "wisps",
+    called: "wisps",
     in_scene: |s| s.wisps.is_some(),
+    validate: block::validate,
+    read_files: |_, _, _| Ok(()),
+    counts: |_| (0, 0),
+    counted: None,
     check_limits: |gpu, scene| match &scene.wisps {
         Some(w) => march::check_limits(gpu, w),
         None => Ok(()),
@@ -147,7 +154,7 @@ fn build(gpu: &Gpu, scene: &Scene, setup: &DrawSetup) -> Result<Box<dyn HairSyst
 /// the stage's forces at every step: no change.
 pub fn classify(old: &Scene, new: &Scene) -> Change {
     let grid = |s: &Scene| {
-        crate::forces::Forces::from_scene(s)
+        crate::forces::Forces::new(&s.forces, &s.head)
             .eff
             .map(|e| (e.dims(), e.origin(), e.cell_size()))
     };
@@ -206,10 +213,10 @@ impl WispsSystem {
         })?;
         march::check_limits(gpu, &wisps)?;
         // On a mesh head the roots go onto its scalp (the drawn shape moves with them).
-        let wisps = crate::scene::wisps::on_mesh_head(&wisps, &scene.head)?;
+        let wisps = crate::systems::wisps::block::on_mesh_head(&wisps, &scene.head)?;
         let nodes = match &wisps.springs {
             Some(sp) => {
-                let forces = crate::forces::Forces::from_scene(scene);
+                let forces = crate::forces::Forces::new(&scene.forces, &scene.head);
                 if forces.gravity == DVec3::ZERO {
                     log::warn!(
                         "the wisps' springs feel no gravity: the scene's shared gravity \
@@ -343,7 +350,9 @@ impl HairSystem for WispsSystem {
         if change == Change::Resimulate {
             if let (Nodes::Springs(s), Some(e)) = (
                 &self.nodes,
-                crate::forces::Forces::from_scene(scene).eff.as_deref(),
+                crate::forces::Forces::new(&scene.forces, &scene.head)
+                    .eff
+                    .as_deref(),
             ) {
                 s.write_eff_cells(gpu, e)?;
             }

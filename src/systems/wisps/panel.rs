@@ -9,8 +9,8 @@
 
 use super::edit::{Editor, Sel};
 use super::tools::WispsUi;
-use crate::scene::wisps::{Distance, Tones, Wisps};
 use crate::systems::ui::{self, Host, PanelCx};
+use crate::systems::wisps::block::{Distance, Tones, Wisps};
 use crate::systems::Panel;
 use egui::{Button, Color32, DragValue, Slider, SliderClamping, Ui};
 use glam::{DVec2, DVec3};
@@ -432,7 +432,7 @@ pub fn overlay(ctx: &egui::Context, w: &Wisps, ed: &Editor, view: &super::edit::
 }
 
 /// The Toon panel's controls as `--set` keys: `wisps.toon.NAME=VALUE` for every field of
-/// `scene::wisps::Toon` (numbers; colours as `r,g,b`; `halo_shadow=r,g,b|none`;
+/// `wisps::block::Toon` (numbers; colours as `r,g,b`; `halo_shadow=r,g,b|none`;
 /// `tones=two|three`), and each skeleton's outline scale: `wisps.outline=S` (every skeleton)
 /// or `wisps.outline.N=S` (skeleton N). The caller validates the scene afterwards (ranges,
 /// finiteness, with the field's name).

@@ -41,14 +41,14 @@
 //! posed hull is moved back to the surface by Newton steps on the hull's implicit function
 //! (quadric form or signed distance) along its gradient, to `1.5 eps_out` outside, and its
 //! velocity into the surface (relative to the moving head) is removed. On a mesh head the
-//! roots lie on its scalp (`scene::wisps::on_mesh_head`, done by the caller).
+//! roots lie on its scalp (`wisps::block::on_mesh_head`, done by the caller).
 
 use crate::error::{KamiError, Result};
 use crate::forces::{wind_at, Forces};
 use crate::scene::hull::{head_hull, HeadHull};
-use crate::scene::wisps::{Integrator, Springs, Wisps};
 use crate::scene::Head;
 use crate::scene::Sampling;
+use crate::systems::wisps::block::{Integrator, Springs, Wisps};
 use glam::{DMat4, DQuat, DVec3};
 use std::collections::HashSet;
 
@@ -238,7 +238,7 @@ impl Lattice {
     /// The lattice of Fig. 10 for `wisps`, with natural lengths solved by eq 24 under the
     /// shared gravity `forces.gravity` when `springs.hold_shape`. `head` is only used to warn
     /// about free points drawn inside it. On a mesh head, pass the wisps placed on its scalp
-    /// (`scene::wisps::on_mesh_head`).
+    /// (`wisps::block::on_mesh_head`).
     pub fn build(
         wisps: &Wisps,
         springs: &Springs,

@@ -23,9 +23,9 @@ use crate::forces::{wind_at, Forces};
 use crate::gpu::{self, Gpu, WORKGROUP};
 use crate::scene::head::EPS_OUT;
 use crate::scene::hull::{head_hull, HeadHull, SDF_EPS_OUT};
-use crate::scene::wisps::{Integrator, Springs};
 use crate::scene::Head;
 use crate::shaders::wgsl;
+use crate::systems::wisps::block::{Integrator, Springs};
 use bytemuck::{Pod, Zeroable};
 
 /// The kernel's module (the wisps kind lists it as `("wisps/springs", SPRINGS)`): the EFF

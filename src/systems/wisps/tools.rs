@@ -6,9 +6,9 @@
 use super::edit::{self, Editor};
 use super::panel;
 use crate::error::Result;
-use crate::scene::Scene;
 use crate::systems::ui::{self, Host, Key, KindUi, Mods, Tool};
 use crate::systems::FrameCtx;
+use crate::systems::Scene;
 use glam::{DVec2, DVec3};
 use std::time::Instant;
 

@@ -1,5 +1,5 @@
 //! Toon shading of the wisps' surface (Sakai 2014, eqs 14-22, in the head's frame) with the
-//! controls artists expect of a toon shader (`scene::wisps::Toon`): a feather on every step
+//! controls artists expect of a toon shader (`wisps::block::Toon`): a feather on every step
 //! (lit/shade, shade/dark, the halo's edge, the rim's edge), the angel halo's width
 //! (t_specular), latitude offset, strength and colour over the shadow tones, a rim light on
 //! the shadow side near the silhouette, and the per-wisp outline width tapered toward the
@@ -13,7 +13,7 @@
 
 use super::march::GpuWispDraw;
 use crate::gpu::gpu_data::linear_rgb;
-use crate::scene::wisps::{Tones, Toon, Wisps};
+use crate::systems::wisps::block::{Tones, Toon, Wisps};
 use glam::{DMat3, DMat4, DVec3};
 
 // The draw uniform stays a whole number of vec4s (its WGSL twin is `struct Draw` in

@@ -1,9 +1,15 @@
-//! Fur on a triangle mesh (Van Gelder & Wilhelms): the scene part. Roots are dispersed over
-//! the mesh by area with random rounding, each coat (overcoat, undercoat) with its own share,
-//! length, stiffness, randomness, style and material; hairs are generated on the GPU every
-//! frame from the root table, so a moving mesh carries its fur.
+//! Fur on a triangle mesh (Van Gelder & Wilhelms): its scene block (`fur`), its checks
+//! (`validate`) and its file (`read_files`). Roots are dispersed over the mesh by area with
+//! random rounding, each coat (overcoat, undercoat) with its own share, length, stiffness,
+//! randomness, style and material; hairs are generated on the GPU every frame from the root
+//! table, so a moving mesh carries its fur.
 
+use crate::error::Result;
+use crate::scene::validate::*;
+use crate::scene::MeshSource;
+use crate::systems::Scene;
 use serde::{Deserialize, Serialize};
+use std::path::Path;
 
 /// Fur of one mesh.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -58,42 +64,6 @@ fn up() -> [f64; 3] {
 }
 fn skin() -> [f32; 3] {
     [0.45, 0.33, 0.25]
-}
-
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub enum MeshSource {
-    /// Kami's own furry critter (no download needed).
-    Critter,
-    /// An OBJ, OFF or PLY file; a relative path is taken from the scene file's folder.
-    File(String),
-    /// A mesh of the CGAL demo data in Debian's `libcgal-demo` (e.g. "lion-head.off"),
-    /// extracted on first use into the system's temporary folder.
-    CgalDemo(String),
-    /// A skinned, animated glTF 2.0 mesh (`.gltf` or `.glb`; relative to the scene file's
-    /// folder): the first node with a mesh and a skin, posed by `animation` (by name; absent:
-    /// the file's first one) with linear blend skinning, looping. Scene frames are
-    /// converted to seconds by `fps`. See docs/fur_skinned.md.
-    Gltf {
-        file: String,
-        #[serde(default)]
-        animation: Option<String>,
-        #[serde(default = "fps")]
-        fps: f64,
-    },
-}
-
-fn fps() -> f64 {
-    24.0
-}
-
-impl MeshSource {
-    /// The file named relative to the scene file, if the source is a file.
-    pub fn file_mut(&mut self) -> Option<&mut String> {
-        match self {
-            MeshSource::File(f) | MeshSource::Gltf { file: f, .. } => Some(f),
-            _ => None,
-        }
-    }
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -243,4 +213,161 @@ pub struct MeshMotion {
 
 fn x_axis() -> [f64; 3] {
     [1.0, 0.0, 0.0]
+}
+
+/// Hairs and segments of the fur at full density (its count is rounded per triangle when
+/// groomed, so this is approximate).
+pub fn counts(s: &Scene) -> (u64, u64) {
+    let Some(f) = &s.fur else { return (0, 0) };
+    let share: f64 = f.coats.iter().map(|c| c.share).sum();
+    let segs: f64 = f
+        .coats
+        .iter()
+        .map(|c| f.hairs as f64 * c.share / share * c.style.segments() as f64)
+        .sum();
+    (f.hairs as u64, segs.round() as u64)
+}
+
+/// Check the fur block, if the scene has one.
+pub fn validate(s: &Scene) -> Result<()> {
+    match &s.fur {
+        Some(f) => validate_fur(f),
+        None => Ok(()),
+    }
+}
+
+/// The fur mesh's file, taken from the scene file's folder `dir` when relative.
+pub fn read_files(s: &mut Scene, dir: &Path, _origin: &str) -> Result<()> {
+    if let Some(m) = s.fur.as_mut().and_then(|f| f.mesh.file_mut()) {
+        crate::scene::relative_to(dir, m);
+    }
+    Ok(())
+}
+
+/// Most fur regions: each vertex is tested against every region.
+const MAX_FUR_REGIONS: usize = 64;
+
+fn validate_fur(f: &Fur) -> Result<()> {
+    match &f.mesh {
+        MeshSource::File(p) if p.trim().is_empty() => {
+            return Err(bad(
+                "fur.mesh",
+                "\"\"",
+                "must name an .obj, .off or .ply file",
+            ));
+        }
+        MeshSource::Gltf { file, .. } if file.trim().is_empty() => {
+            return Err(bad("fur.mesh", "\"\"", "must name a .gltf or .glb file"));
+        }
+        MeshSource::Gltf { fps, .. } => positive("fur.mesh.fps", *fps, 1e4)?,
+        MeshSource::CgalDemo(n)
+            if n.is_empty() || n.contains(['/', '\\']) || n.starts_with('.') =>
+        {
+            return Err(bad(
+                "fur.mesh",
+                format!("CgalDemo({n:?})"),
+                "must be a file name in the CGAL demo meshes, e.g. \"lion-head.off\"",
+            ));
+        }
+        _ => {}
+    }
+    if let Some(size) = f.size {
+        positive("fur.size", size, BIG)?;
+    }
+    // Above the scene's strand cap the total check would blame the hair groups instead.
+    if f.hairs == 0 || u64::from(f.hairs) > MAX_STRANDS {
+        return Err(bad(
+            "fur.hairs",
+            f.hairs,
+            &format!("must be in [1, {MAX_STRANDS}]"),
+        ));
+    }
+    positive("fur.length", f.length, BIG)?;
+    if f.regions.len() > MAX_FUR_REGIONS {
+        return Err(bad(
+            "fur.regions",
+            f.regions.len(),
+            &format!("at most {MAX_FUR_REGIONS} regions"),
+        ));
+    }
+    for (i, r) in f.regions.iter().enumerate() {
+        vec3(&format!("fur.regions[{i}].center"), r.center, BIG)?;
+        positive(&format!("fur.regions[{i}].radius"), r.radius, BIG)?;
+        within(
+            &format!("fur.regions[{i}].length_scale"),
+            r.length_scale,
+            0.0,
+            100.0,
+        )?;
+        if let Some(d) = r.direction {
+            nonzero(&format!("fur.regions[{i}].direction"), d)?;
+        }
+    }
+    nonzero("fur.direction", f.direction)?;
+    nonzero("fur.up", f.up)?;
+    if f.coats.is_empty() || f.coats.len() > 4 {
+        return Err(bad("fur.coats", f.coats.len(), "needs 1 to 4 coats"));
+    }
+    for (i, c) in f.coats.iter().enumerate() {
+        let p = format!("fur.coats[{i}]");
+        positive(&format!("{p}.share"), c.share, 1e6)?;
+        positive(&format!("{p}.relative_length"), c.relative_length, 100.0)?;
+        within(&format!("{p}.stiffness"), c.stiffness, 0.0, 1.0)?;
+        within(
+            &format!("{p}.normal_randomize"),
+            c.normal_randomize,
+            0.0,
+            1.0,
+        )?;
+        within(&format!("{p}.end_randomize"), c.end_randomize, 0.0, 2.0)?;
+        within(
+            &format!("{p}.direction_weight"),
+            c.direction_weight,
+            0.0,
+            1.0,
+        )?;
+        let m = &c.material;
+        color(&format!("{p}.material.ambient"), m.ambient, 10.0)?;
+        color(&format!("{p}.material.diffuse"), m.diffuse, 10.0)?;
+        color(&format!("{p}.material.specular"), m.specular, 10.0)?;
+        within(
+            &format!("{p}.material.shininess"),
+            m.shininess,
+            0.0,
+            10000.0,
+        )?;
+        positive(&format!("{p}.material.width"), m.width, BIG)?;
+    }
+    // Overlapping regions multiply their length scales: bound the longest hair that can
+    // result, or it overflows f32 on the GPU (64 regions of scale 100 alone give 1e128).
+    let grow: f64 = f.regions.iter().map(|r| r.length_scale.max(1.0)).product();
+    let coat_len = f
+        .coats
+        .iter()
+        .map(|c| c.relative_length)
+        .fold(0.0, f64::max);
+    let longest = f.length * grow * coat_len;
+    if longest > BIG {
+        return Err(bad(
+            "fur.regions",
+            format!("a longest hair of {longest:e}"),
+            &format!(
+                "fur.length x the regions' length_scale (multiplied where they overlap) x the \
+                 largest coat relative_length must be at most {BIG:e}"
+            ),
+        ));
+    }
+    if let Some(d) = f.culling.full_distance {
+        positive("fur.culling.full_distance", d, BIG)?;
+    }
+    if let Some(m) = &f.motion {
+        within("fur.motion.amplitude", m.amplitude, -BIG, BIG)?;
+        // The GPU gets 2 pi / wavelength as f32: below ~1e-38 that is infinite.
+        within("fur.motion.wavelength", m.wavelength, 1e-6, BIG)?;
+        positive("fur.motion.period", m.period, 1e9)?;
+        nonzero("fur.motion.axis", m.axis)?;
+        nonzero("fur.motion.direction", m.direction)?;
+    }
+    color("fur.skin", f.skin, 1.0)?;
+    Ok(())
 }

@@ -1,17 +1,21 @@
-//! Directable strips (Kazama, Sugisaki, Morishima): the scene part. The Hair Object Model is
-//! a set of reed-shaped strips (textured ribbons tapering to the tip) arranged in layers
-//! around the head, as stylists' layer model does. Each strip follows a chain of rigid
-//! sticks whose joints are damped angular springs with two degrees of freedom (eq 1),
-//! driven by the scene's shared forces (gravity, the wind of the External Force Field, the
-//! head's motion: `scene::forces`), a spring and the collision with the head (eq 2). Key-frame edits (section 4) add
-//! extra forces to the field.
+//! Directable strips (Kazama, Sugisaki, Morishima): the scene block (`strips`) and its
+//! checks (`validate`). The Hair Object Model is a set of reed-shaped strips (textured
+//! ribbons tapering to the tip) arranged in layers around the head, as stylists' layer model
+//! does. Each strip follows a chain of rigid sticks whose joints are damped angular springs
+//! with two degrees of freedom (eq 1), driven by the scene's shared forces (gravity, the
+//! wind of the External Force Field, the head's motion: `scene::forces`), a spring and the
+//! collision with the head (eq 2). Key-frame edits (section 4) add extra forces to the
+//! field.
 //!
 //! Coordinates are world units (centimetres in the shipped scenes, like the head); time is
 //! seconds.
 
 use serde::{Deserialize, Serialize};
 
-use super::eff::Sampling;
+use crate::error::Result;
+use crate::scene::eff::Sampling;
+use crate::scene::validate::*;
+use crate::systems::Scene;
 
 /// Strips of a scene.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -229,4 +233,126 @@ pub struct Edit {
 
 fn default_radius() -> f64 {
     6.0
+}
+
+/// Check the strips block, if the scene has one.
+pub fn validate(s: &Scene) -> Result<()> {
+    match &s.strips {
+        Some(st) => validate_strips(st),
+        None => Ok(()),
+    }
+}
+
+/// Most strips in a scene (the paper's 120 with a wide margin; one GPU invocation each).
+pub const MAX_STRIPS: u64 = 65_536;
+/// Most sticks per strip (the GPU walks a chain in one invocation).
+pub const MAX_STRIP_STICKS: u32 = 64;
+/// Most key-frame edits (the GPU reads them all for every control point).
+pub const MAX_STRIP_EDITS: usize = 16;
+/// Most simulation steps per rendered frame.
+const MAX_STEPS_PER_FRAME: f64 = 4096.0;
+
+fn validate_strips(st: &Strips) -> Result<()> {
+    if st.layers.is_empty() {
+        return Err(bad("strips.layers", "[]", "needs at least one layer"));
+    }
+    let mut total = 0u64;
+    for (i, l) in st.layers.iter().enumerate() {
+        let f = |name: &str| format!("strips.layers[{i}].{name}");
+        if l.count == 0 {
+            return Err(bad(&f("count"), 0, "a layer needs at least one strip"));
+        }
+        total += l.count as u64;
+        within(&f("polar"), l.polar, 0.0, 180.0)?;
+        if l.polar <= 0.0 || l.polar >= 180.0 {
+            return Err(bad(
+                &f("polar"),
+                l.polar,
+                "must be strictly between 0 and 180 degrees",
+            ));
+        }
+        for (k, a) in l.azimuth.iter().enumerate() {
+            within(&f(&format!("azimuth[{k}]")), *a, -720.0, 720.0)?;
+        }
+        if l.azimuth[1] < l.azimuth[0] || l.azimuth[1] - l.azimuth[0] > 360.0 {
+            return Err(bad(
+                &f("azimuth"),
+                format!("{:?}", l.azimuth),
+                "must be [from, to] with from <= to <= from + 360",
+            ));
+        }
+        positive(&f("length"), l.length, BIG)?;
+        if l.sticks == 0 || l.sticks > MAX_STRIP_STICKS {
+            return Err(bad(
+                &f("sticks"),
+                l.sticks,
+                &format!("must be in 1..={MAX_STRIP_STICKS}"),
+            ));
+        }
+        positive(&f("width[0]"), l.width[0], BIG)?;
+        positive(&f("width[1]"), l.width[1], BIG)?;
+        within(&f("droop"), l.droop, 0.0, 1.0)?;
+        within(&f("curl"), l.curl, -90.0, 90.0)?;
+        within(&f("stiffness"), l.stiffness, 0.0, 1e6)?;
+        color(&f("color"), l.color, 1.0)?;
+    }
+    if total > MAX_STRIPS {
+        return Err(bad(
+            "strips.layers[..].count",
+            total,
+            &format!("the total must be at most {MAX_STRIPS} strips"),
+        ));
+    }
+    let m = &st.motion;
+    positive("strips.motion.inertia", m.inertia, BIG)?;
+    within("strips.motion.damping", m.damping, 0.0, BIG)?;
+    within("strips.motion.stiffness", m.stiffness, 0.0, 1e9)?;
+    within("strips.motion.stiffness_tip", m.stiffness_tip, 0.0, 1.0)?;
+    within("strips.motion.spring", m.spring, 0.0, 1e9)?;
+    within("strips.motion.collision", m.collision, 0.0, 1e9)?;
+    positive("strips.motion.frame_time", m.frame_time, 10.0)?;
+    positive("strips.motion.steps_per_second", m.steps_per_second, 1e6)?;
+    let steps = m.frame_time * m.steps_per_second;
+    if steps > MAX_STEPS_PER_FRAME {
+        return Err(bad(
+            "strips.motion.steps_per_second",
+            m.steps_per_second,
+            &format!("frame_time x steps_per_second must be at most {MAX_STEPS_PER_FRAME} steps per frame"),
+        ));
+    }
+    let l = &st.look;
+    if l.hairs == 0 || l.hairs > 256 {
+        return Err(bad("strips.look.hairs", l.hairs, "must be in 1..=256"));
+    }
+    within("strips.look.tip_shade", l.tip_shade as f64, 0.0, 10.0)?;
+    within("strips.look.alpha_cutoff", l.alpha_cutoff as f64, 0.0, 1.0)?;
+    within("strips.look.specular[0]", l.specular[0] as f64, 0.0, 10.0)?;
+    within("strips.look.specular[1]", l.specular[1] as f64, 1.0, 4096.0)?;
+    if st.edits.len() > MAX_STRIP_EDITS {
+        return Err(bad(
+            "strips.edits",
+            st.edits.len(),
+            &format!("at most {MAX_STRIP_EDITS} key-frame edits"),
+        ));
+    }
+    for (i, e) in st.edits.iter().enumerate() {
+        let f = |name: &str| format!("strips.edits[{i}].{name}");
+        if e.strip as u64 >= total {
+            return Err(bad(
+                &f("strip"),
+                e.strip,
+                &format!("names no strip: the layers have {total}"),
+            ));
+        }
+        if e.to <= e.from {
+            return Err(bad(
+                &f("to"),
+                e.to,
+                "the second key frame must come after `from`",
+            ));
+        }
+        vec3(&f("target"), e.target, BIG)?;
+        positive(&f("radius"), e.radius, BIG)?;
+    }
+    Ok(())
 }

@@ -1,4 +1,5 @@
-//! Toon wisps (Sakai): the scene part. Each wisp is a skeleton, a chain of nodes with a
+//! Toon wisps (Sakai): the scene block (`wisps`) and its checks (`validate`, with the
+//! shared forces and head the wisps live in). Each wisp is a skeleton, a chain of nodes with a
 //! radius of influence r_e and an effective weight w_e (section 4.1); the hair surface is the
 //! iso-surface of the blobby density summed over the wisps (eqs 8-9), ray-marched and
 //! toon-shaded (section 5), and, when `springs` is present, animated by a mass-spring
@@ -18,7 +19,9 @@
 use crate::error::{KamiError, Result};
 use crate::scene::hull::HeadMeshData;
 use crate::scene::sdf::closest_point_triangle;
+use crate::scene::validate::*;
 use crate::scene::Head;
+use crate::systems::Scene;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
@@ -304,7 +307,7 @@ pub struct Springs {
     /// (`forces.gravity`, read by `forces::Forces`) like Anjyo's strands. Kept so
     /// that old scene files get a clear word: equal to the shared gravity it is accepted with
     /// a warning, anything else is refused naming the file and the field
-    /// (`scene::validate`). Never written back.
+    /// (`systems::scene::validate`). Never written back.
     #[serde(default, deserialize_with = "old_gravity", skip_serializing)]
     pub gravity: Option<[f64; 3]>,
     /// Seconds per rendered frame.
@@ -498,4 +501,208 @@ pub fn on_mesh_head(wisps: &Wisps, head: &Head) -> Result<Wisps> {
         }
     }
     Ok(out)
+}
+
+/// Check the wisps block, if the scene has one, with the shared forces and head it lives in.
+pub fn validate(s: &Scene) -> Result<()> {
+    if let Some(w) = &s.wisps {
+        validate_wisps(w)?;
+        wisps_on_shared_forces(s, w)?;
+    }
+    Ok(())
+}
+
+/// Most wisps in a scene and nodes per skeleton (the GPU keeps a wisp's spline solve in one
+/// invocation's registers).
+pub const MAX_WISPS: usize = 4096;
+pub const MAX_WISP_NODES: usize = 64;
+
+/// The wisps in the scene's shared forces: a gravity of their own (`wisps.springs.gravity`,
+/// read before the springs fell under the shared one) is accepted with a warning when it
+/// equals the shared gravity (`forces.gravity`, what `forces::Forces::new` reads;
+/// zero without the block) and refused otherwise; on a mesh head every root must lie over
+/// the scalp (`wisps::place_root`, refused naming the skeleton's root).
+fn wisps_on_shared_forces(s: &Scene, w: &Wisps) -> Result<()> {
+    if let Some(g) = w.springs.as_ref().and_then(|sp| sp.gravity) {
+        vec3("wisps.springs.gravity", g, 1e9)?;
+        let shared = s.forces.gravity;
+        if g == shared {
+            log::warn!(
+                "`wisps.springs.gravity` = {g:?} is no longer read (the wisps fall under the \
+                 scene's shared gravity, `forces.gravity`, which equals it): remove it"
+            );
+        } else {
+            return Err(bad(
+                "wisps.springs.gravity",
+                format!("{g:?}"),
+                &format!(
+                    "the wisps no longer keep a gravity of their own: they fall under the \
+                     scene's shared gravity, `forces.gravity` (now {shared:?}, world units/s²); \
+                     move the value there (forces: ForcesDesc(gravity: ({:?}, {:?}, {:?}))) and \
+                     remove it here",
+                    g[0], g[1], g[2]
+                ),
+            ));
+        }
+    }
+    // Roots on a mesh head, checked here when the mesh can be read now, so that a root off
+    // the scalp names the scene file; a mesh that cannot be read yet (a path relative to the
+    // scene file is resolved after validation) is placed, and refused, when the wisps are
+    // built, and its own errors name the mesh file.
+    if s.head.mesh.is_some() {
+        if let Ok(Some(mesh)) = crate::scene::hull::head_mesh(&s.head) {
+            for si in 0..w.skeletons.len() {
+                place_root(w, si, &s.head, &mesh)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+fn validate_wisps(w: &Wisps) -> Result<()> {
+    if w.skeletons.is_empty() {
+        return Err(bad("wisps.skeletons", "[]", "needs at least one skeleton"));
+    }
+    if w.skeletons.len() > MAX_WISPS {
+        return Err(bad(
+            "wisps.skeletons",
+            format!("{} skeletons", w.skeletons.len()),
+            &format!("at most {MAX_WISPS}"),
+        ));
+    }
+    positive("wisps.threshold", w.threshold, 1e3)?;
+    for (si, sk) in w.skeletons.iter().enumerate() {
+        let f = format!("wisps.skeletons[{si}].nodes");
+        if sk.nodes.len() < 2 {
+            return Err(bad(
+                &f,
+                format!("{} node(s)", sk.nodes.len()),
+                "a skeleton needs at least 2 nodes (a root and a tip)",
+            ));
+        }
+        if sk.nodes.len() > MAX_WISP_NODES {
+            return Err(bad(
+                &f,
+                format!("{} nodes", sk.nodes.len()),
+                &format!("at most {MAX_WISP_NODES}"),
+            ));
+        }
+        within(
+            &format!("wisps.skeletons[{si}].outline"),
+            sk.outline,
+            0.0,
+            8.0,
+        )?;
+        for (ni, n) in sk.nodes.iter().enumerate() {
+            vec3(&format!("{f}[{ni}].p"), n.p, BIG)?;
+            positive(&format!("{f}[{ni}].r"), n.r, BIG)?;
+            positive(&format!("{f}[{ni}].w"), n.w, BIG)?;
+            if ni > 0 {
+                let q = sk.nodes[ni - 1].p;
+                let d2: f64 = (0..3).map(|k| (n.p[k] - q[k]).powi(2)).sum();
+                let scale = n.r.min(sk.nodes[ni - 1].r);
+                if d2.sqrt() <= 1e-6 * scale.max(1e-9) {
+                    return Err(bad(
+                        &format!("{f}[{ni}].p"),
+                        format!("{:?}", n.p),
+                        &format!(
+                            "coincides with node {}: neighbouring nodes must differ",
+                            ni - 1
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    let t = &w.toon;
+    for (name, c) in [
+        ("diffuse", t.diffuse),
+        ("shade", t.shade),
+        ("dark", t.dark),
+        ("specular", t.specular),
+        ("outline", t.outline),
+    ] {
+        color(&format!("wisps.toon.{name}"), c, 1.0)?;
+    }
+    within("wisps.toon.t_diffuse", t.t_diffuse, 0.0, 1.0)?;
+    within("wisps.toon.t_dark", t.t_dark, 0.0, 1.0)?;
+    within("wisps.toon.t_specular", t.t_specular, -1.0, 1.0)?;
+    within("wisps.toon.outline_width", t.outline_width, 0.0, 32.0)?;
+    within("wisps.toon.outline_taper", t.outline_taper, 0.0, 1.0)?;
+    within("wisps.toon.diffuse_feather", t.diffuse_feather, 0.0, 1.0)?;
+    within("wisps.toon.dark_feather", t.dark_feather, 0.0, 1.0)?;
+    within("wisps.toon.halo_feather", t.halo_feather, 0.0, 1.0)?;
+    within("wisps.toon.halo_offset", t.halo_offset, -90.0, 90.0)?;
+    within("wisps.toon.halo_strength", t.halo_strength, 0.0, 4.0)?;
+    if let Some(c) = t.halo_shadow {
+        color("wisps.toon.halo_shadow", c, 1.0)?;
+    }
+    color("wisps.toon.rim", t.rim, 1.0)?;
+    within("wisps.toon.rim_width", t.rim_width, 0.0, 1.0)?;
+    within("wisps.toon.rim_feather", t.rim_feather, 0.0, 1.0)?;
+    let m = &w.march;
+    if m.max_steps == 0 || m.max_steps > 4096 {
+        return Err(bad(
+            "wisps.march.max_steps",
+            m.max_steps,
+            "must be in [1, 4096]",
+        ));
+    }
+    if m.refine > 32 {
+        return Err(bad("wisps.march.refine", m.refine, "must be in [0, 32]"));
+    }
+    within("wisps.march.step_scale", m.step_scale, 0.05, 8.0)?;
+    if let Distance::Polyline { pieces } = m.distance {
+        if pieces == 0 || pieces > 64 {
+            return Err(bad(
+                "wisps.march.distance.pieces",
+                pieces,
+                "must be in [1, 64]",
+            ));
+        }
+    }
+    if let Some(sp) = &w.springs {
+        positive("wisps.springs.mass", sp.mass, BIG)?;
+        positive("wisps.springs.sub_mass", sp.sub_mass, BIG)?;
+        positive("wisps.springs.ring", sp.ring, 1.0)?;
+        positive("wisps.springs.stiffness", sp.stiffness, 1e12)?;
+        within("wisps.springs.damping", sp.damping, 0.0, 1e9)?;
+        positive("wisps.springs.frame_time", sp.frame_time, 10.0)?;
+        if sp.substeps == 0 || sp.substeps > 1000 {
+            return Err(bad(
+                "wisps.springs.substeps",
+                sp.substeps,
+                "must be in [1, 1000]",
+            ));
+        }
+    }
+    for (bi, b) in w.bundles.iter().enumerate() {
+        if b.wisps.len() < 2 {
+            return Err(bad(
+                &format!("wisps.bundles[{bi}].wisps"),
+                format!("{:?}", b.wisps),
+                "a bundle joins at least 2 wisps",
+            ));
+        }
+        for (k, &i) in b.wisps.iter().enumerate() {
+            let Some(sk) = w.skeletons.get(i) else {
+                return Err(bad(
+                    &format!("wisps.bundles[{bi}].wisps[{k}]"),
+                    i,
+                    &format!("must name a skeleton (0..{})", w.skeletons.len()),
+                ));
+            };
+            if b.release_from > sk.nodes.len() {
+                return Err(bad(
+                    &format!("wisps.bundles[{bi}].release_from"),
+                    b.release_from,
+                    &format!(
+                        "must be at most the node count of skeleton {i} ({})",
+                        sk.nodes.len()
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
 }

@@ -1,0 +1,138 @@
+//! Anjyo's passes (groom, dynamics, draw)'s structs shared with WGSL: `#[repr(C)]`, `Pod`, explicit padding and a
+//! compile-time size check. Each names the WGSL struct it must match.
+
+use crate::gpu::gpu_data::assert_size;
+use bytemuck::{Pod, Zeroable};
+
+/// Groom input per strand. Keep in sync with `struct Root` in `shaders/anjyo/cantilever.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuRoot {
+    /// xyz: pore; w: segment length d.
+    pub pos: [f32; 4],
+    /// xyz: unloaded direction; w: cut mask (bits, as f32 bits).
+    pub dir: [f32; 4],
+}
+assert_size!(GpuRoot, 32);
+
+/// Bending parameters per group. Keep in sync with `struct Group` in `shaders/anjyo/cantilever.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuGroomGroup {
+    pub segments: u32,
+    /// 0: paper, 1: converged.
+    pub mode: u32,
+    pub max_iterations: u32,
+    pub first_load: u32,
+    pub load_count: u32,
+    pub first_cut: u32,
+    pub cut_count: u32,
+    pub _pad0: u32,
+    pub rigidity: f32,
+    pub tolerance: f32,
+    pub _pad1: [f32; 2],
+}
+assert_size!(GpuGroomGroup, 48);
+
+/// A load field limited to half-spaces. Keep in sync with `struct Load` in
+/// `shaders/common/loads.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuLoad {
+    /// xyz: force (uniform) or target point (toward); w: 0 uniform, 1 toward.
+    pub field: [f32; 4],
+    /// x: strength (toward); y: number of planes.
+    pub params: [f32; 4],
+    /// xyz: unit normal, w: offset; inside where dot(n, p) >= offset.
+    pub planes: [[f32; 4]; 4],
+}
+assert_size!(GpuLoad, 96);
+
+/// A cut rule. Keep in sync with `struct Cut` in `shaders/anjyo/cantilever.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuCut {
+    /// 0: below y, 1: by pore height, 2: near a point.
+    pub kind: u32,
+    pub _pad: [u32; 3],
+    /// below: (y); by pore height: (low y, low k, high y, high k); near: (center, radius).
+    pub a: [f32; 4],
+}
+assert_size!(GpuCut, 32);
+
+/// Groom dispatch parameters. Keep in sync with `struct Params` in `shaders/anjyo/cantilever.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuGroomParams {
+    pub strand_count: u32,
+    pub total_vertices: u32,
+    /// Invocations per row of the 2D dispatch.
+    pub row_stride: u32,
+    /// Converged-mode iterations per `iterate` dispatch.
+    pub chunk: u32,
+    pub head_center: [f32; 4],
+    pub head_radii: [f32; 4],
+}
+assert_size!(GpuGroomParams, 48);
+
+/// Look of a hair group. Keep in sync with `struct Material` in `shaders/anjyo/draw.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuMaterial {
+    /// rgb: linear hair colour; w: k_s.
+    pub color_ks: [f32; 4],
+    /// x: shininess n, y: k_d, z: root width (world), w: tip width ratio.
+    pub params: [f32; 4],
+}
+assert_size!(GpuMaterial, 32);
+
+/// Projective-dynamics parameters. Keep in sync with `struct DynParams` in
+/// `shaders/anjyo/projective.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuDynParams {
+    pub strand_count: u32,
+    pub row_stride: u32,
+    pub collision: u32,
+    pub pseudo: u32,
+    pub density: f32,
+    pub damping: f32,
+    pub seed: u32,
+    /// Fluctuation amplitude, radians.
+    pub fluct_amp: f32,
+    pub pseudo_alpha: f32,
+    pub eps_pore: f32,
+    pub eps_tip: f32,
+    pub near: f32,
+    /// Joint-angle limits, radians, and where the fall starts and ends (fractions).
+    pub sigma_root: f32,
+    pub sigma_tip: f32,
+    pub sigma_start: f32,
+    pub inertia_root: f32,
+    pub inertia_tip: f32,
+    pub sigma_end: f32,
+    /// Entries per segment row of the segment-major angle state (the dynamic strands,
+    /// rounded up to whole workgroups): segment i of strand column c is at
+    /// `(i - 1) * state_stride + c`.
+    pub state_stride: u32,
+    pub _pad: f32,
+    pub head_center: [f32; 4],
+    pub head_radii: [f32; 4],
+}
+assert_size!(GpuDynParams, 112);
+
+/// One simulated strand. Keep in sync with `struct DynStrand` in `shaders/anjyo/projective.wgsl`.
+/// Uploaded as three columns (all `ids`, then all `root`, then all `extra`, each
+/// `state_stride` long) so that neighbouring invocations read neighbouring 16-byte words.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuDynStrand {
+    /// strand, first vertex, state column (its index among the dynamic strands), simulated
+    /// segments.
+    pub ids: [u32; 4],
+    /// xyz: pore in head coordinates; w: segment length.
+    pub root: [f32; 4],
+    /// x: scalp inertia factor.
+    pub extra: [f32; 4],
+}
+assert_size!(GpuDynStrand, 48);

@@ -1,0 +1,311 @@
+//! The scene file as a whole: the blocks every scene shares (`crate::scene`: head, forces,
+//! camera, light, render settings) and each kind's block, whose type, checks and file
+//! reading live in the kind's folder (`systems/<kind>/block.rs`). It sits beside `KINDS`
+//! because it composes the kinds: `scene` below it knows none of them, and the stage and
+//! viewer above take it whole. `load` reads a file (or a strand file as a scene of its
+//! own), `validate` runs the shared checks and every kind's, and a failure names the file,
+//! the field, the value and what is allowed.
+
+use super::{anjyo, fur, strips, wisps, KINDS};
+use crate::error::Result;
+use crate::scene::{
+    self, CameraDesc, Ellipsoid, ForcesDesc, Head, Light, RenderSettings, MAX_STRANDS,
+};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// A whole scene: the shared blocks (`crate::scene`) and each kind's block (its type and
+/// checks in `systems/<kind>/block.rs`). The file format is this struct's fields.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// Seed of every random draw (pores, lengths, per-strand ambient).
+    #[serde(default)]
+    pub seed: u64,
+    /// The head hull (a default head when absent: fur scenes need none).
+    #[serde(default)]
+    pub head: Head,
+    /// The load Anjyo's groom is styled under: the hair's weight per unit length, in the
+    /// units of `rigidity` (a setting of the groom, not a force of the world: hair in motion
+    /// falls under `forces.gravity`).
+    #[serde(default = "anjyo::block::default_groom_load")]
+    pub groom_load: [f64; 3],
+    /// The world's forces, shared by every kind (`scene::forces`).
+    #[serde(default)]
+    pub forces: ForcesDesc,
+    /// Anjyo's hair groups; empty when the scene shows only other kinds (fur, wisps, strips).
+    #[serde(default)]
+    pub groups: Vec<anjyo::block::HairGroup>,
+    #[serde(default)]
+    pub camera: CameraDesc,
+    #[serde(default)]
+    pub light: Light,
+    #[serde(default)]
+    pub render: RenderSettings,
+    /// Hair in motion (Anjyo section 3). Absent: the groom is static and no simulation
+    /// buffers or passes are built.
+    #[serde(default)]
+    pub dynamics: Option<anjyo::block::Dynamics>,
+    /// Fur on a triangle mesh (Van Gelder & Wilhelms).
+    #[serde(default)]
+    pub fur: Option<fur::block::Fur>,
+    /// Toon wisps (Sakai): skeletons drawn as a ray-marched blobby surface.
+    #[serde(default)]
+    pub wisps: Option<wisps::block::Wisps>,
+    /// Directable strips (Kazama et al.): layered reed strips on damped angular springs.
+    #[serde(default)]
+    pub strips: Option<strips::block::Strips>,
+}
+
+impl Default for Scene {
+    /// The file `Scene()`: the default head, camera, light and render settings and no hair
+    /// (not a valid scene by itself: `validate` asks for some hair).
+    fn default() -> Self {
+        Scene {
+            seed: 0,
+            head: Head::default(),
+            groom_load: anjyo::block::default_groom_load(),
+            forces: ForcesDesc::default(),
+            groups: Vec::new(),
+            camera: CameraDesc::default(),
+            light: Light::default(),
+            render: RenderSettings::default(),
+            dynamics: None,
+            fur: None,
+            wisps: None,
+            strips: None,
+        }
+    }
+}
+
+impl Scene {
+    /// Parse and validate a scene from RON text; `origin` names it in errors.
+    pub fn from_ron(text: &str, origin: &str) -> Result<Scene> {
+        let scene: Scene = scene::parse_str(text, origin)?;
+        validate(&scene).map_err(|e| scene::in_file(e, origin))?;
+        Ok(scene)
+    }
+
+    /// `from_ron` on raw bytes: text that is not UTF-8 is refused with the place of the first
+    /// bad byte.
+    pub fn from_bytes(bytes: &[u8], origin: &str) -> Result<Scene> {
+        let scene: Scene = scene::parse(bytes, origin)?;
+        validate(&scene).map_err(|e| scene::in_file(e, origin))?;
+        Ok(scene)
+    }
+
+    /// A scene showing one strand file (`.hair`, `.obj` polylines, `.usda`), as Anjyo hair
+    /// (`anjyo::imported::scene_of`). What `kami view groom.hair` and the Files panel open.
+    pub fn from_strand_file(path: &Path) -> Result<Scene> {
+        anjyo::imported::scene_of(path)
+    }
+
+    /// Read, parse and validate a scene file, then read the files it names (relative to its
+    /// folder) so that their errors name them; a strand file (`.hair`, `.obj`, `.usda`)
+    /// opens as a scene of its own ([`Scene::from_strand_file`]).
+    pub fn load(path: impl AsRef<Path>) -> Result<Scene> {
+        let path = path.as_ref();
+        if crate::formats::Format::of(path).is_some() {
+            return Scene::from_strand_file(path);
+        }
+        let bytes = scene::read_bytes(path)?;
+        let origin = path.display().to_string();
+        let mut scene = Scene::from_bytes(&bytes, &origin)?;
+        let dir = path.parent().unwrap_or(Path::new(""));
+        scene::read_shared_files(&mut scene.head, &mut scene.forces, dir, &origin)?;
+        for k in KINDS {
+            (k.read_files)(&mut scene, dir, &origin)?;
+        }
+        Ok(scene)
+    }
+
+    /// Pretty RON, for saving a tuned scene.
+    pub fn to_ron(&self) -> String {
+        let cfg = ron::ser::PrettyConfig::new()
+            .depth_limit(6)
+            .struct_names(true);
+        ron::ser::to_string_pretty(self, cfg).expect("scene types always serialise")
+    }
+
+    /// The head hull as an ellipsoid.
+    pub fn head_ellipsoid(&self) -> Ellipsoid {
+        Ellipsoid::new(self.head.center, self.head.radii)
+    }
+
+    /// Total hairs and segments the kinds grow (Anjyo's groups, the fur at full density:
+    /// its count is rounded per triangle when groomed, so it is approximate; wisps and strips
+    /// are surfaces and ribbons, not counted strands).
+    pub fn counts(&self) -> (u64, u64) {
+        KINDS.iter().fold((0, 0), |(h, s), k| {
+            let (kh, ks) = (k.counts)(self);
+            (h + kh, s + ks)
+        })
+    }
+}
+
+/// Check every field of a parsed scene: the shared blocks, that it shows some hair, the
+/// total strand count, then each kind's block. Errors name the field; the loader adds the
+/// file.
+pub fn validate(s: &Scene) -> Result<()> {
+    scene::validate::shared(&s.head, &s.forces, &s.camera, &s.light, &s.render)?;
+    if !KINDS.iter().any(|k| (k.in_scene)(s)) {
+        let names: Vec<&str> = KINDS.iter().map(|k| k.called).collect();
+        let (last, rest) = names.split_last().expect("KINDS is not empty");
+        return Err(scene::validate::bad(
+            KINDS[0].block,
+            "[]",
+            &format!("a scene needs at least one {} or {last}", rest.join(", ")),
+        ));
+    }
+    let (strands, _) = s.counts();
+    if strands > MAX_STRANDS {
+        let counted: Vec<&str> = KINDS
+            .iter()
+            .filter(|k| (k.in_scene)(s))
+            .filter_map(|k| k.counted)
+            .collect();
+        return Err(scene::validate::bad(
+            &counted.join(" + "),
+            strands,
+            &format!("the total must be at most {MAX_STRANDS} hairs"),
+        ));
+    }
+    for k in KINDS {
+        (k.validate)(s)?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Scene;
+    use crate::error::KamiError;
+    use crate::scene::forces::EARTH_GRAVITY;
+
+    /// A small valid scene in the old form: `field` spliced in where it used to sit.
+    fn old(top: &str, dynamics: &str, motion: &str) -> String {
+        format!(
+            "Scene(\n    head: Head(radii: (9.6, 11.5, 7.8)),\n{top}    strips: Some(Strips(\n        \
+             layers: [Layer(count: 2, polar: 60.0, azimuth: (0.0, 90.0), length: 10.0, sticks: 4)],\n        \
+             motion: Motion({motion}),\n    )),\n    dynamics: Some(Dynamics({dynamics})),\n)\n"
+        )
+    }
+
+    /// Every field of the old format that held a force fails with a parse error that names
+    /// the file and the line, the old field and where it is now.
+    #[test]
+    fn old_forms_name_the_moved_field_and_where_it_goes() {
+        let cases = [
+            (
+                old("", "gravity: (0.0, -150.0, 0.0)", ""),
+                7,
+                "`dynamics.gravity` moved",
+                "forces: ForcesDesc(gravity:",
+            ),
+            (
+                old(
+                    "",
+                    "wind: [WindKey(frame: 0.0, force: (1.0, 0.0, 0.0))]",
+                    "",
+                ),
+                7,
+                "`dynamics.wind` moved",
+                "forces: ForcesDesc(wind:",
+            ),
+            (
+                old("", "head_motion: [HeadKey(frame: 0.0)]", ""),
+                7,
+                "`dynamics.head_motion` moved",
+                "forces: ForcesDesc(head_motion:",
+            ),
+            (
+                old("    eff: Some(EffDesc()),\n", "", ""),
+                3,
+                "the top-level `eff` moved",
+                "forces: ForcesDesc(eff: Some(EffDesc(",
+            ),
+            (
+                old(
+                    "    head_capture: Some(HeadCapture(file: \"x.bvh\")),\n",
+                    "",
+                    "",
+                ),
+                3,
+                "the top-level `head_capture` moved",
+                "ForcesDesc(head_capture:",
+            ),
+            (
+                old("    gravity: (0.0, -1.0, 0.0),\n", "", ""),
+                3,
+                "is now `groom_load`",
+                "forces: ForcesDesc(gravity:",
+            ),
+            (
+                old("", "", "gravity: (0.0, -980.0, 0.0)"),
+                5,
+                "`strips.motion.gravity` moved",
+                "forces: ForcesDesc(gravity: (x, y, z))",
+            ),
+        ];
+        for (text, want_line, what, where_now) in cases {
+            match Scene::from_ron(&text, "old.ron") {
+                Err(KamiError::Parse {
+                    path,
+                    line,
+                    message,
+                    ..
+                }) => {
+                    assert_eq!((path.as_str(), line), ("old.ron", want_line), "{message}");
+                    assert!(
+                        message.contains(what) && message.contains(where_now),
+                        "expected {what:?} and {where_now:?} in: {message}\n{text}"
+                    );
+                }
+                other => panic!("expected a parse error for\n{text}\ngot {other:?}"),
+            }
+        }
+        // The same scene in the new form loads.
+        let new = old(
+            "    forces: ForcesDesc(gravity: (0.0, -980.0, 0.0)),\n",
+            "",
+            "",
+        );
+        let scene = Scene::from_ron(&new, "new.ron").unwrap();
+        assert_eq!(scene.forces.gravity, EARTH_GRAVITY);
+    }
+
+    /// Every shipped scene is in the new form and loads (its files read, every value
+    /// checked); the ones that move under the world's forces say so in their `forces` block.
+    #[test]
+    fn every_shipped_scene_loads() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes");
+        let mut names: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "ron"))
+            .collect();
+        names.sort();
+        assert!(
+            names.len() >= 26,
+            "{} scenes in {}",
+            names.len(),
+            dir.display()
+        );
+        for p in &names {
+            let scene = Scene::load(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+            let f = &scene.forces;
+            // Strips and wisps on springs fall under Earth's gravity in every shipped scene.
+            let falls =
+                scene.strips.is_some() || scene.wisps.as_ref().is_some_and(|w| w.springs.is_some());
+            if falls {
+                assert_eq!(f.gravity, EARTH_GRAVITY, "{}", p.display());
+            }
+            if let Some(hc) = &f.head_capture {
+                assert!(!hc.keys.is_empty(), "{}: the capture was read", p.display());
+            }
+            if let Some(e) = &f.eff {
+                assert_eq!(e.file.is_some(), e.loaded.is_some(), "{}", p.display());
+            }
+        }
+    }
+}
