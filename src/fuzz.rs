@@ -14,7 +14,7 @@
 
 use crate::rng::Rng;
 use crate::scene::mesh::Mesh;
-use crate::systems::Scene;
+use crate::systems::{Scene, KINDS};
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::{Cell, RefCell};
 use std::collections::HashSet;
@@ -87,7 +87,7 @@ impl Target {
 #[rustfmt::skip]
 const SCENE_WORDS: &[&str] = &[
     "Scene(", "Head(", "EllipsoidDesc(", "CameraDesc(", "Light(", "RenderSettings(",
-    "forces:", "ForcesDesc(", "groom_load:", "WindKey(", "HeadKey(", "Some(", "None", "true", "false", "NaN", "inf", "-inf", "Step",
+    "forces:", "ForcesDesc(", "WindKey(", "HeadKey(", "Some(", "None", "true", "false", "NaN", "inf", "-inf", "Step",
     "Linear", "File(\"x.obj\")", "seed:", "head:", "center:", "radii:", "color:", "visible:",
     "gravity:", "camera:", "light:", "render:", "name:", "length:", "direction:", "material:",
     "shininess:", "width:", "eye:", "target:", "up:", "fov_y:", "intensity:", "ambient:",
@@ -430,17 +430,8 @@ pub fn check_scene(s: &Scene) -> Result<(), Finding> {
         }
     }
     let _ = s.counts();
-    for g in &s.groups {
-        for phi in (-360..=360).step_by(30) {
-            if let Some(t) = g.roots.hairline_theta(phi as f64) {
-                if !t.is_finite() {
-                    return Err(Finding::new(
-                        "hairline gives a non-finite theta",
-                        format!("hairline gives theta {t} at phi {phi}"),
-                    ));
-                }
-            }
-        }
+    for k in KINDS {
+        (k.invariants)(s).map_err(|(signature, detail)| Finding::new(signature, detail))?;
     }
     Ok(())
 }

@@ -54,6 +54,13 @@ enum Command {
         /// render.strands).
         #[arg(long, value_parser = parse_strands)]
         strands: Option<kami::scene::StrandRaster>,
+        /// Change a setting as `kami view --set` does, through the same code: [N:]KEY=VALUE
+        /// with the viewer's keys (see `kami view --help`), applied at frame N (default 0;
+        /// N > 0 needs --frames) after the flags above. Keys that drive only the window (play,
+        /// lod, seek, save, export, mouse.*) are refused. An edit that rebuilds a system
+        /// restarts the motion from rest, as in the viewer. Repeatable.
+        #[arg(long)]
+        set: Vec<String>,
         /// Prefer a software adapter (llvmpipe/lavapipe) even when a GPU is present.
         #[arg(long)]
         software: bool,
@@ -144,7 +151,7 @@ enum Bench {
     /// backends.md and backends.csv.
     Backends {
         /// Folder holding the shipped scenes.
-        #[arg(long, default_value_os_t = kami::bench::shipped("assets/scenes"))]
+        #[arg(long, default_value_os_t = kami::scene::shipped("assets/scenes"))]
         scenes: PathBuf,
         /// Directory for the report files.
         #[arg(long, default_value = "bench_out")]
@@ -155,7 +162,7 @@ enum Bench {
     /// fallback where the adapter has none), and the simulation's memory bandwidth against
     /// a buffer copy; writes scale.md, scale.csv and scale.png.
     Scale {
-        #[arg(long, default_value_os_t = kami::bench::shipped("assets/scenes/gust.ron"))]
+        #[arg(long, default_value_os_t = kami::scene::shipped("assets/scenes/gust.ron"))]
         scene: PathBuf,
         /// Strand counts, comma separated.
         #[arg(long, value_delimiter = ',', default_value = "1000,10000,100000,1000000", value_parser = parse_count)]
@@ -193,7 +200,7 @@ enum Bench {
     /// strands/segments drawn as the head gets smaller on screen; writes lod.md, lod.csv and
     /// lod.png.
     Lod {
-        #[arg(long, default_value_os_t = kami::bench::shipped("assets/scenes/gust.ron"))]
+        #[arg(long, default_value_os_t = kami::scene::shipped("assets/scenes/gust.ron"))]
         scene: PathBuf,
         /// Directory for the report files.
         #[arg(long, default_value = "bench_out")]
@@ -205,7 +212,7 @@ enum Bench {
     /// strands, ms per drawn frame against the image error from a 64-samples-per-pixel
     /// reference; writes raster.md, raster.csv, raster.png and each image.
     Raster {
-        #[arg(long, default_value_os_t = kami::bench::shipped("assets/scenes/gust.ron"))]
+        #[arg(long, default_value_os_t = kami::scene::shipped("assets/scenes/gust.ron"))]
         scene: PathBuf,
         /// Image size as WIDTHxHEIGHT.
         #[arg(long, value_parser = parse_size, default_value = "1280x720")]
@@ -225,7 +232,7 @@ enum Bench {
     /// The mesh head's signed distance field: build time and error against the exact
     /// signed distance at several grid resolutions; writes sdf.md, sdf.csv and sdf.png.
     Sdf {
-        #[arg(long, default_value_os_t = kami::bench::shipped("assets/scenes/mesh_head.ron"))]
+        #[arg(long, default_value_os_t = kami::scene::shipped("assets/scenes/mesh_head.ron"))]
         scene: PathBuf,
         /// Directory for the report files.
         #[arg(long, default_value = "bench_out")]
@@ -382,10 +389,10 @@ fn kind_bench_command(k: &kami::bench::kinds::KindBench) -> clap::Command {
         Arg::new("input")
             .long(input)
             .value_name(value)
-            // The shipped default found from any directory (`bench::shipped`); leaked once,
+            // The shipped default found from any directory (`scene::shipped`); leaked once,
             // as clap keeps a default for the program's life.
             .default_value(&*Box::leak(
-                kami::bench::shipped(default)
+                kami::scene::shipped(default)
                     .into_os_string()
                     .into_boxed_os_str(),
             ))
@@ -466,6 +473,7 @@ fn run(cli: Cli) -> Result<()> {
             msaa,
             supersample,
             strands,
+            set,
             software,
         } => {
             let mut s = kami::Scene::load(&scene)?;
@@ -479,6 +487,22 @@ fn run(cli: Cli) -> Result<()> {
                 s.render.supersample = f;
             }
             kami::systems::scene::validate(&s)?;
+            let sets = set
+                .iter()
+                .map(|s| kami::app::params::parse_set(s))
+                .collect::<kami::Result<Vec<_>>>()?;
+            let (s, edits) = kami::app::params::scripted(s, &sets)?;
+            if let Some((f, _)) = edits.first() {
+                match frames {
+                    None => {
+                        bail!("--set {f}:...: a still is frame 0; a later frame needs --frames")
+                    }
+                    Some((_, last)) if edits.iter().any(|(f, _)| *f > u64::from(last)) => {
+                        bail!("--set: a frame after {last}, the last one rendered, is never drawn")
+                    }
+                    _ => {}
+                }
+            }
             let size = size.unwrap_or(s.render.size);
             // Every output is checked before the GPU work, so a typo costs nothing.
             match frames {
@@ -536,8 +560,13 @@ fn run(cli: Cli) -> Result<()> {
                     let mut sinks =
                         anim::Sinks::new(gif.as_deref(), apng.as_deref(), size, count, fps)?;
                     let mut progress = anim::Progress::new(count);
-                    let capped =
-                        kami::stage::render_animation(&gpu, &s, size, first..=last, |f, img| {
+                    let capped = kami::stage::render_animation_edited(
+                        &gpu,
+                        &s,
+                        &edits,
+                        size,
+                        first..=last,
+                        |f, img| {
                             let path = dir.join(format!("frame_{f:04}.png"));
                             output::save_png(&img, &path).map_err(|e| kami::KamiError::Image {
                                 path: path.clone(),
@@ -549,7 +578,8 @@ fn run(cli: Cli) -> Result<()> {
                             })?;
                             progress.tick();
                             Ok(())
-                        })?;
+                        },
+                    )?;
                     sinks.finish()?;
                     progress.done();
                     if capped > 0 {
@@ -598,16 +628,10 @@ fn run(cli: Cli) -> Result<()> {
                     );
                 }
             }
-            let mut sets = Vec::new();
-            for s in set {
-                let (frame, assignment) = match s.split_once(':') {
-                    Some((n, rest)) if n.chars().all(|c| c.is_ascii_digit()) && !n.is_empty() => {
-                        (n.parse::<u64>()?, rest.to_string())
-                    }
-                    _ => (0, s.clone()),
-                };
-                sets.push((frame, assignment));
-            }
+            let sets = set
+                .iter()
+                .map(|s| kami::app::params::parse_set(s))
+                .collect::<kami::Result<Vec<_>>>()?;
             kami::app::run(kami::app::ViewerOptions {
                 scene,
                 size,

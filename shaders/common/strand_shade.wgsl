@@ -5,7 +5,7 @@
 // The screen-space level of detail (src/systems/lod.rs) keeps every lod.y-th node (and the
 // last) and widens the fewer strands drawn by lod.x.
 
-// Keep in sync with GpuMaterial in src/gpu/gpu_data.rs.
+// Keep in sync with GpuMaterial in src/systems/anjyo/gpu_data.rs.
 struct Material {
     // rgb linear colour, w k_s
     color_ks: vec4<f32>,

@@ -83,7 +83,7 @@ pub fn run(options: ViewerOptions) -> Result<()> {
         None => (
             Scene::from_ron(DEFAULT_SCENE, "gust.ron (built in)")?,
             // The shipped file behind it, found from any working directory (a reload reads it).
-            crate::bench::shipped("assets/scenes/gust.ron")
+            crate::scene::shipped("assets/scenes/gust.ron")
                 .display()
                 .to_string(),
         ),

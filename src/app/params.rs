@@ -284,6 +284,70 @@ impl ViewerState {
     }
 }
 
+/// The viewer's `--set` keys that drive only the window (the clock, the level of detail, files,
+/// the mouse): a render has none, so `kami render --set` refuses them.
+pub const WINDOW_KEYS: &[&str] = &[
+    "play",
+    "lod",
+    "seek",
+    "save",
+    "export",
+    "mouse.press",
+    "mouse.move",
+    "mouse.release",
+];
+
+/// `[N:]KEY=VALUE` as `kami view --set` and `kami render --set` take it: the frame (0 when
+/// absent) and the assignment.
+pub fn parse_set(s: &str) -> Result<(u64, String)> {
+    match s.split_once(':') {
+        Some((n, rest)) if !n.is_empty() && n.chars().all(|c| c.is_ascii_digit()) => {
+            let frame = n
+                .parse::<u64>()
+                .map_err(|_| KamiError::Option(format!("--set {s}: frame {n} is too large")))?;
+            Ok((frame, rest.to_string()))
+        }
+        _ => Ok((0, s.to_string())),
+    }
+}
+
+/// The scenes a scripted render shows (`kami render --set`): each `(frame, KEY=VALUE)`, in
+/// frame order, goes through the viewer's own path (`ViewerState::apply_set`: the same keys,
+/// the same checks, each kind's keys through its `KindUi`), so a render and a viewer session
+/// are driven the same way. Returns the scene at frame 0 and, for later frames, the scene
+/// from that frame on. Window keys ([`WINDOW_KEYS`]) are refused.
+pub fn scripted(scene: Scene, sets: &[(u64, String)]) -> Result<(Scene, Vec<(u64, Scene)>)> {
+    let mut order: Vec<&(u64, String)> = sets.iter().collect();
+    order.sort_by_key(|(f, _)| *f);
+    let mut state = ViewerState::new(scene, String::new());
+    let mut first = None;
+    let mut later: Vec<(u64, Scene)> = Vec::new();
+    for (frame, assignment) in order {
+        let key = assignment
+            .split_once('=')
+            .map_or(assignment.as_str(), |(k, _)| k);
+        if WINDOW_KEYS.contains(&key) {
+            return Err(KamiError::Option(format!(
+                "--set {assignment}: `{key}` drives the viewer's window; a render has none \
+                 (window keys: {})",
+                WINDOW_KEYS.join(", ")
+            )));
+        }
+        if *frame > 0 && first.is_none() {
+            first = Some(state.scene.clone());
+        }
+        state.apply_set(assignment)?;
+        if *frame > 0 {
+            match later.last_mut() {
+                Some((f, s)) if f == frame => *s = state.scene.clone(),
+                _ => later.push((*frame, state.scene.clone())),
+            }
+        }
+    }
+    let first = first.unwrap_or_else(|| state.scene.clone());
+    Ok((first, later))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -351,6 +415,46 @@ mod tests {
             let mut s = ViewerState::new(still, String::new());
             s.apply_set(key).unwrap();
             assert!(s.scene.dynamics.is_some(), "{key}");
+        }
+    }
+
+    /// A scripted render's scenes: sets in frame order through the viewer's path, the scene
+    /// at frame 0 and one scene per later frame holding everything set up to it; window keys
+    /// refused.
+    #[test]
+    fn scripted_sets_give_one_scene_per_frame_in_order() {
+        let sets: Vec<(u64, String)> = [
+            "5:wind=0,0,-300",
+            "color=1,0,0",
+            "2:width=0.1",
+            "5:gravity=0,-980,0",
+        ]
+        .iter()
+        .map(|s| parse_set(s).unwrap())
+        .collect();
+        let (first, later) = scripted(gust(), &sets).unwrap();
+        assert!(first
+            .groups
+            .iter()
+            .all(|g| g.material.color == [1.0, 0.0, 0.0]));
+        assert!(first.groups.iter().all(|g| g.material.width != 0.1));
+        assert_eq!(later.iter().map(|(f, _)| *f).collect::<Vec<_>>(), [2, 5]);
+        assert!(later[0].1.groups.iter().all(|g| g.material.width == 0.1));
+        assert!(
+            later[0].1.forces.wind.is_empty() || later[0].1.forces.wind != later[1].1.forces.wind
+        );
+        assert_eq!(later[1].1.forces.wind[0].force, [0.0, 0.0, -300.0]);
+        assert_eq!(later[1].1.forces.gravity, [0.0, -980.0, 0.0]);
+        assert!(later[1]
+            .1
+            .groups
+            .iter()
+            .all(|g| g.material.color == [1.0, 0.0, 0.0]));
+        for key in ["play=off", "lod=0.5", "mouse.release", "3:seek=1"] {
+            let e = scripted(gust(), &[parse_set(key).unwrap()])
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("drives the viewer's window"), "{key}: {e}");
         }
     }
 }

@@ -26,7 +26,7 @@ use crate::systems::anjyo::groom::prepare;
 use crate::systems::Scene;
 use glam::DVec3;
 use std::fmt::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Instant;
 
 pub struct Report {
@@ -64,28 +64,6 @@ pub fn provenance() -> String {
             .map(|n| n.get())
             .unwrap_or(1)
     )
-}
-
-/// A bench's default input (a shipped scene or the folder of them), named by its path in
-/// the repository, e.g. `assets/scenes/gust.ron`: that path when it exists from the working
-/// directory (run from a checkout: the reports name it as before), else the same path
-/// under the folder Kami was built from (a `kami` installed with `cargo install --path`,
-/// run from anywhere; `--help` shows the path in use). Nothing is embedded, unlike the
-/// viewer's default scene: the scenes name their EFF, mesh and capture files relative to
-/// themselves, and `bench backends` and `bench fur` read a whole folder, so they are read
-/// where they lie. A path given on the command line is the user's and is never searched
-/// for: only defaults go through here.
-pub fn shipped(path: &str) -> PathBuf {
-    shipped_from(Path::new(""), path)
-}
-
-/// `shipped` seen from the working directory `cwd`: a relative answer is relative to it.
-pub fn shipped_from(cwd: &Path, path: &str) -> PathBuf {
-    if cwd.join(path).exists() {
-        PathBuf::from(path)
-    } else {
-        Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
-    }
 }
 
 /// Write `<stem>.md` and `<stem>.csv` into `out` (created if missing).

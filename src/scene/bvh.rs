@@ -3,7 +3,8 @@
 //! motion the strips paper's hair rides on. A skeleton (`HIERARCHY`: ROOT, JOINT, End Site,
 //! OFFSET, CHANNELS in any order and any rotation order) and its frames (`MOTION`); a joint's
 //! global transform per frame by forward kinematics. [`HeadCapture`] turns one joint's
-//! motion into the scene's head keys.
+//! motion into the scene's head keys. Lenient where the tools artists use are and nothing is
+//! lost: frame lines past the count `Frames:` announces are left out with a warning.
 //!
 //! Conventions (those of every BVH reader we know): a joint's local transform is the
 //! translation `OFFSET + (Xposition, Yposition, Zposition)` followed by the rotation channels
@@ -292,15 +293,18 @@ impl Bvh {
             }
             read += 1;
         }
-        if let Some(extra) = lx.lines[line.min(lx.lines.len())..]
-            .iter()
-            .position(|l| !l.trim().is_empty())
-        {
-            return Err(data(
-                path,
-                Some(line + extra + 1),
-                format!("more frame lines than the {frames} `Frames:` announces"),
-            ));
+        // Lines past the announced frames (public capture sets often hold one more than
+        // their header says; Blender and assimp read such files): the announced frames are
+        // read and the rest is left out, said once.
+        let rest = &lx.lines[line.min(lx.lines.len())..];
+        if let Some(first) = rest.iter().position(|l| !l.trim().is_empty()) {
+            let extra = rest.iter().filter(|l| !l.trim().is_empty()).count();
+            log::warn!(
+                "{path}:{}: {extra} more frame line{} than the {frames} `Frames:` announces: \
+                 the {frames} announced frames are read, the rest left out",
+                line + first + 1,
+                if extra == 1 { "" } else { "s" }
+            );
         }
         Ok(Bvh {
             path: path.to_string(),

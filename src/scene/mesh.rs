@@ -422,6 +422,7 @@ impl Mesh {
             parser::Parser,
             ply::{DefaultElement, Property},
         };
+        let bytes = &free_text_as_comments(bytes, name)[..];
         ply_header_fits(bytes, name)?;
         let parser = Parser::<DefaultElement>::new();
         let ply = parser
@@ -605,6 +606,66 @@ pub fn cgal_demo_mesh(name: &str, dir: &Path) -> Result<PathBuf> {
     };
     std::fs::remove_dir_all(&tmp).ok();
     result.map(|_| path)
+}
+
+/// A PLY header line that is none of the header's keywords (old exporters, Blender 2.4x
+/// among them, wrote a free-text "Created by ..." line; assimp reads such files) becomes a
+/// `comment` line, with a warning naming it: nothing it says is data. Line numbers stay as
+/// they were, so later errors still point into the file.
+fn free_text_as_comments<'a>(bytes: &'a [u8], name: &str) -> std::borrow::Cow<'a, [u8]> {
+    const KEYWORDS: [&str; 7] = [
+        "ply",
+        "format",
+        "comment",
+        "obj_info",
+        "element",
+        "property",
+        "end_header",
+    ];
+    let mut free = Vec::new();
+    let mut at = 0;
+    let mut line_no = 0;
+    let mut ended = false;
+    while let Some(len) = bytes[at..].iter().position(|&b| b == b'\n') {
+        let line = &bytes[at..at + len];
+        line_no += 1;
+        let first = line
+            .split(|b| b.is_ascii_whitespace())
+            .find(|w| !w.is_empty());
+        match first {
+            Some(b"end_header") => {
+                ended = true;
+                break;
+            }
+            // The first line is the magic `ply`: a file without it is no PLY.
+            Some(w) if line_no > 1 && !KEYWORDS.iter().any(|k| k.as_bytes() == w) => {
+                free.push((at, line_no))
+            }
+            _ => {}
+        }
+        at += len + 1;
+    }
+    // A header that never ends is refused as it stands, its own lines named.
+    if free.is_empty() || !ended {
+        return std::borrow::Cow::Borrowed(bytes);
+    }
+    let lines: Vec<String> = free.iter().map(|(_, n)| n.to_string()).collect();
+    log::warn!(
+        "{name}: header line{} {} {} not a PLY keyword: read as comment{}",
+        if free.len() == 1 { "" } else { "s" },
+        lines.join(", "),
+        if free.len() == 1 { "is" } else { "are" },
+        if free.len() == 1 { "" } else { "s" }
+    );
+    let mut out = Vec::with_capacity(bytes.len() + 8 * free.len());
+    let mut from = 0;
+    for (start, _) in free {
+        out.extend_from_slice(&bytes[from..start]);
+        out.extend_from_slice(b"comment ");
+        from = start;
+    }
+    out.extend_from_slice(&bytes[from..]);
+    std::borrow::Cow::Owned(out)
 }
 
 /// Refuse a PLY header whose element counts the body cannot hold (each binary record takes

@@ -35,7 +35,7 @@ pub use validate::{MAX_SEGMENTS, MAX_SIZE, MAX_STRANDS};
 
 use crate::error::{KamiError, Result};
 use serde::{Deserialize, Serialize};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// The head: the ellipsoidal hull of Anjyo's step [alpha]. Pores lie on it and hair collides
 /// with it.
@@ -365,6 +365,28 @@ pub fn read_shared_files(
         relative_to(dir, m);
     }
     Ok(())
+}
+
+/// A shipped scene or the folder of them (a bench's default input, the file behind the
+/// viewer's built-in scene), named by its path in the repository, e.g. `assets/scenes/gust.ron`: that path when it exists from the working
+/// directory (run from a checkout: the reports name it as before), else the same path
+/// under the folder Kami was built from (a `kami` installed with `cargo install --path`,
+/// run from anywhere; `--help` shows the path in use). Nothing is embedded, unlike the
+/// viewer's default scene: the scenes name their EFF, mesh and capture files relative to
+/// themselves, and `bench backends` and `bench fur` read a whole folder, so they are read
+/// where they lie. A path given on the command line is the user's and is never searched
+/// for: only defaults go through here.
+pub fn shipped(path: &str) -> PathBuf {
+    shipped_from(Path::new(""), path)
+}
+
+/// `shipped` seen from the working directory `cwd`: a relative answer is relative to it.
+pub fn shipped_from(cwd: &Path, path: &str) -> PathBuf {
+    if cwd.join(path).exists() {
+        PathBuf::from(path)
+    } else {
+        Path::new(env!("CARGO_MANIFEST_DIR")).join(path)
+    }
 }
 
 /// Deepest bracket nesting a scene may use (the deepest real one is about 8).

@@ -741,12 +741,30 @@ pub fn render_animation(
     scene: &Scene,
     size: (u32, u32),
     frames: std::ops::RangeInclusive<u32>,
+    on_frame: impl FnMut(u32, image::RgbaImage) -> Result<()>,
+) -> Result<u32> {
+    render_animation_edited(gpu, scene, &[], size, frames, on_frame)
+}
+
+/// [`render_animation`] with edits: from each `(frame, scene)` of `edits` (frame order,
+/// validated scenes) on, the stage shows that scene, taken as the viewer takes an edit
+/// (`Stage::apply`: each system redrawn, re-simulated or rebuilt; a rebuild restarts the
+/// motion from rest). `kami render --set N:KEY=VALUE`.
+pub fn render_animation_edited(
+    gpu: &Gpu,
+    scene: &Scene,
+    edits: &[(u64, Scene)],
+    size: (u32, u32),
+    frames: std::ops::RangeInclusive<u32>,
     mut on_frame: impl FnMut(u32, image::RgbaImage) -> Result<()>,
 ) -> Result<u32> {
     check_limits(gpu, scene, size)?;
+    for (_, s) in edits {
+        check_limits(gpu, s, size)?;
+    }
     let mut stage = Stage::new(gpu, scene, target::OUTPUT_FORMAT, Quality::of(scene))?;
     let out = target::Offscreen::new(gpu, size)?;
-    let look = stage.look();
+    let mut look = stage.look();
     let mut capped = 0;
     for f in 0..=*frames.end() {
         let mut enc = gpu
@@ -756,6 +774,25 @@ pub fn render_animation(
             });
         if f > 0 {
             capped += u32::from(stage.advance(gpu, &mut enc, 1)?.capped);
+        }
+        let now: Vec<&Scene> = edits
+            .iter()
+            .filter(|(at, _)| *at == u64::from(f))
+            .map(|(_, s)| s)
+            .collect();
+        if !now.is_empty() {
+            // The step is submitted before the edit can free what it recorded into.
+            gpu.queue.submit([enc.finish()]);
+            for s in now {
+                stage.apply(gpu, s)?;
+                stage.set_quality(gpu, Quality::of(s));
+            }
+            look = stage.look();
+            enc = gpu
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("animation frame after an edit"),
+                });
         }
         if f >= *frames.start() {
             stage.render(gpu, &mut enc, &out.view, size, &look)?;

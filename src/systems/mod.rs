@@ -238,6 +238,10 @@ pub struct Kind {
     pub scenes: &'static [&'static str],
     /// (path under `shaders/` without `.wgsl`, composed source) of every WGSL module.
     pub shaders: &'static [(&'static str, &'static str)],
+    /// What must hold of the kind's block in any scene validation accepted, beyond finite
+    /// numbers (the fuzzer checks it on every accepted scene): `Err((signature, detail))`
+    /// when it does not.
+    pub invariants: fn(&Scene) -> std::result::Result<(), (&'static str, String)>,
     /// Tokens of the kind's scene block for the scene fuzzer's dictionary (`fuzz`).
     pub fuzz_words: &'static [&'static str],
 }

@@ -143,8 +143,8 @@ impl Scene {
     }
 }
 
-/// Check every field of a parsed scene: the shared blocks, that it shows some hair, the
-/// total strand count, then each kind's block. Errors name the field; the loader adds the
+/// Check every field of a parsed scene: the shared blocks, that it shows some hair, each
+/// kind's block, then the total strand count. Errors name the field; the loader adds the
 /// file.
 pub fn validate(s: &Scene) -> Result<()> {
     scene::validate::shared(&s.head, &s.forces, &s.camera, &s.light, &s.render)?;
@@ -157,6 +157,10 @@ pub fn validate(s: &Scene) -> Result<()> {
             &format!("a scene needs at least one {} or {last}", rest.join(", ")),
         ));
     }
+    for k in KINDS {
+        (k.validate)(s)?;
+    }
+    // The total last: each kind's own count check names its field first.
     let (strands, _) = s.counts();
     if strands > MAX_STRANDS {
         let counted: Vec<&str> = KINDS
@@ -169,9 +173,6 @@ pub fn validate(s: &Scene) -> Result<()> {
             strands,
             &format!("the total must be at most {MAX_STRANDS} hairs"),
         ));
-    }
-    for k in KINDS {
-        (k.validate)(s)?;
     }
     Ok(())
 }
@@ -307,5 +308,49 @@ mod tests {
                 assert_eq!(e.file.is_some(), e.loaded.is_some(), "{}", p.display());
             }
         }
+    }
+
+    /// The field and text of a check's error.
+    fn invalid(text: &str) -> (String, String) {
+        match Scene::from_ron(text, "t.ron") {
+            Err(KamiError::Invalid { field, allowed, .. }) => (field, allowed),
+            other => panic!("expected an invalid field for\n{text}\ngot {other:?}"),
+        }
+    }
+
+    /// A scene with no hair names every kind it could have held, from `KINDS`.
+    #[test]
+    fn a_scene_without_hair_names_every_kind() {
+        let (field, allowed) = invalid("Scene()");
+        assert_eq!(field, "groups");
+        assert_eq!(
+            allowed,
+            "a scene needs at least one hair group, fur, wisps or strips"
+        );
+    }
+
+    /// Each kind's own count check comes before the scene's total, so a fur block over the
+    /// limit is refused by the fur's rule, naming its field, with hair groups beside it too.
+    #[test]
+    fn a_kind_over_the_strand_limit_is_named_by_its_own_check() {
+        let fur = "fur: Some(Fur(mesh: Critter, hairs: 4000001, length: 0.3, \
+                   coats: [Coat(share: 1.0, stiffness: 0.5)]))";
+        let group = "groups: [HairGroup(count: 10, segments: 4, length: 10.0, rigidity: 1000.0)]";
+        for text in [format!("Scene({fur})"), format!("Scene({group}, {fur})")] {
+            let (field, allowed) = invalid(&text);
+            assert_eq!(field, "fur.hairs", "{text}");
+            assert!(!allowed.contains("total"), "{text}: {allowed}");
+        }
+        // Within each kind's limit but over the scene's total: the total names both.
+        let both = format!(
+            "Scene(groups: [HairGroup(count: 3000000, segments: 4, length: 10.0, rigidity: 1000.0)], {})",
+            fur.replace("4000001", "2000000")
+        );
+        let (field, allowed) = invalid(&both);
+        assert_eq!(field, "groups[..].count + fur.hairs");
+        assert!(
+            allowed.contains("the total must be at most 4000000"),
+            "{allowed}"
+        );
     }
 }

@@ -1,10 +1,10 @@
-//! A bench's default scene is found from any working directory (`bench::shipped`): an
+//! A bench's default scene is found from any working directory (`scene::shipped`): an
 //! installed `kami bench strips` run outside the repository reads the shipped scene, and
 //! run from the checkout it names the same relative path its reports have always named.
 //! The working directory is passed in (`shipped_from`), not changed: the process's is
 //! shared by every test.
 
-use kami::bench::{shipped, shipped_from};
+use kami::scene::{shipped, shipped_from};
 use std::path::{Path, PathBuf};
 
 const STRIPS: &str = "assets/scenes/strips.ron";

@@ -249,3 +249,55 @@ fn bench_help_describes_each_bench_under_its_name() {
     }
     refused(&["bench", "wisps", "--frames", "0"], "--frames");
 }
+
+/// `kami render --set` drives a render with the viewer's keys through the viewer's code: the
+/// image equals the render of the scene edited by hand, window keys and a later frame without
+/// `--frames` are refused before any GPU work.
+#[test]
+fn render_set_matches_the_scene_edited_by_hand() {
+    let bob = common::root().join("assets/scenes/bob.ron");
+    let dir = scratch("render-set");
+    let mut edited = kami::Scene::load(&bob).unwrap();
+    for g in &mut edited.groups {
+        g.material.color = [0.9, 0.2, 0.1];
+    }
+    let by_hand = dir.join("by_hand.ron");
+    std::fs::write(&by_hand, edited.to_ron()).unwrap();
+    let render = |scene: &Path, png: &str, extra: &[&str]| {
+        let out = dir.join(png);
+        let mut args = vec![
+            "render",
+            scene.to_str().unwrap(),
+            "--size",
+            "96x96",
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let run = kami(&args);
+        assert!(
+            run.status.success(),
+            "kami {args:?}: {}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        image::open(&out).unwrap().to_rgba8()
+    };
+    let set = render(&bob, "set.png", &["--set", "color=0.9,0.2,0.1"]);
+    let hand = render(&by_hand, "hand.png", &[]);
+    let plain = render(&bob, "plain.png", &[]);
+    assert!(
+        set == hand,
+        "--set color differs from the scene edited by hand"
+    );
+    assert!(set != plain, "--set color changed nothing");
+    let bob = bob.to_str().unwrap();
+    refused(
+        &["render", bob, "--set", "play=off"],
+        "`play` drives the viewer's window",
+    );
+    refused(
+        &["render", bob, "--set", "3:color=1,1,1"],
+        "a later frame needs --frames",
+    );
+    refused(&["render", bob, "--set", "color=1,2"], "--set color=1,2");
+}

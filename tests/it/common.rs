@@ -504,3 +504,43 @@ pub fn largest_allocation<T>(f: impl FnOnce() -> T) -> (T, usize) {
     let out = f();
     (out, LARGEST.with(|l| l.get()))
 }
+
+/// The warnings the library logs (`log::warn!`) on this thread while `f` runs, in order. One
+/// logger is installed for the whole test binary; it keeps records only for threads inside
+/// this call, so tests running beside each other do not see each other's warnings.
+pub fn warnings<T>(f: impl FnOnce() -> T) -> (T, Vec<String>) {
+    static LOGGER: Capture = Capture;
+    static INSTALL: OnceLock<()> = OnceLock::new();
+    INSTALL.get_or_init(|| {
+        log::set_logger(&LOGGER).expect("the tests install no other logger");
+        log::set_max_level(log::LevelFilter::Warn);
+    });
+    CAPTURED.with(|c| *c.borrow_mut() = Some(Vec::new()));
+    let out = f();
+    let got = CAPTURED.with(|c| c.borrow_mut().take()).unwrap_or_default();
+    (out, got)
+}
+
+thread_local! {
+    static CAPTURED: RefCell<Option<Vec<String>>> = const { RefCell::new(None) };
+}
+
+struct Capture;
+
+impl log::Log for Capture {
+    fn enabled(&self, m: &log::Metadata) -> bool {
+        m.level() <= log::Level::Warn
+    }
+
+    fn log(&self, r: &log::Record) {
+        if self.enabled(r.metadata()) {
+            CAPTURED.with(|c| {
+                if let Some(v) = c.borrow_mut().as_mut() {
+                    v.push(r.args().to_string());
+                }
+            });
+        }
+    }
+
+    fn flush(&self) {}
+}

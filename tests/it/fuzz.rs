@@ -179,3 +179,23 @@ fn the_harness_reports_panics_allocations_and_broken_promises() {
     scene.groups[0].length_jitter = f64::NAN;
     assert!(fuzz::check_scene(&scene).is_err());
 }
+
+/// Each kind's invariants (`Kind::invariants`) run on every scene the fuzzer sees accepted.
+/// Anjyo's catches a hairline that gives a non-finite zenith, which validation must refuse
+/// first; no other kind objects to that scene.
+#[test]
+fn kind_invariants_catch_what_validation_must_refuse() {
+    let mut s = crate::common::scene("bob");
+    s.groups[0].roots.hairline = Some(vec![(0.0, f64::NAN), (180.0, 60.0)]);
+    let broken: Vec<_> = kami::systems::KINDS
+        .iter()
+        .filter_map(|k| (k.invariants)(&s).err())
+        .collect();
+    assert_eq!(broken.len(), 1, "{broken:?}");
+    assert_eq!(broken[0].0, "hairline gives a non-finite theta");
+    assert!(kami::systems::scene::validate(&s).is_err());
+    let bob = crate::common::scene("bob");
+    assert!(kami::systems::KINDS
+        .iter()
+        .all(|k| (k.invariants)(&bob).is_ok()));
+}

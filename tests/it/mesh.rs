@@ -302,6 +302,52 @@ fn malformed_off_is_refused_with_its_line() {
     );
 }
 
+/// A PLY whose header holds a free-text line (Blender 2.47's exporter wrote "Created by
+/// Blender3D 247 ..."; assimp reads such files) loads the same cube, ascii and binary, with a
+/// warning naming the line; later errors still name their own lines. A header that never
+/// ends is still refused.
+#[test]
+fn free_text_in_a_ply_header_is_read_as_a_comment() {
+    const FREE: &str = "Created by Blender3D 247 - www.blender.org, source file: 'cube.blend'\n";
+    let ascii = cube_ply_ascii().replacen(
+        "format ascii 1.0\n",
+        &format!("format ascii 1.0\n{FREE}"),
+        1,
+    );
+    let (m, warned) = common::warnings(|| Mesh::from_ply(ascii.as_bytes(), "blender.ply"));
+    check_cube(&m.unwrap());
+    assert_eq!(warned.len(), 1, "{warned:?}");
+    assert!(
+        warned[0].starts_with("blender.ply: header line 3 is not a PLY keyword"),
+        "{warned:?}"
+    );
+    let bin = cube_ply_binary();
+    let at = bin.windows(2).position(|w| w == b"\ne").unwrap() + 1;
+    let mut with_free = bin[..at].to_vec();
+    with_free.extend_from_slice(FREE.as_bytes());
+    with_free.extend_from_slice(&bin[at..]);
+    let (m, warned) = common::warnings(|| Mesh::from_ply(&with_free, "blender_bin.ply"));
+    check_cube(&m.unwrap());
+    assert_eq!(warned.len(), 1, "{warned:?}");
+    // The body's lines keep their numbers: the bad vertex is on line 13, one below its
+    // place in the plain cube.
+    let bad = ascii.replace("1 1 0\n", "1 x 0\n");
+    broken(
+        Mesh::from_ply(bad.as_bytes(), "blender.ply"),
+        Some(13),
+        &["1 x 0"],
+    );
+    // No end_header: the junk line is the error, as before.
+    broken(
+        Mesh::from_ply(
+            b"ply\nformat ascii 1.0\nelement vertex 1\nbanana\n",
+            "bad.ply",
+        ),
+        Some(4),
+        &["bad.ply", "banana"],
+    );
+}
+
 #[test]
 fn malformed_ply_is_refused() {
     let name = "bad.ply";

@@ -357,3 +357,38 @@ fn wait_outlasts_one_fence_timeout() {
         gpu.describe()
     );
 }
+
+/// `kami render --set N:KEY=VALUE` (`render_animation_edited`): a wind set at frame 2 of the
+/// gust acts from the next step on, as an edit in the viewer does (Anjyo re-simulates, no
+/// restart): frames 0 to 2 are the unedited ones, frame 4 differs.
+#[test]
+fn an_edit_at_frame_n_acts_from_the_next_step() {
+    let gpu = common::gpu();
+    let scene = common::scene("gust");
+    let (first, edits) =
+        kami::app::params::scripted(scene.clone(), &[(2, "wind=0,0,900".to_string())]).unwrap();
+    assert_eq!(first, scene);
+    let size = (64, 64);
+    let mut plain = Vec::new();
+    kami::stage::render_animation(gpu, &scene, size, 0..=4, |_, img| {
+        plain.push(img);
+        Ok(())
+    })
+    .unwrap();
+    let mut edited = Vec::new();
+    kami::stage::render_animation_edited(gpu, &first, &edits, size, 0..=4, |_, img| {
+        edited.push(img);
+        Ok(())
+    })
+    .unwrap();
+    for f in 0..=2 {
+        assert!(
+            plain[f] == edited[f],
+            "frame {f} changed before the edit acted"
+        );
+    }
+    assert!(
+        plain[4] != edited[4],
+        "the wind set at frame 2 changed nothing by frame 4"
+    );
+}

@@ -656,6 +656,24 @@ pub fn read_files(s: &mut Scene, dir: &Path, origin: &str) -> Result<()> {
     resolve_strand_files(s, dir, origin)
 }
 
+/// What validation promises of accepted hair groups beyond finite numbers: a hairline gives
+/// a finite zenith at every azimuth (the fuzzer checks it, `Kind::invariants`).
+pub fn invariants(s: &Scene) -> std::result::Result<(), (&'static str, String)> {
+    for g in &s.groups {
+        for phi in (-360..=360).step_by(30) {
+            if let Some(t) = g.roots.hairline_theta(phi as f64) {
+                if !t.is_finite() {
+                    return Err((
+                        "hairline gives a non-finite theta",
+                        format!("hairline gives theta {t} at phi {phi}"),
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Check Anjyo's blocks: the groom load, every hair group, the dynamics.
 pub fn validate(s: &Scene) -> Result<()> {
     vec3("groom_load", s.groom_load, 1e9)?;

@@ -4,8 +4,8 @@
 //! so once per submission is the same as once per frame). `tests/it/guides.rs` compares it
 //! with the f64 reference.
 //!
-//! Its two GPU structs live here rather than in `gpu::gpu_data` because nothing else reads
-//! them; same rules (`#[repr(C)]`, `Pod`, a size check, "keep in sync").
+//! Its two GPU structs live here rather than in Anjyo's `gpu_data` because nothing else
+//! reads them; same rules (`#[repr(C)]`, `Pod`, a size check, "keep in sync").
 
 use super::follow::{FollowSetup, MAX_GUIDES};
 use crate::error::Result;

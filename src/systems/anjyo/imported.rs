@@ -101,7 +101,7 @@ fn walk(points: &[DVec3], d: f64, k: u32) -> (Vec<DVec3>, f64) {
 
 /// Roots and resampled rest nodes (`segments + 1` per strand, strands in order) of hair
 /// group `gi`, read from its file. The file must have been read (`Scene::load` or
-/// `scene::resolve_strand_files`).
+/// `block::resolve_strand_files`).
 pub fn group_roots(seed: u64, gi: usize, g: &HairGroup) -> Result<(Vec<StrandRoot>, Vec<DVec3>)> {
     let file = g
         .file
@@ -113,7 +113,7 @@ pub fn group_roots(seed: u64, gi: usize, g: &HairGroup) -> Result<(Vec<StrandRoo
             field: format!("groups[{gi}].file"),
             value: format!("{:?}", file.path),
             allowed: "the strand file was not read: load the scene with Scene::load or call \
-                      scene::resolve_strand_files"
+                      systems::anjyo::block::resolve_strand_files"
                 .into(),
         });
     };

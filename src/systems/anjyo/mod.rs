@@ -129,6 +129,7 @@ pub const KIND: Kind = Kind {
         ("anjyo/splat", SPLAT),
         ("anjyo/splat_msaa", SPLAT_MSAA),
     ],
+    invariants: block::invariants,
     fuzz_words: FUZZ_WORDS,
 };
 
@@ -137,7 +138,7 @@ pub const KIND: Kind = Kind {
 #[rustfmt::skip]
 const FUZZ_WORDS: &[&str] = &[
     "HairGroup(", "Roots(", "Material(", "Dynamics(", "Inertia(", "PseudoForce(",
-    "Stiffness(", "Fluctuation(", "Cut(", "Normal", "Blend(dir: (1.0, 0.0, 0.0), weight: 0.5)",
+    "groom_load:", "Stiffness(", "Fluctuation(", "Cut(", "Normal", "Blend(dir: (1.0, 0.0, 0.0), weight: 0.5)",
     "Paper", "Converged(", "Uniform(force: (1.0, 0.0, 0.0))",
     "Toward(point: (0.0, 0.0, 0.0), strength: 1.0)", "Above(0.0)", "Below(0.0)",
     "HalfSpace(normal: (0.0, 0.0, 1.0), offset: 0.0)", "ByPoreHeight(low: (0.0, 1), high: (1.0, 2))",
@@ -251,8 +252,13 @@ pub fn longest_segment(scene: &Scene) -> f64 {
 
 /// Strands and segments of the scene's hair groups (not its fur).
 pub fn counts(scene: &Scene) -> (u64, u64) {
-    scene.groups.iter().fold((0, 0), |(h, s), g| {
-        (h + g.count as u64, s + g.count as u64 * g.segments as u64)
+    // Saturating: this runs before the groups' counts are checked.
+    scene.groups.iter().fold((0u64, 0u64), |(h, s), g| {
+        let n = g.count as u64;
+        (
+            h.saturating_add(n),
+            s.saturating_add(n.saturating_mul(g.segments as u64)),
+        )
     })
 }
 

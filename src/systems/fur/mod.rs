@@ -83,6 +83,7 @@ pub const KIND: Kind = Kind {
         ("fur/draw", DRAW),
         ("fur/skin", SKIN),
     ],
+    invariants: |_| Ok(()),
     fuzz_words: &[
         "Fur(",
         "Region(",

@@ -77,6 +77,7 @@ pub const KIND: Kind = Kind {
         ("strips/ribbon", ribbon::RIBBON),
         ("strips/draw", ribbon::DRAW),
     ],
+    invariants: |_| Ok(()),
     fuzz_words: &[
         "Strips(",
         "Layer(",

@@ -79,6 +79,7 @@ pub const KIND: Kind = Kind {
         ("wisps/springs", springs_gpu::SPRINGS),
         ("wisps/tiles", tiles::TILES),
     ],
+    invariants: |_| Ok(()),
     fuzz_words: &[
         "Wisps(",
         "Skeleton(",
