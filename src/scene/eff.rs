@@ -1,7 +1,7 @@
 //! The External Force Field as the scene describes it (`forces.eff`): the block, its checks,
 //! the grid it spans and the EFF file it may name, read when the scene loads so that a bad
 //! file fails then, naming its line. The field itself (the fill rules, sampling, the GPU
-//! side) is built from these by `crate::forces::eff`; the file format is described there.
+//! side) is built from these by `forces::eff`; the file format is described there.
 //! These live in `scene` so that loading and checking a scene needs no solver.
 
 use super::forces::Interp;

@@ -1,6 +1,6 @@
 //! The scene's `forces` block: the world every kind of hair lives in — gravity, keyed wind,
 //! the External Force Field, and head motion (keyed, or from a motion capture). One block at
-//! the scene's top level; `crate::forces::Forces` evaluates it at the stage's clock and hands
+//! the scene's top level; `forces::Forces` evaluates it at the stage's clock and hands
 //! it to every kind, and each kind's own block keeps only its solver settings.
 //!
 //! # Units: one acceleration, read by each kind through its own mass
@@ -49,7 +49,7 @@ pub struct ForcesDesc {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub head_capture: Option<super::bvh::HeadCapture>,
     /// The External Force Field: a grid of winds around the head that every kind with
-    /// dynamics samples (`crate::forces::eff`).
+    /// dynamics samples (`forces::eff`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub eff: Option<super::eff::EffDesc>,
 }

@@ -368,8 +368,9 @@ pub fn read_shared_files(
 }
 
 /// A shipped scene or the folder of them (a bench's default input, the file behind the
-/// viewer's built-in scene), named by its path in the repository, e.g. `assets/scenes/gust.ron`: that path when it exists from the working
-/// directory (run from a checkout: the reports name it as before), else the same path
+/// viewer's built-in scene), named by its path in the repository, e.g.
+/// `assets/scenes/gust.ron`: that path when it exists from the working directory (run from
+/// a checkout: the reports name it as before), else the same path
 /// under the folder Kami was built from (a `kami` installed with `cargo install --path`,
 /// run from anywhere; `--help` shows the path in use). Nothing is embedded, unlike the
 /// viewer's default scene: the scenes name their EFF, mesh and capture files relative to

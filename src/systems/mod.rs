@@ -1,16 +1,16 @@
-//! Hair systems: each kind of hair (Anjyo's strands, Van Gelder's fur, Sakai's wisps,
-//! Kazama's strips and the kinds to come) is one self-contained module behind the
-//! `HairSystem` interface, listed once in `KINDS`. The stage (`crate::stage`) knows systems only through this module: it asks each
-//! kind the scene names to build itself, hands every system the same clock (`FrameCtx`)
-//! each frame, and draws them all into one depth-tested pass. The viewer's panels, tools
-//! and `--set` keys, its Files list, the CLI's summary line, the shader registry, the
-//! fuzzer's words, the limits check, the scene bounds and the scene's checks and files
-//! iterate `KINDS` too, so adding a kind is a new folder, one line in `KINDS` and its
-//! block's field in `Scene` (`scene.rs`; docs/adding-a-kind.md).
+//! Hair systems: each kind of hair (Anjyo's strands, Van Gelder's fur, Sakai's wisps, Kazama's
+//! strips and the kinds to come) is one self-contained module behind the `HairSystem`
+//! interface, listed once in `KINDS`. The stage (`stage`) knows systems only through this
+//! module: it asks each kind the scene names to build itself, hands every system the same clock
+//! (`FrameCtx`) each frame, and draws them all into one depth-tested pass. The viewer's panels,
+//! tools and `--set` keys, its Files list, the CLI's summary line, the shader registry, the
+//! fuzzer's words, the limits check, the scene bounds and the scene's checks and files iterate
+//! `KINDS` too, so adding a kind is a new folder, one line in `KINDS` and its block's field in
+//! `Scene` (`scene.rs`; docs/adding-a-kind.md).
 //!
-//! A system owns everything of its kind: its scene block (`<kind>/block.rs`), CPU references, GPU passes, draw pipelines, its
-//! shaders (`shaders/<kind>/`), its egui panels and its viewer state (`ui::KindUi`). It
-//! knows no window and imports neither `app` nor `stage`.
+//! A system owns everything of its kind: its scene block (`<kind>/block.rs`), CPU references,
+//! GPU passes, draw pipelines, its shaders (`shaders/<kind>/`), its egui panels and its viewer
+//! state (`ui::KindUi`). It knows no window and imports neither `app` nor `stage`.
 
 pub mod anjyo;
 pub mod fur;

@@ -1,5 +1,5 @@
-//! Anjyo's passes (groom, dynamics, draw)'s structs shared with WGSL: `#[repr(C)]`, `Pod`, explicit padding and a
-//! compile-time size check. Each names the WGSL struct it must match.
+//! The structs Anjyo's passes (groom, dynamics, draw) share with WGSL: `#[repr(C)]`, `Pod`,
+//! explicit padding and a compile-time size check. Each names the WGSL struct it must match.
 
 use crate::gpu::gpu_data::assert_size;
 use bytemuck::{Pod, Zeroable};

@@ -1,5 +1,5 @@
 //! Grooms made in other tools as live Anjyo hair: a hair group that names a strand file
-//! (`crate::systems::anjyo::block::StrandFile`) takes its rest pose from the file instead of the cantilever.
+//! (`block::StrandFile`) takes its rest pose from the file instead of the cantilever.
 //! Each strand is resampled to the group's `segments` equal segments along its arc length,
 //! because the projective dynamics (Anjyo section 3) moves strands of one segment length.
 //! The root is the strand's first point, so it rides the head like a groomed pore.

@@ -1,5 +1,5 @@
-//! The fur's passes (generate, draw, skin)'s structs shared with WGSL: `#[repr(C)]`, `Pod`, explicit padding and a
-//! compile-time size check. Each names the WGSL struct it must match.
+//! The structs the fur's passes (generate, draw, skin) share with WGSL: `#[repr(C)]`, `Pod`,
+//! explicit padding and a compile-time size check. Each names the WGSL struct it must match.
 
 use crate::gpu::gpu_data::assert_size;
 use bytemuck::{Pod, Zeroable};
