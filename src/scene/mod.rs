@@ -4,7 +4,7 @@
 //! and of the files those blocks name (`read_shared_files`). Each kind of hair keeps its own
 //! block and its checks in its folder (`systems/<kind>/block.rs`); `systems::Scene` composes
 //! the file from these shared parts and the kinds' blocks. This module imports no solver, no
-//! GPU and no kind (`systems::tests::layers_point_one_way`).
+//! GPU and no kind (`tests/it/layers.rs`).
 //!
 //! Every struct and struct variant denies unknown fields: a misspelt optional field is an
 //! error, not silently its default. Checks name the field (`head.radii[1]`), the value and

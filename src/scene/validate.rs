@@ -226,34 +226,33 @@ pub const SDF_RESOLUTION: (u32, u32) = (8, 256);
 /// Most scalp regions.
 const MAX_SCALP_REGIONS: usize = 64;
 
-fn validate_head_mesh(m: &HeadMesh) -> Result<()> {
-    match &m.source {
+/// Where a mesh comes from (`head.mesh.source`, `fur.mesh`): a file name that is not empty,
+/// a positive glTF frame rate (`<field>.fps`), a bare CGAL demo file name (`example` shows
+/// one).
+pub fn mesh_source(field: &str, s: &MeshSource, example: &str) -> Result<()> {
+    match s {
         MeshSource::File(p) if p.trim().is_empty() => {
-            return Err(bad(
-                "head.mesh.source",
-                "\"\"",
-                "must name an .obj, .off or .ply file",
-            ));
+            Err(bad(field, "\"\"", "must name an .obj, .off or .ply file"))
         }
         MeshSource::Gltf { file, .. } if file.trim().is_empty() => {
-            return Err(bad(
-                "head.mesh.source",
-                "\"\"",
-                "must name a .gltf or .glb file",
-            ));
+            Err(bad(field, "\"\"", "must name a .gltf or .glb file"))
         }
-        MeshSource::Gltf { fps, .. } => positive("head.mesh.source.fps", *fps, 1e4)?,
+        MeshSource::Gltf { fps, .. } => positive(&format!("{field}.fps"), *fps, 1e4),
         MeshSource::CgalDemo(n)
             if n.is_empty() || n.contains(['/', '\\']) || n.starts_with('.') =>
         {
-            return Err(bad(
-                "head.mesh.source",
+            Err(bad(
+                field,
                 format!("CgalDemo({n:?})"),
-                "must be a file name in the CGAL demo meshes, e.g. \"head.off\"",
-            ));
+                &format!("must be a file name in the CGAL demo meshes, e.g. \"{example}\""),
+            ))
         }
-        _ => {}
+        _ => Ok(()),
     }
+}
+
+fn validate_head_mesh(m: &HeadMesh) -> Result<()> {
+    mesh_source("head.mesh.source", &m.source, "head.off")?;
     positive("head.mesh.scale", m.scale, BIG)?;
     vec3("head.mesh.rotate", m.rotate, 3600.0)?;
     vec3("head.mesh.translate", m.translate, BIG)?;

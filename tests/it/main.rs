@@ -19,6 +19,7 @@ mod fur_skinned;
 mod fuzz;
 mod guides;
 mod imported;
+mod layers;
 mod lod;
 mod mesh;
 mod mesh_head;

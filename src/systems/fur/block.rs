@@ -248,29 +248,7 @@ pub fn read_files(s: &mut Scene, dir: &Path, _origin: &str) -> Result<()> {
 const MAX_FUR_REGIONS: usize = 64;
 
 fn validate_fur(f: &Fur) -> Result<()> {
-    match &f.mesh {
-        MeshSource::File(p) if p.trim().is_empty() => {
-            return Err(bad(
-                "fur.mesh",
-                "\"\"",
-                "must name an .obj, .off or .ply file",
-            ));
-        }
-        MeshSource::Gltf { file, .. } if file.trim().is_empty() => {
-            return Err(bad("fur.mesh", "\"\"", "must name a .gltf or .glb file"));
-        }
-        MeshSource::Gltf { fps, .. } => positive("fur.mesh.fps", *fps, 1e4)?,
-        MeshSource::CgalDemo(n)
-            if n.is_empty() || n.contains(['/', '\\']) || n.starts_with('.') =>
-        {
-            return Err(bad(
-                "fur.mesh",
-                format!("CgalDemo({n:?})"),
-                "must be a file name in the CGAL demo meshes, e.g. \"lion-head.off\"",
-            ));
-        }
-        _ => {}
-    }
+    mesh_source("fur.mesh", &f.mesh, "lion-head.off")?;
     if let Some(size) = f.size {
         positive("fur.size", size, BIG)?;
     }
