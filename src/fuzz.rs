@@ -201,6 +201,12 @@ const USDA_WORDS: &[&str] = &[
     "(interpolation = \"varying\")", "int[] primvars:displayColor:indices = [",
     "point3f[] points.timeSamples = {", "1: [", "(0, 0, 0)", "(1, 2, 3)", "(nan, 0, 0)",
     "double3 xformOp:translate = (1, 2, 3)\n", "matrix4d xformOp:transform = ( (1, 0, 0, 0), (0, 1, 0, 0), (0, 0, 1, 0), (0, 0, 0, 1) )\n",
+    "uniform token wrap = \"periodic\"\n", "uniform token wrap = \"pinned\"\n",
+    "uniform token[] xformOpOrder = [\"xformOp:translate\", \"!invert!xformOp:scale\"]\n",
+    "uniform token[] xformOpOrder = [\"!resetXformStack!\", \"xformOp:transform\"]\n",
+    "float3 xformOp:scale = (0, 1e30, 1)\n", "float3 xformOp:rotateZYX = (90, 1e39, 0)\n",
+    "quatf xformOp:orient = (0, 0, 0, 0)\n", "(\n    metersPerUnit = 1e-40\n    upAxis = \"Z\"\n)\n",
+    "class \"k\" {\n", "(active = false)",
     "2, ", "4294967295, ", ", ", "\n", " ",
 ];
 
@@ -352,7 +358,8 @@ fn class(message: &str, input: &[u8]) -> String {
 
 /// What an accepted strand file promises: the groom's invariants (`Groom::check`: counts
 /// that add up, two points or more per strand, finite points, one attribute per point),
-/// finite attributes, and that it writes and reads back as `.hair` with its points equal
+/// finite attributes, curves that evaluate to polylines keeping all that (cubic USD), and
+/// that it writes and reads back as `.hair` with its points equal
 /// (unless it has more strands or points than a `.hair` file can count).
 pub fn check_groom(g: &crate::formats::Groom) -> Result<(), Finding> {
     if let Err(e) = g.check("fuzz") {
@@ -361,6 +368,17 @@ pub fn check_groom(g: &crate::formats::Groom) -> Result<(), Finding> {
             format!("accepted groom breaks its invariants: {e}"),
         ));
     }
+    // Cubic curves are drawn as the polylines they evaluate to: those must hold too.
+    let linear = g.clone().into_linear();
+    if let Err(e) = linear.check("fuzz") {
+        return Err(Finding::new(
+            "evaluated curves break the invariants",
+            format!(
+                "an accepted groom's curves evaluate to polylines that break its invariants: {e}"
+            ),
+        ));
+    }
+    let g = &linear;
     let finite = g.widths.iter().flatten().all(|w| w.is_finite())
         && g.opacities.iter().flatten().all(|o| o.is_finite())
         && g.colors.iter().flatten().flatten().all(|c| c.is_finite());

@@ -157,6 +157,7 @@ pub fn parse(b: &[u8], origin: &str) -> Result<Groom> {
         widths,
         opacities,
         colors,
+        ..Groom::default()
     })
 }
 

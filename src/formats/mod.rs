@@ -8,16 +8,24 @@
 use crate::error::{KamiError, Result};
 use std::path::Path;
 
+pub mod curves;
 pub mod hair;
 pub mod obj;
 pub mod usd;
 
-/// A groom as strand files carry it: polylines, strand after strand.
+pub use curves::{Basis, Wrap};
+
+/// A groom as strand files carry it: curves, strand after strand. Usually polylines
+/// (`basis` linear); a USD groom authored as cubic curves keeps its control points and
+/// basis until [`Groom::into_linear`] evaluates it (so `kami convert` writes it back
+/// cubic).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Groom {
-    /// Points of each strand, in order (every strand has at least 2).
+    /// Points of each strand, in order (every strand has at least 2, and as many as its
+    /// basis and wrap need: [`curves::segments`]).
     pub counts: Vec<u32>,
-    /// All points, strand after strand (`counts` sums to its length), in the file's units.
+    /// All points, strand after strand (`counts` sums to its length), in Kami's units.
+    /// Control points when `basis` is cubic.
     pub points: Vec<[f32; 3]>,
     /// Per-point width (diameter), when the file has one.
     pub widths: Option<Vec<f32>>,
@@ -26,6 +34,10 @@ pub struct Groom {
     /// Per-point RGB colour in 0..1 as the file stores it (Kami writes its materials' sRGB
     /// colours; no format says which space).
     pub colors: Option<Vec<[f32; 3]>>,
+    /// How the points make each curve (every strand the same).
+    pub basis: Basis,
+    /// Open, closed or pinned ends.
+    pub wrap: Wrap,
 }
 
 impl Groom {
@@ -45,9 +57,118 @@ impl Groom {
         })
     }
 
+    /// Whether these are open polylines already (nothing for `into_linear` to do).
+    pub fn is_linear(&self) -> bool {
+        self.basis == Basis::Linear && self.wrap != Wrap::Periodic
+    }
+
+    /// The curves as open polylines: cubic curves evaluated with their basis
+    /// ([`curves::PER_SEGMENT`] samples a segment), closed curves ending where they began,
+    /// per-point values evaluated like the points (widths and colours kept non-negative,
+    /// opacities in 0..1, as a Catmull-Rom curve may overshoot its values). Call
+    /// [`Groom::check`] first: counts that make no curve are left out.
+    pub fn into_linear(self) -> Groom {
+        if self.is_linear() {
+            return self;
+        }
+        let (basis, wrap) = (self.basis, self.wrap);
+        let total_segments: usize = self
+            .counts
+            .iter()
+            .filter_map(|&c| curves::segments(basis, wrap, c as usize))
+            .sum();
+        let per = curves::per_segment_for(basis, total_segments);
+        let widen = |v: &Option<Vec<f32>>| {
+            v.as_ref()
+                .map(|v| v.iter().map(|&x| x as f64).collect::<Vec<f64>>())
+        };
+        let widths = widen(&self.widths);
+        let opacities = widen(&self.opacities);
+        let colors = self
+            .colors
+            .as_ref()
+            .map(|c| c.iter().flatten().map(|&x| x as f64).collect::<Vec<f64>>());
+        let points: Vec<f64> = self.points.iter().flatten().map(|&x| x as f64).collect();
+        let mut out = Groom {
+            widths: widths.as_ref().map(|_| Vec::new()),
+            opacities: opacities.as_ref().map(|_| Vec::new()),
+            colors: colors.as_ref().map(|_| Vec::new()),
+            ..Groom::default()
+        };
+        let mut at = 0usize;
+        for &c in &self.counts {
+            let n = c as usize;
+            let r = at..at + n;
+            at += n;
+            if curves::segments(basis, wrap, n).is_none() {
+                continue;
+            }
+            let mut chans = vec![curves::Channel {
+                values: &points[r.start * 3..r.end * 3],
+                arity: 3,
+                varying: false,
+            }];
+            for (v, arity) in [(&widths, 1), (&opacities, 1), (&colors, 3)] {
+                if let Some(v) = v {
+                    chans.push(curves::Channel {
+                        values: &v[r.start * arity..r.end * arity],
+                        arity,
+                        varying: false,
+                    });
+                }
+            }
+            let mut samples: Vec<Vec<f64>> = vec![Vec::new(); chans.len()];
+            curves::tessellate(basis, wrap, n, &chans, per, &mut samples);
+            let mut samples = samples.into_iter();
+            let pts = samples.next().unwrap_or_default();
+            out.counts.push((pts.len() / 3) as u32);
+            out.points.extend(
+                pts.chunks_exact(3)
+                    .map(|p| [p[0] as f32, p[1] as f32, p[2] as f32]),
+            );
+            if let Some(w) = out.widths.as_mut() {
+                w.extend(
+                    samples
+                        .next()
+                        .unwrap_or_default()
+                        .iter()
+                        .map(|&x| x.max(0.0) as f32),
+                );
+            }
+            if let Some(o) = out.opacities.as_mut() {
+                o.extend(
+                    samples
+                        .next()
+                        .unwrap_or_default()
+                        .iter()
+                        .map(|&x| x.clamp(0.0, 1.0) as f32),
+                );
+            }
+            if let Some(col) = out.colors.as_mut() {
+                col.extend(samples.next().unwrap_or_default().chunks_exact(3).map(|c| {
+                    [
+                        c[0].max(0.0) as f32,
+                        c[1].max(0.0) as f32,
+                        c[2].max(0.0) as f32,
+                    ]
+                }));
+            }
+        }
+        out
+    }
+
     /// Put `other`'s strands after these. A per-point array only one side has is filled on
-    /// the other side with a neutral value (width 0.01, opacity 1, white).
-    pub fn append(&mut self, other: Groom) {
+    /// the other side with a neutral value (width 0.01, opacity 1, white). Grooms of
+    /// different bases or wraps both become polylines first.
+    pub fn append(&mut self, mut other: Groom) {
+        if (self.basis, self.wrap) != (other.basis, other.wrap) {
+            if self.counts.is_empty() {
+                (self.basis, self.wrap) = (other.basis, other.wrap);
+            } else {
+                *self = std::mem::take(self).into_linear();
+                other = other.into_linear();
+            }
+        }
         fn join<T: Clone>(
             a: &mut Option<Vec<T>>,
             na: usize,
@@ -92,6 +213,19 @@ impl Groom {
             return Err(bad(format!(
                 "strand {i} has {} point(s); at least 2 are needed",
                 self.counts[i]
+            )));
+        }
+        if let Some(i) = self
+            .counts
+            .iter()
+            .position(|&c| curves::segments(self.basis, self.wrap, c as usize).is_none())
+        {
+            return Err(bad(format!(
+                "strand {i} has {} points, which make no {} {} curve: it needs {}",
+                self.counts[i],
+                self.wrap.token(),
+                self.basis.token(),
+                curves::rule(self.basis, self.wrap)
             )));
         }
         if let Some(i) = self
@@ -270,6 +404,14 @@ pub fn write(path: &Path, groom: &Groom) -> Result<()> {
             "the groom has no strands to write".into(),
         ));
     }
+    // Only usda keeps cubic curves; the others get the polylines they evaluate to.
+    let linear;
+    let groom = if format == Format::Usda || groom.is_linear() {
+        groom
+    } else {
+        linear = groom.clone().into_linear();
+        &linear
+    };
     let bytes = match format {
         Format::Hair => hair::to_bytes(groom, &origin)?,
         Format::Obj => obj::to_string(groom).into_bytes(),

@@ -103,6 +103,7 @@ pub fn parse(text: &str, origin: &str) -> Result<Groom> {
         widths: None,
         opacities: None,
         colors,
+        ..Groom::default()
     })
 }
 

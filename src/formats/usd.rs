@@ -1,29 +1,44 @@
-//! USD `BasisCurves` in text form (`.usda`). The writer makes one linear `BasisCurves` prim
-//! with vertex widths, and `primvars:displayColor` / `primvars:displayOpacity` when the groom
-//! has them. The reader takes that and what Blender and Houdini usually export:
+//! USD `BasisCurves` in text form (`.usda`). The writer makes one `BasisCurves` prim (cubic
+//! with its basis and wrap when the groom is, linear otherwise) with vertex widths, and
+//! `primvars:displayColor` / `primvars:displayOpacity` when the groom has them, in Kami's
+//! centimetres with y up. The reader takes that and what Blender, Houdini and Maya export:
 //!
-//! - every `def BasisCurves` prim, at any depth, concatenated in file order;
-//! - linear and cubic curves; cubic (bezier, bspline, catmullRom) keep their control points
-//!   as the polyline, which is not the curve the basis describes;
-//! - widths and the two primvars as constant, uniform or vertex values (also indexed ones),
-//!   expanded per point; an attribute missing from one prim is dropped from all;
+//! - every `def BasisCurves` prim, at any depth, concatenated in file order (not those in a
+//!   `class` or under `active = false`);
+//! - linear and cubic curves (`bezier`, `bspline`, `catmullRom`; `wrap` nonperiodic,
+//!   periodic or pinned), with USD's fallbacks (cubic, bezier, nonperiodic); a groom of one
+//!   basis keeps its control points ([`Groom::into_linear`] evaluates them), prims of
+//!   different bases become polylines;
+//! - widths and the two primvars as constant, uniform, vertex or varying values (also
+//!   indexed ones); an attribute missing from one prim is dropped from all;
+//! - transforms: every `xformOp` kind (translate, scale, rotateX/Y/Z, the six three-axis
+//!   rotations, orient, transform, `!invert!`, `!resetXformStack!`) in `xformOpOrder`, on
+//!   the prim and its parents; the stage's `metersPerUnit` and `upAxis` (Kami is
+//!   centimetres, y up); widths scale with the transform's mean scale;
 //! - `timeSamples`: the first sample.
 //!
-//! Lost: transforms (`xformOp:*` on the prim or its parents), periodic wrap (read open),
-//! normals, other primvars, variants, references and sublayers. Binary `.usd`/`.usdc` is not
-//! read.
+//! Lost: normals, other primvars, variants, references, payloads and sublayers, and the
+//! other time samples. Binary `.usd`/`.usdc` is not read.
 
+use super::curves::{self, Basis, Wrap};
 use super::{data_error, Groom};
 use crate::error::Result;
+use glam::{DMat4, DVec3};
 use std::fmt::Write;
 
 /// usda text for a checked groom.
 pub fn to_string(g: &Groom) -> String {
     let mut s = String::with_capacity(g.points.len() * 48);
-    s.push_str("#usda 1.0\n(\n    defaultPrim = \"hair\"\n    doc = \"Kami strands (kami convert)\"\n)\n\n");
+    // Kami's units: centimetres, y up (what a reader scales and turns by).
+    s.push_str("#usda 1.0\n(\n    defaultPrim = \"hair\"\n    doc = \"Kami strands (kami convert)\"\n    metersPerUnit = 0.01\n    upAxis = \"Y\"\n)\n\n");
     s.push_str("def BasisCurves \"hair\"\n{\n");
-    s.push_str("    uniform token type = \"linear\"\n");
-    s.push_str("    uniform token wrap = \"nonperiodic\"\n");
+    if g.basis == Basis::Linear {
+        s.push_str("    uniform token type = \"linear\"\n");
+    } else {
+        s.push_str("    uniform token type = \"cubic\"\n");
+        let _ = writeln!(s, "    uniform token basis = \"{}\"", g.basis.token());
+    }
+    let _ = writeln!(s, "    uniform token wrap = \"{}\"", g.wrap.token());
     list(
         &mut s,
         "    int[] curveVertexCounts = ",
@@ -190,7 +205,9 @@ enum Value {
         arity: usize,
         array: bool,
     },
-    Text,
+    Text(String),
+    /// An array of strings or tokens (`xformOpOrder`).
+    Strs(Vec<String>),
     Other,
 }
 
@@ -201,6 +218,7 @@ struct Parser<'a> {
     /// Nesting of prims and values now: bounded, so a hostile file is an error, not a
     /// stack overflow.
     depth: usize,
+    stage: Stage,
 }
 
 /// Deepest nesting of prims or values read (real files nest a handful of levels).
@@ -208,15 +226,6 @@ const MAX_DEPTH: usize = 128;
 
 /// A numeric attribute: name, values (flattened), tuple size, interpolation, line.
 type Attr = (String, Vec<f64>, usize, Option<String>, usize);
-
-#[derive(Default)]
-struct Prim {
-    line: usize,
-    counts: Option<(Vec<f64>, usize)>,
-    points: Option<(Vec<f64>, usize)>,
-    /// Every other numeric attribute, in file order.
-    attrs: Vec<Attr>,
-}
 
 impl Parser<'_> {
     fn peek(&self) -> Option<&Tok> {
@@ -272,19 +281,34 @@ impl Parser<'_> {
             }
         }
     }
-    /// `( ... )` metadata: returns its `interpolation`, if any.
-    fn metadata(&mut self) -> Result<Option<String>> {
+    /// `( ... )` metadata: its `key = value` pairs whose value is one string or word
+    /// (`interpolation`, `metersPerUnit`, `upAxis`, `active`), with their lines.
+    fn metadata(&mut self) -> Result<Vec<(String, String, usize)>> {
         let start = self.at;
         self.skip_group()?;
-        let mut interp = None;
-        for w in self.toks[start..self.at].windows(3) {
-            if let (Tok::Word(k), Tok::Punct('='), Tok::Str(v)) = (&w[0].0, &w[1].0, &w[2].0) {
-                if k == "interpolation" {
-                    interp = Some(v.clone());
+        let mut pairs = Vec::new();
+        let toks = &self.toks[start..self.at];
+        for (i, w) in toks.windows(3).enumerate() {
+            // Only `key = value` at the group's top level, followed by its end or a new key.
+            let after = toks.get(i + 3).map(|t| &t.0);
+            let ends = !matches!(after, Some(Tok::Punct('(' | '[' | '{')));
+            if let (Tok::Word(k), Tok::Punct('='), Tok::Str(v) | Tok::Word(v)) =
+                (&w[0].0, &w[1].0, &w[2].0)
+            {
+                if ends {
+                    pairs.push((k.clone(), v.clone(), w[0].1));
                 }
             }
         }
-        Ok(interp)
+        Ok(pairs)
+    }
+
+    /// The `interpolation` of a property's metadata.
+    fn interpolation(pairs: &[(String, String, usize)]) -> Option<String> {
+        pairs
+            .iter()
+            .find(|p| p.0 == "interpolation")
+            .map(|p| p.1.clone())
     }
 
     fn enter(&mut self) -> Result<()> {
@@ -304,14 +328,14 @@ impl Parser<'_> {
 
     fn value_in(&mut self) -> Result<Value> {
         match self.bump()? {
-            Tok::Str(_) => Ok(Value::Text),
+            Tok::Str(t) => Ok(Value::Text(t)),
             Tok::Word(w) => Ok(match num(&w) {
                 Some(x) => Value::Nums {
                     v: vec![x],
                     arity: 1,
                     array: false,
                 },
-                None => Value::Text,
+                None => Value::Text(w),
             }),
             Tok::Punct('(') => {
                 self.at -= 1;
@@ -329,6 +353,9 @@ impl Parser<'_> {
                 let start = self.at - 1;
                 let mut v = Vec::new();
                 let mut arity = None;
+                if let Some(Tok::Str(_)) = self.peek() {
+                    return self.strings(start);
+                }
                 loop {
                     match self.peek() {
                         Some(Tok::Punct(']')) => {
@@ -394,15 +421,23 @@ impl Parser<'_> {
         }
     }
 
-    /// A tuple of numbers; `None` (skipped) for anything else, such as the rows of a
-    /// `matrix4d xformOp:transform`, which Kami does not use.
+    /// A tuple of numbers, nested tuples flattened (the rows of a `matrix4d`); `None`
+    /// (skipped) for anything else.
     fn tuple(&mut self) -> Result<Option<Vec<f64>>> {
         let start = self.at;
         self.expect('(')?;
         let mut v = Vec::new();
+        let mut open = 1usize;
         loop {
             match self.bump()? {
-                Tok::Punct(')') => return Ok(Some(v)),
+                Tok::Punct(')') => {
+                    open -= 1;
+                    if open == 0 {
+                        return Ok(Some(v));
+                    }
+                }
+                // Real tuples nest once (matrix rows); deeper is not a tuple of numbers.
+                Tok::Punct('(') if open < 2 => open += 1,
                 Tok::Punct(',') => {}
                 Tok::Word(w) if num(&w).is_some() => v.push(num(&w).unwrap_or_default()),
                 _ => {
@@ -414,25 +449,34 @@ impl Parser<'_> {
         }
     }
 
-    /// Statements up to a closing `}` (or the end, at the top), collecting BasisCurves.
-    fn block(
-        &mut self,
-        prim: &mut Option<&mut Prim>,
-        out: &mut Vec<Prim>,
-        top: bool,
-    ) -> Result<()> {
+    /// `[ "a", "b", ... ]` from its `[` at `start`; anything else in it makes it `Other`.
+    fn strings(&mut self, start: usize) -> Result<Value> {
+        let mut v = Vec::new();
+        loop {
+            match self.bump()? {
+                Tok::Punct(']') => return Ok(Value::Strs(v)),
+                Tok::Punct(',') => {}
+                Tok::Str(t) => v.push(t),
+                _ => {
+                    self.at = start;
+                    self.skip_group()?;
+                    return Ok(Value::Other);
+                }
+            }
+        }
+    }
+
+    /// Statements up to a closing `}` (or the end, at the top), collecting every prim
+    /// (for its transform) and the BasisCurves' properties. `prim` is the prim whose body
+    /// this is (an index into `out`).
+    fn block(&mut self, prim: Option<usize>, out: &mut Vec<Prim>, top: bool) -> Result<()> {
         self.enter()?;
         let r = self.block_in(prim, out, top);
         self.depth -= 1;
         r
     }
 
-    fn block_in(
-        &mut self,
-        prim: &mut Option<&mut Prim>,
-        out: &mut Vec<Prim>,
-        top: bool,
-    ) -> Result<()> {
+    fn block_in(&mut self, prim: Option<usize>, out: &mut Vec<Prim>, top: bool) -> Result<()> {
         loop {
             let line = self.line();
             let Some(tok) = self.peek().cloned() else {
@@ -447,7 +491,13 @@ impl Parser<'_> {
                     return Ok(());
                 }
                 Tok::Punct('(') if top => {
-                    self.metadata()?;
+                    for (k, v, l) in self.metadata()? {
+                        match k.as_str() {
+                            "metersPerUnit" => self.stage.meters_per_unit = Some((v, l)),
+                            "upAxis" => self.stage.up_axis = Some((v, l)),
+                            _ => {}
+                        }
+                    }
                 }
                 Tok::Word(w) if w == "def" || w == "over" || w == "class" => {
                     self.at += 1;
@@ -468,21 +518,26 @@ impl Parser<'_> {
                                 .err(format!("expected a prim type or name, found {}", show(&t))))
                         }
                     };
+                    let mut inactive = false;
                     if self.peek() == Some(&Tok::Punct('(')) {
-                        self.metadata()?;
+                        inactive = self
+                            .metadata()?
+                            .iter()
+                            .any(|(k, v, _)| k == "active" && (v == "false" || v == "0"));
                     }
                     self.expect('{')?;
-                    let curves = w == "def" && kind.as_deref() == Some("BasisCurves");
-                    let mut p = Prim {
+                    // Class prims and what they hold are templates, and inactive prims are
+                    // switched off: neither is drawn.
+                    let hidden = w == "class" || inactive || prim.is_some_and(|p| out[p].hidden);
+                    let idx = out.len();
+                    out.push(Prim {
                         line,
+                        parent: prim,
+                        hidden,
+                        curves: w == "def" && kind.as_deref() == Some("BasisCurves"),
                         ..Prim::default()
-                    };
-                    if curves {
-                        self.block(&mut Some(&mut p), out, false)?;
-                        out.push(p);
-                    } else {
-                        self.block(&mut None, out, false)?;
-                    }
+                    });
+                    self.block(Some(idx), out, false)?;
                 }
                 Tok::Word(_) => {
                     // A property: words on one line (qualifiers, type, name), then an
@@ -506,12 +561,12 @@ impl Parser<'_> {
                         value = Some(self.value()?);
                     }
                     let interp = if self.peek() == Some(&Tok::Punct('(')) {
-                        self.metadata()?
+                        Self::interpolation(&self.metadata()?)
                     } else {
                         None
                     };
-                    if let (Some(p), Some(v)) = (prim.as_deref_mut(), value) {
-                        p.set(&name, v, interp, line);
+                    if let (Some(p), Some(v)) = (prim, value) {
+                        out[p].set(&name, v, interp, line);
                     }
                 }
                 Tok::Punct(';') => self.at += 1,
@@ -521,11 +576,45 @@ impl Parser<'_> {
     }
 }
 
+/// The stage's metadata Kami applies: its unit and up axis (values and lines).
+#[derive(Default)]
+struct Stage {
+    meters_per_unit: Option<(String, usize)>,
+    up_axis: Option<(String, usize)>,
+}
+
+#[derive(Default)]
+struct Prim {
+    line: usize,
+    /// The prim this one is defined in.
+    parent: Option<usize>,
+    /// A class prim, an inactive one, or inside one of those.
+    hidden: bool,
+    /// `def BasisCurves`.
+    curves: bool,
+    counts: Option<(Vec<f64>, usize)>,
+    points: Option<(Vec<f64>, usize)>,
+    /// `type`, `basis` and `wrap` (value, line).
+    tokens: Vec<(String, String, usize)>,
+    /// `xformOpOrder` and its line.
+    order: Option<(Vec<String>, usize)>,
+    /// Numeric attributes, in file order: every one on a BasisCurves, the `xformOp:`s on
+    /// the others.
+    attrs: Vec<Attr>,
+}
+
 impl Prim {
     fn set(&mut self, name: &str, v: Value, interp: Option<String>, line: usize) {
         let name = name.strip_suffix(".timeSamples").unwrap_or(name);
         match (name, v) {
-            ("type" | "basis" | "wrap", Value::Text) => {}
+            ("xformOpOrder", Value::Strs(order)) => self.order = Some((order, line)),
+            (_, Value::Nums { v, arity, .. }) if name.starts_with("xformOp:") => {
+                self.attrs.push((name.to_string(), v, arity, interp, line))
+            }
+            _ if !self.curves => {}
+            ("type" | "basis" | "wrap", Value::Text(t)) => {
+                self.tokens.push((name.to_string(), t, line))
+            }
             ("curveVertexCounts", Value::Nums { v, array: true, .. }) => {
                 self.counts = Some((v, line))
             }
@@ -547,6 +636,120 @@ impl Prim {
     fn attr(&self, name: &str) -> Option<&Attr> {
         self.attrs.iter().rev().find(|a| a.0 == name)
     }
+
+    fn token(&self, name: &str) -> Option<(&str, usize)> {
+        self.tokens
+            .iter()
+            .rev()
+            .find(|t| t.0 == name)
+            .map(|t| (t.1.as_str(), t.2))
+    }
+
+    /// This prim's own transform (column vectors: the ops of `xformOpOrder` multiplied in
+    /// their order, so the last is applied to points first), and whether it resets the
+    /// parents' (`!resetXformStack!`).
+    fn local(&self, origin: &str) -> Result<(DMat4, bool)> {
+        let Some((order, oline)) = &self.order else {
+            // Ops not listed in an order do not apply (USD's rule).
+            return Ok((DMat4::IDENTITY, false));
+        };
+        let mut m = DMat4::IDENTITY;
+        let mut reset = false;
+        for op in order {
+            if op == "!resetXformStack!" {
+                reset = true;
+                m = DMat4::IDENTITY;
+                continue;
+            }
+            let (invert, name) = match op.strip_prefix("!invert!") {
+                Some(n) => (true, n),
+                None => (false, op.as_str()),
+            };
+            let Some((_, v, arity, _, line)) = self.attr(name) else {
+                return Err(data_error(
+                    origin,
+                    Some(*oline),
+                    format!("xformOpOrder names {name:?}, which this prim does not set"),
+                ));
+            };
+            let op = xform_op(name, v, *arity).map_err(|m| data_error(origin, Some(*line), m))?;
+            let op = if invert {
+                if op.determinant().abs() < 1e-300 {
+                    return Err(data_error(
+                        origin,
+                        Some(*line),
+                        format!("{name} cannot be inverted (`!invert!` in xformOpOrder): it is singular"),
+                    ));
+                }
+                op.inverse()
+            } else {
+                op
+            };
+            m *= op;
+        }
+        Ok((m, reset))
+    }
+}
+
+/// The matrix of one `xformOp` (column vectors), from its name's kind and its values:
+/// translate, scale, rotateX/Y/Z, the six three-axis rotations (degrees, the first axis
+/// applied first), orient (a quaternion, real part first as usda writes it) and transform
+/// (a 4x4 matrix, rows as usda writes them for row vectors).
+fn xform_op(name: &str, v: &[f64], arity: usize) -> std::result::Result<DMat4, String> {
+    let kind = name.split(':').nth(1).unwrap_or("");
+    let want = |n: usize| -> std::result::Result<(), String> {
+        if v.len() == n && (arity == n || n == 1) {
+            Ok(())
+        } else {
+            Err(format!("{name} has {} values; a {kind} takes {n}", v.len()))
+        }
+    };
+    if v.iter().any(|x| !x.is_finite()) {
+        return Err(format!("{name} is not finite"));
+    }
+    let axis = |c: char, deg: f64| match c {
+        'X' => DMat4::from_rotation_x(deg.to_radians()),
+        'Y' => DMat4::from_rotation_y(deg.to_radians()),
+        _ => DMat4::from_rotation_z(deg.to_radians()),
+    };
+    Ok(match kind {
+        "translate" => {
+            want(3)?;
+            DMat4::from_translation(DVec3::new(v[0], v[1], v[2]))
+        }
+        "scale" => {
+            want(3)?;
+            DMat4::from_scale(DVec3::new(v[0], v[1], v[2]))
+        }
+        "rotateX" | "rotateY" | "rotateZ" => {
+            want(1)?;
+            axis(kind.as_bytes()[6] as char, v[0])
+        }
+        "rotateXYZ" | "rotateXZY" | "rotateYXZ" | "rotateYZX" | "rotateZXY" | "rotateZYX" => {
+            want(3)?;
+            let axes: Vec<char> = kind[6..].chars().collect();
+            // Values are per named axis (x, y, z angles), applied in the name's order.
+            let angle = |c: char| v[(c as u8 - b'X') as usize];
+            axis(axes[2], angle(axes[2]))
+                * axis(axes[1], angle(axes[1]))
+                * axis(axes[0], angle(axes[0]))
+        }
+        "orient" => {
+            want(4)?;
+            let q = glam::DQuat::from_xyzw(v[1], v[2], v[3], v[0]);
+            if q.length() < 1e-12 {
+                return Err(format!("{name} is a zero quaternion"));
+            }
+            DMat4::from_quat(q.normalize())
+        }
+        "transform" => {
+            want(16)?;
+            // usda's rows are for row vectors (p' = p M): as columns they are M transposed,
+            // the same matrix for column vectors.
+            DMat4::from_cols_array(&v.try_into().map_err(|_| format!("{name} is not 4x4"))?)
+        }
+        _ => return Err(format!("{name}: Kami does not know the xformOp {kind:?}")),
+    })
 }
 
 /// A number token. Fractions parse straight to f32 (through f64 they could round twice and
@@ -598,125 +801,358 @@ pub fn parse(text: &str, origin: &str) -> Result<Groom> {
         at: 0,
         origin,
         depth: 0,
+        stage: Stage::default(),
     };
     let mut prims = Vec::new();
-    p.block(&mut None, &mut prims, true)?;
-    if prims.is_empty() {
+    p.block(None, &mut prims, true)?;
+    let curves: Vec<&Prim> = prims.iter().filter(|p| p.curves && !p.hidden).collect();
+    if curves.is_empty() {
         return Err(data_error(
             origin,
             None,
             "no `def BasisCurves` prim: no strands in this file".into(),
         ));
     }
-    let mut g = Groom::default();
-    let mut widths = Some(Vec::new());
-    let mut colors = Some(Vec::new());
-    let mut opacities = Some(Vec::new());
-    for prim in &prims {
-        let err = |line: usize, m: String| data_error(origin, Some(line), m);
-        let (counts, cline) = prim.counts.as_ref().ok_or_else(|| {
-            err(
-                prim.line,
-                "this BasisCurves has no `curveVertexCounts`".into(),
-            )
-        })?;
-        let (pts, pline) = prim.points.as_ref().ok_or_else(|| {
-            err(
-                prim.line,
-                "this BasisCurves has no `point3f[] points`".into(),
-            )
-        })?;
-        let npts = pts.len() / 3;
-        let mut sum = 0u64;
-        let first = g.counts.len();
-        for &c in counts {
-            if c.fract() != 0.0 || !(2.0..=u32::MAX as f64).contains(&c) {
+    let stage = stage_transform(&p.stage, origin)?;
+    let mut parts = Vec::with_capacity(curves.len());
+    for prim in curves {
+        // The prim's transform and its parents', up to a reset, then the stage's.
+        let mut world = DMat4::IDENTITY;
+        let mut at = Some(prim);
+        while let Some(q) = at {
+            let (local, reset) = q.local(origin)?;
+            world = local * world;
+            if reset {
+                break;
+            }
+            at = q.parent.map(|i| &prims[i]);
+        }
+        parts.push(curve_prim(prim, stage * world, origin)?);
+    }
+    // One basis for the whole groom: prims of different bases all become polylines.
+    let same = parts
+        .iter()
+        .all(|g| (g.basis, g.wrap) == (parts[0].basis, parts[0].wrap));
+    if !same {
+        parts = parts.into_iter().map(Groom::into_linear).collect();
+    }
+    let mut g = Groom {
+        basis: parts[0].basis,
+        wrap: parts[0].wrap,
+        widths: Some(Vec::new()),
+        colors: Some(Vec::new()),
+        opacities: Some(Vec::new()),
+        ..Groom::default()
+    };
+    // An attribute missing from one prim is dropped from all (a neutral fill would draw
+    // what no file said).
+    fn join<T>(acc: &mut Option<Vec<T>>, v: Option<Vec<T>>) {
+        match (acc.as_mut(), v) {
+            (Some(a), Some(v)) => a.extend(v),
+            _ => *acc = None,
+        }
+    }
+    for part in parts {
+        g.counts.extend(part.counts);
+        g.points.extend(part.points);
+        join(&mut g.widths, part.widths);
+        join(&mut g.opacities, part.opacities);
+        join(&mut g.colors, part.colors);
+    }
+    Ok(g)
+}
+
+/// Kami's units are centimetres with y up: a stage's `metersPerUnit` (USD's fallback is
+/// 0.01, centimetres) scales it, and `upAxis = "Z"` turns z up into y up.
+fn stage_transform(stage: &Stage, origin: &str) -> Result<DMat4> {
+    let mut m = DMat4::IDENTITY;
+    if let Some((v, line)) = &stage.meters_per_unit {
+        // In f64: 0.01 must come out as exactly no scale.
+        match v.parse::<f64>() {
+            Ok(x) if x.is_finite() && x > 0.0 => m = DMat4::from_scale(DVec3::splat(x / 0.01)),
+            _ => {
+                return Err(data_error(
+                    origin,
+                    Some(*line),
+                    format!("metersPerUnit is {v}; it must be a positive number"),
+                ))
+            }
+        }
+    }
+    match stage.up_axis.as_ref().map(|(v, l)| (v.as_str(), *l)) {
+        None | Some(("Y", _)) => {}
+        // (x, y, z) -> (x, z, -y): a quarter turn about x.
+        Some(("Z", _)) => m *= DMat4::from_rotation_x(-std::f64::consts::FRAC_PI_2),
+        Some((v, line)) => {
+            return Err(data_error(
+                origin,
+                Some(line),
+                format!("upAxis is {v:?}; USD allows \"Y\" or \"Z\""),
+            ))
+        }
+    }
+    Ok(m)
+}
+
+/// One BasisCurves prim as a groom in Kami's space (`to_kami`: its transform, its
+/// parents' and the stage's). Widths scale with the transform's mean scale. A cubic prim
+/// with `varying` values (one per segment end) is evaluated here, as a groom keeps values
+/// per control point only.
+fn curve_prim(prim: &Prim, to_kami: DMat4, origin: &str) -> Result<Groom> {
+    let err = |line: usize, m: String| data_error(origin, Some(line), m);
+    // USD's fallbacks: cubic Bézier, open. A prim that names no type and whose counts make
+    // no Bézier curves is read as linear, with a warning (the points are all there).
+    let untyped_linear = prim.token("type").is_none()
+        && prim.token("basis").is_none()
+        && prim.counts.as_ref().is_some_and(|(c, _)| {
+            c.iter().any(|&n| {
+                n.fract() != 0.0
+                    || !(0.0..=u32::MAX as f64).contains(&n)
+                    || curves::segments(Basis::Bezier, Wrap::Nonperiodic, n as usize).is_none()
+            })
+        });
+    if untyped_linear {
+        log::warn!(
+            "{origin}:{}: this BasisCurves names no `type` (USD's fallback is cubic Bézier) and \
+             its vertex counts make no Bézier curves: read as linear",
+            prim.line
+        );
+    }
+    let fallback = if untyped_linear { "linear" } else { "cubic" };
+    let (ty, tline) = prim.token("type").unwrap_or((fallback, prim.line));
+    let (basis_tok, bline) = prim.token("basis").unwrap_or(("bezier", prim.line));
+    let (wrap_tok, wline) = prim.token("wrap").unwrap_or(("nonperiodic", prim.line));
+    let basis = match ty {
+        "linear" => Basis::Linear,
+        "cubic" => match basis_tok {
+            "bezier" => Basis::Bezier,
+            "bspline" => Basis::Bspline,
+            "catmullRom" => Basis::CatmullRom,
+            other => {
                 return Err(err(
-                    *cline,
-                    format!("curve vertex count {c} is not a whole number of 2 or more"),
-                ));
+                    bline,
+                    format!(
+                        "basis {other:?} is not one Kami evaluates (bezier, bspline, catmullRom)"
+                    ),
+                ))
             }
-            sum += c as u64;
-            g.counts.push(c as u32);
+        },
+        other => return Err(err(tline, format!("type {other:?} is not linear or cubic"))),
+    };
+    let wrap = match wrap_tok {
+        "nonperiodic" => Wrap::Nonperiodic,
+        "periodic" => Wrap::Periodic,
+        "pinned" => Wrap::Pinned,
+        other => {
+            return Err(err(
+                wline,
+                format!("wrap {other:?} is not nonperiodic, periodic or pinned"),
+            ))
         }
-        if sum != npts as u64 {
-            return Err(err(*cline, format!("the curve vertex counts add up to {sum} points but `points` (line {pline}) has {npts}")));
+    };
+    let (counts, cline) = prim.counts.as_ref().ok_or_else(|| {
+        err(
+            prim.line,
+            "this BasisCurves has no `curveVertexCounts`".into(),
+        )
+    })?;
+    let (pts, pline) = prim.points.as_ref().ok_or_else(|| {
+        err(
+            prim.line,
+            "this BasisCurves has no `point3f[] points`".into(),
+        )
+    })?;
+    let npts = pts.len() / 3;
+    let mut g = Groom {
+        basis,
+        wrap,
+        ..Groom::default()
+    };
+    let mut sum = 0u64;
+    let mut varying_total = 0u64;
+    for (i, &c) in counts.iter().enumerate() {
+        if c.fract() != 0.0 || !(2.0..=u32::MAX as f64).contains(&c) {
+            return Err(err(
+                *cline,
+                format!("curve vertex count {c} is not a whole number of 2 or more"),
+            ));
         }
-        for (i, p) in pts.chunks_exact(3).enumerate() {
-            let q = [p[0] as f32, p[1] as f32, p[2] as f32];
-            if q.iter().any(|v| !v.is_finite()) {
-                return Err(err(*pline, format!("point {i} is not finite: {q:?}")));
-            }
-            g.points.push(q);
+        let Some(segs) = curves::segments(basis, wrap, c as usize) else {
+            return Err(err(
+                *cline,
+                format!(
+                    "curve {i} has {c} points, which make no {} {} curve: it needs {}",
+                    wrap.token(),
+                    basis.token(),
+                    curves::rule(basis, wrap)
+                ),
+            ));
+        };
+        sum += c as u64;
+        varying_total += curves::varying_count(wrap, basis, segs) as u64;
+        g.counts.push(c as u32);
+    }
+    if sum != npts as u64 {
+        return Err(err(*cline, format!("the curve vertex counts add up to {sum} points but `points` (line {pline}) has {npts}")));
+    }
+    // Without a transform the file's numbers are kept bit for bit (-0 stays -0).
+    let moved = to_kami != DMat4::IDENTITY;
+    for (i, p) in pts.chunks_exact(3).enumerate() {
+        let q = if moved {
+            to_kami.transform_point3(DVec3::new(p[0], p[1], p[2]))
+        } else {
+            DVec3::new(p[0], p[1], p[2])
+        };
+        let q = [q.x as f32, q.y as f32, q.z as f32];
+        if q.iter().any(|v| !v.is_finite()) {
+            return Err(err(*pline, format!("point {i} is not finite: {q:?}")));
         }
-        let counts = &g.counts[first..];
-        let expand = |name: &str, arity: usize| -> Result<Option<Vec<f32>>> {
-            let Some((_, vals, ar, interp, line)) = prim.attr(name) else {
-                return Ok(None);
-            };
-            let mut vals = vals.clone();
-            if let Some((_, idx, 1, _, iline)) = prim.attr(&format!("{name}:indices")) {
-                let n = vals.len() / arity.max(1);
-                let mut out = Vec::with_capacity(idx.len() * arity);
-                for &k in idx {
-                    if k.is_nan() || k < 0.0 || k.fract() != 0.0 || k as usize >= n {
-                        return Err(err(
-                            *iline,
-                            format!("index {k} is not a whole number in 0..{n} (the values of `{name}`)"),
-                        ));
-                    }
-                    out.extend_from_slice(&vals[k as usize * arity..(k as usize + 1) * arity]);
+        g.points.push(q);
+    }
+    let counts = g.counts.clone();
+    // Per-point values, or per segment end (`varying` on cubic curves).
+    let expand = |name: &str, arity: usize| -> Result<Option<(Vec<f64>, bool)>> {
+        let Some((_, vals, ar, interp, line)) = prim.attr(name) else {
+            return Ok(None);
+        };
+        let mut vals = vals.clone();
+        if let Some((_, idx, 1, _, iline)) = prim.attr(&format!("{name}:indices")) {
+            let n = vals.len() / arity.max(1);
+            let mut out = Vec::with_capacity(idx.len().min(vals.len().max(1) * 64) * arity);
+            for &k in idx {
+                if k.is_nan() || k < 0.0 || k.fract() != 0.0 || k as usize >= n {
+                    return Err(err(
+                        *iline,
+                        format!(
+                            "index {k} is not a whole number in 0..{n} (the values of `{name}`)"
+                        ),
+                    ));
                 }
-                vals = out;
+                out.extend_from_slice(&vals[k as usize * arity..(k as usize + 1) * arity]);
             }
-            if *ar != arity {
-                return Err(err(
-                    *line,
-                    format!("`{name}` has tuples of {ar}, Kami expects {arity}"),
-                ));
-            }
-            let n = vals.len() / arity;
-            let mode = match interp.as_deref() {
-                Some(m) => m,
-                None if n == 1 => "constant",
-                None if n == counts.len() => "uniform",
-                None => "vertex",
-            };
-            let per_point: Vec<f64> = match mode {
-                "constant" if n == 1 => vals.iter().cycle().take(npts * arity).copied().collect(),
-                "uniform" if n == counts.len() => counts
+            vals = out;
+        }
+        if *ar != arity {
+            return Err(err(
+                *line,
+                format!("`{name}` has tuples of {ar}, Kami expects {arity}"),
+            ));
+        }
+        let n = vals.len() / arity;
+        let varying = varying_total as usize;
+        let mode = match interp.as_deref() {
+            Some(m) => m,
+            None if n == 1 => "constant",
+            None if n == counts.len() => "uniform",
+            None if n == npts => "vertex",
+            None => "varying",
+        };
+        let cubic = basis != Basis::Linear;
+        Ok(Some(match mode {
+            "constant" if n == 1 => (vals.iter().cycle().take(npts * arity).copied().collect(), false),
+            "uniform" if n == counts.len() => (
+                counts
                     .iter()
                     .zip(vals.chunks_exact(arity))
                     .flat_map(|(&c, v)| std::iter::repeat_n(v, c as usize).flatten().copied())
                     .collect(),
-                "vertex" | "varying" | "faceVarying" if n == npts => vals,
-                _ => {
-                    return Err(err(*line, format!(
-                        "`{name}` has {n} values with interpolation {mode:?}, which does not fit {} curves of {npts} points \
-                         (Kami reads constant, uniform and per-point values)",
-                        counts.len()
-                    )))
-                }
-            };
-            Ok(Some(per_point.into_iter().map(|x| x as f32).collect()))
-        };
-        let w = expand("widths", 1)?;
-        let c = expand("primvars:displayColor", 3)?;
-        let o = expand("primvars:displayOpacity", 1)?;
-        let join = |acc: &mut Option<Vec<f32>>, v: Option<Vec<f32>>| match (acc.as_mut(), v) {
-            (Some(a), Some(v)) => a.extend(v),
-            _ => *acc = None,
-        };
-        join(&mut widths, w);
-        join(&mut opacities, o);
-        let mut flat = colors
-            .take()
-            .map(|c: Vec<[f32; 3]>| c.into_iter().flatten().collect::<Vec<f32>>());
-        join(&mut flat, c);
-        colors = flat.map(|f| f.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect());
+                false,
+            ),
+            "vertex" if n == npts => (vals, false),
+            "varying" | "faceVarying" if !cubic && n == npts => (vals, false),
+            "varying" | "faceVarying" if cubic && n == varying => (vals, true),
+            _ => {
+                return Err(err(*line, format!(
+                    "`{name}` has {n} values with interpolation {mode:?}, which does not fit {} curves of {npts} points \
+                     ({varying} segment ends); Kami reads constant, uniform, vertex and varying values",
+                    counts.len()
+                )))
+            }
+        }))
+    };
+    // Widths are lengths: they scale with the transform (its mean scale).
+    let scale = to_kami.determinant().abs().cbrt();
+    let widths = expand("widths", 1)?.map(|(w, v)| (w.into_iter().map(|x| x * scale).collect(), v));
+    let colors = expand("primvars:displayColor", 3)?;
+    let opacities = expand("primvars:displayOpacity", 1)?;
+    let attrs = [(&widths, 1), (&opacities, 1), (&colors, 3)];
+    if attrs.iter().any(|(a, _)| a.as_ref().is_some_and(|a| a.1)) {
+        return Ok(evaluate(&g, &attrs));
     }
-    g.widths = widths;
-    g.opacities = opacities;
-    g.colors = colors;
+    let f32s = |a: &Option<(Vec<f64>, bool)>| {
+        a.as_ref()
+            .map(|a| a.0.iter().map(|&x| x as f32).collect::<Vec<f32>>())
+    };
+    g.widths = f32s(&widths);
+    g.opacities = f32s(&opacities);
+    g.colors = f32s(&colors).map(|c| c.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect());
     Ok(g)
+}
+
+/// A prim's values of one attribute, and whether they are per segment end (`varying`).
+type Values = (Vec<f64>, bool);
+
+/// The polylines of cubic curves whose values come per segment end (`varying`) or per
+/// point: both evaluated along each curve, as [`Groom::into_linear`] does.
+fn evaluate(g: &Groom, attrs: &[(&Option<Values>, usize); 3]) -> Groom {
+    let total: usize = g
+        .counts
+        .iter()
+        .filter_map(|&c| curves::segments(g.basis, g.wrap, c as usize))
+        .sum();
+    let per = curves::per_segment_for(g.basis, total);
+    let points: Vec<f64> = g.points.iter().flatten().map(|&x| x as f64).collect();
+    let mut out: [Option<Vec<f64>>; 3] =
+        std::array::from_fn(|i| attrs[i].0.as_ref().map(|_| Vec::new()));
+    let mut lin = Groom::default();
+    let (mut at, mut vat) = (0usize, 0usize);
+    for &c in &g.counts {
+        let n = c as usize;
+        let segs = curves::segments(g.basis, g.wrap, n).unwrap_or(0);
+        let nv = curves::varying_count(g.wrap, g.basis, segs);
+        let mut chans = vec![curves::Channel {
+            values: &points[at * 3..(at + n) * 3],
+            arity: 3,
+            varying: false,
+        }];
+        for (a, arity) in attrs.iter() {
+            if let Some((v, varying)) = a {
+                let (s, len) = if *varying { (vat, nv) } else { (at, n) };
+                chans.push(curves::Channel {
+                    values: &v[s * arity..(s + len) * arity],
+                    arity: *arity,
+                    varying: *varying,
+                });
+            }
+        }
+        let mut samples = vec![Vec::new(); chans.len()];
+        curves::tessellate(g.basis, g.wrap, n, &chans, per, &mut samples);
+        let mut it = samples.into_iter();
+        let pts = it.next().unwrap_or_default();
+        lin.counts.push((pts.len() / 3) as u32);
+        lin.points.extend(
+            pts.chunks_exact(3)
+                .map(|p| [p[0] as f32, p[1] as f32, p[2] as f32]),
+        );
+        for o in out.iter_mut().flatten() {
+            o.extend(it.next().unwrap_or_default());
+        }
+        at += n;
+        vat += nv;
+    }
+    let [w, o, c] = out;
+    lin.widths = w.map(|w| w.iter().map(|&x| x.max(0.0) as f32).collect());
+    lin.opacities = o.map(|o| o.iter().map(|&x| x.clamp(0.0, 1.0) as f32).collect());
+    lin.colors = c.map(|c| {
+        c.chunks_exact(3)
+            .map(|c| {
+                [
+                    c[0].max(0.0) as f32,
+                    c[1].max(0.0) as f32,
+                    c[2].max(0.0) as f32,
+                ]
+            })
+            .collect()
+    });
+    lin
 }

@@ -40,6 +40,7 @@ fn groom() -> Groom {
                 .map(|i| [i as f32 / 9.0, 0.25, 1.0 / (i as f32 + 3.0)])
                 .collect(),
         ),
+        ..Groom::default()
     }
 }
 
@@ -403,21 +404,27 @@ def Xform "root" (
 #[test]
 fn usda_cubic_constant_width_and_two_prims() {
     let g = formats::parse("cubic.usda", CUBIC.as_bytes()).unwrap();
-    assert_eq!(g.counts, vec![4, 5, 2]);
-    assert_eq!(g.points.len(), 11);
+    // A pinned B-spline prim and a linear one: both become polylines (8 samples a cubic
+    // segment, then the end; linear curves as they are).
     assert_eq!(
-        g.points[8],
-        [1.0, 4.0, 0.5],
-        "control points kept, translate ignored"
+        (g.basis, g.wrap),
+        (formats::Basis::Linear, formats::Wrap::Nonperiodic)
     );
-    assert_eq!(g.points[9], [9.0, 9.0, 9.0], "the first time sample");
-    let mut widths = vec![0.02; 9];
+    assert_eq!(g.counts, vec![3 * 8 + 1, 4 * 8 + 1, 2]);
+    // Pinned: through the first and last control points, moved by the parent's translate.
+    assert_eq!(g.points[0], [1.0, 2.0, 3.0]);
+    assert_eq!(g.points[24], [1.0, 5.0, 3.0]);
+    assert_eq!(g.points[57], [2.0, 6.0, 3.5]);
+    // The first time sample, under the prim's transform and its parent's.
+    assert_eq!(g.points[58], [15.0, 16.0, 17.0]);
+    assert_eq!(g.points[59], [15.0, 17.0, 17.0]);
+    let mut widths = vec![0.02; 58];
     widths.extend([0.5, 0.25]);
     assert_eq!(g.widths, Some(widths));
     let c = g.colors.as_ref().unwrap();
-    assert_eq!(c[3], [1.0, 0.0, 0.0]);
-    assert_eq!(c[4], [0.0, 1.0, 0.0]);
-    assert_eq!(c[10], [0.0, 0.0, 1.0]);
+    assert_eq!(c[24], [1.0, 0.0, 0.0]);
+    assert_eq!(c[25], [0.0, 1.0, 0.0]);
+    assert_eq!(c[58], [0.0, 0.0, 1.0]);
     assert_eq!(g.opacities, None);
 }
 

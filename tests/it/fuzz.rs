@@ -156,6 +156,7 @@ fn the_harness_reports_panics_allocations_and_broken_promises() {
         widths: Some(vec![0.1; 5]),
         opacities: Some(vec![1.0; 5]),
         colors: None,
+        ..Default::default()
     };
     fuzz::check_groom(&groom).unwrap();
     let mut broken = groom.clone();

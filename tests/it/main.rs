@@ -35,6 +35,7 @@ mod strips_capture;
 mod strips_dynamics;
 mod strips_pick;
 mod strips_render;
+mod usd_curves;
 mod viewer;
 mod winding;
 mod wisps;

@@ -142,7 +142,8 @@ pub fn resolve_strand_files(scene: &mut Scene, dir: &Path, origin: &str) -> Resu
         } else {
             Path::new(&f.path).to_path_buf()
         };
-        let mut read = crate::formats::read(&path)?;
+        // Cubic curves become the polylines they describe; the group resamples those.
+        let mut read = crate::formats::read(&path)?.into_linear();
         // Strands with no length (every point the same) cannot be hair: left out, said.
         let before = read.counts.len();
         drop_pointless_strands(&mut read);

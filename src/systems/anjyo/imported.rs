@@ -159,7 +159,7 @@ pub fn group_roots(seed: u64, gi: usize, g: &HairGroup) -> Result<(Vec<StrandRoo
 /// frames it all. What `kami view groom.hair` and the Files panel open
 /// (`Scene::from_strand_file`).
 pub fn scene_of(path: &Path) -> Result<Scene> {
-    let groom = crate::formats::read(path)?;
+    let groom = crate::formats::read(path)?.into_linear();
     let origin = path.display().to_string();
     if groom.counts.is_empty() {
         return Err(KamiError::Data {
