@@ -34,7 +34,7 @@ fn vs(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -> VOut 
     let coverage = width_px / drawn_px;
     let offset = across * (side * drawn_px) * frame.viewport.zw;
     out.pos = vec4<f32>(clip.xy + offset * clip.w, clip.z, clip.w);
-    out.color = vec4<f32>(node.rgb, coverage);
+    out.color = vec4<f32>(node.rgb, coverage * node.alpha);
     out.strand = si;
     return out;
 }

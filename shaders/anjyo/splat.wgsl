@@ -42,6 +42,8 @@ struct ScreenNode {
     rgb: vec3<f32>,
     // Width in samples.
     width: f32,
+    // Opacity (scales coverage).
+    alpha: f32,
 }
 
 fn to_screen(n: ShadedNode) -> ScreenNode {
@@ -58,6 +60,7 @@ fn to_screen(n: ShadedNode) -> ScreenNode {
     );
     out.rgb = n.rgb;
     out.width = n.width * frame.raster.x / w;
+    out.alpha = n.alpha;
     return out;
 }
 
@@ -127,12 +130,13 @@ fn splat_segment(a_in: ScreenNode, b_in: ScreenNode) {
         let half_h = 0.5 * mix(a.width, b.width, t) * sec;
         let z = mix(a.p.z, b.p.z, t);
         let rgb = mix(a.rgb, b.rgb, t);
+        let alpha = mix(a.alpha, b.alpha, t);
         let y0 = yc - half_h;
         let y1 = yc + half_h;
         let r0 = i32(floor(y0));
         let r1 = min(i32(floor(y1)), r0 + MAX_ACROSS - 1);
         for (var row = r0; row <= r1; row++) {
-            let cover = fx * (min(y1, f32(row + 1)) - max(y0, f32(row)));
+            let cover = fx * (min(y1, f32(row + 1)) - max(y0, f32(row))) * alpha;
             if x_major {
                 add_sample(col, row, cover, z, rgb);
             } else {

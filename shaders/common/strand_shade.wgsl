@@ -11,6 +11,9 @@ struct Material {
     color_ks: vec4<f32>,
     // x shininess n, y k_d, z root width (world), w tip width ratio
     params: vec4<f32>,
+    // 1 where the node's own look (`looks`, a strand file's) replaces the above:
+    // x colour, y width, z opacity.
+    file: vec4<f32>,
 }
 
 @group(1) @binding(0) var<storage, read> strands: array<Strand>;
@@ -18,6 +21,14 @@ struct Material {
 @group(1) @binding(2) var<storage, read> materials: array<Material>;
 // x: width factor, y: node step (StrandsPass::prepare).
 @group(1) @binding(3) var<uniform> lod: vec4<f32>;
+// Per node (as verts), from strand files: x sRGB colour and opacity (unpack4x8unorm),
+// y width (f32 bits). Keep in sync with GpuLook in src/systems/anjyo/gpu_data.rs. One
+// placeholder entry when no group reads it.
+@group(1) @binding(5) var<storage, read> looks: array<vec2<u32>>;
+
+fn srgb_to_linear(c: vec3<f32>) -> vec3<f32> {
+    return select(pow((c + 0.055) / 1.055, vec3<f32>(2.4)), c / 12.92, c <= vec3<f32>(0.04045));
+}
 
 // Node i of the drawn part of a strand; the last drawn node may be cut part-way.
 fn node_pos(s: Strand, i: u32) -> vec3<f32> {
@@ -35,8 +46,10 @@ struct ShadedNode {
     // Unit tangent (central difference over the drawn nodes).
     tangent: vec3<f32>,
     rgb: vec3<f32>,
-    // World width, tapered root to tip, times the level of detail's factors.
+    // World width, tapered root to tip (or the file's), times the level of detail's factors.
     width: f32,
+    // Opacity (the file's, or 1).
+    alpha: f32,
 }
 
 fn lod_step() -> u32 {
@@ -69,8 +82,18 @@ fn shade_node(s: Strand, n: u32) -> ShadedNode {
     t = select(vec3<f32>(0.0, -1.0, 0.0), t / tl, tl > 1e-20);
 
     let along = f32(n) / f32(max(s.segments, 1u));
+    var width = mat.params.z * mix(1.0, mat.params.w, along);
+    var base = mat.color_ks.rgb;
+    out.alpha = 1.0;
+    if any(mat.file.xyz > vec3<f32>(0.5)) {
+        let look = looks[s.first_vertex + n];
+        let c = unpack4x8unorm(look.x);
+        base = select(base, srgb_to_linear(c.rgb), mat.file.x > 0.5);
+        width = select(width, bitcast<f32>(look.y), mat.file.y > 0.5);
+        out.alpha = select(1.0, c.a, mat.file.z > 0.5);
+    }
     // raster.z widens hair when only a share of it is drawn (level of detail).
-    out.width = mat.params.z * mix(1.0, mat.params.w, along) * frame.raster.z * lod.x;
+    out.width = width * frame.raster.z * lod.x;
 
     // Anjyo eq 8: specular from the tangent alone; eq 9 with a per-strand ambient.
     let l = frame.light_dir.xyz;
@@ -82,7 +105,7 @@ fn shade_node(s: Strand, n: u32) -> ShadedNode {
     let diffuse = mat.params.y * sqrt(max(1.0 - tdl * tdl, 0.0));
     let ambient = frame.light_color.w * s.ka;
     let intensity = frame.light_dir.w;
-    var rgb = mat.color_ks.rgb * (ambient + intensity * diffuse) + frame.light_color.rgb * (intensity * spec);
+    var rgb = base * (ambient + intensity * diffuse) + frame.light_color.rgb * (intensity * spec);
     // The dynamics mark nodes whose segment felt the pseudo-force with w = 2.
     if frame.flags.x > 0.5 && verts[s.first_vertex + n].w > 1.5 {
         rgb = vec3<f32>(0.9, 0.1, 0.05);

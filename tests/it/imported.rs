@@ -33,6 +33,8 @@ fn imported_scene(mut scene: kami::Scene, groom: Groom, segments: u32) -> kami::
             scale: 1.0,
             rotate: [0.0; 3],
             translate: [0.0; 3],
+            colors: true,
+            widths: true,
             groom: Some(Arc::new(groom.clone())),
         }),
         roots: Default::default(),
@@ -447,4 +449,37 @@ fn pointless_strands_are_left_out_and_paths_kept_absolute() {
     assert_eq!(again.groups[0].file.as_ref().unwrap().groom, f.groom);
     prepare(&again).unwrap();
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Switching a file group's own colours or widths off is a look change (new uniforms, no
+/// new groom), and `--set file_colors=off` / `file_widths=off` (viewer and `kami render`)
+/// switch them for every file group.
+#[test]
+fn file_look_switches_are_look_changes() {
+    use kami::systems::{anjyo, Change};
+    let path = common::root().join("assets/grooms/wavy.hair");
+    let a = kami::Scene::load(&path).unwrap();
+    let f = a.groups[0].file.as_ref().unwrap();
+    assert!(
+        f.colors && f.widths,
+        "a file's look is drawn unless the scene says otherwise"
+    );
+    // wavy.hair has widths and no colours: its widths switch redraws, its colours switch
+    // changes nothing drawn.
+    let groom = f.groom.as_ref().unwrap();
+    assert!(groom.widths.is_some() && groom.colors.is_none());
+    let mut b = a.clone();
+    b.groups[0].file.as_mut().unwrap().widths = false;
+    assert_eq!(anjyo::classify(&a, &b), Change::Redraw);
+    let mut b = a.clone();
+    b.groups[0].file.as_mut().unwrap().colors = false;
+    assert_eq!(anjyo::classify(&a, &b), Change::None);
+    let sets = [
+        (0, "file_widths=off".to_string()),
+        (0, "file_colors=off".to_string()),
+    ];
+    let (c, _) = kami::app::params::scripted(a.clone(), &sets).unwrap();
+    let f = c.groups[0].file.as_ref().unwrap();
+    assert!(!f.colors && !f.widths);
+    assert_eq!(anjyo::classify(&a, &c), Change::Redraw);
 }

@@ -163,11 +163,14 @@ fn reference(
         .map(|r| [r.first_strand, r.first_strand + r.strand_count])
         .collect();
     let frame = stage.last_frame_uniform();
+    // The nodes' own looks come from the groom on the CPU, as the stage uploads them.
+    let looks = a.input.looks().unwrap_or_default();
     splat::splat(&splat::Input {
         frame: &frame,
         strands: &strands[..a.hair.strand_count as usize],
         verts: &verts,
         materials: &materials,
+        looks: &looks,
         lod: [a.screen.width_scale as f32, a.screen.step as f32, 0.0, 0.0],
         drawn: &drawn,
         depth,
@@ -344,4 +347,76 @@ fn a_smaller_share_draws_fewer_hairs() {
         (again - all).abs() < 1e-9 * all,
         "back to every hair: {again} vs {all}"
     );
+}
+
+/// A groom from a strand file drawn with the file's own look (issue 26 item 2): per-point
+/// colours, opacities and widths, switched per group. `wavy.hair` with every colour pure
+/// red, opacity 0.75 and widths twice the material's, through the compute rasteriser: the
+/// GPU's accumulation matches the f64 reference with each switch on and off; the summed
+/// coverage follows the file's width (x 2) and opacity (x 0.75); the colour turns red; and
+/// the ribbons draw the same look.
+#[test]
+fn file_colours_opacities_and_widths_are_drawn() {
+    let gpu = common::gpu();
+    let mut g = kami::formats::read(&common::root().join("assets/grooms/wavy.hair")).unwrap();
+    let n = g.points.len();
+    let w = 0.02f32;
+    g.widths = Some(vec![2.0 * w; n]);
+    g.colors = Some(vec![[1.0, 0.0, 0.0]; n]);
+    g.opacities = Some(vec![0.75; n]);
+    let path = common::scratch("file_look").join("red.hair");
+    kami::formats::write(&path, &g).unwrap();
+    let scene = |colors: bool, widths: bool, msaa: u32| {
+        let mut s = kami::Scene::load(&path).unwrap();
+        s.groups[0].count = 300;
+        s.groups[0].material.width = w as f64;
+        s.groups[0].material.tip_width = 1.0;
+        s.groups[0].material.color = [0.3, 0.3, 0.3];
+        let f = s.groups[0].file.as_mut().unwrap();
+        (f.colors, f.widths) = (colors, widths);
+        s.render.msaa = msaa;
+        s.render.supersample = 1;
+        s.render.strands = StrandRaster::Compute;
+        // Every strand and node (the reference draws them all), nothing opaque.
+        s.render.lod_tolerance_px = 0.0;
+        s.head.visible = false;
+        s
+    };
+    let mut sums = Vec::new();
+    for (colors, widths) in [(false, false), (true, false), (true, true)] {
+        let s = scene(colors, widths, 1);
+        let d = draw(gpu, &s);
+        let got = gpu_samples(gpu, &d.stage);
+        let want = reference(gpu, &d.stage, &s, None);
+        let what = format!("file colours {colors}, widths {widths}");
+        assert_accumulation_agrees(&what, &got, &want, &want);
+        let sum = |k: usize| got.iter().map(|s| s[k]).sum::<f64>();
+        sums.push([sum(0), sum(1), sum(3)]);
+    }
+    eprintln!("sum of r, g, coverage: {sums:?}");
+    let [plain, coloured, full] = [sums[0], sums[1], sums[2]];
+    // Opacity 0.75 scales coverage; the file's width (twice the material's) doubles it.
+    let ratio = coloured[2] / plain[2];
+    assert!(
+        (ratio - 0.75).abs() < 0.02,
+        "opacity: coverage ratio {ratio}"
+    );
+    let ratio = full[2] / coloured[2];
+    assert!((ratio - 2.0).abs() < 0.1, "width: coverage ratio {ratio}");
+    // Grey hair has as much green as red; red hair keeps only the specular's green.
+    assert!(plain[1] > 0.9 * plain[0], "grey: {plain:?}");
+    assert!(coloured[1] < 0.5 * coloured[0], "red: {coloured:?}");
+    // The ribbons draw the same look as the compute rasteriser.
+    let compute = draw(gpu, &scene(true, true, 1));
+    let mut rs = scene(true, true, 4);
+    rs.render.strands = StrandRaster::Ribbons;
+    let ribbons = draw(gpu, &rs);
+    let (tile, _) = kami::bench::fur::model_error(&compute.image, &ribbons.image);
+    assert!(tile < 6.0, "ribbons against compute: tile error {tile}");
+    let red = |img: &image::RgbaImage| {
+        img.pixels()
+            .filter(|p| p[0] as i32 > p[1] as i32 + 40)
+            .count()
+    };
+    assert!(red(&ribbons.image) > 500, "the ribbons are not red");
 }

@@ -119,6 +119,13 @@ pub struct StrandFile {
     pub rotate: [f64; 3],
     #[serde(default)]
     pub translate: [f64; 3],
+    /// Draw the file's colours and opacities where it has them (false: the group's
+    /// material colour, opaque).
+    #[serde(default = "yes")]
+    pub colors: bool,
+    /// Draw the file's widths where it has them (false: the material's tapered width).
+    #[serde(default = "yes")]
+    pub widths: bool,
     /// The strands as read, placed (filled by `Scene::load` or [`resolve_strand_files`]).
     #[serde(skip)]
     pub groom: Option<std::sync::Arc<crate::formats::Groom>>,

@@ -12,7 +12,7 @@
 //! thin strands instead (`shaders/anjyo/splat.wgsl`, f64 reference in `splat.rs`), bound to
 //! the same buffers and shaded by the same code (`shaders/common/strand_shade.wgsl`).
 
-use super::gpu_data::GpuMaterial;
+use super::gpu_data::{GpuLook, GpuMaterial};
 use crate::error::Result;
 use crate::gpu::gpu_data::linear_rgb;
 use crate::gpu::pipeline::{self, DrawPipeline};
@@ -72,6 +72,7 @@ impl GpuMaterial {
                 m.width as f32,
                 m.tip_width as f32,
             ],
+            file: [0.0; 4],
         }
     }
 }
@@ -97,6 +98,7 @@ impl StrandsPass {
                 gpu::storage_entry(2, vs, true),
                 gpu::uniform_entry(3, vs),
                 gpu::storage_entry(4, wgpu::ShaderStages::COMPUTE, true),
+                gpu::storage_entry(5, vs, true),
             ],
         );
         let pl = pipeline::pipeline_layout(device, "strands", &[frame_layout, &layout]);
@@ -194,8 +196,21 @@ impl StrandsPass {
         .build(&gpu.device)
     }
 
-    /// Bind the hair to draw (after a groom) and its group materials.
-    pub fn set_hair(&mut self, gpu: &Gpu, hair: &StrandBuffers, materials: &[GpuMaterial]) {
+    /// Bind the hair to draw (after a groom), its group materials and, when strand files
+    /// bring them, each node's own look (otherwise one placeholder entry is bound).
+    pub fn set_hair(
+        &mut self,
+        gpu: &Gpu,
+        hair: &StrandBuffers,
+        materials: &[GpuMaterial],
+        looks: Option<&[GpuLook]>,
+    ) {
+        let looks = gpu::storage_buffer(
+            &gpu.device,
+            "node looks",
+            bytemuck::cast_slice(looks.unwrap_or(&[GpuLook::default()])),
+            wgpu::BufferUsages::empty(),
+        );
         let materials = gpu::storage_buffer(
             &gpu.device,
             "materials",
@@ -217,7 +232,14 @@ impl StrandsPass {
             &gpu.device,
             "strands",
             &self.layout,
-            &[&hair.strands, &hair.vertices, &materials, &self.lod, &drawn],
+            &[
+                &hair.strands,
+                &hair.vertices,
+                &materials,
+                &self.lod,
+                &drawn,
+                &looks,
+            ],
         );
         self.bound = Some(Bound {
             bind_group,

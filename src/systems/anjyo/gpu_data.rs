@@ -83,8 +83,40 @@ pub struct GpuMaterial {
     pub color_ks: [f32; 4],
     /// x: shininess n, y: k_d, z: root width (world), w: tip width ratio.
     pub params: [f32; 4],
+    /// What the node looks (`GpuLook`) give instead of the above, 1 or 0: x colours,
+    /// y widths, z opacities (a strand file's own, `block::StrandFile`).
+    pub file: [f32; 4],
 }
-assert_size!(GpuMaterial, 32);
+assert_size!(GpuMaterial, 48);
+
+/// A node's own look, from a strand file. Keep in sync with `looks` in
+/// `shaders/common/strand_shade.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuLook {
+    /// sRGB colour and opacity, 8 bits each (`unpack4x8unorm`: r in the low byte).
+    pub rgba: u32,
+    /// Width (world units, f32 bits).
+    pub width: u32,
+}
+assert_size!(GpuLook, 8);
+
+impl GpuLook {
+    /// A look from the file's colour (0..1, stored as sRGB as Kami writes it), opacity and
+    /// width.
+    pub fn new(rgb: [f32; 3], opacity: f32, width: f32) -> GpuLook {
+        let b = |x: f32| (x.clamp(0.0, 1.0) * 255.0).round() as u32;
+        GpuLook {
+            rgba: b(rgb[0]) | b(rgb[1]) << 8 | b(rgb[2]) << 16 | b(opacity) << 24,
+            width: width.max(0.0).to_bits(),
+        }
+    }
+
+    /// sRGB colour and opacity in 0..1 (what the shader's `unpack4x8unorm` gives).
+    pub fn rgba(self) -> [f64; 4] {
+        [0, 8, 16, 24].map(|s| ((self.rgba >> s) & 255) as f64 / 255.0)
+    }
+}
 
 /// Projective-dynamics parameters. Keep in sync with `struct DynParams` in
 /// `shaders/anjyo/projective.wgsl`.

@@ -12,6 +12,7 @@ use crate::rng::Rng;
 use crate::scene::hull::{HeadHull, HeadMeshData};
 use crate::scene::{head::phi_in_range, Ellipsoid};
 use crate::systems::anjyo::block::{Bending, CutRule, Direction, Load};
+use crate::systems::anjyo::gpu_data::GpuLook;
 use crate::systems::Scene;
 use glam::DVec3;
 
@@ -96,6 +97,8 @@ pub struct GroupParams {
     /// Rest nodes read from a strand file (`segments + 1` per strand, in order): such a
     /// group is not bent, its nodes are these (`super::imported`).
     pub shapes: Option<std::sync::Arc<Vec<DVec3>>>,
+    /// The file's own look per node, when it has widths, colours or opacities.
+    pub looks: Option<std::sync::Arc<Vec<GpuLook>>>,
 }
 
 impl GroupParams {
@@ -161,6 +164,23 @@ impl GroomInput {
         StrandBuffers::new(gpu, "hair", &records, ranges)
     }
 
+    /// Each node's own look (`GpuLook`, in vertex order) when a group has one; `None` when
+    /// no group does, so a scene without such files binds no per-node buffer of size.
+    pub fn looks(&self) -> Option<Vec<GpuLook>> {
+        self.groups.iter().find(|g| g.looks.is_some())?;
+        let offsets = self.vertex_offsets();
+        // Groups without looks keep zeros: their materials never read them.
+        let mut out = vec![GpuLook::default(); *offsets.last()? as usize];
+        for g in &self.groups {
+            if let Some(l) = &g.looks {
+                let at = offsets[g.first_strand as usize] as usize;
+                let n = l.len().min(out.len() - at);
+                out[at..at + n].copy_from_slice(&l[..n]);
+            }
+        }
+        Some(out)
+    }
+
     pub fn total_vertices(&self) -> u64 {
         self.roots
             .iter()
@@ -184,7 +204,7 @@ pub fn prepare(scene: &Scene) -> Result<GroomInput> {
     for (gi, g) in scene.groups.iter().enumerate() {
         if g.file.is_some() {
             let first = roots.len() as u32;
-            let (r, nodes) = super::imported::group_roots(scene.seed, gi, g)?;
+            let (r, nodes, looks) = super::imported::group_roots(scene.seed, gi, g)?;
             let count = r.len() as u32;
             roots.extend(r);
             groups.push(GroupParams {
@@ -197,6 +217,7 @@ pub fn prepare(scene: &Scene) -> Result<GroomInput> {
                 first_strand: first,
                 strand_count: count,
                 shapes: Some(std::sync::Arc::new(nodes)),
+                looks: looks.map(std::sync::Arc::new),
             });
             continue;
         }
@@ -300,6 +321,7 @@ pub fn prepare(scene: &Scene) -> Result<GroomInput> {
             first_strand: first,
             strand_count: g.count,
             shapes: None,
+            looks: None,
         });
     }
     Ok(GroomInput {

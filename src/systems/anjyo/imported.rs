@@ -7,6 +7,7 @@
 use super::block::{
     resolve_strand_files, Bending, Direction, HairGroup, Material, Roots, StrandFile,
 };
+use super::gpu_data::GpuLook;
 use super::groom::StrandRoot;
 use crate::error::{KamiError, Result};
 use crate::rng::Rng;
@@ -21,12 +22,24 @@ use std::path::Path;
 /// lands on the polyline's end (secant iteration on the arc length it reaches). `None` when
 /// the polyline has no length.
 pub fn resample(points: &[DVec3], segments: u32) -> Option<Vec<DVec3>> {
+    resample_where(points, segments).map(|r| r.0)
+}
+
+/// Where a resampled node lies on the file's polyline: between points `i` and `i + 1`
+/// (indices into the points given), at fraction `t` (so per-point values are interpolated
+/// the way the node's position is).
+pub type At = (usize, f64);
+
+/// [`resample`], with where each node lies on the input.
+pub fn resample_where(points: &[DVec3], segments: u32) -> Option<(Vec<DVec3>, Vec<At>)> {
     // Repeated points (a tip written twice is common in exports) are zero-length pieces the
     // walk cannot follow: drop them.
     let mut kept: Vec<DVec3> = Vec::with_capacity(points.len());
-    for p in points {
+    let mut index: Vec<usize> = Vec::with_capacity(points.len());
+    for (i, p) in points.iter().enumerate() {
         if kept.last() != Some(p) {
             kept.push(*p);
+            index.push(i);
         }
     }
     if kept.len() < 2 {
@@ -50,15 +63,24 @@ pub fn resample(points: &[DVec3], segments: u32) -> Option<Vec<DVec3>> {
         d *= total / reached.max(1e-300);
         best = walk(points, d, k);
     }
-    Some(best.0)
+    // Back to the caller's indices (repeated points were dropped).
+    let at = best
+        .2
+        .iter()
+        .map(|&(j, t)| (index[j + 1] - 1, t.clamp(0.0, 1.0)))
+        .collect();
+    Some((best.0, at))
 }
 
-/// Nodes k+1 at chord `d` from each other along `points`, and the arc length the last one
-/// reached (past the end, the last segment's line is followed).
-fn walk(points: &[DVec3], d: f64, k: u32) -> (Vec<DVec3>, f64) {
+/// Nodes k+1 at chord `d` from each other along `points`, the arc length the last one
+/// reached (past the end, the last segment's line is followed) and each node's segment and
+/// parameter on `points`.
+fn walk(points: &[DVec3], d: f64, k: u32) -> (Vec<DVec3>, f64, Vec<(usize, f64)>) {
     let mut out = Vec::with_capacity(k as usize + 1);
+    let mut at = Vec::with_capacity(k as usize + 1);
     let mut p = points[0];
     out.push(p);
+    at.push((0, 0.0));
     // Position along the polyline: segment j, parameter t in [0, 1].
     let (mut j, mut t) = (0usize, 0.0f64);
     let mut arc_before = 0.0; // arc length up to the start of segment j
@@ -94,15 +116,20 @@ fn walk(points: &[DVec3], d: f64, k: u32) -> (Vec<DVec3>, f64) {
             t = 0.0;
         }
         out.push(p);
+        at.push((j, t));
     }
     let seg = (points[j + 1] - points[j]).length();
-    (out, arc_before + t * seg)
+    (out, arc_before + t * seg, at)
 }
 
-/// Roots and resampled rest nodes (`segments + 1` per strand, strands in order) of hair
-/// group `gi`, read from its file. The file must have been read (`Scene::load` or
-/// `block::resolve_strand_files`).
-pub fn group_roots(seed: u64, gi: usize, g: &HairGroup) -> Result<(Vec<StrandRoot>, Vec<DVec3>)> {
+/// What a file group brings: roots, resampled rest nodes (`segments + 1` per strand,
+/// strands in order) and, when the file has widths, colours or opacities, each node's look
+/// (`GpuLook`, interpolated where the node lies on the file's polyline).
+pub type FileStrands = (Vec<StrandRoot>, Vec<DVec3>, Option<Vec<GpuLook>>);
+
+/// Roots, rest nodes and looks of hair group `gi`, read from its file. The file must have
+/// been read (`Scene::load` or `block::resolve_strand_files`).
+pub fn group_roots(seed: u64, gi: usize, g: &HairGroup) -> Result<FileStrands> {
     let file = g
         .file
         .as_ref()
@@ -123,6 +150,14 @@ pub fn group_roots(seed: u64, gi: usize, g: &HairGroup) -> Result<(Vec<StrandRoo
     // At most `count` strands, spread evenly over the file (a count lowered after loading,
     // in code or a panel, thins the groom rather than cutting off its end).
     let all: Vec<&[[f32; 3]]> = groom.strands().collect();
+    let mut starts = Vec::with_capacity(all.len());
+    let mut acc = 0usize;
+    for s in &all {
+        starts.push(acc);
+        acc += s.len();
+    }
+    let has_look = groom.widths.is_some() || groom.colors.is_some() || groom.opacities.is_some();
+    let mut looks = has_look.then(|| Vec::with_capacity(nodes.capacity()));
     let take = (g.count as usize).min(all.len());
     for j in 0..take {
         let si = j * all.len() / take;
@@ -130,7 +165,7 @@ pub fn group_roots(seed: u64, gi: usize, g: &HairGroup) -> Result<(Vec<StrandRoo
             .iter()
             .map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64))
             .collect();
-        let Some(n) = resample(&pts, g.segments) else {
+        let Some((n, at)) = resample_where(&pts, g.segments) else {
             return Err(KamiError::Data {
                 path: file.path.clone(),
                 line: None,
@@ -148,8 +183,23 @@ pub fn group_roots(seed: u64, gi: usize, g: &HairGroup) -> Result<(Vec<StrandRoo
             cut_mask: 0,
         });
         nodes.extend(n);
+        if let Some(looks) = looks.as_mut() {
+            let base = starts[si];
+            let last = pts.len() - 1;
+            looks.extend(at.iter().map(|&(i, t)| {
+                let (a, b) = (base + i, base + (i + 1).min(last));
+                let lerp = |x: f32, y: f32| (x as f64 * (1.0 - t) + y as f64 * t) as f32;
+                let width = groom.widths.as_ref().map_or(0.0, |w| lerp(w[a], w[b]));
+                let opacity = groom.opacities.as_ref().map_or(1.0, |o| lerp(o[a], o[b]));
+                let rgb = groom
+                    .colors
+                    .as_ref()
+                    .map_or([1.0; 3], |c| [0, 1, 2].map(|k| lerp(c[a][k], c[b][k])));
+                GpuLook::new(rgb, opacity, width)
+            }));
+        }
     }
-    Ok((roots, nodes))
+    Ok((roots, nodes, looks))
 }
 
 /// A scene showing one strand file (`.hair`, `.obj` polylines, `.usda`): the strands as
@@ -242,6 +292,8 @@ pub fn scene_of(path: &Path) -> Result<Scene> {
                 scale: 1.0,
                 rotate: [0.0; 3],
                 translate: [0.0; 3],
+                colors: true,
+                widths: true,
                 groom: None,
             }),
             roots: Roots::default(),

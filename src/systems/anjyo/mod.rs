@@ -262,13 +262,32 @@ pub fn counts(scene: &Scene) -> (u64, u64) {
     })
 }
 
-/// Group materials of a scene, in group order.
+/// Group materials of a scene, in group order; a strand file's own colours, opacities
+/// and widths replace the material's where the file has them and the group asks for them
+/// (`StrandFile::colors`, `widths`).
 pub fn materials(scene: &Scene) -> Vec<GpuMaterial> {
     scene
         .groups
         .iter()
-        .map(|g| GpuMaterial::from_material(&g.material))
+        .map(|g| {
+            let mut m = GpuMaterial::from_material(&g.material);
+            m.file = file_look(g).map(|b| b as u32 as f32);
+            m
+        })
         .collect()
+}
+
+/// Which of its file's looks a group draws: colours, widths, opacities.
+pub fn file_look(g: &block::HairGroup) -> [bool; 4] {
+    let Some((f, gr)) = g.file.as_ref().and_then(|f| Some((f, f.groom.as_ref()?))) else {
+        return [false; 4];
+    };
+    [
+        f.colors && gr.colors.is_some(),
+        f.widths && gr.widths.is_some(),
+        f.colors && gr.opacities.is_some(),
+        false,
+    ]
 }
 
 /// What an edit asks of the strands: pores, lengths, rigidity, loads, cuts, head, grooming
@@ -285,10 +304,19 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
             g.material = Default::default();
             g.material.ka = ka;
             g.material.ka_spread = spread;
+            // Whether a file's own look is drawn is a look too.
+            if let Some(f) = g.file.as_mut() {
+                (f.colors, f.widths) = (true, true);
+            }
         }
         (s.seed, s.head.center, s.head.radii, s.groom_load, groups)
     };
-    let looks = |s: &Scene| -> Vec<_> { s.groups.iter().map(|g| g.material.clone()).collect() };
+    let looks = |s: &Scene| -> Vec<_> {
+        s.groups
+            .iter()
+            .map(|g| (g.material.clone(), file_look(g)))
+            .collect()
+    };
     // The guide share decides which strands are simulated: a new set-up.
     let guides = |s: &Scene| s.dynamics.as_ref().map(|d| d.guides);
     // The world's forces the dynamics read each step (the EFF and a capture: the stage's).
@@ -398,7 +426,7 @@ impl AnjyoSystem {
             setup.format,
             setup.samples,
         )?;
-        draw.set_hair(gpu, &hair, &materials(scene));
+        draw.set_hair(gpu, &hair, &materials(scene), input.looks().as_deref());
         Ok(AnjyoSystem {
             input,
             hair,

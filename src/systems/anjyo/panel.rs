@@ -60,6 +60,7 @@ impl KindUi for AnjyoUi {
     }
 
     /// `color=r,g,b`, `width=w`, `ks=k`, `shininess=n`, `rigidity=EI` (every group),
+    /// `file_colors=on|off`, `file_widths=on|off` (groups read from strand files),
     /// `stiffness=root,tip`, `damping=rate`, `pseudo=on|off`.
     fn set(
         &mut self,
@@ -85,6 +86,15 @@ impl KindUi for AnjyoUi {
             "ks" => groups(&|g, v| g.material.ks = v, scene),
             "shininess" => groups(&|g, v| g.material.shininess = v, scene),
             "rigidity" => groups(&|g, v| g.rigidity = v, scene),
+            "file_colors" | "file_widths" => ui::on(value).map(|on| {
+                for f in scene.groups.iter_mut().filter_map(|g| g.file.as_mut()) {
+                    if key == "file_colors" {
+                        f.colors = on;
+                    } else {
+                        f.widths = on;
+                    }
+                }
+            }),
             "stiffness" => ui::nums(value, 2).map(|s| {
                 let d = dynamics_of(scene);
                 d.stiffness.root = s[0];
@@ -316,6 +326,7 @@ fn look(ui: &mut Ui, cx: &mut PanelCx) {
         return;
     };
     let s = &mut *cx.scene;
+    file_look(ui, &mut s.groups[group]);
     let m = &mut s.groups[group].material;
     ui.horizontal(|ui| {
         ui.label("hair colour");
@@ -340,6 +351,40 @@ fn look(ui: &mut Ui, cx: &mut PanelCx) {
         let m = m.clone();
         s.groups.iter_mut().for_each(|g| g.material = m.clone());
     }
+}
+
+/// For a group read from a strand file: where its colours, opacities and widths come
+/// from (the file's, per point, or the material below), and the switches.
+fn file_look(ui: &mut Ui, g: &mut crate::systems::anjyo::block::HairGroup) {
+    let Some(f) = g.file.as_mut() else { return };
+    let (has_c, has_o, has_w) = f.groom.as_ref().map_or((false, false, false), |gr| {
+        (
+            gr.colors.is_some(),
+            gr.opacities.is_some(),
+            gr.widths.is_some(),
+        )
+    });
+    let name = std::path::Path::new(&f.path)
+        .file_name()
+        .map_or(f.path.clone(), |n| n.to_string_lossy().into_owned());
+    ui.label(format!("strands from {name}"));
+    let source = |has: bool, on: bool| match (has, on) {
+        (false, _) => "the material (the file has none)",
+        (true, true) => "the file, per point",
+        (true, false) => "the material (the file's are off)",
+    };
+    ui.add_enabled_ui(has_c || has_o, |ui| {
+        ui.checkbox(&mut f.colors, "draw the file's colours and opacities")
+    });
+    ui.label(format!("colour: {}", source(has_c, f.colors)));
+    if has_o {
+        ui.label(format!("opacity: {}", source(true, f.colors)));
+    }
+    ui.add_enabled_ui(has_w, |ui| {
+        ui.checkbox(&mut f.widths, "draw the file's widths")
+    });
+    ui.label(format!("width: {}", source(has_w, f.widths)));
+    ui.separator();
 }
 
 fn dynamics(ui: &mut Ui, cx: &mut PanelCx) {

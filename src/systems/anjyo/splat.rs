@@ -3,7 +3,7 @@
 //! the same column walk and coverage, the same accumulation, in f64 and without fixed
 //! point. The contract test (`tests/it/splat.rs`) bounds the GPU's worst sample against it.
 
-use super::gpu_data::GpuMaterial;
+use super::gpu_data::{GpuLook, GpuMaterial};
 use crate::gpu::gpu_data::{GpuFrame, GpuStrand};
 use glam::{DMat4, DVec2, DVec3, DVec4};
 
@@ -17,6 +17,8 @@ pub struct Input<'a> {
     pub strands: &'a [GpuStrand],
     pub verts: &'a [[f32; 4]],
     pub materials: &'a [GpuMaterial],
+    /// Per node, a strand file's own look (read where a material's `file` flags say).
+    pub looks: &'a [GpuLook],
     /// x width factor, y node step (`StrandsPass::prepare`).
     pub lod: [f32; 4],
     /// Per range: first strand, one past the last drawn.
@@ -34,12 +36,23 @@ struct Node {
     pos: DVec3,
     rgb: DVec3,
     width: f64,
+    alpha: f64,
 }
 
 struct ScreenNode {
     p: DVec4,
     rgb: DVec3,
     width: f64,
+    alpha: f64,
+}
+
+/// sRGB to linear, as the shader's `srgb_to_linear`.
+fn srgb_to_linear(c: f64) -> f64 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
 }
 
 fn v3(v: [f32; 4]) -> DVec3 {
@@ -84,10 +97,27 @@ impl Input<'_> {
         let t = if tl > 1e-20 { t / tl } else { DVec3::NEG_Y };
         let along = n as f64 / s.segments.max(1) as f64;
         let tip = mat.params[3] as f64;
-        let width = mat.params[2] as f64
-            * (1.0 + (tip - 1.0) * along)
-            * f.raster[2] as f64
-            * self.lod[0] as f64;
+        let mut width = mat.params[2] as f64 * (1.0 + (tip - 1.0) * along);
+        let mut base = v3(mat.color_ks);
+        let mut alpha = 1.0;
+        if mat.file[..3].iter().any(|&x| x > 0.5) {
+            let look = self.looks[(s.first_vertex + n) as usize];
+            let c = look.rgba();
+            if mat.file[0] > 0.5 {
+                base = DVec3::new(
+                    srgb_to_linear(c[0]),
+                    srgb_to_linear(c[1]),
+                    srgb_to_linear(c[2]),
+                );
+            }
+            if mat.file[1] > 0.5 {
+                width = f32::from_bits(look.width) as f64;
+            }
+            if mat.file[2] > 0.5 {
+                alpha = c[3];
+            }
+        }
+        let width = width * f.raster[2] as f64 * self.lod[0] as f64;
         let l = v3(f.light_dir);
         let v = (v3(f.eye) - p).normalize();
         let h = (l + v).normalize();
@@ -98,12 +128,17 @@ impl Input<'_> {
         let diffuse = mat.params[1] as f64 * (1.0 - tdl * tdl).max(0.0).sqrt();
         let ambient = f.light_color[3] as f64 * s.ka as f64;
         let intensity = f.light_dir[3] as f64;
-        let mut rgb = v3(mat.color_ks) * (ambient + intensity * diffuse)
-            + v3(f.light_color) * (intensity * spec);
+        let mut rgb =
+            base * (ambient + intensity * diffuse) + v3(f.light_color) * (intensity * spec);
         if f.flags[0] > 0.5 && self.verts[(s.first_vertex + n) as usize][3] > 1.5 {
             rgb = DVec3::new(0.9, 0.1, 0.05);
         }
-        Node { pos: p, rgb, width }
+        Node {
+            pos: p,
+            rgb,
+            width,
+            alpha,
+        }
     }
 
     fn to_screen(&self, n: &Node) -> ScreenNode {
@@ -122,6 +157,7 @@ impl Input<'_> {
             ),
             rgb: n.rgb,
             width: n.width * f.raster[0] as f64 / w,
+            alpha: n.alpha,
         }
     }
 }
@@ -196,11 +232,12 @@ impl Target<'_> {
             let half_h = 0.5 * (a.width + (b.width - a.width) * t) * sec;
             let z = a.p.z + (b.p.z - a.p.z) * t;
             let rgb = a.rgb.lerp(b.rgb, t);
+            let alpha = a.alpha + (b.alpha - a.alpha) * t;
             let (y0, y1) = (yc - half_h, yc + half_h);
             let r0 = y0.floor() as i64;
             let r1 = (y1.floor() as i64).min(r0 + MAX_ACROSS - 1);
             for row in r0..=r1 {
-                let cover = fx * (y1.min((row + 1) as f64) - y0.max(row as f64));
+                let cover = fx * (y1.min((row + 1) as f64) - y0.max(row as f64)) * alpha;
                 if x_major {
                     self.add(col, row, cover, z, rgb);
                 } else {
@@ -286,6 +323,7 @@ mod tests {
         let m = GpuMaterial {
             color_ks: [0.5, 0.25, 0.125, 0.0],
             params: [1.0, 0.0, width, 1.0],
+            file: [0.0; 4],
         };
         (s, verts, m)
     }
@@ -307,6 +345,7 @@ mod tests {
                     strands: &[s],
                     verts: &verts,
                     materials: &[m],
+                    looks: &[],
                     lod: [1.0, 1.0, 0.0, 0.0],
                     drawn: &[[0, 1]],
                     depth: None,
@@ -345,6 +384,7 @@ mod tests {
             strands: std::slice::from_ref(&s),
             verts: &verts,
             materials: std::slice::from_ref(&m),
+            looks: &[],
             lod: [1.0, 1.0, 0.0, 0.0],
             drawn: &[[0, 1]],
             depth,
