@@ -5,8 +5,8 @@
 // flow over a full and a half step) are computed in f64 on the CPU per joint and uploaded;
 // the head poses, the head-acceleration maps, the uniform wind and the extra forces' ramps
 // per step are too. Follows forces/eff.wgsl (eff_field), common/ellipsoid.wgsl and the head:
-// strips/ellipsoid_head.wgsl, or on a mesh head common/sdf.wgsl and strips/sdf_head.wgsl (the
-// field, trilinear, as Rig::step reads it through scene::hull::HeadHull).
+// common/ellipsoid_head.wgsl, or on a mesh head common/sdf.wgsl (the field in `sdf_data`,
+// trilinear, as Rig::step reads it through scene::hull::HeadHull; flags.y = 1 selects it).
 //
 // Loops per invocation and dispatch stay far below llvmpipe's 65,535 (the Rust side refuses
 // strips with too many sticks): 3 passes over the sticks, 2 force sums over the extras, and
@@ -26,7 +26,7 @@ struct Params {
     hull_center: vec4<f32>,
     // xyz hull radii, w Psi at the surface for kappa = 1
     hull_radii: vec4<f32>,
-    // x EFF sampling (0 nearest, 1 trilinear)
+    // x EFF sampling (0 nearest, 1 trilinear), y 1 when the head is the SDF in sdf_data
     flags: vec4<u32>,
     // xyz centre (world), w radius
     extra_center: array<vec4<f32>, 16>,
@@ -95,6 +95,9 @@ struct Joint {
 @group(0) @binding(7) var<storage, read_write> pos: array<vec4<f32>>;
 @group(0) @binding(8) var<uniform> eff: EffGrid;
 @group(0) @binding(9) var<storage, read> eff_cells: array<vec4<f32>>;
+// The mesh head's signed distance field (common/sdf.wgsl); bound only on mesh heads (the
+// module for other scenes never reads it).
+@group(0) @binding(10) var<storage, read> sdf_data: array<f32>;
 
 const TAU: f32 = 6.28318530717959;
 
@@ -129,7 +132,10 @@ fn unpose(m: mat4x4<f32>, x: vec3<f32>) -> vec3<f32> {
 }
 
 fn hull() -> HeadHull {
-    return strips_head(params.hull_center.xyz, params.hull_radii.xyz);
+    return head_hull(
+        vec4<f32>(params.hull_center.xyz, f32(params.flags.y)),
+        vec4<f32>(params.hull_radii.xyz, 0.0),
+    );
 }
 
 // Psi (see dynamics::collision_accel), head-local.

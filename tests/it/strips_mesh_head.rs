@@ -9,9 +9,9 @@ use common::{check_snapshot, Tolerance};
 use glam::{DMat4, DVec3};
 use kami::forces::eff::EffGpu;
 use kami::forces::Forces;
-use kami::scene::Ellipsoid;
 use kami::scene::hull::{head_hull, head_mesh, HeadHull, ROOT_TOLERANCE, SDF_EPS_OUT};
 use kami::scene::sdf::{closest_point_triangle, Sdf};
+use kami::scene::Ellipsoid;
 use kami::systems::strips::dynamics::Rig;
 use kami::systems::strips::dynamics_gpu::DynamicsGpu;
 use kami::systems::strips::{hom, RestStrip};
@@ -70,9 +70,15 @@ fn roots_lie_on_the_scalp() {
         let root = r.points[0];
         off = off.max(mesh.sdf.sample(root).abs());
         let t = nearest(root);
-        assert!(mesh.scalp.contains(&t), "strip {s}: nearest triangle {t} is not scalp");
+        assert!(
+            mesh.scalp.contains(&t),
+            "strip {s}: nearest triangle {t} is not scalp"
+        );
         let n = mesh.sdf.gradient(root).normalize();
-        assert!((r.normal - n).length() < 1e-12, "strip {s}: not the field's normal");
+        assert!(
+            (r.normal - n).length() < 1e-12,
+            "strip {s}: not the field's normal"
+        );
         for p in &r.points[1..] {
             deepest = deepest.min(mesh.sdf.sample(*p));
         }
@@ -82,7 +88,10 @@ fn roots_lie_on_the_scalp() {
         rest.len()
     );
     assert_eq!(rest.len(), 74);
-    assert!(off < ROOT_TOLERANCE, "a root off the zero level set by {off}");
+    assert!(
+        off < ROOT_TOLERANCE,
+        "a root off the zero level set by {off}"
+    );
     assert!(deepest > 0.0, "a rest point inside the head ({deepest})");
 }
 
@@ -165,13 +174,30 @@ fn strips_stay_out_of_the_sdf_and_gpu_matches_the_reference() {
         per_strip.len()
     );
     let tolerance = -SDF_EPS_OUT;
-    assert!(cpu_low >= tolerance, "f64: a point ended {} inside", -cpu_low);
-    assert!(gpu_low >= tolerance, "GPU: a point ended {} inside", -gpu_low);
-    assert!(cpu_root < 1e-9 + ROOT_TOLERANCE, "f64: a root left the scalp by {cpu_root}");
+    assert!(
+        cpu_low >= tolerance,
+        "f64: a point ended {} inside",
+        -cpu_low
+    );
+    assert!(
+        gpu_low >= tolerance,
+        "GPU: a point ended {} inside",
+        -gpu_low
+    );
+    assert!(
+        cpu_root < 1e-9 + ROOT_TOLERANCE,
+        "f64: a root left the scalp by {cpu_root}"
+    );
     assert!(gpu_root < 1e-3, "GPU: a root left the scalp by {gpu_root}");
-    assert!(ell_low < -0.3, "the case is not hard: with the ellipsoid {ell_low}");
+    assert!(
+        ell_low < -0.3,
+        "the case is not hard: with the ellipsoid {ell_low}"
+    );
     assert!(moved > 0.2, "the scene should move the strips ({moved})");
-    assert!(shake < SHAKE_BOUND, "GPU off the f64 reference by {shake:e} in the shake");
+    assert!(
+        shake < SHAKE_BOUND,
+        "GPU off the f64 reference by {shake:e} in the shake"
+    );
     assert!(
         parted as f64 <= PARTED_SHARE * per_strip.len() as f64,
         "{parted} strips parted from the f64 reference"

@@ -36,17 +36,16 @@ use bytemuck::{Pod, Zeroable};
 pub const DYNAMICS: &str = wgsl!(
     "forces/eff.wgsl",
     "common/ellipsoid.wgsl",
-    "strips/ellipsoid_head.wgsl",
+    "common/ellipsoid_head.wgsl",
     "strips/dynamics.wgsl"
 );
 
-/// The kernel on a mesh head: the head's signed distance field (`common/sdf.wgsl`, bound by
-/// `strips/sdf_head.wgsl`) instead of the ellipsoid.
+/// The kernel on a mesh head: the head's signed distance field (`common/sdf.wgsl`, read
+/// from binding 10) instead of the ellipsoid.
 pub const DYNAMICS_SDF: &str = wgsl!(
     "forces/eff.wgsl",
     "common/ellipsoid.wgsl",
     "common/sdf.wgsl",
-    "strips/sdf_head.wgsl",
     "strips/dynamics.wgsl"
 );
 
@@ -72,7 +71,7 @@ pub struct GpuParams {
     pub hull_center: [f32; 4],
     /// xyz hull radii, w Ψ at the surface for κ = 1.
     pub hull_radii: [f32; 4],
-    /// x EFF sampling (0 nearest, 1 trilinear).
+    /// x EFF sampling (0 nearest, 1 trilinear), y 1 when the head is the SDF at binding 10.
     pub flags: [u32; 4],
     pub extra_center: [[f32; 4]; MAX_EXTRA],
     pub extra_accel: [[f32; 4]; MAX_EXTRA],
@@ -201,10 +200,7 @@ impl DynamicsGpu {
         let sdf = match hull.sdf() {
             Some(_) => {
                 let words = hull.gpu_sdf();
-                gpu.check_storage_size(
-                    "the head's signed distance field",
-                    4 * words.len() as u64,
-                )?;
+                gpu.check_storage_size("the head's signed distance field", 4 * words.len() as u64)?;
                 Some(gpu::storage_buffer(
                     device,
                     "strips head sdf",
@@ -560,7 +556,12 @@ impl DynamicsGpu {
                 head.radii[2] as f32,
                 COLLISION_ACCEL as f32,
             ],
-            flags: [u32::from(m.sampling == Sampling::Trilinear), 0, 0, 0],
+            flags: [
+                u32::from(m.sampling == Sampling::Trilinear),
+                u32::from(self.sdf.is_some()),
+                0,
+                0,
+            ],
             extra_center: [[0.0; 4]; MAX_EXTRA],
             extra_accel: [[0.0; 4]; MAX_EXTRA],
         };

@@ -1,14 +1,14 @@
-// The strips kernel's head on a scene without a mesh head: the ellipsoid only, and no field
-// bound (such a scene uploads no SDF). The same functions as common/sdf.wgsl's HeadHull,
-// which the mesh-head module (strips/sdf_head.wgsl) includes instead.
+// The head hull of a kernel built for scenes without a mesh head: the ellipsoid only, the
+// same functions as common/sdf.wgsl's HeadHull (which a kernel built for a mesh head
+// includes instead), so the kernel's text serves both and such a scene binds no field.
 
 struct HeadHull {
     e: Hull,
     sdf: bool,
 }
 
-fn strips_head(center: vec3<f32>, radii: vec3<f32>) -> HeadHull {
-    return HeadHull(Hull(center, radii), false);
+fn head_hull(center: vec4<f32>, radii: vec4<f32>) -> HeadHull {
+    return HeadHull(Hull(center.xyz, radii.xyz), false);
 }
 
 fn head_eval(h: HeadHull, p: vec3<f32>) -> f32 {
