@@ -129,6 +129,9 @@ pub struct HeadMeshData {
     /// Scalp triangles and their cumulative areas (for area-uniform pores).
     pub scalp: Vec<u32>,
     pub scalp_cdf: Vec<f64>,
+    /// Each triangle's bounding sphere (centroid, radius): `place_on_scalp` skips the
+    /// triangles that cannot be nearest a root.
+    pub spheres: Vec<(DVec3, f64)>,
     /// Seconds the SDF took to build.
     pub build_seconds: f64,
 }
@@ -237,8 +240,19 @@ pub fn build_head_mesh(head: &Head, m: &HeadMesh) -> Result<HeadMeshData> {
             allowed: "regions that contain at least one triangle of the mesh".into(),
         });
     }
+    let spheres = mesh
+        .triangles
+        .iter()
+        .map(|tri| {
+            let [a, b, c] = tri.map(|i| mesh.positions[i as usize]);
+            let m = (a + b + c) / 3.0;
+            let r = (a - m).length().max((b - m).length()).max((c - m).length());
+            (m, r)
+        })
+        .collect();
     Ok(HeadMeshData {
         mesh,
+        spheres,
         sdf: Arc::new(sdf),
         scalp,
         scalp_cdf,
@@ -332,8 +346,21 @@ impl HeadMeshData {
         reach: f64,
     ) -> std::result::Result<ScalpPoint, OffScalp> {
         let m = &self.mesh;
+        // The nearest triangle, as a search of every triangle in order finds it (the first of
+        // equals), without measuring those whose bounding sphere lies farther than the
+        // nearest centroid (a centroid is on its triangle, so the nearest triangle is at most
+        // that far; the skipped ones can be neither nearer nor equal).
+        let bound = self
+            .spheres
+            .iter()
+            .map(|(c, _)| (drawn - *c).length())
+            .fold(f64::INFINITY, f64::min);
         let mut best = (f64::INFINITY, DVec3::ZERO, 0u32);
         for (t, tri) in m.triangles.iter().enumerate() {
+            let (c, r) = self.spheres[t];
+            if (drawn - c).length() - r > bound {
+                continue;
+            }
             let [a, b, c] = tri.map(|i| m.positions[i as usize]);
             let q = closest_point_triangle(drawn, a, b, c);
             let d = (q - drawn).length_squared();

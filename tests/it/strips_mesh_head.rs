@@ -43,7 +43,8 @@ fn lowest(sdf: &Sdf, points: &[DVec3], stride: usize, pose: DMat4) -> (f64, f64)
     (low, root)
 }
 
-/// Every strip's root lies on the mesh's scalp: on the SDF's zero level set, nearest a scalp
+/// Every strip's root lies on the mesh's scalp (the nearest triangle to its ring's point, the
+/// same as a search of every triangle finds): on the SDF's zero level set, nearest a scalp
 /// triangle (found here by brute force; the scalp is the triangles whose centroids lie in
 /// the scene's regions, so a root near the scalp's edge may lie just outside them), leaving
 /// along the field's normal; the rest shape lies outside the field.
@@ -65,6 +66,23 @@ fn roots_lie_on_the_scalp() {
             })
             .unwrap() as u32
     };
+    // The placement's nearest triangle (it skips triangles by their bounding spheres) is the
+    // one every triangle in order finds, from each ring's point on the ellipsoid.
+    let hull = Ellipsoid::new(head.center, head.radii);
+    let mut s = 0;
+    for layer in &scene.strips.as_ref().unwrap().layers {
+        for az in hom::azimuths(layer) {
+            let drawn = hull.point(layer.polar.to_radians(), az.to_radians());
+            let placed = mesh.place_on_scalp(drawn, f64::INFINITY).unwrap();
+            assert_eq!(
+                placed.triangle,
+                nearest(drawn),
+                "strip {s}: not the nearest"
+            );
+            assert!((placed.root - rest[s].points[0]).length() < 1e-12);
+            s += 1;
+        }
+    }
     let (mut off, mut deepest): (f64, f64) = (0.0, f64::INFINITY);
     for (s, r) in rest.iter().enumerate() {
         let root = r.points[0];
