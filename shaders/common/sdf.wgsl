@@ -113,6 +113,20 @@ fn head_gradient(h: HeadHull, p: vec3<f32>) -> vec3<f32> {
     return hull_gradient(h.e, p);
 }
 
+// The outward unit normal: the ellipsoid's as `normalize`, the field's up where its
+// gradient vanishes (`HeadHull::normal`).
+fn head_normal(h: HeadHull, p: vec3<f32>) -> vec3<f32> {
+    let g = head_gradient(h, p);
+    if h.sdf {
+        let l = length(g);
+        if l > 0.0 {
+            return g / l;
+        }
+        return vec3<f32>(0.0, 1.0, 0.0);
+    }
+    return normalize(g);
+}
+
 fn head_eps(h: HeadHull) -> f32 {
     return select(EPS_OUT, SDF_EPS_OUT, h.sdf);
 }

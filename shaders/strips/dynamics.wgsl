@@ -4,7 +4,9 @@
 // step's record picked by the dynamic `slot`. The propagators (the exact damped-oscillator
 // flow over a full and a half step) are computed in f64 on the CPU per joint and uploaded;
 // the head poses, the head-acceleration maps, the uniform wind and the extra forces' ramps
-// per step are too. Follows forces/eff.wgsl (eff_field) and common/ellipsoid.wgsl (hull).
+// per step are too. Follows forces/eff.wgsl (eff_field), common/ellipsoid.wgsl and the head:
+// common/ellipsoid_head.wgsl, or on a mesh head common/sdf.wgsl (the field in `sdf_data`,
+// trilinear, as Rig::step reads it through scene::hull::HeadHull; flags.y = 1 selects it).
 //
 // Loops per invocation and dispatch stay far below llvmpipe's 65,535 (the Rust side refuses
 // strips with too many sticks): 3 passes over the sticks, 2 force sums over the extras, and
@@ -24,7 +26,7 @@ struct Params {
     hull_center: vec4<f32>,
     // xyz hull radii, w Psi at the surface for kappa = 1
     hull_radii: vec4<f32>,
-    // x EFF sampling (0 nearest, 1 trilinear)
+    // x EFF sampling (0 nearest, 1 trilinear), y 1 when the head is the SDF in sdf_data
     flags: vec4<u32>,
     // xyz centre (world), w radius
     extra_center: array<vec4<f32>, 16>,
@@ -93,6 +95,9 @@ struct Joint {
 @group(0) @binding(7) var<storage, read_write> pos: array<vec4<f32>>;
 @group(0) @binding(8) var<uniform> eff: EffGrid;
 @group(0) @binding(9) var<storage, read> eff_cells: array<vec4<f32>>;
+// The mesh head's signed distance field (common/sdf.wgsl); bound only on mesh heads (the
+// module for other scenes never reads it).
+@group(0) @binding(10) var<storage, read> sdf_data: array<f32>;
 
 const TAU: f32 = 6.28318530717959;
 
@@ -126,8 +131,11 @@ fn unpose(m: mat4x4<f32>, x: vec3<f32>) -> vec3<f32> {
     return transpose(rotation(m)) * (x - m[3].xyz);
 }
 
-fn hull() -> Hull {
-    return Hull(params.hull_center.xyz, params.hull_radii.xyz);
+fn hull() -> HeadHull {
+    return head_hull(
+        vec4<f32>(params.hull_center.xyz, f32(params.flags.y)),
+        vec4<f32>(params.hull_radii.xyz, 0.0),
+    );
 }
 
 // Psi (see dynamics::collision_accel), head-local.
@@ -137,14 +145,24 @@ fn collision(local: vec3<f32>, band: f32) -> vec3<f32> {
         return vec3<f32>(0.0);
     }
     let h = hull();
-    let g = hull_gradient(h, local);
+    let g = head_gradient(h, local);
     let gl = length(g);
-    let min_r = min(h.radii.x, min(h.radii.y, h.radii.z));
-    var d = -min_r;
+    var d: f32;
     var n = vec3<f32>(0.0, 1.0, 0.0);
-    if gl > 1e-12 / min_r {
-        d = hull_eval(h, local) / gl;
-        n = g / gl;
+    if h.sdf {
+        // The field's value over its gradient's length; at a flat spot the value, up.
+        d = head_eval(h, local);
+        if gl > 1e-12 {
+            d /= gl;
+            n = g / gl;
+        }
+    } else {
+        let min_r = min(h.e.radii.x, min(h.e.radii.y, h.e.radii.z));
+        d = -min_r;
+        if gl > 1e-12 / min_r {
+            d = head_eval(h, local) / gl;
+            n = g / gl;
+        }
     }
     let u = (band - d) / band;
     if u <= 0.0 {
@@ -278,13 +296,13 @@ fn constrain(first: u32, n: u32, base: u32, root: vec3<f32>, m: mat4x4<f32>) {
         var b = f * rot(s.x, s.y);
         var next = x + jt.c0.w * b[2];
         let local = unpose(m, next);
-        if hull_eval(h, local) < 0.0 {
+        if head_eval(h, local) < 0.0 {
             let pivot = unpose(m, x);
-            var a0 = normalize(hull_gradient(h, pivot));
+            var a0 = head_normal(h, pivot);
             if j > 0u {
                 a0 = transpose(r) * prev;
             }
-            let out = hull_push_out(h, pivot, a0, local, jt.c0.w);
+            let out = head_push_out(h, pivot, a0, local, jt.c0.w);
             var d = r * (out - pivot);
             let dl = length(d);
             if dl > 0.0 {
@@ -299,7 +317,7 @@ fn constrain(first: u32, n: u32, base: u32, root: vec3<f32>, m: mat4x4<f32>) {
             let arm = next - x;
             let jt_ = cross(f * vec3<f32>(-sin(q.y), cos(q.y), 0.0), arm);
             let jp = cross(f[2], arm);
-            let normal = r * normalize(hull_gradient(h, out));
+            let normal = r * head_normal(h, out);
             let g = vec2<f32>(dot(normal, jt_), dot(normal, jp));
             var v = s.zw;
             let vn = dot(g, v);

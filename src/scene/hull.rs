@@ -9,7 +9,7 @@
 
 use super::head::{push_out_implicit, Ellipsoid, EPS_OUT};
 use super::mesh::Mesh;
-use super::sdf::{Sdf, Triangles};
+use super::sdf::{closest_point_triangle, Sdf, Triangles};
 use super::{Head, HeadMesh, MeshSource, ScalpRegion};
 use crate::error::{KamiError, Result};
 use glam::{DMat4, DVec3};
@@ -129,6 +129,9 @@ pub struct HeadMeshData {
     /// Scalp triangles and their cumulative areas (for area-uniform pores).
     pub scalp: Vec<u32>,
     pub scalp_cdf: Vec<f64>,
+    /// Each triangle's bounding sphere (centroid, radius): `place_on_scalp` skips the
+    /// triangles that cannot be nearest a root.
+    pub spheres: Vec<(DVec3, f64)>,
     /// Seconds the SDF took to build.
     pub build_seconds: f64,
 }
@@ -237,8 +240,19 @@ pub fn build_head_mesh(head: &Head, m: &HeadMesh) -> Result<HeadMeshData> {
             allowed: "regions that contain at least one triangle of the mesh".into(),
         });
     }
+    let spheres = mesh
+        .triangles
+        .iter()
+        .map(|tri| {
+            let [a, b, c] = tri.map(|i| mesh.positions[i as usize]);
+            let m = (a + b + c) / 3.0;
+            let r = (a - m).length().max((b - m).length()).max((c - m).length());
+            (m, r)
+        })
+        .collect();
     Ok(HeadMeshData {
         mesh,
+        spheres,
         sdf: Arc::new(sdf),
         scalp,
         scalp_cdf,
@@ -285,6 +299,104 @@ fn stamp(source: &MeshSource) -> Option<(u64, std::time::SystemTime)> {
     };
     let meta = std::fs::metadata(path).ok()?;
     Some((meta.len(), meta.modified().ok()?))
+}
+
+/// Newton steps that move a root onto the SDF's zero level set.
+pub const ROOT_NEWTON: u32 = 8;
+/// A root lies on the field's zero level set within this (scene units).
+pub const ROOT_TOLERANCE: f64 = 1e-4;
+
+/// The farthest a drawn root may lie from a mesh head: `own` (the root's own size: a wisp's
+/// radius, a strip's width) or a quarter of the head's smallest radius, whichever is larger.
+/// Farther, the hair was not drawn for this head, and moving it would only hide the mistake.
+pub fn root_reach(own: f64, head: &Head) -> f64 {
+    let r = head.radii.iter().copied().fold(f64::INFINITY, f64::min);
+    own.max(0.25 * r)
+}
+
+/// A root placed on a mesh head's scalp (`HeadMeshData::place_on_scalp`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ScalpPoint {
+    /// On the SDF's zero level set, over a scalp triangle.
+    pub root: DVec3,
+    /// The scalp triangle nearest the drawn root.
+    pub triangle: u32,
+}
+
+/// Why a drawn root cannot go on the scalp; each kind words the error with its own field.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum OffScalp {
+    /// `dist` from the mesh (NaN or infinite for a bad point or a mesh without triangles),
+    /// more than `reach`.
+    Far { dist: f64, reach: f64 },
+    /// Nearest a triangle that is not scalp.
+    NotScalp { triangle: u32 },
+    /// The field cannot follow the mesh there (a feature thinner than a cell of `cell`).
+    Unfollowed { cell: f64 },
+}
+
+impl HeadMeshData {
+    /// Place a root drawn at `drawn` on the scalp, as Anjyo's pores sit: the nearest point of
+    /// the mesh, which must lie on a scalp triangle within `reach`, then onto the SDF's zero
+    /// level set by Newton steps (the hull the hair collides with). Shared by the kinds whose
+    /// roots are drawn rather than grown (toon wisps, strips).
+    pub fn place_on_scalp(
+        &self,
+        drawn: DVec3,
+        reach: f64,
+    ) -> std::result::Result<ScalpPoint, OffScalp> {
+        let m = &self.mesh;
+        // The nearest triangle, as a search of every triangle in order finds it (the first of
+        // equals), without measuring those whose bounding sphere lies farther than the
+        // nearest centroid (a centroid is on its triangle, so the nearest triangle is at most
+        // that far; the skipped ones can be neither nearer nor equal).
+        let bound = self
+            .spheres
+            .iter()
+            .map(|(c, _)| (drawn - *c).length())
+            .fold(f64::INFINITY, f64::min);
+        let mut best = (f64::INFINITY, DVec3::ZERO, 0u32);
+        for (t, tri) in m.triangles.iter().enumerate() {
+            let (c, r) = self.spheres[t];
+            if (drawn - c).length() - r > bound {
+                continue;
+            }
+            let [a, b, c] = tri.map(|i| m.positions[i as usize]);
+            let q = closest_point_triangle(drawn, a, b, c);
+            let d = (q - drawn).length_squared();
+            if d < best.0 {
+                best = (d, q, t as u32);
+            }
+        }
+        let (d2, on_mesh, triangle) = best;
+        let dist = d2.sqrt();
+        // Also refuses a mesh without triangles (infinite) or a NaN.
+        if dist.is_nan() || dist > reach {
+            return Err(OffScalp::Far { dist, reach });
+        }
+        if self.scalp.binary_search(&triangle).is_err() {
+            return Err(OffScalp::NotScalp { triangle });
+        }
+        let sdf = &self.sdf;
+        let mut root = on_mesh;
+        for _ in 0..ROOT_NEWTON {
+            let s = sdf.sample(root);
+            if s.abs() < ROOT_TOLERANCE {
+                break;
+            }
+            let g = sdf.gradient(root);
+            let l2 = g.length_squared();
+            if l2 <= 1e-12 {
+                break;
+            }
+            root -= s * g / l2;
+        }
+        let followed = (root - on_mesh).length() <= 0.25 * sdf.cell;
+        if !(followed && sdf.sample(root).abs() < ROOT_TOLERANCE) {
+            return Err(OffScalp::Unfollowed { cell: sdf.cell });
+        }
+        Ok(ScalpPoint { root, triangle })
+    }
 }
 
 /// The scene's collision hull.

@@ -33,6 +33,7 @@ mod stage;
 mod strips;
 mod strips_capture;
 mod strips_dynamics;
+mod strips_mesh_head;
 mod strips_pick;
 mod strips_render;
 mod usd_curves;

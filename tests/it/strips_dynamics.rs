@@ -10,12 +10,18 @@ use glam::{DMat4, DVec3};
 use kami::bench::strips::precision::*;
 use kami::forces::eff::EffGpu;
 use kami::forces::Forces;
+use kami::scene::hull::HeadHull;
 use kami::scene::Ellipsoid;
 use kami::scene::{Head, HeadKey, Interp, WindKey};
 use kami::systems::strips::block::Motion;
 use kami::systems::strips::dynamics::*;
 use kami::systems::strips::dynamics_gpu::DynamicsGpu;
 use kami::systems::strips::RestStrip;
+
+/// The head's hull (the ellipsoid here; a mesh head's SDF in `strips_mesh_head.rs`).
+fn hull(head: &Head) -> HeadHull {
+    kami::scene::hull::head_hull(head).unwrap()
+}
 
 /// Still air on a still head, under Earth's gravity (the scene's `forces.gravity`).
 fn still(head: &Head) -> Forces {
@@ -164,7 +170,7 @@ fn single_joint_rig_is_the_closed_form() {
             .unwrap();
         let mut worst: f64 = 0.0;
         for f in 0..60u64 {
-            rig.run_frames(&forces, &head, &motion, &[], f, 1);
+            rig.run_frames(&forces, &hull(&head), &motion, &[], f, 1);
             let t = (f + 1) as f64 * motion.frame_time;
             let q = rig.angles(0)[0];
             worst = worst.max((q[0] - rest[0] - oscillator(omega0, zeta, a, va, t)).abs());
@@ -191,7 +197,7 @@ fn single_joint_settles_at_rest_plus_h_over_tau() {
     let motion = quiet(inertia, 20.0, tau);
     let mut rig = Rig::new(&[one_stick(&head, r)], &motion).unwrap();
     let rest = rig.joint(0, 0).rest;
-    rig.run_frames(&forces, &head, &motion, &[], 0, 150);
+    rig.run_frames(&forces, &hull(&head), &motion, &[], 0, 150);
     let q = rig.angles(0)[0];
     let (mut lo, mut hi) = (0.0, 1.5);
     for _ in 0..100 {
@@ -217,7 +223,7 @@ fn single_joint_settles_at_rest_plus_h_over_tau() {
     let env = Env {
         forces: &forces,
         frame: 150.0,
-        head: &head,
+        hull: &hull(&head),
         motion: &motion,
         extra: &[],
     };
@@ -326,7 +332,7 @@ fn stiff_joints_at_a_large_step_stay_bounded_and_settle() {
     let mut moved: f64 = 0.0;
     let mut worst_dev: f64 = 0.0;
     for f in 0..240u64 {
-        rig.run_frames(&s.forces, &s.head, &s.motion, &s.extra, f, 1);
+        rig.run_frames(&s.forces, &hull(&s.head), &s.motion, &s.extra, f, 1);
         let p = rig.points();
         if f < 10 {
             moved = moved.max((tip(&p, stride, 0) - tip(&start, stride, 0)).length());
@@ -394,7 +400,7 @@ fn stability_limits() {
 /// continuous at the band's edge, off with κ = 0.
 #[test]
 fn collision_force_reading() {
-    let hull = Ellipsoid::new([0.0; 3], [9.6, 11.5, 7.8]);
+    let hull = HeadHull::Ellipsoid(Ellipsoid::new([0.0; 3], [9.6, 11.5, 7.8]));
     let band = 1.0;
     let along = |d: f64| DVec3::new(9.6 + d, 0.0, 0.0);
     // d is first order (E / |∇E|): along x it reaches the band at 9.6 + 1.05.
@@ -699,7 +705,7 @@ fn bad_input_is_an_error() {
     let env = Env {
         forces: &forces,
         frame: 0.0,
-        head: &head,
+        hull: &hull(&head),
         motion: &motion,
         extra: &[],
     };
@@ -756,7 +762,7 @@ fn gpu_matches_the_f64_reference() {
             }
             g.record(gpu, &mut enc, &s.forces, f, n).unwrap();
             gpu.queue.submit([enc.finish()]);
-            rig.run_frames(&s.forces, &s.head, &s.motion, &s.extra, f, n);
+            rig.run_frames(&s.forces, &hull(&s.head), &s.motion, &s.extra, f, n);
             let gp = g.read_points(gpu).unwrap();
             let cp = rig.points();
             assert_eq!(gp.len(), cp.len());
@@ -936,7 +942,7 @@ fn preload_holds_the_groomed_shape_under_gravity() {
         }],
         ..forces.clone()
     };
-    windy.run_frames(&wind, &scene.head, &on, &[], 0, 10);
+    windy.run_frames(&wind, &hull(&scene.head), &on, &[], 0, 10);
     assert!(windy.points() != a.points(), "the wind moved nothing");
     windy.reset();
     assert_eq!(

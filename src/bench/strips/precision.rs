@@ -36,11 +36,12 @@ pub const SPEED_LIMIT: f64 = 4.0;
 fn tips(setup: &Setup, motion: &Motion, frames: u32) -> Result<(Vec<DVec3>, f64, u64)> {
     let mut rig = Rig::posed(&setup.rest, motion, &setup.head, setup.forces.gravity)?;
     rig.set_pose(setup.forces.head_at(0.0));
+    let hull = crate::scene::hull::head_hull(&setup.head)?;
     let mut out = Vec::new();
     let mut top: f64 = 0.0;
     let stride = rig.stride();
     for f in 0..frames as u64 {
-        rig.run_frames(&setup.forces, &setup.head, motion, &setup.extra, f, 1);
+        rig.run_frames(&setup.forces, &hull, motion, &setup.extra, f, 1);
         let r = rig.max_rate();
         top = if r.is_nan() || top.is_nan() {
             f64::NAN
@@ -159,6 +160,7 @@ pub fn largest_stable_dt(setup: &Setup, seconds: f64, cap: f64) -> Result<f64> {
     let (_, top, _) = tips(setup, &fine, frames)?;
     let limit = SPEED_LIMIT * top.max(1e-9);
     let ft = setup.motion.frame_time;
+    let hull = crate::scene::hull::head_hull(&setup.head)?;
     let stable_at = |dt: f64| -> Result<bool> {
         let mut rig = Rig::posed(
             &setup.rest,
@@ -172,7 +174,7 @@ pub fn largest_stable_dt(setup: &Setup, seconds: f64, cap: f64) -> Result<f64> {
             let env = Env {
                 forces: &setup.forces,
                 frame: i as f64 * dt / ft,
-                head: &setup.head,
+                hull: &hull,
                 motion: &setup.motion,
                 extra: &setup.extra,
             };

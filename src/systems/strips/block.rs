@@ -34,7 +34,9 @@ pub struct Strips {
 }
 
 /// One layer of the layer model: `count` strips whose roots lie on a ring of the head at
-/// polar angle `polar` (degrees from the crown), spread over an azimuth range.
+/// polar angle `polar` (degrees from the crown), spread over an azimuth range. The ring is
+/// on the head ellipsoid (`head.radii`); on a mesh head each root is then moved to the
+/// nearest point of the mesh's scalp (`hom::roots_on_mesh`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Layer {
@@ -235,12 +237,22 @@ fn default_radius() -> f64 {
     6.0
 }
 
-/// Check the strips block, if the scene has one.
+/// Check the strips block, if the scene has one, with the head it lives on.
 pub fn validate(s: &Scene) -> Result<()> {
-    match &s.strips {
-        Some(st) => validate_strips(st),
-        None => Ok(()),
+    let Some(st) = &s.strips else {
+        return Ok(());
+    };
+    validate_strips(st)?;
+    // Roots on a mesh head, checked here when the mesh can be read now, so that a root off
+    // the scalp names the scene file; a mesh that cannot be read yet (a path relative to the
+    // scene file is resolved after validation) is placed, and refused, when the strips are
+    // built (`hom::build`), and its own errors name the mesh file.
+    if s.head.mesh.is_some() {
+        if let Ok(Some(mesh)) = crate::scene::hull::head_mesh(&s.head) {
+            super::hom::roots_on_mesh(st, &s.head, &mesh)?;
+        }
     }
+    Ok(())
 }
 
 /// Most strips in a scene (the paper's 120 with a wide margin; one GPU invocation each).

@@ -47,14 +47,20 @@
 //! `−k (x − x_rest)` toward the point's rest position carried by the head (pulls the shape
 //! back; k = `motion.spring`, 0 turns it off); the collision Ψ (`collision_accel`, our
 //! reading of the printed κ exp(l²/(j−l)²) that divides by zero at j = l); the extra forces
-//! of key-frame edits (`ExtraForce`). After each step a control point inside the head
-//! ellipsoid is moved out by rotating its stick about the joint (Anjyo's circle search,
-//! `Ellipsoid::push_out`) and the joint's rate into the head is removed.
+//! of key-frame edits (`ExtraForce`). After each step a control point inside the head hull
+//! is moved out by rotating its stick about the joint (Anjyo's circle search,
+//! `HeadHull::push_out`) and the joint's rate into the head is removed.
+//!
+//! **The hull** is the scene's `HeadHull`: the ellipsoid, or on a mesh head its signed
+//! distance field (`scene::sdf`: trilinear samples, the gradient of the interpolant), for Ψ
+//! and the push-out alike; `shaders/strips/dynamics.wgsl` reads the same field
+//! (`shaders/common/sdf.wgsl`).
 
 use super::RestStrip;
 use crate::error::{KamiError, Result};
 use crate::forces::Forces;
 use crate::scene::head::Ellipsoid;
+use crate::scene::hull::{head_hull, HeadHull};
 use crate::scene::{Head, HeadKey, Interp, WindKey};
 use crate::systems::strips::block::Motion;
 use glam::{DMat3, DMat4, DVec3, DVec4};
@@ -68,23 +74,36 @@ pub const COLLISION_ACCEL: f64 = 2000.0;
 /// Width of the band outside the head where Ψ acts, as a share of the strip's mean stick.
 pub const COLLISION_BAND: f64 = 0.5;
 
-/// Ψ, our reading (head-local): with d the signed distance to the ellipsoid (first-order,
-/// `E / |∇E|`, negative inside) and δ the band, `u = (δ − d) / δ` and
+/// Ψ, our reading (head-local): with d the signed distance to the hull (first-order,
+/// `E / |∇E|`, negative inside: for a mesh head's SDF the field's value over its gradient's
+/// length, which is near 1) and δ the band, `u = (δ − d) / δ` and
 /// `Ψ = κ · COLLISION_ACCEL · u² · n` for u > 0, else 0 (n the outward normal). Zero from
 /// the band's edge out, growing smoothly (C¹) with depth, finite everywhere, at the surface
 /// (where the printed formula divides by zero) κ · COLLISION_ACCEL. κ = 0 turns it off.
-pub fn collision_accel(hull: &Ellipsoid, local: DVec3, band: f64, kappa: f64) -> DVec3 {
+pub fn collision_accel(hull: &HeadHull, local: DVec3, band: f64, kappa: f64) -> DVec3 {
     if kappa <= 0.0 || band <= 0.0 {
         return DVec3::ZERO;
     }
     let g = hull.gradient(local);
     let gl = g.length();
-    let min_r = hull.radii.min_element();
-    let (d, n) = if gl > 1e-12 / min_r {
-        (hull.eval(local) / gl, g / gl)
-    } else {
-        // The centre: deepest, any direction; up.
-        (-min_r, DVec3::Y)
+    let (d, n) = match hull {
+        HeadHull::Ellipsoid(e) => {
+            let min_r = e.radii.min_element();
+            if gl > 1e-12 / min_r {
+                (e.eval(local) / gl, g / gl)
+            } else {
+                // The centre: deepest, any direction; up.
+                (-min_r, DVec3::Y)
+            }
+        }
+        HeadHull::Sdf(f) => {
+            if gl > 1e-12 {
+                (f.sample(local) / gl, g / gl)
+            } else {
+                // A flat spot of the field (cells of equal values): its value, up.
+                (f.sample(local), DVec3::Y)
+            }
+        }
     };
     let u = (band - d) / band;
     if u <= 0.0 {
@@ -200,7 +219,8 @@ pub struct Env<'a> {
     pub forces: &'a Forces,
     /// Fractional frame at the step's start.
     pub frame: f64,
-    pub head: &'a Head,
+    /// The head's hull (`scene::hull::head_hull`): the ellipsoid or a mesh head's SDF.
+    pub hull: &'a HeadHull,
     pub motion: &'a Motion,
     pub extra: &'a [ExtraForce],
 }
@@ -663,7 +683,7 @@ impl Rig {
     pub fn posed(rest: &[RestStrip], motion: &Motion, head: &Head, gravity: DVec3) -> Result<Rig> {
         let mut rig = Rig::new(rest, motion)?;
         if motion.preload {
-            rig.preload(motion, head, gravity);
+            rig.preload(motion, &head_hull(head)?, gravity);
         }
         Ok(rig)
     }
@@ -677,7 +697,7 @@ impl Rig {
     /// head at its rest pose: head keys whose first pose is turned (not a capture, which
     /// starts at rest) see gravity from another side and swing from frame 0. Called on a
     /// fresh rig (state at Φg) by `posed`.
-    fn preload(&mut self, motion: &Motion, head: &Head, gravity: DVec3) {
+    fn preload(&mut self, motion: &Motion, hull: &HeadHull, gravity: DVec3) {
         let still = Forces {
             gravity,
             wind: Vec::new(),
@@ -692,7 +712,7 @@ impl Rig {
         let env = Env {
             forces: &still,
             frame: 0.0,
-            head,
+            hull,
             motion: &still_motion,
             extra: &[],
         };
@@ -847,9 +867,8 @@ impl Rig {
             a -= m.spring * (x - point(&hf.pose, st.rest[k]));
         }
         if m.collision > 0.0 {
-            let hull = Ellipsoid::new(env.head.center, env.head.radii);
             let local = point(&hf.inverse, x);
-            let psi = collision_accel(&hull, local, st.band, m.collision);
+            let psi = collision_accel(env.hull, local, st.band, m.collision);
             a += mat3(&hf.pose) * psi;
         }
         for e in env.extra {
@@ -923,7 +942,7 @@ impl Rig {
         let h0 = HeadFrame::at(env.forces, env.motion, f0, width);
         let hm = HeadFrame::at(env.forces, env.motion, f0 + 0.5 * dt / ft, width);
         let end = env.forces.head_at(f0 + dt / ft);
-        let hull = Ellipsoid::new(env.head.center, env.head.radii);
+        let hull = env.hull;
         let mut sc = std::mem::take(&mut self.scratch);
         let (_, props) = self.props.take().expect("propagators were just made");
         for s in 0..self.strips.len() {
@@ -953,7 +972,7 @@ impl Rig {
                     v[d] = y[1];
                 }
             }
-            self.constrain(s, &end, &hull);
+            self.constrain(s, &end, hull);
         }
         self.props = Some((dt, props));
         self.scratch = sc;
@@ -961,10 +980,10 @@ impl Rig {
     }
 
     /// Keep strip `s`'s control points out of the head: root to tip, a point inside the
-    /// posed ellipsoid swings about its joint to the nearest outside point on its circle
-    /// (`Ellipsoid::push_out`, in the plane of the previous stick, for the first stick of
-    /// the head normal), the angles follow, and the joint's rate into the head is removed.
-    fn constrain(&mut self, s: usize, pose: &DMat4, hull: &Ellipsoid) {
+    /// posed hull swings about its joint to the nearest outside point on its circle
+    /// (`HeadHull::push_out`, in the plane of the previous stick, for the first stick of
+    /// the hull normal), the angles follow, and the joint's rate into the head is removed.
+    fn constrain(&mut self, s: usize, pose: &DMat4, hull: &HeadHull) {
         let st = &self.strips[s];
         let (first, n) = (st.first, st.sticks);
         let r = mat3(pose);
@@ -1038,11 +1057,11 @@ impl Rig {
     }
 
     /// Run `frames` frames from the current state starting at `from` (frame index), with
-    /// `steps_per_frame(motion)` steps each.
+    /// `steps_per_frame(motion)` steps each, against `hull` (`scene::hull::head_hull`).
     pub fn run_frames(
         &mut self,
         forces: &Forces,
-        head: &Head,
+        hull: &HeadHull,
         motion: &Motion,
         extra: &[ExtraForce],
         from: u64,
@@ -1055,7 +1074,7 @@ impl Rig {
                 let env = Env {
                     forces,
                     frame: (from + f) as f64 + i as f64 / spf as f64,
-                    head,
+                    hull,
                     motion,
                     extra,
                 };
@@ -1077,12 +1096,13 @@ pub fn simulate(
     frames: u32,
 ) -> Result<Vec<Vec<DVec3>>> {
     check_extra(extra)?;
+    let hull = head_hull(head)?;
     let mut rig = Rig::posed(rest, motion, head, forces.gravity)?;
     rig.set_pose(forces.head_at(0.0));
     let mut out = Vec::with_capacity(frames as usize + 1);
     out.push(rig.points());
     for f in 0..frames as u64 {
-        rig.run_frames(forces, head, motion, extra, f, 1);
+        rig.run_frames(forces, &hull, motion, extra, f, 1);
         out.push(rig.points());
     }
     Ok(out)

@@ -11,6 +11,11 @@
 //! The EFF is sampled in the kernel (`eff_force`) at the strength its owner last wrote with
 //! `EffGpu::write`: constant over one recording (the stage records a frame per submission).
 //! At most `MAX_EXTRA` (16) extra forces (a uniform array): `set_extra` refuses more.
+//!
+//! The head is the scene's hull: on a mesh head the kernel is built from `DYNAMICS_SDF`
+//! and its signed distance field is uploaded once (binding 10, `HeadHull::gpu_sdf`); a
+//! scene without a mesh head gets `DYNAMICS`, whose layout has no field binding, and
+//! uploads no field.
 
 use super::dynamics::{check_extra, step_length, steps_per_frame, ExtraForce, Rig, MAX_EXTRA};
 use super::dynamics::{HeadFrame, COLLISION_ACCEL};
@@ -19,17 +24,28 @@ use crate::forces::eff::EffGpu;
 use crate::forces::Forces;
 use crate::gpu::{self, Gpu, WORKGROUP};
 use crate::scene::head::EPS_OUT;
+use crate::scene::hull::{head_hull, SDF_EPS_OUT};
 use crate::scene::Head;
 use crate::scene::Sampling;
 use crate::shaders::wgsl;
 use crate::systems::strips::block::Motion;
 use bytemuck::{Pod, Zeroable};
 
-/// The kernel's module: the EFF (`forces/eff.wgsl`, the same text as `EFF_WGSL`), the hull,
-/// then the kernel.
+/// The kernel's module: the EFF (`forces/eff.wgsl`, the same text as `EFF_WGSL`), the
+/// ellipsoid head, then the kernel.
 pub const DYNAMICS: &str = wgsl!(
     "forces/eff.wgsl",
     "common/ellipsoid.wgsl",
+    "common/ellipsoid_head.wgsl",
+    "strips/dynamics.wgsl"
+);
+
+/// The kernel on a mesh head: the head's signed distance field (`common/sdf.wgsl`, read
+/// from binding 10) instead of the ellipsoid.
+pub const DYNAMICS_SDF: &str = wgsl!(
+    "forces/eff.wgsl",
+    "common/ellipsoid.wgsl",
+    "common/sdf.wgsl",
     "strips/dynamics.wgsl"
 );
 
@@ -55,7 +71,7 @@ pub struct GpuParams {
     pub hull_center: [f32; 4],
     /// xyz hull radii, w Ψ at the surface for κ = 1.
     pub hull_radii: [f32; 4],
-    /// x EFF sampling (0 nearest, 1 trilinear).
+    /// x EFF sampling (0 nearest, 1 trilinear), y 1 when the head is the SDF at binding 10.
     pub flags: [u32; 4],
     pub extra_center: [[f32; 4]; MAX_EXTRA],
     pub extra_accel: [[f32; 4]; MAX_EXTRA],
@@ -115,6 +131,8 @@ pub struct DynamicsGpu {
     points: wgpu::Buffer,
     eff_grid: wgpu::Buffer,
     eff_cells: wgpu::Buffer,
+    /// The mesh head's signed distance field (binding 10); `None` on an ellipsoid head.
+    sdf: Option<wgpu::Buffer>,
     steps: wgpu::Buffer,
     slots: wgpu::Buffer,
     /// Steps the `steps` and `slots` buffers hold.
@@ -155,7 +173,7 @@ pub fn check_extras(extra: &[ExtraForce]) -> Result<()> {
 
 impl DynamicsGpu {
     /// Upload `rig` (its current state) with the forces' settings of `motion` and the
-    /// hull of `head`; `eff` is bound as the kernel's EFF.
+    /// hull of `head` (its SDF on a mesh head); `eff` is bound as the kernel's EFF.
     pub fn new(gpu: &Gpu, rig: &Rig, motion: &Motion, head: &Head, eff: &EffGpu) -> Result<Self> {
         super::dynamics::check_motion(motion)?;
         let device = &gpu.device;
@@ -178,22 +196,54 @@ impl DynamicsGpu {
             });
         }
         let dims = gpu.dispatch_dims(count, WORKGROUP)?;
-        let module = gpu::shader_module(device, "strips dynamics", DYNAMICS)?;
+        let hull = head_hull(head)?;
+        let sdf = match hull.sdf() {
+            Some(_) => {
+                let words = hull.gpu_sdf();
+                gpu.check_storage_size("the head's signed distance field", 4 * words.len() as u64)?;
+                Some(gpu::storage_buffer(
+                    device,
+                    "strips head sdf",
+                    bytemuck::cast_slice(&words),
+                    wgpu::BufferUsages::empty(),
+                ))
+            }
+            None => None,
+        };
+        let (source, constants): (&str, &[(&str, f64)]) = match sdf {
+            Some(_) => (
+                DYNAMICS_SDF,
+                &[
+                    ("WORKGROUP", WORKGROUP as f64),
+                    ("EPS_OUT", EPS_OUT),
+                    ("SDF_EPS_OUT", SDF_EPS_OUT),
+                ],
+            ),
+            None => (
+                DYNAMICS,
+                &[("WORKGROUP", WORKGROUP as f64), ("EPS_OUT", EPS_OUT)],
+            ),
+        };
+        let module = gpu::shader_module(device, "strips dynamics", source)?;
         let cs = wgpu::ShaderStages::COMPUTE;
+        let mut entries = vec![
+            gpu::uniform_entry(0, cs),
+            gpu::dynamic_uniform_entry(1, cs, SLOT),
+            gpu::storage_entry(2, cs, true),
+            gpu::storage_entry(3, cs, true),
+            gpu::storage_entry(4, cs, true),
+            gpu::storage_entry(5, cs, false),
+            gpu::storage_entry(6, cs, false),
+            gpu::storage_entry(7, cs, false),
+            gpu::uniform_entry(8, cs),
+            gpu::storage_entry(9, cs, true),
+        ];
+        if sdf.is_some() {
+            entries.push(gpu::storage_entry(10, cs, true));
+        }
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("strips dynamics"),
-            entries: &[
-                gpu::uniform_entry(0, cs),
-                gpu::dynamic_uniform_entry(1, cs, SLOT),
-                gpu::storage_entry(2, cs, true),
-                gpu::storage_entry(3, cs, true),
-                gpu::storage_entry(4, cs, true),
-                gpu::storage_entry(5, cs, false),
-                gpu::storage_entry(6, cs, false),
-                gpu::storage_entry(7, cs, false),
-                gpu::uniform_entry(8, cs),
-                gpu::storage_entry(9, cs, true),
-            ],
+            entries: &entries,
         });
         let [pipeline] = gpu::compute_pipelines(
             device,
@@ -201,7 +251,7 @@ impl DynamicsGpu {
             &layout,
             &module,
             ["step"],
-            &[("WORKGROUP", WORKGROUP as f64), ("EPS_OUT", EPS_OUT)],
+            constants,
         );
         let strips: Vec<GpuStrip> = rig
             .strips
@@ -288,6 +338,7 @@ impl DynamicsGpu {
                 &eff_grid,
                 &eff_cells,
             ],
+            sdf.as_ref(),
         );
         let mut me = DynamicsGpu {
             pipeline,
@@ -300,6 +351,7 @@ impl DynamicsGpu {
             points: points_buf,
             eff_grid,
             eff_cells,
+            sdf,
             steps,
             slots,
             capacity: 1,
@@ -351,12 +403,16 @@ impl DynamicsGpu {
         device: &wgpu::Device,
         layout: &wgpu::BindGroupLayout,
         b: [&wgpu::Buffer; 10],
+        sdf: Option<&wgpu::Buffer>,
     ) -> wgpu::BindGroup {
         let mut entries: Vec<wgpu::BindGroupEntry> = b
             .iter()
             .enumerate()
             .map(|(i, buf)| gpu::entry(i as u32, buf))
             .collect();
+        if let Some(sdf) = sdf {
+            entries.push(gpu::entry(10, sdf));
+        }
         entries[1] = wgpu::BindGroupEntry {
             binding: 1,
             resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
@@ -388,6 +444,7 @@ impl DynamicsGpu {
                 &self.eff_grid,
                 &self.eff_cells,
             ],
+            self.sdf.as_ref(),
         );
     }
 
@@ -499,7 +556,12 @@ impl DynamicsGpu {
                 head.radii[2] as f32,
                 COLLISION_ACCEL as f32,
             ],
-            flags: [u32::from(m.sampling == Sampling::Trilinear), 0, 0, 0],
+            flags: [
+                u32::from(m.sampling == Sampling::Trilinear),
+                u32::from(self.sdf.is_some()),
+                0,
+                0,
+            ],
             extra_center: [[0.0; 4]; MAX_EXTRA],
             extra_accel: [[0.0; 4]; MAX_EXTRA],
         };

@@ -71,9 +71,10 @@ pub const KIND: Kind = Kind {
         })
     },
     moves: |s| s.strips.is_some(),
-    scenes: &["strips", "eff_capture", "strips_turn"],
+    scenes: &["strips", "eff_capture", "strips_turn", "strips_mesh_head"],
     shaders: &[
         ("strips/dynamics", dynamics_gpu::DYNAMICS),
+        ("strips/dynamics_sdf", dynamics_gpu::DYNAMICS_SDF),
         ("strips/ribbon", ribbon::RIBBON),
         ("strips/draw", ribbon::DRAW),
     ],

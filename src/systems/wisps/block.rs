@@ -17,8 +17,7 @@
 //! collide with). The drawn shape is kept.
 
 use crate::error::{KamiError, Result};
-use crate::scene::hull::HeadMeshData;
-use crate::scene::sdf::closest_point_triangle;
+use crate::scene::hull::{HeadMeshData, OffScalp};
 use crate::scene::validate::*;
 use crate::scene::Head;
 use crate::systems::Scene;
@@ -382,10 +381,7 @@ pub struct Bundle {
     pub release_from: usize,
 }
 
-/// Newton steps that move a root onto the SDF's zero level set.
-pub const ROOT_NEWTON: u32 = 8;
-/// A root lies on the field's zero level set within this (scene units).
-pub const ROOT_TOLERANCE: f64 = 1e-4;
+pub use crate::scene::hull::{ROOT_NEWTON, ROOT_TOLERANCE};
 
 /// Where a wisp's root goes on a mesh head, and how far it moved.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -398,17 +394,16 @@ pub struct Placed {
     pub offset: DVec3,
 }
 
-/// The farthest a drawn root may lie from the mesh: the root node's radius of influence or
-/// a quarter of the head's smallest radius, whichever is larger. Farther, the wisp was not
-/// drawn for this head, and moving it would only hide the mistake.
+/// The farthest a drawn root may lie from the mesh (`hull::root_reach` with the root node's
+/// radius of influence).
 pub fn root_reach(node: &Node, head: &Head) -> f64 {
-    let r = head.radii.iter().copied().fold(f64::INFINITY, f64::min);
-    node.r.max(0.25 * r)
+    crate::scene::hull::root_reach(node.r, head)
 }
 
-/// Place skeleton `si`'s root on the scalp of `mesh` (see the module doc). Refused, naming
-/// the wisp and the field, when the root is far from the mesh, nearest a triangle off the
-/// scalp, or where the field cannot follow the mesh (features thinner than a cell).
+/// Place skeleton `si`'s root on the scalp of `mesh` (`HeadMeshData::place_on_scalp`, see
+/// the module doc). Refused, naming the wisp and the field, when the root is far from the
+/// mesh, nearest a triangle off the scalp, or where the field cannot follow the mesh
+/// (features thinner than a cell).
 pub fn place_root(wisps: &Wisps, si: usize, head: &Head, mesh: &HeadMeshData) -> Result<Placed> {
     let sk = &wisps.skeletons[si];
     let field = format!("wisps.skeletons[{si}].nodes[0].p");
@@ -430,61 +425,27 @@ pub fn place_root(wisps: &Wisps, si: usize, head: &Head, mesh: &HeadMeshData) ->
         value: format!("{:?}", node.p),
         allowed,
     };
-    let m = &mesh.mesh;
-    let mut best = (f64::INFINITY, DVec3::ZERO, 0u32);
-    for (t, tri) in m.triangles.iter().enumerate() {
-        let [a, b, c] = tri.map(|i| m.positions[i as usize]);
-        let q = closest_point_triangle(drawn, a, b, c);
-        let d = (q - drawn).length_squared();
-        if d < best.0 {
-            best = (d, q, t as u32);
-        }
-    }
-    let (d2, on_mesh, triangle) = best;
-    let reach = root_reach(node, head);
-    let dist = d2.sqrt();
-    // Also refuses a mesh without triangles (infinite) or a NaN.
-    if dist.is_nan() || dist > reach {
-        return Err(refuse(format!(
+    match mesh.place_on_scalp(drawn, root_reach(node, head)) {
+        Ok(p) => Ok(Placed {
+            root: p.root,
+            triangle: p.triangle,
+            offset: p.root - drawn,
+        }),
+        Err(OffScalp::Far { dist, reach }) => Err(refuse(format!(
             "{name}: its root is {dist:.3} from the head mesh; a root on a mesh head must be \
              drawn within {reach:.3} of it (the root's radius or a quarter of the head's \
              smallest radius), where it is moved onto the scalp"
-        )));
-    }
-    if mesh.scalp.binary_search(&triangle).is_err() {
-        return Err(refuse(format!(
+        ))),
+        Err(OffScalp::NotScalp { triangle }) => Err(refuse(format!(
             "{name}: its root is nearest triangle {triangle} of the head mesh, which is not \
              scalp (head.mesh.scalp): draw the root over the scalp or widen the scalp regions"
-        )));
-    }
-    let sdf = &mesh.sdf;
-    let mut root = on_mesh;
-    for _ in 0..ROOT_NEWTON {
-        let s = sdf.sample(root);
-        if s.abs() < ROOT_TOLERANCE {
-            break;
-        }
-        let g = sdf.gradient(root);
-        let l2 = g.length_squared();
-        if l2 <= 1e-12 {
-            break;
-        }
-        root -= s * g / l2;
-    }
-    let followed = (root - on_mesh).length() <= 0.25 * sdf.cell;
-    if !(followed && sdf.sample(root).abs() < ROOT_TOLERANCE) {
-        return Err(refuse(format!(
+        ))),
+        Err(OffScalp::Unfollowed { cell }) => Err(refuse(format!(
             "{name}: the head's signed distance field cannot follow the mesh under its root \
-             (a feature thinner than a cell of {:.3}): draw the root elsewhere or raise \
-             head.mesh.resolution",
-            sdf.cell
-        )));
+             (a feature thinner than a cell of {cell:.3}): draw the root elsewhere or raise \
+             head.mesh.resolution"
+        ))),
     }
-    Ok(Placed {
-        root,
-        triangle,
-        offset: root - drawn,
-    })
 }
 
 /// The wisps with every skeleton translated so its root lies on the scalp of the mesh head
