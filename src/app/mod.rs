@@ -809,7 +809,8 @@ fn reload(g: &mut Gfx, state: &mut ViewerState, changed: &[PathBuf]) {
             println!(
                 "reload: {what} saved; it does not load: {e}; still showing the last good scene at frame {frame}"
             );
-            state.reload_error = Some(format!("{what} does not load: {e}"));
+            // The error names the file and the place.
+            state.reload_error = Some(format!("the save does not load: {e}"));
         }
     }
 }
