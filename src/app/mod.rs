@@ -1176,3 +1176,76 @@ fn draw(
     }
     g.gpu.take_error()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One egui pass of the reload error box on an 800x600 window with `events`; the texts
+    /// painted, with their rectangles.
+    fn texts(
+        ctx: &egui::Context,
+        state: &mut ViewerState,
+        events: Vec<egui::Event>,
+    ) -> Vec<(String, egui::Rect)> {
+        let input = egui::RawInput {
+            screen_rect: Some(egui::Rect::from_min_size(
+                egui::Pos2::ZERO,
+                egui::vec2(800.0, 600.0),
+            )),
+            events,
+            ..Default::default()
+        };
+        let mut out = ctx.run_ui(input, |ui| reload_error(ui.ctx(), state, 500.0));
+        out.textures_delta.clear();
+        out.shapes
+            .into_iter()
+            .filter_map(|s| match s.shape {
+                egui::Shape::Text(t) => {
+                    Some((t.galley.text().to_string(), t.visual_bounding_rect()))
+                }
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// A save that did not load shows its error, file and place, over the view until the
+    /// dismiss button is clicked.
+    #[test]
+    fn a_reload_error_shows_until_dismissed() {
+        let scene = Scene::from_ron(DEFAULT_SCENE, "gust.ron").unwrap();
+        let mut state = ViewerState::new(scene, String::new());
+        let ctx = egui::Context::default();
+        assert!(
+            texts(&ctx, &mut state, vec![]).is_empty(),
+            "no error, no box"
+        );
+        let error = "the save does not load: groom.ron:14:24: Expected identifier";
+        state.reload_error = Some(error.into());
+        let mut shown = Vec::new();
+        for _ in 0..3 {
+            shown = texts(&ctx, &mut state, vec![]);
+        }
+        assert!(shown.iter().any(|(t, _)| t == error), "{shown:?}");
+        let (_, button) = shown
+            .iter()
+            .find(|(t, _)| t == "dismiss")
+            .expect("a dismiss button");
+        let at = button.center();
+        let press = |pressed| egui::Event::PointerButton {
+            pos: at,
+            button: egui::PointerButton::Primary,
+            pressed,
+            modifiers: Default::default(),
+        };
+        texts(
+            &ctx,
+            &mut state,
+            vec![egui::Event::PointerMoved(at), press(true)],
+        );
+        assert!(state.reload_error.is_some(), "dismissed on the press");
+        texts(&ctx, &mut state, vec![press(false)]);
+        assert_eq!(state.reload_error, None, "the click did not dismiss it");
+        assert!(texts(&ctx, &mut state, vec![]).is_empty());
+    }
+}
