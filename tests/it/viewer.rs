@@ -878,8 +878,11 @@ fn viewer_reloads_saved_files_and_keeps_the_last_good_scene() {
         .and_then(|n| n.trim().parse().ok())
         .unwrap_or_else(|| panic!("no frame in {line:?}"));
 
-    // Fixed: reloads, and the clock ran on meanwhile.
-    std::fs::write(&scene, with("1.25")).unwrap();
+    // Fixed, saved as many editors do (a new file renamed over the old): reloads, and the
+    // clock ran on meanwhile.
+    let tmp = dir.join("groom.ron~");
+    std::fs::write(&tmp, with("1.25")).unwrap();
+    std::fs::rename(&tmp, &scene).unwrap();
     let line = out.wait(120, "the reload after the fix", |l| {
         l.starts_with("reload:")
     });
