@@ -96,6 +96,11 @@ enum Command {
         /// `kami render`; drawn frame N at the default time scale shows frame N).
         #[arg(long)]
         no_panels: bool,
+        /// Start with live reload off: by default the viewer reloads the scene when its
+        /// file, or a file it names (mesh, strand file, capture, EFF), is saved (the Files
+        /// panel switches it).
+        #[arg(long)]
+        no_watch: bool,
         /// Reload the scene file from scratch every N frames (long-run leak checks; the
         /// built-in scene reloads from assets/scenes/gust.ron).
         #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
@@ -608,6 +613,7 @@ fn run(cli: Cli) -> Result<()> {
             set,
             software,
             no_panels,
+            no_watch,
             reload_every,
             memory_log,
         } => {
@@ -642,6 +648,7 @@ fn run(cli: Cli) -> Result<()> {
                 no_panels,
                 reload_every,
                 memory_log,
+                no_watch,
             })?;
         }
         Command::Bench { which } => match which {

@@ -14,6 +14,7 @@ pub mod camera;
 pub mod panel_cache;
 pub mod panels;
 pub mod params;
+pub mod watch;
 
 use crate::error::{KamiError, Result};
 use crate::gpu::timing::Phase;
@@ -62,6 +63,8 @@ pub struct ViewerOptions {
     pub reload_every: Option<u64>,
     /// Write the resident memory every `MEMORY_EVERY` frames here, as CSV (leak checks).
     pub memory_log: Option<PathBuf>,
+    /// Start with live reload off (`--no-watch`; the Files panel switches it).
+    pub no_watch: bool,
 }
 
 /// Frames between two resident-memory samples.
@@ -92,10 +95,12 @@ pub fn run(options: ViewerOptions) -> Result<()> {
         // Refuse bad overrides before opening a window.
         ViewerState::new(scene.clone(), String::new()).apply_set(set)?;
     }
+    let mut state = ViewerState::new(scene, path);
+    state.view.watch = !options.no_watch;
     let event_loop = EventLoop::new().map_err(|e| KamiError::Window(e.to_string()))?;
     event_loop.set_control_flow(ControlFlow::Poll);
     let mut app = App {
-        state: ViewerState::new(scene, path),
+        state,
         options,
         gfx: None,
         egui_ctx: egui::Context::default(),
@@ -121,6 +126,18 @@ pub fn run(options: ViewerOptions) -> Result<()> {
     }
     for w in &st.warnings {
         println!("viewer: warning at the last check: {w}");
+    }
+    if let Some(g) = app
+        .gfx
+        .as_ref()
+        .filter(|g| g.watched.reloads + g.watched.failed > 0)
+    {
+        println!(
+            "reload: {} reloads on save, {} saves that did not load; {} files watched",
+            g.watched.reloads,
+            g.watched.failed,
+            g.watched.watch.len()
+        );
     }
     if let Some(g) = &app.gfx {
         report_memory(g, app.options.memory_log.as_deref())?;
@@ -239,6 +256,26 @@ struct Gfx {
     reloads: u64,
     /// (frame, resident MiB, reloads so far) every `MEMORY_EVERY` frames.
     memory: Vec<(u64, f64, u64)>,
+    /// Live reload: the files watched and the scene as last read from them.
+    watched: Watched,
+}
+
+/// Live reload's state: the files of the scene shown and the scene as the file last gave
+/// it (the base of `merge_edits`: what differs from it in the viewer was edited there).
+struct Watched {
+    watch: watch::Watch,
+    base: Scene,
+    /// Saves reloaded, and saves that did not load.
+    reloads: u64,
+    failed: u64,
+}
+
+impl Watched {
+    /// Watch the scene `path` now shows (opened, saved, reloaded), `scene` as it is there.
+    fn show(&mut self, path: &Path, scene: &Scene) {
+        self.watch.set(path, scene.files(path));
+        self.base = scene.clone();
+    }
 }
 
 struct App {
@@ -338,7 +375,15 @@ impl App {
             .device
             .features()
             .contains(crate::gpu::timing::features());
+        let path = PathBuf::from(&self.state.path);
+        let watched = Watched {
+            watch: watch::Watch::new(&path, scene.files(&path)),
+            base: scene.clone(),
+            reloads: 0,
+            failed: 0,
+        };
         self.gfx = Some(Gfx {
+            watched,
             camera: OrbitCamera::from_desc(&scene.camera),
             window,
             surface,
@@ -593,9 +638,11 @@ fn handle_requests(g: &mut Gfx, state: &mut ViewerState, shots: &mut Vec<PathBuf
                         g.reloads += 1;
                         g.camera = OrbitCamera::from_desc(&scene.camera);
                         state.stats.groom_ms = took.as_secs_f64() * 1e3;
+                        g.watched.show(Path::new(&path), &scene);
                         state.scene = scene;
                         state.kinds.iter_mut().for_each(|k| k.opened());
                         state.host.error = None;
+                        state.reload_error = None;
                         state.host.message = Some(format!("opened {path}"));
                     }
                     Err(e) => state.host.error = Some(e.to_string()),
@@ -612,7 +659,13 @@ fn handle_requests(g: &mut Gfx, state: &mut ViewerState, shots: &mut Vec<PathBuf
                         let _ = std::fs::remove_file(&tmp);
                     });
                 match saved {
-                    Ok(()) => state.host.message = Some(format!("saved {path}")),
+                    Ok(()) => {
+                        // The viewer now shows that file: live reload watches it (and does
+                        // not take this write for an edit).
+                        g.watched.show(Path::new(&path), &scene);
+                        g.watched.watch.restamp(Path::new(&path));
+                        state.host.message = Some(format!("saved {path}"));
+                    }
                     Err(e) => state.host.error = Some(format!("cannot save {path}: {e}")),
                 }
             }
@@ -652,23 +705,178 @@ fn handle_requests(g: &mut Gfx, state: &mut ViewerState, shots: &mut Vec<PathBuf
                 let (c, r) = g.stage.bounds();
                 g.camera.frame(c, r);
             }
-            // Scripted gestures take the real mouse's path through the kinds' tools.
+            // Scripted gestures take the real mouse's path through the kinds' tools; a press
+            // no tool takes orbits the camera, as a left drag does.
             Request::Mouse(ev) => match ev {
                 params::MouseEvent::Press(x, y) => {
                     g.mouse.pos = Some((x, y));
-                    if let Some(i) = mouse_kind(state) {
-                        press(g, state, i, DVec2::new(x, y))?;
-                    }
+                    let took = match mouse_kind(state) {
+                        Some(i) => press(g, state, i, DVec2::new(x, y))?,
+                        None => false,
+                    };
+                    g.mouse.orbit = !took;
                 }
                 params::MouseEvent::Move(x, y) => {
+                    if !drag(g, state, DVec2::new(x, y)) && g.mouse.orbit {
+                        if let Some((x0, y0)) = g.mouse.pos {
+                            g.camera.orbit(x - x0, y - y0);
+                        }
+                    }
                     g.mouse.pos = Some((x, y));
-                    drag(g, state, DVec2::new(x, y));
                 }
-                params::MouseEvent::Release => state.kinds.iter_mut().for_each(|k| k.release()),
+                params::MouseEvent::Release => {
+                    g.mouse.orbit = false;
+                    state.kinds.iter_mut().for_each(|k| k.release())
+                }
             },
+            Request::Reload(changed) => reload(g, state, &changed),
         }
     }
     Ok(())
+}
+
+/// Live reload: the watched files `changed` were saved. The scene file is read again and
+/// merged with the viewer's edits (`systems::scene::merge_edits`: what the file did not
+/// change keeps the viewer's edit); when that merge does not build, the file as written is
+/// tried. A change of the scene file alone goes to the stage as an edit would (a new look
+/// keeps the motion as it is; what must be rebuilt is simulated again to the frame shown);
+/// a change of a file it names (a mesh the scene text does not hold) builds a fresh stage,
+/// simulated again to the frame shown. The camera stays unless the file's camera block
+/// changed; play or pause, the time scale, the level of detail and the panels stay. An
+/// edit that does not load changes nothing drawn: its error shows over the view and in
+/// the log, and the next good save clears it. One `reload:` line per save goes to stdout.
+fn reload(g: &mut Gfx, state: &mut ViewerState, changed: &[PathBuf]) {
+    let path = g.watched.watch.path().to_path_buf();
+    let frame = g.stage.frame();
+    let what = changed
+        .iter()
+        .map(|p| p.display().to_string())
+        .collect::<Vec<_>>()
+        .join(", ");
+    let loaded = Scene::load(&path).and_then(|theirs| {
+        let merged = crate::systems::scene::merge_edits(&g.watched.base, &state.scene, theirs.clone());
+        let in_place = changed.iter().all(|p| *p == path);
+        match rebuild(g, state, &merged, in_place, frame) {
+            Ok(()) => Ok((theirs, merged)),
+            Err(e) if merged != theirs => {
+                log::warn!("{}: the viewer's edits on the saved scene do not build ({e}); showing the file as saved", path.display());
+                rebuild(g, state, &theirs, in_place, frame)?;
+                Ok((theirs.clone(), theirs))
+            }
+            Err(e) => Err(e),
+        }
+    });
+    match loaded {
+        Ok((theirs, shown)) => {
+            // The file's camera when it changed there; else the one the user orbits.
+            let camera = if theirs.camera != g.watched.base.camera {
+                g.camera = OrbitCamera::from_desc(&theirs.camera);
+                "from the file"
+            } else {
+                "kept"
+            };
+            // The kinds' tools: what they read back is stale; a kind whose block was
+            // rebuilt (or came or went) drops its selection and history, like an Open.
+            for (i, k) in KINDS.iter().enumerate() {
+                let (was, is) = ((k.in_scene)(&state.scene), (k.in_scene)(&shown));
+                let rebuilt = was != is
+                    || (is
+                        && (k.classify)(&state.scene, &shown) == crate::systems::Change::Rebuild);
+                if rebuilt {
+                    state.kinds[i].opened();
+                }
+                state.kinds[i].stale();
+            }
+            g.refused = None;
+            g.watched.show(&path, &theirs);
+            g.watched.reloads += 1;
+            state.scene = shown;
+            state.reload_error = None;
+            state.host.message = Some(format!("reloaded {} ({what} saved)", path.display()));
+            let eye = g.camera.desc().eye;
+            println!(
+                "reload: {what} saved; {} reloaded at frame {} (reload {}); camera {camera}, eye ({:.3}, {:.3}, {:.3})",
+                path.display(),
+                g.stage.frame(),
+                g.watched.reloads,
+                eye[0],
+                eye[1],
+                eye[2]
+            );
+        }
+        Err(e) => {
+            g.watched.failed += 1;
+            println!(
+                "reload: {what} saved; it does not load: {e}; still showing the last good scene at frame {frame}"
+            );
+            // The error names the file and the place.
+            state.reload_error = Some(format!("the save does not load: {e}"));
+        }
+    }
+}
+
+/// Show `scene` (already merged): through the stage's edit path when only the scene file
+/// changed (`in_place`), else a fresh stage; either way back at `frame` when the clock
+/// restarted. Nothing changes on an error.
+fn rebuild(
+    g: &mut Gfx,
+    state: &mut ViewerState,
+    scene: &Scene,
+    in_place: bool,
+    frame: u64,
+) -> Result<()> {
+    crate::systems::scene::validate(scene)?;
+    let t = Instant::now();
+    let quality = state.view.quality(scene);
+    if in_place {
+        let replay = state
+            .kinds
+            .iter()
+            .any(|k| k.replays(g.stage.scene(), scene));
+        if quality != g.stage.quality {
+            g.stage.set_quality(&g.gpu, quality);
+        }
+        let applied = g.stage.apply(&g.gpu, scene)?;
+        if applied.restarted || replay {
+            g.stage.seek(&g.gpu, frame)?;
+        }
+        if applied.restarted {
+            state.stats.groom_ms = t.elapsed().as_secs_f64() * 1e3;
+        }
+    } else {
+        let mut stage = build(&g.gpu, scene, g.config.format, quality)?;
+        stage.seek(&g.gpu, frame)?;
+        g.stage = stage;
+        state.stats.groom_ms = t.elapsed().as_secs_f64() * 1e3;
+    }
+    Ok(())
+}
+
+/// A save that did not load: its error over the top of the 3D view (seen with or without
+/// the panels), until dismissed or the next good save.
+fn reload_error(ctx: &egui::Context, state: &mut ViewerState, panel_left: f32) {
+    let Some(e) = &state.reload_error else {
+        return;
+    };
+    let width = panel_left.min(ctx.content_rect().width()) - 24.0;
+    let mut dismissed = false;
+    egui::Area::new(egui::Id::unique("reload error"))
+        .fixed_pos(egui::pos2(8.0, 8.0))
+        .show(ctx, |ui| {
+            egui::Frame::popup(ui.style())
+                .fill(egui::Color32::from_rgb(96, 22, 18))
+                .show(ui, |ui| {
+                    ui.set_max_width(width.max(120.0));
+                    ui.colored_label(egui::Color32::from_rgb(255, 214, 205), e);
+                    ui.horizontal(|ui| {
+                        ui.label("the last good scene stays; the next good save reloads");
+                        dismissed = ui.button("dismiss").clicked();
+                    });
+                });
+        });
+    if dismissed {
+        state.reload_error = None;
+    }
 }
 
 /// Frames between reads of the systems' warnings.
@@ -698,6 +906,11 @@ fn frame(
         .is_some_and(|n| g.frames > 0 && g.frames % n == 0)
     {
         state.requests.push(Request::Open(state.path.clone()));
+    }
+    if state.view.watch {
+        if let Some(changed) = g.watched.watch.poll(now) {
+            state.requests.push(Request::Reload(changed));
+        }
     }
     if g.frames % WARNINGS_EVERY == WARNINGS_EVERY - 1 {
         // A read-back waits for the GPU: once a second, not every frame.
@@ -742,6 +955,7 @@ fn frame(
         for k in &mut state.kinds {
             k.overlay(ui.ctx(), &state.scene, &state.host, &clock, ppp);
         }
+        reload_error(ui.ctx(), state, panel_left);
     });
     g.egui_state
         .handle_platform_output(&g.window, std::mem::take(&mut output.platform_output));
@@ -961,4 +1175,77 @@ fn draw(
         t.submitted();
     }
     g.gpu.take_error()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One egui pass of the reload error box on an 800x600 window with `events`; the texts
+    /// painted, with their rectangles.
+    fn texts(
+        ctx: &egui::Context,
+        state: &mut ViewerState,
+        events: Vec<egui::Event>,
+    ) -> Vec<(String, egui::Rect)> {
+        let input = egui::RawInput {
+            screen_rect: Some(egui::Rect::from_min_size(
+                egui::Pos2::ZERO,
+                egui::vec2(800.0, 600.0),
+            )),
+            events,
+            ..Default::default()
+        };
+        let mut out = ctx.run_ui(input, |ui| reload_error(ui.ctx(), state, 500.0));
+        out.textures_delta.clear();
+        out.shapes
+            .into_iter()
+            .filter_map(|s| match s.shape {
+                egui::Shape::Text(t) => {
+                    Some((t.galley.text().to_string(), t.visual_bounding_rect()))
+                }
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// A save that did not load shows its error, file and place, over the view until the
+    /// dismiss button is clicked.
+    #[test]
+    fn a_reload_error_shows_until_dismissed() {
+        let scene = Scene::from_ron(DEFAULT_SCENE, "gust.ron").unwrap();
+        let mut state = ViewerState::new(scene, String::new());
+        let ctx = egui::Context::default();
+        assert!(
+            texts(&ctx, &mut state, vec![]).is_empty(),
+            "no error, no box"
+        );
+        let error = "the save does not load: groom.ron:14:24: Expected identifier";
+        state.reload_error = Some(error.into());
+        let mut shown = Vec::new();
+        for _ in 0..3 {
+            shown = texts(&ctx, &mut state, vec![]);
+        }
+        assert!(shown.iter().any(|(t, _)| t == error), "{shown:?}");
+        let (_, button) = shown
+            .iter()
+            .find(|(t, _)| t == "dismiss")
+            .expect("a dismiss button");
+        let at = button.center();
+        let press = |pressed| egui::Event::PointerButton {
+            pos: at,
+            button: egui::PointerButton::Primary,
+            pressed,
+            modifiers: Default::default(),
+        };
+        texts(
+            &ctx,
+            &mut state,
+            vec![egui::Event::PointerMoved(at), press(true)],
+        );
+        assert!(state.reload_error.is_some(), "dismissed on the press");
+        texts(&ctx, &mut state, vec![press(false)]);
+        assert_eq!(state.reload_error, None, "the click did not dismiss it");
+        assert!(texts(&ctx, &mut state, vec![]).is_empty());
+    }
 }

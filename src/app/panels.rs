@@ -150,6 +150,12 @@ fn files(ui: &mut Ui, s: &mut ViewerState) {
             s.requests.push(Request::Export(s.export_path.clone()));
         }
     });
+    ui.checkbox(&mut s.view.watch, "reload on save")
+        .on_hover_text(
+        "reload the scene when its file, or a file it names (mesh, strand file, capture, EFF), \
+         is saved; the camera, the clock and the panels stay, and what you set here that the \
+         file did not change",
+    );
     ui.label("Open also takes a strand file (.hair, .obj, .usda): it opens as hair on a head");
     ui.label("shipped scenes:");
     ui.horizontal_wrapped(|ui| {

@@ -47,6 +47,9 @@ pub struct ViewSettings {
     /// Set by the adaptive level of detail when even the fewest hairs miss the budget: draw
     /// without MSAA in the viewer (the scene's setting is kept for renders and saving).
     pub msaa_dropped: bool,
+    /// Live reload: reload the scene when its file or a file it names is saved (the Files
+    /// panel's checkbox; `--no-watch` starts with it off).
+    pub watch: bool,
 }
 
 impl ViewSettings {
@@ -76,6 +79,7 @@ impl Default for ViewSettings {
             frame_budget_ms: 80.0,
             full_supersampling: false,
             msaa_dropped: false,
+            watch: true,
         }
     }
 }
@@ -94,6 +98,8 @@ pub enum Request {
     /// A mouse gesture in the 3D view, from `--set mouse.*` (scripts and tests drive the
     /// strips' picking, dragging and painting through the same code as the real mouse).
     Mouse(MouseEvent),
+    /// Live reload: these watched files were saved (`watch::Watch`).
+    Reload(Vec<std::path::PathBuf>),
 }
 
 /// A scripted mouse event in window pixels.
@@ -179,6 +185,9 @@ pub struct ViewerState {
     pub host: Host,
     /// Each kind's state in the viewer, in `KINDS` order (made by `Kind::ui`).
     pub kinds: Vec<Box<dyn KindUi>>,
+    /// Why the last save of a watched file did not load (shown over the 3D view until
+    /// dismissed or the next good save); the last good scene stays.
+    pub reload_error: Option<String>,
 }
 
 impl std::fmt::Debug for ViewerState {
@@ -203,6 +212,7 @@ impl ViewerState {
             stats: Stats::default(),
             host: Host::default(),
             kinds: KINDS.iter().map(|k| (k.ui)()).collect(),
+            reload_error: None,
         }
     }
 
@@ -213,7 +223,8 @@ impl ViewerState {
     /// `KindUi::force_set` may set its still hair moving), `msaa=1|4`, `supersample=f`,
     /// `strands=ribbons|compute`, `play=on|off`, `lod=fraction` (fixed, 0..1),
     /// `seek=FRAME`, `save=FILE`, `export=FILE`, and scripted mouse events
-    /// `mouse.press=x,y`, `mouse.move=x,y`, `mouse.release` (window pixels).
+    /// `mouse.press=x,y`, `mouse.move=x,y`, `mouse.release` (window pixels; as with the
+    /// real mouse, a press no kind's tool takes orbits the camera as it moves).
     pub fn apply_set(&mut self, assignment: &str) -> Result<()> {
         let bad = |m: String| KamiError::Option(format!("--set {assignment}: {m}"));
         // Actions have no value (`strips.key`, `mouse.release`).

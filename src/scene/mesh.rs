@@ -1117,6 +1117,14 @@ fn fps() -> f64 {
 }
 
 impl MeshSource {
+    /// The file the source reads, if it is a file (after `Scene::load`: resolved).
+    pub fn file(&self) -> Option<&str> {
+        match self {
+            MeshSource::File(f) | MeshSource::Gltf { file: f, .. } => Some(f),
+            _ => None,
+        }
+    }
+
     /// The file named relative to the scene file, if the source is a file.
     pub fn file_mut(&mut self) -> Option<&mut String> {
         match self {

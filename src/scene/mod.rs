@@ -367,6 +367,32 @@ pub fn read_shared_files(
     Ok(())
 }
 
+/// The files the shared blocks name, as [`read_shared_files`] read them from `dir`: the
+/// head capture, the EFF file, the head mesh's file (already resolved there). A system
+/// mesh (`CgalDemo`) is not the user's file and is left out.
+pub fn shared_files(head: &Head, forces: &ForcesDesc, dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    if let Some(hc) = &forces.head_capture {
+        out.push(dir.join(&hc.file));
+    }
+    if let Some(f) = forces.eff.as_ref().and_then(|e| e.file.as_ref()) {
+        out.push(from_dir(dir, f));
+    }
+    if let Some(m) = head.mesh.as_ref().and_then(|h| h.source.file()) {
+        out.push(PathBuf::from(m));
+    }
+    out
+}
+
+/// `path` as a scene file in `dir` names it: taken from `dir` when relative.
+pub fn from_dir(dir: &Path, path: &str) -> PathBuf {
+    if Path::new(path).is_relative() {
+        dir.join(path)
+    } else {
+        PathBuf::from(path)
+    }
+}
+
 /// A shipped scene or the folder of them (a bench's default input, the file behind the
 /// viewer's built-in scene), named by its path in the repository, e.g.
 /// `assets/scenes/gust.ron`: that path when it exists from the working directory (run from

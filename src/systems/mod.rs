@@ -213,6 +213,10 @@ pub struct Kind {
     /// Read or resolve the files the kind's block names, relative to the scene file's
     /// folder (the path) when relative; the `&str` names the scene in errors.
     pub read_files: fn(&mut Scene, &Path, &str) -> Result<()>,
+    /// The files `read_files` read or resolved for the block, on a loaded scene (the
+    /// viewer watches them and reloads when one is saved); the path is the scene file's
+    /// folder, as for `read_files`.
+    pub files: fn(&Scene, &Path) -> Vec<std::path::PathBuf>,
     /// Strands and segments the kind grows (the CLI's counts and the scene's strand limit);
     /// (0, 0) for kinds that grow no strands.
     pub counts: fn(&Scene) -> (u64, u64),

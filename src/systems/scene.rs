@@ -6,13 +6,14 @@
 //! own), `validate` runs the shared checks and every kind's, and a failure names the file,
 //! the field, the value and what is allowed.
 
+use super::anjyo::block::HairGroup;
 use super::{anjyo, fur, strips, wisps, KINDS};
 use crate::error::Result;
 use crate::scene::{
     self, CameraDesc, Ellipsoid, ForcesDesc, Head, Light, RenderSettings, MAX_STRANDS,
 };
 use serde::{Deserialize, Serialize};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// A whole scene: the shared blocks (`crate::scene`) and each kind's block (its type and
 /// checks in `systems/<kind>/block.rs`). The file format is this struct's fields.
@@ -119,6 +120,28 @@ impl Scene {
         Ok(scene)
     }
 
+    /// Every file this scene, loaded from `path` by [`Scene::load`], was read from: `path`
+    /// itself, then the files the shared blocks and each kind's block name (each kind's
+    /// `Kind::files`), without repeats. The viewer watches them and reloads on a save.
+    pub fn files(&self, path: &Path) -> Vec<PathBuf> {
+        let dir = path.parent().unwrap_or(Path::new(""));
+        let mut all = vec![path.to_path_buf()];
+        all.extend(scene::shared_files(&self.head, &self.forces, dir));
+        for k in KINDS {
+            all.extend((k.files)(self, dir));
+        }
+        let mut seen = Vec::new();
+        all.retain(|p| {
+            // One file named two ways (a strand file opened as a scene names itself) is
+            // watched once.
+            let key = std::fs::canonicalize(p).unwrap_or_else(|_| p.clone());
+            let new = !seen.contains(&key);
+            seen.push(key);
+            new
+        });
+        all
+    }
+
     /// Pretty RON, for saving a tuned scene.
     pub fn to_ron(&self) -> String {
         let cfg = ron::ser::PrettyConfig::new()
@@ -140,6 +163,123 @@ impl Scene {
             let (kh, ks) = (k.counts)(self);
             (h + kh, s + ks)
         })
+    }
+}
+
+/// The scene a reload shows: the file's new version `theirs`, except where the viewer's
+/// scene `ours` was edited (it differs from `base`, the file as last loaded) and the file
+/// left that part as it was (`theirs` equals `base` there): the viewer's edit stays. Parts
+/// are the scene's blocks, and inside the head, light and render blocks each field (the
+/// skin colour, light and background the Look panel sets survive an edit of the head's
+/// shape in the file), and, while the number of hair groups stays, each group with its
+/// material apart (a colour set in the Hair look panel survives an edit of the group's
+/// count). Where both changed, the file wins: it was saved last.
+pub fn merge_edits(base: &Scene, ours: &Scene, theirs: Scene) -> Scene {
+    fn pick<T: PartialEq + Clone>(base: &T, ours: &T, theirs: T) -> T {
+        if theirs == *base && ours != base {
+            ours.clone()
+        } else {
+            theirs
+        }
+    }
+    fn group(b: &HairGroup, o: &HairGroup, t: HairGroup) -> HairGroup {
+        let material = pick(&b.material, &o.material, t.material.clone());
+        // The rest of the group, compared with the material left out.
+        let rest = |g: &HairGroup| HairGroup {
+            material: b.material.clone(),
+            ..g.clone()
+        };
+        HairGroup {
+            material,
+            ..pick(&rest(b), &rest(o), rest(&t))
+        }
+    }
+    let groups_of = |b: &[HairGroup], o: &[HairGroup], t: Vec<HairGroup>| {
+        if b.len() == o.len() && b.len() == t.len() {
+            b.iter()
+                .zip(o)
+                .zip(t)
+                .map(|((b, o), t)| group(b, o, t))
+                .collect()
+        } else {
+            pick(&b.to_vec(), &o.to_vec(), t)
+        }
+    };
+    // Destructured, so a new field of any of these blocks fails to compile until it is
+    // merged here too.
+    let Scene {
+        seed,
+        head,
+        groom_load,
+        forces,
+        groups,
+        camera,
+        light,
+        render,
+        dynamics,
+        fur,
+        wisps,
+        strips,
+    } = theirs;
+    let Head {
+        center,
+        radii,
+        color,
+        visible,
+        mesh,
+    } = head;
+    let Light {
+        direction,
+        intensity,
+        ambient,
+        color: light_color,
+    } = light;
+    let RenderSettings {
+        size,
+        background,
+        msaa,
+        supersample,
+        min_width,
+        lod_tolerance_px,
+        strands,
+    } = render;
+    let (b, o) = (base, ours);
+    Scene {
+        seed: pick(&b.seed, &o.seed, seed),
+        head: Head {
+            center: pick(&b.head.center, &o.head.center, center),
+            radii: pick(&b.head.radii, &o.head.radii, radii),
+            color: pick(&b.head.color, &o.head.color, color),
+            visible: pick(&b.head.visible, &o.head.visible, visible),
+            mesh: pick(&b.head.mesh, &o.head.mesh, mesh),
+        },
+        groom_load: pick(&b.groom_load, &o.groom_load, groom_load),
+        forces: pick(&b.forces, &o.forces, forces),
+        groups: groups_of(&b.groups, &o.groups, groups),
+        camera: pick(&b.camera, &o.camera, camera),
+        light: Light {
+            direction: pick(&b.light.direction, &o.light.direction, direction),
+            intensity: pick(&b.light.intensity, &o.light.intensity, intensity),
+            ambient: pick(&b.light.ambient, &o.light.ambient, ambient),
+            color: pick(&b.light.color, &o.light.color, light_color),
+        },
+        render: RenderSettings {
+            size: pick(&b.render.size, &o.render.size, size),
+            background: pick(&b.render.background, &o.render.background, background),
+            msaa: pick(&b.render.msaa, &o.render.msaa, msaa),
+            supersample: pick(&b.render.supersample, &o.render.supersample, supersample),
+            min_width: pick(&b.render.min_width, &o.render.min_width, min_width),
+            lod_tolerance_px: pick(
+                &b.render.lod_tolerance_px,
+                &o.render.lod_tolerance_px,
+                lod_tolerance_px,
+            ),
+            strands: pick(&b.render.strands, &o.render.strands, strands),
+        },
+        dynamics: pick(&b.dynamics, &o.dynamics, dynamics),
+        fur: pick(&b.fur, &o.fur, fur),
+        wisps: pick(&b.wisps, &o.wisps, wisps),
+        strips: pick(&b.strips, &o.strips, strips),
     }
 }
 
@@ -352,5 +492,78 @@ mod tests {
             allowed.contains("the total must be at most 4000000"),
             "{allowed}"
         );
+    }
+
+    fn shipped(stem: &str) -> (std::path::PathBuf, Scene) {
+        let path = crate::scene::shipped(&format!("assets/scenes/{stem}.ron"));
+        let scene = Scene::load(&path).unwrap();
+        (path, scene)
+    }
+
+    /// What live reload watches: the scene file, then each file it names, as found on disk;
+    /// a system mesh (`CgalDemo`) is not the user's and is left out.
+    #[test]
+    fn files_are_the_scene_and_the_files_it_names() {
+        let names = |stem: &str| -> Vec<String> {
+            let (path, scene) = shipped(stem);
+            let files = scene.files(&path);
+            assert_eq!(files[0], path, "{stem}: the scene file first");
+            for f in &files {
+                assert!(f.is_file(), "{stem}: {} is not a file", f.display());
+            }
+            files[1..]
+                .iter()
+                .map(|f| f.file_name().unwrap().to_string_lossy().into_owned())
+                .collect()
+        };
+        assert_eq!(names("imported_groom"), ["wavy.hair"]);
+        assert_eq!(names("eff_capture"), ["capture.eff"]);
+        assert_eq!(names("fur_creature"), ["creature.gltf"]);
+        assert!(names("gust").is_empty());
+        assert!(names("mesh_head").is_empty());
+        // A strand file opened as a scene names itself: watched once.
+        let hair = crate::scene::shipped("assets/grooms/wavy.hair");
+        let scene = Scene::load(&hair).unwrap();
+        assert_eq!(scene.files(&hair), [hair]);
+    }
+
+    /// A reload keeps what the viewer edited where the file did not change that part, takes
+    /// the file's edits everywhere else, and lets the file win where both changed.
+    #[test]
+    fn a_reload_keeps_the_viewers_edits_the_file_left_alone() {
+        use super::merge_edits;
+        let (_, base) = shipped("gust");
+        let mut ours = base.clone();
+        ours.light.intensity = 2.5;
+        ours.head.color = [0.1, 0.2, 0.3];
+        ours.groups[0].material.color = [0.9, 0.1, 0.1];
+        let mut theirs = base.clone();
+        theirs.groups[0].count += 10;
+        theirs.render.background = [0.0, 0.0, 0.0];
+        theirs.head.radii[0] += 1.0;
+        let m = merge_edits(&base, &ours, theirs.clone());
+        assert_eq!(m.light.intensity, 2.5, "the viewer's light stays");
+        assert_eq!(m.head.color, [0.1, 0.2, 0.3], "the viewer's skin stays");
+        assert_eq!(
+            m.groups[0].material.color,
+            [0.9, 0.1, 0.1],
+            "the viewer's colour stays"
+        );
+        assert_eq!(
+            m.groups[0].count, theirs.groups[0].count,
+            "the file's count"
+        );
+        assert_eq!(m.render.background, [0.0; 3], "the file's background");
+        assert_eq!(m.head.radii, theirs.head.radii, "the file's head");
+        // Both changed the colour: the file, saved last, wins.
+        theirs.groups[0].material.color = [0.2, 0.9, 0.2];
+        let m = merge_edits(&base, &ours, theirs.clone());
+        assert_eq!(m.groups[0].material.color, [0.2, 0.9, 0.2]);
+        // A group added in the file: the groups come from the file as a whole.
+        theirs.groups.push(theirs.groups[0].clone());
+        let m = merge_edits(&base, &ours, theirs.clone());
+        assert_eq!(m.groups, theirs.groups);
+        // No viewer edits: the file as written.
+        assert_eq!(merge_edits(&base, &base, theirs.clone()), theirs);
     }
 }

@@ -700,3 +700,230 @@ fn only_the_kinds_in_the_scene_show_their_panels() {
         "{both:?}"
     );
 }
+
+/// The viewer's stdout, line by line, as it runs (a reader thread; waits poll it).
+struct Lines {
+    rx: std::sync::mpsc::Receiver<String>,
+    seen: Vec<String>,
+}
+
+impl Lines {
+    /// The next line `want` accepts, waiting up to `secs`; fails with everything seen.
+    fn wait(&mut self, secs: u64, what: &str, want: impl Fn(&str) -> bool) -> String {
+        let end = Instant::now() + Duration::from_secs(secs);
+        loop {
+            let left = end.saturating_duration_since(Instant::now());
+            match self.rx.recv_timeout(left) {
+                Ok(line) => {
+                    self.seen.push(line.clone());
+                    if want(&line) {
+                        return line;
+                    }
+                }
+                Err(_) => panic!(
+                    "waited {secs} s for {what}; the viewer printed:\n{}",
+                    self.seen.join("\n")
+                ),
+            }
+        }
+    }
+}
+
+/// A running `kami view`; killed and reaped on drop (a failed test leaves no viewer).
+struct Viewer(Child);
+
+impl Drop for Viewer {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// `(clock frame, eye)` of a `reload:` line that reloaded.
+fn reloaded_at(line: &str) -> (u64, [f64; 3]) {
+    let frame = line
+        .split("reloaded at frame ")
+        .nth(1)
+        .and_then(|r| r.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no frame in {line:?}"));
+    let eye: Vec<f64> = line
+        .split("eye (")
+        .nth(1)
+        .and_then(|r| r.split(')').next())
+        .map(|v| v.split(',').map(|x| x.trim().parse().unwrap()).collect())
+        .unwrap_or_else(|| panic!("no eye in {line:?}"));
+    (frame, [eye[0], eye[1], eye[2]])
+}
+
+/// Live reload, as an artist uses it: the viewer runs on a copy of the shipped imported
+/// groom (fewer strands, its strand file beside it) and the camera is orbited (a scripted
+/// drag) before any save. Saving the scene file with a brighter light reloads it: the
+/// clock goes on from where it was and the camera stays where the user put it, not where
+/// the file puts it. Saving a broken file reports the file and place and changes nothing:
+/// the clock keeps running, and the next good save reloads. Saving the strand file the
+/// scene names reloads too, and the clock stays (the hair is simulated again to the frame
+/// shown). Every wait polls the viewer's output; nothing sleeps a fixed time.
+#[test]
+fn viewer_reloads_saved_files_and_keeps_the_last_good_scene() {
+    use std::io::BufRead;
+    let x = xvfb();
+    let root = common::root();
+    let dir = std::env::temp_dir().join(format!("kami-viewer-reload-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let runtime = dir.join("xdg");
+    std::fs::create_dir_all(&runtime).unwrap();
+    let (scene, hair) = (dir.join("groom.ron"), dir.join("wavy.hair"));
+    std::fs::copy(root.join("assets/grooms/wavy.hair"), &hair).unwrap();
+    let shipped = std::fs::read_to_string(root.join("assets/scenes/imported_groom.ron")).unwrap();
+    let with = |intensity: &str| {
+        let edit = |text: String, from: &str, to: &str| {
+            assert!(text.contains(from), "the shipped scene has no {from:?}");
+            text.replace(from, to)
+        };
+        let text = edit(shipped.clone(), "../grooms/wavy.hair", "wavy.hair");
+        let text = edit(text, "count: 1500", "count: 200");
+        edit(text, "intensity: 1.0", &format!("intensity: {intensity}"))
+    };
+    std::fs::write(&scene, with("1.0")).unwrap();
+    let ready = dir.join("ready.png");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_kami"));
+    child
+        .current_dir(&root)
+        .env("DISPLAY", &x.display)
+        .env("XDG_RUNTIME_DIR", &runtime)
+        .arg("view")
+        .arg(&scene)
+        .args([
+            "--software",
+            "--size",
+            "480x320",
+            "--exit-after-frames",
+            "1000000",
+            "--set",
+            "1:mouse.press=60,100",
+            "--set",
+            "2:mouse.move=130,110",
+            "--set",
+            "3:mouse.release",
+        ])
+        .arg("--screenshot-at")
+        .arg(format!("4:{}", ready.display()))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null());
+    let mut viewer = Viewer(child.spawn().expect("running kami view"));
+    let (tx, rx) = std::sync::mpsc::channel();
+    let stdout = viewer.0.stdout.take().unwrap();
+    std::thread::spawn(move || {
+        for line in std::io::BufReader::new(stdout)
+            .lines()
+            .map_while(|l| l.ok())
+        {
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    let mut out = Lines {
+        rx,
+        seen: Vec::new(),
+    };
+    // Drawn and orbited: the screenshot of frame 4 is written.
+    let start = Instant::now();
+    while !ready.exists() {
+        assert!(
+            start.elapsed() < Duration::from_secs(180),
+            "the viewer drew no frame 4"
+        );
+        assert!(
+            viewer.0.try_wait().unwrap().is_none(),
+            "the viewer exited: {:?}",
+            out.rx.try_iter().collect::<Vec<_>>()
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let file_eye = [46.0, 4.0, 48.0];
+    let name = scene.display().to_string();
+
+    // A changed value.
+    std::fs::write(&scene, with("1.75")).unwrap();
+    let line = out.wait(120, "the first reload", |l| l.starts_with("reload:"));
+    assert!(
+        line.contains("(reload 1)") && line.contains(&name),
+        "{line}"
+    );
+    assert!(line.contains("camera kept"), "{line}");
+    let (f1, eye) = reloaded_at(&line);
+    assert!(f1 >= 4, "the clock went back to frame {f1}: {line}");
+    let moved = eye
+        .iter()
+        .zip(file_eye)
+        .map(|(a, b)| (a - b).abs())
+        .sum::<f64>();
+    assert!(moved > 1.0, "the camera is where the file puts it: {line}");
+
+    // A broken file: its error names the file and place; the last good scene stays.
+    let broken = with("1.5").replace("count: 200,", "count: 200,,");
+    let bad_line = 1 + broken[..broken.find(",,").unwrap()].matches('\n').count();
+    std::fs::write(&scene, &broken).unwrap();
+    let line = out.wait(120, "the broken save's error", |l| l.starts_with("reload:"));
+    assert!(
+        line.contains("does not load") && line.contains(&format!("{name}:{bad_line}:")),
+        "the error does not name {name}:{bad_line}: {line}"
+    );
+    let f_bad: u64 = line
+        .rsplit("frame ")
+        .next()
+        .and_then(|n| n.trim().parse().ok())
+        .unwrap_or_else(|| panic!("no frame in {line:?}"));
+
+    // Fixed, saved as many editors do (a new file renamed over the old): reloads, and the
+    // clock ran on meanwhile.
+    let tmp = dir.join("groom.ron~");
+    std::fs::write(&tmp, with("1.25")).unwrap();
+    std::fs::rename(&tmp, &scene).unwrap();
+    let line = out.wait(120, "the reload after the fix", |l| {
+        l.starts_with("reload:")
+    });
+    assert!(
+        line.contains("(reload 2)") && line.contains("camera kept"),
+        "{line}"
+    );
+    let (f2, eye2) = reloaded_at(&line);
+    assert!(
+        f2 > f_bad && f_bad >= f1,
+        "the clock did not run on: frames {f1}, {f_bad}, {f2}"
+    );
+    assert_eq!(eye2, eye, "the camera moved: {line}");
+
+    // The strand file the scene names: fewer strands, saved in place.
+    let mut groom = kami::formats::read(&hair).unwrap();
+    let keep = groom.counts.len() / 2;
+    let points: u32 = groom.counts[..keep].iter().sum();
+    groom.counts.truncate(keep);
+    groom.points.truncate(points as usize);
+    for v in [&mut groom.widths, &mut groom.opacities]
+        .into_iter()
+        .flatten()
+    {
+        v.truncate(points as usize);
+    }
+    if let Some(c) = &mut groom.colors {
+        c.truncate(points as usize);
+    }
+    kami::formats::write(&hair, &groom).unwrap();
+    let line = out.wait(120, "the reload after the strand file's save", |l| {
+        l.starts_with("reload:")
+    });
+    assert!(
+        line.contains("(reload 3)")
+            && line.starts_with(&format!("reload: {} saved", hair.display())),
+        "{line}"
+    );
+    let (f3, eye3) = reloaded_at(&line);
+    assert!(f3 >= f2, "the clock went back to frame {f3} (was {f2})");
+    assert_eq!(eye3, eye, "the camera moved: {line}");
+    assert!(viewer.0.try_wait().unwrap().is_none(), "the viewer stopped");
+    eprintln!("{}", out.seen.join("\n"));
+}

@@ -664,6 +664,16 @@ pub fn read_files(s: &mut Scene, dir: &Path, origin: &str) -> Result<()> {
     resolve_strand_files(s, dir, origin)
 }
 
+/// The strand files the hair groups read, as `resolve_strand_files` left their paths
+/// (absolute when the file was found; else taken from `dir` when relative).
+pub fn files(s: &Scene, dir: &Path) -> Vec<std::path::PathBuf> {
+    s.groups
+        .iter()
+        .filter_map(|g| g.file.as_ref())
+        .map(|f| crate::scene::from_dir(dir, &f.path))
+        .collect()
+}
+
 /// What validation promises of accepted hair groups beyond finite numbers: a hairline gives
 /// a finite zenith at every azimuth (the fuzzer checks it, `Kind::invariants`).
 pub fn invariants(s: &Scene) -> std::result::Result<(), (&'static str, String)> {

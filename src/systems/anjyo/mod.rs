@@ -100,6 +100,7 @@ pub const KIND: Kind = Kind {
     in_scene: |s| !s.groups.is_empty(),
     validate: block::validate,
     read_files: block::read_files,
+    files: block::files,
     counts,
     counted: Some("groups[..].count"),
     check_limits,

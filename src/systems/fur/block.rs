@@ -244,6 +244,15 @@ pub fn read_files(s: &mut Scene, dir: &Path, _origin: &str) -> Result<()> {
     Ok(())
 }
 
+/// The fur mesh's file, as `read_files` resolved it.
+pub fn files(s: &Scene, _dir: &Path) -> Vec<std::path::PathBuf> {
+    s.fur
+        .iter()
+        .filter_map(|f| f.mesh.file())
+        .map(std::path::PathBuf::from)
+        .collect()
+}
+
 /// Most fur regions: each vertex is tested against every region.
 const MAX_FUR_REGIONS: usize = 64;
 

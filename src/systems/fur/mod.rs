@@ -57,6 +57,7 @@ pub const KIND: Kind = Kind {
     in_scene: |s| s.fur.is_some(),
     validate: block::validate,
     read_files: block::read_files,
+    files: block::files,
     counts: block::counts,
     counted: Some("fur.hairs"),
     check_limits,

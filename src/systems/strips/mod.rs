@@ -51,6 +51,7 @@ pub const KIND: Kind = Kind {
     in_scene: |s| s.strips.is_some(),
     validate: block::validate,
     read_files: |_, _, _| Ok(()),
+    files: |_, _| Vec::new(),
     counts: |_| (0, 0),
     counted: None,
     check_limits,
