@@ -4,6 +4,7 @@
 //! the name of the file it used to be (`tests/<name>.rs`, now `tests/it/<name>.rs`); data the
 //! tests read stays where it was (`tests/snapshots`, `tests/fuzz_corpus`, `tests/usd_check.py`).
 
+mod alembic;
 mod bad_input;
 mod bench_paths;
 mod cli;
