@@ -7,7 +7,8 @@ Cases: linear (vertex widths, vertex colours, uniform opacity), cubic (bspline w
 widths, catmullRom with a constant width, periodic bezier with indexed uniform colours),
 xforms (curves under nested, non-inheriting and matrix transforms), animated (three samples
 at 24 fps of moving curves under a moving transform), indexed (indexed uniform colours and an
-indexed constant width), empty (an archive without curves)."""
+indexed constant width), bytes (8-bit colours `Cd` beside an integer `Cs`), empty (an archive
+without curves)."""
 import sys
 
 import imath
@@ -138,6 +139,17 @@ def write(case, path):
         idx = imath.UnsignedIntArray(2)
         idx[0], idx[1] = 1, 0
         dc.set(G.OC3fGeomParamSample(colors([(0.2, 0.3, 0.4), (0.9, 0.8, 0.7)]), idx, Scope.kUniformScope))
+    elif case == "bytes":
+        obj, schema = curves(top, "hair", [(0, 0, 0), (0, 1, 0)], [2], lin, non, G.BasisType.kNoBasis)
+        arb = schema.getArbGeomParams()
+        cs = G.OV3iGeomParam(arb, "Cs", False, Scope.kVertexScope, 1)
+        v = imath.V3iArray(2)
+        v[0], v[1] = imath.V3i(1, 2, 3), imath.V3i(4, 5, 6)
+        cs.set(G.OV3iGeomParamSample(v, Scope.kVertexScope))
+        cd = G.OC3cGeomParam(arb, "Cd", False, Scope.kVertexScope, 1)
+        c = imath.C3cArray(2)
+        c[0], c[1] = imath.Color3c(255, 0, 0), imath.Color3c(0, 51, 255)
+        cd.set(G.OC3cGeomParamSample(c, Scope.kVertexScope))
     elif case == "empty":
         xform(top, "nothing", G.XformSample())
     else:

@@ -146,8 +146,15 @@ pub fn parse_with(b: &[u8], origin: &str, options: &Options) -> Result<Curves> {
             "there are no curves (ICurves objects) in this archive; Kami reads only curves from Alembic".into(),
         ));
     }
+    let groom = reader.groom.finish();
+    if groom.counts.is_empty() {
+        return Err(archive.err(format!(
+            "the {} curves object(s) hold no curves at the sample read: no strands in this file",
+            reader.found
+        )));
+    }
     Ok(Curves {
-        groom: reader.groom.finish(),
+        groom,
         objects: reader.objects,
     })
 }
@@ -1230,7 +1237,12 @@ impl Reader<'_> {
             vals_p = p;
             indices_p = None;
         }
-        if vals_p.kind != Kind::Array || !vals_p.pod.is_float() || vals_p.extent.max(1) != extent {
+        // 8-bit colours (`C3c`) are read as value / 255.
+        let bytes = vals_p.pod == Pod::U8 && extent >= 3;
+        if vals_p.kind != Kind::Array
+            || !(vals_p.pod.is_float() || bytes)
+            || vals_p.extent.max(1) != extent
+        {
             return Err(a.err(format!(
                 "{what}: a {:?} {:?} x {} property, not an array of {extent}-float values",
                 vals_p.kind, vals_p.pod, vals_p.extent
@@ -1240,6 +1252,7 @@ impl Reader<'_> {
             return Ok(None);
         }
         let e = extent as usize;
+        let unit = if bytes { 1.0 / 255.0 } else { 1.0 };
         let vals = a.numbers(
             vals_p,
             a.index(vals_p, self.options.sample),
@@ -1264,12 +1277,18 @@ impl Reader<'_> {
                             "{what}/.indices: index {k} is {i}, outside the {n} values"
                         )));
                     }
-                    out.extend((i as usize * e..i as usize * e + e).map(|j| vals.get(j) as f32));
+                    out.extend(
+                        (i as usize * e..i as usize * e + e).map(|j| (vals.get(j) * unit) as f32),
+                    );
                 }
                 out
             }
-            None => vals.iter().map(|v| v as f32).collect(),
+            None => vals.iter().map(|v| (v * unit) as f32).collect(),
         };
+        // An empty sample (a writer that made the param but gave it nothing) is no values.
+        if vals.is_empty() {
+            return Ok(None);
+        }
         let scope = meta_get(&p.meta, "geoScope").unwrap_or("con");
         shape
             .per_point(&vals, e)
@@ -1286,13 +1305,19 @@ impl Reader<'_> {
 }
 
 /// The extent of a geom param's values (its own, or its `.vals`' when indexed).
+/// `None` when they are not values Kami reads (floats, or 8-bit colours), so that an
+/// arbitrary param of another type under a colour's name is passed over, not an error.
 fn param_extent(p: &Property, a: &Archive) -> Option<u32> {
-    if p.kind != Kind::Compound {
-        return Some(p.extent);
-    }
-    let what = format!("property {}", p.name);
-    let inner = a.properties(&a.group(p.group, &what).ok()?, &what).ok()?;
-    inner.iter().find(|q| q.name == ".vals").map(|q| q.extent)
+    let inner;
+    let values = if p.kind == Kind::Compound {
+        let what = format!("property {}", p.name);
+        inner = a.properties(&a.group(p.group, &what).ok()?, &what).ok()?;
+        inner.iter().find(|q| q.name == ".vals")?
+    } else {
+        p
+    };
+    let readable = values.pod.is_float() || (values.pod == Pod::U8 && values.extent >= 3);
+    (values.kind == Kind::Array && readable).then_some(values.extent)
 }
 
 /// What attribute counts mean for one curves object.

@@ -199,6 +199,16 @@ fn indexed_colours_and_widths_expand() {
 }
 
 #[test]
+fn eight_bit_colours_are_read_and_other_types_passed_over() {
+    // `Cs` holds integers (not a colour Kami reads): passed over for `Cd`, 8-bit, / 255.
+    let dir = scratch("bytes");
+    let (path, _) = write(&dir, "bytes", 0);
+    let g = formats::read(&path).unwrap();
+    assert_eq!(g.colors, Some(vec![[1.0, 0.0, 0.0], [0.0, 0.2, 1.0]]));
+    assert_eq!(g.widths, None);
+}
+
+#[test]
 fn transforms_are_applied_as_alembic_composes_them() {
     let dir = scratch("xforms");
     let (path, oracle) = write(&dir, "xforms", 0);
