@@ -282,6 +282,7 @@ fn a_chosen_time_sample_is_read() {
         at(Sample::Time(1.1 / 24.0)),
         vec![[1.0, 0.0, 0.0], [1.0, 2.0, 0.0]]
     );
+    assert_eq!(at(Sample::Time(0.9 / 24.0)), at(Sample::Time(1.1 / 24.0)));
     assert_eq!(at(Sample::Time(100.0)), c.groom.points);
     assert_eq!(at(Sample::Index(7)), c.groom.points);
     assert_eq!(at(Sample::Time(-1.0)), g.points);
