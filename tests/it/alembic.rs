@@ -382,6 +382,15 @@ fn broken_alembic_files_are_refused() {
     counts[at..at + 4].copy_from_slice(&1u32.to_le_bytes());
     let (e, _) = refused(&dir, "one.abc", &counts);
     assert!(e.contains("curve 0 has 1 vertices"), "{e}");
+    // A property name whose size runs past the end of its header block.
+    let at = good
+        .windows(10)
+        .position(|w| w == b"\x09nVertices")
+        .expect("the nVertices header");
+    let mut name = good.clone();
+    name[at] = 0xff;
+    let (e, _) = refused(&dir, "name.abc", &name);
+    assert!(e.contains("255 bytes are needed but only"), "{e}");
     // A NaN point.
     let at = good
         .windows(8)
