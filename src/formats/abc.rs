@@ -159,7 +159,7 @@ pub fn parse_with(b: &[u8], origin: &str, options: &Options) -> Result<Curves> {
     })
 }
 
-/// Deepest object or property nesting followed (real files nest a handful of levels).
+/// Deepest object nesting followed (real files nest a handful of levels).
 const MAX_DEPTH: usize = 128;
 /// Ogawa marks a child offset as data (not a group) with the top bit.
 const DATA_BIT: u64 = 1 << 63;

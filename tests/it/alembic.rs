@@ -86,6 +86,9 @@ fn linear_curves_with_vertex_widths_and_colours() {
         (o.path.as_str(), o.strands.clone(), o.curve_type, o.wrap),
         ("/hair", 0..2, CurveType::Linear, Wrap::NonPeriodic)
     );
+    // `kami view groom.abc` and the Files panel open it as a scene of its own.
+    let scene = kami::Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(scene.groups.len(), 1);
     // `kami convert` reads Alembic and refuses to write it.
     let usda = dir.join("out.usda");
     let out = kami(&["convert", path.to_str().unwrap(), usda.to_str().unwrap()]);
