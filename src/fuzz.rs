@@ -1,5 +1,6 @@
 //! A mutation fuzzer for what users hand Kami: scene text (`Scene::from_bytes`, which
-//! validates), OBJ, OFF and PLY meshes, and strand files (`.hair`, OBJ polylines, `.usda`). cargo-fuzz needs nightly, so this one runs on
+//! validates), OBJ, OFF and PLY meshes, and strand files (`.hair`, OBJ polylines, `.usda`,
+//! Alembic `.abc`). cargo-fuzz needs nightly, so this one runs on
 //! stable: a deterministic mutator (one seed, one run, on every machine) grows inputs from the
 //! seed corpus in `tests/fuzz_corpus/`. There is no coverage feedback; an input whose outcome
 //! is new (an error's words less what it echoes from the input, the field validation refused,
@@ -34,10 +35,11 @@ pub enum Target {
     Hair,
     Lines,
     Usda,
+    Abc,
 }
 
 impl Target {
-    pub const ALL: [Target; 7] = [
+    pub const ALL: [Target; 8] = [
         Target::Scene,
         Target::Obj,
         Target::Off,
@@ -45,6 +47,7 @@ impl Target {
         Target::Hair,
         Target::Lines,
         Target::Usda,
+        Target::Abc,
     ];
 
     pub fn name(self) -> &'static str {
@@ -56,6 +59,7 @@ impl Target {
             Target::Hair => "hair",
             Target::Lines => "lines",
             Target::Usda => "usda",
+            Target::Abc => "abc",
         }
     }
 
@@ -78,6 +82,7 @@ impl Target {
             Target::Hair => HAIR_WORDS.to_vec(),
             Target::Lines => LINE_WORDS.to_vec(),
             Target::Usda => USDA_WORDS.to_vec(),
+            Target::Abc => ABC_WORDS.to_vec(),
         }
     }
 }
@@ -210,6 +215,17 @@ const USDA_WORDS: &[&str] = &[
     "2, ", "4294967295, ", ", ", "\n", " ",
 ];
 
+/// Alembic's names and meta data, and Ogawa's marker offsets (empty data, the data bit).
+#[rustfmt::skip]
+const ABC_WORDS: &[&str] = &[
+    "Ogawa", ".geom", ".xform", ".ops", ".vals", ".inherits", ".indices", ".arbGeomParams", "P",
+    "nVertices", "curveBasisAndType", "width", "Cs", "displayColor", "opacity",
+    "schema=AbcGeom_Curve_v2", "schema=AbcGeom_Xform_v3", "geoScope=vtx", "geoScope=uni",
+    "geoScope=var", "geoScope=con", "\u{0}\u{0}\u{0}\u{0}\u{0}\u{0}\u{0}\u{80}",
+    "\u{0}\u{0}\u{0}\u{0}\u{0}\u{0}\u{0}\u{0}", "\u{10}\u{0}\u{0}\u{0}",
+    "\u{1}\u{0}\u{0}\u{0}", "\u{2}\u{0}\u{0}\u{0}", "\u{3}\u{0}\u{0}\u{0}",
+];
+
 #[rustfmt::skip]
 const NUMBERS: &[&str] = &[
     "0", "-0", "1", "-1", "2", "3", "NaN", "nan", "inf", "-inf", "infinity", "1e308", "-1e308",
@@ -310,10 +326,11 @@ fn check(target: Target, input: &[u8]) -> Result<String, Finding> {
                 Err(e) => Ok(class(&e.to_string(), input)),
             };
         }
-        Target::Hair | Target::Lines | Target::Usda => {
+        Target::Hair | Target::Lines | Target::Usda | Target::Abc => {
             let name = match target {
                 Target::Hair => "fuzz.hair",
                 Target::Lines => "fuzz.obj",
+                Target::Abc => "fuzz.abc",
                 _ => "fuzz.usda",
             };
             return match crate::formats::parse(name, input) {

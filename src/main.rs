@@ -129,7 +129,8 @@ enum Command {
         out: Option<PathBuf>,
     },
     /// Convert a strand file: `.hair` (Cem Yuksel), `.obj` (polylines) or `.usda` (USD
-    /// BasisCurves), either way (docs/formats.md says what each keeps); or write a scene's
+    /// BasisCurves), either way, or `.abc` (Alembic curves) in (docs/formats.md says what
+    /// each keeps); or write a scene's
     /// hair (a `.ron` input) at a frame: Anjyo strands, fur and strip centre lines.
     Convert {
         /// Strand file or scene (`.ron`) to read.
@@ -758,6 +759,12 @@ fn run(cli: Cli) -> Result<()> {
         } => {
             if !scale.is_finite() || scale <= 0.0 {
                 bail!("--scale {scale}: use a positive number");
+            }
+            if kami::formats::Format::of(&output) == Some(kami::formats::Format::Abc) {
+                bail!(
+                    "{}: Kami reads Alembic but does not write it; write `.usda`, `.hair` or `.obj`",
+                    output.display()
+                );
             }
             if kami::formats::Format::of(&output).is_none() {
                 bail!(

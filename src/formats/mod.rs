@@ -8,6 +8,7 @@
 use crate::error::{KamiError, Result};
 use std::path::Path;
 
+pub mod abc;
 pub mod curves;
 pub mod hair;
 pub mod obj;
@@ -298,7 +299,7 @@ impl Groom {
 }
 
 /// The extensions `read` and `write` know, for error messages.
-pub const EXTENSIONS: &str = "`.hair` (Cem Yuksel), `.obj` (polylines), `.usda` (USD BasisCurves)";
+pub const EXTENSIONS: &str = "`.hair` (Cem Yuksel), `.obj` (polylines), `.usda` (USD BasisCurves), `.abc` (Alembic curves, read only)";
 
 /// The strand formats, told apart by extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -306,6 +307,8 @@ pub enum Format {
     Hair,
     Obj,
     Usda,
+    /// Alembic (Ogawa) curves, read only.
+    Abc,
 }
 
 impl Format {
@@ -316,6 +319,7 @@ impl Format {
             "hair" => Some(Format::Hair),
             "obj" => Some(Format::Obj),
             "usda" => Some(Format::Usda),
+            "abc" => Some(Format::Abc),
             _ => None,
         }
     }
@@ -330,6 +334,7 @@ fn format_of(path: &Path) -> Result<Format> {
         Some("hair") => Ok(Format::Hair),
         Some("obj") => Ok(Format::Obj),
         Some("usda") => Ok(Format::Usda),
+        Some("abc") => Ok(Format::Abc),
         other => Err(KamiError::Data {
             path: path.display().to_string(),
             line: None,
@@ -355,7 +360,7 @@ pub(crate) fn data_error(origin: &str, line: Option<usize>, message: String) -> 
     }
 }
 
-/// Read a strand file; the format is chosen by the extension (`.hair`, `.obj`, `.usda`).
+/// Read a strand file; the format is chosen by the extension (`.hair`, `.obj`, `.usda`, `.abc`).
 pub fn read(path: &Path) -> Result<Groom> {
     format_of(path)?;
     let bytes = std::fs::read(path).map_err(|source| KamiError::Io {
@@ -370,6 +375,7 @@ fn read_bytes(origin: &str, bytes: &[u8], path: &Path) -> Result<Groom> {
         Format::Hair => hair::parse(bytes, origin)?,
         Format::Obj => obj::parse(text(bytes, origin)?, origin)?,
         Format::Usda => usd::parse(text(bytes, origin)?, origin)?,
+        Format::Abc => abc::parse(bytes, origin)?,
     };
     groom.check(origin)?;
     Ok(groom)
@@ -416,6 +422,14 @@ pub fn write(path: &Path, groom: &Groom) -> Result<()> {
         Format::Hair => hair::to_bytes(groom, &origin)?,
         Format::Obj => obj::to_string(groom).into_bytes(),
         Format::Usda => usd::to_string(groom).into_bytes(),
+        // No maintained Rust crate writes Alembic (docs/formats.md).
+        Format::Abc => {
+            return Err(data_error(
+                &origin,
+                None,
+                "Kami reads Alembic but does not write it; write `.usda`, `.hair` or `.obj`".into(),
+            ))
+        }
     };
     std::fs::write(path, bytes).map_err(|source| KamiError::Io {
         path: path.to_path_buf(),

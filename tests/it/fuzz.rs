@@ -88,6 +88,11 @@ fn usda_short_run() {
     short_run(Target::Usda);
 }
 
+#[test]
+fn abc_short_run() {
+    short_run(Target::Abc);
+}
+
 /// Every seed (and every input once found and kept as a seed) runs without a finding.
 #[test]
 fn corpus_replays_cleanly() {

@@ -2,8 +2,10 @@
 //! --test it guides::`). One binary links wgpu and the library once instead of once per
 //! file, and every test shares one GPU device per backend (`common::gpu`). Each module keeps
 //! the name of the file it used to be (`tests/<name>.rs`, now `tests/it/<name>.rs`); data the
-//! tests read stays where it was (`tests/snapshots`, `tests/fuzz_corpus`, `tests/usd_check.py`).
+//! tests read stays where it was (`tests/snapshots`, `tests/fuzz_corpus`, `tests/usd_check.py`,
+//! `tests/abc_write.py`).
 
+mod alembic;
 mod bad_input;
 mod bench_paths;
 mod cli;
