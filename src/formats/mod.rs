@@ -72,90 +72,18 @@ impl Groom {
         if self.is_linear() {
             return self;
         }
-        let (basis, wrap) = (self.basis, self.wrap);
-        let total_segments: usize = self
-            .counts
-            .iter()
-            .filter_map(|&c| curves::segments(basis, wrap, c as usize))
-            .sum();
-        let per = curves::per_segment_for(basis, total_segments);
-        let widen = |v: &Option<Vec<f32>>| {
-            v.as_ref()
-                .map(|v| v.iter().map(|&x| x as f64).collect::<Vec<f64>>())
+        let per_point = |v: Option<Vec<f64>>| v.map(|v| (v, false));
+        let wide = |v: &Option<Vec<f32>>| {
+            per_point(v.as_ref().map(|v| v.iter().map(|&x| x as f64).collect()))
         };
-        let widths = widen(&self.widths);
-        let opacities = widen(&self.opacities);
-        let colors = self
-            .colors
-            .as_ref()
-            .map(|c| c.iter().flatten().map(|&x| x as f64).collect::<Vec<f64>>());
-        let points: Vec<f64> = self.points.iter().flatten().map(|&x| x as f64).collect();
-        let mut out = Groom {
-            widths: widths.as_ref().map(|_| Vec::new()),
-            opacities: opacities.as_ref().map(|_| Vec::new()),
-            colors: colors.as_ref().map(|_| Vec::new()),
-            ..Groom::default()
-        };
-        let mut at = 0usize;
-        for &c in &self.counts {
-            let n = c as usize;
-            let r = at..at + n;
-            at += n;
-            if curves::segments(basis, wrap, n).is_none() {
-                continue;
-            }
-            let mut chans = vec![curves::Channel {
-                values: &points[r.start * 3..r.end * 3],
-                arity: 3,
-                varying: false,
-            }];
-            for (v, arity) in [(&widths, 1), (&opacities, 1), (&colors, 3)] {
-                if let Some(v) = v {
-                    chans.push(curves::Channel {
-                        values: &v[r.start * arity..r.end * arity],
-                        arity,
-                        varying: false,
-                    });
-                }
-            }
-            let mut samples: Vec<Vec<f64>> = vec![Vec::new(); chans.len()];
-            curves::tessellate(basis, wrap, n, &chans, per, &mut samples);
-            let mut samples = samples.into_iter();
-            let pts = samples.next().unwrap_or_default();
-            out.counts.push((pts.len() / 3) as u32);
-            out.points.extend(
-                pts.chunks_exact(3)
-                    .map(|p| [p[0] as f32, p[1] as f32, p[2] as f32]),
-            );
-            if let Some(w) = out.widths.as_mut() {
-                w.extend(
-                    samples
-                        .next()
-                        .unwrap_or_default()
-                        .iter()
-                        .map(|&x| x.max(0.0) as f32),
-                );
-            }
-            if let Some(o) = out.opacities.as_mut() {
-                o.extend(
-                    samples
-                        .next()
-                        .unwrap_or_default()
-                        .iter()
-                        .map(|&x| x.clamp(0.0, 1.0) as f32),
-                );
-            }
-            if let Some(col) = out.colors.as_mut() {
-                col.extend(samples.next().unwrap_or_default().chunks_exact(3).map(|c| {
-                    [
-                        c[0].max(0.0) as f32,
-                        c[1].max(0.0) as f32,
-                        c[2].max(0.0) as f32,
-                    ]
-                }));
-            }
-        }
-        out
+        let widths = wide(&self.widths);
+        let opacities = wide(&self.opacities);
+        let colors = per_point(
+            self.colors
+                .as_ref()
+                .map(|c| c.iter().flatten().map(|&x| x as f64).collect()),
+        );
+        evaluate(&self, &[(&widths, 1), (&opacities, 1), (&colors, 3)])
     }
 
     /// Put `other`'s strands after these. A per-point array only one side has is filled on
@@ -435,4 +363,78 @@ pub fn write(path: &Path, groom: &Groom) -> Result<()> {
         path: path.to_path_buf(),
         source,
     })
+}
+
+/// A prim's values of one attribute, and whether they are per segment end (`varying`).
+pub(crate) type Values = (Vec<f64>, bool);
+
+/// The polylines of `g`'s curves with the values `attrs` (widths, opacities, colours and
+/// their arities) per point or per segment end (`varying`), all evaluated along each
+/// curve; widths and colours kept non-negative, opacities in 0..1 (a Catmull-Rom curve
+/// may overshoot its values).
+pub(crate) fn evaluate(g: &Groom, attrs: &[(&Option<Values>, usize); 3]) -> Groom {
+    let total: usize = g
+        .counts
+        .iter()
+        .filter_map(|&c| curves::segments(g.basis, g.wrap, c as usize))
+        .sum();
+    let per = curves::per_segment_for(g.basis, total);
+    let points: Vec<f64> = g.points.iter().flatten().map(|&x| x as f64).collect();
+    let mut out: [Option<Vec<f64>>; 3] =
+        std::array::from_fn(|i| attrs[i].0.as_ref().map(|_| Vec::new()));
+    let mut lin = Groom::default();
+    let (mut at, mut vat) = (0usize, 0usize);
+    for &c in &g.counts {
+        let n = c as usize;
+        // Counts that make no curve (`check` refuses them) are left out.
+        let Some(segs) = curves::segments(g.basis, g.wrap, n) else {
+            at += n;
+            continue;
+        };
+        let nv = curves::varying_count(g.wrap, g.basis, segs);
+        let mut chans = vec![curves::Channel {
+            values: &points[at * 3..(at + n) * 3],
+            arity: 3,
+            varying: false,
+        }];
+        for (a, arity) in attrs.iter() {
+            if let Some((v, varying)) = a {
+                let (s, len) = if *varying { (vat, nv) } else { (at, n) };
+                chans.push(curves::Channel {
+                    values: &v[s * arity..(s + len) * arity],
+                    arity: *arity,
+                    varying: *varying,
+                });
+            }
+        }
+        let mut samples = vec![Vec::new(); chans.len()];
+        curves::tessellate(g.basis, g.wrap, n, &chans, per, &mut samples);
+        let mut it = samples.into_iter();
+        let pts = it.next().unwrap_or_default();
+        lin.counts.push((pts.len() / 3) as u32);
+        lin.points.extend(
+            pts.chunks_exact(3)
+                .map(|p| [p[0] as f32, p[1] as f32, p[2] as f32]),
+        );
+        for o in out.iter_mut().flatten() {
+            o.extend(it.next().unwrap_or_default());
+        }
+        at += n;
+        vat += nv;
+    }
+    let [w, o, c] = out;
+    lin.widths = w.map(|w| w.iter().map(|&x| x.max(0.0) as f32).collect());
+    lin.opacities = o.map(|o| o.iter().map(|&x| x.clamp(0.0, 1.0) as f32).collect());
+    lin.colors = c.map(|c| {
+        c.chunks_exact(3)
+            .map(|c| {
+                [
+                    c[0].max(0.0) as f32,
+                    c[1].max(0.0) as f32,
+                    c[2].max(0.0) as f32,
+                ]
+            })
+            .collect()
+    });
+    lin
 }

@@ -21,7 +21,7 @@
 //! other time samples. Binary `.usd`/`.usdc` is not read.
 
 use super::curves::{self, Basis, Wrap};
-use super::{data_error, Groom};
+use super::{data_error, Groom, Values};
 use crate::error::Result;
 use glam::{DMat4, DVec3};
 use std::fmt::Write;
@@ -1072,12 +1072,13 @@ fn curve_prim(prim: &Prim, to_kami: DMat4, origin: &str) -> Result<Groom> {
     };
     // Widths are lengths: they scale with the transform (its mean scale).
     let scale = to_kami.determinant().abs().cbrt();
-    let widths = expand("widths", 1)?.map(|(w, v)| (w.into_iter().map(|x| x * scale).collect(), v));
+    let widths =
+        expand("widths", 1)?.map(|(w, v): Values| (w.into_iter().map(|x| x * scale).collect(), v));
     let colors = expand("primvars:displayColor", 3)?;
     let opacities = expand("primvars:displayOpacity", 1)?;
     let attrs = [(&widths, 1), (&opacities, 1), (&colors, 3)];
     if attrs.iter().any(|(a, _)| a.as_ref().is_some_and(|a| a.1)) {
-        return Ok(evaluate(&g, &attrs));
+        return Ok(super::evaluate(&g, &attrs));
     }
     let f32s = |a: &Option<(Vec<f64>, bool)>| {
         a.as_ref()
@@ -1087,72 +1088,4 @@ fn curve_prim(prim: &Prim, to_kami: DMat4, origin: &str) -> Result<Groom> {
     g.opacities = f32s(&opacities);
     g.colors = f32s(&colors).map(|c| c.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect());
     Ok(g)
-}
-
-/// A prim's values of one attribute, and whether they are per segment end (`varying`).
-type Values = (Vec<f64>, bool);
-
-/// The polylines of cubic curves whose values come per segment end (`varying`) or per
-/// point: both evaluated along each curve, as [`Groom::into_linear`] does.
-fn evaluate(g: &Groom, attrs: &[(&Option<Values>, usize); 3]) -> Groom {
-    let total: usize = g
-        .counts
-        .iter()
-        .filter_map(|&c| curves::segments(g.basis, g.wrap, c as usize))
-        .sum();
-    let per = curves::per_segment_for(g.basis, total);
-    let points: Vec<f64> = g.points.iter().flatten().map(|&x| x as f64).collect();
-    let mut out: [Option<Vec<f64>>; 3] =
-        std::array::from_fn(|i| attrs[i].0.as_ref().map(|_| Vec::new()));
-    let mut lin = Groom::default();
-    let (mut at, mut vat) = (0usize, 0usize);
-    for &c in &g.counts {
-        let n = c as usize;
-        let segs = curves::segments(g.basis, g.wrap, n).unwrap_or(0);
-        let nv = curves::varying_count(g.wrap, g.basis, segs);
-        let mut chans = vec![curves::Channel {
-            values: &points[at * 3..(at + n) * 3],
-            arity: 3,
-            varying: false,
-        }];
-        for (a, arity) in attrs.iter() {
-            if let Some((v, varying)) = a {
-                let (s, len) = if *varying { (vat, nv) } else { (at, n) };
-                chans.push(curves::Channel {
-                    values: &v[s * arity..(s + len) * arity],
-                    arity: *arity,
-                    varying: *varying,
-                });
-            }
-        }
-        let mut samples = vec![Vec::new(); chans.len()];
-        curves::tessellate(g.basis, g.wrap, n, &chans, per, &mut samples);
-        let mut it = samples.into_iter();
-        let pts = it.next().unwrap_or_default();
-        lin.counts.push((pts.len() / 3) as u32);
-        lin.points.extend(
-            pts.chunks_exact(3)
-                .map(|p| [p[0] as f32, p[1] as f32, p[2] as f32]),
-        );
-        for o in out.iter_mut().flatten() {
-            o.extend(it.next().unwrap_or_default());
-        }
-        at += n;
-        vat += nv;
-    }
-    let [w, o, c] = out;
-    lin.widths = w.map(|w| w.iter().map(|&x| x.max(0.0) as f32).collect());
-    lin.opacities = o.map(|o| o.iter().map(|&x| x.clamp(0.0, 1.0) as f32).collect());
-    lin.colors = c.map(|c| {
-        c.chunks_exact(3)
-            .map(|c| {
-                [
-                    c[0].max(0.0) as f32,
-                    c[1].max(0.0) as f32,
-                    c[2].max(0.0) as f32,
-                ]
-            })
-            .collect()
-    });
-    lin
 }
