@@ -147,6 +147,10 @@ enum Command {
         /// With a scene input: prefer a software adapter even when a GPU is present.
         #[arg(long)]
         software: bool,
+        /// With an Alembic input: the time in seconds whose sample is read (the nearest
+        /// one); the first sample without it.
+        #[arg(long)]
+        time: Option<f64>,
     },
 }
 
@@ -756,6 +760,7 @@ fn run(cli: Cli) -> Result<()> {
             scale,
             frame,
             software,
+            time,
         } => {
             if !scale.is_finite() || scale <= 0.0 {
                 bail!("--scale {scale}: use a positive number");
@@ -776,6 +781,9 @@ fn run(cli: Cli) -> Result<()> {
             let is_scene = input
                 .extension()
                 .is_some_and(|e| e.eq_ignore_ascii_case("ron"));
+            if is_scene && time.is_some() {
+                bail!("--time is for an Alembic input; a scene's frame is --frame");
+            }
             if !is_scene && frame != 0 {
                 bail!("--frame is for a scene input (.ron); a strand file has no frames");
             }
@@ -784,7 +792,7 @@ fn run(cli: Cli) -> Result<()> {
                 let gpu = Gpu::headless(preference(software))?;
                 kami::stage::export_scene(&gpu, &scene, frame)?
             } else {
-                kami::formats::read(&input)?
+                kami::formats::read_at(&input, time)?
             };
             if groom.counts.is_empty() {
                 bail!(

@@ -288,6 +288,28 @@ pub(crate) fn data_error(origin: &str, line: Option<usize>, message: String) -> 
     }
 }
 
+/// Read a strand file at `time` seconds: an Alembic archive's sample nearest that time
+/// (`abc::Sample::Time`); the other formats hold one pose and refuse a time. `None` reads
+/// the first sample, as [`read`] does.
+pub fn read_at(path: &Path, time: Option<f64>) -> Result<Groom> {
+    let Some(t) = time else { return read(path) };
+    let origin = path.display().to_string();
+    if format_of(path)? != Format::Abc {
+        return Err(data_error(
+            &origin,
+            None,
+            format!("a time ({t} s) is for Alembic archives; this file holds one pose"),
+        ));
+    }
+    let options = abc::Options {
+        sample: abc::Sample::Time(t),
+        ..abc::Options::default()
+    };
+    let groom = abc::read(path, &options)?.into_groom(&origin);
+    groom.check(&origin)?;
+    Ok(groom)
+}
+
 /// Read a strand file; the format is chosen by the extension (`.hair`, `.obj`, `.usda`, `.abc`).
 pub fn read(path: &Path) -> Result<Groom> {
     format_of(path)?;

@@ -420,3 +420,48 @@ fn broken_alembic_files_are_refused() {
     let e = formats::read(&empty).unwrap_err().to_string();
     assert!(e.contains("empty.abc") && e.contains("no curves"), "{e}");
 }
+
+/// The chosen time reaches users: `kami convert --time` and a hair group's
+/// `StrandFile(time: ...)` read the sample nearest that time; a time on a one-pose file is
+/// refused, naming the field or the option.
+#[test]
+fn a_time_is_chosen_from_the_command_line_and_the_scene() {
+    let dir = scratch("animated_cli");
+    let (path, _) = write(&dir, "animated", 0);
+    let sample1 = vec![[1.0, 0.0, 0.0], [1.0, 2.0, 0.0]];
+    let out = dir.join("at.obj");
+    let t = format!("{}", 1.1 / 24.0);
+    let o = crate::common::kami(&[
+        "convert",
+        path.to_str().unwrap(),
+        out.to_str().unwrap(),
+        "--time",
+        &t,
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(formats::read(&out).unwrap().points, sample1);
+    // Not for a one-pose file.
+    let o = crate::common::kami(&["convert", out.to_str().unwrap(), "x.usda", "--time", "1"]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && e.contains("is for Alembic archives"),
+        "{e}"
+    );
+    // In a scene: the group's rest pose is that sample.
+    let mut s = kami::Scene::load(&path).unwrap();
+    s.groups[0].file.as_mut().unwrap().time = Some(1.1 / 24.0);
+    let scene = dir.join("timed.ron");
+    std::fs::write(&scene, s.to_ron()).unwrap();
+    let s = kami::Scene::load(&scene).unwrap();
+    let f = s.groups[0].file.as_ref().unwrap();
+    assert_eq!(f.time, Some(1.1 / 24.0));
+    assert_eq!(f.groom.as_ref().unwrap().points, sample1);
+    let hair = dir.join("one.hair");
+    formats::write(&hair, &formats::read(&out).unwrap()).unwrap();
+    let text = s
+        .to_ron()
+        .replace(&path.display().to_string(), &hair.display().to_string());
+    std::fs::write(&scene, text).unwrap();
+    let e = kami::Scene::load(&scene).unwrap_err().to_string();
+    assert!(e.contains("groups[0].file.time"), "{e}");
+}

@@ -35,6 +35,7 @@ fn imported_scene(mut scene: kami::Scene, groom: Groom, segments: u32) -> kami::
             translate: [0.0; 3],
             colors: true,
             widths: true,
+            time: None,
             groom: Some(Arc::new(groom.clone())),
         }),
         roots: Default::default(),

@@ -126,6 +126,10 @@ pub struct StrandFile {
     /// Draw the file's widths where it has them (false: the material's tapered width).
     #[serde(default = "yes")]
     pub widths: bool,
+    /// For an Alembic archive: the time in seconds whose sample is the rest pose (the
+    /// nearest one); the first sample without it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub time: Option<f64>,
     /// The strands as read, placed (filled by `Scene::load` or [`resolve_strand_files`]).
     #[serde(skip)]
     pub groom: Option<std::sync::Arc<crate::formats::Groom>>,
@@ -150,7 +154,7 @@ pub fn resolve_strand_files(scene: &mut Scene, dir: &Path, origin: &str) -> Resu
             Path::new(&f.path).to_path_buf()
         };
         // Cubic curves become the polylines they describe; the group resamples those.
-        let mut read = crate::formats::read(&path)?.into_linear();
+        let mut read = crate::formats::read_at(&path, f.time)?.into_linear();
         // Strands with no length (every point the same) cannot be hair: left out, said.
         let before = read.counts.len();
         drop_pointless_strands(&mut read);
@@ -787,6 +791,18 @@ fn validate_file_group(p: &str, g: &HairGroup, f: &StrandFile) -> Result<()> {
     positive(&format!("{p}.file.scale"), f.scale, BIG)?;
     vec3(&format!("{p}.file.rotate"), f.rotate, 1e6)?;
     vec3(&format!("{p}.file.translate"), f.translate, BIG)?;
+    if let Some(t) = f.time {
+        finite(&format!("{p}.file.time"), t)?;
+        let abc =
+            crate::formats::Format::of(Path::new(&f.path)) == Some(crate::formats::Format::Abc);
+        if !abc {
+            return Err(bad(
+                &format!("{p}.file.time"),
+                t,
+                "a time picks a sample of an Alembic archive (.abc); this file holds one pose",
+            ));
+        }
+    }
     if !g.cuts.is_empty() {
         return Err(bad(
             &format!("{p}.cuts"),

@@ -294,6 +294,7 @@ pub fn scene_of(path: &Path) -> Result<Scene> {
                 translate: [0.0; 3],
                 colors: true,
                 widths: true,
+                time: None,
                 groom: None,
             }),
             roots: Roots::default(),
