@@ -215,13 +215,14 @@ const USDA_WORDS: &[&str] = &[
     "2, ", "4294967295, ", ", ", "\n", " ",
 ];
 
-/// Alembic's names and meta data, and Ogawa's marker offsets (empty data, the data bit).
+/// Alembic's names and meta data, and Ogawa's empty-data marker. (The data bit, a byte
+/// 0x80, cannot be a word of this UTF-8 list: `\u{80}` is two bytes.)
 #[rustfmt::skip]
 const ABC_WORDS: &[&str] = &[
     "Ogawa", ".geom", ".xform", ".ops", ".vals", ".inherits", ".indices", ".arbGeomParams", "P",
     "nVertices", "curveBasisAndType", "width", "Cs", "displayColor", "opacity",
     "schema=AbcGeom_Curve_v2", "schema=AbcGeom_Xform_v3", "geoScope=vtx", "geoScope=uni",
-    "geoScope=var", "geoScope=con", "\u{0}\u{0}\u{0}\u{0}\u{0}\u{0}\u{0}\u{80}",
+    "geoScope=var", "geoScope=con",
     "\u{0}\u{0}\u{0}\u{0}\u{0}\u{0}\u{0}\u{0}", "\u{10}\u{0}\u{0}\u{0}",
     "\u{1}\u{0}\u{0}\u{0}", "\u{2}\u{0}\u{0}\u{0}", "\u{3}\u{0}\u{0}\u{0}",
 ];

@@ -156,7 +156,9 @@ fn files(ui: &mut Ui, s: &mut ViewerState) {
          is saved; the camera, the clock and the panels stay, and what you set here that the \
          file did not change",
     );
-    ui.label("Open also takes a strand file (.hair, .obj, .usda): it opens as hair on a head");
+    ui.label(
+        "Open also takes a strand file (.hair, .obj, .usda, .abc): it opens as hair on a head",
+    );
     ui.label("shipped scenes:");
     ui.horizontal_wrapped(|ui| {
         for name in shipped() {

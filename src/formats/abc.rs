@@ -7,13 +7,14 @@
 //! sample indices of animated properties off by one, and reads indexed widths as an error.
 //!
 //! Read: every `ICurves` object at any depth, its positions (`P`), vertex counts, type,
-//! wrap and basis (reported per object in [`CurvesObject`]; cubic curves keep their control
-//! points as the polyline), `width` and a colour and opacity from `.arbGeomParams` (constant,
+//! wrap and basis (reported per object in [`CurvesObject`]; [`Curves::into_groom`] gives
+//! cubic Bézier, B-spline and Catmull-Rom curves their basis, others are polylines), `width` and a colour and opacity from `.arbGeomParams` (constant,
 //! uniform, varying or vertex, also indexed), at the first or a chosen sample, with the
 //! transforms of the `IXform` objects above it applied.
 //!
 //! Every offset and size is checked against the file before use, nesting is bounded and no
-//! object group is visited twice, so a hostile file costs at most a few times its size.
+//! object group is visited twice, and the points and transform values read are bounded by
+//! the file's size, so a hostile file costs at most a few times its size.
 
 use super::{data_error, Groom};
 use crate::error::{KamiError, Result};
@@ -77,8 +78,7 @@ pub enum Wrap {
 }
 
 /// One `ICurves` object as read: where its strands are in the groom, and how its control
-/// points are meant to be evaluated. Kami draws the points as polylines; a cubic evaluator
-/// takes `curve_type == Cubic` with `basis` and `wrap` from here.
+/// points are meant to be evaluated ([`Curves::into_groom`] maps them to Kami's curves).
 #[derive(Clone, Debug, PartialEq)]
 pub struct CurvesObject {
     /// Full Alembic path, e.g. `/groom/hair/hairShape`.
@@ -1006,7 +1006,7 @@ impl Reader<'_> {
 
     /// The local matrix of an `IXform` at the chosen sample, and whether it inherits its
     /// parent's (`XformSample::getMatrix`: the ops in order, the last applied first).
-    fn xform(&self, g: &[u64], path: &str) -> Result<(M44, bool)> {
+    fn xform(&mut self, g: &[u64], path: &str) -> Result<(M44, bool)> {
         let Some(props) = self.schema(g, path, ".xform")? else {
             return Ok((IDENTITY, true));
         };
@@ -1031,6 +1031,16 @@ impl Reader<'_> {
                 .collect(),
             None => Vec::new(),
         };
+        // Operations and values walked count against the same budget as points: many
+        // transforms sharing one large stored sample cannot make the read quadratic.
+        let work = (ops.len() + vals.len()) as u64;
+        if work > self.budget {
+            return Err(self.a.err(format!(
+                "object {path}: {work} more transform values would pass one per byte of the file \
+                 (transforms sharing one sample many times over)"
+            )));
+        }
+        self.budget -= work;
         let mut m = IDENTITY;
         let mut at = 0usize;
         for (k, op) in ops.iter().enumerate() {

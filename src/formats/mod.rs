@@ -32,8 +32,9 @@ pub struct Groom {
     pub widths: Option<Vec<f32>>,
     /// Per-point opacity in 0..1 (`.hair` stores transparency = 1 - opacity).
     pub opacities: Option<Vec<f32>>,
-    /// Per-point RGB colour in 0..1 as the file stores it (Kami writes its materials' sRGB
-    /// colours; no format says which space).
+    /// Per-point RGB colour in 0..1 as the file stores it, drawn as sRGB (Kami writes its
+    /// materials' sRGB colours). USD's `displayColor` and Alembic's `Cs` are linear by their
+    /// tools' convention: such colours draw darker than there (a known limitation).
     pub colors: Option<Vec<[f32; 3]>>,
     /// How the points make each curve (every strand the same).
     pub basis: Basis,

@@ -95,14 +95,14 @@ impl Scene {
         Ok(scene)
     }
 
-    /// A scene showing one strand file (`.hair`, `.obj` polylines, `.usda`), as Anjyo hair
+    /// A scene showing one strand file (`.hair`, `.obj` polylines, `.usda`, `.abc`), as Anjyo hair
     /// (`anjyo::imported::scene_of`). What `kami view groom.hair` and the Files panel open.
     pub fn from_strand_file(path: &Path) -> Result<Scene> {
         anjyo::imported::scene_of(path)
     }
 
     /// Read, parse and validate a scene file, then read the files it names (relative to its
-    /// folder) so that their errors name them; a strand file (`.hair`, `.obj`, `.usda`)
+    /// folder) so that their errors name them; a strand file (`.hair`, `.obj`, `.usda`, `.abc`)
     /// opens as a scene of its own ([`Scene::from_strand_file`]).
     pub fn load(path: impl AsRef<Path>) -> Result<Scene> {
         let path = path.as_ref();

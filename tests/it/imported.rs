@@ -484,3 +484,73 @@ fn file_look_switches_are_look_changes() {
     assert!(!f.colors && !f.widths);
     assert_eq!(anjyo::classify(&a, &c), Change::Redraw);
 }
+
+/// Found in review: a groom drawn with its file's own look goes back out with it (the
+/// export writes what is drawn): each strand's colour, width and opacity, and the
+/// material's once the scene switches the file's look off.
+#[test]
+fn an_export_writes_the_files_own_look() {
+    let mut g = kami::formats::read(&common::root().join("assets/grooms/wavy.hair")).unwrap();
+    let starts: Vec<usize> = g
+        .counts
+        .iter()
+        .scan(0usize, |a, &c| {
+            let s = *a;
+            *a += c as usize;
+            Some(s)
+        })
+        .collect();
+    let strand_of = |p: usize| starts.partition_point(|&s| s <= p) - 1;
+    let look = |s: usize| {
+        let k = (s % 7) as f32 / 7.0;
+        (
+            [k, 1.0 - k, 0.5],
+            0.01 + 0.002 * (s % 5) as f32,
+            0.5 + 0.05 * (s % 3) as f32,
+        )
+    };
+    let n = g.points.len();
+    g.colors = Some((0..n).map(|p| look(strand_of(p)).0).collect());
+    g.widths = Some((0..n).map(|p| look(strand_of(p)).1).collect());
+    g.opacities = Some((0..n).map(|p| look(strand_of(p)).2).collect());
+    let path = common::scratch("export_look").join("looked.hair");
+    kami::formats::write(&path, &g).unwrap();
+    let gpu = common::gpu();
+    let mut scene = kami::Scene::load(&path).unwrap();
+    scene.groups[0].count = 50;
+    let out = kami::stage::export_scene(gpu, &scene, 0).unwrap();
+    assert_eq!(out.counts.len(), 50);
+    let (w, c, o) = (
+        out.widths.as_ref().unwrap(),
+        out.colors.as_ref().unwrap(),
+        out.opacities
+            .as_ref()
+            .expect("the file's opacities are written"),
+    );
+    let mut at = 0usize;
+    for (j, &cnt) in out.counts.iter().enumerate() {
+        // Strand j of 50 is the file's strand j * 1100 / 50 (spread evenly).
+        let (rgb, width, opacity) = look(j * g.counts.len() / 50);
+        for p in at..at + cnt as usize {
+            assert!(
+                (w[p] - width).abs() < 1e-6,
+                "strand {j}: width {} not {width}",
+                w[p]
+            );
+            assert!(
+                (0..3).all(|k| (c[p][k] - rgb[k]).abs() < 1e-6),
+                "strand {j}: colour"
+            );
+            assert!((o[p] - opacity).abs() < 1e-6, "strand {j}: opacity");
+        }
+        at += cnt as usize;
+    }
+    // The file's look switched off: the material's.
+    let f = scene.groups[0].file.as_mut().unwrap();
+    (f.colors, f.widths) = (false, false);
+    let m = scene.groups[0].material.clone();
+    let out = kami::stage::export_scene(gpu, &scene, 0).unwrap();
+    assert!(out.colors.unwrap().iter().all(|c| *c == m.color));
+    assert_eq!(out.opacities, None);
+    assert!((out.widths.unwrap()[0] - m.width as f32).abs() < 1e-7);
+}

@@ -13,6 +13,7 @@ use crate::scene::hull::{HeadHull, HeadMeshData};
 use crate::scene::{head::phi_in_range, Ellipsoid};
 use crate::systems::anjyo::block::{Bending, CutRule, Direction, Load};
 use crate::systems::anjyo::gpu_data::GpuLook;
+use crate::systems::anjyo::imported::NodeLook;
 use crate::systems::Scene;
 use glam::DVec3;
 
@@ -98,7 +99,7 @@ pub struct GroupParams {
     /// group is not bent, its nodes are these (`super::imported`).
     pub shapes: Option<std::sync::Arc<Vec<DVec3>>>,
     /// The file's own look per node, when it has widths, colours or opacities.
-    pub looks: Option<std::sync::Arc<Vec<GpuLook>>>,
+    pub looks: Option<std::sync::Arc<Vec<NodeLook>>>,
 }
 
 impl GroupParams {
@@ -167,10 +168,15 @@ impl GroomInput {
     /// Each node's own look (`GpuLook`, in vertex order) when a group has one; `None` when
     /// no group does, so a scene without such files binds no per-node buffer of size.
     pub fn looks(&self) -> Option<Vec<GpuLook>> {
+        Some(self.node_looks()?.iter().map(NodeLook::gpu).collect())
+    }
+
+    /// The same at full precision, for export.
+    pub fn node_looks(&self) -> Option<Vec<NodeLook>> {
         self.groups.iter().find(|g| g.looks.is_some())?;
         let offsets = self.vertex_offsets();
         // Groups without looks keep zeros: their materials never read them.
-        let mut out = vec![GpuLook::default(); *offsets.last()? as usize];
+        let mut out = vec![NodeLook::default(); *offsets.last()? as usize];
         for g in &self.groups {
             if let Some(l) = &g.looks {
                 let at = offsets[g.first_strand as usize] as usize;

@@ -125,7 +125,23 @@ fn walk(points: &[DVec3], d: f64, k: u32) -> (Vec<DVec3>, f64, Vec<(usize, f64)>
 /// What a file group brings: roots, resampled rest nodes (`segments + 1` per strand,
 /// strands in order) and, when the file has widths, colours or opacities, each node's look
 /// (`GpuLook`, interpolated where the node lies on the file's polyline).
-pub type FileStrands = (Vec<StrandRoot>, Vec<DVec3>, Option<Vec<GpuLook>>);
+pub type FileStrands = (Vec<StrandRoot>, Vec<DVec3>, Option<Vec<NodeLook>>);
+
+/// A node's own look from its strand file: colour (0..1, as the file has it), opacity and
+/// width, at full precision (the GPU gets it packed, `GpuLook`; an export writes these).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct NodeLook {
+    pub rgb: [f32; 3],
+    pub opacity: f32,
+    pub width: f32,
+}
+
+impl NodeLook {
+    /// As the shaders read it.
+    pub fn gpu(&self) -> GpuLook {
+        GpuLook::new(self.rgb, self.opacity, self.width)
+    }
+}
 
 /// Roots, rest nodes and looks of hair group `gi`, read from its file. The file must have
 /// been read (`Scene::load` or `block::resolve_strand_files`).
@@ -195,14 +211,18 @@ pub fn group_roots(seed: u64, gi: usize, g: &HairGroup) -> Result<FileStrands> {
                     .colors
                     .as_ref()
                     .map_or([1.0; 3], |c| [0, 1, 2].map(|k| lerp(c[a][k], c[b][k])));
-                GpuLook::new(rgb, opacity, width)
+                NodeLook {
+                    rgb,
+                    opacity,
+                    width,
+                }
             }));
         }
     }
     Ok((roots, nodes, looks))
 }
 
-/// A scene showing one strand file (`.hair`, `.obj` polylines, `.usda`): the strands as
+/// A scene showing one strand file (`.hair`, `.obj` polylines, `.usda`, `.abc`): the strands as
 /// one static hair group, over a head ellipsoid fitted under their roots (the file
 /// carries no head; name one in a scene file for collisions that matter), the width
 /// from the file's root widths or 0.4 % of the mean strand length, and a camera that

@@ -179,7 +179,8 @@ pub struct AnjyoSystem {
     rest: Option<wgpu::Buffer>,
     draw: draw::StrandsPass,
     /// The groups' looks, for strand-file export.
-    materials: Vec<crate::systems::anjyo::block::Material>,
+    /// The scene's groups as last applied (the materials and file looks an export writes).
+    groups: Vec<block::HairGroup>,
     bounds: (DVec3, f64),
     counts: (u64, u64),
     lod: f64,
@@ -344,15 +345,21 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
 
 /// Polylines of the drawn hair: each strand's nodes up to its drawn (cut) length, the last
 /// segment shortened to the fractional part; widths tapered root to tip as the ribbon draws
-/// them; the group's colour.
+/// them; the group's colour. A group drawn with its strand file's own look (`file`, per
+/// group as [`file_look`] says; `looks` per node) writes that look: widths, colours and
+/// opacities (opaque for the others), so a groom goes back out as it came in.
 pub fn export_strands(
     materials: &[crate::systems::anjyo::block::Material],
+    file: &[[bool; 4]],
+    looks: Option<&[imported::NodeLook]>,
     records: &[crate::gpu::gpu_data::GpuStrand],
     nodes: &[[f32; 4]],
 ) -> crate::formats::Groom {
+    let opacity = looks.is_some() && file.iter().any(|f| f[2]);
     let mut g = crate::formats::Groom {
         widths: Some(Vec::new()),
         colors: Some(Vec::new()),
+        opacities: opacity.then(Vec::new),
         ..Default::default()
     };
     for r in records {
@@ -377,9 +384,26 @@ pub fn export_strands(
             }
             g.points.push(q);
             let along = (i.min(whole) as f64 + if i > whole { frac } else { 0.0 }) / k as f64;
-            let w = m.width * (1.0 + (m.tip_width - 1.0) * along);
-            g.widths.as_mut().unwrap().push(w as f32);
-            g.colors.as_mut().unwrap().push(m.color);
+            let mut w = (m.width * (1.0 + (m.tip_width - 1.0) * along)) as f32;
+            let mut c = m.color;
+            let mut o = 1.0;
+            let f = file.get(r.group as usize).copied().unwrap_or_default();
+            if let Some(l) = looks.and_then(|l| l.get(first + i.min(whole))) {
+                if f[0] {
+                    c = l.rgb;
+                }
+                if f[1] {
+                    w = l.width;
+                }
+                if f[2] {
+                    o = l.opacity;
+                }
+            }
+            g.widths.as_mut().unwrap().push(w);
+            g.colors.as_mut().unwrap().push(c);
+            if let Some(op) = g.opacities.as_mut() {
+                op.push(o);
+            }
         }
         g.counts.push(segs as u32 + 1);
     }
@@ -434,7 +458,7 @@ impl AnjyoSystem {
             sim,
             rest,
             draw,
-            materials: scene.groups.iter().map(|g| g.material.clone()).collect(),
+            groups: scene.groups.clone(),
             bounds: scene_bounds(scene),
             counts: counts(scene),
             lod: 1.0,
@@ -536,11 +560,11 @@ impl HairSystem for AnjyoSystem {
         self.raster = scene.render.strands;
         match change {
             Change::Redraw => {
-                self.materials = scene.groups.iter().map(|g| g.material.clone()).collect();
+                self.groups = scene.groups.clone();
                 self.draw.update_materials(&gpu.queue, &materials(scene))
             }
             Change::Resimulate => {
-                self.materials = scene.groups.iter().map(|g| g.material.clone()).collect();
+                self.groups = scene.groups.clone();
                 if let (Some(sim), Some(d)) = (self.sim.as_mut(), &scene.dynamics) {
                     sim.update_params(gpu, d.clone());
                 }
@@ -572,7 +596,16 @@ impl HairSystem for AnjyoSystem {
     fn export(&self, gpu: &Gpu, _ctx: &FrameCtx) -> Result<Option<crate::formats::Groom>> {
         let nodes = self.hair.read_vertices(gpu)?;
         let records = self.hair.read_strands(gpu)?;
-        Ok(Some(export_strands(&self.materials, &records, &nodes)))
+        let materials: Vec<_> = self.groups.iter().map(|g| g.material.clone()).collect();
+        let file: Vec<[bool; 4]> = self.groups.iter().map(file_look).collect();
+        let looks = self.input.node_looks();
+        Ok(Some(export_strands(
+            &materials,
+            &file,
+            looks.as_deref(),
+            &records,
+            &nodes,
+        )))
     }
 
     fn as_any(&self) -> &dyn std::any::Any {
