@@ -75,6 +75,11 @@ def sample(basis, wrap, vals, varying=None):
     return out
 
 
+def srgb(c):
+    """USD's displayColor is linear; Kami keeps colours sRGB-encoded."""
+    return 12.92 * c if c <= 0.0031308 else 1.055 * c ** (1 / 2.4) - 0.055
+
+
 def to_kami(p, xf, mpu, up):
     q = xf.Transform(Gf.Vec3d(*p))
     # the stage's units to centimetres, z up to y up: (x, y, z) -> (x, z, -y)
@@ -185,7 +190,7 @@ def write(path, cases, mpu, up):
                 ws = sample(basis, wrap, [0.0] * n, varying=wf)
             expected["widths"] += [max(0.0, w * scale) for w in ws]
             col = colors[j]
-            expected["colors"] += [tuple(float(x) for x in col)] * len(xs)
+            expected["colors"] += [tuple(srgb(float(x)) for x in col)] * len(xs)
     stage.GetRootLayer().Save()
     return expected
 

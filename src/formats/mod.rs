@@ -32,9 +32,9 @@ pub struct Groom {
     pub widths: Option<Vec<f32>>,
     /// Per-point opacity in 0..1 (`.hair` stores transparency = 1 - opacity).
     pub opacities: Option<Vec<f32>>,
-    /// Per-point RGB colour in 0..1 as the file stores it, drawn as sRGB (Kami writes its
-    /// materials' sRGB colours). USD's `displayColor` and Alembic's `Cs` are linear by their
-    /// tools' convention: such colours draw darker than there (a known limitation).
+    /// Per-point RGB colour, sRGB-encoded, as Kami's materials are: `.hair`, OBJ and Alembic
+    /// colours as the file stores them (their formats name no colour space), USD's linear
+    /// `displayColor` converted on the way in and out.
     pub colors: Option<Vec<[f32; 3]>>,
     /// How the points make each curve (every strand the same).
     pub basis: Basis,
@@ -277,6 +277,24 @@ fn format_of(path: &Path) -> Result<Format> {
                 }
             ),
         }),
+    }
+}
+
+/// Linear to sRGB encoding (the inverse of [`srgb_to_linear`]; values above 1 stay above).
+pub fn linear_to_srgb(c: f64) -> f64 {
+    if c <= 0.0031308 {
+        12.92 * c
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// sRGB encoding to linear.
+pub fn srgb_to_linear(c: f64) -> f64 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
     }
 }
 

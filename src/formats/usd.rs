@@ -65,6 +65,8 @@ pub fn to_string(g: &Groom) -> String {
             "    color3f[] primvars:displayColor = ",
             c,
             |s, p| {
+                // USD's displayColor is linear; Kami's colours are sRGB.
+                let p = p.map(|x| super::srgb_to_linear(x as f64) as f32);
                 let _ = write!(s, "({}, {}, {})", p[0], p[1], p[2]);
             },
         );
@@ -1074,7 +1076,9 @@ fn curve_prim(prim: &Prim, to_kami: DMat4, origin: &str) -> Result<Groom> {
     let scale = to_kami.determinant().abs().cbrt();
     let widths =
         expand("widths", 1)?.map(|(w, v): Values| (w.into_iter().map(|x| x * scale).collect(), v));
-    let colors = expand("primvars:displayColor", 3)?;
+    // displayColor is linear (USD's rule without a `colorSpace`); Kami's colours are sRGB.
+    let colors = expand("primvars:displayColor", 3)?
+        .map(|(c, v): Values| (c.into_iter().map(super::linear_to_srgb).collect(), v));
     let opacities = expand("primvars:displayOpacity", 1)?;
     let attrs = [(&widths, 1), (&opacities, 1), (&colors, 3)];
     if attrs.iter().any(|(a, _)| a.as_ref().is_some_and(|a| a.1)) {
