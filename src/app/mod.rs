@@ -811,13 +811,34 @@ fn reload(g: &mut Gfx, state: &mut ViewerState, changed: &[PathBuf]) {
             );
             // The error names the file and the place.
             state.reload_error = Some(format!("the save does not load: {e}"));
+            // Files the saved text names that the last good scene did not (a mesh not
+            // written yet) are watched too, so that writing one reloads.
+            let named = crate::scene::read_bytes(&path)
+                .and_then(|b| Scene::from_bytes(&b, &path.display().to_string()))
+                .map(|s| s.files(&path));
+            if let Ok(named) = named {
+                let mut files: Vec<PathBuf> =
+                    g.watched.watch.files().map(Path::to_path_buf).collect();
+                let before = files.len();
+                for p in named {
+                    if !files.contains(&p) {
+                        files.push(p);
+                    }
+                }
+                if files.len() > before {
+                    g.watched.watch.set(&path, files);
+                }
+            }
         }
     }
 }
 
 /// Show `scene` (already merged): through the stage's edit path when only the scene file
 /// changed (`in_place`), else a fresh stage; either way back at `frame` when the clock
-/// restarted. Nothing changes on an error.
+/// restarted. A scene that does not validate, or a fresh stage that does not build, changes
+/// nothing; an error inside the stage's edit path (`Stage::apply`, after the scene loaded
+/// and validated: a head that does not build) may leave the quality or part of the edit
+/// applied.
 fn rebuild(
     g: &mut Gfx,
     state: &mut ViewerState,

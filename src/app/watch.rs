@@ -68,6 +68,11 @@ impl Watch {
     }
 
     /// How many files are watched.
+    pub fn files(&self) -> impl Iterator<Item = &Path> {
+        self.files.iter().map(|(p, _)| p.as_path())
+    }
+
+    /// Number of files watched.
     pub fn len(&self) -> usize {
         self.files.len()
     }

@@ -924,6 +924,30 @@ fn viewer_reloads_saved_files_and_keeps_the_last_good_scene() {
     let (f3, eye3) = reloaded_at(&line);
     assert!(f3 >= f2, "the clock went back to frame {f3} (was {f2})");
     assert_eq!(eye3, eye, "the camera moved: {line}");
+
+    // Found in review: the scene saved naming a strand file not written yet does not load;
+    // writing that file then reloads (the failed save's files are watched too).
+    let later = dir.join("later.hair");
+    std::fs::write(
+        &scene,
+        with("1.25").replace("\"wavy.hair\"", "\"later.hair\""),
+    )
+    .unwrap();
+    let line = out.wait(120, "the save naming a missing file", |l| {
+        l.starts_with("reload:")
+    });
+    assert!(
+        line.contains("does not load") && line.contains("later.hair"),
+        "{line}"
+    );
+    kami::formats::write(&later, &groom).unwrap();
+    let line = out.wait(120, "the reload once the named file is written", |l| {
+        l.starts_with("reload:")
+    });
+    assert!(
+        line.contains("(reload 4)") && line.contains("later.hair saved"),
+        "{line}"
+    );
     assert!(viewer.0.try_wait().unwrap().is_none(), "the viewer stopped");
     eprintln!("{}", out.seen.join("\n"));
 }
