@@ -15,7 +15,7 @@ macro_rules! wgsl {
 pub(crate) use wgsl;
 
 /// The head ellipsoid.
-pub const HEAD: &str = wgsl!("common/frame.wgsl", "stage/head.wgsl");
+pub const HEAD: &str = wgsl!("common/frame.wgsl", "common/shadow.wgsl", "stage/head.wgsl");
 
 /// Supersampling resolve.
 pub const DOWNSAMPLE: &str = wgsl!("stage/downsample.wgsl");

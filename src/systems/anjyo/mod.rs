@@ -69,6 +69,7 @@ pub const FOLLOW: &str = wgsl!(
 pub const DRAW: &str = wgsl!(
     "common/strands.wgsl",
     "common/frame.wgsl",
+    "common/shadow.wgsl",
     "common/random.wgsl",
     "common/coverage.wgsl",
     "common/strand_shade.wgsl",
@@ -80,6 +81,7 @@ pub const SPLAT: &str = wgsl!(
     "common/depth_single.wgsl",
     "common/strands.wgsl",
     "common/frame.wgsl",
+    "common/shadow.wgsl",
     "common/strand_shade.wgsl",
     "anjyo/splat.wgsl",
 );
@@ -89,6 +91,7 @@ pub const SPLAT_MSAA: &str = wgsl!(
     "common/depth_msaa.wgsl",
     "common/strands.wgsl",
     "common/frame.wgsl",
+    "common/shadow.wgsl",
     "common/strand_shade.wgsl",
     "anjyo/splat.wgsl",
 );

@@ -42,13 +42,19 @@ pub const GENERATE: &str = wgsl!(
 pub const DRAW: &str = wgsl!(
     "common/strands.wgsl",
     "common/frame.wgsl",
+    "common/shadow.wgsl",
     "common/random.wgsl",
     "common/coverage.wgsl",
     "fur/draw.wgsl",
 );
 
 /// The fur mesh's skin.
-pub const SKIN: &str = wgsl!("common/frame.wgsl", "common/deform.wgsl", "fur/skin.wgsl");
+pub const SKIN: &str = wgsl!(
+    "common/frame.wgsl",
+    "common/shadow.wgsl",
+    "common/deform.wgsl",
+    "fur/skin.wgsl"
+);
 
 pub const KIND: Kind = Kind {
     name: "fur",

@@ -41,6 +41,7 @@ pub const RIBBON: &str = wgsl!("strips/ribbon.wgsl");
 /// The ribbon drawing module (`("strips/draw", DRAW)`).
 pub const DRAW: &str = wgsl!(
     "common/frame.wgsl",
+    "common/shadow.wgsl",
     "common/random.wgsl",
     "common/coverage.wgsl",
     "strips/draw.wgsl"

@@ -20,6 +20,7 @@ pub const CURVES: &str = wgsl!("common/chord.wgsl", "wisps/curves.wgsl");
 /// The ray march and toon shading.
 pub const MARCH: &str = wgsl!(
     "common/frame.wgsl",
+    "common/shadow.wgsl",
     "common/chord.wgsl",
     "wisps/march.wgsl",
     "wisps/toon.wgsl"
