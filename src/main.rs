@@ -239,6 +239,35 @@ enum Bench {
         #[arg(long)]
         software: bool,
     },
+    /// Kami against a path tracer: shipped scenes in each shading mode with and without
+    /// shadows, against Mitsuba 3 (its hair BSDF) rendering the same groom, camera, light and
+    /// size; mean FLIP, ms per frame and the image pairs; writes look.md, look.csv and the
+    /// pairs (docs/look.md). Needs `scripts/look-deps.sh` (Mitsuba, FLIP) first.
+    Look {
+        /// Scenes to compare, comma separated (default: bob, fur, strips).
+        #[arg(long, value_delimiter = ',')]
+        scenes: Vec<PathBuf>,
+        /// Image size as WIDTHxHEIGHT (Kami's and Mitsuba's).
+        #[arg(long, value_parser = parse_size, default_value = "256x256")]
+        size: (u32, u32),
+        /// Mitsuba's samples per pixel.
+        #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=65536))]
+        spp: u32,
+        /// Timed frames per row (the mean is reported).
+        #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=1000))]
+        frames: u32,
+        /// Python with Mitsuba and FLIP (scripts/look-deps.sh).
+        #[arg(long, default_value = "python3")]
+        python: PathBuf,
+        /// Where reference renders are cached (by a hash of their inputs).
+        #[arg(long, default_value = "bench_out/look-cache")]
+        cache: PathBuf,
+        /// Directory for the report files.
+        #[arg(long, default_value = "bench_out")]
+        out: PathBuf,
+        #[arg(long)]
+        software: bool,
+    },
     /// The mesh head's signed distance field: build time and error against the exact
     /// signed distance at several grid resolutions; writes sdf.md, sdf.csv and sdf.png.
     Sdf {
@@ -691,6 +720,43 @@ fn run(cli: Cli) -> Result<()> {
                 println!("{}", report.markdown);
                 println!(
                     "wrote {0}/scale.md, {0}/scale.csv, {0}/scale.png",
+                    out.display()
+                );
+            }
+            Bench::Look {
+                scenes,
+                size,
+                spp,
+                frames,
+                python,
+                cache,
+                out,
+                software,
+            } => {
+                let scenes = if scenes.is_empty() {
+                    kami::bench::look::SCENES
+                        .iter()
+                        .map(|s| kami::scene::shipped(s))
+                        .collect()
+                } else {
+                    scenes
+                };
+                // Mitsuba and FLIP are checked before the GPU is opened: a missing one costs
+                // nothing.
+                kami::bench::look::check_deps(&python)?;
+                let gpu = Gpu::headless(preference(software))?;
+                let o = kami::bench::look::Options {
+                    scenes,
+                    size,
+                    spp,
+                    frames,
+                    python,
+                    cache,
+                };
+                let report = kami::bench::look::run(&gpu, &o, &out)?;
+                println!("{}", report.markdown);
+                println!(
+                    "wrote {0}/look.md, {0}/look.csv and the image pairs",
                     out.display()
                 );
             }

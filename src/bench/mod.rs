@@ -7,6 +7,7 @@ pub mod fur;
 pub mod guides;
 pub mod kinds;
 pub mod lod;
+pub mod look;
 pub mod plot;
 pub mod raster;
 pub mod scale;
