@@ -59,17 +59,20 @@ def inputs_hash(xml, spp, seed):
 
 
 def reference(xml, spp, seed, cache):
-    """Linear RGBA (premultiplied: missed rays are 0) of the scene, from the cache if there."""
+    """Linear RGBA (premultiplied: missed rays are 0) of the scene and the seconds its render
+    took (the cached record's when it comes from the cache)."""
     key = inputs_hash(xml, spp, seed)
     path = cache / f"{key}.npy"
-    if path.exists():
-        return np.load(path), 0.0, True
+    took = cache / f"{key}.seconds"
+    if path.exists() and took.exists():
+        return np.load(path), float(took.read_text()), True
     t = time.time()
     scene = mi.load_file(str(xml))
     img = np.array(mi.render(scene, spp=spp, seed=seed), dtype=np.float32)
     seconds = time.time() - t
     cache.mkdir(parents=True, exist_ok=True)
     np.save(path, img)
+    took.write_text(f"{seconds:.1f}\n")
     return img, seconds, False
 
 

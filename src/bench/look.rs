@@ -157,9 +157,9 @@ pub fn curve_text(groom: &Groom, which: &[usize], source: &str) -> Result<String
         if k > 0 {
             s.push('\n');
         }
-        for j in first[i]..first[i] + groom.counts[i] as usize {
-            let p = groom.points[j];
-            let _ = writeln!(s, "{} {} {} {}", p[0], p[1], p[2], 0.5 * widths[j]);
+        let r = first[i]..first[i] + groom.counts[i] as usize;
+        for (p, w) in groom.points[r.clone()].iter().zip(&widths[r]) {
+            let _ = writeln!(s, "{} {} {} {}", p[0], p[1], p[2], 0.5 * w);
         }
     }
     Ok(s)
@@ -506,8 +506,9 @@ fn stem(path: &Path) -> String {
         .unwrap_or_else(|| "scene".into())
 }
 
-/// Run the bench; writes `look.md`, `look.csv`, the reference scenes (`ref_<scene>/`) and
-/// the image pairs (`<scene>_<mode>_<shadows>.png`) into `out`.
+/// Run the bench; writes `look.md`, `look.csv` and the image pairs
+/// (`<scene>_<mode>_<shadows>.png`) into `out`, and each reference scene with Kami's images
+/// into `<cache>/scene_<scene>/`.
 pub fn run(gpu: &Gpu, o: &Options, out: &Path) -> Result<Report> {
     check_deps(&o.python)?;
     std::fs::create_dir_all(out).map_err(|source| KamiError::Io {
@@ -517,7 +518,7 @@ pub fn run(gpu: &Gpu, o: &Options, out: &Path) -> Result<Report> {
     let mut md = String::new();
     let _ = writeln!(
         md,
-        "### `kami bench look`\n\n{}\n\nAdapter: **{}**. Each scene at frame 0, {}x{} pixels, with its own MSAA and supersampling. *ms*: Kami's frame (generation, draw, resolve), the mean of {} frames after one untimed. *FLIP*: mean FLIP (LDR, 67 pixels per degree) of Kami's image against Mitsuba 3 (`scalar_rgb`, `path` integrator, `hair` BSDF, {} spp, longest path {MAX_DEPTH}); *noise*: the same between two seeds of the reference. *reference s*: Mitsuba's time for both seeds (0 when cached).\n",
+        "### `kami bench look`\n\n{}\n\nAdapter: **{}**. Each scene at frame 0, {}x{} pixels, with its own MSAA and supersampling. *ms*: Kami's frame (generation, draw, resolve), the mean of {} frames after one untimed. *FLIP*: mean FLIP (LDR, 67 pixels per degree) of Kami's image against Mitsuba 3 (`scalar_rgb`, `path` integrator, `hair` BSDF, {} spp, longest path {MAX_DEPTH}); *noise*: the same between two seeds of the reference. *reference s*: Mitsuba's time for both seeds (as recorded when rendered; `cached` in the CSV says whether this run took them from `--cache`).\n",
         provenance(),
         gpu.describe(),
         o.size.0,
@@ -537,8 +538,10 @@ pub fn run(gpu: &Gpu, o: &Options, out: &Path) -> Result<Report> {
         let name = stem(path);
         // The groom as Kami holds it at frame 0 (the reference is the same for every row).
         let groom = stage::export_scene(gpu, &base, 0)?;
+        // The reference scene (tens of MB of curves) goes beside the cache, not into `out`.
+        let work = o.cache.join(format!("scene_{name}"));
         let xml = write_mitsuba(
-            &out.join(format!("ref_{name}")),
+            &work,
             &base,
             &groom,
             o.size,
@@ -559,9 +562,7 @@ pub fn run(gpu: &Gpu, o: &Options, out: &Path) -> Result<Report> {
             }
             let d = draw(gpu, &scene, o.size, o.frames)?;
             let row = format!("{name}_{}_{sh}", shading.name());
-            let kami = out
-                .join(format!("ref_{name}"))
-                .join(format!("kami_{row}.png"));
+            let kami = work.join(format!("kami_{row}.png"));
             d.image.save(&kami).map_err(|e| KamiError::Image {
                 path: kami.clone(),
                 message: e.to_string(),

@@ -23,6 +23,7 @@ mod guides;
 mod imported;
 mod layers;
 mod lod;
+mod look;
 mod mesh;
 mod mesh_head;
 mod numerics;
