@@ -26,33 +26,7 @@ pub const CELLS: usize = 12;
 pub const D_F: f64 = 0.7;
 pub const D_B: f64 = 0.7;
 
-/// Which shading a scene or a group uses.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-pub enum Shading {
-    /// Anjyo et al. 1992's eqs 8-9 (the paper scenes' look).
-    #[default]
-    Anjyo,
-    /// Chiang et al. 2016's hair BSDF with dual scattering (this module).
-    Physical,
-}
-
-impl Shading {
-    /// From its name on a command line (`anjyo` or `physical`).
-    pub fn parse(s: &str) -> Result<Shading, String> {
-        match s {
-            "anjyo" => Ok(Shading::Anjyo),
-            "physical" => Ok(Shading::Physical),
-            _ => Err(format!("shading must be anjyo or physical, not {s:?}")),
-        }
-    }
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Shading::Anjyo => "anjyo",
-            Shading::Physical => "physical",
-        }
-    }
-}
+pub use crate::scene::Shading;
 
 /// A group's physical look as an artist sets it (Blender's Principled Hair names; a scene's
 /// `physical: Physical(...)`). Without `melanin` the pigments are fit to the group's colour
@@ -88,6 +62,11 @@ impl Default for Physical {
 }
 
 impl Physical {
+    /// All defaults (a scene file then leaves the block out).
+    pub fn is_default(&self) -> bool {
+        *self == Physical::default()
+    }
+
     /// Checks the fields; `at` names the block (`groups[1].material.physical`).
     pub fn validate(&self, at: &str) -> crate::error::Result<()> {
         use crate::scene::validate::{positive, within};
@@ -497,7 +476,7 @@ impl Bsdf {
             for p in 0..=P_MAX {
                 let n = if p < P_MAX {
                     let dphi = phi1[p] - phi0[p];
-                    if dphi.abs() > 1e-4 {
+                    if dphi.abs() > 1e-3 {
                         (self.np_cdf(a.phi - phi0[p]) - self.np_cdf(a.phi - phi1[p])) / dphi
                     } else {
                         self.np(a.phi - mid.phi[p])
@@ -636,7 +615,7 @@ pub fn dual_radiance(b: &Bsdf, d: &DualScattering, a: &Angles, n: f64) -> [f64; 
     let back = (1.0 + a.phi.cos()) / (2.0 * PI) * g / (2.0 * cos_d);
     let direct = (-n).exp();
     std::array::from_fn(|c| {
-        let w = direct + (1.0 - direct) * D_F * d.a_f[c].powf(n);
+        let w = direct + (1.0 - direct) * D_F * (n * d.a_f[c].max(1e-6).ln()).exp();
         w * (s[c] + D_B * d.big_a_b[c] * back)
     })
 }
@@ -698,6 +677,37 @@ impl GpuHairBsdf {
     /// The Anjyo mode's placeholder (the physical fields are never read).
     pub fn anjyo() -> GpuHairBsdf {
         GpuHairBsdf::default()
+    }
+
+    /// The f64 BSDF and dual-scattering constants these f32 values hold (the CPU
+    /// references of the shaders that read this block).
+    pub fn reference(&self) -> (Bsdf, DualScattering) {
+        let d = |x: f32| x as f64;
+        let b = Bsdf {
+            sigma_a: [d(self.sigma_a[0]), d(self.sigma_a[1]), d(self.sigma_a[2])],
+            v: self.v.map(d),
+            s: d(self.misc[3]),
+            sin_2k_alpha: [d(self.tilt[2]), d(self.tilt[0]), d(self.misc[0])],
+            cos_2k_alpha: [d(self.tilt[3]), d(self.tilt[1]), d(self.misc[1])],
+            eta: d(self.misc[2]),
+        };
+        let ds = DualScattering {
+            a_f: [d(self.a_f[0]), d(self.a_f[1]), d(self.a_f[2])],
+            a_b: [0.0; 3],
+            alpha_f: 0.0,
+            beta_f2: d(self.a_f[3]),
+            alpha_b: 0.0,
+            beta_b2: 0.0,
+            big_a_b: std::array::from_fn(|c| d(self.back[c]) / D_B),
+            delta_b: d(self.back[3]),
+            sigma_b2: d(self.ambient[3]),
+        };
+        (b, ds)
+    }
+
+    /// The ambient colour (rgb) and whether the block shades physically.
+    pub fn physical(&self) -> bool {
+        self.sigma_a[3] > 0.5
     }
 }
 

@@ -29,6 +29,7 @@ mod numerics;
 mod scale;
 mod shader_validation;
 mod snapshot;
+mod hair_bsdf;
 mod splat;
 mod stability;
 mod stage;
