@@ -420,6 +420,44 @@ mod tests {
         );
     }
 
+    /// `shading=anjyo|physical` and the physical look's `melanin=`, `redness=` parse, reach
+    /// the scene and are redraws for every kind (no regroom, no restart); bad values are
+    /// refused.
+    #[test]
+    fn set_shading_is_a_redraw() {
+        use crate::scene::Shading;
+        use crate::systems::Change;
+        let fur = Scene::from_ron(include_str!("../../assets/scenes/fur.ron"), "fur.ron").unwrap();
+        for scene in [gust(), fur] {
+            let mut s = ViewerState::new(scene, String::new());
+            let before = s.scene.clone();
+            s.apply_set("shading=physical").unwrap();
+            assert_eq!(s.scene.render.shading, Shading::Physical);
+            for k in crate::systems::KINDS {
+                let c = (k.classify)(&before, &s.scene);
+                assert!(c <= Change::Redraw, "{}: {c:?}", k.name);
+            }
+            assert!(crate::systems::KINDS
+                .iter()
+                .any(|k| (k.classify)(&before, &s.scene) == Change::Redraw));
+            let physical = s.scene.clone();
+            s.apply_set("melanin=0.7").unwrap();
+            s.apply_set("redness=0.3").unwrap();
+            for k in crate::systems::KINDS {
+                assert!((k.classify)(&physical, &s.scene) <= Change::Redraw);
+            }
+            s.apply_set("shading=anjyo").unwrap();
+            assert_eq!(s.scene.render.shading, Shading::Anjyo);
+            let mut bad = vec!["shading=pbr", "shading"];
+            if !s.scene.groups.is_empty() {
+                bad.extend(["melanin=2", "redness=-1"]);
+            }
+            for bad in bad {
+                assert!(s.apply_set(bad).is_err(), "{bad} should be refused");
+            }
+        }
+    }
+
     /// A world force set from the command line on still hair groups sets them moving
     /// (Anjyo's `KindUi::force_set`), and the viewer itself names no kind for it.
     #[test]

@@ -726,8 +726,71 @@ pub fn gpu_block(
 ) -> GpuHairBsdf {
     match resolve(scene, group) {
         Shading::Anjyo => GpuHairBsdf::anjyo(),
-        Shading::Physical => GpuHairBsdf::new(&physical.hair(color), true),
+        Shading::Physical => cached(&physical.hair(color)),
     }
+}
+
+/// `GpuHairBsdf::new(p, true)`, remembered: the dual-scattering integration takes
+/// milliseconds and some kinds write their materials every frame.
+fn cached(p: &HairParams) -> GpuHairBsdf {
+    use std::sync::Mutex;
+    type Key = [u64; 6];
+    static CACHE: Mutex<Vec<(Key, GpuHairBsdf)>> = Mutex::new(Vec::new());
+    let key = [p.eumelanin, p.pheomelanin, p.beta_m, p.beta_n, p.alpha, p.eta].map(f64::to_bits);
+    let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some((_, g)) = cache.iter().find(|(k, _)| *k == key) {
+        return *g;
+    }
+    let g = GpuHairBsdf::new(p, true);
+    // Bounded: a slider drag makes a new entry per step.
+    if cache.len() >= 64 {
+        cache.clear();
+    }
+    cache.push((key, g));
+    g
+}
+
+/// The look panels' shading controls (every kind's): the scene's mode, this group's own
+/// (or the scene's), and, where it shades physically, its melanin, redness and roughness.
+/// Every field is a look: an edit redraws.
+pub fn panel(
+    ui: &mut egui::Ui,
+    scene: &mut Shading,
+    group: &mut Option<Shading>,
+    physical: &mut Physical,
+) {
+    use egui::Slider;
+    ui.horizontal(|ui| {
+        ui.label("scene shading");
+        ui.radio_value(scene, Shading::Anjyo, "Anjyo");
+        ui.radio_value(scene, Shading::Physical, "physical");
+    });
+    ui.horizontal(|ui| {
+        ui.label("this group");
+        ui.radio_value(group, None, "as the scene");
+        ui.radio_value(group, Some(Shading::Anjyo), "Anjyo");
+        ui.radio_value(group, Some(Shading::Physical), "physical");
+    });
+    if resolve(*scene, *group) != Shading::Physical {
+        return;
+    }
+    let mut fit = physical.melanin.is_none();
+    ui.checkbox(&mut fit, "melanin from the colour");
+    if fit {
+        physical.melanin = None;
+    } else {
+        let mut m = physical.melanin.unwrap_or(0.5);
+        ui.add(Slider::new(&mut m, 0.0..=1.0).text("melanin"));
+        physical.melanin = Some(m);
+        ui.add(Slider::new(&mut physical.redness, 0.0..=1.0).text("melanin redness"));
+    }
+    ui.add(Slider::new(&mut physical.roughness, 0.02..=1.0).text("roughness (β_m)"));
+    ui.add(
+        Slider::new(&mut physical.azimuthal_roughness, 0.02..=1.0)
+            .text("azimuthal roughness (β_n)"),
+    );
+    ui.add(Slider::new(&mut physical.tilt, -10.0..=10.0).text("cuticle tilt (degrees)"));
+    ui.add(Slider::new(&mut physical.ior, 1.1..=2.0).text("index of refraction"));
 }
 
 #[cfg(test)]
