@@ -11,6 +11,9 @@
 //! directional light of irradiance E (on a plane facing it) gives: L = E S; it is Mitsuba's
 //! `eval` (PBRT's f |cos theta_light|) averaged over the offset h in [-1, 1].
 
+// Per-channel loops read several per-lobe arrays at once.
+#![allow(clippy::needless_range_loop)]
+
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
@@ -143,7 +146,13 @@ impl HairParams {
     }
 
     pub fn bsdf(&self) -> Bsdf {
-        Bsdf::new(self.sigma_a(), self.beta_m, self.beta_n, self.alpha, self.eta)
+        Bsdf::new(
+            self.sigma_a(),
+            self.beta_m,
+            self.beta_n,
+            self.alpha,
+            self.eta,
+        )
     }
 }
 
@@ -158,7 +167,8 @@ pub fn melanin_concentrations(melanin: f64, redness: f64) -> (f64, f64) {
 /// `beta_n` the multiple-scattered colour `c` (linear rgb); Blender's "direct coloring".
 pub fn direct_color_sigma_a(c: [f64; 3], beta_n: f64) -> [f64; 3] {
     let b = beta_n;
-    let d = 5.969 - 0.215 * b + 2.532 * b * b - 10.73 * b.powi(3) + 5.574 * b.powi(4)
+    let d = 5.969 - 0.215 * b + 2.532 * b * b - 10.73 * b.powi(3)
+        + 5.574 * b.powi(4)
         + 0.245 * b.powi(5);
     c.map(|c| (c.clamp(1e-4, 1.0).ln() / d).powi(2))
 }
@@ -376,9 +386,7 @@ impl Bsdf {
         let a3: [f64; 3] = std::array::from_fn(|i| a2[i] * f * t[i] / (1.0 - t[i] * f));
         Offset {
             a: [a0, a1, a2, a3],
-            phi: std::array::from_fn(|p| {
-                2.0 * p as f64 * gamma_t - 2.0 * gamma_i + p as f64 * PI
-            }),
+            phi: std::array::from_fn(|p| 2.0 * p as f64 * gamma_t - 2.0 * gamma_i + p as f64 * PI),
         }
     }
 
@@ -736,7 +744,15 @@ fn cached(p: &HairParams) -> GpuHairBsdf {
     use std::sync::Mutex;
     type Key = [u64; 6];
     static CACHE: Mutex<Vec<(Key, GpuHairBsdf)>> = Mutex::new(Vec::new());
-    let key = [p.eumelanin, p.pheomelanin, p.beta_m, p.beta_n, p.alpha, p.eta].map(f64::to_bits);
+    let key = [
+        p.eumelanin,
+        p.pheomelanin,
+        p.beta_m,
+        p.beta_n,
+        p.alpha,
+        p.eta,
+    ]
+    .map(f64::to_bits);
     let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
     if let Some((_, g)) = cache.iter().find(|(k, _)| *k == key) {
         return *g;
@@ -859,7 +875,10 @@ mod tests {
             last = t[0].max(t[1]).max(t[2]);
             for (tv, tl, ph) in [(0.3, -0.2, 0.4), (0.0, 0.1, 3.0), (-1.0, 0.8, 1.5)] {
                 let a = Angles::from_angles(tv, tl, ph);
-                let (s, w) = (b.radiance_lobes(&a, 512, ALL), white.radiance_lobes(&a, 512, ALL));
+                let (s, w) = (
+                    b.radiance_lobes(&a, 512, ALL),
+                    white.radiance_lobes(&a, 512, ALL),
+                );
                 assert!((0..3).all(|c| s[c] <= w[c] + 1e-12), "{s:?} > {w:?}");
             }
         }
@@ -880,7 +899,10 @@ mod tests {
             let a = b.radiance_lobes(&Angles::from_angles(t, sign * t, ph), 512, ALL);
             let r = b.radiance_lobes(&Angles::from_angles(sign * t, t, ph), 512, ALL);
             for c in 0..3 {
-                assert!((a[c] - r[c]).abs() <= 1e-9 * a[c].max(1e-9), "{a:?} vs {r:?}");
+                assert!(
+                    (a[c] - r[c]).abs() <= 1e-9 * a[c].max(1e-9),
+                    "{a:?} vs {r:?}"
+                );
             }
         }
         let tilted = HairParams::default().bsdf();
@@ -951,8 +973,15 @@ mod tests {
         assert!(red[0] > 1.5 * red[2], "{red:?}");
         // Blender's mapping and the colour fit.
         assert_eq!(melanin_concentrations(0.0, 0.5), (0.0, 0.0));
-        let (eu, ph) = fit_pigments([1.3 * 0.419 + 0.2 * 0.187, 1.3 * 0.697 + 0.2 * 0.4, 1.3 * 1.37 + 0.2 * 1.05]);
-        assert!((eu - 1.3).abs() < 1e-9 && (ph - 0.2).abs() < 1e-9, "{eu} {ph}");
+        let (eu, ph) = fit_pigments([
+            1.3 * 0.419 + 0.2 * 0.187,
+            1.3 * 0.697 + 0.2 * 0.4,
+            1.3 * 1.37 + 0.2 * 1.05,
+        ]);
+        assert!(
+            (eu - 1.3).abs() < 1e-9 && (ph - 0.2).abs() < 1e-9,
+            "{eu} {ph}"
+        );
     }
 
     /// The dual-scattering constants are attenuations in [0, 1] with a_f + a_b <= 1, small
@@ -981,8 +1010,20 @@ mod tests {
             }
         }
         // Light hair scatters more in both directions than dark hair.
-        let light = DualScattering::new(&HairParams { eumelanin: 0.1, ..HairParams::default() }.bsdf());
-        let dark = DualScattering::new(&HairParams { eumelanin: 2.0, ..HairParams::default() }.bsdf());
+        let light = DualScattering::new(
+            &HairParams {
+                eumelanin: 0.1,
+                ..HairParams::default()
+            }
+            .bsdf(),
+        );
+        let dark = DualScattering::new(
+            &HairParams {
+                eumelanin: 2.0,
+                ..HairParams::default()
+            }
+            .bsdf(),
+        );
         assert!(light.a_f[1] > dark.a_f[1] && light.big_a_b[1] > dark.big_a_b[1]);
         // More fibres in the way leave less light.
         let b = HairParams::default().bsdf();
@@ -996,7 +1037,15 @@ mod tests {
     /// largest on the narrow TRT caustics).
     #[test]
     fn cells_follow_the_reference() {
-        for p in [HairParams::default(), HairParams { eumelanin: 0.2, pheomelanin: 0.1, beta_n: 0.5, ..HairParams::default() }] {
+        for p in [
+            HairParams::default(),
+            HairParams {
+                eumelanin: 0.2,
+                pheomelanin: 0.1,
+                beta_n: 0.5,
+                ..HairParams::default()
+            },
+        ] {
             let b = p.bsdf();
             let mut worst: f64 = 0.0;
             let mut top: f64 = 0.0;

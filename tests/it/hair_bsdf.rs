@@ -5,7 +5,9 @@
 //! value and a floor of 2 % of its material's largest value) is bounded.
 
 use crate::common;
-use kami::systems::hair_bsdf::{dual_radiance, Angles, Bsdf, DualScattering, GpuHairBsdf, HairParams};
+use kami::systems::hair_bsdf::{
+    dual_radiance, Angles, Bsdf, DualScattering, GpuHairBsdf, HairParams,
+};
 
 const ENTRY: &str = "
 @group(0) @binding(0) var<storage, read> mats: array<HairBsdf>;
@@ -55,7 +57,11 @@ fn wgsl_bsdf_matches_the_f64_reference() {
         })
         .collect();
     let mats: Vec<GpuHairBsdf> = params.iter().map(|p| GpuHairBsdf::new(p, true)).collect();
-    let tangents = [[0.0, 1.0, 0.0], unit([0.3, -0.8, 0.5]), unit([1.0, 0.2, -0.1])];
+    let tangents = [
+        [0.0, 1.0, 0.0],
+        unit([0.3, -0.8, 0.5]),
+        unit([1.0, 0.2, -0.1]),
+    ];
     let mut dirs = Vec::new();
     for i in 0..7 {
         let th = -1.3 + 2.6 * i as f64 / 6.0;
@@ -120,8 +126,12 @@ fn wgsl_bsdf_matches_the_f64_reference() {
     let mats_buf = kami::gpu::storage_buffer(dev, "mats", bytemuck::cast_slice(&mats), none);
     let in_buf = kami::gpu::storage_buffer(dev, "in", bytemuck::cast_slice(&input), none);
     let out_bytes = want.len() * 16;
-    let out_buf =
-        kami::gpu::storage_buffer(dev, "out", &vec![0u8; out_bytes], wgpu::BufferUsages::COPY_SRC);
+    let out_buf = kami::gpu::storage_buffer(
+        dev,
+        "out",
+        &vec![0u8; out_bytes],
+        wgpu::BufferUsages::COPY_SRC,
+    );
     let bind = dev.create_bind_group(&wgpu::BindGroupDescriptor {
         label: None,
         layout: &layout,

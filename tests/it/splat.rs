@@ -250,7 +250,11 @@ fn assert_accumulation_agrees(
 #[test]
 fn gpu_accumulation_matches_the_f64_reference() {
     let gpu = common::gpu();
-    for (msaa, shading) in [(1, Shading::Anjyo), (4, Shading::Anjyo), (1, Shading::Physical)] {
+    for (msaa, shading) in [
+        (1, Shading::Anjyo),
+        (4, Shading::Anjyo),
+        (1, Shading::Physical),
+    ] {
         let mut scene = small(false, msaa);
         scene.render.shading = shading;
         let d = draw(gpu, &scene);

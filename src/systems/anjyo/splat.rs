@@ -4,8 +4,8 @@
 //! point. The contract test (`tests/it/splat.rs`) bounds the GPU's worst sample against it.
 
 use super::gpu_data::{GpuLook, GpuMaterial};
-use crate::systems::hair_bsdf;
 use crate::gpu::gpu_data::{GpuFrame, GpuStrand};
+use crate::systems::hair_bsdf;
 use glam::{DMat4, DVec2, DVec3, DVec4};
 
 /// Per sample: sum rgb a wt (3), sum a wt, sum -ln(1 - a); the GPU's words divided by

@@ -354,15 +354,14 @@ impl HairSystem for FurSystem {
                 )
             })
             .collect();
-        self.draw
-            .prepare(
-                gpu,
-                &self.setup,
-                frame,
-                self.width_scale,
-                &self.steps,
-                self.shading,
-            );
+        self.draw.prepare(
+            gpu,
+            &self.setup,
+            frame,
+            self.width_scale,
+            &self.steps,
+            self.shading,
+        );
         Ok(())
     }
 
