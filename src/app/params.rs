@@ -428,7 +428,9 @@ mod tests {
         use crate::scene::Shading;
         use crate::systems::Change;
         let fur = Scene::from_ron(include_str!("../../assets/scenes/fur.ron"), "fur.ron").unwrap();
-        for scene in [gust(), fur] {
+        let strips =
+            Scene::from_ron(include_str!("../../assets/scenes/strips.ron"), "strips.ron").unwrap();
+        for (scene, owner) in [(gust(), "anjyo"), (fur, "fur"), (strips, "strips")] {
             let mut s = ViewerState::new(scene, String::new());
             let before = s.scene.clone();
             s.apply_set("shading=physical").unwrap();
@@ -437,9 +439,12 @@ mod tests {
                 let c = (k.classify)(&before, &s.scene);
                 assert!(c <= Change::Redraw, "{}: {c:?}", k.name);
             }
-            assert!(crate::systems::KINDS
-                .iter()
-                .any(|k| (k.classify)(&before, &s.scene) == Change::Redraw));
+            let kind = crate::systems::KINDS.iter().find(|k| k.name == owner);
+            assert_eq!(
+                (kind.unwrap().classify)(&before, &s.scene),
+                Change::Redraw,
+                "{owner}"
+            );
             let physical = s.scene.clone();
             s.apply_set("melanin=0.7").unwrap();
             s.apply_set("redness=0.3").unwrap();

@@ -1033,8 +1033,8 @@ mod tests {
     }
 
     /// The shaders' fixed-cost form stays close to the reference over a grid of directions
-    /// at the defaults: each value within 10 % of the grid's largest (the cells' error is
-    /// largest on the narrow TRT caustics).
+    /// at the defaults: each value within 8.5 % of the grid's largest (7.7 % measured; the
+    /// cells' error is largest at grazing views).
     #[test]
     fn cells_follow_the_reference() {
         for p in [
@@ -1061,7 +1061,7 @@ mod tests {
                     }
                 }
             }
-            assert!(worst < 0.1 * top, "worst {worst} of {top}");
+            assert!(worst < 0.085 * top, "worst {worst} of {top}");
         }
     }
 }
