@@ -35,7 +35,7 @@ pub use crate::scene::Shading;
 /// `physical: Physical(...)`). Without `melanin` the pigments are fit to the group's colour
 /// (`Physical::hair`).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct Physical {
     /// Melanin 0..1 (Blender's `Melanin`); `None`: fit to the group's colour.
     pub melanin: Option<f64>,
@@ -1030,6 +1030,28 @@ mod tests {
         let a = Angles::from_angles(0.2, -0.1, 2.5);
         let l = [0.0, 1.0, 4.0, 16.0].map(|n| dual_radiance(&b, &light, &a, n)[1]);
         assert!(l.windows(2).all(|w| w[1] < w[0]), "{l:?}");
+    }
+
+    /// The scene blocks parse (every field optional, a misspelt one refused), and values out
+    /// of range are refused naming the field, for each kind's block.
+    #[test]
+    fn scene_blocks_parse_and_bad_values_are_refused() {
+        let p: Physical = ron::from_str("Physical(melanin: Some(0.4), tilt: 3.0)").unwrap();
+        assert_eq!((p.melanin, p.tilt, p.roughness), (Some(0.4), 3.0, 0.3));
+        assert!(ron::from_str::<Physical>("Physical(melanine: Some(0.4))").is_err());
+        let load = |text: &str, name: &str| crate::systems::Scene::from_ron(text, name).unwrap();
+        let mut gust = load(include_str!("../../assets/scenes/gust.ron"), "gust.ron");
+        gust.groups[0].material.physical.melanin = Some(2.0);
+        let e = crate::systems::scene::validate(&gust).unwrap_err().to_string();
+        assert!(e.contains("groups[0].material.physical.melanin"), "{e}");
+        let mut fur = load(include_str!("../../assets/scenes/fur.ron"), "fur.ron");
+        fur.fur.as_mut().unwrap().coats[0].material.physical.ior = 0.9;
+        let e = crate::systems::scene::validate(&fur).unwrap_err().to_string();
+        assert!(e.contains("material.physical.ior"), "{e}");
+        let mut strips = load(include_str!("../../assets/scenes/strips.ron"), "strips.ron");
+        strips.strips.as_mut().unwrap().look.physical.roughness = 0.0;
+        let e = crate::systems::scene::validate(&strips).unwrap_err().to_string();
+        assert!(e.contains("strips.look.physical.roughness"), "{e}");
     }
 
     /// The shaders' fixed-cost form stays close to the reference over a grid of directions
