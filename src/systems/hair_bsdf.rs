@@ -1042,15 +1042,21 @@ mod tests {
         let load = |text: &str, name: &str| crate::systems::Scene::from_ron(text, name).unwrap();
         let mut gust = load(include_str!("../../assets/scenes/gust.ron"), "gust.ron");
         gust.groups[0].material.physical.melanin = Some(2.0);
-        let e = crate::systems::scene::validate(&gust).unwrap_err().to_string();
+        let e = crate::systems::scene::validate(&gust)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("groups[0].material.physical.melanin"), "{e}");
         let mut fur = load(include_str!("../../assets/scenes/fur.ron"), "fur.ron");
         fur.fur.as_mut().unwrap().coats[0].material.physical.ior = 0.9;
-        let e = crate::systems::scene::validate(&fur).unwrap_err().to_string();
+        let e = crate::systems::scene::validate(&fur)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("material.physical.ior"), "{e}");
         let mut strips = load(include_str!("../../assets/scenes/strips.ron"), "strips.ron");
         strips.strips.as_mut().unwrap().look.physical.roughness = 0.0;
-        let e = crate::systems::scene::validate(&strips).unwrap_err().to_string();
+        let e = crate::systems::scene::validate(&strips)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("strips.look.physical.roughness"), "{e}");
     }
 
