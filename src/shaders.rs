@@ -17,6 +17,10 @@ pub(crate) use wgsl;
 /// The head ellipsoid.
 pub const HEAD: &str = wgsl!("common/frame.wgsl", "common/shadow.wgsl", "stage/head.wgsl");
 
+/// The physical shading mode's hair BSDF alone (each kind's shading modules include it; the
+/// contract test `tests/it/hair_bsdf.rs` adds a compute entry point).
+pub const HAIR_BSDF: &str = wgsl!("common/hair_bsdf.wgsl");
+
 /// Supersampling resolve.
 pub const DOWNSAMPLE: &str = wgsl!("stage/downsample.wgsl");
 

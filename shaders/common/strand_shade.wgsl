@@ -1,7 +1,8 @@
 // One node of a drawn strand, as both hair rasterisers see it: the ribbons
 // (anjyo/draw.wgsl) and the compute rasteriser for thin strands (anjyo/splat.wgsl) shade
 // and size a node the same way. Shading is Anjyo's eqs 8-9 per node (the paper colours
-// nodes and interpolates): I = I_a k_a C + I_s k_s (1 - (T.H)^2)^(n/2), with k_a per strand.
+// nodes and interpolates): I = I_a k_a C + I_s k_s (1 - (T.H)^2)^(n/2), with k_a per strand;
+// or, per group, the physical mode of common/hair_bsdf.wgsl.
 // The screen-space level of detail (src/systems/lod.rs) keeps every lod.y-th node (and the
 // last) and widens the fewer strands drawn by lod.x.
 
@@ -14,6 +15,8 @@ struct Material {
     // 1 where the node's own look (`looks`, a strand file's) replaces the above:
     // x colour, y width, z opacity.
     file: vec4<f32>,
+    // The physical mode's parameters (common/hair_bsdf.wgsl); bsdf.sigma_a.w 1 when used.
+    bsdf: HairBsdf,
 }
 
 @group(1) @binding(0) var<storage, read> strands: array<Strand>;
@@ -106,6 +109,15 @@ fn shade_node(s: Strand, n: u32) -> ShadedNode {
     let ambient = frame.light_color.w * s.ka;
     let intensity = frame.light_dir.w;
     var rgb = base * (ambient + intensity * diffuse) + frame.light_color.rgb * (intensity * spec);
+    // The physical mode (docs/shading.md): the key light dual-scattered through the strands
+    // the shadow structure counts, past opaque occluders, plus Kami's ambient (I_a k_a) times
+    // the colour a dense volume of this hair sends back. A strand file's colours are not
+    // read (the group's pigments are).
+    if hair_physical(mat.bsdf) {
+        let f = hair_dual_radiance(mat.bsdf, t, v, l, shadow_strands(p));
+        rgb = frame.light_color.rgb * (intensity * shadow_opaque(p)) * f
+            + mat.bsdf.ambient.rgb * ambient;
+    }
     // The dynamics mark nodes whose segment felt the pseudo-force with w = 2.
     if frame.flags.x > 0.5 && verts[s.first_vertex + n].w > 1.5 {
         rgb = vec3<f32>(0.9, 0.1, 0.05);

@@ -15,6 +15,8 @@ struct FurMaterial {
     specular: vec4<f32>,
     // x normal randomize, y width scale, z node step (ribbons; src/systems/lod.rs)
     extra: vec4<f32>,
+    // The physical mode's parameters (common/hair_bsdf.wgsl); bsdf.sigma_a.w 1 when used.
+    bsdf: HairBsdf,
 }
 
 const STYLE_POLYLINE: u32 = 1u;
@@ -50,6 +52,19 @@ fn shade(m: FurMaterial, n_in: vec3<f32>, p: vec3<f32>) -> vec3<f32> {
     let spec = pow(max(dot(n, h), 0.0), max(m.specular.w, 1.0));
     return m.ambient.rgb * frame.light_color.w
         + frame.light_dir.w * frame.light_color.rgb * (m.diffuse.rgb * diff + m.specular.rgb * spec);
+}
+
+// The coat's shading at a vertex: the paper's GL lighting, or the physical mode
+// (docs/shading.md) from the hair's tangent t, with Kami's ambient times the colour a dense
+// coat of this hair sends back.
+fn shade_hair(m: FurMaterial, n: vec3<f32>, t: vec3<f32>, p: vec3<f32>) -> vec3<f32> {
+    if hair_physical(m.bsdf) {
+        let v = normalize(frame.eye.xyz - p);
+        let f = hair_dual_radiance(m.bsdf, t, v, frame.light_dir.xyz, shadow_strands(p));
+        return frame.light_color.rgb * (frame.light_dir.w * shadow_opaque(p)) * f
+            + m.bsdf.ambient.rgb * frame.light_color.w;
+    }
+    return shade(m, n, p);
 }
 
 fn tangent(s: Strand, n: u32) -> vec3<f32> {
@@ -95,7 +110,7 @@ fn vs_ribbon(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -
     let drawn_px = max(width_px, frame.raster.y);
     let offset = across * (side * drawn_px) * frame.viewport.zw;
     out.pos = vec4<f32>(clip.xy + offset * clip.w, clip.z, clip.w);
-    out.color = vec4<f32>(shade(m, shading_normal(si, s, m, n, t), p), width_px / drawn_px);
+    out.color = vec4<f32>(shade_hair(m, shading_normal(si, s, m, n, t), t, p), width_px / drawn_px);
     out.strand = si;
     return out;
 }
@@ -126,7 +141,7 @@ fn vs_tube(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -> 
     let radius = 0.5 * m.ambient.w * mix(1.0, 0.5, along) * m.extra.y;
     let q = p + radial * radius;
     out.pos = frame.view_proj * vec4<f32>(q, 1.0);
-    out.color = vec4<f32>(shade(m, radial, q), 1.0);
+    out.color = vec4<f32>(shade_hair(m, radial, t, q), 1.0);
     out.strand = si;
     return out;
 }

@@ -38,6 +38,8 @@ struct StripLook {
     look: vec4<f32>,
     // x stride (control point slots per strip)
     counts: vec4<u32>,
+    // The physical mode's parameters (common/hair_bsdf.wgsl); bsdf.sigma_a.w 1 when used.
+    bsdf: HairBsdf,
 }
 
 @group(1) @binding(0) var<storage, read> verts: array<RibbonVertex>;
@@ -53,6 +55,9 @@ struct VOut {
     @location(1) world: vec3<f32>,
     @location(2) tangent: vec3<f32>,
     @location(3) @interpolate(flat) strip: u32,
+    // The physical mode's key light, per control point: light colour x intensity x
+    // dual-scattered radiance factor (zero in Anjyo's shading).
+    @location(4) physical: vec3<f32>,
 }
 
 @vertex
@@ -69,6 +74,17 @@ fn vs(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -> VOut 
     out.world = v.position.xyz;
     out.tangent = v.tangent.xyz;
     out.strip = si;
+    out.physical = vec3<f32>(0.0);
+    if hair_physical(strip_look.bsdf) {
+        // Per vertex, as the other kinds shade per node (docs/shading.md).
+        var t = v.tangent.xyz;
+        let tl2 = dot(t, t);
+        t = select(vec3<f32>(0.0, -1.0, 0.0), t * inverseSqrt(tl2), tl2 > 1e-20);
+        let p = v.position.xyz;
+        let view = normalize(frame.eye.xyz - p);
+        let f = hair_dual_radiance(strip_look.bsdf, t, view, frame.light_dir.xyz, shadow_strands(p));
+        out.physical = frame.light_color.rgb * (frame.light_dir.w * shadow_opaque(p)) * f;
+    }
     return out;
 }
 
@@ -102,7 +118,12 @@ fn strip_color(in: VOut) -> vec4<f32> {
     let spec = strip_look.look.x * pow(max(1.0 - tdh * tdh, 0.0), 0.5 * strip_look.look.y);
     let base = info[in.strip].color.rgb * tex.rgb * strip_look.look.w;
     let intensity = frame.light_dir.w;
-    let rgb = base * (frame.light_color.w + intensity * diffuse) + frame.light_color.rgb * (intensity * spec);
+    var rgb = base * (frame.light_color.w + intensity * diffuse) + frame.light_color.rgb * (intensity * spec);
+    if hair_physical(strip_look.bsdf) {
+        // The pigments' colour instead of the layer's; the texture's gradient kept.
+        rgb = (in.physical + strip_look.bsdf.ambient.rgb * frame.light_color.w) * tex.rgb
+            * strip_look.look.w;
+    }
     return vec4<f32>(rgb, alpha);
 }
 

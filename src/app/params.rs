@@ -221,7 +221,7 @@ impl ViewerState {
     /// first (`KindUi::set`, listed on each kind's implementation), then the viewer's own:
     /// `wind=x,y,z` and `gravity=x,y,z` (the scene's `forces` block; each kind's
     /// `KindUi::force_set` may set its still hair moving), `msaa=1|4`, `supersample=f`,
-    /// `strands=ribbons|compute`, `play=on|off`, `lod=fraction` (fixed, 0..1),
+    /// `strands=ribbons|compute`, `shading=anjyo|physical`, `play=on|off`, `lod=fraction` (fixed, 0..1),
     /// `seek=FRAME`, `save=FILE`, `export=FILE`, and scripted mouse events
     /// `mouse.press=x,y`, `mouse.move=x,y`, `mouse.release` (window pixels; as with the
     /// real mouse, a press no kind's tool takes orbits the camera as it moves).
@@ -263,6 +263,10 @@ impl ViewerState {
                 "strands" => {
                     next.render.strands =
                         crate::scene::StrandRaster::parse(text()?.trim()).map_err(bad)?
+                }
+                "shading" => {
+                    next.render.shading =
+                        crate::scene::Shading::parse(text()?.trim()).map_err(bad)?
                 }
                 "play" => self.host.playing = on()?,
                 "lod" => {
@@ -414,6 +418,49 @@ mod tests {
             s.scene, before,
             "a refused --set leaves the scene as it was"
         );
+    }
+
+    /// `shading=anjyo|physical` and the physical look's `melanin=`, `redness=` parse, reach
+    /// the scene and are redraws for every kind (no regroom, no restart); bad values are
+    /// refused.
+    #[test]
+    fn set_shading_is_a_redraw() {
+        use crate::scene::Shading;
+        use crate::systems::Change;
+        let fur = Scene::from_ron(include_str!("../../assets/scenes/fur.ron"), "fur.ron").unwrap();
+        let strips =
+            Scene::from_ron(include_str!("../../assets/scenes/strips.ron"), "strips.ron").unwrap();
+        for (scene, owner) in [(gust(), "anjyo"), (fur, "fur"), (strips, "strips")] {
+            let mut s = ViewerState::new(scene, String::new());
+            let before = s.scene.clone();
+            s.apply_set("shading=physical").unwrap();
+            assert_eq!(s.scene.render.shading, Shading::Physical);
+            for k in crate::systems::KINDS {
+                let c = (k.classify)(&before, &s.scene);
+                assert!(c <= Change::Redraw, "{}: {c:?}", k.name);
+            }
+            let kind = crate::systems::KINDS.iter().find(|k| k.name == owner);
+            assert_eq!(
+                (kind.unwrap().classify)(&before, &s.scene),
+                Change::Redraw,
+                "{owner}"
+            );
+            let physical = s.scene.clone();
+            s.apply_set("melanin=0.7").unwrap();
+            s.apply_set("redness=0.3").unwrap();
+            for k in crate::systems::KINDS {
+                assert!((k.classify)(&physical, &s.scene) <= Change::Redraw);
+            }
+            s.apply_set("shading=anjyo").unwrap();
+            assert_eq!(s.scene.render.shading, Shading::Anjyo);
+            let mut bad = vec!["shading=pbr", "shading"];
+            if !s.scene.groups.is_empty() {
+                bad.extend(["melanin=2", "redness=-1"]);
+            }
+            for bad in bad {
+                assert!(s.apply_set(bad).is_err(), "{bad} should be refused");
+            }
+        }
     }
 
     /// A world force set from the command line on still hair groups sets them moving

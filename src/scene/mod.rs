@@ -232,6 +232,34 @@ pub struct RenderSettings {
     /// How strand hair (the Anjyo groups) is rasterised.
     #[serde(default)]
     pub strands: StrandRaster,
+    /// How hair is shaded where a group does not choose (`docs/shading.md`).
+    #[serde(default, skip_serializing_if = "Shading::is_anjyo")]
+    pub shading: Shading,
+}
+
+/// How hair is shaded: per scene (`render.shading`), per group (each kind's look).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Shading {
+    /// Anjyo et al. 1992's eqs 8-9 (the paper scenes' look).
+    #[default]
+    Anjyo,
+    /// Chiang et al. 2016's hair BSDF with dual scattering (`systems::hair_bsdf`).
+    Physical,
+}
+
+impl Shading {
+    /// From its name on a command line (`anjyo` or `physical`).
+    pub fn parse(s: &str) -> std::result::Result<Shading, String> {
+        match s {
+            "anjyo" => Ok(Shading::Anjyo),
+            "physical" => Ok(Shading::Physical),
+            _ => Err(format!("shading must be anjyo or physical, not {s:?}")),
+        }
+    }
+
+    pub fn is_anjyo(&self) -> bool {
+        *self == Shading::Anjyo
+    }
 }
 
 /// How strand hair is rasterised.
@@ -287,6 +315,7 @@ impl Default for RenderSettings {
             min_width: default_min_width(),
             lod_tolerance_px: default_lod_tolerance_px(),
             strands: StrandRaster::default(),
+            shading: Shading::default(),
         }
     }
 }

@@ -14,6 +14,7 @@
 
 pub mod anjyo;
 pub mod fur;
+pub mod hair_bsdf;
 pub mod lod;
 pub mod scene;
 pub mod strips;

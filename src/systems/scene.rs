@@ -242,6 +242,7 @@ pub fn merge_edits(base: &Scene, ours: &Scene, theirs: Scene) -> Scene {
         min_width,
         lod_tolerance_px,
         strands,
+        shading,
     } = render;
     let (b, o) = (base, ours);
     Scene {
@@ -275,6 +276,7 @@ pub fn merge_edits(base: &Scene, ours: &Scene, theirs: Scene) -> Scene {
                 lod_tolerance_px,
             ),
             strands: pick(&b.render.strands, &o.render.strands, strands),
+            shading: pick(&b.render.shading, &o.render.shading, shading),
         },
         dynamics: pick(&b.dynamics, &o.dynamics, dynamics),
         fur: pick(&b.fur, &o.fur, fur),

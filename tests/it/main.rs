@@ -20,6 +20,7 @@ mod fur;
 mod fur_skinned;
 mod fuzz;
 mod guides;
+mod hair_bsdf;
 mod imported;
 mod layers;
 mod lod;

@@ -6,7 +6,7 @@
 use crate::common;
 
 use kami::gpu::gpu_data::GpuStrand;
-use kami::scene::StrandRaster;
+use kami::scene::{Shading, StrandRaster};
 use kami::stage::{splat as target_splat, target, Quality, Stage};
 use kami::systems::anjyo::gpu_data::GpuMaterial;
 use kami::systems::anjyo::{self, splat, AnjyoSystem};
@@ -245,12 +245,18 @@ fn assert_accumulation_agrees(
 
 /// Sample by sample, every word of the GPU's accumulation is the f64 reference's within
 /// 0.5 % relative plus the fixed-point rounding of the hairs that add to it
-/// (`ROUNDING_UNITS`, a few thousandths for the faintest words), over single-sampled and multisampled targets.
+/// (`ROUNDING_UNITS`, a few thousandths for the faintest words), over single-sampled and
+/// multisampled targets, in Anjyo's shading and in the physical mode.
 #[test]
 fn gpu_accumulation_matches_the_f64_reference() {
     let gpu = common::gpu();
-    for msaa in [1, 4] {
-        let scene = small(false, msaa);
+    for (msaa, shading) in [
+        (1, Shading::Anjyo),
+        (4, Shading::Anjyo),
+        (1, Shading::Physical),
+    ] {
+        let mut scene = small(false, msaa);
+        scene.render.shading = shading;
         let d = draw(gpu, &scene);
         if msaa > 1 && gpu.info.backend == wgpu::Backend::Gl {
             // Not over MSAA targets on GL (StrandsPass::can_splat): the ribbons draw.
@@ -259,7 +265,8 @@ fn gpu_accumulation_matches_the_f64_reference() {
         }
         let got = gpu_samples(gpu, &d.stage);
         let want = reference(gpu, &d.stage, &scene, None);
-        let covered = assert_accumulation_agrees(&format!("MSAA {msaa}"), &got, &want, &want);
+        let covered =
+            assert_accumulation_agrees(&format!("MSAA {msaa} {shading:?}"), &got, &want, &want);
         // The hair is on screen: a good share of the image is covered.
         assert!(covered > 2000, "only {covered} samples covered");
     }

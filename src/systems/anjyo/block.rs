@@ -438,6 +438,15 @@ pub struct Material {
     /// Width at the tip relative to the root.
     #[serde(default = "default_tip")]
     pub tip_width: f64,
+    /// This group's shading; unset follows the scene's `render.shading`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shading: Option<crate::scene::Shading>,
+    /// The physical mode's look (melanin, roughness, ...; `docs/shading.md`).
+    #[serde(
+        default,
+        skip_serializing_if = "crate::systems::hair_bsdf::Physical::is_default"
+    )]
+    pub physical: crate::systems::hair_bsdf::Physical,
 }
 
 fn default_hair() -> [f32; 3] {
@@ -473,6 +482,8 @@ impl Default for Material {
             kd: 0.0,
             width: default_width(),
             tip_width: default_tip(),
+            shading: None,
+            physical: Default::default(),
         }
     }
 }
@@ -986,5 +997,6 @@ fn material(mp: &str, m: &Material) -> Result<()> {
     within(&format!("{mp}.kd"), m.kd, 0.0, 10.0)?;
     positive(&format!("{mp}.width"), m.width, 1e3)?;
     within(&format!("{mp}.tip_width"), m.tip_width, 0.0, 1.0)?;
+    m.physical.validate(&format!("{mp}.physical"))?;
     Ok(())
 }

@@ -62,7 +62,8 @@ struct Bound {
 }
 
 impl GpuMaterial {
-    pub fn from_material(m: &Material) -> GpuMaterial {
+    /// A group's look; `shading` is the scene's (the group's own overrides it).
+    pub fn from_material(m: &Material, shading: crate::scene::Shading) -> GpuMaterial {
         let c = linear_rgb(m.color);
         GpuMaterial {
             color_ks: [c[0], c[1], c[2], m.ks as f32],
@@ -73,6 +74,7 @@ impl GpuMaterial {
                 m.tip_width as f32,
             ],
             file: [0.0; 4],
+            bsdf: crate::systems::hair_bsdf::gpu_block(shading, m.shading, &m.physical, m.color),
         }
     }
 }

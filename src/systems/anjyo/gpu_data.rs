@@ -86,8 +86,10 @@ pub struct GpuMaterial {
     /// What the node looks (`GpuLook`) give instead of the above, 1 or 0: x colours,
     /// y widths, z opacities (a strand file's own, `block::StrandFile`).
     pub file: [f32; 4],
+    /// The physical shading mode's parameters (`bsdf.sigma_a[3]` 1 when the group uses it).
+    pub bsdf: crate::systems::hair_bsdf::GpuHairBsdf,
 }
-assert_size!(GpuMaterial, 48);
+assert_size!(GpuMaterial, 160);
 
 /// A node's own look, from a strand file. Keep in sync with `looks` in
 /// `shaders/common/strand_shade.wgsl`.

@@ -72,6 +72,7 @@ pub const DRAW: &str = wgsl!(
     "common/shadow.wgsl",
     "common/random.wgsl",
     "common/coverage.wgsl",
+    "common/hair_bsdf.wgsl",
     "common/strand_shade.wgsl",
     "anjyo/draw.wgsl",
 );
@@ -82,6 +83,7 @@ pub const SPLAT: &str = wgsl!(
     "common/strands.wgsl",
     "common/frame.wgsl",
     "common/shadow.wgsl",
+    "common/hair_bsdf.wgsl",
     "common/strand_shade.wgsl",
     "anjyo/splat.wgsl",
 );
@@ -92,6 +94,7 @@ pub const SPLAT_MSAA: &str = wgsl!(
     "common/strands.wgsl",
     "common/frame.wgsl",
     "common/shadow.wgsl",
+    "common/hair_bsdf.wgsl",
     "common/strand_shade.wgsl",
     "anjyo/splat.wgsl",
 );
@@ -275,7 +278,7 @@ pub fn materials(scene: &Scene) -> Vec<GpuMaterial> {
         .groups
         .iter()
         .map(|g| {
-            let mut m = GpuMaterial::from_material(&g.material);
+            let mut m = GpuMaterial::from_material(&g.material, scene.render.shading);
             m.file = file_look(g).map(|b| b as u32 as f32);
             m
         })
@@ -339,7 +342,10 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
         Change::Rebuild
     } else if old.dynamics != new.dynamics || (new.dynamics.is_some() && world(old) != world(new)) {
         Change::Resimulate
-    } else if looks(old) != looks(new) || old.render.strands != new.render.strands {
+    } else if looks(old) != looks(new)
+        || old.render.strands != new.render.strands
+        || old.render.shading != new.render.shading
+    {
         Change::Redraw
     } else {
         Change::None

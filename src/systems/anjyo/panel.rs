@@ -59,7 +59,8 @@ impl KindUi for AnjyoUi {
         }
     }
 
-    /// `color=r,g,b`, `width=w`, `ks=k`, `shininess=n`, `rigidity=EI` (every group),
+    /// `color=r,g,b`, `width=w`, `ks=k`, `shininess=n`, `melanin=m`, `redness=r` (the
+    /// physical mode's, `docs/shading.md`), `rigidity=EI` (every group),
     /// `file_colors=on|off`, `file_widths=on|off` (groups read from strand files),
     /// `stiffness=root,tip`, `damping=rate`, `pseudo=on|off`.
     fn set(
@@ -85,6 +86,8 @@ impl KindUi for AnjyoUi {
             "width" => groups(&|g, v| g.material.width = v, scene),
             "ks" => groups(&|g, v| g.material.ks = v, scene),
             "shininess" => groups(&|g, v| g.material.shininess = v, scene),
+            "melanin" => groups(&|g, v| g.material.physical.melanin = Some(v), scene),
+            "redness" => groups(&|g, v| g.material.physical.redness = v, scene),
             "rigidity" => groups(&|g, v| g.rigidity = v, scene),
             "file_colors" | "file_widths" => ui::on(value).map(|on| {
                 for f in scene.groups.iter_mut().filter_map(|g| g.file.as_mut()) {
@@ -347,6 +350,7 @@ fn look(ui: &mut Ui, cx: &mut PanelCx) {
     ui.add(Slider::new(&mut m.kd, 0.0..=1.0).text("k_d (diffuse)"));
     ui.add(Slider::new(&mut m.ka, 0.0..=3.0).text("k_a mean"));
     ui.add(Slider::new(&mut m.ka_spread, 0.0..=1.0).text("k_a spread (per strand)"));
+    crate::systems::hair_bsdf::panel(ui, &mut s.render.shading, &mut m.shading, &mut m.physical);
     if ui.small_button("use this look for every group").clicked() {
         let m = m.clone();
         s.groups.iter_mut().for_each(|g| g.material = m.clone());

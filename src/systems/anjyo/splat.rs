@@ -5,6 +5,7 @@
 
 use super::gpu_data::{GpuLook, GpuMaterial};
 use crate::gpu::gpu_data::{GpuFrame, GpuStrand};
+use crate::systems::hair_bsdf;
 use glam::{DMat4, DVec2, DVec3, DVec4};
 
 /// Per sample: sum rgb a wt (3), sum a wt, sum -ln(1 - a); the GPU's words divided by
@@ -130,6 +131,16 @@ impl Input<'_> {
         let intensity = f.light_dir[3] as f64;
         let mut rgb =
             base * (ambient + intensity * diffuse) + v3(f.light_color) * (intensity * spec);
+        if mat.bsdf.physical() {
+            // The physical mode, with the shadow structure's stub values (no strands in the
+            // way, lit).
+            let (b, d) = mat.bsdf.reference();
+            let a = hair_bsdf::Angles::new(v.to_array(), l.to_array(), t.to_array());
+            let s = hair_bsdf::dual_radiance(&b, &d, &a, 0.0);
+            let amb = mat.bsdf.ambient;
+            rgb = v3(f.light_color) * intensity * DVec3::from_array(s)
+                + DVec3::new(amb[0] as f64, amb[1] as f64, amb[2] as f64) * ambient;
+        }
         if f.flags[0] > 0.5 && self.verts[(s.first_vertex + n) as usize][3] > 1.5 {
             rgb = DVec3::new(0.9, 0.1, 0.05);
         }
@@ -324,6 +335,7 @@ mod tests {
             color_ks: [0.5, 0.25, 0.125, 0.0],
             params: [1.0, 0.0, width, 1.0],
             file: [0.0; 4],
+            bsdf: Default::default(),
         };
         (s, verts, m)
     }

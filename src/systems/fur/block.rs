@@ -153,6 +153,16 @@ pub struct FurMaterial {
     /// Hair width (world units) at the root; the tip is half as wide.
     #[serde(default = "width")]
     pub width: f64,
+    /// This coat's shading; unset follows the scene's `render.shading`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shading: Option<crate::scene::Shading>,
+    /// The physical mode's look (`docs/shading.md`); without melanin the pigments are fit
+    /// to `diffuse`.
+    #[serde(
+        default,
+        skip_serializing_if = "crate::systems::hair_bsdf::Physical::is_default"
+    )]
+    pub physical: crate::systems::hair_bsdf::Physical,
 }
 
 fn width() -> f64 {
@@ -168,6 +178,8 @@ impl Default for FurMaterial {
             specular: [0.6, 0.6, 0.6],
             shininess: 16.0,
             width: width(),
+            shading: None,
+            physical: Default::default(),
         }
     }
 }
@@ -324,6 +336,7 @@ fn validate_fur(f: &Fur) -> Result<()> {
             10000.0,
         )?;
         positive(&format!("{p}.material.width"), m.width, BIG)?;
+        m.physical.validate(&format!("{p}.material.physical"))?;
     }
     // Overlapping regions multiply their length scales: bound the longest hair that can
     // result, or it overflows f32 on the GPU (64 regions of scale 100 alone give 1e128).

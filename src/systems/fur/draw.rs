@@ -37,8 +37,14 @@ struct Bound {
 }
 
 /// The coat materials for the GPU; `width_scale` widens hair when culling draws fewer.
-/// `steps[coat]`: the screen-space level of detail's node step (ribbons; missing = 1).
-pub fn fur_materials(setup: &FurSetup, width_scale: f64, steps: &[u32]) -> Vec<GpuFurMaterial> {
+/// `steps[coat]`: the screen-space level of detail's node step (ribbons; missing = 1);
+/// `shading`: the scene's (a coat's own overrides it).
+pub fn fur_materials(
+    setup: &FurSetup,
+    width_scale: f64,
+    steps: &[u32],
+    shading: crate::scene::Shading,
+) -> Vec<GpuFurMaterial> {
     setup
         .fur
         .coats
@@ -62,6 +68,12 @@ pub fn fur_materials(setup: &FurSetup, width_scale: f64, steps: &[u32]) -> Vec<G
                     step as f32,
                     0.0,
                 ],
+                bsdf: crate::systems::hair_bsdf::gpu_block(
+                    shading,
+                    m.shading,
+                    &m.physical,
+                    m.diffuse,
+                ),
             }
         })
         .collect()
@@ -206,7 +218,7 @@ impl FurPass {
         let materials = gpu::storage_buffer(
             device,
             "fur materials",
-            bytemuck::cast_slice(&fur_materials(setup, 1.0, &[])),
+            bytemuck::cast_slice(&fur_materials(setup, 1.0, &[], Default::default())),
             wgpu::BufferUsages::empty(),
         );
         let skin = device.create_buffer(&wgpu::BufferDescriptor {
@@ -261,12 +273,13 @@ impl FurPass {
         frame: f64,
         width_scale: f64,
         steps: &[u32],
+        shading: crate::scene::Shading,
     ) {
         if let Some(b) = &self.bound {
             gpu.queue.write_buffer(
                 &b.materials,
                 0,
-                bytemuck::cast_slice(&fur_materials(setup, width_scale, steps)),
+                bytemuck::cast_slice(&fur_materials(setup, width_scale, steps, shading)),
             );
             gpu.queue.write_buffer(
                 &b.skin,

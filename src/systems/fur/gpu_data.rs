@@ -49,8 +49,10 @@ pub struct GpuFurMaterial {
     pub specular: [f32; 4],
     /// x: normal randomize (share of 180 degrees), y: width scale (culling).
     pub extra: [f32; 4],
+    /// The physical shading mode's parameters (`bsdf.sigma_a[3]` 1 when the coat uses it).
+    pub bsdf: crate::systems::hair_bsdf::GpuHairBsdf,
 }
-assert_size!(GpuFurMaterial, 64);
+assert_size!(GpuFurMaterial, 176);
 
 /// The fur mesh's skin. Keep in sync with `struct Skin` in `shaders/fur/skin.wgsl`.
 #[repr(C)]

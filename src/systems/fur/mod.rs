@@ -45,6 +45,7 @@ pub const DRAW: &str = wgsl!(
     "common/shadow.wgsl",
     "common/random.wgsl",
     "common/coverage.wgsl",
+    "common/hair_bsdf.wgsl",
     "fur/draw.wgsl",
 );
 
@@ -160,7 +161,7 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
     };
     if shape(old) != shape(new) {
         Change::Rebuild
-    } else if old.fur != new.fur {
+    } else if old.fur != new.fur || old.render.shading != new.render.shading {
         Change::Redraw
     } else {
         Change::None
@@ -184,6 +185,8 @@ pub struct FurSystem {
     last_gen: Option<GenKey>,
     /// Generations recorded since the system was built.
     pub generations: u64,
+    /// The scene's shading (a coat's own overrides it).
+    pub shading: crate::scene::Shading,
 }
 
 /// The inputs of a generation: the frame (only when the mesh moves) and the culling factor
@@ -250,6 +253,7 @@ impl FurSystem {
             compensate_width: true,
             last_gen: None,
             generations: 0,
+            shading: scene.render.shading,
         })
     }
 
@@ -350,8 +354,14 @@ impl HairSystem for FurSystem {
                 )
             })
             .collect();
-        self.draw
-            .prepare(gpu, &self.setup, frame, self.width_scale, &self.steps);
+        self.draw.prepare(
+            gpu,
+            &self.setup,
+            frame,
+            self.width_scale,
+            &self.steps,
+            self.shading,
+        );
         Ok(())
     }
 
@@ -381,6 +391,7 @@ impl HairSystem for FurSystem {
             }
             self.setup.fur.skin = f.skin;
         }
+        self.shading = scene.render.shading;
         Ok(())
     }
 

@@ -114,6 +114,7 @@ fn fur_regions(ui: &mut Ui, f: &mut crate::systems::fur::block::Fur) {
 
 fn fur(ui: &mut Ui, cx: &mut PanelCx) {
     use crate::systems::fur::block::{Coat, FurMaterial, FurStyle};
+    let scene_shading = &mut cx.scene.render.shading;
     let Some(f) = cx.scene.fur.as_mut() else {
         ui.label("this scene has no fur");
         if ui.button("Add fur on the critter").clicked() {
@@ -204,6 +205,12 @@ fn fur(ui: &mut Ui, cx: &mut PanelCx) {
                     Slider::new(&mut m.width, 0.0005..=0.05)
                         .logarithmic(true)
                         .text("width"),
+                );
+                crate::systems::hair_bsdf::panel(
+                    ui,
+                    scene_shading,
+                    &mut m.shading,
+                    &mut m.physical,
                 );
                 if n > 1 && ui.small_button("remove coat").clicked() {
                     remove = Some(i);

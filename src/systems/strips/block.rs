@@ -188,6 +188,16 @@ pub struct Look {
     /// Specular strength and exponent of the anisotropic highlight along the strip.
     #[serde(default = "default_specular")]
     pub specular: [f32; 2],
+    /// The strips' shading; unset follows the scene's `render.shading`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub shading: Option<crate::scene::Shading>,
+    /// The physical mode's look (`docs/shading.md`); without melanin the pigments are fit
+    /// to the layers' mean colour.
+    #[serde(
+        default,
+        skip_serializing_if = "crate::systems::hair_bsdf::Physical::is_default"
+    )]
+    pub physical: crate::systems::hair_bsdf::Physical,
 }
 
 fn default_hairs() -> u32 {
@@ -210,6 +220,8 @@ impl Default for Look {
             tip_shade: default_tip(),
             alpha_cutoff: default_cutoff(),
             specular: default_specular(),
+            shading: None,
+            physical: Default::default(),
         }
     }
 }
@@ -340,6 +352,7 @@ fn validate_strips(st: &Strips) -> Result<()> {
     within("strips.look.alpha_cutoff", l.alpha_cutoff as f64, 0.0, 1.0)?;
     within("strips.look.specular[0]", l.specular[0] as f64, 0.0, 10.0)?;
     within("strips.look.specular[1]", l.specular[1] as f64, 1.0, 4096.0)?;
+    l.physical.validate("strips.look.physical")?;
     if st.edits.len() > MAX_STRIP_EDITS {
         return Err(bad(
             "strips.edits",

@@ -182,7 +182,7 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
     if a.motion != b.motion || a.edits != b.edits || old.forces != new.forces {
         return Change::Resimulate;
     }
-    if a.look != b.look {
+    if a.look != b.look || old.render.shading != new.render.shading {
         Change::Redraw
     } else {
         Change::None
@@ -222,7 +222,7 @@ impl StripsSystem {
         let eff = EffGpu::new(gpu, forces.eff.as_deref())?;
         let mut dynamics = dynamics_gpu::DynamicsGpu::new(gpu, &rig, &strips.motion, &head, &eff)?;
         dynamics.set_extra(gpu, &solved.iter().map(|s| s.extra).collect::<Vec<_>>())?;
-        let ribbon = RibbonPass::new(
+        let mut ribbon = RibbonPass::new(
             gpu,
             &rest,
             rig.stride(),
@@ -231,6 +231,10 @@ impl StripsSystem {
             setup.format,
             setup.samples,
         )?;
+        if !scene.render.shading.is_anjyo() {
+            ribbon.set_shading(scene.render.shading);
+            ribbon.write_look(gpu, &strips.look)?;
+        }
         let reach = strips
             .layers
             .iter()
@@ -321,6 +325,7 @@ impl HairSystem for StripsSystem {
         };
         match change {
             Change::Redraw => {
+                self.ribbon.set_shading(scene.render.shading);
                 self.ribbon.write_look(gpu, &st.look)?;
             }
             Change::Resimulate => {
@@ -341,6 +346,7 @@ impl HairSystem for StripsSystem {
                 self.dynamics.update_params(gpu, &st.motion, &scene.head);
                 self.solved = solved;
                 self.dynamics.set_extra(gpu, &extra)?;
+                self.ribbon.set_shading(scene.render.shading);
                 self.ribbon.write_look(gpu, &st.look)?;
             }
             _ => {}

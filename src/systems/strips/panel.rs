@@ -16,6 +16,7 @@ use egui::{Color32, ComboBox, DragValue, Slider, Ui};
 use glam::DVec3;
 
 pub fn strips(ui: &mut Ui, cx: &mut PanelCx) {
+    let shading = &mut cx.scene.render.shading;
     let Some(st) = cx.scene.strips.as_mut() else {
         ui.label("this scene has no strips");
         return;
@@ -25,6 +26,8 @@ pub fn strips(ui: &mut Ui, cx: &mut PanelCx) {
     layers(ui, st);
     ui.separator();
     look(ui, st);
+    let k = &mut st.look;
+    crate::systems::hair_bsdf::panel(ui, shading, &mut k.shading, &mut k.physical);
 }
 
 fn motion(ui: &mut Ui, st: &mut Strips) {

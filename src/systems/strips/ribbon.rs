@@ -44,6 +44,7 @@ pub const DRAW: &str = wgsl!(
     "common/shadow.wgsl",
     "common/random.wgsl",
     "common/coverage.wgsl",
+    "common/hair_bsdf.wgsl",
     "strips/draw.wgsl"
 );
 
@@ -99,8 +100,10 @@ pub struct GpuStripLook {
     pub look: [f32; 4],
     /// x: stride (control point slots per strip); y, z, w: unused.
     pub counts: [u32; 4],
+    /// The physical shading mode's parameters (`bsdf.sigma_a[3]` 1 when the strips use it).
+    pub bsdf: crate::systems::hair_bsdf::GpuHairBsdf,
 }
-const _: () = assert!(std::mem::size_of::<GpuStripLook>() == 32);
+const _: () = assert!(std::mem::size_of::<GpuStripLook>() == 144);
 
 /// One strip as the f64 reference reads it (the same numbers as `GpuStripInfo`).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -278,8 +281,16 @@ fn runs(info: &[StripInfo]) -> Vec<(u32, u32, u32)> {
     runs
 }
 
-fn look_uniform(look: &Look, stride: u32) -> GpuStripLook {
+/// `shading`: the scene's (the look's own overrides it); `color`: the layers' mean, the
+/// pigments' fit when the look sets no melanin.
+fn look_uniform(
+    look: &Look,
+    stride: u32,
+    shading: crate::scene::Shading,
+    color: [f32; 3],
+) -> GpuStripLook {
     GpuStripLook {
+        bsdf: crate::systems::hair_bsdf::gpu_block(shading, look.shading, &look.physical, color),
         look: [
             look.specular[0],
             look.specular[1],
@@ -313,9 +324,26 @@ pub struct RibbonPass {
     look_buffer: wgpu::Buffer,
     texture: StrandTexture,
     look: Look,
+    /// The scene's shading (`set_shading`) and the layers' mean colour (the pigments' fit).
+    shading: crate::scene::Shading,
+    fit_color: [f32; 3],
+}
+
+/// The mean of the strips' colours (grey without strips).
+fn mean_color(rest: &[RestStrip]) -> [f32; 3] {
+    if rest.is_empty() {
+        return [0.5; 3];
+    }
+    let n = rest.len() as f32;
+    std::array::from_fn(|c| rest.iter().map(|s| s.color[c]).sum::<f32>() / n)
 }
 
 impl RibbonPass {
+    /// The scene's shading, taken by the next `write_look`.
+    pub fn set_shading(&mut self, shading: crate::scene::Shading) {
+        self.shading = shading;
+    }
+
     /// Passes for the ribbons of `rest` (points read with `stride` slots per strip), drawn
     /// with `look` into `format` targets of `samples` samples; `frame_layout` is the
     /// shared group 0.
@@ -438,7 +466,12 @@ impl RibbonPass {
         gpu.queue.write_buffer(
             &look_buffer,
             0,
-            bytemuck::bytes_of(&look_uniform(look, stride as u32)),
+            bytemuck::bytes_of(&look_uniform(
+                look,
+                stride as u32,
+                Default::default(),
+                mean_color(rest),
+            )),
         );
         let texture = texture::upload(gpu, look)?;
         let draw_bind_group = Self::draw_bind_group(
@@ -470,6 +503,8 @@ impl RibbonPass {
             look_buffer,
             texture,
             look: look.clone(),
+            shading: Default::default(),
+            fit_color: mean_color(rest),
         };
         me.set_head(gpu, &DMat4::IDENTITY);
         Ok(me)
@@ -630,7 +665,12 @@ impl RibbonPass {
         gpu.queue.write_buffer(
             &self.look_buffer,
             0,
-            bytemuck::bytes_of(&look_uniform(look, self.stride)),
+            bytemuck::bytes_of(&look_uniform(
+                look,
+                self.stride,
+                self.shading,
+                self.fit_color,
+            )),
         );
         self.look = look.clone();
         Ok(())

@@ -1,0 +1,190 @@
+// The physical shading mode's hair BSDF (docs/shading.md): Chiang et al. 2016 as Mitsuba 3's
+// `hair` plugin has it, in the fixed-cost far-field form of `Bsdf::radiance_cells` and with
+// the dual scattering of `hair_bsdf::dual_radiance` (src/systems/hair_bsdf.rs, the f64
+// reference this must match; tests/it/hair_bsdf.rs bounds the difference). Evaluated per
+// node, never per fragment; every loop has a constant bound.
+
+// Keep in sync with GpuHairBsdf in src/systems/hair_bsdf.rs.
+struct HairBsdf {
+    // rgb sigma_a; w 1 to shade physically
+    sigma_a: vec4<f32>,
+    // longitudinal variances of R, TT, TRT, the rest
+    v: vec4<f32>,
+    // sin 2a, cos 2a, sin a, cos a
+    tilt: vec4<f32>,
+    // sin 4a, cos 4a, eta, logistic scale s
+    misc: vec4<f32>,
+    // rgb a_f; w beta_f^2
+    a_f: vec4<f32>,
+    // rgb d_b A_b; w Delta_b
+    back: vec4<f32>,
+    // rgb ambient colour; w sigma_b^2
+    ambient: vec4<f32>,
+}
+
+const HAIR_PI: f32 = 3.14159265358979;
+// Keep equal to CELLS in src/systems/hair_bsdf.rs.
+const HAIR_CELLS: u32 = 12u;
+
+fn hair_physical(b: HairBsdf) -> bool {
+    return b.sigma_a.w > 0.5;
+}
+
+fn hair_log_i0(x: f32) -> f32 {
+    if x > 12.0 {
+        let r = 1.0 / x;
+        return x - 0.5 * log(2.0 * HAIR_PI * x)
+            + log(1.0 + r / 8.0 + 9.0 * r * r / 128.0 + 225.0 * r * r * r / 3072.0);
+    }
+    let q = x * x * 0.25;
+    var term = 1.0;
+    var sum = 1.0;
+    for (var k = 1u; k < 28u; k++) {
+        term *= q / f32(k * k);
+        sum += term;
+    }
+    return log(sum);
+}
+
+fn hair_mp(sin_i: f32, cos_i: f32, sin_o: f32, cos_o: f32, v: f32) -> f32 {
+    let k = 1.0 / v;
+    let norm = log(k) - k - log(1.0 - exp(-2.0 * k));
+    return exp(norm - sin_i * sin_o * k + hair_log_i0(cos_i * cos_o * k));
+}
+
+fn hair_fresnel(cos_i: f32, eta: f32) -> f32 {
+    let c = clamp(cos_i, 0.0, 1.0);
+    let s2 = (1.0 - c * c) / (eta * eta);
+    if s2 >= 1.0 {
+        return 1.0;
+    }
+    let ct = sqrt(1.0 - s2);
+    let rs = (c - eta * ct) / (c + eta * ct);
+    let rp = (eta * c - ct) / (eta * c + ct);
+    return 0.5 * (rs * rs + rp * rp);
+}
+
+fn hair_wrap(x: f32) -> f32 {
+    return x - 2.0 * HAIR_PI * floor((x + HAIR_PI) / (2.0 * HAIR_PI));
+}
+
+fn hair_logistic(x: f32, s: f32) -> f32 {
+    let e = exp(-abs(x) / s);
+    return e / (s * (1.0 + e) * (1.0 + e));
+}
+
+fn hair_logistic_cdf(x: f32, s: f32) -> f32 {
+    return 1.0 / (1.0 + exp(-x / s));
+}
+
+fn hair_np(x: f32, s: f32) -> f32 {
+    let k = hair_logistic_cdf(HAIR_PI, s) - hair_logistic_cdf(-HAIR_PI, s);
+    return hair_logistic(hair_wrap(x), s) / k;
+}
+
+// The periodic integral of the normalised trimmed logistic from -pi to x.
+fn hair_np_cdf(x: f32, s: f32) -> f32 {
+    let w = hair_wrap(x);
+    let turns = round((x - w) / (2.0 * HAIR_PI));
+    let lo = hair_logistic_cdf(-HAIR_PI, s);
+    let k = hair_logistic_cdf(HAIR_PI, s) - lo;
+    return turns + (hair_logistic_cdf(w, s) - lo) / k;
+}
+
+// The fibre seen from the view at offset angle g: azimuthal centres of R, TT, TRT.
+fn hair_phis(g: f32, eta_p: f32) -> vec3<f32> {
+    let gt = asin(clamp(sin(g) / eta_p, -1.0, 1.0));
+    return vec3<f32>(-2.0 * g, 2.0 * gt - 2.0 * g + HAIR_PI, 4.0 * gt - 2.0 * g + 2.0 * HAIR_PI);
+}
+
+// Angles of a direction pair about the fibre: x sin theta_v, y cos theta_v, z sin theta_l,
+// w cos theta_l; and phi in [0, pi].
+struct HairAngles {
+    sc: vec4<f32>,
+    phi: f32,
+}
+
+fn hair_angles(t: vec3<f32>, v: vec3<f32>, l: vec3<f32>) -> HairAngles {
+    var a: HairAngles;
+    let sv = clamp(dot(v, t), -1.0, 1.0);
+    let sl = clamp(dot(l, t), -1.0, 1.0);
+    a.sc = vec4<f32>(sv, sqrt(max(1.0 - sv * sv, 0.0)), sl, sqrt(max(1.0 - sl * sl, 0.0)));
+    let pv = v - sv * t;
+    let pl = l - sl * t;
+    let n = sqrt(dot(pv, pv) * dot(pl, pl));
+    let c = select(1.0, dot(pv, pl) / n, n > 1e-20);
+    a.phi = acos(clamp(c, -1.0, 1.0));
+    return a;
+}
+
+// S of `Bsdf::radiance_cells`: the far-field radiance factor with the longitudinal variances
+// widened by extra_var.
+fn hair_radiance_cells(b: HairBsdf, a: HairAngles, extra_var: f32) -> vec3<f32> {
+    let sin_v = a.sc.x;
+    let cos_v = a.sc.y;
+    let eta = b.misc.z;
+    let s = b.misc.w;
+    // Longitudinal terms, the view turned by the tilt: R -2a, TT +a, TRT +4a.
+    let m0 = hair_mp(sin_v * b.tilt.y - cos_v * b.tilt.x, abs(cos_v * b.tilt.y + sin_v * b.tilt.x),
+        a.sc.z, a.sc.w, b.v.x + extra_var);
+    let m1 = hair_mp(sin_v * b.tilt.w + cos_v * b.tilt.z, abs(cos_v * b.tilt.w - sin_v * b.tilt.z),
+        a.sc.z, a.sc.w, b.v.y + extra_var);
+    let m2 = hair_mp(sin_v * b.misc.y + cos_v * b.misc.x, abs(cos_v * b.misc.y - sin_v * b.misc.x),
+        a.sc.z, a.sc.w, b.v.z + extra_var);
+    let m3 = hair_mp(sin_v, cos_v, a.sc.z, a.sc.w, b.v.w + extra_var);
+
+    let sin_t = sin_v / eta;
+    let cos_t = sqrt(max(1.0 - sin_t * sin_t, 0.0));
+    let eta_p = sqrt(max(eta * eta - sin_v * sin_v, 0.0)) / max(cos_v, 1e-12);
+    let d = HAIR_PI / f32(HAIR_CELLS);
+    var out = vec3<f32>(0.0);
+    var g0 = -0.5 * HAIR_PI;
+    var phi0 = hair_phis(g0, eta_p);
+    for (var i = 0u; i < HAIR_CELLS; i++) {
+        let g1 = g0 + d;
+        let phi1 = hair_phis(g1, eta_p);
+        let gm = 0.5 * (g0 + g1);
+        let gt = asin(clamp(sin(gm) / eta_p, -1.0, 1.0));
+        let f = hair_fresnel(cos_v * cos(gm), eta);
+        let tr = exp(-b.sigma_a.rgb * (2.0 * cos(gt) / max(cos_t, 1e-12)));
+        let a1 = (1.0 - f) * (1.0 - f) * tr;
+        let a2 = a1 * tr * f;
+        let a3 = a2 * f * tr / (1.0 - tr * f);
+        let phim = hair_phis(gm, eta_p);
+        var n = vec3<f32>(0.0);
+        for (var p = 0u; p < 3u; p++) {
+            let dphi = phi1[p] - phi0[p];
+            if abs(dphi) > 1e-3 {
+                n[p] = (hair_np_cdf(a.phi - phi0[p], s) - hair_np_cdf(a.phi - phi1[p], s)) / dphi;
+            } else {
+                n[p] = hair_np(a.phi - phim[p], s);
+            }
+        }
+        let w = 0.5 * (sin(g1) - sin(g0));
+        out += w * (vec3<f32>(m0 * f * n.x) + m1 * a1 * n.y + m2 * a2 * n.z
+            + m3 * a3 / (2.0 * HAIR_PI));
+        g0 = g1;
+        phi0 = phi1;
+    }
+    return out;
+}
+
+// The physical mode's radiance factor of the key light at a node (`hair_bsdf::dual_radiance`):
+// dual scattering through n fibres (shadow_strands), the forward-scattered share
+// d_f a_f^n, the longitudinal spread n beta_f^2, plus the local backscattering d_b f_back.
+fn hair_dual_radiance(b: HairBsdf, t: vec3<f32>, v: vec3<f32>, l: vec3<f32>, n_in: f32) -> vec3<f32> {
+    let n = max(n_in, 0.0);
+    let a = hair_angles(t, v, l);
+    let spread = n * b.a_f.w;
+    let s = hair_radiance_cells(b, a, 4.0 * spread);
+    let theta_v = atan2(a.sc.x, a.sc.y);
+    let theta_l = atan2(a.sc.z, a.sc.w);
+    let th = 0.5 * (theta_v + theta_l) - b.back.w;
+    let var_b = b.ambient.w + spread;
+    let g = exp(-th * th / (2.0 * var_b)) / sqrt(2.0 * HAIR_PI * var_b);
+    let cos_d = max(cos(0.5 * (theta_v - theta_l)), 0.2);
+    let back = (1.0 + cos(a.phi)) / (2.0 * HAIR_PI) * g / (2.0 * cos_d);
+    let direct = exp(-n);
+    let w = direct + (1.0 - direct) * 0.7 * exp(n * log(max(b.a_f.rgb, vec3<f32>(1e-6))));
+    return w * (s + b.back.rgb * back);
+}
