@@ -16,3 +16,10 @@ struct Frame {
 }
 
 @group(0) @binding(0) var<uniform> frame: Frame;
+
+// The key light's irradiance on a plane facing it, for the physical mode (docs/shading.md):
+// Kami's light unit is the radiance a white Lambertian facing it reflects (the head's
+// shading), so E = pi I_s; Mitsuba's reference light in `kami bench look` has the same.
+fn hair_irradiance() -> f32 {
+    return 3.14159265358979 * frame.light_dir.w;
+}

@@ -115,7 +115,7 @@ fn shade_node(s: Strand, n: u32) -> ShadedNode {
     // read (the group's pigments are).
     if hair_physical(mat.bsdf) {
         let f = hair_dual_radiance(mat.bsdf, t, v, l, shadow_strands(p));
-        rgb = frame.light_color.rgb * (intensity * shadow_opaque(p)) * f
+        rgb = frame.light_color.rgb * (hair_irradiance() * shadow_opaque(p)) * f
             + mat.bsdf.ambient.rgb * ambient;
     }
     // The dynamics mark nodes whose segment felt the pseudo-force with w = 2.

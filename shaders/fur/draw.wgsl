@@ -61,7 +61,7 @@ fn shade_hair(m: FurMaterial, n: vec3<f32>, t: vec3<f32>, p: vec3<f32>) -> vec3<
     if hair_physical(m.bsdf) {
         let v = normalize(frame.eye.xyz - p);
         let f = hair_dual_radiance(m.bsdf, t, v, frame.light_dir.xyz, shadow_strands(p));
-        return frame.light_color.rgb * (frame.light_dir.w * shadow_opaque(p)) * f
+        return frame.light_color.rgb * (hair_irradiance() * shadow_opaque(p)) * f
             + m.bsdf.ambient.rgb * frame.light_color.w;
     }
     return shade(m, n, p);

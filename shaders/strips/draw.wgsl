@@ -83,7 +83,7 @@ fn vs(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -> VOut 
         let p = v.position.xyz;
         let view = normalize(frame.eye.xyz - p);
         let f = hair_dual_radiance(strip_look.bsdf, t, view, frame.light_dir.xyz, shadow_strands(p));
-        out.physical = frame.light_color.rgb * (frame.light_dir.w * shadow_opaque(p)) * f;
+        out.physical = frame.light_color.rgb * (hair_irradiance() * shadow_opaque(p)) * f;
     }
     return out;
 }

@@ -74,7 +74,8 @@ pub struct MitsubaHair {
     pub beta_n: f64,
     /// Cuticle scale tilt in degrees (`scale_tilt`).
     pub alpha_deg: f64,
-    /// Index of refraction of the fibre (`int_ior`).
+    /// Index of refraction of the fibre (`int_ior`; `ext_ior` is written 1, Kami's air,
+    /// where Mitsuba's default is 1.000277).
     pub eta: f64,
 }
 
@@ -90,12 +91,43 @@ pub const MITSUBA_DEFAULT_HAIR: MitsubaHair = MitsubaHair {
 };
 
 /// The reference's BSDF for the strands drawn in `rgb` (Kami's sRGB colour of the group, as
-/// the export writes it: strands are grouped by it). THE place the physical mode's
-/// per-group melanin reaches the path tracer; until that mode exists every group gets
-/// Mitsuba's default brown hair ([`MITSUBA_DEFAULT_HAIR`]).
+/// the export writes it: strands are grouped by it): the physical look of the first group
+/// drawn in that colour (an Anjyo group's `material`, a fur coat's `material`, the strips'
+/// `look`), as `hair_bsdf::Physical::hair` gives it to Kami's physical mode. Every row is
+/// compared with this one reference, whatever Kami's row shades with. A colour no group
+/// has (none should) gets Mitsuba's default brown hair ([`MITSUBA_DEFAULT_HAIR`]).
 pub fn hair_params(scene: &Scene, rgb: [f32; 3]) -> MitsubaHair {
-    let _ = (scene, rgb);
-    MITSUBA_DEFAULT_HAIR
+    let near = |c: [f32; 3]| c.iter().zip(rgb).all(|(a, b)| (a - b).abs() <= 1.0 / 255.0);
+    let physical = scene
+        .groups
+        .iter()
+        .map(|g| (g.material.color, &g.material.physical))
+        .chain(
+            scene
+                .fur
+                .iter()
+                .flat_map(|f| &f.coats)
+                .map(|c| (c.material.diffuse, &c.material.physical)),
+        )
+        .chain(
+            scene
+                .strips
+                .iter()
+                .flat_map(|s| s.layers.iter().map(move |l| (l.color, &s.look.physical))),
+        )
+        .find(|(c, _)| near(*c));
+    let Some((color, physical)) = physical else {
+        return MITSUBA_DEFAULT_HAIR;
+    };
+    let h = physical.hair(color);
+    MitsubaHair {
+        eumelanin: h.eumelanin,
+        pheomelanin: h.pheomelanin,
+        beta_m: h.beta_m,
+        beta_n: h.beta_n,
+        alpha_deg: h.alpha,
+        eta: h.eta,
+    }
 }
 
 /// Kami's ambient as the reference's uniform environment: the radiance a Lambertian of the
@@ -305,7 +337,7 @@ pub fn write_mitsuba(
         let h = hair_params(scene, *col);
         let _ = writeln!(
             x,
-            "  <shape type=\"linearcurve\">\n    <string name=\"filename\" value=\"{name}\"/>\n    <bsdf type=\"hair\">\n      <float name=\"eumelanin\" value=\"{}\"/>\n      <float name=\"pheomelanin\" value=\"{}\"/>\n      <float name=\"longitudinal_roughness\" value=\"{}\"/>\n      <float name=\"azimuthal_roughness\" value=\"{}\"/>\n      <float name=\"scale_tilt\" value=\"{}\"/>\n      <float name=\"int_ior\" value=\"{}\"/>\n    </bsdf>\n  </shape>",
+            "  <shape type=\"linearcurve\">\n    <string name=\"filename\" value=\"{name}\"/>\n    <bsdf type=\"hair\">\n      <float name=\"eumelanin\" value=\"{}\"/>\n      <float name=\"pheomelanin\" value=\"{}\"/>\n      <float name=\"longitudinal_roughness\" value=\"{}\"/>\n      <float name=\"azimuthal_roughness\" value=\"{}\"/>\n      <float name=\"scale_tilt\" value=\"{}\"/>\n      <float name=\"int_ior\" value=\"{}\"/>\n      <float name=\"ext_ior\" value=\"1\"/>\n    </bsdf>\n  </shape>",
             h.eumelanin, h.pheomelanin, h.beta_m, h.beta_n, h.alpha_deg, h.eta
         );
     }

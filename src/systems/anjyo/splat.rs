@@ -138,7 +138,7 @@ impl Input<'_> {
             let a = hair_bsdf::Angles::new(v.to_array(), l.to_array(), t.to_array());
             let s = hair_bsdf::dual_radiance(&b, &d, &a, 0.0);
             let amb = mat.bsdf.ambient;
-            rgb = v3(f.light_color) * intensity * DVec3::from_array(s)
+            rgb = v3(f.light_color) * (std::f64::consts::PI * intensity) * DVec3::from_array(s)
                 + DVec3::new(amb[0] as f64, amb[1] as f64, amb[2] as f64) * ambient;
         }
         if f.flags[0] > 0.5 && self.verts[(s.first_vertex + n) as usize][3] > 1.5 {
