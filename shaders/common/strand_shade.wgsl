@@ -104,7 +104,8 @@ fn shade_node(s: Strand, n: u32) -> ShadedNode {
     let tdl = dot(t, l);
     let diffuse = mat.params.y * sqrt(max(1.0 - tdl * tdl, 0.0));
     let ambient = frame.light_color.w * s.ka;
-    let intensity = frame.light_dir.w;
+    // Hair shadows (common/shadow.wgsl) dim the direct light only.
+    let intensity = frame.light_dir.w * shadow_direct(p);
     var rgb = base * (ambient + intensity * diffuse) + frame.light_color.rgb * (intensity * spec);
     // The dynamics mark nodes whose segment felt the pseudo-force with w = 2.
     if frame.flags.x > 0.5 && verts[s.first_vertex + n].w > 1.5 {

@@ -39,6 +39,9 @@ fn fs(in: VOut) -> @location(0) vec4<f32> {
     let h = normalize(l + v);
     let spec = 0.08 * pow(max(dot(n, h), 0.0), 30.0);
     let ambient = 0.3 * frame.light_color.w;
-    let rgb = head.color.rgb * (ambient + 0.8 * frame.light_dir.w * wrap) + frame.light_color.rgb * spec * frame.light_dir.w;
+    // The hair's shadow (common/shadow.wgsl) dims the direct light; the head's own
+    // terminator stays the soft wrap.
+    let direct = frame.light_dir.w * exp(-shadow.axis_l.w * shadow_strands(in.world));
+    let rgb = head.color.rgb * (ambient + 0.8 * direct * wrap) + frame.light_color.rgb * spec * direct;
     return vec4<f32>(rgb, 1.0);
 }

@@ -232,6 +232,63 @@ pub struct RenderSettings {
     /// How strand hair (the Anjyo groups) is rasterised.
     #[serde(default)]
     pub strands: StrandRaster,
+    /// Hair shadows from the key light (`stage::shadow`, docs/shadows.md).
+    #[serde(default)]
+    pub shadows: Shadows,
+}
+
+/// Hair shadows: every system's strands cast into one light-space structure each frame;
+/// hair, the head and fur skins read from it how many strands lie between them and the
+/// light (docs/shadows.md).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Shadows {
+    #[serde(default = "yes")]
+    pub on: bool,
+    #[serde(default)]
+    pub method: ShadowMethod,
+    /// Extinction per strand crossed: the direct light is scaled by exp(-absorption * n),
+    /// n the expected number of strands between a point and the light (0 lets every strand
+    /// through, 0.5 passes about 61 % per strand, as a light-coloured strand does).
+    #[serde(default = "default_absorption")]
+    pub absorption: f64,
+}
+
+fn default_absorption() -> f64 {
+    0.5
+}
+
+impl Default for Shadows {
+    fn default() -> Self {
+        Shadows {
+            on: true,
+            method: ShadowMethod::default(),
+            absorption: default_absorption(),
+        }
+    }
+}
+
+/// How the strands' shadow is stored (both measured by `kami bench shadows`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ShadowMethod {
+    /// A light-aligned density volume (64^3): strands voxelised, then summed along the
+    /// light (as Unreal's groom and Unity's hair do).
+    #[default]
+    Volume,
+    /// Deep opacity maps (Yuksel & Keyser 2008): a light-space first-depth map (256^2),
+    /// then 4 opacity layers behind that depth.
+    DeepOpacity,
+}
+
+impl ShadowMethod {
+    /// From its name on a command line (`volume` or `deep`).
+    pub fn parse(s: &str) -> std::result::Result<ShadowMethod, String> {
+        match s {
+            "volume" => Ok(ShadowMethod::Volume),
+            "deep" | "deep_opacity" => Ok(ShadowMethod::DeepOpacity),
+            _ => Err(format!("shadow method must be volume or deep, not {s:?}")),
+        }
+    }
 }
 
 /// How strand hair is rasterised.
@@ -287,6 +344,7 @@ impl Default for RenderSettings {
             min_width: default_min_width(),
             lod_tolerance_px: default_lod_tolerance_px(),
             strands: StrandRaster::default(),
+            shadows: Shadows::default(),
         }
     }
 }

@@ -242,6 +242,7 @@ pub fn merge_edits(base: &Scene, ours: &Scene, theirs: Scene) -> Scene {
         min_width,
         lod_tolerance_px,
         strands,
+        shadows,
     } = render;
     let (b, o) = (base, ours);
     Scene {
@@ -275,6 +276,7 @@ pub fn merge_edits(base: &Scene, ours: &Scene, theirs: Scene) -> Scene {
                 lod_tolerance_px,
             ),
             strands: pick(&b.render.strands, &o.render.strands, strands),
+            shadows: pick(&b.render.shadows, &o.render.shadows, shadows),
         },
         dynamics: pick(&b.dynamics, &o.dynamics, dynamics),
         fur: pick(&b.fur, &o.fur, fur),

@@ -644,11 +644,7 @@ fn points_buffer(gpu: &Gpu, points: &[DVec3]) -> wgpu::Buffer {
 }
 
 fn frame_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
-    pipeline::layout(
-        &gpu.device,
-        "frame",
-        &[gpu::uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT)],
-    )
+    kami::gpu::shadow::frame_layout(&gpu.device)
 }
 
 #[test]
@@ -822,7 +818,8 @@ fn render(gpu: &Gpu, samples: u32, look: &Look) -> image::RgbaImage {
         bytemuck::bytes_of(&frame(targets.size, samples)),
         wgpu::BufferUsages::UNIFORM,
     );
-    let frame_bg = pipeline::bind_buffers(&gpu.device, "frame", &layout, &[&frame_buffer]);
+    let frame_bg =
+        kami::gpu::shadow::frame_group_without_shadows(&gpu.device, &layout, &frame_buffer);
     let out = Offscreen::new(gpu, (SIZE, SIZE)).unwrap();
     let down = DownsamplePass::new(gpu, out.format).unwrap();
     let down_bg = down.bind(gpu, &targets, None);

@@ -76,6 +76,16 @@ pub const DRAW: &str = wgsl!(
     "anjyo/draw.wgsl",
 );
 
+/// The strands' shadow cast (`stage::shadow`).
+pub const CAST: &str = wgsl!(
+    "common/strands.wgsl",
+    "common/frame.wgsl",
+    "common/shadow.wgsl",
+    "common/shadow_cast.wgsl",
+    "common/strand_shade.wgsl",
+    "anjyo/cast.wgsl",
+);
+
 /// The compute rasteriser for thin strands, reading a single-sampled scene depth.
 pub const SPLAT: &str = wgsl!(
     "common/depth_single.wgsl",
@@ -132,6 +142,7 @@ pub const KIND: Kind = Kind {
         ("anjyo/draw", DRAW),
         ("anjyo/splat", SPLAT),
         ("anjyo/splat_msaa", SPLAT_MSAA),
+        ("anjyo/cast", CAST),
     ],
     invariants: block::invariants,
     fuzz_words: FUZZ_WORDS,
@@ -451,6 +462,7 @@ impl AnjyoSystem {
             gpu,
             setup.frame_layout,
             setup.splat_layouts,
+            setup.shadow_cast_layout,
             setup.format,
             setup.samples,
         )?;
@@ -539,6 +551,14 @@ impl HairSystem for AnjyoSystem {
         if self.splats() {
             self.draw.splat(pass);
         }
+    }
+
+    fn casts(&self) -> bool {
+        true
+    }
+
+    fn cast_shadow(&self, pass: &mut wgpu::ComputePass<'_>) {
+        self.draw.cast(pass);
     }
 
     fn reset(&mut self, gpu: &Gpu) -> Result<()> {

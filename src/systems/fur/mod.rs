@@ -48,6 +48,15 @@ pub const DRAW: &str = wgsl!(
     "fur/draw.wgsl",
 );
 
+/// Fur's shadow cast (`stage::shadow`).
+pub const CAST: &str = wgsl!(
+    "common/strands.wgsl",
+    "common/frame.wgsl",
+    "common/shadow.wgsl",
+    "common/shadow_cast.wgsl",
+    "fur/cast.wgsl",
+);
+
 /// The fur mesh's skin.
 pub const SKIN: &str = wgsl!(
     "common/frame.wgsl",
@@ -89,6 +98,7 @@ pub const KIND: Kind = Kind {
         ("fur/generate", GENERATE),
         ("fur/draw", DRAW),
         ("fur/skin", SKIN),
+        ("fur/cast", CAST),
     ],
     invariants: |_| Ok(()),
     fuzz_words: &[
@@ -236,6 +246,7 @@ impl FurSystem {
         let mut draw = draw::FurPass::new(
             gpu,
             draw_setup.frame_layout,
+            draw_setup.shadow_cast_layout,
             draw_setup.format,
             draw_setup.samples,
         )?;
@@ -352,6 +363,7 @@ impl HairSystem for FurSystem {
             .collect();
         self.draw
             .prepare(gpu, &self.setup, frame, self.width_scale, &self.steps);
+        self.draw.set_drawn(gpu, &self.drawn);
         Ok(())
     }
 
@@ -361,6 +373,15 @@ impl HairSystem for FurSystem {
 
     fn draw(&self, pass: &mut wgpu::RenderPass<'_>, _view: &View) {
         self.draw.draw_hairs(pass, &self.drawn, &self.steps);
+    }
+
+    fn casts(&self) -> bool {
+        true
+    }
+
+    fn cast_shadow(&self, pass: &mut wgpu::ComputePass<'_>) {
+        let hairs = self.setup.coats.iter().map(|c| c.total).sum::<u32>();
+        self.draw.cast(pass, hairs);
     }
 
     fn reset(&mut self, _gpu: &Gpu) -> Result<()> {
