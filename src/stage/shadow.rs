@@ -474,3 +474,61 @@ pub fn reference_opaque(head: DMat4, l: DVec3, p: DVec3) -> f64 {
         1.0
     }
 }
+
+impl LightBox {
+    /// The box a frame's uniform describes (the f32 values the shaders used).
+    pub fn of(u: &GpuShadow) -> LightBox {
+        let v = |a: [f32; 4]| DVec3::new(a[0] as f64, a[1] as f64, a[2] as f64);
+        LightBox {
+            center: v(u.center),
+            half: u.axis_u[3] as f64,
+            u: v(u.axis_u),
+            v: v(u.axis_v),
+            l: v(u.axis_l),
+        }
+    }
+}
+
+/// A groom's segments (its polylines with each segment's mean width; `width` for a groom
+/// without widths).
+pub fn segments_of(groom: &crate::formats::Groom, width: f64) -> Vec<Segment> {
+    let mut out = Vec::new();
+    let mut start = 0usize;
+    for &c in &groom.counts {
+        let n = c as usize;
+        for i in start..(start + n).saturating_sub(1) {
+            let w = groom
+                .widths
+                .as_ref()
+                .map_or(width, |w| 0.5 * (w[i] as f64 + w[i + 1] as f64));
+            out.push(Segment {
+                a: DVec3::from(groom.points[i].map(f64::from)),
+                b: DVec3::from(groom.points[i + 1].map(f64::from)),
+                width: w,
+            });
+        }
+        start += n;
+    }
+    out
+}
+
+/// The last frame's `shadow_strands` at `points` on the GPU beside the f64 reference for
+/// `segments` (the hair drawn), with the reference smoothed as the stage's method smooths.
+pub fn against_reference(
+    gpu: &Gpu,
+    stage: &super::Stage,
+    segments: &[Segment],
+    points: &[DVec3],
+) -> Result<Vec<(f64, f64)>> {
+    let u = stage.shadow_params();
+    let b = LightBox::of(&u);
+    let method = if u.axis_v[3] > 0.5 {
+        ShadowMethod::DeepOpacity
+    } else {
+        ShadowMethod::Volume
+    };
+    let (blur, depth) = reference_blur(&b, method);
+    let reference = reference_strands(&b, segments, points, blur, depth);
+    let got = stage.probe_shadows(gpu, points)?;
+    Ok(got.iter().zip(reference).map(|(g, r)| (g.0, r)).collect())
+}
