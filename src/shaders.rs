@@ -29,4 +29,8 @@ pub const STAGE: &[(&str, &str)] = &[
 ];
 
 /// The shadow pass's resolve and probe (`stage::shadow`).
-pub const SHADOW: &str = wgsl!("common/shadow.wgsl", "stage/shadow.wgsl");
+pub const SHADOW: &str = wgsl!(
+    "common/frame.wgsl",
+    "common/shadow.wgsl",
+    "stage/shadow.wgsl"
+);

@@ -20,15 +20,15 @@ const SHADOW_MAX_POINTS: u32 = 8u;
 
 fn deposit_point(p: vec3<f32>, coverage: f32) {
     let c = shadow_coords(p);
-    let nx = i32(shadow.dims.x);
-    let ny = i32(shadow.dims.y);
+    let nx = i32(frame.shadow.dims.x);
+    let ny = i32(frame.shadow.dims.y);
     let g = c.xy - 0.5;
     let i = vec2<i32>(floor(g));
     let f = g - floor(g);
-    let two_half = 2.0 * shadow.axis_u.w;
-    let deep = shadow.axis_v.w > 0.5;
+    let two_half = 2.0 * frame.shadow.axis_u.w;
+    let deep = frame.shadow.axis_v.w > 0.5;
     let depth = u32(clamp(c.z / two_half, 0.0, 1.0) * SHADOW_DEPTH_SCALE);
-    let iz = clamp(i32(c.z / two_half * shadow.dims.z), 0, i32(shadow.dims.z) - 1);
+    let iz = clamp(i32(c.z / two_half * frame.shadow.dims.z), 0, i32(frame.shadow.dims.z) - 1);
     for (var k = 0; k < 4; k++) {
         let dx = k & 1;
         let dy = k >> 1u;
@@ -51,7 +51,7 @@ fn deposit_point(p: vec3<f32>, coverage: f32) {
         let off = c.z - first;
         var layer = 3u;
         for (var l = 0u; l < 3u; l++) {
-            if off < shadow.layers[l] {
+            if off < frame.shadow.layers[l] {
                 layer = l;
                 break;
             }
@@ -63,13 +63,13 @@ fn deposit_point(p: vec3<f32>, coverage: f32) {
 
 // A segment a-b of world width `width` whose coverage counts `opacity` times.
 fn deposit_segment(a: vec3<f32>, b: vec3<f32>, width: f32, opacity: f32) {
-    if shadow.center.w < 0.5 {
+    if frame.shadow.center.w < 0.5 {
         return;
     }
     let d = b - a;
-    let l = shadow.axis_l.xyz;
+    let l = frame.shadow.axis_l.xyz;
     let across = length(d - dot(d, l) * l);
-    let cell = 2.0 * shadow.axis_u.w / shadow.dims.x;
+    let cell = 2.0 * frame.shadow.axis_u.w / frame.shadow.dims.x;
     let n = clamp(u32(ceil(across / cell)), 1u, SHADOW_MAX_POINTS);
     let coverage = width * across * opacity / (cell * cell) / f32(n);
     if coverage <= 0.0 && shadow_phase.x != 0u {

@@ -15,14 +15,14 @@ const DEPTH_SCALE: f32 = 16777215.0;
 // light side; a texel no strand reached gets the box's far side) and cumulative layers.
 @compute @workgroup_size(64)
 fn resolve(@builtin(global_invocation_id) id: vec3<u32>) {
-    let columns = u32(shadow.dims.x * shadow.dims.y);
+    let columns = u32(frame.shadow.dims.x * frame.shadow.dims.y);
     let c = id.x;
     if c >= columns {
         return;
     }
-    if shadow.axis_v.w < 0.5 {
+    if frame.shadow.axis_v.w < 0.5 {
         var sum = 0.0;
-        let nz = u32(shadow.dims.z);
+        let nz = u32(frame.shadow.dims.z);
         for (var z = 0u; z < nz; z++) {
             let n = f32(cast_in[z * columns + c]) / FIXED;
             resolved[z * columns + c] = sum + 0.5 * n;
@@ -30,7 +30,7 @@ fn resolve(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         return;
     }
-    let two_half = 2.0 * shadow.axis_u.w;
+    let two_half = 2.0 * frame.shadow.axis_u.w;
     resolved[c * 5u] = (DEPTH_SCALE - f32(cast_in[c])) / DEPTH_SCALE * two_half;
     var sum = 0.0;
     for (var k = 0u; k < 4u; k++) {

@@ -170,13 +170,9 @@ impl Stage {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let shadow = shadow::ShadowPass::new(gpu)?;
-        let frame_bind_group = gpu::pipeline::bind_buffers(
-            device,
-            "frame",
-            &frame_layout,
-            &[&frame_buffer, &shadow.uniform, shadow.read_buffer()],
-        );
+        let shadow = shadow::ShadowPass::new(gpu, &frame_buffer)?;
+        let frame_bind_group =
+            gpu::shadow::frame_group(device, &frame_layout, &frame_buffer, shadow.read_view());
         let mut stage = Stage {
             forces: Forces::new(&scene.forces, &scene.head),
             scene: scene.clone(),
@@ -587,27 +583,32 @@ impl Stage {
             targets.resolve_splat = splatting;
         }
         let targets = &*targets;
-        gpu.queue
-            .write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&uniform));
-        self.last_frame = uniform;
         // Hair shadows: cast, resolve, and bind for every draw below.
         let settings = self.scene.render.shadows;
         let casting = settings.on && self.systems.iter().any(|s| s.casts());
         let light_box =
             shadow::LightBox::fit(bounds, DVec3::from(self.scene.light.direction));
         let head = self.scene.head.visible.then(|| head_sphere(&self.scene, ctx.head));
-        let params = shadow::params(&settings, &light_box, head, casting);
+        let mut params = shadow::params(&settings, &light_box, head, casting);
+        if casting && self.scene.wisps.is_some() {
+            // Toon wisps: shadows are steps (`shadow_toon`).
+            params.center[3] = 2.0;
+        }
         if self
             .shadow
             .prepare(gpu, params, casting.then_some(settings.method))?
         {
-            self.frame_bind_group = gpu::pipeline::bind_buffers(
+            self.frame_bind_group = gpu::shadow::frame_group(
                 &gpu.device,
-                "frame",
                 &self.frame_layout,
-                &[&self.frame_buffer, &self.shadow.uniform, self.shadow.read_buffer()],
+                &self.frame_buffer,
+                self.shadow.read_view(),
             );
         }
+        uniform.shadow = params;
+        gpu.queue
+            .write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&uniform));
+        self.last_frame = uniform;
         let systems = &self.systems;
         self.shadow.record(enc, &self.frame_bind_group, |pass| {
             for s in systems {
@@ -736,6 +737,8 @@ pub fn frame_uniform(
             msaa.max(1) as f32,
         ],
         flags: [f32::from(u8::from(look.overlay)), 0.0, 0.0, 0.0],
+        // Written by `Stage::render` once the shadow pass has fitted its box.
+        shadow: Default::default(),
     }
 }
 

@@ -129,6 +129,9 @@ struct Grid {
     method: ShadowMethod,
     cast: wgpu::Buffer,
     resolved: wgpu::Buffer,
+    /// What group 0 reads: `resolved` copied after the resolve.
+    map: wgpu::Texture,
+    view: wgpu::TextureView,
     /// Group 2 of the cast pipelines, per phase.
     cast_groups: [wgpu::BindGroup; 2],
     resolve_group: wgpu::BindGroup,
@@ -136,9 +139,8 @@ struct Grid {
 
 /// The stage's shadow pass: the uniform and, while shadows are on, the structure.
 pub struct ShadowPass {
-    pub uniform: wgpu::Buffer,
     /// Bound in group 0 while shadows are off (the shaders read nothing from it then).
-    placeholder: wgpu::Buffer,
+    placeholder: wgpu::TextureView,
     pub cast_layout: wgpu::BindGroupLayout,
     params_group: wgpu::BindGroup,
     resolve_layout: wgpu::BindGroupLayout,
@@ -153,25 +155,19 @@ pub struct ShadowPass {
 pub const MODULE: &str = crate::shaders::SHADOW;
 
 impl ShadowPass {
-    pub fn new(gpu: &Gpu) -> Result<ShadowPass> {
+    /// `frame` is the stage's frame uniform (the resolve reads its `shadow`).
+    pub fn new(gpu: &Gpu, frame: &wgpu::Buffer) -> Result<ShadowPass> {
         let device = &gpu.device;
-        let uniform = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("shadow uniform"),
-            size: std::mem::size_of::<GpuShadow>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let placeholder =
-            gpu::storage_buffer(device, "no shadows", &[], wgpu::BufferUsages::empty());
+        let placeholder = layouts::map_texture(device, 0).create_view(&Default::default());
         let params_layout = gpu::pipeline::layout(
             device,
             "shadow params",
-            &[gpu::uniform_entry(1, wgpu::ShaderStages::COMPUTE)],
+            &[gpu::uniform_entry(0, wgpu::ShaderStages::COMPUTE)],
         );
         let params_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("shadow params"),
             layout: &params_layout,
-            entries: &[gpu::entry(1, &uniform)],
+            entries: &[gpu::entry(0, frame)],
         });
         let resolve_layout = gpu::pipeline::layout(
             device,
@@ -203,7 +199,6 @@ impl ShadowPass {
             )
         });
         Ok(ShadowPass {
-            uniform,
             placeholder,
             cast_layout: layouts::cast_layout(device),
             params_group,
@@ -216,9 +211,9 @@ impl ShadowPass {
         })
     }
 
-    /// What group 0 binds at binding 2: the resolved structure, or the placeholder.
-    pub fn read_buffer(&self) -> &wgpu::Buffer {
-        self.grid.as_ref().map_or(&self.placeholder, |g| &g.resolved)
+    /// What group 0 binds at binding 1: the resolved structure, or the placeholder.
+    pub fn read_view(&self) -> &wgpu::TextureView {
+        self.grid.as_ref().map_or(&self.placeholder, |g| &g.view)
     }
 
     /// The uniform of the last frame.
@@ -226,11 +221,9 @@ impl ShadowPass {
         self.last
     }
 
-    /// Write this frame's uniform and make (or free) the structure; true when the buffer
-    /// group 0 must bind changed.
+    /// Take this frame's box (the caller writes it into the frame uniform) and make (or
+    /// free) the structure; true when the view group 0 must bind changed.
     pub fn prepare(&mut self, gpu: &Gpu, uniform: GpuShadow, method: Option<ShadowMethod>) -> Result<bool> {
-        gpu.queue
-            .write_buffer(&self.uniform, 0, bytemuck::bytes_of(&uniform));
         self.last = uniform;
         let had = self.grid.as_ref().map(|g| g.method);
         if had == method {
@@ -272,10 +265,14 @@ impl ShadowPass {
             &self.resolve_layout,
             &[&cast, &resolved],
         );
+        let map = layouts::map_texture(&gpu.device, words(method));
+        let view = map.create_view(&Default::default());
         Ok(Grid {
             method,
             cast,
             resolved,
+            map,
+            view,
             cast_groups,
             resolve_group,
         })
@@ -314,6 +311,20 @@ impl ShadowPass {
         pass.set_bind_group(1, &g.resolve_group, &[]);
         let n = cells(g.method);
         pass.dispatch_workgroups((n * n).div_ceil(64), 1, 1);
+        drop(pass);
+        let size = g.map.size();
+        enc.copy_buffer_to_texture(
+            wgpu::TexelCopyBufferInfo {
+                buffer: &g.resolved,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(layouts::ROW * 4),
+                    rows_per_image: None,
+                },
+            },
+            g.map.as_image_copy(),
+            size,
+        );
     }
 
     /// `shadow_strands` and `shadow_opaque` at `points` as the shaders see them this frame

@@ -225,3 +225,35 @@ fn the_head_is_darker_under_the_bangs() {
     eprintln!("red lost under the bangs {upper:.1}, at the chin {lower:.1}");
     assert!(upper > lower + 5.0 && upper > 5.0, "under the bangs {upper}, chin {lower}");
 }
+
+/// `--set shadows=off` (and `shadows.method=deep`) parse through the viewer's shared keys,
+/// a bad value is refused by name, and the stage takes the change without rebuilding or
+/// restarting its clock (a redraw): the next frame reads shadows off.
+#[test]
+fn set_shadows_is_a_redraw() {
+    use kami::app::params::ViewerState;
+    let gpu = common::gpu();
+    let scene = small_bob(ShadowMethod::Volume);
+    let (mut stage, _) = drawn(&scene);
+    assert_eq!(stage.shadow_params().center[3], 1.0, "shadows on by default");
+    let mut s = ViewerState::new(scene.clone(), String::new());
+    s.apply_set("shadows=off").unwrap();
+    s.apply_set("shadows.method=deep").unwrap();
+    assert!(!s.scene.render.shadows.on);
+    assert_eq!(s.scene.render.shadows.method, ShadowMethod::DeepOpacity);
+    let e = s.apply_set("shadows.method=raytraced").unwrap_err().to_string();
+    assert!(e.contains("shadows.method") && e.contains("volume"), "{e}");
+    let applied = stage.apply(gpu, &s.scene).unwrap();
+    assert!(!applied.restarted, "a shadow toggle restarted the clock");
+    assert!(
+        applied.changes.iter().all(|(_, c)| *c <= kami::systems::Change::Redraw),
+        "a shadow toggle rebuilt or re-simulated: {:?}",
+        applied.changes
+    );
+    let out = kami::stage::target::Offscreen::new(gpu, SIZE).unwrap();
+    let mut enc = gpu.device.create_command_encoder(&Default::default());
+    let look = stage.look();
+    stage.render(gpu, &mut enc, &out.view, SIZE, &look).unwrap();
+    gpu.queue.submit([enc.finish()]);
+    assert_eq!(stage.shadow_params().center[3], 0.0, "shadows still on after shadows=off");
+}

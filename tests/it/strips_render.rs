@@ -793,6 +793,7 @@ fn frame(size: (u32, u32), samples: u32) -> GpuFrame {
         ],
         raster: [1.0, 1.0, 1.0, samples as f32],
         flags: [0.0, 1.0, 0.0, 0.0],
+        shadow: Default::default(),
     }
 }
 
