@@ -215,7 +215,7 @@ enum Bench {
         #[arg(long, default_value_os_t = kami::scene::shipped("assets/scenes"))]
         scenes: PathBuf,
         /// Timed frames per row (the median is reported).
-        #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(1..=100))]
+        #[arg(long, default_value_t = 7, value_parser = clap::value_parser!(u32).range(1..=100))]
         runs: u32,
         /// Directory for the report files.
         #[arg(long, default_value = "bench_out")]

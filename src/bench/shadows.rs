@@ -47,65 +47,81 @@ pub struct Row {
     pub error: Option<(f64, f64, f64)>,
 }
 
-/// Render `scene` in `mode` `runs` times (after one warm-up) at the scene's quality.
+/// Render `scene` in every mode, `runs` rounds (after one warm-up), the modes taking
+/// turns within each round so that a busy machine slows them alike; then each mode's
+/// error against the reference.
 pub fn measure(
     gpu: &Gpu,
     name: &str,
     scene: &Scene,
-    mode: Option<ShadowMethod>,
     runs: u32,
     strands: bool,
-) -> Result<Row> {
-    let mut scene = scene.clone();
-    scene.render.shadows.on = mode.is_some();
-    if let Some(m) = mode {
-        scene.render.shadows.method = m;
+) -> Result<Vec<Row>> {
+    let mut stages = Vec::new();
+    for mode in MODES {
+        let mut scene = scene.clone();
+        scene.render.shadows.on = mode.is_some();
+        if let Some(m) = mode {
+            scene.render.shadows.method = m;
+        }
+        stage::check_limits(gpu, &scene, SIZE)?;
+        stages.push(Stage::new(gpu, &scene, target::OUTPUT_FORMAT, Quality::of(&scene))?);
     }
-    stage::check_limits(gpu, &scene, SIZE)?;
-    let mut stage = Stage::new(gpu, &scene, target::OUTPUT_FORMAT, Quality::of(&scene))?;
     let out = target::Offscreen::new(gpu, SIZE)?;
-    let look = stage.look();
-    let mut times = Vec::new();
-    for _ in 0..=runs {
-        let t = Instant::now();
+    let mut times = vec![Vec::new(); MODES.len()];
+    for round in 0..=runs {
+        for (i, stage) in stages.iter_mut().enumerate() {
+            let look = stage.look();
+            let t = Instant::now();
+            let mut enc = gpu.device.create_command_encoder(&Default::default());
+            stage.render(gpu, &mut enc, &out.view, SIZE, &look)?;
+            gpu.queue.submit([enc.finish()]);
+            gpu.wait()?;
+            if round > 0 {
+                times[i].push(t.elapsed().as_secs_f64() * 1e3);
+            }
+        }
+    }
+    let mut rows = Vec::new();
+    for ((mode, stage), mut t) in MODES.into_iter().zip(stages.iter_mut()).zip(times) {
+        t.sort_by(f64::total_cmp);
+        // The image and the structure the error is read from: this mode's last frame.
+        let look = stage.look();
         let mut enc = gpu.device.create_command_encoder(&Default::default());
         stage.render(gpu, &mut enc, &out.view, SIZE, &look)?;
         gpu.queue.submit([enc.finish()]);
-        gpu.wait()?;
-        times.push(t.elapsed().as_secs_f64() * 1e3);
+        let image = out.read_rgba(gpu)?;
+        let error = match (mode, strands) {
+            (Some(_), true) => {
+                let groom = stage.export(gpu)?;
+                let segments = shadow::segments_of(&groom, 0.07);
+                let every = (groom.points.len() / POINTS).max(1);
+                let points: Vec<DVec3> = groom
+                    .points
+                    .iter()
+                    .step_by(every)
+                    .map(|p| DVec3::from(p.map(f64::from)))
+                    .collect();
+                let pairs = shadow::against_reference(gpu, stage, &segments, &points)?;
+                let n = pairs.len().max(1) as f64;
+                Some((
+                    pairs.iter().map(|p| (p.0 - p.1).abs()).sum::<f64>() / n,
+                    pairs.iter().map(|p| (p.0 - p.1).abs()).fold(0.0, f64::max),
+                    pairs.iter().map(|p| p.1).sum::<f64>() / n,
+                ))
+            }
+            _ => None,
+        };
+        rows.push(Row {
+            scene: name.to_string(),
+            mode,
+            ms: t[t.len() / 2],
+            image,
+            error,
+        });
     }
-    times.remove(0);
-    times.sort_by(f64::total_cmp);
-    let image = out.read_rgba(gpu)?;
-    let error = match (mode, strands) {
-        (Some(_), true) => {
-            let groom = stage.export(gpu)?;
-            let segments = shadow::segments_of(&groom, 0.07);
-            let every = (groom.points.len() / POINTS).max(1);
-            let points: Vec<DVec3> = groom
-                .points
-                .iter()
-                .step_by(every)
-                .map(|p| DVec3::from(p.map(f64::from)))
-                .collect();
-            let pairs = shadow::against_reference(gpu, &stage, &segments, &points)?;
-            let n = pairs.len().max(1) as f64;
-            Some((
-                pairs.iter().map(|p| (p.0 - p.1).abs()).sum::<f64>() / n,
-                pairs.iter().map(|p| (p.0 - p.1).abs()).fold(0.0, f64::max),
-                pairs.iter().map(|p| p.1).sum::<f64>() / n,
-            ))
-        }
-        _ => None,
-    };
     gpu.take_error()?;
-    Ok(Row {
-        scene: name.to_string(),
-        mode,
-        ms: times[times.len() / 2],
-        image,
-        error,
-    })
+    Ok(rows)
 }
 
 /// Mean absolute difference of two images over RGB, of 255.
@@ -127,16 +143,14 @@ pub fn run(gpu: &Gpu, scenes: &Path, runs: u32, out: &Path) -> Result<Report> {
     let mut rows = Vec::new();
     for (stem, strands) in SCENES {
         let scene = Scene::load(scenes.join(format!("{stem}.ron")))?;
-        for mode in MODES {
-            rows.push(measure(gpu, stem, &scene, mode, runs, strands)?);
-        }
+        rows.extend(measure(gpu, stem, &scene, runs, strands)?);
     }
     let mut md = String::new();
     let mut csv = String::from(
         "scene,shadows,ms_per_frame,shadow_share,mean_error,max_error,mean_n,image_diff_vs_off,image_diff_vs_other_method\n",
     );
     writeln!(md, "{}", provenance()).ok();
-    writeln!(md, "Adapter: {}; {}x{} pixels; median of {runs} frames, wall clock (submit to wait).", gpu.describe(), SIZE.0, SIZE.1).ok();
+    writeln!(md, "Adapter: {}; {}x{} pixels; median of {runs} frames per row, wall clock (submit to wait), the three rows of a scene taking turns frame by frame.", gpu.describe(), SIZE.0, SIZE.1).ok();
     writeln!(md).ok();
     writeln!(
         md,

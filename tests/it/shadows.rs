@@ -257,3 +257,50 @@ fn set_shadows_is_a_redraw() {
     gpu.queue.submit([enc.finish()]);
     assert_eq!(stage.shadow_params().center[3], 0.0, "shadows still on after shadows=off");
 }
+
+/// Toon wisps cast a step, not a gradient: on the toon scene's head, the pixels the wisps'
+/// shadow darkens all take one flat tone (the skin's ambient; anti-aliased edge pixels
+/// aside), however the wrap lighting varied across them.
+#[test]
+fn wisps_cast_a_toon_step() {
+    let scene = common::scene("toon");
+    let mut off = scene.clone();
+    off.render.shadows.on = false;
+    let (_, on_img) = drawn(&scene);
+    let (_, off_img) = drawn(&off);
+    let skin = |p: [u8; 4]| p[0] as i32 > p[2] as i32 + 30 && p[0] > 100;
+    let mut changed = Vec::new();
+    let mut lit = Vec::new();
+    for (x, y, p) in off_img.enumerate_pixels() {
+        let q = on_img.get_pixel(x, y).0;
+        if !skin(p.0) || !skin(q) {
+            continue;
+        }
+        if p.0[..3] != q[..3] {
+            changed.push(q);
+            lit.push(p.0);
+        }
+    }
+    assert!(changed.len() >= 10, "the wisps shade only {} head pixels", changed.len());
+    let tone = |v: &[[u8; 4]]| {
+        let mut r: Vec<u8> = v.iter().map(|p| p[0]).collect();
+        r.sort_unstable();
+        r
+    };
+    let shaded = tone(&changed);
+    let median = shaded[shaded.len() / 2] as i32;
+    let flat = shaded.iter().filter(|&&r| (r as i32 - median).abs() <= 3).count();
+    let before = tone(&lit);
+    let spread = *before.last().unwrap() as i32 - before[0] as i32;
+    eprintln!(
+        "{} shaded head pixels: {flat} within 3 of {median}; lit before, red from {} to {}",
+        shaded.len(),
+        before[0],
+        before.last().unwrap()
+    );
+    assert!(
+        flat as f64 >= 0.8 * shaded.len() as f64,
+        "the wisps' shadow on the head is not one tone: {shaded:?}"
+    );
+    assert!(spread > 6, "the lit head under the shadow was flat already: no test");
+}
