@@ -50,13 +50,7 @@ pub struct Row {
 /// Render `scene` in every mode, `runs` rounds (after one warm-up), the modes taking
 /// turns within each round so that a busy machine slows them alike; then each mode's
 /// error against the reference.
-pub fn measure(
-    gpu: &Gpu,
-    name: &str,
-    scene: &Scene,
-    runs: u32,
-    strands: bool,
-) -> Result<Vec<Row>> {
+pub fn measure(gpu: &Gpu, name: &str, scene: &Scene, runs: u32, strands: bool) -> Result<Vec<Row>> {
     let mut stages = Vec::new();
     for mode in MODES {
         let mut scene = scene.clone();
@@ -65,7 +59,12 @@ pub fn measure(
             scene.render.shadows.method = m;
         }
         stage::check_limits(gpu, &scene, SIZE)?;
-        stages.push(Stage::new(gpu, &scene, target::OUTPUT_FORMAT, Quality::of(&scene))?);
+        stages.push(Stage::new(
+            gpu,
+            &scene,
+            target::OUTPUT_FORMAT,
+            Quality::of(&scene),
+        )?);
     }
     let out = target::Offscreen::new(gpu, SIZE)?;
     let mut times = vec![Vec::new(); MODES.len()];
@@ -212,6 +211,29 @@ pub fn run(gpu: &Gpu, scenes: &Path, runs: u32, out: &Path) -> Result<Report> {
         }
     }
     writeln!(md).ok();
+    // One line for the README: each method's share of each scene's frame.
+    let share = |m: ShadowMethod| {
+        rows.chunks(3)
+            .map(|c| {
+                let r = c.iter().find(|r| r.mode == Some(m)).unwrap_or(&c[0]);
+                format!(
+                    "{:.0} % of the {}'s frame",
+                    100.0 * (r.ms - c[0].ms).max(0.0) / r.ms,
+                    r.scene
+                )
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    writeln!(
+        md,
+        "**Cost.** On {}, volume shadows took {}; deep opacity maps took {}.",
+        gpu.describe(),
+        share(ShadowMethod::Volume),
+        share(ShadowMethod::DeepOpacity)
+    )
+    .ok();
+    writeln!(md).ok();
     writeln!(
         md,
         "**Error** is |n - n_ref| in strands crossed, at up to {POINTS} points on the hair, against the f64 brute force over every segment smoothed as each method smooths (`stage::shadow::reference_strands`); strips are sheets, which the strand reference does not model. **Image diff** is the mean absolute difference over RGB, of 255."
@@ -221,7 +243,10 @@ pub fn run(gpu: &Gpu, scenes: &Path, runs: u32, out: &Path) -> Result<Report> {
     // Each scene's renders side by side: off, volume, deep opacity.
     let mut img = RgbaImage::new(SIZE.0 * 3, SIZE.1 * (rows.len() / 3) as u32);
     for (i, r) in rows.iter().enumerate() {
-        let (x, y) = ((i % 3) as i64 * SIZE.0 as i64, (i / 3) as i64 * SIZE.1 as i64);
+        let (x, y) = (
+            (i % 3) as i64 * SIZE.0 as i64,
+            (i / 3) as i64 * SIZE.1 as i64,
+        );
         image::imageops::overlay(&mut img, &r.image, x, y);
     }
     let p = out.join("shadow_bench.png");

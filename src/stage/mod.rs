@@ -586,9 +586,12 @@ impl Stage {
         // Hair shadows: cast, resolve, and bind for every draw below.
         let settings = self.scene.render.shadows;
         let casting = settings.on && self.systems.iter().any(|s| s.casts());
-        let light_box =
-            shadow::LightBox::fit(bounds, DVec3::from(self.scene.light.direction));
-        let head = self.scene.head.visible.then(|| head_sphere(&self.scene, ctx.head));
+        let light_box = shadow::LightBox::fit(bounds, DVec3::from(self.scene.light.direction));
+        let head = self
+            .scene
+            .head
+            .visible
+            .then(|| head_sphere(&self.scene, ctx.head));
         let mut params = shadow::params(&settings, &light_box, head, casting);
         if casting && self.scene.wisps.is_some() {
             // Toon wisps: shadows are steps (`shadow_toon`).
@@ -681,8 +684,7 @@ impl Stage {
 /// is stood for by its scene ellipsoid when it shadows hair.
 fn head_sphere(scene: &Scene, pose: DMat4) -> DMat4 {
     let hull = scene.head_ellipsoid();
-    pose * DMat4::from_translation(hull.center)
-        * DMat4::from_scale(hull.radii * head::DRAWN_SCALE)
+    pose * DMat4::from_translation(hull.center) * DMat4::from_scale(hull.radii * head::DRAWN_SCALE)
 }
 
 impl Stage {

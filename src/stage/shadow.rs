@@ -178,8 +178,11 @@ impl ShadowPass {
             ],
         );
         let module = gpu::shader_module(device, "shadow", MODULE)?;
-        let pl =
-            gpu::pipeline::pipeline_layout(device, "shadow resolve", &[&params_layout, &resolve_layout]);
+        let pl = gpu::pipeline::pipeline_layout(
+            device,
+            "shadow resolve",
+            &[&params_layout, &resolve_layout],
+        );
         let resolve = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some("shadow resolve"),
             layout: Some(&pl),
@@ -223,7 +226,12 @@ impl ShadowPass {
 
     /// Take this frame's box (the caller writes it into the frame uniform) and make (or
     /// free) the structure; true when the view group 0 must bind changed.
-    pub fn prepare(&mut self, gpu: &Gpu, uniform: GpuShadow, method: Option<ShadowMethod>) -> Result<bool> {
+    pub fn prepare(
+        &mut self,
+        gpu: &Gpu,
+        uniform: GpuShadow,
+        method: Option<ShadowMethod>,
+    ) -> Result<bool> {
         self.last = uniform;
         let had = self.grid.as_ref().map(|g| g.method);
         if had == method {
@@ -361,7 +369,12 @@ impl ShadowPass {
             .iter()
             .map(|p| [p.x as f32, p.y as f32, p.z as f32, 1.0])
             .collect();
-        let input = gpu::storage_buffer(device, "probe points", bytemuck::cast_slice(&data), wgpu::BufferUsages::empty());
+        let input = gpu::storage_buffer(
+            device,
+            "probe points",
+            bytemuck::cast_slice(&data),
+            wgpu::BufferUsages::empty(),
+        );
         let bytes = points.len() as u64 * 8;
         let output = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("probe out"),

@@ -84,7 +84,10 @@ fn check(scene: &kami::Scene, every: usize, what: &str) {
         scene.render.shadows.on = true;
         scene.render.shadows.method = method;
         let (mean, max, n) = errors(&scene, every);
-        assert!(n > 0.05, "{what}: the hair casts almost nothing: mean n {n}");
+        assert!(
+            n > 0.05,
+            "{what}: the hair casts almost nothing: mean n {n}"
+        );
         let (bm, bx) = bounds(method);
         assert!(
             mean < bm && max < bx,
@@ -126,7 +129,10 @@ fn hard_cases_match_the_f64_reference() {
         let pairs = shadow::against_reference(gpu, &stage, &segments, &points).unwrap();
         let total_ref: f64 = pairs.iter().map(|p| p.1).sum();
         let total_gpu: f64 = pairs.iter().map(|p| p.0).sum();
-        assert!(total_ref > 0.0, "{method:?}: the single strand casts nothing");
+        assert!(
+            total_ref > 0.0,
+            "{method:?}: the single strand casts nothing"
+        );
         assert!(
             (total_gpu - total_ref).abs() < 0.35 * total_ref,
             "{method:?}: a single strand's shadow: gpu {total_gpu}, f64 {total_ref}"
@@ -149,8 +155,14 @@ fn no_hair_in_the_way_reads_zero() {
             b.center + b.u * 3.0 * b.half,
             b.center - b.v * 0.99 * b.half + b.l * 0.5 * b.half,
         ];
-        for (p, (n, _)) in points.iter().zip(stage.probe_shadows(gpu, &points).unwrap()) {
-            assert!(n.abs() < 1e-3, "{method:?}: n {n} at {p} with no hair towards the light");
+        for (p, (n, _)) in points
+            .iter()
+            .zip(stage.probe_shadows(gpu, &points).unwrap())
+        {
+            assert!(
+                n.abs() < 1e-3,
+                "{method:?}: n {n} at {p} with no hair towards the light"
+            );
         }
     }
     let mut off = small_bob(ShadowMethod::Volume);
@@ -159,7 +171,11 @@ fn no_hair_in_the_way_reads_zero() {
     let c = DVec3::from(off.head.center);
     let points = [c, c - DVec3::from(off.light.direction).normalize() * 15.0];
     for (n, opaque) in stage.probe_shadows(gpu, &points).unwrap() {
-        assert_eq!((n, opaque), (0.0, 1.0), "shadows off must read 0 strands and 1 light");
+        assert_eq!(
+            (n, opaque),
+            (0.0, 1.0),
+            "shadows off must read 0 strands and 1 light"
+        );
     }
 }
 
@@ -177,13 +193,20 @@ fn the_head_shadows_like_its_f64_reference() {
     let mut rng = kami::rng::Rng::new(25, 0);
     let points: Vec<DVec3> = (0..400)
         .map(|_| {
-            let d = DVec3::new(rng.uniform() - 0.5, rng.uniform() - 0.5, rng.uniform() - 0.5);
+            let d = DVec3::new(
+                rng.uniform() - 0.5,
+                rng.uniform() - 0.5,
+                rng.uniform() - 0.5,
+            );
             hull.center + d.normalize_or_zero() * (12.0 + 6.0 * rng.uniform())
         })
         .collect();
     let got = stage.probe_shadows(gpu, &points).unwrap();
     let shadowed = got.iter().filter(|g| g.1 < 0.5).count();
-    assert!(shadowed > 20 && shadowed < 380, "{shadowed} of 400 in the head's shadow");
+    assert!(
+        shadowed > 20 && shadowed < 380,
+        "{shadowed} of 400 in the head's shadow"
+    );
     for (p, g) in points.iter().zip(&got) {
         let want = shadow::reference_opaque(head, b.l, *p);
         assert_eq!(g.1, want, "shadow_opaque at {p}");
@@ -223,7 +246,10 @@ fn the_head_is_darker_under_the_bangs() {
     };
     let (upper, lower) = (loss(top..top + third), loss(bottom - third..bottom + 1.0));
     eprintln!("red lost under the bangs {upper:.1}, at the chin {lower:.1}");
-    assert!(upper > lower + 5.0 && upper > 5.0, "under the bangs {upper}, chin {lower}");
+    assert!(
+        upper > lower + 5.0 && upper > 5.0,
+        "under the bangs {upper}, chin {lower}"
+    );
 }
 
 /// `--set shadows=off` (and `shadows.method=deep`) parse through the viewer's shared keys,
@@ -235,18 +261,28 @@ fn set_shadows_is_a_redraw() {
     let gpu = common::gpu();
     let scene = small_bob(ShadowMethod::Volume);
     let (mut stage, _) = drawn(&scene);
-    assert_eq!(stage.shadow_params().center[3], 1.0, "shadows on by default");
+    assert_eq!(
+        stage.shadow_params().center[3],
+        1.0,
+        "shadows on by default"
+    );
     let mut s = ViewerState::new(scene.clone(), String::new());
     s.apply_set("shadows=off").unwrap();
     s.apply_set("shadows.method=deep").unwrap();
     assert!(!s.scene.render.shadows.on);
     assert_eq!(s.scene.render.shadows.method, ShadowMethod::DeepOpacity);
-    let e = s.apply_set("shadows.method=raytraced").unwrap_err().to_string();
+    let e = s
+        .apply_set("shadows.method=raytraced")
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("shadows.method") && e.contains("volume"), "{e}");
     let applied = stage.apply(gpu, &s.scene).unwrap();
     assert!(!applied.restarted, "a shadow toggle restarted the clock");
     assert!(
-        applied.changes.iter().all(|(_, c)| *c <= kami::systems::Change::Redraw),
+        applied
+            .changes
+            .iter()
+            .all(|(_, c)| *c <= kami::systems::Change::Redraw),
         "a shadow toggle rebuilt or re-simulated: {:?}",
         applied.changes
     );
@@ -255,7 +291,11 @@ fn set_shadows_is_a_redraw() {
     let look = stage.look();
     stage.render(gpu, &mut enc, &out.view, SIZE, &look).unwrap();
     gpu.queue.submit([enc.finish()]);
-    assert_eq!(stage.shadow_params().center[3], 0.0, "shadows still on after shadows=off");
+    assert_eq!(
+        stage.shadow_params().center[3],
+        0.0,
+        "shadows still on after shadows=off"
+    );
 }
 
 /// Toon wisps cast a step, not a gradient: on the toon scene's head, the pixels the wisps'
@@ -281,7 +321,11 @@ fn wisps_cast_a_toon_step() {
             lit.push(p.0);
         }
     }
-    assert!(changed.len() >= 10, "the wisps shade only {} head pixels", changed.len());
+    assert!(
+        changed.len() >= 10,
+        "the wisps shade only {} head pixels",
+        changed.len()
+    );
     let tone = |v: &[[u8; 4]]| {
         let mut r: Vec<u8> = v.iter().map(|p| p[0]).collect();
         r.sort_unstable();
@@ -289,7 +333,10 @@ fn wisps_cast_a_toon_step() {
     };
     let shaded = tone(&changed);
     let median = shaded[shaded.len() / 2] as i32;
-    let flat = shaded.iter().filter(|&&r| (r as i32 - median).abs() <= 3).count();
+    let flat = shaded
+        .iter()
+        .filter(|&&r| (r as i32 - median).abs() <= 3)
+        .count();
     let before = tone(&lit);
     let spread = *before.last().unwrap() as i32 - before[0] as i32;
     eprintln!(
@@ -302,5 +349,8 @@ fn wisps_cast_a_toon_step() {
         flat as f64 >= 0.8 * shaded.len() as f64,
         "the wisps' shadow on the head is not one tone: {shaded:?}"
     );
-    assert!(spread > 6, "the lit head under the shadow was flat already: no test");
+    assert!(
+        spread > 6,
+        "the lit head under the shadow was flat already: no test"
+    );
 }

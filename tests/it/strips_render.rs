@@ -6,7 +6,7 @@ use crate::common;
 
 use glam::{DMat4, DQuat, DVec3, Mat4, Vec3, Vec4};
 use kami::gpu::gpu_data::GpuFrame;
-use kami::gpu::{self, pipeline, Gpu};
+use kami::gpu::{self, Gpu};
 use kami::rng::Rng;
 use kami::scene::{Ellipsoid, Head};
 use kami::stage::target::{DownsamplePass, Offscreen, SceneTargets, SCENE_FORMAT};

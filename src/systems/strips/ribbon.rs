@@ -634,7 +634,8 @@ impl RibbonPass {
             ],
         );
         let module = gpu::shader_module(device, "strips cast", CAST)?;
-        let pl = pipeline::pipeline_layout(device, "strips cast", &[frame_layout, &layout, cast_layout]);
+        let pl =
+            pipeline::pipeline_layout(device, "strips cast", &[frame_layout, &layout, cast_layout]);
         let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some("strips cast"),
             layout: Some(&pl),

@@ -56,7 +56,8 @@ impl WispCast {
             &[gpu::storage_entry(0, cs, true), gpu::uniform_entry(1, cs)],
         );
         let module = gpu::shader_module(device, "wisp cast", CAST)?;
-        let pl = pipeline::pipeline_layout(device, "wisp cast", &[frame_layout, &layout, cast_layout]);
+        let pl =
+            pipeline::pipeline_layout(device, "wisp cast", &[frame_layout, &layout, cast_layout]);
         let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some("wisp cast"),
             layout: Some(&pl),
@@ -73,7 +74,8 @@ impl WispCast {
                 usage: wgpu::BufferUsages::UNIFORM,
             },
         );
-        let group = pipeline::bind_buffers(device, "wisp cast", &layout, &[&curves.segments, &count]);
+        let group =
+            pipeline::bind_buffers(device, "wisp cast", &layout, &[&curves.segments, &count]);
         Ok(WispCast {
             pipeline,
             group,

@@ -259,7 +259,8 @@ impl WispsSystem {
             setup.format,
             setup.samples,
         )?;
-        let cast = march::WispCast::new(gpu, &curves, setup.frame_layout, setup.shadow_cast_layout)?;
+        let cast =
+            march::WispCast::new(gpu, &curves, setup.frame_layout, setup.shadow_cast_layout)?;
         Ok(WispsSystem {
             wisps,
             nodes,
