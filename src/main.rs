@@ -206,6 +206,23 @@ enum Bench {
         #[arg(long)]
         software: bool,
     },
+    /// Hair shadows: ms per frame without shadows and with each method (volume, deep
+    /// opacity) on the bob, a fur scene and strips, each method's error against the f64
+    /// reference and the image difference between them; writes shadow_bench.md, shadow_bench.csv and
+    /// shadow_bench.png.
+    Shadows {
+        /// The folder holding bob.ron, fur_creature.ron and strips.ron.
+        #[arg(long, default_value_os_t = kami::scene::shipped("assets/scenes"))]
+        scenes: PathBuf,
+        /// Timed frames per row (the median is reported).
+        #[arg(long, default_value_t = 7, value_parser = clap::value_parser!(u32).range(1..=100))]
+        runs: u32,
+        /// Directory for the report files.
+        #[arg(long, default_value = "bench_out")]
+        out: PathBuf,
+        #[arg(long)]
+        software: bool,
+    },
     /// Screen-space level of detail of strand hair: image error against full detail and
     /// strands/segments drawn as the head gets smaller on screen; writes lod.md, lod.csv and
     /// lod.png.
@@ -757,6 +774,20 @@ fn run(cli: Cli) -> Result<()> {
                 println!("{}", report.markdown);
                 println!(
                     "wrote {0}/look.md, {0}/look.csv and the image pairs",
+                    out.display()
+                );
+            }
+            Bench::Shadows {
+                scenes,
+                runs,
+                out,
+                software,
+            } => {
+                let gpu = Gpu::headless(preference(software))?;
+                let report = kami::bench::shadows::run(&gpu, &scenes, runs, &out)?;
+                println!("{}", report.markdown);
+                println!(
+                    "wrote {0}/shadow_bench.md, {0}/shadow_bench.csv, {0}/shadow_bench.png",
                     out.display()
                 );
             }

@@ -26,4 +26,15 @@ pub const DOWNSAMPLE: &str = wgsl!("stage/downsample.wgsl");
 
 /// The stage's own modules (the registry, `stage::shaders`, adds the forces' and every
 /// kind's).
-pub const STAGE: &[(&str, &str)] = &[("stage/head", HEAD), ("stage/downsample", DOWNSAMPLE)];
+pub const STAGE: &[(&str, &str)] = &[
+    ("stage/head", HEAD),
+    ("stage/downsample", DOWNSAMPLE),
+    ("stage/shadow", SHADOW),
+];
+
+/// The shadow pass's resolve and probe (`stage::shadow`).
+pub const SHADOW: &str = wgsl!(
+    "common/frame.wgsl",
+    "common/shadow.wgsl",
+    "stage/shadow.wgsl"
+);

@@ -13,7 +13,28 @@ struct Frame {
     raster: vec4<f32>,
     // x: 1 to show the segments the pseudo-force acted on; y: samples per output pixel
     flags: vec4<f32>,
+    // The hair shadows' light-space box (common/shadow.wgsl, src/stage/shadow.rs).
+    shadow: ShadowParams,
 }
+
+// Keep in sync with GpuShadow in src/gpu/shadow.rs.
+struct ShadowParams {
+    // xyz centre of the light-space box; w 1 while shadows are on
+    center: vec4<f32>,
+    // xyz unit axis across the light; w half the box's size (world)
+    axis_u: vec4<f32>,
+    // xyz the other axis across; w method (0 volume, 1 deep opacity)
+    axis_v: vec4<f32>,
+    // xyz unit towards the light; w absorption per strand
+    axis_l: vec4<f32>,
+    // x, y cells across; z slices (volume) or layers (deep opacity); w 1 with a head
+    dims: vec4<f32>,
+    // deep opacity: where each layer ends, world distance behind the first depth
+    layers: vec4<f32>,
+    // world to the head ellipsoid's unit sphere (shadow_opaque)
+    head_inv: mat4x4<f32>,
+}
+
 
 @group(0) @binding(0) var<uniform> frame: Frame;
 

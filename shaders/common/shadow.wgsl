@@ -1,4 +1,5 @@
-// The light's shadow structure as every shading module sees it (the stage's shadow pass).
+// The light's shadow structure as every shading module sees it (the stage's shadow pass,
+// src/stage/shadow.rs; docs/shadows.md).
 // Contract for every module that includes this file:
 // - `shadow_strands(p)`: the expected number of hair strands crossed on the way from world
 //   point p towards the key light (the sum of the strands' projected coverage along that
@@ -6,10 +7,133 @@
 //   by it; the physical mode's dual scattering reads it as the strand count n.
 // - `shadow_opaque(p)`: how much of the key light reaches p past opaque occluders (the head,
 //   a mesh head, a fur skin): 1 lit, 0 in their shadow; 1 while shadows are off.
-fn shadow_strands(p: vec3<f32>) -> f32 {
-    return 0.0 * p.x;
+// - `shadow_direct(p)`: the factor on the direct (diffuse + specular) light of hair:
+//   exp(-absorption * shadow_strands(p)) * shadow_opaque(p).
+
+
+// The resolved structure (src/stage/shadow.rs): volume, per cell the strands crossed up to
+// its centre; deep opacity, per texel the first depth then the strands crossed at each
+// layer's end.
+// A texture, not a storage buffer: every shader stage may read it without counting against
+// the storage buffers a stage may bind (the wisps' march binds many). Word i lies at
+// (i % SHADOW_ROW, i / SHADOW_ROW); keep in sync with ROW in src/stage/shadow.rs.
+@group(0) @binding(1) var shadow_map: texture_2d<f32>;
+
+const SHADOW_ROW: u32 = 256u;
+
+fn shadow_word(i: u32) -> f32 {
+    return textureLoad(shadow_map, vec2<u32>(i % SHADOW_ROW, i / SHADOW_ROW), 0).x;
 }
 
+// Light-space coordinates of p: x, y in cells, z depth from the box's light side (world).
+fn shadow_coords(p: vec3<f32>) -> vec3<f32> {
+    let q = p - frame.shadow.center.xyz;
+    let half = frame.shadow.axis_u.w;
+    return vec3<f32>(
+        (dot(q, frame.shadow.axis_u.xyz) / half * 0.5 + 0.5) * frame.shadow.dims.x,
+        (dot(q, frame.shadow.axis_v.xyz) / half * 0.5 + 0.5) * frame.shadow.dims.y,
+        half - dot(q, frame.shadow.axis_l.xyz),
+    );
+}
+
+fn shadow_volume_at(x: i32, y: i32, z: i32) -> f32 {
+    let nx = i32(frame.shadow.dims.x);
+    let ny = i32(frame.shadow.dims.y);
+    let nz = i32(frame.shadow.dims.z);
+    let i = (clamp(z, 0, nz - 1) * ny + clamp(y, 0, ny - 1)) * nx + clamp(x, 0, nx - 1);
+    return shadow_word(u32(i));
+}
+
+// Strands crossed at depth `t` behind texel (x, y)'s first depth.
+fn shadow_deep_at(x: i32, y: i32, t: f32) -> f32 {
+    let nx = i32(frame.shadow.dims.x);
+    let ny = i32(frame.shadow.dims.y);
+    let base = u32((clamp(y, 0, ny - 1) * nx + clamp(x, 0, nx - 1)) * 5);
+    let off = t - shadow_word(base);
+    var start = 0.0;
+    var before = 0.0;
+    for (var k = 0u; k < 4u; k++) {
+        let end = frame.shadow.layers[k];
+        let after = shadow_word(base + 1u + k);
+        if off < end {
+            let f = clamp((off - start) / max(end - start, 1e-20), 0.0, 1.0);
+            return mix(before, after, f);
+        }
+        start = end;
+        before = after;
+    }
+    return before;
+}
+
+fn shadow_strands(p: vec3<f32>) -> f32 {
+    if frame.shadow.center.w < 0.5 {
+        return 0.0;
+    }
+    let c = shadow_coords(p);
+    if c.x < 0.0 || c.y < 0.0 || c.x > frame.shadow.dims.x || c.y > frame.shadow.dims.y {
+        return 0.0;
+    }
+    let g = c.xy - 0.5;
+    let i = vec2<i32>(floor(g));
+    let f = g - floor(g);
+    if frame.shadow.axis_v.w < 0.5 {
+        let gz = c.z / (2.0 * frame.shadow.axis_u.w) * frame.shadow.dims.z - 0.5;
+        let iz = i32(floor(gz));
+        let fz = gz - floor(gz);
+        var s = array<f32, 2>(0.0, 0.0);
+        for (var k = 0; k < 2; k++) {
+            let a = mix(shadow_volume_at(i.x, i.y, iz + k), shadow_volume_at(i.x + 1, i.y, iz + k), f.x);
+            let b = mix(shadow_volume_at(i.x, i.y + 1, iz + k), shadow_volume_at(i.x + 1, i.y + 1, iz + k), f.x);
+            s[k] = mix(a, b, f.y);
+        }
+        return mix(s[0], s[1], fz);
+    }
+    let a = mix(shadow_deep_at(i.x, i.y, c.z), shadow_deep_at(i.x + 1, i.y, c.z), f.x);
+    let b = mix(shadow_deep_at(i.x, i.y + 1, c.z), shadow_deep_at(i.x + 1, i.y + 1, c.z), f.x);
+    return mix(a, b, f.y);
+}
+
+// The ray from p towards the light against the head ellipsoid (drawn 2 % smaller, so roots
+// on the scalp's lit side do not shadow themselves). A mesh head is stood for by its
+// scene ellipsoid.
 fn shadow_opaque(p: vec3<f32>) -> f32 {
-    return 1.0 + 0.0 * p.x;
+    if frame.shadow.center.w < 0.5 || frame.shadow.dims.w < 0.5 {
+        return 1.0;
+    }
+    let o = (frame.shadow.head_inv * vec4<f32>(p, 1.0)).xyz;
+    let d = (frame.shadow.head_inv * vec4<f32>(frame.shadow.axis_l.xyz, 0.0)).xyz;
+    // |o + s d|^2 = r^2 with r = 0.98, for some s > 0.
+    let a = dot(d, d);
+    let b = dot(o, d);
+    let c = dot(o, o) - 0.98 * 0.98;
+    let disc = b * b - a * c;
+    if disc < 0.0 || a <= 0.0 {
+        return 1.0;
+    }
+    let far = (-b + sqrt(disc)) / a;
+    return select(1.0, 0.0, far > 0.0);
+}
+
+fn shadow_direct(p: vec3<f32>) -> f32 {
+    return exp(-frame.shadow.axis_l.w * shadow_strands(p)) * shadow_opaque(p);
+}
+
+// Toon shadows (the wisps, and the head in a toon scene): a step, not a gradient. 1 where
+// more than TOON_STRANDS strands lie towards the light, or the head does; read 1.5 cells
+// towards the light, so a surface does not shadow itself (the wisps' own toon shading
+// darkens the side away from the light).
+const TOON_STRANDS: f32 = 0.5;
+
+fn shadow_toon(p: vec3<f32>) -> f32 {
+    if frame.shadow.center.w < 0.5 {
+        return 0.0;
+    }
+    let bias = 3.0 * frame.shadow.axis_u.w / frame.shadow.dims.x;
+    let q = p + frame.shadow.axis_l.xyz * bias;
+    return select(0.0, 1.0, shadow_strands(q) > TOON_STRANDS || shadow_opaque(q) < 0.5);
+}
+
+// Whether the scene's shadows are toon steps (center.w 2: a scene with wisps).
+fn shadow_is_toon() -> bool {
+    return frame.shadow.center.w > 1.5;
 }

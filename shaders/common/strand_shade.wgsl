@@ -107,7 +107,8 @@ fn shade_node(s: Strand, n: u32) -> ShadedNode {
     let tdl = dot(t, l);
     let diffuse = mat.params.y * sqrt(max(1.0 - tdl * tdl, 0.0));
     let ambient = frame.light_color.w * s.ka;
-    let intensity = frame.light_dir.w;
+    // Hair shadows (common/shadow.wgsl) dim the direct light only.
+    let intensity = frame.light_dir.w * shadow_direct(p);
     var rgb = base * (ambient + intensity * diffuse) + frame.light_color.rgb * (intensity * spec);
     // The physical mode (docs/shading.md): the key light dual-scattered through the strands
     // the shadow structure counts, past opaque occluders, plus Kami's ambient (I_a k_a) times

@@ -50,8 +50,10 @@ fn shade(m: FurMaterial, n_in: vec3<f32>, p: vec3<f32>) -> vec3<f32> {
     let h = normalize(l + v);
     let diff = max(dot(n, l), 0.0);
     let spec = pow(max(dot(n, h), 0.0), max(m.specular.w, 1.0));
+    // Hair shadows (common/shadow.wgsl) dim the direct light only.
+    let lit = shadow_direct(p);
     return m.ambient.rgb * frame.light_color.w
-        + frame.light_dir.w * frame.light_color.rgb * (m.diffuse.rgb * diff + m.specular.rgb * spec);
+        + lit * frame.light_dir.w * frame.light_color.rgb * (m.diffuse.rgb * diff + m.specular.rgb * spec);
 }
 
 // The coat's shading at a vertex: the paper's GL lighting, or the physical mode

@@ -55,6 +55,8 @@ fn fs(in: VOut) -> @location(0) vec4<f32> {
     let n = normalize(in.normal);
     let l = frame.light_dir.xyz;
     let wrap = max((dot(n, l) + 0.3) / 1.3, 0.0);
-    let rgb = skin.color.rgb * (0.3 * frame.light_color.w + 0.8 * frame.light_dir.w * wrap);
+    // The fur's shadow (common/shadow.wgsl) dims the direct light.
+    let direct = frame.light_dir.w * exp(-frame.shadow.axis_l.w * shadow_strands(in.world));
+    let rgb = skin.color.rgb * (0.3 * frame.light_color.w + 0.8 * direct * wrap);
     return vec4<f32>(rgb, 1.0);
 }

@@ -39,6 +39,13 @@ fn fs(in: VOut) -> @location(0) vec4<f32> {
     let h = normalize(l + v);
     let spec = 0.08 * pow(max(dot(n, h), 0.0), 30.0);
     let ambient = 0.3 * frame.light_color.w;
-    let rgb = head.color.rgb * (ambient + 0.8 * frame.light_dir.w * wrap) + frame.light_color.rgb * spec * frame.light_dir.w;
+    // The hair's shadow (common/shadow.wgsl) dims the direct light; the head's own
+    // terminator stays the soft wrap.
+    var direct = frame.light_dir.w * exp(-frame.shadow.axis_l.w * shadow_strands(in.world));
+    if shadow_is_toon() {
+        // A toon scene's head: the wisps' shadow is a step.
+        direct = frame.light_dir.w * (1.0 - shadow_toon(in.world));
+    }
+    let rgb = head.color.rgb * (ambient + 0.8 * direct * wrap) + frame.light_color.rgb * spec * direct;
     return vec4<f32>(rgb, 1.0);
 }

@@ -117,7 +117,8 @@ fn strip_color(in: VOut) -> vec4<f32> {
     let diffuse = sqrt(max(1.0 - tdl * tdl, 0.0));
     let spec = strip_look.look.x * pow(max(1.0 - tdh * tdh, 0.0), 0.5 * strip_look.look.y);
     let base = info[in.strip].color.rgb * tex.rgb * strip_look.look.w;
-    let intensity = frame.light_dir.w;
+    // Hair shadows (common/shadow.wgsl) dim the direct light only.
+    let intensity = frame.light_dir.w * shadow_direct(in.world);
     var rgb = base * (frame.light_color.w + intensity * diffuse) + frame.light_color.rgb * (intensity * spec);
     if hair_physical(strip_look.bsdf) {
         // The pigments' colour instead of the layer's; the texture's gradient kept.

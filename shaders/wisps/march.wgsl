@@ -696,6 +696,7 @@ fn fs(in: VOut) -> FOut {
         if (dot(g, g) > 0.0) {
             n = -normalize(g);
         }
+        toon_shadow = shadow_toon(p);
         out.color = vec4<f32>(toon_at(n, -dir), 1.0);
         out.depth = depth_of(p);
         if (counting) {

@@ -5,6 +5,11 @@
 // f64 reference: `src/systems/wisps/toon.rs` (same steps, same order; `shade_at` is
 // `toon_at`).
 
+// 1 where the point shaded is in a toon shadow (common/shadow.wgsl's `shadow_toon`, set by
+// the march before it shades): the lit tone gives way to the lower ones. 0 keeps the f64
+// reference's colours (src/systems/wisps/toon.rs).
+var<private> toon_shadow: f32 = 0.0;
+
 // A feathered step: exactly 0 or 1 (x > t) for feather <= 0, else the smoothstep from
 // t - feather/2 to t + feather/2 (`toon::step`).
 fn toon_step(x: f32, t: f32, feather: f32) -> f32 {
@@ -49,7 +54,7 @@ fn toon_at(n_world: vec3<f32>, v_world: vec3<f32>) -> vec3<f32> {
     let i_lon = 0.5 * (cross_term + 1.0);
     let i_diff = i_lat * i_lon;
     // Eqs 20-22: the tones by feathered steps (specular.w is 1 for three tones).
-    let lit = toon_step(i_diff, draw.diffuse.w, draw.feather.x);
+    let lit = toon_step(i_diff, draw.diffuse.w, draw.feather.x) * (1.0 - toon_shadow);
     var lower = draw.shade.rgb;
     if (draw.specular.w > 0.5) {
         lower = toon_blend(draw.dark.rgb, draw.shade.rgb, toon_step(i_diff, draw.shade.w, draw.feather.y));

@@ -264,6 +264,14 @@ fn look_common(ui: &mut Ui, s: &mut ViewerState) {
     }
     ui.add(Slider::new(&mut l.intensity, 0.0..=3.0).text("I_s (light)"));
     ui.add(Slider::new(&mut l.ambient, 0.0..=3.0).text("I_a (ambient)"));
+    let sh = &mut s.scene.render.shadows;
+    ui.horizontal(|ui| {
+        ui.checkbox(&mut sh.on, "shadows")
+            .on_hover_text("hair shadows from the key light, on hair, the head and fur skin (docs/shadows.md; kami bench shadows)");
+        ui.radio_value(&mut sh.method, crate::scene::ShadowMethod::Volume, "volume");
+        ui.radio_value(&mut sh.method, crate::scene::ShadowMethod::DeepOpacity, "deep opacity");
+    });
+    ui.add(Slider::new(&mut sh.absorption, 0.0..=3.0).text("shadow absorption per strand"));
     ui.horizontal(|ui| {
         ui.label("background");
         ui.color_edit_button_rgb(&mut s.scene.render.background);

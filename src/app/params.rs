@@ -221,7 +221,8 @@ impl ViewerState {
     /// first (`KindUi::set`, listed on each kind's implementation), then the viewer's own:
     /// `wind=x,y,z` and `gravity=x,y,z` (the scene's `forces` block; each kind's
     /// `KindUi::force_set` may set its still hair moving), `msaa=1|4`, `supersample=f`,
-    /// `strands=ribbons|compute`, `shading=anjyo|physical`, `play=on|off`, `lod=fraction` (fixed, 0..1),
+    /// `strands=ribbons|compute`, `shading=anjyo|physical`, `shadows=on|off`,
+    /// `shadows.method=volume|deep`, `play=on|off`, `lod=fraction` (fixed, 0..1),
     /// `seek=FRAME`, `save=FILE`, `export=FILE`, and scripted mouse events
     /// `mouse.press=x,y`, `mouse.move=x,y`, `mouse.release` (window pixels; as with the
     /// real mouse, a press no kind's tool takes orbits the camera as it moves).
@@ -267,6 +268,11 @@ impl ViewerState {
                 "shading" => {
                     next.render.shading =
                         crate::scene::Shading::parse(text()?.trim()).map_err(bad)?
+                }
+                "shadows" => next.render.shadows.on = on()?,
+                "shadows.method" => {
+                    next.render.shadows.method =
+                        crate::scene::ShadowMethod::parse(text()?.trim()).map_err(bad)?
                 }
                 "play" => self.host.playing = on()?,
                 "lod" => {

@@ -12,6 +12,7 @@ pub mod plot;
 pub mod raster;
 pub mod scale;
 pub mod sdf;
+pub mod shadows;
 pub mod splat;
 pub mod strips;
 pub mod wisps;

@@ -61,8 +61,10 @@ pub struct GpuFrame {
     /// `systems::View::samples_per_px`, for widths given in output pixels such as the wisps'
     /// outline); z, w: unused (0).
     pub flags: [f32; 4],
+    /// The hair shadows' light-space box (`stage::shadow`; all 0 while shadows are off).
+    pub shadow: crate::gpu::shadow::GpuShadow,
 }
-assert_size!(GpuFrame, 160);
+assert_size!(GpuFrame, 320);
 
 /// The head mesh's uniform. Keep in sync with `struct Head` in `shaders/stage/head.wgsl`.
 #[repr(C)]

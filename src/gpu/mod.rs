@@ -7,6 +7,7 @@
 
 pub mod gpu_data;
 pub mod pipeline;
+pub mod shadow;
 pub mod splat;
 pub mod strands;
 pub mod timing;

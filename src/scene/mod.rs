@@ -235,6 +235,9 @@ pub struct RenderSettings {
     /// How hair is shaded where a group does not choose (`docs/shading.md`).
     #[serde(default, skip_serializing_if = "Shading::is_anjyo")]
     pub shading: Shading,
+    /// Hair shadows from the key light (`stage::shadow`, docs/shadows.md).
+    #[serde(default)]
+    pub shadows: Shadows,
 }
 
 /// How hair is shaded: per scene (`render.shading`), per group (each kind's look).
@@ -259,6 +262,60 @@ impl Shading {
 
     pub fn is_anjyo(&self) -> bool {
         *self == Shading::Anjyo
+    }
+}
+
+/// Hair shadows: every system's strands cast into one light-space structure each frame;
+/// hair, the head and fur skins read from it how many strands lie between them and the
+/// light (docs/shadows.md).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Shadows {
+    #[serde(default = "yes")]
+    pub on: bool,
+    #[serde(default)]
+    pub method: ShadowMethod,
+    /// Extinction per strand crossed: the direct light is scaled by exp(-absorption * n),
+    /// n the expected number of strands between a point and the light (0 lets every strand
+    /// through, 0.5 passes about 61 % per strand, as a light-coloured strand does).
+    #[serde(default = "default_absorption")]
+    pub absorption: f64,
+}
+
+fn default_absorption() -> f64 {
+    0.5
+}
+
+impl Default for Shadows {
+    fn default() -> Self {
+        Shadows {
+            on: true,
+            method: ShadowMethod::default(),
+            absorption: default_absorption(),
+        }
+    }
+}
+
+/// How the strands' shadow is stored (both measured by `kami bench shadows`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ShadowMethod {
+    /// A light-aligned density volume (64^3): strands voxelised, then summed along the
+    /// light (as Unreal's groom and Unity's hair do).
+    #[default]
+    Volume,
+    /// Deep opacity maps (Yuksel & Keyser 2008): a light-space first-depth map (256^2),
+    /// then 4 opacity layers behind that depth.
+    DeepOpacity,
+}
+
+impl ShadowMethod {
+    /// From its name on a command line (`volume` or `deep`).
+    pub fn parse(s: &str) -> std::result::Result<ShadowMethod, String> {
+        match s {
+            "volume" => Ok(ShadowMethod::Volume),
+            "deep" | "deep_opacity" => Ok(ShadowMethod::DeepOpacity),
+            _ => Err(format!("shadow method must be volume or deep, not {s:?}")),
+        }
     }
 }
 
@@ -316,6 +373,7 @@ impl Default for RenderSettings {
             lod_tolerance_px: default_lod_tolerance_px(),
             strands: StrandRaster::default(),
             shading: Shading::default(),
+            shadows: Shadows::default(),
         }
     }
 }

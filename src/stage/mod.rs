@@ -13,6 +13,7 @@
 
 pub mod camera;
 pub mod head;
+pub mod shadow;
 /// The thin strands' accumulation lives in `gpu` (systems bind its layouts); named here too.
 pub use crate::gpu::splat;
 pub mod target;
@@ -97,6 +98,8 @@ pub struct Stage {
     timer: Option<GpuTimer>,
     /// The frame uniform of the last `render` (the splat contract test rebuilds its input).
     last_frame: GpuFrame,
+    /// Hair shadows (group 0's bindings 1 and 2).
+    shadow: shadow::ShadowPass,
 }
 
 /// The scene targets of one output size, the resolve's bind group for them, and the thin
@@ -160,22 +163,16 @@ impl Stage {
         quality: Quality,
     ) -> Result<Stage> {
         let device = &gpu.device;
-        let frame_layout = gpu::pipeline::layout(
-            device,
-            "frame",
-            &[gpu::uniform_entry(
-                0,
-                wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
-            )],
-        );
+        let frame_layout = gpu::shadow::frame_layout(device);
         let frame_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("frame uniform"),
             size: std::mem::size_of::<GpuFrame>() as u64,
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
+        let shadow = shadow::ShadowPass::new(gpu, &frame_buffer)?;
         let frame_bind_group =
-            gpu::pipeline::bind_buffers(device, "frame", &frame_layout, &[&frame_buffer]);
+            gpu::shadow::frame_group(device, &frame_layout, &frame_buffer, shadow.read_view());
         let mut stage = Stage {
             forces: Forces::new(&scene.forces, &scene.head),
             scene: scene.clone(),
@@ -191,6 +188,7 @@ impl Stage {
             splat_layouts: splat::SplatLayouts::new(device),
             timer: None,
             last_frame: bytemuck::Zeroable::zeroed(),
+            shadow,
         };
         stage.ensure_head(gpu)?;
         for kind in KINDS {
@@ -208,6 +206,7 @@ impl Stage {
         DrawSetup {
             frame_layout: &self.frame_layout,
             splat_layouts: &self.splat_layouts,
+            shadow_cast_layout: &self.shadow.cast_layout,
             format: gpu::pipeline::SCENE_FORMAT,
             samples: self.quality.msaa,
         }
@@ -584,9 +583,41 @@ impl Stage {
             targets.resolve_splat = splatting;
         }
         let targets = &*targets;
+        // Hair shadows: cast, resolve, and bind for every draw below.
+        let settings = self.scene.render.shadows;
+        let casting = settings.on && self.systems.iter().any(|s| s.casts());
+        let light_box = shadow::LightBox::fit(bounds, DVec3::from(self.scene.light.direction));
+        let head = self
+            .scene
+            .head
+            .visible
+            .then(|| head_sphere(&self.scene, ctx.head));
+        let mut params = shadow::params(&settings, &light_box, head, casting);
+        if casting && self.scene.wisps.is_some() {
+            // Toon wisps: shadows are steps (`shadow_toon`).
+            params.center[3] = 2.0;
+        }
+        if self
+            .shadow
+            .prepare(gpu, params, casting.then_some(settings.method))?
+        {
+            self.frame_bind_group = gpu::shadow::frame_group(
+                &gpu.device,
+                &self.frame_layout,
+                &self.frame_buffer,
+                self.shadow.read_view(),
+            );
+        }
+        uniform.shadow = params;
         gpu.queue
             .write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&uniform));
         self.last_frame = uniform;
+        let systems = &self.systems;
+        self.shadow.record(enc, &self.frame_bind_group, |pass| {
+            for s in systems {
+                s.cast_shadow(pass);
+            }
+        });
         if let Some(h) = &self.head {
             h.prepare(
                 &gpu.queue,
@@ -649,6 +680,27 @@ impl Stage {
     }
 }
 
+/// The head ellipsoid as drawn (its unit sphere to world at head pose `pose`); a mesh head
+/// is stood for by its scene ellipsoid when it shadows hair.
+fn head_sphere(scene: &Scene, pose: DMat4) -> DMat4 {
+    let hull = scene.head_ellipsoid();
+    pose * DMat4::from_translation(hull.center) * DMat4::from_scale(hull.radii * head::DRAWN_SCALE)
+}
+
+impl Stage {
+    /// `shadow_strands` and `shadow_opaque` at `points` as the shaders saw them in the last
+    /// frame drawn (tests and `kami bench shadows`).
+    pub fn probe_shadows(&self, gpu: &Gpu, points: &[DVec3]) -> Result<Vec<(f64, f64)>> {
+        self.shadow
+            .probe(gpu, &self.frame_layout, &self.frame_bind_group, points)
+    }
+
+    /// The shadow uniform of the last frame drawn (its light-space box, for the reference).
+    pub fn shadow_params(&self) -> gpu::shadow::GpuShadow {
+        self.shadow.last()
+    }
+}
+
 /// The frame uniform for a target of `size` samples with `msaa` samples per pixel.
 pub fn frame_uniform(
     scene: &Scene,
@@ -687,6 +739,8 @@ pub fn frame_uniform(
             msaa.max(1) as f32,
         ],
         flags: [f32::from(u8::from(look.overlay)), 0.0, 0.0, 0.0],
+        // Written by `Stage::render` once the shadow pass has fitted its box.
+        shadow: Default::default(),
     }
 }
 

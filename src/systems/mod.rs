@@ -78,6 +78,8 @@ pub struct DrawSetup<'a> {
     pub frame_layout: &'a wgpu::BindGroupLayout,
     /// Group 2 of a compute rasteriser for thin strands (`gpu::splat`).
     pub splat_layouts: &'a crate::gpu::splat::SplatLayouts,
+    /// Group 2 of a cast pipeline (`gpu::shadow`, `shaders/common/shadow_cast.wgsl`).
+    pub shadow_cast_layout: &'a wgpu::BindGroupLayout,
     pub format: wgpu::TextureFormat,
     pub samples: u32,
 }
@@ -160,6 +162,14 @@ pub trait HairSystem {
     /// Record the compute rasteriser after the scene pass; groups 0 (the frame) and 2 (the
     /// accumulation and the scene depth, `stage::splat`) are bound.
     fn splat(&self, _pass: &mut wgpu::ComputePass<'_>) {}
+    /// Whether the system casts hair shadows (`cast_shadow` records something).
+    fn casts(&self) -> bool {
+        false
+    }
+    /// Deposit this frame's strands into the shadow structure (`stage::shadow`); groups 0
+    /// (the frame) and 2 (the structure, `shaders/common/shadow_cast.wgsl`) are bound. Runs
+    /// once per casting phase.
+    fn cast_shadow(&self, _pass: &mut wgpu::ComputePass<'_>) {}
     /// Back to the rest pose.
     fn reset(&mut self, gpu: &Gpu) -> Result<()>;
     /// Rebuild draw pipelines for another MSAA sample count.

@@ -243,6 +243,7 @@ pub fn merge_edits(base: &Scene, ours: &Scene, theirs: Scene) -> Scene {
         lod_tolerance_px,
         strands,
         shading,
+        shadows,
     } = render;
     let (b, o) = (base, ours);
     Scene {
@@ -277,6 +278,7 @@ pub fn merge_edits(base: &Scene, ours: &Scene, theirs: Scene) -> Scene {
             ),
             strands: pick(&b.render.strands, &o.render.strands, strands),
             shading: pick(&b.render.shading, &o.render.shading, shading),
+            shadows: pick(&b.render.shadows, &o.render.shadows, shadows),
         },
         dynamics: pick(&b.dynamics, &o.dynamics, dynamics),
         fur: pick(&b.fur, &o.fur, fur),

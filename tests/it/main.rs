@@ -30,6 +30,7 @@ mod mesh_head;
 mod numerics;
 mod scale;
 mod shader_validation;
+mod shadows;
 mod snapshot;
 mod splat;
 mod stability;

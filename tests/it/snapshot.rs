@@ -31,6 +31,17 @@ fn bob() {
     snapshot("bob");
 }
 
+/// Shadows off draws exactly what Kami drew before shadows existed: this reference is the
+/// bob's snapshot from before them, unchanged.
+#[test]
+fn bob_shadows_off() {
+    let gpu = common::gpu();
+    let mut scene = common::scene("bob");
+    scene.render.shadows.on = false;
+    let img = kami::stage::render_scene(gpu, &scene, SIZE).unwrap();
+    check_snapshot("bob_shadows_off", &img, TOL);
+}
+
 #[test]
 fn swept_back() {
     snapshot("swept_back");

@@ -22,6 +22,9 @@ fn small(head: bool, msaa: u32) -> Scene {
     s.render.msaa = msaa;
     s.render.supersample = 1;
     s.render.strands = StrandRaster::Compute;
+    // The f64 reference (src/systems/anjyo/splat.rs) shades without shadows: the contract
+    // holds with shadows off; shadows' own contract is tests/it/shadows.rs.
+    s.render.shadows.on = false;
     s
 }
 

@@ -6,7 +6,7 @@ use crate::common;
 
 use glam::{DMat4, DQuat, DVec3, Mat4, Vec3, Vec4};
 use kami::gpu::gpu_data::GpuFrame;
-use kami::gpu::{self, pipeline, Gpu};
+use kami::gpu::{self, Gpu};
 use kami::rng::Rng;
 use kami::scene::{Ellipsoid, Head};
 use kami::stage::target::{DownsamplePass, Offscreen, SceneTargets, SCENE_FORMAT};
@@ -644,11 +644,7 @@ fn points_buffer(gpu: &Gpu, points: &[DVec3]) -> wgpu::Buffer {
 }
 
 fn frame_layout(gpu: &Gpu) -> wgpu::BindGroupLayout {
-    pipeline::layout(
-        &gpu.device,
-        "frame",
-        &[gpu::uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT)],
-    )
+    kami::gpu::shadow::frame_layout(&gpu.device)
 }
 
 #[test]
@@ -797,6 +793,7 @@ fn frame(size: (u32, u32), samples: u32) -> GpuFrame {
         ],
         raster: [1.0, 1.0, 1.0, samples as f32],
         flags: [0.0, 1.0, 0.0, 0.0],
+        shadow: Default::default(),
     }
 }
 
@@ -822,7 +819,8 @@ fn render(gpu: &Gpu, samples: u32, look: &Look) -> image::RgbaImage {
         bytemuck::bytes_of(&frame(targets.size, samples)),
         wgpu::BufferUsages::UNIFORM,
     );
-    let frame_bg = pipeline::bind_buffers(&gpu.device, "frame", &layout, &[&frame_buffer]);
+    let frame_bg =
+        kami::gpu::shadow::frame_group_without_shadows(&gpu.device, &layout, &frame_buffer);
     let out = Offscreen::new(gpu, (SIZE, SIZE)).unwrap();
     let down = DownsamplePass::new(gpu, out.format).unwrap();
     let down_bg = down.bind(gpu, &targets, None);

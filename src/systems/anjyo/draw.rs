@@ -39,6 +39,9 @@ pub struct StrandsPass {
     /// The compute rasteriser for the current MSAA sample count (the depth it reads),
     /// made on the first frame that splats.
     splat: std::cell::OnceCell<Option<wgpu::ComputePipeline>>,
+    /// Group 2 of the shadow cast (`gpu::shadow`), and its pipeline once shadows are on.
+    cast_layout: wgpu::BindGroupLayout,
+    cast: std::cell::OnceCell<Option<wgpu::ComputePipeline>>,
     samples: u32,
     device: wgpu::Device,
     /// On GL a multisampled depth that a shader reads leaves the scene pass black
@@ -85,6 +88,7 @@ impl StrandsPass {
         gpu: &Gpu,
         frame_layout: &wgpu::BindGroupLayout,
         splat_layouts: &SplatLayouts,
+        cast_layout: &wgpu::BindGroupLayout,
         color_format: wgpu::TextureFormat,
         samples: u32,
     ) -> Result<StrandsPass> {
@@ -123,6 +127,8 @@ impl StrandsPass {
             frame_layout: frame_layout.clone(),
             splat_layouts: splat_layouts.clone(),
             splat: Default::default(),
+            cast_layout: cast_layout.clone(),
+            cast: Default::default(),
             samples,
             device: gpu.device.clone(),
             gl: gpu.info.backend == wgpu::Backend::Gl,
@@ -160,6 +166,48 @@ impl StrandsPass {
                 cache: None,
             }),
         )
+    }
+
+    /// The shadow cast (`anjyo/cast.wgsl`) over groups 0, 1 and the cast group 2.
+    fn cast_pipeline(&self) -> Result<wgpu::ComputePipeline> {
+        let device = &self.device;
+        let module = gpu::shader_module(device, "anjyo cast", super::CAST)?;
+        let pl = pipeline::pipeline_layout(
+            device,
+            "strands cast",
+            &[&self.frame_layout, &self.layout, &self.cast_layout],
+        );
+        Ok(
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("strands cast"),
+                layout: Some(&pl),
+                module: &module,
+                entry_point: Some("cast_shadow"),
+                compilation_options: Default::default(),
+                cache: None,
+            }),
+        )
+    }
+
+    /// Deposit the drawn strands into the shadow structure; groups 0 and 2 are bound by
+    /// the stage.
+    pub fn cast(&self, pass: &mut wgpu::ComputePass<'_>) {
+        let Some(b) = &self.bound else { return };
+        let groups = b.strand_count.div_ceil(64);
+        if groups == 0 {
+            return;
+        }
+        let pipeline = self.cast.get_or_init(|| match self.cast_pipeline() {
+            Ok(p) => Some(p),
+            Err(e) => {
+                log::error!("the hair's shadow cast: {e}");
+                None
+            }
+        });
+        let Some(pipeline) = pipeline else { return };
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(1, &b.bind_group, &[]);
+        pass.dispatch_workgroups(groups.min(65535), groups.div_ceil(65535), 1);
     }
 
     /// Rebuild the pipelines for another MSAA sample count (the bound hair stays).

@@ -77,6 +77,16 @@ pub const DRAW: &str = wgsl!(
     "anjyo/draw.wgsl",
 );
 
+/// The strands' shadow cast (`stage::shadow`).
+pub const CAST: &str = wgsl!(
+    "common/strands.wgsl",
+    "common/frame.wgsl",
+    "common/shadow.wgsl",
+    "common/shadow_cast.wgsl",
+    "common/strand_shade.wgsl",
+    "anjyo/cast.wgsl",
+);
+
 /// The compute rasteriser for thin strands, reading a single-sampled scene depth.
 pub const SPLAT: &str = wgsl!(
     "common/depth_single.wgsl",
@@ -135,6 +145,7 @@ pub const KIND: Kind = Kind {
         ("anjyo/draw", DRAW),
         ("anjyo/splat", SPLAT),
         ("anjyo/splat_msaa", SPLAT_MSAA),
+        ("anjyo/cast", CAST),
     ],
     invariants: block::invariants,
     fuzz_words: FUZZ_WORDS,
@@ -457,6 +468,7 @@ impl AnjyoSystem {
             gpu,
             setup.frame_layout,
             setup.splat_layouts,
+            setup.shadow_cast_layout,
             setup.format,
             setup.samples,
         )?;
@@ -545,6 +557,14 @@ impl HairSystem for AnjyoSystem {
         if self.splats() {
             self.draw.splat(pass);
         }
+    }
+
+    fn casts(&self) -> bool {
+        true
+    }
+
+    fn cast_shadow(&self, pass: &mut wgpu::ComputePass<'_>) {
+        self.draw.cast(pass);
     }
 
     fn reset(&mut self, gpu: &Gpu) -> Result<()> {

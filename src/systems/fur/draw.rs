@@ -22,12 +22,18 @@ pub struct FurPass {
     skin: wgpu::RenderPipeline,
     layout: wgpu::BindGroupLayout,
     mesh_layout: wgpu::BindGroupLayout,
+    /// The shadow cast: its group 1 and pipeline (`shaders/fur/cast.wgsl`).
+    cast_layout: wgpu::BindGroupLayout,
+    cast: Option<wgpu::ComputePipeline>,
     bound: Option<Bound>,
 }
 
 struct Bound {
     bind_group: wgpu::BindGroup,
     mesh_bind_group: wgpu::BindGroup,
+    cast_group: wgpu::BindGroup,
+    /// Per coat: first hair, one past the last drawn (the cast's level of detail).
+    cast_coats: wgpu::Buffer,
     materials: wgpu::Buffer,
     skin: wgpu::Buffer,
     /// Per coat: first strand, tube or not, vertices per instance.
@@ -96,6 +102,7 @@ impl FurPass {
     pub fn new(
         gpu: &Gpu,
         frame_layout: &wgpu::BindGroupLayout,
+        shadow_cast_layout: &wgpu::BindGroupLayout,
         format: wgpu::TextureFormat,
         samples: u32,
     ) -> Result<FurPass> {
@@ -135,7 +142,34 @@ impl FurPass {
             format,
             samples,
         );
+        let cs = wgpu::ShaderStages::COMPUTE;
+        let cast_layout = pipeline::layout(
+            device,
+            "fur cast",
+            &[
+                gpu::storage_entry(0, cs, true),
+                gpu::storage_entry(1, cs, true),
+                gpu::storage_entry(2, cs, true),
+                gpu::storage_entry(3, cs, true),
+            ],
+        );
+        let cast_module = gpu::shader_module(device, "fur cast", super::CAST)?;
+        let cast_pl = pipeline::pipeline_layout(
+            device,
+            "fur cast",
+            &[frame_layout, &cast_layout, shadow_cast_layout],
+        );
+        let cast = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("fur cast"),
+            layout: Some(&cast_pl),
+            module: &cast_module,
+            entry_point: Some("cast_shadow"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
         Ok(FurPass {
+            cast_layout,
+            cast: Some(cast),
             module,
             mesh_module,
             pipeline_layout,
@@ -244,7 +278,7 @@ impl FurPass {
             &self.mesh_layout,
             &[&skin, &fur.mesh, &fur.tris, &fur.joints],
         );
-        let coats = setup
+        let coats: Vec<(u32, bool, u32)> = setup
             .fur
             .coats
             .iter()
@@ -254,9 +288,29 @@ impl FurPass {
                 (r.first_strand, tube, c.style.segments())
             })
             .collect();
+        let none: Vec<[u32; 2]> = coats.iter().map(|c| [c.0, c.0]).collect();
+        let cast_coats = gpu::storage_buffer(
+            device,
+            "fur cast coats",
+            bytemuck::cast_slice(&none),
+            wgpu::BufferUsages::empty(),
+        );
+        let cast_group = pipeline::bind_buffers(
+            device,
+            "fur cast",
+            &self.cast_layout,
+            &[
+                &fur.strands.strands,
+                &fur.strands.vertices,
+                &materials,
+                &cast_coats,
+            ],
+        );
         self.bound = Some(Bound {
             bind_group,
             mesh_bind_group,
+            cast_group,
+            cast_coats,
             materials,
             skin,
             coats,
@@ -287,6 +341,36 @@ impl FurPass {
                 bytemuck::bytes_of(&skin_uniform(setup, frame, b.skin_base)),
             );
         }
+    }
+
+    /// The hairs of this frame that cast (`drawn[coat]` per coat, as drawn).
+    pub fn set_drawn(&self, gpu: &Gpu, drawn: &[u32]) {
+        if let Some(b) = &self.bound {
+            let r: Vec<[u32; 2]> = b
+                .coats
+                .iter()
+                .zip(drawn)
+                .map(|(c, &n)| [c.0, c.0 + n])
+                .collect();
+            if r.len() == b.coats.len() && !r.is_empty() {
+                gpu.queue
+                    .write_buffer(&b.cast_coats, 0, bytemuck::cast_slice(&r));
+            }
+        }
+    }
+
+    /// Deposit the drawn hairs into the shadow structure (groups 0 and 2 are bound).
+    pub fn cast(&self, pass: &mut wgpu::ComputePass<'_>, hairs: u32) {
+        let (Some(b), Some(p)) = (&self.bound, &self.cast) else {
+            return;
+        };
+        let groups = hairs.div_ceil(64);
+        if groups == 0 {
+            return;
+        }
+        pass.set_pipeline(p);
+        pass.set_bind_group(1, &b.cast_group, &[]);
+        pass.dispatch_workgroups(groups.min(65535), groups.div_ceil(65535), 1);
     }
 
     /// Draw the skin (opaque).

@@ -49,6 +49,15 @@ pub const DRAW: &str = wgsl!(
     "fur/draw.wgsl",
 );
 
+/// Fur's shadow cast (`stage::shadow`).
+pub const CAST: &str = wgsl!(
+    "common/strands.wgsl",
+    "common/frame.wgsl",
+    "common/shadow.wgsl",
+    "common/shadow_cast.wgsl",
+    "fur/cast.wgsl",
+);
+
 /// The fur mesh's skin.
 pub const SKIN: &str = wgsl!(
     "common/frame.wgsl",
@@ -90,6 +99,7 @@ pub const KIND: Kind = Kind {
         ("fur/generate", GENERATE),
         ("fur/draw", DRAW),
         ("fur/skin", SKIN),
+        ("fur/cast", CAST),
     ],
     invariants: |_| Ok(()),
     fuzz_words: &[
@@ -239,6 +249,7 @@ impl FurSystem {
         let mut draw = draw::FurPass::new(
             gpu,
             draw_setup.frame_layout,
+            draw_setup.shadow_cast_layout,
             draw_setup.format,
             draw_setup.samples,
         )?;
@@ -362,6 +373,7 @@ impl HairSystem for FurSystem {
             &self.steps,
             self.shading,
         );
+        self.draw.set_drawn(gpu, &self.drawn);
         Ok(())
     }
 
@@ -371,6 +383,15 @@ impl HairSystem for FurSystem {
 
     fn draw(&self, pass: &mut wgpu::RenderPass<'_>, _view: &View) {
         self.draw.draw_hairs(pass, &self.drawn, &self.steps);
+    }
+
+    fn casts(&self) -> bool {
+        true
+    }
+
+    fn cast_shadow(&self, pass: &mut wgpu::ComputePass<'_>) {
+        let hairs = self.setup.coats.iter().map(|c| c.total).sum::<u32>();
+        self.draw.cast(pass, hairs);
     }
 
     fn reset(&mut self, _gpu: &Gpu) -> Result<()> {

@@ -78,6 +78,7 @@ pub const KIND: Kind = Kind {
         ("strips/dynamics_sdf", dynamics_gpu::DYNAMICS_SDF),
         ("strips/ribbon", ribbon::RIBBON),
         ("strips/draw", ribbon::DRAW),
+        ("strips/cast", ribbon::CAST),
     ],
     invariants: |_| Ok(()),
     fuzz_words: &[
@@ -200,6 +201,8 @@ pub struct StripsSystem {
     eff: EffGpu,
     pub dynamics: dynamics_gpu::DynamicsGpu,
     pub ribbon: RibbonPass,
+    /// The ribbons' shadow cast.
+    cast: ribbon::StripCast,
     /// How far beyond the head the strips can reach (the bounds).
     reach: f64,
 }
@@ -247,6 +250,7 @@ impl StripsSystem {
             solved,
             eff,
             dynamics,
+            cast: ribbon.shadow_cast(gpu, setup.frame_layout, setup.shadow_cast_layout)?,
             ribbon,
             reach,
         })
@@ -305,6 +309,14 @@ impl HairSystem for StripsSystem {
     ) -> Result<()> {
         self.ribbon
             .record(gpu, enc, self.dynamics.points(), &ctx.head)
+    }
+
+    fn casts(&self) -> bool {
+        true
+    }
+
+    fn cast_shadow(&self, pass: &mut wgpu::ComputePass<'_>) {
+        self.cast.cast(pass);
     }
 
     fn draw(&self, pass: &mut wgpu::RenderPass<'_>, _view: &View) {

@@ -48,6 +48,34 @@ pub const DRAW: &str = wgsl!(
     "strips/draw.wgsl"
 );
 
+/// The strips' shadow cast (`("strips/cast", CAST)`, `stage::shadow`).
+pub const CAST: &str = wgsl!(
+    "common/frame.wgsl",
+    "common/shadow.wgsl",
+    "common/shadow_cast.wgsl",
+    "strips/cast.wgsl"
+);
+
+/// Strands a strip stands for in the shadow: light crossing a fully covered strip crosses
+/// this many hairs (a strip is a layer of hairs, Kazama et al. 2.1).
+pub const STRIP_LAYERS: f32 = 2.0;
+
+/// The strips' shadow cast over the ribbons a `RibbonPass` builds.
+pub struct StripCast {
+    pipeline: wgpu::ComputePipeline,
+    group: wgpu::BindGroup,
+    dims: (u32, u32),
+}
+
+impl StripCast {
+    /// Deposit the ribbons built by the last `record` (groups 0 and 2 are bound).
+    pub fn cast(&self, pass: &mut wgpu::ComputePass<'_>) {
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(1, &self.group, &[]);
+        pass.dispatch_workgroups(self.dims.0, self.dims.1, 1);
+    }
+}
+
 /// Squared length under which a stick or a sum of directions counts as zero.
 pub const TINY2: f64 = 1e-12;
 /// Length under which a projected side vector counts as degenerate (sin 0.57°).
@@ -620,6 +648,61 @@ impl RibbonPass {
         pass.set_bind_group(0, bg, &[]);
         pass.dispatch_workgroups(self.dims.0, self.dims.1, 1);
         Ok(())
+    }
+
+    /// The shadow cast over these ribbons, for the stage's group 0 and cast layouts.
+    pub fn shadow_cast(
+        &self,
+        gpu: &Gpu,
+        frame_layout: &wgpu::BindGroupLayout,
+        cast_layout: &wgpu::BindGroupLayout,
+    ) -> Result<StripCast> {
+        let device = &gpu.device;
+        let cs = wgpu::ShaderStages::COMPUTE;
+        let layout = pipeline::layout(
+            device,
+            "strips cast",
+            &[
+                gpu::storage_entry(0, cs, true),
+                gpu::storage_entry(1, cs, true),
+                gpu::uniform_entry(2, cs),
+            ],
+        );
+        let module = gpu::shader_module(device, "strips cast", CAST)?;
+        let pl =
+            pipeline::pipeline_layout(device, "strips cast", &[frame_layout, &layout, cast_layout]);
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("strips cast"),
+            layout: Some(&pl),
+            module: &module,
+            entry_point: Some("cast_shadow"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        let counts = wgpu::util::DeviceExt::create_buffer_init(
+            device,
+            &wgpu::util::BufferInitDescriptor {
+                label: Some("strips cast counts"),
+                contents: bytemuck::bytes_of(&[
+                    self.stride,
+                    self.strips,
+                    STRIP_LAYERS.to_bits(),
+                    0,
+                ]),
+                usage: wgpu::BufferUsages::UNIFORM,
+            },
+        );
+        let group = pipeline::bind_buffers(
+            device,
+            "strips cast",
+            &layout,
+            &[&self.vertices, &self.info, &counts],
+        );
+        Ok(StripCast {
+            pipeline,
+            group,
+            dims: self.dims,
+        })
     }
 
     /// Draw the ribbons built by the last `record` (group 0, the frame, is bound).

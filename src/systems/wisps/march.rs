@@ -26,6 +26,74 @@ pub const MARCH: &str = wgsl!(
     "wisps/toon.wgsl"
 );
 
+/// The wisps' shadow cast (`stage::shadow`).
+pub const CAST: &str = wgsl!(
+    "common/frame.wgsl",
+    "common/shadow.wgsl",
+    "common/shadow_cast.wgsl",
+    "wisps/cast.wgsl"
+);
+
+/// The wisps' shadow cast over the segments a `CurvePass` writes.
+pub struct WispCast {
+    pipeline: wgpu::ComputePipeline,
+    group: wgpu::BindGroup,
+    segments: u32,
+}
+
+impl WispCast {
+    pub fn new(
+        gpu: &Gpu,
+        curves: &CurvePass,
+        frame_layout: &wgpu::BindGroupLayout,
+        cast_layout: &wgpu::BindGroupLayout,
+    ) -> Result<WispCast> {
+        let device = &gpu.device;
+        let cs = wgpu::ShaderStages::COMPUTE;
+        let layout = pipeline::layout(
+            device,
+            "wisp cast",
+            &[gpu::storage_entry(0, cs, true), gpu::uniform_entry(1, cs)],
+        );
+        let module = gpu::shader_module(device, "wisp cast", CAST)?;
+        let pl =
+            pipeline::pipeline_layout(device, "wisp cast", &[frame_layout, &layout, cast_layout]);
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("wisp cast"),
+            layout: Some(&pl),
+            module: &module,
+            entry_point: Some("cast_shadow"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        let count = wgpu::util::DeviceExt::create_buffer_init(
+            device,
+            &wgpu::util::BufferInitDescriptor {
+                label: Some("wisp cast count"),
+                contents: bytemuck::bytes_of(&[curves.segment_count, 0, 0, 0]),
+                usage: wgpu::BufferUsages::UNIFORM,
+            },
+        );
+        let group =
+            pipeline::bind_buffers(device, "wisp cast", &layout, &[&curves.segments, &count]);
+        Ok(WispCast {
+            pipeline,
+            group,
+            segments: curves.segment_count,
+        })
+    }
+
+    /// Deposit this frame's segments (groups 0 and 2 are bound).
+    pub fn cast(&self, pass: &mut wgpu::ComputePass<'_>) {
+        if self.segments == 0 {
+            return;
+        }
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(1, &self.group, &[]);
+        pass.dispatch_workgroups(self.segments.div_ceil(WORKGROUP), 1, 1);
+    }
+}
+
 const WORKGROUP: u32 = 64;
 
 #[repr(C)]

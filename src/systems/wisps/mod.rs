@@ -75,6 +75,7 @@ pub const KIND: Kind = Kind {
     shaders: &[
         ("wisps/curves", march::CURVES),
         ("wisps/march", march::MARCH),
+        ("wisps/cast", march::CAST),
         // The toon shading is compiled inside the march module.
         ("wisps/toon", march::MARCH),
         ("wisps/springs", springs_gpu::SPRINGS),
@@ -203,6 +204,7 @@ pub struct WispsSystem {
     nodes: Nodes,
     pub curves: CurvePass,
     pub draw: MarchPass,
+    cast: march::WispCast,
 }
 
 impl WispsSystem {
@@ -257,11 +259,14 @@ impl WispsSystem {
             setup.format,
             setup.samples,
         )?;
+        let cast =
+            march::WispCast::new(gpu, &curves, setup.frame_layout, setup.shadow_cast_layout)?;
         Ok(WispsSystem {
             wisps,
             nodes,
             curves,
             draw,
+            cast,
         })
     }
 
@@ -333,6 +338,14 @@ impl HairSystem for WispsSystem {
     }
 
     fn draw(&self, _pass: &mut wgpu::RenderPass<'_>, _view: &View) {}
+
+    fn casts(&self) -> bool {
+        true
+    }
+
+    fn cast_shadow(&self, pass: &mut wgpu::ComputePass<'_>) {
+        self.cast.cast(pass);
+    }
 
     fn reset(&mut self, gpu: &Gpu) -> Result<()> {
         if let Nodes::Springs(s) = &mut self.nodes {

@@ -1,0 +1,134 @@
+//! The shadow structure's GPU side (`stage::shadow` owns the pass): the light-space box
+//! every shading module reads (in the frame uniform) and the resolved structure
+//! (`shaders/common/shadow.wgsl`, group 0 binding 1), and the cast layout (group 2 of
+//! every kind's cast pipeline, `shaders/common/shadow_cast.wgsl`). The read side and the cast side are different
+//! buffers (the resolve copies one into the other), since wgpu forbids one buffer read-only
+//! and read-write in one dispatch.
+
+use crate::gpu;
+use bytemuck::{Pod, Zeroable};
+
+/// Words per row of the resolved structure's texture (`SHADOW_ROW` in
+/// `shaders/common/shadow.wgsl`).
+pub const ROW: u32 = 256;
+
+/// An `R32Float` texture holding `words` words, [`ROW`] a row (a 1 x 1 placeholder for 0).
+pub fn map_texture(device: &wgpu::Device, words: u64) -> wgpu::Texture {
+    let rows = words.div_ceil(ROW as u64).max(1) as u32;
+    device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("shadow map"),
+        size: wgpu::Extent3d {
+            width: if words == 0 { 1 } else { ROW },
+            height: rows,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::R32Float,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
+    })
+}
+
+/// Fixed-point scale of cast coverage; keep in sync with `shaders/common/shadow_cast.wgsl`.
+pub const FIXED: f64 = 4096.0;
+
+/// Keep in sync with `struct ShadowParams` in `shaders/common/frame.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuShadow {
+    /// xyz: centre of the light-space box; w: 1 while shadows are on.
+    pub center: [f32; 4],
+    /// xyz: unit axis across the light; w: half the box's size.
+    pub axis_u: [f32; 4],
+    /// xyz: the other axis across; w: method (0 volume, 1 deep opacity).
+    pub axis_v: [f32; 4],
+    /// xyz: unit towards the light; w: absorption per strand.
+    pub axis_l: [f32; 4],
+    /// x, y: cells across; z: slices or layers; w: 1 with a head that shadows.
+    pub dims: [f32; 4],
+    /// Deep opacity: where each layer ends, world distance behind the first depth.
+    pub layers: [f32; 4],
+    /// World to the head ellipsoid's unit sphere.
+    pub head_inv: [[f32; 4]; 4],
+}
+
+const _: () = assert!(std::mem::size_of::<GpuShadow>() == 160);
+
+/// What every shader stage may read besides the frame uniform (which carries the
+/// [`GpuShadow`]): group 0's binding 1, the resolved structure, an `R32Float` texture of
+/// [`ROW`] words a row. Not a second uniform: one more uniform in group 0 crashed lavapipe
+/// (Mesa 22.3) in the wisps' draws.
+pub fn read_entry() -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding: 1,
+        visibility: wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: false },
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+/// Group 2 of a cast pipeline: the coverage being cast (read-write) and the phase.
+pub fn cast_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    gpu::pipeline::layout(
+        device,
+        "shadow cast",
+        &[
+            gpu::storage_entry(0, wgpu::ShaderStages::COMPUTE, false),
+            gpu::uniform_entry(1, wgpu::ShaderStages::COMPUTE),
+        ],
+    )
+}
+
+/// Group 0 of every draw and cast: the frame uniform (binding 0,
+/// `shaders/common/frame.wgsl`, with the shadow's box) and the resolved structure (binding
+/// 1).
+pub fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    gpu::pipeline::layout(
+        device,
+        "frame",
+        &[
+            gpu::uniform_entry(
+                0,
+                wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
+            ),
+            read_entry(),
+        ],
+    )
+}
+
+/// Group 0: the frame uniform and the resolved structure's view.
+pub fn frame_group(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    frame: &wgpu::Buffer,
+    map: &wgpu::TextureView,
+) -> wgpu::BindGroup {
+    device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("frame"),
+        layout,
+        entries: &[
+            gpu::entry(0, frame),
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: wgpu::BindingResource::TextureView(map),
+            },
+        ],
+    })
+}
+
+/// A group 0 over `frame` (whose `shadow` is off) with no structure (passes drawn outside
+/// the stage: tests).
+pub fn frame_group_without_shadows(
+    device: &wgpu::Device,
+    layout: &wgpu::BindGroupLayout,
+    frame: &wgpu::Buffer,
+) -> wgpu::BindGroup {
+    let placeholder = map_texture(device, 0).create_view(&Default::default());
+    frame_group(device, layout, frame, &placeholder)
+}
