@@ -55,12 +55,27 @@ pub const ROWS: [(Shading, bool); 4] = [
     (Shading::Physical, true),
 ];
 
-/// Set `scene` up for one row; false where this build has no such mode (the row is listed
-/// as not built). THE place the shading mode and the shadows are switched for the bench:
-/// today only Anjyo without shadows exists, so this leaves the scene as it is for that row.
+/// Set `scene` up for one row: the scene's shading mode for every group (a group's own
+/// choice is cleared so the row is what it says) and the shadows on or off with the
+/// scene's method. Returns whether this build has the row (every row, now).
 pub fn look_row(scene: &mut Scene, shading: Shading, shadows: bool) -> bool {
-    let _ = scene;
-    matches!((shading, shadows), (Shading::Anjyo, false))
+    scene.render.shading = match shading {
+        Shading::Anjyo => crate::scene::Shading::Anjyo,
+        Shading::Physical => crate::scene::Shading::Physical,
+    };
+    for g in &mut scene.groups {
+        g.material.shading = None;
+    }
+    if let Some(f) = scene.fur.as_mut() {
+        for c in &mut f.coats {
+            c.material.shading = None;
+        }
+    }
+    if let Some(s) = scene.strips.as_mut() {
+        s.look.shading = None;
+    }
+    scene.render.shadows.on = shadows;
+    true
 }
 
 /// The parameters of Mitsuba's `hair` BSDF for one group of strands.
