@@ -190,3 +190,36 @@ fn imported_groom_frames_0_and_12() {
     })
     .unwrap();
 }
+
+/// Item 6 of issue 25: every strand kind in the physical shading mode with its shadows (on by
+/// default, so every snapshot above is the Anjyo mode with shadows): the bob, fur on the
+/// lion's head, and the strips at rest (one sample per pixel, as `strips::strips_snapshots`
+/// draws them). The toon wisps have one shading (toon) and its hard shadow steps are in
+/// `wisps::toon` and `shadows::wisps_cast_a_toon_step`.
+fn physical(name: &str, out: &str, size: (u32, u32), one_sample: bool) {
+    let gpu = common::gpu();
+    let mut scene = common::scene(name);
+    assert!(scene.render.shadows.on, "{name}: shadows are on by default");
+    scene.render.shading = kami::scene::Shading::Physical;
+    if one_sample {
+        scene.render.supersample = 1;
+        scene.render.msaa = 1;
+    }
+    let img = kami::stage::render_scene(gpu, &scene, size).unwrap();
+    check_snapshot(out, &img, TOL);
+}
+
+#[test]
+fn bob_physical() {
+    physical("bob", "bob_physical", SIZE, false);
+}
+
+#[test]
+fn fur_lion_head_physical() {
+    physical("fur_lion_head", "fur_lion_head_physical", SIZE, false);
+}
+
+#[test]
+fn strips_physical() {
+    physical("strips", "strips_physical", (160, 128), true);
+}

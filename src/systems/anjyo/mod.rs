@@ -83,6 +83,7 @@ pub const CAST: &str = wgsl!(
     "common/frame.wgsl",
     "common/shadow.wgsl",
     "common/shadow_cast.wgsl",
+    "common/hair_bsdf.wgsl",
     "common/strand_shade.wgsl",
     "anjyo/cast.wgsl",
 );
