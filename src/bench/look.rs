@@ -147,7 +147,7 @@ pub fn hair_params(scene: &Scene, rgb: [f32; 3]) -> MitsubaHair {
 
 /// Kami's ambient as the reference's uniform environment: the radiance a Lambertian of the
 /// head's colour needs to get the head shader's ambient term (0.3 x ambient, `head.wgsl`).
-pub const AMBIENT_RADIANCE: f64 = 0.3;
+pub use crate::systems::hair_bsdf::AMBIENT_RADIANCE;
 
 /// The directional light's irradiance: pi x intensity x colour, so a white Lambertian facing
 /// the light reflects `intensity` (Kami's unit light).

@@ -28,6 +28,10 @@ pub const CELLS: usize = 12;
 /// Zinke et al.'s density factors for forward and backward multiple scattering.
 pub const D_F: f64 = 0.7;
 pub const D_B: f64 = 0.7;
+/// Radiance of the even environment Kami's ambient stands for, per unit of the light's
+/// `ambient`: the head is lit by 0.3 I_a (`shaders/stage/head.wgsl`) and `kami bench look`
+/// gives Mitsuba's environment the same, so the physical mode's hair gets it too.
+pub const AMBIENT_RADIANCE: f64 = 0.3;
 
 pub use crate::scene::Shading;
 
@@ -601,9 +605,10 @@ impl DualScattering {
     }
 
     /// The colour a dense volume of this hair sends back under even light (single plus
-    /// multiple backscattering): the physical mode's ambient colour.
+    /// multiple backscattering), times the radiance of Kami's ambient environment per unit
+    /// of the light's `ambient` ([`AMBIENT_RADIANCE`]): the physical mode's ambient colour.
     pub fn ambient(&self) -> [f64; 3] {
-        std::array::from_fn(|c| (self.a_b[c] + D_B * self.big_a_b[c]).min(1.0))
+        std::array::from_fn(|c| AMBIENT_RADIANCE * (self.a_b[c] + D_B * self.big_a_b[c]).min(1.0))
     }
 }
 
