@@ -273,7 +273,12 @@ struct Watched {
 impl Watched {
     /// Watch the scene `path` now shows (opened, saved, reloaded), `scene` as it is there.
     fn show(&mut self, path: &Path, scene: &Scene) {
-        self.watch.set(path, scene.files(path));
+        self.show_since(path, scene, &watch::Seen::default());
+    }
+
+    /// As `show`, the files new to the watch taken as `earlier` saw them (a reload).
+    fn show_since(&mut self, path: &Path, scene: &Scene, earlier: &watch::Seen) {
+        self.watch.set_since(path, scene.files(path), earlier);
         self.base = scene.clone();
     }
 }
@@ -753,6 +758,11 @@ fn reload(g: &mut Gfx, state: &mut ViewerState, changed: &[PathBuf]) {
         .map(|p| p.display().to_string())
         .collect::<Vec<_>>()
         .join(", ");
+    // The files the saved text names, as they are before it loads (see `watch::Seen`).
+    let earlier = crate::scene::read_bytes(&path)
+        .and_then(|b| Scene::from_bytes(&b, &path.display().to_string()))
+        .map(|s| watch::Seen::now(s.files(&path)))
+        .unwrap_or_default();
     let loaded = Scene::load(&path).and_then(|theirs| {
         let merged = crate::systems::scene::merge_edits(&g.watched.base, &state.scene, theirs.clone());
         let in_place = changed.iter().all(|p| *p == path);
@@ -788,7 +798,7 @@ fn reload(g: &mut Gfx, state: &mut ViewerState, changed: &[PathBuf]) {
                 state.kinds[i].stale();
             }
             g.refused = None;
-            g.watched.show(&path, &theirs);
+            g.watched.show_since(&path, &theirs, &earlier);
             g.watched.reloads += 1;
             state.scene = shown;
             state.reload_error = None;
@@ -812,22 +822,17 @@ fn reload(g: &mut Gfx, state: &mut ViewerState, changed: &[PathBuf]) {
             // The error names the file and the place.
             state.reload_error = Some(format!("the save does not load: {e}"));
             // Files the saved text names that the last good scene did not (a mesh not
-            // written yet) are watched too, so that writing one reloads.
-            let named = crate::scene::read_bytes(&path)
-                .and_then(|b| Scene::from_bytes(&b, &path.display().to_string()))
-                .map(|s| s.files(&path));
-            if let Ok(named) = named {
-                let mut files: Vec<PathBuf> =
-                    g.watched.watch.files().map(Path::to_path_buf).collect();
-                let before = files.len();
-                for p in named {
-                    if !files.contains(&p) {
-                        files.push(p);
-                    }
+            // written yet) are watched too, from their stamps before the load, so that
+            // writing one reloads, even while this load ran.
+            let mut files: Vec<PathBuf> = g.watched.watch.files().map(Path::to_path_buf).collect();
+            let before = files.len();
+            for p in earlier.paths() {
+                if !files.iter().any(|q| q == p) {
+                    files.push(p.to_path_buf());
                 }
-                if files.len() > before {
-                    g.watched.watch.set(&path, files);
-                }
+            }
+            if files.len() > before {
+                g.watched.watch.set_since(&path, files, &earlier);
             }
         }
     }
