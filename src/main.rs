@@ -773,7 +773,7 @@ fn run(cli: Cli) -> Result<()> {
                 let report = kami::bench::look::run(&gpu, &o, &out)?;
                 println!("{}", report.markdown);
                 println!(
-                    "wrote {0}/look.md, {0}/look.csv and the image pairs",
+                    "wrote {0}/look.md, {0}/look.csv, {0}/look_offsets.md, {0}/look_offsets.csv and the image pairs",
                     out.display()
                 );
             }

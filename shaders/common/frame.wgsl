@@ -31,6 +31,9 @@ struct ShadowParams {
     dims: vec4<f32>,
     // deep opacity: where each layer ends, world distance behind the first depth
     layers: vec4<f32>,
+    // x how far towards the light a point on a layered strand reads the structure
+    // (shadow_layered), world; y, z, w unused
+    layered: vec4<f32>,
     // world to the head ellipsoid's unit sphere (shadow_opaque)
     head_inv: mat4x4<f32>,
 }

@@ -5,10 +5,18 @@
 //   point p towards the key light (the sum of the strands' projected coverage along that
 //   ray); 0 where no hair is in the way or while shadows are off. Anjyo's shading attenuates
 //   by it; the physical mode's dual scattering reads it as the strand count n.
+// - `shadow_layered(p)`: the same for a point on a strand of hair lying in layers over a head
+//   (Anjyo's strands), read `frame.shadow.layered.x` towards the light. The structure
+//   smooths the strands over a cell or more, so read at the point itself it counts half
+//   the layer the point lies in, and the outermost layer, which the light reaches
+//   unhindered, comes out shadowed. Fur (standing off its skin), strips, and surfaces
+//   under the hair read `shadow_strands`: there the offset skipped shadow that is there
+//   (docs/shadows.md, measured against the path tracer).
 // - `shadow_opaque(p)`: how much of the key light reaches p past opaque occluders (the head,
 //   a mesh head, a fur skin): 1 lit, 0 in their shadow; 1 while shadows are off.
 // - `shadow_direct(p)`: the factor on the direct (diffuse + specular) light of hair:
-//   exp(-absorption * shadow_strands(p)) * shadow_opaque(p).
+//   exp(-absorption * shadow_strands(p)) * shadow_opaque(p); `shadow_direct_layered(p)`
+//   the same with `shadow_layered(p)`.
 
 
 // The resolved structure (src/stage/shadow.rs): volume, per cell the strands crossed up to
@@ -114,8 +122,16 @@ fn shadow_opaque(p: vec3<f32>) -> f32 {
     return select(1.0, 0.0, far > 0.0);
 }
 
+fn shadow_layered(p: vec3<f32>) -> f32 {
+    return shadow_strands(p + frame.shadow.axis_l.xyz * frame.shadow.layered.x);
+}
+
 fn shadow_direct(p: vec3<f32>) -> f32 {
     return exp(-frame.shadow.axis_l.w * shadow_strands(p)) * shadow_opaque(p);
+}
+
+fn shadow_direct_layered(p: vec3<f32>) -> f32 {
+    return exp(-frame.shadow.axis_l.w * shadow_layered(p)) * shadow_opaque(p);
 }
 
 // Toon shadows (the wisps, and the head in a toon scene): a step, not a gradient. 1 where

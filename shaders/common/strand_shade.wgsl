@@ -108,14 +108,14 @@ fn shade_node(s: Strand, n: u32) -> ShadedNode {
     let diffuse = mat.params.y * sqrt(max(1.0 - tdl * tdl, 0.0));
     let ambient = frame.light_color.w * s.ka;
     // Hair shadows (common/shadow.wgsl) dim the direct light only.
-    let intensity = frame.light_dir.w * shadow_direct(p);
+    let intensity = frame.light_dir.w * shadow_direct_layered(p);
     var rgb = base * (ambient + intensity * diffuse) + frame.light_color.rgb * (intensity * spec);
     // The physical mode (docs/shading.md): the key light dual-scattered through the strands
     // the shadow structure counts, past opaque occluders, plus Kami's ambient (I_a k_a) times
     // the colour a dense volume of this hair sends back. A strand file's colours are not
     // read (the group's pigments are).
     if hair_physical(mat.bsdf) {
-        let f = hair_dual_radiance(mat.bsdf, t, v, l, shadow_strands(p));
+        let f = hair_dual_radiance(mat.bsdf, t, v, l, shadow_layered(p));
         rgb = frame.light_color.rgb * (hair_irradiance() * shadow_opaque(p)) * f
             + mat.bsdf.ambient.rgb * ambient;
     }

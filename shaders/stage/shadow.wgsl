@@ -40,7 +40,7 @@ fn resolve(@builtin(global_invocation_id) id: vec3<u32>) {
 }
 
 @group(1) @binding(2) var<storage, read> probe_points: array<vec4<f32>>;
-@group(1) @binding(3) var<storage, read_write> probe_out: array<vec2<f32>>;
+@group(1) @binding(3) var<storage, read_write> probe_out: array<vec4<f32>>;
 
 @compute @workgroup_size(64)
 fn probe(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -48,5 +48,5 @@ fn probe(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let p = probe_points[id.x].xyz;
-    probe_out[id.x] = vec2<f32>(shadow_strands(p), shadow_opaque(p));
+    probe_out[id.x] = vec4<f32>(shadow_strands(p), shadow_opaque(p), shadow_layered(p), 0.0);
 }

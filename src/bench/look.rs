@@ -13,6 +13,7 @@ use crate::formats::Groom;
 use crate::gpu::gpu_data::linear_rgb;
 use crate::gpu::timing::PassTimes;
 use crate::gpu::Gpu;
+use crate::scene::{ShadowMethod, Shadows};
 use crate::stage::camera::Camera;
 use crate::stage::{self, target, Quality, Stage};
 use crate::systems::Scene;
@@ -28,6 +29,9 @@ pub const SCENES: [&str; 3] = [
     "assets/scenes/fur_polyline.ron",
     "assets/scenes/strips.ron",
 ];
+
+/// The layered offsets the offsets table compares (cells).
+pub const OFFSETS: [f64; 4] = [0.0, 1.0, 2.0, 3.0];
 
 /// A shading mode of Kami's.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -580,6 +584,14 @@ pub fn run(gpu: &Gpu, o: &Options, out: &Path) -> Result<Report> {
     let _ = writeln!(md, "|---|---|---|---:|---|---:|---:|---:|");
     let mut csv =
         String::from("scene,shading,shadows,ms,clock,flip,noise,reference_s,cached,pair\n");
+    // The layered offset (`stage::shadow::layered_offset`) of scenes with Anjyo's strands:
+    // FLIP for each method, shading mode and offset, shadows on.
+    let mut md_off = format!(
+        "### `kami bench look`: the layered offset\n\n{}\n\nAdapter: **{}**. Mean FLIP against the same references as look.md, shadows on, for scenes with Anjyo's strands, as `render.shadows.layered_offset` (cells of the box's size / 64) moves where those strands read the shadow structure; *default*: the method's own offset.\n\n| scene | method | shading | offset | default | FLIP |\n|---|---|---|---:|---|---:|\n",
+        provenance(),
+        gpu.describe()
+    );
+    let mut csv_off = String::from("scene,method,shading,offset,default,flip\n");
     for path in &o.scenes {
         let base = Scene::load(path)?;
         let name = stem(path);
@@ -595,6 +607,45 @@ pub fn run(gpu: &Gpu, o: &Options, out: &Path) -> Result<Report> {
             o.spp,
             &path.display().to_string(),
         )?;
+        if !base.groups.is_empty() {
+            for method in [ShadowMethod::Volume, ShadowMethod::DeepOpacity] {
+                for shading in [Shading::Anjyo, Shading::Physical] {
+                    for k in OFFSETS {
+                        let mut scene = base.clone();
+                        look_row(&mut scene, shading, true);
+                        scene.render.shadows.method = method;
+                        scene.render.shadows.layered_offset = Some(k);
+                        let own = stage::shadow::layered_offset(&Shadows {
+                            layered_offset: None,
+                            ..scene.render.shadows
+                        });
+                        let d = draw(gpu, &scene, o.size, 1)?;
+                        let row = format!("{name}_{}_{method:?}_{k}", shading.name());
+                        let kami = work.join(format!("kami_offset_{row}.png"));
+                        d.image.save(&kami).map_err(|e| KamiError::Image {
+                            path: kami.clone(),
+                            message: e.to_string(),
+                        })?;
+                        let pair = work.join(format!("pair_offset_{row}.png"));
+                        let c = compare(o, &xml, &scene, &kami, &pair)?;
+                        let default = if k == own { "yes" } else { "" };
+                        let _ = writeln!(
+                            md_off,
+                            "| {name} | {method:?} | {} | {k} | {default} | {:.3} |",
+                            shading.name(),
+                            c.flip
+                        );
+                        let _ = writeln!(
+                            csv_off,
+                            "{name},{method:?},{},{k},{},{:.5}",
+                            shading.name(),
+                            u8::from(k == own),
+                            c.flip
+                        );
+                    }
+                }
+            }
+        }
         for (shading, shadows) in ROWS {
             let sh = if shadows { "on" } else { "off" };
             let mut scene = base.clone();
@@ -644,5 +695,6 @@ pub fn run(gpu: &Gpu, o: &Options, out: &Path) -> Result<Report> {
         "\n— : a mode this build does not have. Pairs: `<scene>_<shading>_<shadows>.png` (Kami | Mitsuba | FLIP map)."
     );
     write_report(out, "look", &md, &csv)?;
+    write_report(out, "look_offsets", &md_off, &csv_off)?;
     Ok(Report { markdown: md, csv })
 }

@@ -64,7 +64,7 @@ pub struct GpuFrame {
     /// The hair shadows' light-space box (`stage::shadow`; all 0 while shadows are off).
     pub shadow: crate::gpu::shadow::GpuShadow,
 }
-assert_size!(GpuFrame, 320);
+assert_size!(GpuFrame, 336);
 
 /// The head mesh's uniform. Keep in sync with `struct Head` in `shaders/stage/head.wgsl`.
 #[repr(C)]

@@ -50,11 +50,14 @@ pub struct GpuShadow {
     pub dims: [f32; 4],
     /// Deep opacity: where each layer ends, world distance behind the first depth.
     pub layers: [f32; 4],
+    /// x: how far towards the light a point on a layered strand reads the structure
+    /// (`shadow_layered`), world units; y, z, w: unused (0).
+    pub layered: [f32; 4],
     /// World to the head ellipsoid's unit sphere.
     pub head_inv: [[f32; 4]; 4],
 }
 
-const _: () = assert!(std::mem::size_of::<GpuShadow>() == 160);
+const _: () = assert!(std::mem::size_of::<GpuShadow>() == 176);
 
 /// What every shader stage may read besides the frame uniform (which carries the
 /// [`GpuShadow`]): group 0's binding 1, the resolved structure, an `R32Float` texture of

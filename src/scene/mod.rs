@@ -280,6 +280,13 @@ pub struct Shadows {
     /// through, 0.5 passes about 61 % per strand, as a light-coloured strand does).
     #[serde(default = "default_absorption")]
     pub absorption: f64,
+    /// How far towards the light, in volume cells (the box's size / 64), a point on a strand
+    /// of layered hair (Anjyo's strands) reads the structure; None: the method's own
+    /// (`stage::shadow::layered_offset`: 2 for the volume, 1 for deep opacity, chosen
+    /// against the path tracer). 0 reads at the point, and the lit outer layer comes out
+    /// shadowed by its own smoothing.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub layered_offset: Option<f64>,
 }
 
 fn default_absorption() -> f64 {
@@ -292,6 +299,7 @@ impl Default for Shadows {
             on: true,
             method: ShadowMethod::default(),
             absorption: default_absorption(),
+            layered_offset: None,
         }
     }
 }

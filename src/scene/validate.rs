@@ -175,6 +175,9 @@ pub fn shared(
     within("render.min_width", r.min_width, 0.25, 8.0)?;
     within("render.lod_tolerance_px", r.lod_tolerance_px, 0.0, 16.0)?;
     within("render.shadows.absorption", r.shadows.absorption, 0.0, 10.0)?;
+    if let Some(k) = r.shadows.layered_offset {
+        within("render.shadows.layered_offset", k, 0.0, 8.0)?;
+    }
     Ok(())
 }
 

@@ -688,9 +688,9 @@ fn head_sphere(scene: &Scene, pose: DMat4) -> DMat4 {
 }
 
 impl Stage {
-    /// `shadow_strands` and `shadow_opaque` at `points` as the shaders saw them in the last
-    /// frame drawn (tests and `kami bench shadows`).
-    pub fn probe_shadows(&self, gpu: &Gpu, points: &[DVec3]) -> Result<Vec<(f64, f64)>> {
+    /// `shadow_strands`, `shadow_opaque` and `shadow_layered` at `points` as the shaders
+    /// saw them in the last frame drawn (tests and `kami bench shadows`).
+    pub fn probe_shadows(&self, gpu: &Gpu, points: &[DVec3]) -> Result<Vec<shadow::Probed>> {
         self.shadow
             .probe(gpu, &self.frame_layout, &self.frame_bind_group, points)
     }

@@ -30,6 +30,22 @@ pub const DEEP_LAYERS: u32 = 4;
 /// Where the deep opacity layers end, in units of the box's size / 64 behind the first depth
 /// (layers widen with depth, as Yuksel & Keyser's do).
 pub const DEEP_LAYER_ENDS: [f64; 4] = [1.0, 2.0, 4.0, 8.0];
+/// How far towards the light a point on a strand lying in layers (Anjyo's hair) reads the
+/// structure (`shadow_layered`), in units of the box's size / 64 (a volume cell): the
+/// scene's `layered_offset`, else the method's own. Chosen against the path tracer (`kami
+/// bench look`'s offsets table, docs/shadows.md): at the point itself the smoothing counts
+/// half the point's own layer, and the outermost layer comes out dark.
+pub fn layered_offset(settings: &Shadows) -> f64 {
+    settings.layered_offset.unwrap_or(match settings.method {
+        ShadowMethod::Volume => LAYERED_OFFSET_VOLUME,
+        ShadowMethod::DeepOpacity => LAYERED_OFFSET_DEEP,
+    })
+}
+/// The volume's offset: two cells (its smoothing in depth is one slice and a tent across).
+pub const LAYERED_OFFSET_VOLUME: f64 = 2.0;
+/// Deep opacity's: one unit (its first layer; the first depth already finds the surface).
+pub const LAYERED_OFFSET_DEEP: f64 = 1.0;
+
 /// The box is this much bigger than the stage's bounding sphere (strands on its edge).
 const MARGIN: f64 = 1.02;
 
@@ -116,6 +132,7 @@ pub fn params(settings: &Shadows, b: &LightBox, head: Option<DMat4>, on: bool) -
             f32::from(u8::from(head.is_some())),
         ],
         layers: DEEP_LAYER_ENDS.map(|e| (e * unit) as f32),
+        layered: [(layered_offset(settings) * unit) as f32, 0.0, 0.0, 0.0],
         head_inv: head
             .map(|m| m.inverse())
             .unwrap_or(DMat4::IDENTITY)
@@ -335,15 +352,16 @@ impl ShadowPass {
         );
     }
 
-    /// `shadow_strands` and `shadow_opaque` at `points` as the shaders see them this frame
-    /// (`frame_layout`/`frame` are the stage's group 0). For tests and the bench.
+    /// `shadow_strands`, `shadow_opaque` and `shadow_layered` at `points` as the shaders see
+    /// them this frame (`frame_layout`/`frame` are the stage's group 0). For tests and the
+    /// bench.
     pub fn probe(
         &self,
         gpu: &Gpu,
         frame_layout: &wgpu::BindGroupLayout,
         frame: &wgpu::BindGroup,
         points: &[DVec3],
-    ) -> Result<Vec<(f64, f64)>> {
+    ) -> Result<Vec<Probed>> {
         if points.is_empty() {
             return Ok(Vec::new());
         }
@@ -375,7 +393,7 @@ impl ShadowPass {
             bytemuck::cast_slice(&data),
             wgpu::BufferUsages::empty(),
         );
-        let bytes = points.len() as u64 * 8;
+        let bytes = points.len() as u64 * 16;
         let output = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("probe out"),
             size: bytes,
@@ -401,12 +419,30 @@ impl ShadowPass {
             pass.dispatch_workgroups((points.len() as u32).div_ceil(64), 1, 1);
         }
         gpu.queue.submit([enc.finish()]);
-        let out: Vec<[f32; 2]> = gpu::read_buffer(gpu, &output, bytes)?;
+        let out: Vec<[f32; 4]> = gpu::read_buffer(gpu, &output, bytes)?;
         if out.len() != points.len() {
             return Err(KamiError::Gpu("shadow probe: short readback".into()));
         }
-        Ok(out.iter().map(|o| (o[0] as f64, o[1] as f64)).collect())
+        Ok(out
+            .iter()
+            .map(|o| Probed {
+                strands: o[0] as f64,
+                opaque: o[1] as f64,
+                layered: o[2] as f64,
+            })
+            .collect())
     }
+}
+
+/// What the shaders read at one point (`ShadowPass::probe`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Probed {
+    /// `shadow_strands`.
+    pub strands: f64,
+    /// `shadow_opaque`.
+    pub opaque: f64,
+    /// `shadow_layered`.
+    pub layered: f64,
 }
 
 /// One segment of a groom for the reference: its ends and width.
@@ -544,6 +580,27 @@ pub fn against_reference(
     segments: &[Segment],
     points: &[DVec3],
 ) -> Result<Vec<(f64, f64)>> {
+    against(gpu, stage, segments, points, false)
+}
+
+/// The same for `shadow_layered`: the reference read at each point moved towards the light
+/// by the frame's offset (`layered_offset`).
+pub fn layered_against_reference(
+    gpu: &Gpu,
+    stage: &super::Stage,
+    segments: &[Segment],
+    points: &[DVec3],
+) -> Result<Vec<(f64, f64)>> {
+    against(gpu, stage, segments, points, true)
+}
+
+fn against(
+    gpu: &Gpu,
+    stage: &super::Stage,
+    segments: &[Segment],
+    points: &[DVec3],
+    layered: bool,
+) -> Result<Vec<(f64, f64)>> {
     let u = stage.shadow_params();
     let b = LightBox::of(&u);
     let method = if u.axis_v[3] > 0.5 {
@@ -552,7 +609,17 @@ pub fn against_reference(
         ShadowMethod::Volume
     };
     let (blur, depth) = reference_blur(&b, method);
-    let reference = reference_strands(&b, segments, points, blur, depth);
+    let offset = if layered {
+        b.l * f64::from(u.layered[0])
+    } else {
+        DVec3::ZERO
+    };
+    let moved: Vec<DVec3> = points.iter().map(|p| *p + offset).collect();
+    let reference = reference_strands(&b, segments, &moved, blur, depth);
     let got = stage.probe_shadows(gpu, points)?;
-    Ok(got.iter().zip(reference).map(|(g, r)| (g.0, r)).collect())
+    Ok(got
+        .iter()
+        .zip(reference)
+        .map(|(g, r)| (if layered { g.layered } else { g.strands }, r))
+        .collect())
 }
