@@ -2,9 +2,6 @@
 // per drawn strand deposits each drawn segment (the same nodes, level of detail and widths
 // as the ribbons and the compute rasteriser draw).
 
-// Per-strand ranges: x first strand of a group, y one past the last drawn one.
-@group(1) @binding(4) var<storage, read> ranges: array<vec2<u32>>;
-
 // Node n's world width, as shade_node (common/strand_shade.wgsl) sizes it.
 fn cast_width(s: Strand, n: u32) -> f32 {
     let mat = materials[s.group];
@@ -18,18 +15,8 @@ fn cast_width(s: Strand, n: u32) -> f32 {
 
 @compute @workgroup_size(64)
 fn cast_shadow(@builtin(global_invocation_id) id: vec3<u32>) {
-    let si = id.x + id.y * 65535u * 64u;
-    if si >= arrayLength(&strands) {
-        return;
-    }
-    var drawn = false;
-    for (var r = 0u; r < arrayLength(&ranges); r++) {
-        let g = ranges[r];
-        if si >= g.x && si < g.y {
-            drawn = true;
-        }
-    }
-    if !drawn {
+    let si = drawn_strand(id);
+    if si < 0 {
         return;
     }
     let s = strands[si];

@@ -19,8 +19,6 @@
 // the exact transmittance of independent coverages, as the ribbons' hashed sample masks
 // estimate it with MSAA.
 
-// Per-strand ranges: x first strand of a group, y one past the last drawn one.
-@group(1) @binding(4) var<storage, read> ranges: array<vec2<u32>>;
 
 @group(2) @binding(0) var<storage, read_write> accum: array<atomic<u32>>;
 @group(2) @binding(1) var scene_depth: SceneDepth;
@@ -148,19 +146,9 @@ fn splat_segment(a_in: ScreenNode, b_in: ScreenNode) {
 
 @compute @workgroup_size(64)
 fn splat(@builtin(global_invocation_id) id: vec3<u32>) {
-    let si = id.x + id.y * 65535u * 64u;
-    if si >= arrayLength(&strands) {
-        return;
-    }
-    // Drawn at this level of detail: the first strands of each group's range.
-    var drawn = false;
-    for (var r = 0u; r < arrayLength(&ranges); r++) {
-        let g = ranges[r];
-        if si >= g.x && si < g.y {
-            drawn = true;
-        }
-    }
-    if !drawn {
+    // Drawn at this level of detail (common/strand_drawn.wgsl).
+    let si = drawn_strand(id);
+    if si < 0 {
         return;
     }
     let s = strands[si];

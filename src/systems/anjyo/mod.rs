@@ -85,6 +85,7 @@ pub const CAST: &str = wgsl!(
     "common/shadow_cast.wgsl",
     "common/hair_bsdf.wgsl",
     "common/strand_shade.wgsl",
+    "common/strand_drawn.wgsl",
     "anjyo/cast.wgsl",
 );
 
@@ -96,6 +97,7 @@ pub const SPLAT: &str = wgsl!(
     "common/shadow.wgsl",
     "common/hair_bsdf.wgsl",
     "common/strand_shade.wgsl",
+    "common/strand_drawn.wgsl",
     "anjyo/splat.wgsl",
 );
 
@@ -107,6 +109,7 @@ pub const SPLAT_MSAA: &str = wgsl!(
     "common/shadow.wgsl",
     "common/hair_bsdf.wgsl",
     "common/strand_shade.wgsl",
+    "common/strand_drawn.wgsl",
     "anjyo/splat.wgsl",
 );
 
