@@ -26,8 +26,14 @@ const HAIR_PI: f32 = 3.14159265358979;
 // Keep equal to CELLS in src/systems/hair_bsdf.rs.
 const HAIR_CELLS: u32 = 12u;
 
+// Whether this pipeline compiles the physical mode: false when no material of its pass
+// shades physically (set when the pipeline is built, src/gpu/pipeline.rs `Variant::constants`).
+// A constant, not only the per-material flag: a software rasteriser runs both sides of a
+// branch, so the mode tested at run time alone cost every vertex the whole BSDF.
+override HAIR_PHYSICAL: bool = true;
+
 fn hair_physical(b: HairBsdf) -> bool {
-    return b.sigma_a.w > 0.5;
+    return HAIR_PHYSICAL && b.sigma_a.w > 0.5;
 }
 
 fn hair_log_i0(x: f32) -> f32 {

@@ -19,6 +19,16 @@
 //   the same with `shadow_layered(p)`.
 
 
+// The structure this pipeline reads, fixed when the pipeline is built
+// (gpu::shadow::ShadowVariant): 0 none, 1 the volume, 2 deep opacity maps; plus 4 for toon
+// steps. A pipeline constant, not a test of the frame uniform: a software rasteriser runs
+// both sides of a branch under a mask, so only a lookup compiled out costs nothing.
+override SHADOW_LOOKUP: u32 = 0u;
+
+fn shadow_lookup() -> u32 {
+    return SHADOW_LOOKUP % 4u;
+}
+
 // The resolved structure (src/stage/shadow.rs): volume, per cell the strands crossed up to
 // its centre; deep opacity, per texel the first depth then the strands crossed at each
 // layer's end.
@@ -74,7 +84,7 @@ fn shadow_deep_at(x: i32, y: i32, t: f32) -> f32 {
 }
 
 fn shadow_strands(p: vec3<f32>) -> f32 {
-    if frame.shadow.center.w < 0.5 {
+    if shadow_lookup() == 0u || frame.shadow.center.w < 0.5 {
         return 0.0;
     }
     let c = shadow_coords(p);
@@ -84,7 +94,7 @@ fn shadow_strands(p: vec3<f32>) -> f32 {
     let g = c.xy - 0.5;
     let i = vec2<i32>(floor(g));
     let f = g - floor(g);
-    if frame.shadow.axis_v.w < 0.5 {
+    if shadow_lookup() == 1u {
         let gz = c.z / (2.0 * frame.shadow.axis_u.w) * frame.shadow.dims.z - 0.5;
         let iz = i32(floor(gz));
         let fz = gz - floor(gz);
@@ -105,7 +115,7 @@ fn shadow_strands(p: vec3<f32>) -> f32 {
 // on the scalp's lit side do not shadow themselves). A mesh head is stood for by its
 // scene ellipsoid.
 fn shadow_opaque(p: vec3<f32>) -> f32 {
-    if frame.shadow.center.w < 0.5 || frame.shadow.dims.w < 0.5 {
+    if shadow_lookup() == 0u || frame.shadow.center.w < 0.5 || frame.shadow.dims.w < 0.5 {
         return 1.0;
     }
     let o = (frame.shadow.head_inv * vec4<f32>(p, 1.0)).xyz;
@@ -141,7 +151,7 @@ fn shadow_direct_layered(p: vec3<f32>) -> f32 {
 const TOON_STRANDS: f32 = 0.5;
 
 fn shadow_toon(p: vec3<f32>) -> f32 {
-    if frame.shadow.center.w < 0.5 {
+    if SHADOW_LOOKUP < 4u || frame.shadow.center.w < 0.5 {
         return 0.0;
     }
     let bias = 3.0 * frame.shadow.axis_u.w / frame.shadow.dims.x;
@@ -149,7 +159,7 @@ fn shadow_toon(p: vec3<f32>) -> f32 {
     return select(0.0, 1.0, shadow_strands(q) > TOON_STRANDS || shadow_opaque(q) < 0.5);
 }
 
-// Whether the scene's shadows are toon steps (center.w 2: a scene with wisps).
+// Whether the scene's shadows are toon steps (a scene with wisps; center.w is 2 too).
 fn shadow_is_toon() -> bool {
-    return frame.shadow.center.w > 1.5;
+    return SHADOW_LOOKUP >= 4u;
 }

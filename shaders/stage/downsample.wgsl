@@ -11,6 +11,10 @@ struct Resolve {
     // 1: composite the thin-strand accumulation (`accum`) over the scene.
     splat: u32,
     _p2: u32,
+    // Scene pixels per output pixel per axis, below 1 when the scene is drawn at a lower
+    // resolution (`fs_scaled`).
+    scale: vec2<f32>,
+    _p3: vec2<f32>,
 }
 
 @group(0) @binding(0) var scene: texture_2d<f32>;
@@ -65,6 +69,26 @@ fn fs(@builtin(position) p: vec4<f32>) -> @location(0) vec4<f32> {
         }
     }
     return encoded(sum / f32(f * f));
+}
+
+// Below full resolution (the viewer's frame budget, as an artist's viewport lowers its
+// resolution): each output pixel is the bilinear mix of the four scene pixels round its
+// centre, each with its thin strands composited first.
+@fragment
+fn fs_scaled(@builtin(position) p: vec4<f32>) -> @location(0) vec4<f32> {
+    let q = p.xy * resolve.scale - 0.5;
+    let base = vec2<i32>(floor(q));
+    let f = q - floor(q);
+    let c00 = scene_at(base);
+    let c10 = scene_at(base + vec2<i32>(1, 0));
+    let c01 = scene_at(base + vec2<i32>(0, 1));
+    let c11 = scene_at(base + vec2<i32>(1, 1));
+    return encoded(mix(mix(c00, c10, f.x), mix(c01, c11, f.x), f.y));
+}
+
+fn scene_at(px_in: vec2<i32>) -> vec3<f32> {
+    let px = clamp(px_in, vec2<i32>(0), vec2<i32>(textureDimensions(scene)) - 1);
+    return with_hair(px, textureLoad(scene, px, 0).rgb);
 }
 
 fn encoded(rgb: vec3<f32>) -> vec4<f32> {

@@ -41,10 +41,12 @@ fn fs(in: VOut) -> @location(0) vec4<f32> {
     let ambient = 0.3 * frame.light_color.w;
     // The hair's shadow (common/shadow.wgsl) dims the direct light; the head's own
     // terminator stays the soft wrap.
-    var direct = frame.light_dir.w * exp(-frame.shadow.axis_l.w * shadow_strands(in.world));
+    var direct: f32;
     if shadow_is_toon() {
         // A toon scene's head: the wisps' shadow is a step.
         direct = frame.light_dir.w * (1.0 - shadow_toon(in.world));
+    } else {
+        direct = frame.light_dir.w * exp(-frame.shadow.axis_l.w * shadow_strands(in.world));
     }
     let rgb = head.color.rgb * (ambient + 0.8 * direct * wrap) + frame.light_color.rgb * spec * direct;
     return vec4<f32>(rgb, 1.0);

@@ -58,6 +58,11 @@ struct VOut {
     // The physical mode's key light, per control point: light colour x intensity x
     // dual-scattered radiance factor (zero in Anjyo's shading).
     @location(4) physical: vec3<f32>,
+    // Hair shadows (common/shadow.wgsl): the share of the direct light that reaches this
+    // control point. Per control point, as the other kinds shade per node: the structure's
+    // cells are wider than a stick, and read per fragment the lookup cost a fifth of the
+    // strips' frame on a software rasteriser.
+    @location(5) lit: f32,
 }
 
 @vertex
@@ -75,6 +80,9 @@ fn vs(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -> VOut 
     out.tangent = v.tangent.xyz;
     out.strip = si;
     out.physical = vec3<f32>(0.0);
+    let n = shadow_strands(v.position.xyz);
+    let opaque = shadow_opaque(v.position.xyz);
+    out.lit = exp(-frame.shadow.axis_l.w * n) * opaque;
     if hair_physical(strip_look.bsdf) {
         // Per vertex, as the other kinds shade per node (docs/shading.md).
         var t = v.tangent.xyz;
@@ -82,8 +90,8 @@ fn vs(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -> VOut 
         t = select(vec3<f32>(0.0, -1.0, 0.0), t * inverseSqrt(tl2), tl2 > 1e-20);
         let p = v.position.xyz;
         let view = normalize(frame.eye.xyz - p);
-        let f = hair_dual_radiance(strip_look.bsdf, t, view, frame.light_dir.xyz, shadow_strands(p));
-        out.physical = frame.light_color.rgb * (hair_irradiance() * shadow_opaque(p)) * f;
+        let f = hair_dual_radiance(strip_look.bsdf, t, view, frame.light_dir.xyz, n);
+        out.physical = frame.light_color.rgb * (hair_irradiance() * opaque) * f;
     }
     return out;
 }
@@ -118,7 +126,7 @@ fn strip_color(in: VOut) -> vec4<f32> {
     let spec = strip_look.look.x * pow(max(1.0 - tdh * tdh, 0.0), 0.5 * strip_look.look.y);
     let base = info[in.strip].color.rgb * tex.rgb * strip_look.look.w;
     // Hair shadows (common/shadow.wgsl) dim the direct light only.
-    let intensity = frame.light_dir.w * shadow_direct(in.world);
+    let intensity = frame.light_dir.w * in.lit;
     var rgb = base * (frame.light_color.w + intensity * diffuse) + frame.light_color.rgb * (intensity * spec);
     if hair_physical(strip_look.bsdf) {
         // The pigments' colour instead of the layer's; the texture's gradient kept.

@@ -36,8 +36,7 @@ use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::keyboard::{Key, NamedKey};
 use winit::window::{Window, WindowId};
 
-/// The adaptive level of detail never draws fewer than this share of the hairs.
-pub const MIN_FRACTION: f64 = 0.1;
+pub use params::MIN_FRACTION;
 
 /// The default scene: hair that moves (the paper's gust), embedded so `kami view` works
 /// from any directory.
@@ -112,13 +111,13 @@ pub fn run(options: ViewerOptions) -> Result<()> {
     let st = &app.state.stats;
     if app.gfx.is_some() {
         println!(
-            "viewer: {} frames drawn (clock at frame {}), {:.1} fps; {}, CPU recording {:.1} ms; {:.0} % of hairs drawn, {}x{} on {}",
+            "viewer: {} frames drawn (clock at frame {}), {:.1} fps; {}, CPU recording {:.1} ms; {}, {}x{} on {}",
             app.gfx.as_ref().map_or(0, |g| g.frames),
             st.frame,
             st.fps,
             st.gpu_summary(),
             st.record_ms,
-            app.state.view.hair_fraction * 100.0,
+            app.state.view.dropping(),
             st.size.0,
             st.size.1,
             st.adapter
@@ -252,6 +251,15 @@ struct Gfx {
     /// Frames drawn (the `--exit-after-frames`, `--screenshot-at` and `--set` count).
     frames: u64,
     last_frame: Instant,
+    /// The last frame's period and the part of it spent waiting for the surface (a vsync
+    /// wait is not work: `ViewSettings::adapt` keeps the work inside the budget).
+    period_ms: f64,
+    acquire_ms: f64,
+    /// The camera of the last frame and since when nothing has moved (`params::still`).
+    last_camera: Option<crate::gpu::view::Camera>,
+    still_since: Option<Instant>,
+    /// This frame rebuilt something (`frame_body`).
+    stalled: bool,
     /// Scene files loaded from scratch (Open, `--reload-every`).
     reloads: u64,
     /// (frame, resident MiB, reloads so far) every `MEMORY_EVERY` frames.
@@ -376,6 +384,8 @@ impl App {
         );
         let panels = panel_cache::PanelCache::new(&gpu.device, format);
         self.state.stats.adapter = gpu.describe();
+        self.state.view.frame_budget_ms =
+            params::default_budget_ms(gpu.info.device_type == wgpu::DeviceType::Cpu);
         self.state.stats.timestamps = gpu
             .device
             .features()
@@ -404,6 +414,11 @@ impl App {
             zero_size: false,
             frames: 0,
             last_frame: Instant::now(),
+            period_ms: 0.0,
+            acquire_ms: 0.0,
+            last_camera: None,
+            still_since: None,
+            stalled: false,
             reloads: 0,
             memory: Vec::new(),
         });
@@ -905,6 +920,9 @@ fn reload_error(ctx: &egui::Context, state: &mut ViewerState, panel_left: f32) {
     }
 }
 
+/// How long nothing must move before the view is drawn at full quality.
+const STILL_AFTER: std::time::Duration = std::time::Duration::from_millis(250);
+
 /// Frames between reads of the systems' warnings.
 const WARNINGS_EVERY: u64 = 60;
 
@@ -917,6 +935,7 @@ fn frame(
     let now = Instant::now();
     let dt = now.duration_since(g.last_frame).as_secs_f64();
     g.last_frame = now;
+    g.period_ms = dt * 1e3;
     if dt > 0.0 && g.frames > 0 {
         // Frame rate from the mean frame time (an average of rates would overweight fast frames).
         state.stats.frame_ms = state.stats.frame_ema.add(dt * 1e3);
@@ -1012,6 +1031,26 @@ fn frame_body(
     panel_left: f32,
     mut shots: Vec<PathBuf>,
 ) -> Result<()> {
+    // A still view (nothing edited, moved or playing for a moment) is drawn at full
+    // quality: what the frame budget dropped comes back within a second.
+    let camera = g.camera.camera();
+    let edited =
+        !state.requests.is_empty() || state.host.seek.is_some() || state.scene != *g.stage.scene();
+    let moved = edited || state.host.playing || g.last_camera != Some(camera);
+    g.last_camera = Some(camera);
+    let now = Instant::now();
+    if moved {
+        g.still_since = None;
+    } else if g.still_since.is_none() {
+        g.still_since = Some(now);
+    }
+    state
+        .view
+        .set_still(g.still_since.is_some_and(|t| now - t >= STILL_AFTER));
+    // A frame that loads, edits, or builds other pipelines or targets is no measure of the
+    // live frame's cost: the next frame's period, which holds it, is not taken.
+    let rebuilds = edited || state.view.quality(&state.scene) != g.stage.quality;
+    let stalled_before = std::mem::replace(&mut g.stalled, rebuilds);
     handle_requests(g, state, &mut shots)?;
     apply(g, state)?;
     if let Some(f) = state.host.seek.take() {
@@ -1060,7 +1099,10 @@ fn frame_body(
         return Ok(());
     }
     state.stats.size = (w, h);
-    let surface_tex = match g.surface.get_current_texture() {
+    let acquire = Instant::now();
+    let acquired = g.surface.get_current_texture();
+    let acquire_ms = acquire.elapsed().as_secs_f64() * 1e3;
+    let surface_tex = match acquired {
         wgpu::CurrentSurfaceTexture::Success(t) | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
         wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
             g.surface.configure(&g.gpu.device, &g.config);
@@ -1075,7 +1117,7 @@ fn frame_body(
 
     let look = Look {
         camera: g.camera.camera(),
-        lod: state.view.hair_fraction,
+        lod: state.view.lod(),
         overlay: state.host.overlay,
     };
     // Scene width: the window minus the panel egui reserved on the right.
@@ -1127,39 +1169,52 @@ fn frame_body(
         .collect();
     let render_ms = st.render_ms;
 
-    for path in shots {
-        let shot = Offscreen::with_format(&g.gpu, (w, h), g.config.format)?;
-        draw(g, &shot.view, (w, h), scene_w, &look, &screen)?;
-        let img = shot.read_rgba(&g.gpu)?;
-        match img.save(&path) {
-            Ok(()) => state.host.message = Some(format!("screenshot {}", path.display())),
-            Err(e) => state.host.error = Some(format!("cannot write {}: {e}", path.display())),
+    if !shots.is_empty() {
+        // A screenshot is always at full quality: every hair, the scene's MSAA, full
+        // resolution (a share the user set by hand stays).
+        let live = g.stage.quality;
+        let full = state.view.full_quality(&state.scene);
+        g.stage.set_quality(&g.gpu, full);
+        let look = Look {
+            lod: if state.view.adaptive_lod {
+                1.0
+            } else {
+                state.view.hair_fraction
+            },
+            ..look
+        };
+        for path in shots {
+            let shot = Offscreen::with_format(&g.gpu, (w, h), g.config.format)?;
+            draw(g, &shot.view, (w, h), scene_w, &look, &screen)?;
+            let img = shot.read_rgba(&g.gpu)?;
+            match img.save(&path) {
+                Ok(()) => state.host.message = Some(format!("screenshot {}", path.display())),
+                Err(e) => state.host.error = Some(format!("cannot write {}: {e}", path.display())),
+            }
         }
+        g.stage.set_quality(&g.gpu, live);
+        g.stalled = true;
     }
-    // Level of detail: keep the frame inside the budget by drawing a share of the hairs.
-    // First fewer hairs (down to MIN_FRACTION), then no MSAA; back in the opposite order.
+    // Level of detail: keep the frame's work inside the budget (`ViewSettings::adapt`):
+    // the frame's period less its wait for the surface, or the GPU's time where the GPU
+    // is the slower.
     if state.view.adaptive_lod {
-        let budget = state.view.frame_budget_ms;
-        let v = &mut state.view;
-        if render_ms > budget {
-            if v.hair_fraction <= MIN_FRACTION && !v.msaa_dropped && state.scene.render.msaa > 1 {
-                v.msaa_dropped = true;
-                v.hair_fraction = 0.5;
-            } else {
-                v.hair_fraction =
-                    (v.hair_fraction * (budget / render_ms).max(0.5)).max(MIN_FRACTION);
-            }
-        } else if render_ms < 0.6 * budget {
-            if v.hair_fraction >= 1.0 && v.msaa_dropped && render_ms < 0.2 * budget {
-                v.msaa_dropped = false;
-                v.hair_fraction = 0.5;
-            } else {
-                v.hair_fraction = (v.hair_fraction * 1.15).min(1.0);
-            }
+        let gpu_ms = if state.stats.timestamps {
+            render_ms + state.stats.ui_ms
+        } else {
+            0.0
+        };
+        if g.frames > 1 && !stalled_before {
+            state.view.adapt(
+                (g.period_ms - g.acquire_ms).max(gpu_ms),
+                state.scene.render.msaa,
+            );
         }
     } else {
         state.view.msaa_dropped = false;
+        state.view.scale_pct = 100;
     }
+    g.acquire_ms = acquire_ms;
     g.frames += 1;
     Ok(())
 }

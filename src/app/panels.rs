@@ -366,13 +366,9 @@ fn stats(ui: &mut Ui, s: &ViewerState) {
         ui.label("frame (substeps)");
         ui.label(format!("{} ({})", st.frame, st.substeps));
         ui.end_row();
-        ui.label("hairs drawn");
-        let msaa = if s.view.msaa_dropped {
-            " (MSAA off to keep up)"
-        } else {
-            ""
-        };
-        ui.label(format!("{:.0} %{msaa}", s.view.hair_fraction * 100.0));
+        // What the frame budget drops now to keep up (the adaptive level of detail).
+        ui.label("drawing");
+        ui.label(s.view.dropping());
         ui.end_row();
         for (kind, c) in &st.systems {
             ui.label(*kind);

@@ -37,36 +37,168 @@ impl Ema {
 pub struct ViewSettings {
     /// Simulated frames per displayed frame (fractions accumulate).
     pub time_scale: f64,
-    /// Adapt the share of hairs drawn to keep the frame time under `frame_budget_ms`.
+    /// Adapt what is drawn (the share of hairs, MSAA, the resolution) to keep the frame's
+    /// work under `frame_budget_ms` (`adapt`).
     pub adaptive_lod: bool,
     pub hair_fraction: f64,
+    /// The frame time the adaptive level of detail keeps to: 60 ms (over 15 fps) on a
+    /// software adapter, 16 ms (60 fps) on a GPU (`default_budget_ms`).
     pub frame_budget_ms: f64,
     /// Use the scene's supersampling in the viewer too (off: 1x, the interactive default;
     /// the scene's value still applies to headless renders and is saved).
     pub full_supersampling: bool,
-    /// Set by the adaptive level of detail when even the fewest hairs miss the budget: draw
-    /// without MSAA in the viewer (the scene's setting is kept for renders and saving).
+    /// Set by the adaptive level of detail when a quarter of the hairs misses the budget:
+    /// draw without MSAA in the viewer (the scene's setting is kept for renders and saving).
     pub msaa_dropped: bool,
+    /// The scene's resolution in percent per axis (`SCALE_STEPS`), lowered by the adaptive
+    /// level of detail after MSAA; renders and screenshots are always at 100.
+    pub scale_pct: u32,
+    /// Drawing at full quality because nothing moves (`still`): the hairs, MSAA and the
+    /// resolution the budget dropped come back while the view stays still.
+    pub refined: bool,
+    /// The adaptive level of detail's own smoothing of the frame's work, restarted after
+    /// each change of MSAA or resolution (a pipeline rebuild or a resize is not the frame's
+    /// cost), and frames to wait before the next such change.
+    busy: Ema,
+    settle: u32,
     /// Live reload: reload the scene when its file or a file it names is saved (the Files
     /// panel's checkbox; `--no-watch` starts with it off).
     pub watch: bool,
 }
 
+/// The shares of hairs the adaptive level of detail draws at the least (smooth motion
+/// first: on a software adapter the densest shipped groom, the bob, needs a few percent to
+/// hold 15 fps, its triangles costing more than its pixels), and under which it takes its
+/// next lever (MSAA off, then a lower resolution) while one is left.
+pub const MIN_FRACTION: f64 = 0.02;
+pub const LEVER_FRACTION: f64 = 0.25;
+/// The resolutions the adaptive level of detail steps through, percent per axis.
+pub const SCALE_STEPS: [u32; 3] = [100, 75, 50];
+/// Frames after a change of MSAA or resolution before the next one.
+const SETTLE_FRAMES: u32 = 8;
+
+/// The default frame budget on an adapter: a software rasteriser aims at 15 fps with room
+/// to spare, a GPU at 60.
+pub fn default_budget_ms(software: bool) -> f64 {
+    if software {
+        60.0
+    } else {
+        16.0
+    }
+}
+
 impl ViewSettings {
-    /// Anti-aliasing the viewer draws with.
+    /// Anti-aliasing and resolution the viewer draws with now.
     pub fn quality(&self, scene: &Scene) -> crate::stage::Quality {
-        crate::stage::Quality {
-            msaa: if self.msaa_dropped {
-                1
-            } else {
-                scene.render.msaa
-            },
-            supersample: if self.full_supersampling {
-                scene.render.supersample
-            } else {
-                1
-            },
+        let full = self.full_quality(scene);
+        if self.refined {
+            return full;
         }
+        crate::stage::Quality {
+            msaa: if self.msaa_dropped { 1 } else { full.msaa },
+            scale_pct: self.scale_pct,
+            ..full
+        }
+    }
+
+    /// What the viewer draws when nothing is dropped (screenshots, a still view).
+    pub fn full_quality(&self, scene: &Scene) -> crate::stage::Quality {
+        let supersample = if self.full_supersampling {
+            scene.render.supersample
+        } else {
+            1
+        };
+        crate::stage::Quality::new(scene.render.msaa, supersample)
+    }
+
+    /// The share of the hairs drawn now.
+    pub fn lod(&self) -> f64 {
+        if self.refined {
+            1.0
+        } else {
+            self.hair_fraction
+        }
+    }
+
+    /// One step of the adaptive level of detail after a frame whose work took `busy_ms`
+    /// (`scene_msaa`: the scene's MSAA). Over the budget: fewer hairs, then, below
+    /// `LEVER_FRACTION`, MSAA off, then the next lower resolution (each lever taken sets
+    /// the share back to a half), then fewer hairs down to `MIN_FRACTION`. Well inside it:
+    /// back in the opposite order, a lever only when the frame has room for what it costs.
+    pub fn adapt(&mut self, busy_ms: f64, scene_msaa: u32) {
+        if !self.adaptive_lod || self.refined {
+            return;
+        }
+        let busy = self.busy.add(busy_ms);
+        if self.settle > 0 {
+            self.settle -= 1;
+            return;
+        }
+        let budget = self.frame_budget_ms;
+        let lower_scale = SCALE_STEPS.iter().copied().find(|&s| s < self.scale_pct);
+        let higher_scale = SCALE_STEPS
+            .iter()
+            .rev()
+            .copied()
+            .find(|&s| s > self.scale_pct);
+        let can_drop_msaa = !self.msaa_dropped && scene_msaa > 1;
+        if busy > budget {
+            let next = self.hair_fraction * (budget / busy).max(0.5);
+            if next >= LEVER_FRACTION || (!can_drop_msaa && lower_scale.is_none()) {
+                self.hair_fraction = next.max(MIN_FRACTION);
+            } else if can_drop_msaa {
+                self.msaa_dropped = true;
+                self.lever_taken();
+            } else if let Some(s) = lower_scale {
+                self.scale_pct = s;
+                self.lever_taken();
+            }
+        } else if busy < 0.75 * budget {
+            if self.hair_fraction < 1.0 {
+                self.hair_fraction = (self.hair_fraction * 1.15).min(1.0);
+            } else if let Some(s) = higher_scale.filter(|_| busy < 0.4 * budget) {
+                self.scale_pct = s;
+                self.lever_taken();
+            } else if self.msaa_dropped && higher_scale.is_none() && busy < 0.2 * budget {
+                self.msaa_dropped = false;
+                self.lever_taken();
+            }
+        }
+    }
+
+    fn lever_taken(&mut self) {
+        self.hair_fraction = 0.5;
+        self.busy = Ema::default();
+        self.settle = SETTLE_FRAMES;
+    }
+
+    /// Draw at full quality while `still` (nothing moved, nothing plays), and go back to
+    /// the budget's levers when something moves.
+    pub fn set_still(&mut self, still: bool) {
+        let refined = still && self.adaptive_lod;
+        if refined != self.refined {
+            self.refined = refined;
+            // The full-quality frames are not the live frame's cost.
+            self.busy = Ema::default();
+            self.settle = 2;
+        }
+    }
+
+    /// What the viewer draws short of full quality now, for the Stats panel and the line
+    /// printed at exit: "100 % of hairs" alone when nothing is dropped.
+    pub fn dropping(&self) -> String {
+        let mut s = format!("{:.0} % of hairs drawn", self.lod() * 100.0);
+        if !self.refined {
+            if self.msaa_dropped {
+                s.push_str(", MSAA off");
+            }
+            if self.scale_pct < 100 {
+                s.push_str(&format!(", {} % resolution", self.scale_pct));
+            }
+        } else if self.adaptive_lod {
+            s.push_str(" (still: full quality)");
+        }
+        s
     }
 }
 
@@ -76,9 +208,13 @@ impl Default for ViewSettings {
             time_scale: 1.0,
             adaptive_lod: true,
             hair_fraction: 1.0,
-            frame_budget_ms: 80.0,
+            frame_budget_ms: default_budget_ms(true),
             full_supersampling: false,
             msaa_dropped: false,
+            scale_pct: 100,
+            refined: false,
+            busy: Ema::default(),
+            settle: 0,
             watch: true,
         }
     }
@@ -375,6 +511,86 @@ mod tests {
 
     fn gust() -> Scene {
         Scene::from_ron(include_str!("../../assets/scenes/gust.ron"), "gust.ron").unwrap()
+    }
+
+    /// Frames of `busy_ms` work through the adaptive level of detail.
+    fn run(v: &mut ViewSettings, busy_ms: f64, frames: usize) {
+        for _ in 0..frames {
+            v.adapt(busy_ms, 4);
+        }
+    }
+
+    #[test]
+    fn the_budget_drops_hairs_then_msaa_then_resolution_and_takes_them_back_in_turn() {
+        let mut v = ViewSettings {
+            frame_budget_ms: 60.0,
+            ..Default::default()
+        };
+        let scene = gust();
+        assert_eq!(v.quality(&scene), crate::stage::Quality::new(4, 1));
+        // A little over: fewer hairs, nothing else.
+        run(&mut v, 80.0, 3);
+        assert!(v.hair_fraction < 1.0 && v.hair_fraction >= LEVER_FRACTION);
+        assert!(!v.msaa_dropped && v.scale_pct == 100, "{v:?}");
+        // Far over for long: MSAA first, then each lower resolution, then the floor.
+        let mut seen = vec![(v.msaa_dropped, v.scale_pct)];
+        for _ in 0..200 {
+            v.adapt(400.0, 4);
+            let q = (v.msaa_dropped, v.scale_pct);
+            if seen.last() != Some(&q) {
+                seen.push(q);
+            }
+        }
+        assert_eq!(seen, [(false, 100), (true, 100), (true, 75), (true, 50)]);
+        assert_eq!(v.hair_fraction, MIN_FRACTION);
+        assert_eq!(v.quality(&scene).msaa, 1);
+        assert_eq!(v.quality(&scene).scale_pct, 50);
+        assert!(v.dropping().contains("MSAA off") && v.dropping().contains("50 % resolution"));
+        // Well inside: the hairs, then the resolution step by step, then MSAA.
+        let mut back = vec![(v.msaa_dropped, v.scale_pct)];
+        for _ in 0..400 {
+            v.adapt(5.0, 4);
+            let q = (v.msaa_dropped, v.scale_pct);
+            if back.last() != Some(&q) {
+                back.push(q);
+            }
+        }
+        assert_eq!(back, [(true, 50), (true, 75), (true, 100), (false, 100)]);
+        assert_eq!(v.hair_fraction, 1.0);
+        assert_eq!(v.dropping(), "100 % of hairs drawn");
+        // A scene without MSAA skips that lever.
+        let mut v = ViewSettings::default();
+        for _ in 0..100 {
+            v.adapt(400.0, 1);
+        }
+        assert!(!v.msaa_dropped && v.scale_pct == 50);
+    }
+
+    #[test]
+    fn a_still_view_draws_at_full_quality_and_the_budget_resumes_when_it_moves() {
+        let scene = gust();
+        let mut v = ViewSettings::default();
+        run(&mut v, 1000.0, 100);
+        assert!(v.msaa_dropped && v.scale_pct == 50 && v.lod() < 0.2);
+        v.set_still(true);
+        assert_eq!(v.quality(&scene), v.full_quality(&scene));
+        assert_eq!(v.lod(), 1.0);
+        assert!(v.dropping().contains("full quality"), "{}", v.dropping());
+        // The slow full-quality frames do not move the levers.
+        let before = (v.hair_fraction, v.msaa_dropped, v.scale_pct);
+        run(&mut v, 5000.0, 50);
+        assert_eq!(before, (v.hair_fraction, v.msaa_dropped, v.scale_pct));
+        v.set_still(false);
+        assert_eq!(v.quality(&scene).scale_pct, 50);
+        assert!(v.lod() < 0.2);
+        // Without the adaptive level of detail nothing is refined (the user's share stays).
+        let mut v = ViewSettings {
+            adaptive_lod: false,
+            hair_fraction: 0.3,
+            ..Default::default()
+        };
+        v.set_still(true);
+        assert_eq!(v.lod(), 0.3);
     }
 
     #[test]

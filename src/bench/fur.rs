@@ -215,10 +215,7 @@ pub fn run(gpu: &Gpu, scenes: &Path, out: &Path, frames: u32) -> Result<Report> 
 
     // 3. Culling.
     let base = Scene::load(scenes.join("fur_fig9.ron"))?;
-    let quality = Quality {
-        msaa: base.render.msaa,
-        supersample: base.render.supersample,
-    };
+    let quality = Quality::new(base.render.msaa, base.render.supersample);
     let _ = writeln!(md, "\n**Distance-based culling** (`fur_fig9.ron`, {} hairs, MSAA {} x supersample {}): the camera backs away along its line of sight to k times the distance at which the model fills the view. Error against the full-density render at the same distance, in levels of 255: *tile* = mean over the model of the difference of 8x8-pixel block means (the look), *pixel* = mean per-pixel difference over the model (dominated by which hairs land where). The floor is the full-density render with another seed (the same look, other hairs).\n",
         base.fur.as_ref().map_or(0, |f| f.hairs), quality.msaa, quality.supersample);
     let _ = writeln!(
@@ -305,7 +302,7 @@ fn qualities(scene: &Scene) -> Vec<(String, Quality)> {
         (4, 1),
         (1, 1),
     ] {
-        let quality = Quality { msaa, supersample };
+        let quality = Quality::new(msaa, supersample);
         if q.iter().all(|(_, x)| *x != quality) {
             let label = match (msaa, supersample) {
                 (1, 1) => "no MSAA".to_string(),

@@ -220,13 +220,7 @@ pub fn groom(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Re
     let image = target::Offscreen::new(gpu, size)?;
     let look = stage.look();
     for (msaa, ss) in [(1, 1), (4, 1), (4, 2)] {
-        stage.set_quality(
-            gpu,
-            Quality {
-                msaa,
-                supersample: ss,
-            },
-        );
+        stage.set_quality(gpu, Quality::new(msaa, ss));
         let secs = time_mean(frames, || {
             let mut enc = gpu
                 .device

@@ -83,10 +83,7 @@ struct Timed {
 impl Timed {
     fn new(gpu: &Gpu, scene: &Scene) -> Result<Timed> {
         stage::check_limits(gpu, scene, SIZE)?;
-        let quality = Quality {
-            msaa: 1,
-            supersample: 1,
-        };
+        let quality = Quality::new(1, 1);
         Ok(Timed {
             stage: Stage::new(gpu, scene, target::OUTPUT_FORMAT, quality)?,
             out: target::Offscreen::new(gpu, SIZE)?,

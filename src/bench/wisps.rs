@@ -72,10 +72,7 @@ struct Timed {
 impl Timed {
     fn new(gpu: &Gpu, scene: &Scene, size: (u32, u32)) -> Result<Timed> {
         stage::check_limits(gpu, scene, size)?;
-        let quality = Quality {
-            msaa: 1,
-            supersample: 1,
-        };
+        let quality = Quality::new(1, 1);
         Ok(Timed {
             stage: Stage::new(gpu, scene, target::OUTPUT_FORMAT, quality)?,
             out: target::Offscreen::new(gpu, size)?,

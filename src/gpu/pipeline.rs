@@ -34,6 +34,38 @@ pub fn hair_fragment_entry(gpu: &Gpu) -> &'static str {
     }
 }
 
+/// What a scene pipeline is built for besides its shader: the MSAA sample count of the
+/// targets and the shadow lookup it compiles. A change of either builds the pipelines
+/// again (`HairSystem::set_variant`, the stage's head pass).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct Variant {
+    pub samples: u32,
+    pub shadow: super::shadow::ShadowVariant,
+}
+
+impl Variant {
+    /// `samples` per pixel with no shadow lookup.
+    pub fn samples(samples: u32) -> Variant {
+        Variant {
+            samples,
+            shadow: super::shadow::ShadowVariant::OFF,
+        }
+    }
+
+    /// The override constants of a module that includes `shaders/common/shadow.wgsl` and,
+    /// with `physical` given, `shaders/common/hair_bsdf.wgsl`: whether the physical shading
+    /// is compiled in (`HAIR_PHYSICAL`: some material of the pass shades physically). Like
+    /// the shadow lookup, a mode tested per material at run time costs a software rasteriser
+    /// the whole mode, taken or not.
+    pub fn constants(&self, physical: Option<bool>) -> Vec<(&'static str, f64)> {
+        let mut c = self.shadow.constants().to_vec();
+        if let Some(p) = physical {
+            c.push(("HAIR_PHYSICAL", f64::from(u8::from(p))));
+        }
+        c
+    }
+}
+
 /// What distinguishes one scene render pipeline from another.
 #[derive(Clone, Copy)]
 pub struct DrawPipeline<'a> {
@@ -48,19 +80,28 @@ pub struct DrawPipeline<'a> {
     /// Blend the colour over what is there (sub-pixel hair without MSAA).
     pub blend: Option<wgpu::BlendState>,
     pub format: wgpu::TextureFormat,
-    pub samples: u32,
+    /// The sample count and shadow lookup (the module includes `shaders/common/shadow.wgsl`).
+    pub variant: Variant,
+    /// Whether the physical shading is compiled in, for a module that includes
+    /// `shaders/common/hair_bsdf.wgsl` (None for one that does not).
+    pub physical: Option<bool>,
 }
 
 impl DrawPipeline<'_> {
     /// A depth-tested, depth-writing pipeline into the scene targets.
     pub fn build(&self, device: &wgpu::Device) -> wgpu::RenderPipeline {
+        let constants = self.variant.constants(self.physical);
+        let compilation_options = || wgpu::PipelineCompilationOptions {
+            constants: &constants,
+            ..Default::default()
+        };
         device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some(self.label),
             layout: Some(self.layout),
             vertex: wgpu::VertexState {
                 module: self.module,
                 entry_point: Some(self.vertex_entry),
-                compilation_options: Default::default(),
+                compilation_options: compilation_options(),
                 buffers: self.vertex_buffers,
             },
             primitive: wgpu::PrimitiveState {
@@ -70,14 +111,14 @@ impl DrawPipeline<'_> {
             },
             depth_stencil: Some(depth_state(true)),
             multisample: wgpu::MultisampleState {
-                count: self.samples,
+                count: self.variant.samples,
                 mask: !0,
                 alpha_to_coverage_enabled: false,
             },
             fragment: Some(wgpu::FragmentState {
                 module: self.module,
                 entry_point: Some(self.fragment_entry),
-                compilation_options: Default::default(),
+                compilation_options: compilation_options(),
                 targets: &[Some(wgpu::ColorTargetState {
                     format: self.format,
                     blend: self.blend,

@@ -31,6 +31,56 @@ pub fn map_texture(device: &wgpu::Device, words: u64) -> wgpu::Texture {
     })
 }
 
+/// The shadow structure a shading pipeline compiles a lookup for: the override
+/// `SHADOW_LOOKUP` in `shaders/common/shadow.wgsl`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Lookup {
+    /// No lookup: the shadow functions are constants (shadows off, or nothing casts).
+    #[default]
+    Off,
+    /// The light-aligned density volume.
+    Volume,
+    /// Deep opacity maps.
+    DeepOpacity,
+}
+
+/// What a shading pipeline compiles of the shadow lookup. A software rasteriser (llvmpipe,
+/// lavapipe) runs both sides of every branch under a mask, so a lookup skipped by a test of
+/// the frame uniform costs as much as one taken: with shadows off the viewer drew at half
+/// its rate (docs/performance.md). Each pipeline that shades is built for the structure the
+/// frame has, the others compiled out, and built again when it changes (the stage, like an
+/// MSAA change).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct ShadowVariant {
+    pub lookup: Lookup,
+    /// Toon steps (a scene with wisps: `shadow_toon`, `shadow_is_toon`).
+    pub toon: bool,
+}
+
+impl ShadowVariant {
+    /// No shadow lookup compiled in.
+    pub const OFF: ShadowVariant = ShadowVariant {
+        lookup: Lookup::Off,
+        toon: false,
+    };
+
+    /// `SHADOW_LOOKUP`: 0 none, 1 the volume, 2 deep opacity; plus 4 for toon steps.
+    pub fn code(self) -> u32 {
+        let lookup = match self.lookup {
+            Lookup::Off => 0,
+            Lookup::Volume => 1,
+            Lookup::DeepOpacity => 2,
+        };
+        lookup + if self.toon { 4 } else { 0 }
+    }
+
+    /// The pipeline-overridable constants of every module that includes
+    /// `shaders/common/shadow.wgsl`.
+    pub fn constants(self) -> [(&'static str, f64); 1] {
+        [("SHADOW_LOOKUP", f64::from(self.code()))]
+    }
+}
+
 /// Fixed-point scale of cast coverage; keep in sync with `shaders/common/shadow_cast.wgsl`.
 pub const FIXED: f64 = 4096.0;
 

@@ -4,7 +4,7 @@
 
 use crate::error::Result;
 use crate::gpu::gpu_data::{linear_rgb, GpuHead};
-use crate::gpu::pipeline::{self, DrawPipeline};
+use crate::gpu::pipeline::{self, DrawPipeline, Variant};
 use crate::gpu::{self, Gpu};
 use crate::scene::{Ellipsoid, HeadMesh};
 use glam::{DMat4, DVec3, Mat4};
@@ -40,7 +40,7 @@ impl HeadPass {
         gpu: &Gpu,
         frame_layout: &wgpu::BindGroupLayout,
         color_format: wgpu::TextureFormat,
-        samples: u32,
+        variant: Variant,
     ) -> Result<HeadPass> {
         let device = &gpu.device;
         let module = gpu::shader_module(device, "head", crate::shaders::HEAD)?;
@@ -50,7 +50,7 @@ impl HeadPass {
             &[gpu::uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT)],
         );
         let pl = pipeline::pipeline_layout(device, "head", &[frame_layout, &layout]);
-        let pipeline = Self::pipeline(device, &module, &pl, color_format, samples);
+        let pipeline = Self::pipeline(device, &module, &pl, color_format, variant);
         let (verts, idx) = unit_sphere();
         let (vertices, indices) = geometry(device, &verts, &idx);
         let uniform = device.create_buffer(&wgpu::BufferDescriptor {
@@ -74,14 +74,14 @@ impl HeadPass {
         })
     }
 
-    /// Rebuild the pipeline for another MSAA sample count.
-    pub fn set_samples(&mut self, gpu: &Gpu, samples: u32) {
+    /// Rebuild the pipeline for another MSAA sample count or shadow lookup.
+    pub fn set_variant(&mut self, gpu: &Gpu, variant: Variant) {
         self.pipeline = Self::pipeline(
             &gpu.device,
             &self.module,
             &self.pipeline_layout,
             self.format,
-            samples,
+            variant,
         );
     }
 
@@ -90,7 +90,7 @@ impl HeadPass {
         module: &wgpu::ShaderModule,
         pl: &wgpu::PipelineLayout,
         format: wgpu::TextureFormat,
-        samples: u32,
+        variant: Variant,
     ) -> wgpu::RenderPipeline {
         DrawPipeline {
             label: "head",
@@ -107,7 +107,8 @@ impl HeadPass {
             })],
             blend: None,
             format,
-            samples,
+            variant,
+            physical: None,
         }
         .build(device)
     }

@@ -21,6 +21,8 @@ pub mod target;
 use crate::error::Result;
 use crate::forces::Forces;
 use crate::gpu::gpu_data::{linear_rgb, GpuFrame};
+use crate::gpu::pipeline::Variant;
+use crate::gpu::shadow::{Lookup, ShadowVariant};
 use crate::gpu::timing::{GpuTimer, Phase};
 use crate::gpu::{self, Gpu};
 use crate::systems::Scene;
@@ -41,22 +43,32 @@ pub fn shaders() -> Vec<(&'static str, &'static str)> {
     all
 }
 
-/// Anti-aliasing settings.
+/// Anti-aliasing and resolution settings.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Quality {
     /// MSAA samples: 1 or 4.
     pub msaa: u32,
     /// Supersampling factor per axis, 1..=4.
     pub supersample: u32,
+    /// The scene's resolution in percent of the output's per axis (the viewer's budget
+    /// lowers it as an artist's viewport does; 100 everywhere else). Below 100 the resolve
+    /// scales the scene up bilinearly.
+    pub scale_pct: u32,
 }
 
 impl Quality {
+    /// `msaa` samples and `supersample` per axis at full resolution.
+    pub fn new(msaa: u32, supersample: u32) -> Quality {
+        Quality {
+            msaa,
+            supersample,
+            scale_pct: 100,
+        }
+    }
+
     /// The scene's own anti-aliasing (headless renders).
     pub fn of(scene: &Scene) -> Quality {
-        Quality {
-            msaa: scene.render.msaa,
-            supersample: scene.render.supersample,
-        }
+        Quality::new(scene.render.msaa, scene.render.supersample)
     }
 }
 
@@ -100,6 +112,8 @@ pub struct Stage {
     last_frame: GpuFrame,
     /// Hair shadows (group 0's bindings 1 and 2).
     shadow: shadow::ShadowPass,
+    /// The shadow lookup every shading pipeline is built with (`shadow_variant`).
+    shadow_variant: ShadowVariant,
 }
 
 /// The scene targets of one output size, the resolve's bind group for them, and the thin
@@ -189,6 +203,8 @@ impl Stage {
             timer: None,
             last_frame: bytemuck::Zeroable::zeroed(),
             shadow,
+            // What the scene asks for; corrected below once the systems say who casts.
+            shadow_variant: shadow_variant(scene, scene.render.shadows.on),
         };
         stage.ensure_head(gpu)?;
         for kind in KINDS {
@@ -198,6 +214,8 @@ impl Stage {
                 stage.systems.push(system);
             }
         }
+        let variant = shadow_variant(scene, stage.casting());
+        stage.set_shadow_variant(gpu, variant);
         gpu.take_error()?;
         Ok(stage)
     }
@@ -208,7 +226,37 @@ impl Stage {
             splat_layouts: &self.splat_layouts,
             shadow_cast_layout: &self.shadow.cast_layout,
             format: gpu::pipeline::SCENE_FORMAT,
+            variant: self.variant(),
+        }
+    }
+
+    /// What the scene pipelines are built for: the MSAA samples and the shadow lookup.
+    fn variant(&self) -> Variant {
+        Variant {
             samples: self.quality.msaa,
+            shadow: self.shadow_variant,
+        }
+    }
+
+    /// Whether this frame has a shadow structure: shadows on and some system casting.
+    fn casting(&self) -> bool {
+        self.scene.render.shadows.on && self.systems.iter().any(|s| s.casts())
+    }
+
+    /// Build the shading pipelines again when the shadow lookup they compile changes (a
+    /// toggle, another method, the last caster gone): rare, and the price of paying nothing
+    /// for a lookup a frame does not use.
+    fn set_shadow_variant(&mut self, gpu: &Gpu, shadow: ShadowVariant) {
+        if shadow == self.shadow_variant {
+            return;
+        }
+        self.shadow_variant = shadow;
+        let variant = self.variant();
+        if let Some(h) = self.head.as_mut() {
+            h.set_variant(gpu, variant);
+        }
+        for s in &mut self.systems {
+            s.set_variant(gpu, variant);
         }
     }
 
@@ -220,7 +268,7 @@ impl Stage {
                     gpu,
                     &self.frame_layout,
                     gpu::pipeline::SCENE_FORMAT,
-                    self.quality.msaa,
+                    self.variant(),
                 )?)
             }
             (false, true) => self.head = None,
@@ -395,18 +443,20 @@ impl Stage {
 
     /// Change anti-aliasing; pipelines and targets are rebuilt only when needed.
     pub fn set_quality(&mut self, gpu: &Gpu, quality: Quality) {
-        if quality.msaa != self.quality.msaa {
-            if let Some(h) = self.head.as_mut() {
-                h.set_samples(gpu, quality.msaa);
-            }
-            for s in &mut self.systems {
-                s.set_samples(gpu, quality.msaa);
-            }
-        }
+        let msaa_changed = quality.msaa != self.quality.msaa;
         if quality != self.quality {
             self.targets = None;
         }
         self.quality = quality;
+        if msaa_changed {
+            let variant = self.variant();
+            if let Some(h) = self.head.as_mut() {
+                h.set_variant(gpu, variant);
+            }
+            for s in &mut self.systems {
+                s.set_variant(gpu, variant);
+            }
+        }
     }
 
     /// Take an edited scene (already validated): each kind classifies the edit and the
@@ -510,6 +560,9 @@ impl Stage {
             region.0.clamp(1, output_size.0),
             region.1.clamp(1, output_size.1),
         );
+        // The shading pipelines compile the lookup of this frame's structure, or none.
+        let casting = self.casting();
+        self.set_shadow_variant(gpu, shadow_variant(&self.scene, casting));
         // Thin strands drawn by a compute rasteriser read the scene depth and need an
         // accumulation: targets are made for whether any system splats this frame.
         let splatting = self.systems.iter().any(|s| s.splats());
@@ -518,11 +571,12 @@ impl Stage {
             .as_ref()
             .is_none_or(|t| t.scene.output_size != size || t.scene.sampled_depth != splatting);
         if stale {
-            let scene = SceneTargets::new(
+            let scene = SceneTargets::scaled(
                 gpu,
                 size,
                 self.quality.msaa,
                 self.quality.supersample,
+                self.quality.scale_pct,
                 splatting,
             )?;
             let resolve = self.downsample.bind(gpu, &scene, None);
@@ -585,7 +639,6 @@ impl Stage {
         let targets = &*targets;
         // Hair shadows: cast, resolve, and bind for every draw below.
         let settings = self.scene.render.shadows;
-        let casting = settings.on && self.systems.iter().any(|s| s.casts());
         let light_box = shadow::LightBox::fit(bounds, DVec3::from(self.scene.light.direction));
         let head = self
             .scene
@@ -593,7 +646,7 @@ impl Stage {
             .visible
             .then(|| head_sphere(&self.scene, ctx.head));
         let mut params = shadow::params(&settings, &light_box, head, casting);
-        if casting && self.scene.wisps.is_some() {
+        if self.shadow_variant.toon {
             // Toon wisps: shadows are steps (`shadow_toon`).
             params.center[3] = 2.0;
         }
@@ -680,6 +733,21 @@ impl Stage {
     }
 }
 
+/// What the shading pipelines compile of the shadow lookup for `scene` when it has a shadow
+/// structure (`casting`): its method, as toon steps in a scene with wisps.
+fn shadow_variant(scene: &Scene, casting: bool) -> ShadowVariant {
+    if !casting {
+        return ShadowVariant::OFF;
+    }
+    ShadowVariant {
+        lookup: match scene.render.shadows.method {
+            crate::scene::ShadowMethod::Volume => Lookup::Volume,
+            crate::scene::ShadowMethod::DeepOpacity => Lookup::DeepOpacity,
+        },
+        toon: scene.wisps.is_some(),
+    }
+}
+
 /// The head ellipsoid as drawn (its unit sphere to world at head pose `pose`); a mesh head
 /// is stood for by its scene ellipsoid when it shadows hair.
 fn head_sphere(scene: &Scene, pose: DMat4) -> DMat4 {
@@ -691,8 +759,18 @@ impl Stage {
     /// `shadow_strands`, `shadow_opaque` and `shadow_layered` at `points` as the shaders
     /// saw them in the last frame drawn (tests and `kami bench shadows`).
     pub fn probe_shadows(&self, gpu: &Gpu, points: &[DVec3]) -> Result<Vec<shadow::Probed>> {
-        self.shadow
-            .probe(gpu, &self.frame_layout, &self.frame_bind_group, points)
+        self.shadow.probe(
+            gpu,
+            &self.frame_layout,
+            &self.frame_bind_group,
+            self.shadow_variant,
+            points,
+        )
+    }
+
+    /// The shadow lookup the shading pipelines are built with now.
+    pub fn shadow_variant(&self) -> ShadowVariant {
+        self.shadow_variant
     }
 
     /// The shadow uniform of the last frame drawn (its light-space box, for the reference).

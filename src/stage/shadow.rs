@@ -353,13 +353,14 @@ impl ShadowPass {
     }
 
     /// `shadow_strands`, `shadow_opaque` and `shadow_layered` at `points` as the shaders see
-    /// them this frame (`frame_layout`/`frame` are the stage's group 0). For tests and the
-    /// bench.
+    /// them this frame (`frame_layout`/`frame` are the stage's group 0, `lookup` what the
+    /// shading pipelines compile). For tests and the bench.
     pub fn probe(
         &self,
         gpu: &Gpu,
         frame_layout: &wgpu::BindGroupLayout,
         frame: &wgpu::BindGroup,
+        lookup: gpu::shadow::ShadowVariant,
         points: &[DVec3],
     ) -> Result<Vec<Probed>> {
         if points.is_empty() {
@@ -380,7 +381,10 @@ impl ShadowPass {
             layout: Some(&pl),
             module: &self.module,
             entry_point: Some("probe"),
-            compilation_options: Default::default(),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants: &lookup.constants(),
+                ..Default::default()
+            },
             cache: None,
         });
         let data: Vec<[f32; 4]> = points

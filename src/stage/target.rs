@@ -30,7 +30,25 @@ impl SceneTargets {
         factor: u32,
         sampled_depth: bool,
     ) -> Result<SceneTargets> {
-        let size = (output_size.0 * factor, output_size.1 * factor);
+        Self::scaled(gpu, output_size, samples, factor, 100, sampled_depth)
+    }
+
+    /// Targets at `scale_pct` percent of the supersampled size per axis (the resolve
+    /// scales them up; `Quality::scale_pct`).
+    pub fn scaled(
+        gpu: &Gpu,
+        output_size: (u32, u32),
+        samples: u32,
+        factor: u32,
+        scale_pct: u32,
+        sampled_depth: bool,
+    ) -> Result<SceneTargets> {
+        let scaled = |n: u32| {
+            (u64::from(n * factor) * u64::from(scale_pct))
+                .div_ceil(100)
+                .max(1) as u32
+        };
+        let size = (scaled(output_size.0), scaled(output_size.1));
         gpu.check_texture_size("the supersampled scene width", size.0)?;
         gpu.check_texture_size("the supersampled scene height", size.1)?;
         let extent = wgpu::Extent3d {
@@ -134,6 +152,8 @@ impl SceneTargets {
 pub struct ResolveBinding {
     group: wgpu::BindGroup,
     factor: u32,
+    /// The scene is not a whole multiple of the output: scaled up bilinearly.
+    scaled: bool,
 }
 
 /// Box-filter resolve of the supersampled scene into the output.
@@ -141,6 +161,8 @@ pub struct DownsamplePass {
     pipeline: wgpu::RenderPipeline,
     /// Without supersampling: a plain copy (with the thin strands and the encoding).
     pipeline_one: wgpu::RenderPipeline,
+    /// Below full resolution: a bilinear scale up.
+    pipeline_scaled: wgpu::RenderPipeline,
     layout: wgpu::BindGroupLayout,
     uniform: wgpu::Buffer,
     encode_srgb: bool,
@@ -196,9 +218,10 @@ impl DownsamplePass {
         };
         let pipeline = make("fs");
         let pipeline_one = make("fs_one");
+        let pipeline_scaled = make("fs_scaled");
         let uniform = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("downsample uniform"),
-            size: std::mem::size_of::<[u32; 4]>() as u64,
+            size: std::mem::size_of::<[u32; 8]>() as u64,
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
@@ -211,6 +234,7 @@ impl DownsamplePass {
         Ok(DownsamplePass {
             pipeline,
             pipeline_one,
+            pipeline_scaled,
             layout,
             uniform,
             encode_srgb: !output_format.is_srgb(),
@@ -227,10 +251,25 @@ impl DownsamplePass {
         accum: Option<&wgpu::Buffer>,
     ) -> ResolveBinding {
         let splat = u32::from(accum.is_some());
+        let out = targets.output_size;
+        let scaled = targets.size != (out.0 * targets.factor, out.1 * targets.factor);
+        let scale = [
+            targets.size.0 as f32 / out.0.max(1) as f32,
+            targets.size.1 as f32 / out.1.max(1) as f32,
+        ];
         gpu.queue.write_buffer(
             &self.uniform,
             0,
-            bytemuck::cast_slice(&[targets.factor, u32::from(self.encode_srgb), splat, 0]),
+            bytemuck::cast_slice(&[
+                targets.factor,
+                u32::from(self.encode_srgb),
+                splat,
+                0,
+                scale[0].to_bits(),
+                scale[1].to_bits(),
+                0,
+                0,
+            ]),
         );
         let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("downsample"),
@@ -247,6 +286,7 @@ impl DownsamplePass {
         ResolveBinding {
             group,
             factor: targets.factor,
+            scaled,
         }
     }
 
@@ -277,7 +317,9 @@ impl DownsamplePass {
             multiview_mask: None,
         });
         pass.set_viewport(0.0, 0.0, size.0 as f32, size.1 as f32, 0.0, 1.0);
-        pass.set_pipeline(if binding.factor == 1 {
+        pass.set_pipeline(if binding.scaled {
+            &self.pipeline_scaled
+        } else if binding.factor == 1 {
             &self.pipeline_one
         } else {
             &self.pipeline

@@ -73,7 +73,8 @@ pub struct View {
 }
 
 /// What a system's draw pipelines are built for: the shared frame bind group (group 0,
-/// `shaders/common/frame.wgsl`), the scene target format and its MSAA sample count.
+/// `shaders/common/frame.wgsl`), the scene target format, its MSAA sample count and the
+/// shadow lookup the shading compiles.
 pub struct DrawSetup<'a> {
     pub frame_layout: &'a wgpu::BindGroupLayout,
     /// Group 2 of a compute rasteriser for thin strands (`gpu::splat`).
@@ -81,7 +82,7 @@ pub struct DrawSetup<'a> {
     /// Group 2 of a cast pipeline (`gpu::shadow`, `shaders/common/shadow_cast.wgsl`).
     pub shadow_cast_layout: &'a wgpu::BindGroupLayout,
     pub format: wgpu::TextureFormat,
-    pub samples: u32,
+    pub variant: crate::gpu::pipeline::Variant,
 }
 
 /// What an edit of the scene asks of one system, least to most work.
@@ -172,8 +173,10 @@ pub trait HairSystem {
     fn cast_shadow(&self, _pass: &mut wgpu::ComputePass<'_>) {}
     /// Back to the rest pose.
     fn reset(&mut self, gpu: &Gpu) -> Result<()>;
-    /// Rebuild draw pipelines for another MSAA sample count.
-    fn set_samples(&mut self, gpu: &Gpu, samples: u32);
+    /// Rebuild the draw pipelines for another MSAA sample count or shadow lookup (every
+    /// pipeline whose module includes `shaders/common/shadow.wgsl` and shades takes
+    /// `variant.shadow`'s constants).
+    fn set_variant(&mut self, gpu: &Gpu, variant: crate::gpu::pipeline::Variant);
     /// Take an edit classified as `Redraw` or `Resimulate` by the kind's `classify`.
     fn update(&mut self, gpu: &Gpu, scene: &Scene, change: Change) -> Result<()>;
     fn stats(&self) -> SystemStats;

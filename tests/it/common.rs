@@ -189,10 +189,7 @@ pub fn stage(gpu: &Gpu, scene: &kami::Scene) -> kami::stage::Stage {
 /// A stage for `scene` with one sample per pixel (no MSAA, no supersampling): for tests
 /// that read ids or positions, not looks.
 pub fn stage_one_sample(gpu: &Gpu, scene: &kami::Scene) -> kami::stage::Stage {
-    let q = kami::stage::Quality {
-        msaa: 1,
-        supersample: 1,
-    };
+    let q = kami::stage::Quality::new(1, 1);
     kami::stage::Stage::new(gpu, scene, kami::stage::target::OUTPUT_FORMAT, q).unwrap()
 }
 

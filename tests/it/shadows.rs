@@ -454,3 +454,70 @@ fn a_layered_offset_out_of_range_is_refused() {
         assert_eq!(field, "render.shadows.layered_offset", "{value} {allowed}");
     }
 }
+
+/// The shading pipelines compile the lookup of the frame's structure and no other
+/// (`gpu::shadow::ShadowVariant`: on a software rasteriser a lookup branched around at run
+/// time costs as much as one taken). A stage whose shadows are switched on, off or to the
+/// other method draws exactly what a stage built with the new setting draws, so the
+/// pipelines were built again with the new lookup.
+#[test]
+fn a_shadow_switch_draws_as_a_stage_built_with_it() {
+    use kami::gpu::shadow::{Lookup, ShadowVariant};
+    let gpu = common::gpu();
+    let setting = |on: bool, method: ShadowMethod| {
+        let mut s = small_bob(method);
+        s.render.shadows.on = on;
+        s
+    };
+    let off = setting(false, ShadowMethod::Volume);
+    let volume = setting(true, ShadowMethod::Volume);
+    let deep = setting(true, ShadowMethod::DeepOpacity);
+    let lookup = |s: &kami::Scene| match (s.render.shadows.on, s.render.shadows.method) {
+        (false, _) => Lookup::Off,
+        (true, ShadowMethod::Volume) => Lookup::Volume,
+        (true, ShadowMethod::DeepOpacity) => Lookup::DeepOpacity,
+    };
+    let differing = |a: &image::RgbaImage, b: &image::RgbaImage| {
+        a.pixels()
+            .zip(b.pixels())
+            .filter(|(p, q)| p.0.iter().zip(q.0).any(|(x, y)| x.abs_diff(y) > 2))
+            .count()
+    };
+    let (_, img_off) = drawn(&off);
+    let (_, img_volume) = drawn(&volume);
+    assert!(
+        differing(&img_off, &img_volume) > 20,
+        "shadows on and off draw the same bob: the test could not see a stale lookup"
+    );
+    for (from, to) in [
+        (&off, &volume),
+        (&volume, &off),
+        (&volume, &deep),
+        (&deep, &volume),
+    ] {
+        let (mut stage, _) = drawn(from);
+        assert_eq!(
+            stage.shadow_variant(),
+            ShadowVariant {
+                lookup: lookup(from),
+                toon: false
+            }
+        );
+        let (_, fresh) = drawn(to);
+        stage.apply(gpu, to).unwrap();
+        let out = kami::stage::target::Offscreen::new(gpu, SIZE).unwrap();
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        let look = stage.look();
+        stage.render(gpu, &mut enc, &out.view, SIZE, &look).unwrap();
+        gpu.queue.submit([enc.finish()]);
+        let switched = out.read_rgba(gpu).unwrap();
+        assert_eq!(stage.shadow_variant().lookup, lookup(to));
+        let n = differing(&switched, &fresh);
+        assert!(
+            n == 0,
+            "{:?} -> {:?}: {n} pixels differ from a stage built with the new setting",
+            lookup(from),
+            lookup(to)
+        );
+    }
+}

@@ -59,16 +59,7 @@ fn eff_capture_snapshot() {
 /// The stage's strips after `frames` frames (one frame per submission, as the viewer and
 /// renders record them): world control points, strip-major.
 fn gpu_points(gpu: &kami::gpu::Gpu, scene: &Scene, frames: u32) -> (Vec<DVec3>, usize) {
-    let mut stage = Stage::new(
-        gpu,
-        scene,
-        target::OUTPUT_FORMAT,
-        Quality {
-            msaa: 1,
-            supersample: 1,
-        },
-    )
-    .unwrap();
+    let mut stage = Stage::new(gpu, scene, target::OUTPUT_FORMAT, Quality::new(1, 1)).unwrap();
     for _ in 0..frames {
         let mut enc = gpu.device.create_command_encoder(&Default::default());
         stage.advance(gpu, &mut enc, 1).unwrap();

@@ -6,6 +6,7 @@ use crate::common;
 
 use glam::{DMat4, DQuat, DVec3, Mat4, Vec3, Vec4};
 use kami::gpu::gpu_data::GpuFrame;
+use kami::gpu::pipeline::Variant;
 use kami::gpu::{self, Gpu};
 use kami::rng::Rng;
 use kami::scene::{Ellipsoid, Head};
@@ -663,7 +664,7 @@ fn ribbon_kernel_matches_the_f64_reference() {
         &Look::default(),
         &layout,
         SCENE_FORMAT,
-        1,
+        Variant::samples(1),
     )
     .unwrap();
     // First from another points buffer (the rest pose), then from the moved points: the
@@ -720,8 +721,26 @@ fn ribbon_pass_rejects_a_short_points_buffer_and_stride() {
     let gpu = common::gpu();
     let rest = hom::build(&bob(), &Head::default()).unwrap();
     let layout = frame_layout(gpu);
-    assert!(RibbonPass::new(gpu, &rest, 5, &Look::default(), &layout, SCENE_FORMAT, 1).is_err());
-    let pass = RibbonPass::new(gpu, &rest, 11, &Look::default(), &layout, SCENE_FORMAT, 1).unwrap();
+    assert!(RibbonPass::new(
+        gpu,
+        &rest,
+        5,
+        &Look::default(),
+        &layout,
+        SCENE_FORMAT,
+        Variant::samples(1)
+    )
+    .is_err());
+    let pass = RibbonPass::new(
+        gpu,
+        &rest,
+        11,
+        &Look::default(),
+        &layout,
+        SCENE_FORMAT,
+        Variant::samples(1),
+    )
+    .unwrap();
     let short = points_buffer(gpu, &vec![DVec3::ZERO; 11 * rest.len() - 1]);
     let mut enc = gpu.device.create_command_encoder(&Default::default());
     let err = pass
@@ -804,9 +823,17 @@ fn render(gpu: &Gpu, samples: u32, look: &Look) -> image::RgbaImage {
     let layout = frame_layout(gpu);
     // Built with the default look and MSAA off, then changed: the look and the sample count
     // reach the pipeline and the texture.
-    let mut pass =
-        RibbonPass::new(gpu, &rest, 8, &Look::default(), &layout, SCENE_FORMAT, 1).unwrap();
-    pass.set_samples(gpu, samples);
+    let mut pass = RibbonPass::new(
+        gpu,
+        &rest,
+        8,
+        &Look::default(),
+        &layout,
+        SCENE_FORMAT,
+        Variant::samples(1),
+    )
+    .unwrap();
+    pass.set_variant(gpu, Variant::samples(samples));
     pass.write_look(gpu, look).unwrap();
     assert_eq!(pass.texture().size, texture::texture_size(look));
     let mut pts = rest[0].points.clone();

@@ -15,7 +15,7 @@
 use super::gpu_data::{GpuLook, GpuMaterial};
 use crate::error::Result;
 use crate::gpu::gpu_data::linear_rgb;
-use crate::gpu::pipeline::{self, DrawPipeline};
+use crate::gpu::pipeline::{self, DrawPipeline, Variant};
 use crate::gpu::splat::SplatLayouts;
 use crate::gpu::strands::StrandBuffers;
 use crate::gpu::{self, Gpu};
@@ -42,7 +42,9 @@ pub struct StrandsPass {
     /// Group 2 of the shadow cast (`gpu::shadow`), and its pipeline once shadows are on.
     cast_layout: wgpu::BindGroupLayout,
     cast: std::cell::OnceCell<Option<wgpu::ComputePipeline>>,
-    samples: u32,
+    variant: Variant,
+    /// Whether some group shades physically: the pipelines compile that mode only then.
+    physical: bool,
     device: wgpu::Device,
     /// On GL a multisampled depth that a shader reads leaves the scene pass black
     /// (llvmpipe), so there the compute rasteriser runs only without MSAA.
@@ -90,7 +92,7 @@ impl StrandsPass {
         splat_layouts: &SplatLayouts,
         cast_layout: &wgpu::BindGroupLayout,
         color_format: wgpu::TextureFormat,
-        samples: u32,
+        variant: Variant,
     ) -> Result<StrandsPass> {
         let device = &gpu.device;
         let module = gpu::shader_module(device, "anjyo draw", super::DRAW)?;
@@ -108,7 +110,7 @@ impl StrandsPass {
             ],
         );
         let pl = pipeline::pipeline_layout(device, "strands", &[frame_layout, &layout]);
-        let pipeline = Self::pipeline(gpu, &module, &pl, color_format, samples);
+        let pipeline = Self::pipeline(gpu, &module, &pl, color_format, variant, false);
 
         let lod = wgpu::util::DeviceExt::create_buffer_init(
             device,
@@ -129,7 +131,8 @@ impl StrandsPass {
             splat: Default::default(),
             cast_layout: cast_layout.clone(),
             cast: Default::default(),
-            samples,
+            variant,
+            physical: false,
             device: gpu.device.clone(),
             gl: gpu.info.backend == wgpu::Backend::Gl,
             bound: None,
@@ -138,9 +141,10 @@ impl StrandsPass {
         })
     }
 
-    /// The compute rasteriser reading a scene depth of `samples` samples.
+    /// The compute rasteriser reading a scene depth of `variant.samples` samples, shading
+    /// with `variant.shadow`'s lookup.
     fn splat_pipeline(&self) -> Result<wgpu::ComputePipeline> {
-        let (device, samples) = (&self.device, self.samples);
+        let (device, samples) = (&self.device, self.variant.samples);
         let source = if samples > 1 {
             super::SPLAT_MSAA
         } else {
@@ -162,7 +166,10 @@ impl StrandsPass {
                 layout: Some(&pl),
                 module: &module,
                 entry_point: Some("splat"),
-                compilation_options: Default::default(),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants: &self.variant.constants(Some(self.physical)),
+                    ..Default::default()
+                },
                 cache: None,
             }),
         )
@@ -210,16 +217,24 @@ impl StrandsPass {
         pass.dispatch_workgroups(groups.min(65535), groups.div_ceil(65535), 1);
     }
 
-    /// Rebuild the pipelines for another MSAA sample count (the bound hair stays).
-    pub fn set_samples(&mut self, gpu: &Gpu, samples: u32) {
+    /// Rebuild the pipelines for another MSAA sample count or shadow lookup (the bound hair
+    /// stays).
+    pub fn set_variant(&mut self, gpu: &Gpu, variant: Variant) {
+        self.variant = variant;
+        self.rebuild(gpu);
+    }
+
+    /// The pipelines for the current variant and shading (the compute rasteriser on its
+    /// next use).
+    fn rebuild(&mut self, gpu: &Gpu) {
         self.pipeline = Self::pipeline(
             gpu,
             &self.module,
             &self.pipeline_layout,
             self.format,
-            samples,
+            self.variant,
+            self.physical,
         );
-        self.samples = samples;
         self.splat = Default::default();
     }
 
@@ -228,7 +243,8 @@ impl StrandsPass {
         module: &wgpu::ShaderModule,
         pl: &wgpu::PipelineLayout,
         format: wgpu::TextureFormat,
-        samples: u32,
+        variant: Variant,
+        physical: bool,
     ) -> wgpu::RenderPipeline {
         DrawPipeline {
             label: "strands",
@@ -239,9 +255,10 @@ impl StrandsPass {
             topology: wgpu::PrimitiveTopology::TriangleStrip,
             cull_mode: None,
             vertex_buffers: &[],
-            blend: (samples <= 1).then_some(wgpu::BlendState::ALPHA_BLENDING),
+            blend: (variant.samples <= 1).then_some(wgpu::BlendState::ALPHA_BLENDING),
             format,
-            samples,
+            variant,
+            physical: Some(physical),
         }
         .build(&gpu.device)
     }
@@ -255,6 +272,7 @@ impl StrandsPass {
         materials: &[GpuMaterial],
         looks: Option<&[GpuLook]>,
     ) {
+        self.set_physical(gpu, materials);
         let looks = gpu::storage_buffer(
             &gpu.device,
             "node looks",
@@ -302,9 +320,20 @@ impl StrandsPass {
     }
 
     /// Update materials in place (look tweaks without a re-groom).
-    pub fn update_materials(&self, queue: &wgpu::Queue, materials: &[GpuMaterial]) {
+    pub fn update_materials(&mut self, gpu: &Gpu, materials: &[GpuMaterial]) {
+        self.set_physical(gpu, materials);
         if let Some(b) = &self.bound {
-            queue.write_buffer(&b.materials, 0, bytemuck::cast_slice(materials));
+            gpu.queue
+                .write_buffer(&b.materials, 0, bytemuck::cast_slice(materials));
+        }
+    }
+
+    /// Build the pipelines again when whether some group shades physically changed.
+    fn set_physical(&mut self, gpu: &Gpu, materials: &[GpuMaterial]) {
+        let physical = materials.iter().any(|m| m.bsdf.sigma_a[3] > 0.5);
+        if physical != self.physical {
+            self.physical = physical;
+            self.rebuild(gpu);
         }
     }
 
@@ -333,7 +362,7 @@ impl StrandsPass {
     /// Whether the compute rasteriser can run at the current sample count (not over MSAA
     /// targets on GL; the ribbons draw there).
     pub fn can_splat(&self) -> bool {
-        !(self.gl && self.samples > 1)
+        !(self.gl && self.variant.samples > 1)
     }
 
     /// Record the compute rasteriser over every strand (those past each group's drawn share

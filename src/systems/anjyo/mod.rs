@@ -474,7 +474,7 @@ impl AnjyoSystem {
             setup.splat_layouts,
             setup.shadow_cast_layout,
             setup.format,
-            setup.samples,
+            setup.variant,
         )?;
         draw.set_hair(gpu, &hair, &materials(scene), input.looks().as_deref());
         Ok(AnjyoSystem {
@@ -585,8 +585,8 @@ impl HairSystem for AnjyoSystem {
         Ok(())
     }
 
-    fn set_samples(&mut self, gpu: &Gpu, samples: u32) {
-        self.draw.set_samples(gpu, samples);
+    fn set_variant(&mut self, gpu: &Gpu, variant: crate::gpu::pipeline::Variant) {
+        self.draw.set_variant(gpu, variant);
     }
 
     fn update(&mut self, gpu: &Gpu, scene: &Scene, change: Change) -> Result<()> {
@@ -594,14 +594,14 @@ impl HairSystem for AnjyoSystem {
         match change {
             Change::Redraw => {
                 self.groups = scene.groups.clone();
-                self.draw.update_materials(&gpu.queue, &materials(scene))
+                self.draw.update_materials(gpu, &materials(scene))
             }
             Change::Resimulate => {
                 self.groups = scene.groups.clone();
                 if let (Some(sim), Some(d)) = (self.sim.as_mut(), &scene.dynamics) {
                     sim.update_params(gpu, d.clone());
                 }
-                self.draw.update_materials(&gpu.queue, &materials(scene));
+                self.draw.update_materials(gpu, &materials(scene));
             }
             Change::None | Change::Rebuild => {}
         }

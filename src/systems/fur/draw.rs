@@ -7,7 +7,7 @@ use super::gpu_data::{GpuFurMaterial, GpuSkin};
 use super::setup::FurSetup;
 use crate::error::Result;
 use crate::gpu::gpu_data::linear_rgb;
-use crate::gpu::pipeline::{self, DrawPipeline};
+use crate::gpu::pipeline::{self, DrawPipeline, Variant};
 use crate::gpu::{self, Gpu};
 use crate::systems::fur::block::FurStyle;
 
@@ -20,6 +20,9 @@ pub struct FurPass {
     ribbon: wgpu::RenderPipeline,
     tube: wgpu::RenderPipeline,
     skin: wgpu::RenderPipeline,
+    variant: Variant,
+    /// Whether some coat shades physically: the hair pipelines compile that mode only then.
+    physical: bool,
     layout: wgpu::BindGroupLayout,
     mesh_layout: wgpu::BindGroupLayout,
     /// The shadow cast: its group 1 and pipeline (`shaders/fur/cast.wgsl`).
@@ -104,7 +107,7 @@ impl FurPass {
         frame_layout: &wgpu::BindGroupLayout,
         shadow_cast_layout: &wgpu::BindGroupLayout,
         format: wgpu::TextureFormat,
-        samples: u32,
+        variant: Variant,
     ) -> Result<FurPass> {
         let device = &gpu.device;
         let module = gpu::shader_module(device, "fur draw", super::DRAW)?;
@@ -140,7 +143,8 @@ impl FurPass {
             &pipeline_layout,
             &mesh_pipeline_layout,
             format,
-            samples,
+            variant,
+            false,
         );
         let cs = wgpu::ShaderStages::COMPUTE;
         let cast_layout = pipeline::layout(
@@ -178,14 +182,21 @@ impl FurPass {
             ribbon,
             tube,
             skin,
+            variant,
+            physical: false,
             layout,
             mesh_layout,
             bound: None,
         })
     }
 
-    /// Rebuild the pipelines for another MSAA sample count.
-    pub fn set_samples(&mut self, gpu: &Gpu, samples: u32) {
+    /// Rebuild the pipelines for another MSAA sample count or shadow lookup.
+    pub fn set_variant(&mut self, gpu: &Gpu, variant: Variant) {
+        self.variant = variant;
+        self.rebuild(gpu);
+    }
+
+    fn rebuild(&mut self, gpu: &Gpu) {
         (self.ribbon, self.tube, self.skin) = Self::pipelines(
             gpu,
             &self.module,
@@ -193,7 +204,8 @@ impl FurPass {
             &self.pipeline_layout,
             &self.mesh_pipeline_layout,
             self.format,
-            samples,
+            self.variant,
+            self.physical,
         );
     }
 
@@ -204,7 +216,8 @@ impl FurPass {
         pl: &wgpu::PipelineLayout,
         mesh_pl: &wgpu::PipelineLayout,
         format: wgpu::TextureFormat,
-        samples: u32,
+        variant: Variant,
+        physical: bool,
     ) -> (
         wgpu::RenderPipeline,
         wgpu::RenderPipeline,
@@ -221,9 +234,10 @@ impl FurPass {
             cull_mode: None,
             vertex_buffers: &[],
             // Sub-pixel ribbons blend their coverage without MSAA; tubes are real geometry.
-            blend: (samples <= 1).then_some(wgpu::BlendState::ALPHA_BLENDING),
+            blend: (variant.samples <= 1).then_some(wgpu::BlendState::ALPHA_BLENDING),
             format,
-            samples,
+            variant,
+            physical: Some(physical),
         };
         let tube = DrawPipeline {
             label: "vs_tube",
@@ -240,6 +254,7 @@ impl FurPass {
             fragment_entry: "fs",
             topology: wgpu::PrimitiveTopology::TriangleList,
             blend: None,
+            physical: None,
             ..base
         };
         let device = &gpu.device;
@@ -321,7 +336,7 @@ impl FurPass {
 
     /// Per-frame uniforms: materials (culling widens hair) and the skin's motion.
     pub fn prepare(
-        &self,
+        &mut self,
         gpu: &Gpu,
         setup: &FurSetup,
         frame: f64,
@@ -329,12 +344,17 @@ impl FurPass {
         steps: &[u32],
         shading: crate::scene::Shading,
     ) {
+        let materials = fur_materials(setup, width_scale, steps, shading);
+        let physical = materials.iter().any(|m| m.bsdf.sigma_a[3] > 0.5);
+        if physical != self.physical {
+            // Some coat took or left the physical mode: the hair pipelines compile it only
+            // while one uses it.
+            self.physical = physical;
+            self.rebuild(gpu);
+        }
         if let Some(b) = &self.bound {
-            gpu.queue.write_buffer(
-                &b.materials,
-                0,
-                bytemuck::cast_slice(&fur_materials(setup, width_scale, steps, shading)),
-            );
+            gpu.queue
+                .write_buffer(&b.materials, 0, bytemuck::cast_slice(&materials));
             gpu.queue.write_buffer(
                 &b.skin,
                 0,

@@ -251,7 +251,7 @@ impl FurSystem {
             draw_setup.frame_layout,
             draw_setup.shadow_cast_layout,
             draw_setup.format,
-            draw_setup.samples,
+            draw_setup.variant,
         )?;
         draw.set_fur(gpu, &setup, &generator);
         Ok(FurSystem {
@@ -398,8 +398,8 @@ impl HairSystem for FurSystem {
         Ok(())
     }
 
-    fn set_samples(&mut self, gpu: &Gpu, samples: u32) {
-        self.draw.set_samples(gpu, samples);
+    fn set_variant(&mut self, gpu: &Gpu, variant: crate::gpu::pipeline::Variant) {
+        self.draw.set_variant(gpu, variant);
     }
 
     /// A `Redraw`: new materials and skin colour (written with the next frame's uniforms).

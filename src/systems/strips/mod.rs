@@ -232,7 +232,7 @@ impl StripsSystem {
             &strips.look,
             setup.frame_layout,
             setup.format,
-            setup.samples,
+            setup.variant,
         )?;
         if !scene.render.shading.is_anjyo() {
             ribbon.set_shading(scene.render.shading);
@@ -327,8 +327,8 @@ impl HairSystem for StripsSystem {
         self.dynamics.reset(gpu)
     }
 
-    fn set_samples(&mut self, gpu: &Gpu, samples: u32) {
-        self.ribbon.set_samples(gpu, samples);
+    fn set_variant(&mut self, gpu: &Gpu, variant: crate::gpu::pipeline::Variant) {
+        self.ribbon.set_variant(gpu, variant);
     }
 
     fn update(&mut self, gpu: &Gpu, scene: &Scene, change: Change) -> Result<()> {

@@ -27,7 +27,7 @@
 use super::texture::{self, StrandTexture};
 use super::RestStrip;
 use crate::error::{KamiError, Result};
-use crate::gpu::pipeline::{self, DrawPipeline};
+use crate::gpu::pipeline::{self, DrawPipeline, Variant};
 use crate::gpu::{self, Gpu, WORKGROUP};
 use crate::shaders::wgsl;
 use crate::systems::strips::block::Look;
@@ -345,7 +345,9 @@ pub struct RibbonPass {
     module: wgpu::ShaderModule,
     pipeline_layout: wgpu::PipelineLayout,
     format: wgpu::TextureFormat,
-    samples: u32,
+    variant: Variant,
+    /// Whether the look shades physically: the pipeline compiles that mode only then.
+    physical: bool,
     pipeline: wgpu::RenderPipeline,
     draw_layout: wgpu::BindGroupLayout,
     draw_bind_group: wgpu::BindGroup,
@@ -373,8 +375,8 @@ impl RibbonPass {
     }
 
     /// Passes for the ribbons of `rest` (points read with `stride` slots per strip), drawn
-    /// with `look` into `format` targets of `samples` samples; `frame_layout` is the
-    /// shared group 0.
+    /// with `look` into `format` targets of `variant.samples` samples, shading with
+    /// `variant.shadow`'s lookup; `frame_layout` is the shared group 0.
     pub fn new(
         gpu: &Gpu,
         rest: &[RestStrip],
@@ -382,7 +384,7 @@ impl RibbonPass {
         look: &Look,
         frame_layout: &wgpu::BindGroupLayout,
         format: wgpu::TextureFormat,
-        samples: u32,
+        variant: Variant,
     ) -> Result<RibbonPass> {
         let device = &gpu.device;
         let longest = rest.iter().map(|s| s.points.len()).max().unwrap_or(1);
@@ -484,23 +486,17 @@ impl RibbonPass {
         );
         let pipeline_layout =
             pipeline::pipeline_layout(device, "strips draw", &[frame_layout, &draw_layout]);
-        let pipeline = Self::pipeline(gpu, &module, &pipeline_layout, format, samples);
+        let initial = look_uniform(look, stride as u32, Default::default(), mean_color(rest));
+        let physical = initial.bsdf.sigma_a[3] > 0.5;
+        let pipeline = Self::pipeline(gpu, &module, &pipeline_layout, format, variant, physical);
         let look_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("strips look"),
             size: std::mem::size_of::<GpuStripLook>() as u64,
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        gpu.queue.write_buffer(
-            &look_buffer,
-            0,
-            bytemuck::bytes_of(&look_uniform(
-                look,
-                stride as u32,
-                Default::default(),
-                mean_color(rest),
-            )),
-        );
+        gpu.queue
+            .write_buffer(&look_buffer, 0, bytemuck::bytes_of(&initial));
         let texture = texture::upload(gpu, look)?;
         let draw_bind_group = Self::draw_bind_group(
             device,
@@ -524,7 +520,8 @@ impl RibbonPass {
             module,
             pipeline_layout,
             format,
-            samples,
+            variant,
+            physical,
             pipeline,
             draw_layout,
             draw_bind_group,
@@ -570,7 +567,8 @@ impl RibbonPass {
         module: &wgpu::ShaderModule,
         layout: &wgpu::PipelineLayout,
         format: wgpu::TextureFormat,
-        samples: u32,
+        variant: Variant,
+        physical: bool,
     ) -> wgpu::RenderPipeline {
         DrawPipeline {
             label: "strips draw",
@@ -583,9 +581,10 @@ impl RibbonPass {
             cull_mode: None,
             vertex_buffers: &[],
             // Without MSAA the hairs' coverage blends; with it, per-sample masks.
-            blend: (samples <= 1).then_some(wgpu::BlendState::ALPHA_BLENDING),
+            blend: (variant.samples <= 1).then_some(wgpu::BlendState::ALPHA_BLENDING),
             format,
-            samples,
+            variant,
+            physical: Some(physical),
         }
         .build(&gpu.device)
     }
@@ -719,15 +718,20 @@ impl RibbonPass {
         }
     }
 
-    /// Rebuild the draw pipeline for another MSAA sample count.
-    pub fn set_samples(&mut self, gpu: &Gpu, samples: u32) {
-        self.samples = samples;
+    /// Rebuild the draw pipeline for another MSAA sample count or shadow lookup.
+    pub fn set_variant(&mut self, gpu: &Gpu, variant: Variant) {
+        self.variant = variant;
+        self.rebuild(gpu);
+    }
+
+    fn rebuild(&mut self, gpu: &Gpu) {
         self.pipeline = Self::pipeline(
             gpu,
             &self.module,
             &self.pipeline_layout,
             self.format,
-            samples,
+            self.variant,
+            self.physical,
         );
     }
 
@@ -745,16 +749,14 @@ impl RibbonPass {
                 &self.texture,
             );
         }
-        gpu.queue.write_buffer(
-            &self.look_buffer,
-            0,
-            bytemuck::bytes_of(&look_uniform(
-                look,
-                self.stride,
-                self.shading,
-                self.fit_color,
-            )),
-        );
+        let uniform = look_uniform(look, self.stride, self.shading, self.fit_color);
+        let physical = uniform.bsdf.sigma_a[3] > 0.5;
+        if physical != self.physical {
+            self.physical = physical;
+            self.rebuild(gpu);
+        }
+        gpu.queue
+            .write_buffer(&self.look_buffer, 0, bytemuck::bytes_of(&uniform));
         self.look = look.clone();
         Ok(())
     }
@@ -773,7 +775,7 @@ impl RibbonPass {
     }
 
     pub fn samples(&self) -> u32 {
-        self.samples
+        self.variant.samples
     }
 
     /// The strand texture now bound.

@@ -7,7 +7,7 @@
 use super::tiles::{self, MarchStats, TilePass};
 use crate::error::{KamiError, Result};
 use crate::gpu::gpu_data::linear_rgb;
-use crate::gpu::pipeline::{self, DrawPipeline};
+use crate::gpu::pipeline::{self, DrawPipeline, Variant};
 use crate::gpu::{self, Gpu};
 use crate::shaders::wgsl;
 use crate::systems::wisps::block::{Distance, Tones, Wisps};
@@ -414,7 +414,7 @@ impl MarchPass {
         wisps: &Wisps,
         frame_layout: &wgpu::BindGroupLayout,
         format: wgpu::TextureFormat,
-        samples: u32,
+        variant: Variant,
     ) -> Result<MarchPass> {
         let device = &gpu.device;
         let seg_outlines = super::toon::segment_outlines(wisps);
@@ -452,7 +452,7 @@ impl MarchPass {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let pipeline = Self::pipeline(device, &module, &pipeline_layout, format, samples);
+        let pipeline = Self::pipeline(device, &module, &pipeline_layout, format, variant);
         Ok(MarchPass {
             module,
             pipeline_layout,
@@ -473,7 +473,7 @@ impl MarchPass {
         module: &wgpu::ShaderModule,
         layout: &wgpu::PipelineLayout,
         format: wgpu::TextureFormat,
-        samples: u32,
+        variant: Variant,
     ) -> wgpu::RenderPipeline {
         DrawPipeline {
             label: "wisp march",
@@ -486,18 +486,20 @@ impl MarchPass {
             vertex_buffers: &[],
             blend: None,
             format,
-            samples,
+            variant,
+            physical: None,
         }
         .build(device)
     }
 
-    pub fn set_samples(&mut self, gpu: &Gpu, samples: u32) {
+    /// Rebuild the pipeline for another MSAA sample count or shadow lookup.
+    pub fn set_variant(&mut self, gpu: &Gpu, variant: Variant) {
         self.pipeline = Self::pipeline(
             &gpu.device,
             &self.module,
             &self.pipeline_layout,
             self.format,
-            samples,
+            variant,
         );
     }
 

@@ -257,7 +257,7 @@ impl WispsSystem {
             &wisps,
             setup.frame_layout,
             setup.format,
-            setup.samples,
+            setup.variant,
         )?;
         let cast =
             march::WispCast::new(gpu, &curves, setup.frame_layout, setup.shadow_cast_layout)?;
@@ -355,8 +355,8 @@ impl HairSystem for WispsSystem {
         Ok(())
     }
 
-    fn set_samples(&mut self, gpu: &Gpu, samples: u32) {
-        self.draw.set_samples(gpu, samples);
+    fn set_variant(&mut self, gpu: &Gpu, variant: crate::gpu::pipeline::Variant) {
+        self.draw.set_variant(gpu, variant);
     }
 
     /// A `Redraw`: toon colours, thresholds and march settings; a `Resimulate`: those and
