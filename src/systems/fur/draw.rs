@@ -138,10 +138,8 @@ impl FurPass {
             pipeline::pipeline_layout(device, "fur skin", &[frame_layout, &mesh_layout]);
         let (ribbon, tube, skin) = Self::pipelines(
             gpu,
-            &module,
-            &mesh_module,
-            &pipeline_layout,
-            &mesh_pipeline_layout,
+            (&module, &pipeline_layout),
+            (&mesh_module, &mesh_pipeline_layout),
             format,
             variant,
             false,
@@ -199,22 +197,20 @@ impl FurPass {
     fn rebuild(&mut self, gpu: &Gpu) {
         (self.ribbon, self.tube, self.skin) = Self::pipelines(
             gpu,
-            &self.module,
-            &self.mesh_module,
-            &self.pipeline_layout,
-            &self.mesh_pipeline_layout,
+            (&self.module, &self.pipeline_layout),
+            (&self.mesh_module, &self.mesh_pipeline_layout),
             self.format,
             self.variant,
             self.physical,
         );
     }
 
+    /// The hair's ribbon and tube pipelines from `(module, layout)`, the skin's from
+    /// `(mesh_module, mesh_layout)`.
     fn pipelines(
         gpu: &Gpu,
-        module: &wgpu::ShaderModule,
-        mesh_module: &wgpu::ShaderModule,
-        pl: &wgpu::PipelineLayout,
-        mesh_pl: &wgpu::PipelineLayout,
+        (module, pl): (&wgpu::ShaderModule, &wgpu::PipelineLayout),
+        (mesh_module, mesh_pl): (&wgpu::ShaderModule, &wgpu::PipelineLayout),
         format: wgpu::TextureFormat,
         variant: Variant,
         physical: bool,
