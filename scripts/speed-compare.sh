@@ -167,7 +167,7 @@ mkdir -p "$(dirname "$out")"
   echo "|---|---:|---:|---:|---:|---:|"
   printf '%s\n' "${lines[@]}"
   echo
-  echo "**B at $goal fps or more: $met of $total rows.**"
+  echo "**This build (B) at $goal fps or more: $met of $total rows.**"
 } >"$out.partial"
 mv "$out.partial" "$out"
 echo "wrote $out" >&2

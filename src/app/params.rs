@@ -67,10 +67,11 @@ pub struct ViewSettings {
 }
 
 /// The shares of hairs the adaptive level of detail draws at the least (smooth motion
-/// first: on a software adapter the densest shipped groom, the bob, needs a few percent to
-/// hold 15 fps, its triangles costing more than its pixels), and under which it takes its
-/// next lever (MSAA off, then a lower resolution) while one is left.
-pub const MIN_FRACTION: f64 = 0.02;
+/// first: on a software adapter the densest shipped grooms, the bob and the tube fur, need a
+/// few percent or less to hold 15 fps, their triangles costing more than their pixels; the
+/// floor is the least `--set lod` takes), and under which it takes its next lever (MSAA
+/// off, then a lower resolution) while one is left.
+pub const MIN_FRACTION: f64 = 0.01;
 pub const LEVER_FRACTION: f64 = 0.25;
 /// The resolutions the adaptive level of detail steps through, percent per axis.
 pub const SCALE_STEPS: [u32; 3] = [100, 75, 50];
