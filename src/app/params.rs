@@ -521,6 +521,19 @@ mod tests {
         }
     }
 
+    /// The (MSAA dropped, resolution) states `frames` frames of `busy_ms` go through.
+    fn levers(v: &mut ViewSettings, busy_ms: f64, frames: usize) -> Vec<(bool, u32)> {
+        let mut seen = vec![(v.msaa_dropped, v.scale_pct)];
+        for _ in 0..frames {
+            v.adapt(busy_ms, 4);
+            let q = (v.msaa_dropped, v.scale_pct);
+            if seen.last() != Some(&q) {
+                seen.push(q);
+            }
+        }
+        seen
+    }
+
     #[test]
     fn the_budget_drops_hairs_then_msaa_then_resolution_and_takes_them_back_in_turn() {
         let mut v = ViewSettings {
@@ -534,29 +547,19 @@ mod tests {
         assert!(v.hair_fraction < 1.0 && v.hair_fraction >= LEVER_FRACTION);
         assert!(!v.msaa_dropped && v.scale_pct == 100, "{v:?}");
         // Far over for long: MSAA first, then each lower resolution, then the floor.
-        let mut seen = vec![(v.msaa_dropped, v.scale_pct)];
-        for _ in 0..200 {
-            v.adapt(400.0, 4);
-            let q = (v.msaa_dropped, v.scale_pct);
-            if seen.last() != Some(&q) {
-                seen.push(q);
-            }
-        }
-        assert_eq!(seen, [(false, 100), (true, 100), (true, 75), (true, 50)]);
+        assert_eq!(
+            levers(&mut v, 400.0, 200),
+            [(false, 100), (true, 100), (true, 75), (true, 50)]
+        );
         assert_eq!(v.hair_fraction, MIN_FRACTION);
         assert_eq!(v.quality(&scene).msaa, 1);
         assert_eq!(v.quality(&scene).scale_pct, 50);
         assert!(v.dropping().contains("MSAA off") && v.dropping().contains("50 % resolution"));
         // Well inside: the hairs, then the resolution step by step, then MSAA.
-        let mut back = vec![(v.msaa_dropped, v.scale_pct)];
-        for _ in 0..400 {
-            v.adapt(5.0, 4);
-            let q = (v.msaa_dropped, v.scale_pct);
-            if back.last() != Some(&q) {
-                back.push(q);
-            }
-        }
-        assert_eq!(back, [(true, 50), (true, 75), (true, 100), (false, 100)]);
+        assert_eq!(
+            levers(&mut v, 5.0, 400),
+            [(true, 50), (true, 75), (true, 100), (false, 100)]
+        );
         assert_eq!(v.hair_fraction, 1.0);
         assert_eq!(v.dropping(), "100 % of hairs drawn");
         // A scene without MSAA skips that lever.

@@ -14,17 +14,22 @@ const SIZE: (u32, u32) = (64, 64);
 
 /// A stage that drew one frame of `scene` (full detail: the cast is the groom exported).
 fn drawn(scene: &kami::Scene) -> (Stage, image::RgbaImage) {
-    let gpu = common::gpu();
     let mut scene = scene.clone();
     scene.render.lod_tolerance_px = 0.0;
-    let mut stage = common::stage_one_sample(gpu, &scene);
+    let mut stage = common::stage_one_sample(common::gpu(), &scene);
+    let img = draw(&mut stage);
+    (stage, img)
+}
+
+/// One frame of `stage` at `SIZE`.
+fn draw(stage: &mut Stage) -> image::RgbaImage {
+    let gpu = common::gpu();
     let out = kami::stage::target::Offscreen::new(gpu, SIZE).unwrap();
     let mut enc = gpu.device.create_command_encoder(&Default::default());
     let look = stage.look();
     stage.render(gpu, &mut enc, &out.view, SIZE, &look).unwrap();
     gpu.queue.submit([enc.finish()]);
-    let img = out.read_rgba(gpu).unwrap();
-    (stage, img)
+    out.read_rgba(gpu).unwrap()
 }
 
 /// (mean |error| / mean reference, largest |error| / largest reference, mean reference).
@@ -505,12 +510,7 @@ fn a_shadow_switch_draws_as_a_stage_built_with_it() {
         );
         let (_, fresh) = drawn(to);
         stage.apply(gpu, to).unwrap();
-        let out = kami::stage::target::Offscreen::new(gpu, SIZE).unwrap();
-        let mut enc = gpu.device.create_command_encoder(&Default::default());
-        let look = stage.look();
-        stage.render(gpu, &mut enc, &out.view, SIZE, &look).unwrap();
-        gpu.queue.submit([enc.finish()]);
-        let switched = out.read_rgba(gpu).unwrap();
+        let switched = draw(&mut stage);
         assert_eq!(stage.shadow_variant().lookup, lookup(to));
         let n = differing(&switched, &fresh);
         assert!(
