@@ -186,6 +186,26 @@ pub fn stage(gpu: &Gpu, scene: &kami::Scene) -> kami::stage::Stage {
     .unwrap()
 }
 
+/// Shipped scene `name` with each strand group's count divided by `divisor` (quicker tests).
+pub fn thinned(name: &str, divisor: u32) -> kami::Scene {
+    let mut s = scene(name);
+    for g in &mut s.groups {
+        g.count /= divisor;
+    }
+    s
+}
+
+/// One frame of `stage` drawn at `size` and read back.
+pub fn draw(stage: &mut kami::stage::Stage, size: (u32, u32)) -> image::RgbaImage {
+    let gpu = gpu();
+    let out = kami::stage::target::Offscreen::new(gpu, size).unwrap();
+    let mut enc = gpu.device.create_command_encoder(&Default::default());
+    let look = stage.look();
+    stage.render(gpu, &mut enc, &out.view, size, &look).unwrap();
+    gpu.queue.submit([enc.finish()]);
+    out.read_rgba(gpu).unwrap()
+}
+
 /// A stage for `scene` with one sample per pixel (no MSAA, no supersampling): for tests
 /// that read ids or positions, not looks.
 pub fn stage_one_sample(gpu: &Gpu, scene: &kami::Scene) -> kami::stage::Stage {

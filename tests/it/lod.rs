@@ -180,18 +180,8 @@ fn small_fur_draws_fewer_hairs_and_nodes_with_a_small_error() {
 #[test]
 fn a_lower_resolution_keeps_the_look_and_full_resolution_is_unchanged() {
     let gpu = common::gpu();
-    let mut scene = common::scene("bob");
-    for g in &mut scene.groups {
-        g.count /= 10;
-    }
-    let draw = |stage: &mut Stage| {
-        let out = target::Offscreen::new(gpu, SIZE).unwrap();
-        let mut enc = gpu.device.create_command_encoder(&Default::default());
-        let look = stage.look();
-        stage.render(gpu, &mut enc, &out.view, SIZE, &look).unwrap();
-        gpu.queue.submit([enc.finish()]);
-        out.read_rgba(gpu).unwrap()
-    };
+    let scene = common::thinned("bob", 10);
+    let draw = |stage: &mut Stage| common::draw(stage, SIZE);
     let mean_diff = |a: &image::RgbaImage, b: &image::RgbaImage| {
         let sum: u64 = a
             .pixels()

@@ -23,13 +23,7 @@ fn drawn(scene: &kami::Scene) -> (Stage, image::RgbaImage) {
 
 /// One frame of `stage` at `SIZE`.
 fn draw(stage: &mut Stage) -> image::RgbaImage {
-    let gpu = common::gpu();
-    let out = kami::stage::target::Offscreen::new(gpu, SIZE).unwrap();
-    let mut enc = gpu.device.create_command_encoder(&Default::default());
-    let look = stage.look();
-    stage.render(gpu, &mut enc, &out.view, SIZE, &look).unwrap();
-    gpu.queue.submit([enc.finish()]);
-    out.read_rgba(gpu).unwrap()
+    common::draw(stage, SIZE)
 }
 
 /// (mean |error| / mean reference, largest |error| / largest reference, mean reference).
@@ -64,10 +58,7 @@ fn errors(scene: &kami::Scene, every: usize) -> (f64, f64, f64) {
 
 /// Bob with a tenth of its hairs, shadows by `method`.
 fn small_bob(method: ShadowMethod) -> kami::Scene {
-    let mut scene = common::scene("bob");
-    for g in &mut scene.groups {
-        g.count /= 10;
-    }
+    let mut scene = common::thinned("bob", 10);
     scene.render.shadows.on = true;
     scene.render.shadows.method = method;
     scene
