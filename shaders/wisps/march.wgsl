@@ -341,10 +341,57 @@ fn clear_step(t: f32, v: vec3<f32>) -> f32 {
     return max(step, 0.0);
 }
 
+// The per-wisp maximum with open interior joints (`field::WispMax`): a segment's end cap at
+// a joint counts only where its neighbour's closest point is that neighbour's end too; the
+// pending segment is folded in once the next one has been seen.
+struct WispMax {
+    best: f32,
+    best_grad: vec3<f32>,
+    best_o: f32,
+    // The last pushed segment (global index; 0xffffffff none) and its closest parameter.
+    prev: u32,
+    prev_t: f32,
+    // The pending segment's density, gradient and outline scale (rho < 0: none).
+    p_rho: f32,
+    p_grad: vec3<f32>,
+    p_o: f32,
+}
+
+fn wisp_max_new() -> WispMax {
+    return WispMax(0.0, vec3<f32>(0.0), 1.0, 0xffffffffu, 0.0, -1.0, vec3<f32>(0.0), 1.0);
+}
+
+fn wisp_fold(m: ptr<function, WispMax>) {
+    if ((*m).p_rho > (*m).best) {
+        (*m).best = (*m).p_rho;
+        (*m).best_grad = (*m).p_grad;
+        (*m).best_o = (*m).p_o;
+    }
+    (*m).p_rho = -1.0;
+}
+
+fn wisp_push(m: ptr<function, WispMax>, j: u32, t: f32, rho: f32, grad: vec3<f32>, o: f32) {
+    var drop_prev = false;
+    var drop_cur = false;
+    if ((*m).prev != 0xffffffffu && (*m).prev + 1u == j) {
+        drop_prev = (*m).prev_t >= 1.0 && t > 0.0;
+        drop_cur = t <= 0.0 && (*m).prev_t < 1.0;
+    }
+    if (!drop_prev) {
+        wisp_fold(m);
+    }
+    (*m).p_rho = select(rho, -1.0, drop_cur);
+    (*m).p_grad = grad;
+    (*m).p_o = o;
+    (*m).prev = j;
+    (*m).prev_t = t;
+}
+
 // The field at `v` = eye + t dir from the candidates whose influence interval holds t: per
-// wisp the largest segment density (a wisp's segments are consecutive), summed over wisps;
-// and the Lipschitz step: -f over the sum over wisps of each wisp's largest near bound,
-// never past where a far segment's influence begins. As `field::exact_sample`.
+// wisp the largest segment density over open joints (a wisp's segments are consecutive),
+// summed over wisps; and the Lipschitz step: -f over the sum over wisps of each wisp's
+// largest near bound, never past where a far segment's influence begins. As
+// `field::exact_sample`.
 fn field(t: f32, v: vec3<f32>) -> Sample {
     var out: Sample;
     var lip = 0.0;
@@ -352,10 +399,8 @@ fn field(t: f32, v: vec3<f32>) -> Sample {
     var sum = 0.0;
     var grad = vec3<f32>(0.0);
     var wisp = -1.0;
-    var wisp_max = 0.0;
-    var wisp_grad = vec3<f32>(0.0);
+    var acc = wisp_max_new();
     var wisp_lip = 0.0;
-    var wisp_o = 1.0;
     var densest = 0.0;
     var densest_o = 1.0;
     for (var k = 0u; k < n_cand; k++) {
@@ -365,16 +410,16 @@ fn field(t: f32, v: vec3<f32>) -> Sample {
         let j = c_seg[k];
         let s = segments[j];
         if (s.hi.w != wisp) {
-            sum += wisp_max;
-            grad += wisp_grad;
+            wisp_fold(&acc);
+            sum += acc.best;
+            grad += acc.best_grad;
             lip += wisp_lip;
-            if (wisp_max > densest) {
-                densest = wisp_max;
-                densest_o = wisp_o;
+            if (acc.best > densest) {
+                densest = acc.best;
+                densest_o = acc.best_o;
             }
             wisp = s.hi.w;
-            wisp_max = 0.0;
-            wisp_grad = vec3<f32>(0.0);
+            acc = wisp_max_new();
             wisp_lip = 0.0;
         }
         let r_max = max(s.c0.w, s.c1.w);
@@ -403,21 +448,18 @@ fn field(t: f32, v: vec3<f32>) -> Sample {
         let r = mix(s.c0.w, s.c1.w, tc);
         let w = mix(s.c2.w, s.c3.w, tc);
         let rho = w * fd(d / r);
-        if (rho > wisp_max) {
-            wisp_max = rho;
-            wisp_o = outline_scale(outlines[j], tc);
-            if (d > 0.0) {
-                wisp_grad = w * fd_prime(d / r) / r * off / d;
-            } else {
-                wisp_grad = vec3<f32>(0.0);
-            }
+        var g = vec3<f32>(0.0);
+        if (d > 0.0) {
+            g = w * fd_prime(d / r) / r * off / d;
         }
+        wisp_push(&acc, j, tc, rho, g, outline_scale(outlines[j], tc));
     }
-    sum += wisp_max;
-    grad += wisp_grad;
+    wisp_fold(&acc);
+    sum += acc.best;
+    grad += acc.best_grad;
     lip += wisp_lip;
-    if (wisp_max > densest) {
-        densest_o = wisp_o;
+    if (acc.best > densest) {
+        densest_o = acc.best_o;
     }
     out.f = sum - draw.march.x;
     out.grad = grad;

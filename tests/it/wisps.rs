@@ -213,6 +213,113 @@ fn wisp_depth_cuts_into_the_head_where_the_surfaces_meet() {
     );
 }
 
+/// Issue 34's seams: a long straight wisp and a long arc, tapered as `toon.ron`'s long wisps
+/// and lit from the side, drawn by the GPU march with no outline. Every edge between toon
+/// tones (and the silhouette) must move at most two pixels from one column to the next along
+/// the wisps: the light is the same everywhere, so a tone edge that jumps at a joint is a
+/// seam. Before the open joints (`field::WispMax`), the edges jumped 4-9 pixels at joints.
+#[test]
+fn toon_tone_has_no_seams_along_tapered_wisps() {
+    let radii = [3.0, 2.4, 1.8, 1.2, 0.8, 0.5, 0.3];
+    let node =
+        |p: (f64, f64), r: f64| format!("Node(p: ({:.4}, {:.4}, 0.0), r: {r}, w: 2.5)", p.0, p.1);
+    let straight: Vec<String> = radii
+        .iter()
+        .enumerate()
+        .map(|(i, &r)| node((-9.0 + 3.0 * i as f64, 5.0), r))
+        .collect();
+    // Nodes 0.3 rad apart on a circle of radius 11: the segments turn as the side wisps of
+    // `toon.ron` do.
+    let arc: Vec<String> = radii
+        .iter()
+        .enumerate()
+        .map(|(i, &r)| {
+            let a = -0.6 + 0.3 * i as f64;
+            node((11.0 * a.sin(), 11.0 * a.cos() - 12.0), r)
+        })
+        .collect();
+    // Each wisp alone, the camera on the middle of its tested part: from past the straight
+    // one's root cap (from node 1 on the arc, where it is no steeper than 0.3) to where the
+    // radius is 1.2 (node 3).
+    let (w, h) = (768u32, 288u32);
+    let half = 12.0 * 17f64.to_radians().tan();
+    let px = h as f64 / (2.0 * half);
+    let arc_mid = 11.0 - 12.0;
+    let cases = [
+        ("straight", &straight, (-4.5, 5.0), (-8.5, 0.0)),
+        (
+            "arc",
+            &arc,
+            (0.0, arc_mid),
+            (11.0 * (-0.3f64).sin(), 11.0 * 0.3f64.sin()),
+        ),
+    ];
+    let mut failures = Vec::new();
+    for (name, nodes, (cx, cy), (xa, xb)) in cases {
+        let text = format!(
+            "Scene(head: Head(radii: (1.0, 1.0, 1.0), color: (0.98, 0.86, 0.78)), \
+             wisps: Some(Wisps(threshold: 0.5, toon: Toon(outline_width: 0.0), skeletons: [\
+             Skeleton(nodes: [{}])])), \
+             light: Light(direction: (0.8, 0.35, 0.5), intensity: 1.0, ambient: 1.0), \
+             camera: CameraDesc(eye: ({cx}, {cy}, 12.0), target: ({cx}, {cy}, 0.0), fov_y: 34.0), \
+             render: RenderSettings(supersample: 1, msaa: 1, shadows: Shadows(on: false)))",
+            nodes.join(", ")
+        );
+        let mut scene = Scene::from_ron(&text, "seams.ron").unwrap();
+        scene.head.visible = false;
+        let img = render(&scene, (w, h));
+        let saved = std::env::temp_dir().join(format!("kami_toon_seams_{name}.png"));
+        let _ = img.save(&saved);
+        // A lone pixel of another tone (a march speckle) is not a seam: each pixel takes the
+        // median of itself and its row neighbours, which keeps any step along the wisp.
+        let at = |x: u32, y: u32| -> [i32; 3] {
+            std::array::from_fn(|c| {
+                let mut v = [x - 1, x, x + 1].map(|x| img.get_pixel(x, y)[c] as i32);
+                v.sort_unstable();
+                v[1]
+            })
+        };
+        let diff = |a: [i32; 3], b: [i32; 3]| (0..3).any(|c| (a[c] - b[c]).abs() > 24);
+        let col = |x: f64| (w as f64 / 2.0 + (x - cx) * px) as u32;
+        let (x0, x1) = (col(xa), col(xb));
+        let edges = |x: u32| -> Vec<u32> {
+            (0..h - 1)
+                .filter(|&y| diff(at(x, y), at(x, y + 1)))
+                .collect()
+        };
+        let (mut worst, mut where_, mut n_edges) = (0u32, 0, 0usize);
+        for x in x0..x1 {
+            let (a, b) = (edges(x), edges(x + 1));
+            n_edges += a.len();
+            for (from, to) in [(&a, &b), (&b, &a)] {
+                for &e in from {
+                    let near = to.iter().map(|&f| e.abs_diff(f)).min().unwrap_or(u32::MAX);
+                    if near > worst {
+                        worst = near;
+                        where_ = x;
+                    }
+                }
+            }
+        }
+        println!(
+            "{name}: {n_edges} tone edges over {} columns, the largest jump {worst} px at column {where_}",
+            x1 - x0
+        );
+        assert!(
+            n_edges > 4 * (x1 - x0) as usize,
+            "{name}: {n_edges} edges: not drawn as expected (see {})",
+            saved.display()
+        );
+        failures.extend((worst > 2).then(|| {
+            format!(
+                "{name}: a tone edge jumps {worst} pixels at column {where_} (a seam; see {})",
+                saved.display()
+            )
+        }));
+    }
+    assert!(failures.is_empty(), "{failures:#?}");
+}
+
 const GOOD: &str = r#"Scene(
     wisps: Some(Wisps(
         skeletons: [

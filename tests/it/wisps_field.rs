@@ -450,6 +450,69 @@ fn no_bulge_at_joints() {
     assert!(bulge > joint + 0.1);
 }
 
+/// Tapered wisps (a straight one and one bent into an arc, radius 2.9 down to 0.3 over six
+/// segments, as the long wisps of `toon.ron`): walking along each just above its curve, the
+/// surface normal turns smoothly, joints included. With each segment's end sphere counted at
+/// a joint (the closed max before `WispMax`) the sphere of the joint's radius held the surface
+/// for a stretch past every joint with a normal radial from it, and the normal jumped by
+/// ~10-20 degrees where the next tube took over: the tone seams of issue 34.
+#[test]
+fn tapered_wisps_turn_their_normal_smoothly_across_joints() {
+    let th = 0.5;
+    let radii = [2.9, 2.4, 1.9, 1.4, 1.0, 0.6, 0.3];
+    let straight: Vec<_> = radii
+        .iter()
+        .enumerate()
+        .map(|(i, &r)| (DVec3::new(-12.0 + 4.0 * i as f64, 0.0, 0.0), r, 2.5))
+        .collect();
+    let arc: Vec<_> = radii
+        .iter()
+        .enumerate()
+        .map(|(i, &r)| {
+            let a = -0.9 + 0.3 * i as f64;
+            (DVec3::new(14.0 * a.sin(), 14.0 * a.cos(), 0.0), r, 2.5)
+        })
+        .collect();
+    for (name, nodes, side) in [
+        ("straight", straight, DVec3::new(0.0, 0.6, 0.8)),
+        ("arc", arc, DVec3::Z),
+    ] {
+        let segs = curve::segments(&nodes);
+        let rho = |p: DVec3| field::wisp_density(&segs, p, Distance::Newton).rho;
+        let mut prev: Option<(DVec3, f64)> = None;
+        let mut worst: (f64, f64) = (0.0, 0.0);
+        // Up to where the radius is 1.0: thinner, the tip's own end sphere is the surface.
+        for k in 0..=800 {
+            let u = 4.0 * k as f64 / 800.0;
+            let (si, t) = ((u as usize).min(3), u - (u as usize).min(3) as f64);
+            let c = segs[si].point(t);
+            let rad = iso_radius(rho, c, side, th);
+            let p = c + rad * side;
+            let n = field::normal(
+                field::field(&[segs.clone()], th, p, Distance::Newton).grad,
+                side,
+            );
+            if let Some((m, u0)) = prev {
+                let turn = n.dot(m).clamp(-1.0, 1.0).acos().to_degrees();
+                if turn > worst.0 {
+                    worst = (turn, u0);
+                }
+            }
+            prev = Some((n, u));
+        }
+        println!(
+            "{name}: largest turn between samples 0.005 segment apart {:.3} deg at u {:.3}",
+            worst.0, worst.1
+        );
+        assert!(
+            worst.0 < 1.0,
+            "{name}: the normal turns {:.2} deg in one step at segment parameter {:.3}",
+            worst.0,
+            worst.1
+        );
+    }
+}
+
 #[test]
 fn near_far_split_is_exact() {
     let mut rng = Rng::new(7, 0);
@@ -920,6 +983,7 @@ fn clear_step_never_reaches_the_surface() {
                 let pieces = &pieces;
                 w.iter().enumerate().map(move |(si, s)| field::Pieced {
                     wisp: wi,
+                    index: si,
                     seg: s,
                     pts: &pieces[wi][si].0,
                     dev: &pieces[wi][si].1,

@@ -72,16 +72,79 @@ pub fn segment_density(seg: &Segment, v: DVec3, method: Distance) -> Density {
 /// Density of one wisp: the MAX over its segments, not the paper's sum over edges. Summed,
 /// the two segments meeting at a node both reach full density there, doubling it and bulging
 /// every joint; the max keeps a constant-r,w wisp a constant-radius tube. Wisps still blend
-/// by summing (`field`). Ties keep the first segment.
+/// by summing (`field`). Ties keep the first segment. Interior joints are open (`WispMax`).
 pub fn wisp_density(segs: &[Segment], v: DVec3, method: Distance) -> Density {
-    let mut best = Density::default();
-    for s in segs {
-        let d = segment_density(s, v, method);
-        if d.rho > best.rho {
-            best = d;
+    let mut acc = WispMax::default();
+    for (i, s) in segs.iter().enumerate() {
+        let (d, t) = curve::distance(s, v, method);
+        if d >= s.r_max() {
+            continue;
+        }
+        acc.push(i, t, segment_density(s, v, method), 1.0);
+    }
+    acc.finish().0
+}
+
+/// The per-wisp maximum with open interior joints. A segment whose closest point is its end
+/// at a joint (t = 1, or t = 0) would add its end sphere there; on a tapered wisp that sphere
+/// (of the joint's radius) is wider than the next segment's tube just past the joint, so the
+/// max took the sphere, and with it a normal radial from the joint, for a stretch past every
+/// joint: a step in the toon tone where one segment met the next. So an end cap at a joint
+/// counts only where the neighbour's closest point is its own end too (the outer side of a
+/// bend, where both caps are the same sphere): where the neighbour's closest point is
+/// interior, the neighbour's tube is the surface. The density stays continuous (at the
+/// neighbour's end plane its tube and the cap agree) and so does the radial normal.
+/// Segments are pushed in order, with their index in the wisp; a segment not pushed (far:
+/// density 0, and then so is its neighbour's cap) breaks adjacency. As `field` in
+/// `shaders/wisps/march.wgsl`.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct WispMax {
+    best: Density,
+    best_tag: f64,
+    prev: Option<(usize, f64)>,
+    pending: Option<(Density, f64)>,
+}
+
+impl WispMax {
+    /// Segment `index` of the wisp with closest parameter `t`, its density and a value to
+    /// return with the maximum (the outline scale).
+    pub fn push(&mut self, index: usize, t: f64, dens: Density, tag: f64) {
+        let (mut drop_prev, mut drop_cur) = (false, false);
+        if let Some((pi, pt)) = self.prev {
+            if pi + 1 == index {
+                drop_prev = pt >= 1.0 && t > 0.0;
+                drop_cur = t <= 0.0 && pt < 1.0;
+            }
+        }
+        if let Some(p) = self.pending.take() {
+            if !drop_prev {
+                self.fold(p);
+            }
+        }
+        if !drop_cur {
+            self.pending = Some((dens, tag));
+        }
+        self.prev = Some((index, t));
+    }
+
+    fn fold(&mut self, (d, tag): (Density, f64)) {
+        if d.rho > self.best.rho {
+            self.best = d;
+            self.best_tag = tag;
         }
     }
-    best
+
+    /// The wisp's density and the tag of its densest segment (1 where none is near).
+    pub fn finish(mut self) -> (Density, f64) {
+        if let Some(p) = self.pending.take() {
+            self.fold(p);
+        }
+        if self.best.rho > 0.0 {
+            (self.best, self.best_tag)
+        } else {
+            (self.best, 1.0)
+        }
+    }
 }
 
 /// f(v) = Σ_wisps ρ_wisp(v) − threshold (inside: f > 0) and its gradient (the sum of each
@@ -168,17 +231,18 @@ pub fn probe(wisps: &[Vec<Segment>], threshold: f64, p: DVec3, method: Distance)
         wisps
             .iter()
             .enumerate()
-            .flat_map(|(wi, w)| w.iter().map(move |s| (wi, s))),
+            .flat_map(|(wi, w)| w.iter().enumerate().map(move |(si, s)| (wi, si, s))),
         threshold,
         p,
         method,
     )
 }
 
-/// `probe` over the segments `segs` yields, each with its wisp; a wisp's segments must come
-/// one after the other (the per-wisp maximum is taken over a run of one wisp).
+/// `probe` over the segments `segs` yields, each with its wisp and its index in the wisp; a
+/// wisp's segments must come one after the other, in order (the per-wisp maximum is taken
+/// over a run of one wisp, `WispMax`).
 pub fn probe_segments<'a>(
-    segs: impl Iterator<Item = (usize, &'a Segment)>,
+    segs: impl Iterator<Item = (usize, usize, &'a Segment)>,
     threshold: f64,
     p: DVec3,
     method: Distance,
@@ -195,12 +259,12 @@ pub fn probe_segments<'a>(
     let mut near = Vec::new();
     let mut s_hi = f64::INFINITY;
     let mut wisp = usize::MAX;
-    let mut best = Density::default();
-    for (wi, s) in segs {
+    let mut acc = WispMax::default();
+    for (wi, si, s) in segs {
         if wi != wisp {
+            let best = std::mem::take(&mut acc).finish().0;
             out.f.rho += best.rho;
             out.f.grad += best.grad;
-            best = Density::default();
             wisp = wi;
         }
         let a = s.box_distance(p);
@@ -209,7 +273,7 @@ pub fn probe_segments<'a>(
             out.far_gap = out.far_gap.min(a - rm);
             continue;
         }
-        let (d, _) = curve::distance(s, p, method);
+        let (d, t) = curve::distance(s, p, method);
         if d >= rm {
             out.far_gap = out.far_gap.min(d - rm);
             continue;
@@ -217,11 +281,9 @@ pub fn probe_segments<'a>(
         out.l_near += s.lipschitz;
         near.push((d, rm, s.w[0].max(s.w[1]), wi));
         s_hi = s_hi.min(d);
-        let dens = segment_density(s, p, method);
-        if dens.rho > best.rho {
-            best = dens;
-        }
+        acc.push(si, t, segment_density(s, p, method), 1.0);
     }
+    let best = acc.finish().0;
     out.f.rho += best.rho;
     out.f.grad += best.grad;
     out.step = out.far_gap;
@@ -616,6 +678,8 @@ impl Outlines<'_> {
 #[derive(Clone, Copy, Debug)]
 pub struct Pieced<'a> {
     pub wisp: usize,
+    /// The segment's index in its wisp (adjacency for `WispMax`).
+    pub index: usize,
     pub seg: &'a Segment,
     pub pts: &'a [DVec3; curve::PIECES + 1],
     pub dev: &'a [f64; curve::PIECES],
@@ -704,19 +768,22 @@ pub fn exact_sample(
     let mut lip = 0.0;
     let mut far_gap = f64::INFINITY;
     let mut wisp = usize::MAX;
-    let mut best = Density::default();
+    let mut acc = WispMax::default();
     let mut wisp_lip: f64 = 0.0;
-    let (mut wisp_o, mut densest, mut densest_o) = (1.0, 0.0, 1.0);
+    let (mut densest, mut densest_o) = (0.0, 1.0);
+    let mut fold = |acc: WispMax, f: &mut Density| {
+        let (best, o) = acc.finish();
+        f.rho += best.rho;
+        f.grad += best.grad;
+        if best.rho > densest {
+            densest = best.rho;
+            densest_o = o;
+        }
+    };
     for p in segs {
         if p.wisp != wisp {
-            f.rho += best.rho;
-            f.grad += best.grad;
+            fold(std::mem::take(&mut acc), &mut f);
             lip += wisp_lip;
-            if best.rho > densest {
-                densest = best.rho;
-                densest_o = wisp_o;
-            }
-            best = Density::default();
             wisp_lip = 0.0;
             wisp = p.wisp;
         }
@@ -727,25 +794,17 @@ pub fn exact_sample(
             far_gap = far_gap.min(a - rm);
             continue;
         }
-        let (d, _) = curve::distance(s, v, method);
+        let (d, t) = curve::distance(s, v, method);
         if d >= rm {
             far_gap = far_gap.min(d - rm);
             continue;
         }
         wisp_lip = wisp_lip.max(s.lipschitz);
-        let dens = segment_density(s, v, method);
-        if dens.rho > best.rho {
-            best = dens;
-            let (_, t) = curve::distance(s, v, method);
-            wisp_o = super::toon::outline_scale(p.outline, t, taper);
-        }
+        let o = super::toon::outline_scale(p.outline, t, taper);
+        acc.push(p.index, t, segment_density(s, v, method), o);
     }
-    f.rho += best.rho;
-    f.grad += best.grad;
+    fold(acc, &mut f);
     lip += wisp_lip;
-    if best.rho > densest {
-        densest_o = wisp_o;
-    }
     let step = if lip > 0.0 && f.rho < 0.0 {
         (-f.rho / lip).min(far_gap)
     } else {
@@ -842,6 +901,7 @@ fn march_kept(
             .filter(|(c, _)| c.t_in <= t && t <= c.t_out)
             .map(|(c, (pts, dev))| Pieced {
                 wisp: c.wisp,
+                index: c.seg,
                 seg: &wisps[c.wisp][c.seg],
                 pts,
                 dev,
