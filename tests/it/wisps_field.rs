@@ -489,7 +489,7 @@ fn tapered_wisps_turn_their_normal_smoothly_across_joints() {
             let rad = iso_radius(rho, c, side, th);
             let p = c + rad * side;
             let n = field::normal(
-                field::field(&[segs.clone()], th, p, Distance::Newton).grad,
+                field::field(std::slice::from_ref(&segs), th, p, Distance::Newton).grad,
                 side,
             );
             if let Some((m, u0)) = prev {
