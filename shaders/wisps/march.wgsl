@@ -253,14 +253,17 @@ struct Sample {
 
 // Candidates of this pixel's ray, in segment order: the segment, its influence interval
 // [c_in, c_out] and its shell interval [s_in, s_out] along the ray (empty: s_in > s_out).
+// Set per scene (`field::ray_slots`): `march::march_source` replaces this line.
 const RAY_SLOTS: u32 = 48u;
-var<private> c_seg: array<u32, 48>;
+var<private> c_seg: array<u32, RAY_SLOTS>;
 // x c_in, y c_out, z s_in, w s_out
-var<private> c_iv: array<vec4<f32>, 48>;
+var<private> c_iv: array<vec4<f32>, RAY_SLOTS>;
+// The nearer of the influence and shell entries (which slot a full list gives up).
+var<private> c_key: array<f32, RAY_SLOTS>;
 var<private> n_cand: u32;
 
 // Per wisp of the current sample: the pieces' density bound at distance 0.
-var<private> wisp_bound: array<f32, 48>;
+var<private> wisp_bound: array<f32, RAY_SLOTS>;
 
 // Piece k of candidate segment j at v: (distance at least, r at most, w at most).
 fn piece_bound(j: u32, s: Segment, k: u32, v: vec3<f32>) -> vec3<f32> {
@@ -550,6 +553,104 @@ fn depth_of(p: vec3<f32>) -> f32 {
     return clip.z / clip.w;
 }
 
+// Candidates that passed the ray test in the last `gather` (kept or not), and those of them
+// that begin by its `t_at` (the slots a window there needs).
+var<private> n_pass: u32;
+var<private> n_live: u32;
+
+// Gathers the tile's segments whose influence capsule this ray crosses and that still matter
+// from `t_from` on (influence or shell interval reaching past it). A full list keeps those of
+// nearest entry (the nearer of the influence and shell entries) and returns where the first
+// dropped one begins, t_drop (1e30: none dropped): no dropped candidate touches the ray
+// before it, so the march over the list is exact up to t_drop and gathers again there. The
+// list ends in segment order (the per-wisp maximum needs a wisp's segments together). As
+// `field::keep_nearest`.
+fn gather(tile: u32, eye: vec3<f32>, dir: vec3<f32>, t_far: f32, t_from: f32, t_at: f32) -> f32 {
+    n_cand = 0u;
+    n_pass = 0u;
+    n_live = 0u;
+    var t_drop = 1e30;
+    let count = tile_counts[tile];
+    let base = tile * view.tiles.z;
+    for (var k = 0u; k < count; k++) {
+        let j = tile_lists[base + k];
+        let c = capsules[j];
+        let sh = shells[j];
+        // A bounding sphere first: most of a tile's segments miss most of its rays.
+        let mid = 0.5 * (c.a.xyz + c.b.xyz);
+        let rad = 0.5 * length(c.b.xyz - c.a.xyz) + max(c.a.w, sh);
+        let oc = eye - mid;
+        let bq = dot(oc, dir);
+        let disc = bq * bq - (dot(oc, oc) - rad * rad);
+        if (disc < 0.0 || -bq + sqrt(disc) < t_from) {
+            continue;
+        }
+        let iv = ray_capsule(eye, dir, c.a.xyz, c.b.xyz, c.a.w);
+        if (iv.x > iv.y || iv.y < 0.0 || iv.x > t_far) {
+            continue;
+        }
+        // The shell lies inside the influence capsule unless the outline is wider than the
+        // gap between them.
+        var sv = vec2<f32>(1e30, -1e30);
+        var key = iv.x;
+        var reach = iv.y;
+        if (sh > c.a.w) {
+            sv = ray_capsule(eye, dir, c.a.xyz, c.b.xyz, sh);
+            key = min(key, sv.x);
+            reach = max(reach, sv.y);
+        }
+        if (reach < t_from) {
+            continue;
+        }
+        n_pass++;
+        if (key <= t_at) {
+            n_live++;
+        }
+        var slot = n_cand;
+        if (n_cand >= RAY_SLOTS) {
+            // Full: replace the farthest entry if this one begins nearer.
+            slot = 0u;
+            for (var q = 1u; q < RAY_SLOTS; q++) {
+                if (c_key[q] > c_key[slot]) {
+                    slot = q;
+                }
+            }
+            if (key >= c_key[slot]) {
+                t_drop = min(t_drop, key);
+                continue;
+            }
+            t_drop = min(t_drop, c_key[slot]);
+        } else {
+            n_cand++;
+        }
+        if (sh <= c.a.w) {
+            sv = ray_capsule(eye, dir, c.a.xyz, c.b.xyz, sh);
+        }
+        c_seg[slot] = j;
+        c_iv[slot] = vec4<f32>(iv, sv);
+        c_key[slot] = key;
+    }
+    if (t_drop < 1e30) {
+        // Back into segment order.
+        for (var a = 1u; a < n_cand; a++) {
+            var b = a;
+            while (b > 0u && c_seg[b - 1u] > c_seg[b]) {
+                let sg = c_seg[b];
+                c_seg[b] = c_seg[b - 1u];
+                c_seg[b - 1u] = sg;
+                let iv = c_iv[b];
+                c_iv[b] = c_iv[b - 1u];
+                c_iv[b - 1u] = iv;
+                let ky = c_key[b];
+                c_key[b] = c_key[b - 1u];
+                c_key[b - 1u] = ky;
+                b--;
+            }
+        }
+    }
+    return t_drop;
+}
+
 @fragment
 fn fs(in: VOut) -> FOut {
     let pix = vec2<u32>(in.pos.xy);
@@ -561,94 +662,55 @@ fn fs(in: VOut) -> FOut {
     let to = fw.xyz / fw.w - eye;
     let t_far = length(to);
     let dir = to / t_far;
-    // The tile's segments whose influence this ray crosses. A full list keeps the nearest
-    // (by influence entry) and remembers where the first dropped one begins, t_drop: the
-    // march is exact before it, and a ray whose answer lies beyond it is counted.
-    n_cand = 0u;
-    var t_drop = 1e30;
-    let count = tile_counts[tile];
-    let base = tile * view.tiles.z;
-    for (var k = 0u; k < count; k++) {
-        let j = tile_lists[base + k];
-        let c = capsules[j];
-        // A bounding sphere first: most of a tile's segments miss most of its rays.
-        let mid = 0.5 * (c.a.xyz + c.b.xyz);
-        let rad = 0.5 * length(c.b.xyz - c.a.xyz) + c.a.w;
-        let oc = eye - mid;
-        let bq = dot(oc, dir);
-        let disc = bq * bq - (dot(oc, oc) - rad * rad);
-        if (disc < 0.0 || -bq + sqrt(disc) < 0.0) {
-            continue;
-        }
-        let iv = ray_capsule(eye, dir, c.a.xyz, c.b.xyz, c.a.w);
-        if (iv.x > iv.y || iv.y < 0.0 || iv.x > t_far) {
-            continue;
-        }
-        var slot = n_cand;
-        if (n_cand >= RAY_SLOTS) {
-            // Full: replace the farthest entry if this one begins nearer.
-            slot = 0u;
-            for (var q = 1u; q < RAY_SLOTS; q++) {
-                if (c_iv[q].x > c_iv[slot].x) {
-                    slot = q;
-                }
-            }
-            if (iv.x >= c_iv[slot].x) {
-                t_drop = min(t_drop, iv.x);
-                continue;
-            }
-            t_drop = min(t_drop, c_iv[slot].x);
-        } else {
-            n_cand++;
-        }
-        let sv = ray_capsule(eye, dir, c.a.xyz, c.b.xyz, shells[j]);
-        c_seg[slot] = j;
-        c_iv[slot] = vec4<f32>(iv, sv);
-    }
-    if (t_drop < 1e30) {
-        // Back into segment order (the per-wisp maximum needs a wisp's segments together).
-        for (var a = 1u; a < n_cand; a++) {
-            var b = a;
-            while (b > 0u && c_seg[b - 1u] > c_seg[b]) {
-                let sg = c_seg[b];
-                c_seg[b] = c_seg[b - 1u];
-                c_seg[b - 1u] = sg;
-                let iv = c_iv[b];
-                c_iv[b] = c_iv[b - 1u];
-                c_iv[b - 1u] = iv;
-                b--;
-            }
-        }
-    }
+    // The ray's candidates, a window of them at a time: the march is exact before t_drop and
+    // gathers again when it gets there. Only more than RAY_SLOTS candidates touching the ray
+    // at once overflow: `over` is where, and a ray whose answer lies beyond it is counted.
+    var t_drop = gather(tile, eye, dir, t_far, 0.0, 0.0);
+    var over = 1e30;
     var first = 1e30;
-    var end = -1e30;
     for (var k = 0u; k < n_cand; k++) {
         first = min(first, c_iv[k].z);
-        end = max(end, c_iv[k].w);
     }
     let counting = view.flags.x == 1u;
-    if (counting && n_cand > 0u) {
-        atomicAdd(&stats[4], n_cand);
+    if (counting && n_pass > 0u) {
+        atomicAdd(&stats[4], n_pass);
         atomicAdd(&stats[5], 1u);
     }
-    end = min(end, t_far);
     // Outline shell thickness per unit distance (outline pixels at the focal length).
     let eps_per_t = view.eye.w;
     let max_steps = u32(draw.march.z);
-    var t = max(first, 0.0);
+    // A dropped candidate's shell may begin before the kept ones' first shell.
+    var t = max(min(first, t_drop), 0.0);
     var t_prev = -1.0;
     var shell_t = -1.0;
     var hit = false;
     var steps = 0u;
     loop {
-        if (steps >= max_steps || t > end) {
+        if (steps >= max_steps || t > t_far) {
             break;
         }
+        if (t_drop < 1e30 && t >= t_drop) {
+            // The window's end: gather again from the last sample (bisection may go back
+            // there).
+            var t_from = t;
+            if (t_prev >= 0.0) {
+                t_from = t_prev;
+            }
+            let nd = gather(tile, eye, dir, t_far, t_from, t);
+            if (nd <= t) {
+                // More candidates touch the ray here than the list holds: say how many.
+                over = min(over, nd);
+                atomicMax(&stats[7], n_live);
+                t_drop = 1e30;
+            } else {
+                t_drop = nd;
+            }
+        }
         // In some shell interval? If not, jump to the next one (nothing between is inside
-        // the surface or its outline).
+        // the surface or its outline) or to the window's end.
         var inside = false;
-        var next_shell = 1e30;
-        var next_in = 1e30;
+        var next_shell = t_drop;
+        var next_in = t_drop;
         for (var k = 0u; k < n_cand; k++) {
             inside = inside || (c_iv[k].z <= t && t <= c_iv[k].w);
             if (c_iv[k].z > t) {
@@ -712,7 +774,7 @@ fn fs(in: VOut) -> FOut {
     } else if (shell_t >= 0.0 && eps_per_t > 0.0) {
         decided = shell_t;
     }
-    if (t_drop <= t_far && decided >= t_drop) {
+    if (over <= t_far && decided >= over) {
         atomicAdd(&stats[0], 1u);
     }
     var out: FOut;

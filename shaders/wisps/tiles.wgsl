@@ -52,7 +52,8 @@ struct Capsule {
 @group(0) @binding(6) var<storage, read_write> tile_lists: array<u32>;
 // 0 candidates dropped by full ray lists, 1 tiles whose list overflowed, 2 most segments in
 // one tile, 3 march steps, 4 candidates, 5 rays with a candidate, 6 pixels covered (3-6
-// only when view.flags.x is 1).
+// only when view.flags.x is 1), 7 the most candidates touching one ray at once where its
+// list overflowed.
 @group(0) @binding(7) var<storage, read_write> stats: array<atomic<u32>, 8>;
 
 @compute @workgroup_size(64)

@@ -63,6 +63,18 @@ pub fn multiplied(scene: &Scene, copies: usize) -> Scene {
     s
 }
 
+/// `count` wisps from the scene's own: `multiplied` by enough copies, then the first
+/// `count` of them (the sweeps' 200 wisps from `toon.ron`'s 22).
+pub fn with_count(scene: &Scene, count: usize) -> Scene {
+    let own = scene.wisps.as_ref().map_or(0, |w| w.skeletons.len()).max(1);
+    let mut s = multiplied(scene, count.div_ceil(own).max(1));
+    if let Some(w) = s.wisps.as_mut() {
+        w.skeletons.truncate(count);
+        w.bundles.clear();
+    }
+    s
+}
+
 struct Timed {
     stage: Stage,
     out: target::Offscreen,

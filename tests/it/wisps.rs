@@ -409,6 +409,16 @@ fn drawn(
     size: (u32, u32),
     counting: bool,
 ) -> (&'static kami::gpu::Gpu, kami::stage::Stage) {
+    drawn_with_slots(scene, size, counting, None)
+}
+
+/// `drawn` with the march's ray lists set to `slots` (None: the scene's own).
+fn drawn_with_slots(
+    scene: &Scene,
+    size: (u32, u32),
+    counting: bool,
+    slots: Option<u32>,
+) -> (&'static kami::gpu::Gpu, kami::stage::Stage) {
     use kami::systems::wisps::WispsSystem;
     let gpu = common::gpu();
     let mut stage = kami::stage::Stage::new(
@@ -418,7 +428,11 @@ fn drawn(
         kami::stage::Quality::of(scene),
     )
     .unwrap();
-    stage.system_mut::<WispsSystem>().unwrap().draw.counting = counting;
+    let sys = stage.system_mut::<WispsSystem>().unwrap();
+    sys.draw.counting = counting;
+    if let Some(n) = slots {
+        sys.draw.set_slots(gpu, n).unwrap();
+    }
     let out = kami::stage::target::Offscreen::new(gpu, size).unwrap();
     let look = stage.look();
     let mut enc = gpu.device.create_command_encoder(&Default::default());
@@ -598,8 +612,16 @@ fn ray_march_matches_the_f64_reference_image() {
 
 /// The march's counters after one frame of `scene` at `size` (one sample per pixel).
 fn march_stats(scene: &Scene, size: (u32, u32)) -> kami::systems::wisps::tiles::MarchStats {
+    march_stats_with(scene, size, None)
+}
+
+fn march_stats_with(
+    scene: &Scene,
+    size: (u32, u32),
+    slots: Option<u32>,
+) -> kami::systems::wisps::tiles::MarchStats {
     use kami::systems::wisps::WispsSystem;
-    let (gpu, stage) = drawn(scene, size, true);
+    let (gpu, stage) = drawn_with_slots(scene, size, true, slots);
     let sys = stage.system::<WispsSystem>().unwrap();
     sys.draw.read_stats(gpu).unwrap().unwrap()
 }
@@ -678,41 +700,35 @@ fn tile_lists_hold_every_segment_a_pixel_ray_crosses() {
 /// it, and the f64 twin counts the centre
 /// ray. A solid wisp in front of the stack ends every ray before the dropped ones: nothing
 /// is counted.
-#[test]
-fn overflowing_ray_lists_are_counted_and_reported() {
-    use kami::systems::wisps::field;
-    let stack = |front: bool| {
-        let mut skeletons = String::new();
-        for k in 0..60 {
-            let z = -12.0 + 0.4 * k as f64;
-            skeletons += &format!(
-                "Skeleton(nodes: [Node(p: (-3.0, 0.0, {z}), r: 0.5, w: 0.4), Node(p: (3.0, 0.0, {z}), r: 0.5, w: 0.4)]),"
-            );
-        }
-        if front {
-            skeletons += "Skeleton(nodes: [Node(p: (-3.0, 0.0, 14.0), r: 1.0, w: 2.5), Node(p: (3.0, 0.0, 14.0), r: 1.0, w: 2.5)]),";
-        }
-        let text = format!(
-            "Scene(head: Head(radii: (1.0, 1.0, 1.0), visible: false), \
-             wisps: Some(Wisps(threshold: 0.5, toon: Toon(outline_width: 0.0), skeletons: [{skeletons}])), \
-             camera: CameraDesc(eye: (0.0, 0.0, 40.0), target: (0.0, 0.0, 0.0), fov_y: 20.0), \
-             render: RenderSettings(supersample: 1, msaa: 1))"
-        );
-        Scene::from_ron(&text, "stack.ron").unwrap()
-    };
-    let shielded = march_stats(&stack(true), (32, 32));
-    assert!(shielded.complete(), "{shielded:?}");
-    let scene = stack(false);
-    let stats = march_stats(&scene, (32, 32));
-    assert!(stats.ray_overflow > 0, "{stats:?}");
-    assert!(!stats.complete());
-    let (gpu, stage) = drawn(&scene, (32, 32), false);
-    let warnings = stage.warnings(gpu).unwrap();
-    assert!(
-        warnings.iter().any(|w| w.contains("dropped")),
-        "{warnings:?}"
+/// A thick wisp across the view axis at depth `z`.
+fn across(z: f64) -> String {
+    format!("Skeleton(nodes: [Node(p: (-3.0, 0.0, {z}), r: 1.0, w: 2.5), Node(p: (3.0, 0.0, {z}), r: 1.0, w: 2.5)]),")
+}
+
+fn stack_scene(skeletons: &str, front: bool) -> Scene {
+    let mut skeletons = skeletons.to_string();
+    if front {
+        skeletons += &across(14.0);
+    }
+    let text = format!(
+        "Scene(head: Head(radii: (1.0, 1.0, 1.0), visible: false), \
+         wisps: Some(Wisps(threshold: 0.5, toon: Toon(outline_width: 0.0), march: March(max_steps: 4096), skeletons: [{skeletons}])), \
+         camera: CameraDesc(eye: (0.0, 0.0, 40.0), target: (0.0, 0.0, 0.0), fov_y: 20.0), \
+         render: RenderSettings(supersample: 1, msaa: 1))"
     );
-    // The f64 twin on the ray down the axis.
+    Scene::from_ron(&text, "stack.ron").unwrap()
+}
+
+/// The f64 twin's march of the ray down the axis of a `stack_scene`.
+fn axis_march(
+    scene: &Scene,
+    slots: usize,
+) -> (
+    kami::systems::wisps::field::Hit,
+    kami::systems::wisps::field::MarchCount,
+    usize,
+) {
+    use kami::systems::wisps::field;
     let w = scene.wisps.as_ref().unwrap();
     let segs = reference_segments(w);
     let caps = kami::systems::wisps::curve::capsules(&segs, w.threshold);
@@ -727,14 +743,107 @@ fn overflowing_ray_lists_are_counted_and_reported() {
         t1: 100.0,
     };
     let cands = field::candidates(&caps, &shells, &ray);
-    assert_eq!(cands.len(), 60);
     let lines = field::Outlines {
         per_segment: &[],
         taper: 0.0,
     };
-    let (hit, count) = field::march_tiled(&segs, &cands, 0.5, &w.march, &ray, 0.0, &lines);
+    let (hit, count) = field::march_tiled(&segs, &cands, 0.5, &w.march, &ray, 0.0, &lines, slots);
+    (hit, count, cands.len())
+}
+
+/// Sixty thin wisps stacked one behind the other along the view ray (each too thin to reach
+/// the threshold alone) and a thick one behind them all: the ray crosses 61 influence
+/// capsules, a few at a time. The list holds 48, so the march takes them a window at a time
+/// and gathers again at each window's end: nothing is dropped, on the GPU or in the f64
+/// twin, and the ray reaches the thick wisp at the back. (With one list per ray, as before,
+/// the farthest were dropped and the ray was counted; without the second gather it would
+/// see nothing.)
+#[test]
+fn deep_stacks_along_a_ray_are_marched_window_by_window() {
+    let mut skeletons = String::new();
+    for k in 0..60 {
+        let z = -12.0 + 0.4 * k as f64;
+        skeletons += &format!(
+            "Skeleton(nodes: [Node(p: (-3.0, 0.0, {z}), r: 0.5, w: 0.4), Node(p: (3.0, 0.0, {z}), r: 0.5, w: 0.4)]),"
+        );
+    }
+    skeletons += &across(-16.0);
+    let scene = stack_scene(&skeletons, false);
+    let stats = march_stats(&scene, (32, 32));
+    assert_eq!(stats.slots, 48, "a few capsules meet: the fewest slots");
+    assert!(stats.complete(), "{stats:?}");
+    assert!(stats.candidates >= 61, "{stats:?}");
+    let (hit, count, n) = axis_march(&scene, 48);
+    assert_eq!(n, 61);
+    assert_eq!(count.overflow, 0);
+    match hit {
+        kami::systems::wisps::field::Hit::Surface { t, .. } => assert!(
+            (t - 55.365).abs() < 0.05,
+            "hit at {t}: the back wisp's surface is at 56 - 0.635"
+        ),
+        h => panic!("{h:?}"),
+    }
+    // The centre pixel shows the thick wisp at the back (toon colours are blue-violet).
+    let img = render(&scene, (32, 32));
+    let centre = img.get_pixel(16, 16);
+    assert!(is_hair(centre), "the back wisp is not drawn: {centre:?}");
+}
+
+/// Sixty wisps crossing at one point on the view axis: there all sixty touch the ray at once.
+/// The scene's own lists hold them (`field::ray_slots` sizes them from the capsules that
+/// meet); held to 48, one is dropped for good and the ray (whose hit lies beyond) is counted
+/// and reported with the slots it needed, on the GPU and by the f64 twin; with a wisp in
+/// front that hides the crossing, nothing is counted.
+#[test]
+fn overflowing_ray_lists_are_counted_and_reported() {
+    let mut skeletons = String::new();
+    for k in 0..60 {
+        let a = std::f64::consts::PI * k as f64 / 60.0;
+        let (c, s) = (3.0 * a.cos(), 3.0 * a.sin());
+        skeletons += &format!(
+            "Skeleton(nodes: [Node(p: ({}, {}, 0.0), r: 0.5, w: 0.4), Node(p: ({c}, {s}, 0.0), r: 0.5, w: 0.4)]),",
+            -c, -s
+        );
+    }
+    let scene = stack_scene(&skeletons, false);
+    let own = march_stats(&scene, (32, 32));
+    assert!(own.slots >= 64, "{own:?}");
+    assert!(own.complete(), "{own:?}");
+    let shielded = march_stats_with(&stack_scene(&skeletons, true), (32, 32), Some(48));
+    assert!(shielded.complete(), "{shielded:?}");
+    let stats = march_stats_with(&scene, (32, 32), Some(48));
+    assert!(stats.ray_overflow > 0, "{stats:?}");
+    assert!(stats.slots_needed > 48, "{stats:?}");
+    assert!(!stats.complete());
+    let (gpu, stage) = drawn_with_slots(&scene, (32, 32), false, Some(48));
+    let warnings = stage.warnings(gpu).unwrap();
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.contains("dropped") && w.contains("the lists hold 48")),
+        "{warnings:?}"
+    );
+    let (hit, count, n) = axis_march(&scene, 48);
+    assert_eq!(n, 60);
     assert_eq!(count.overflow, 1);
-    assert!(matches!(hit, field::Hit::Miss), "{hit:?}");
+    assert!(
+        matches!(hit, kami::systems::wisps::field::Hit::Surface { .. }),
+        "{hit:?}"
+    );
+}
+
+/// Issue 34: 200 wisps (`toon.ron`'s 22 multiplied, `bench::wisps::with_count`) draw with
+/// nothing dropped: no tile list and no ray list overflows. Near the crown, where the
+/// copies' roots meet, more than 96 candidates touch one ray at once: the scene's lists are
+/// sized for that (with 48 slots 151 rays overflowed, with 96 10, with 192 none).
+#[test]
+fn two_hundred_wisps_overflow_nothing() {
+    let scene = kami::bench::wisps::with_count(&one_sample("toon"), 200);
+    assert_eq!(scene.wisps.as_ref().unwrap().skeletons.len(), 200);
+    let stats = march_stats(&scene, (320, 180));
+    println!("{stats:?}");
+    assert!(stats.covered > 5_000, "{stats:?}");
+    assert!(stats.complete(), "{stats:?}");
 }
 
 /// Tile lists that cannot fit the adapter are refused before anything is allocated, with

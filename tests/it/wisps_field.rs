@@ -1013,3 +1013,93 @@ fn clear_step_never_reaches_the_surface() {
     }
     assert!(moved > 1000 && long > 100, "{moved} steps, {long} over 0.2");
 }
+
+/// `curve::segment_distance` against the least distance over 400 × 400 samples of the two
+/// segments (parallel, crossing, skew, touching end to end and degenerate pairs included).
+#[test]
+fn segment_distance_matches_sampling() {
+    let mut rng = Rng::new(31, 0);
+    let mut pairs: Vec<[DVec3; 4]> = (0..200)
+        .map(|_| std::array::from_fn(|_| rand_vec(&mut rng, 3.0)))
+        .collect();
+    let (a, b) = (DVec3::ZERO, DVec3::X);
+    pairs.push([a, b, a + DVec3::Y, b + DVec3::Y]); // parallel, 1 apart
+    pairs.push([a, b, DVec3::new(0.5, -1.0, 0.0), DVec3::new(0.5, 1.0, 0.0)]); // crossing
+    pairs.push([a, b, b, b + DVec3::Y]); // end to end
+    pairs.push([a, a, b, b]); // two points
+    pairs.push([a, b, DVec3::new(3.0, 0.0, 0.0), DVec3::new(4.0, 0.0, 0.0)]); // collinear, apart
+    let n = 400;
+    let mut worst: f64 = 0.0;
+    for [p0, p1, q0, q1] in pairs {
+        let d = curve::segment_distance(p0, p1, q0, q1);
+        let mut best = f64::INFINITY;
+        for i in 0..=n {
+            let p = p0.lerp(p1, i as f64 / n as f64);
+            for j in 0..=n {
+                best = best.min((p - q0.lerp(q1, j as f64 / n as f64)).length());
+            }
+        }
+        // Sampling finds a distance no smaller than the true one, within the spacing.
+        let h = ((p1 - p0).length() + (q1 - q0).length()) / n as f64;
+        assert!(d <= best + 1e-12, "{d} above the sampled {best}");
+        worst = worst.max(best - d);
+        assert!(
+            best - d <= h,
+            "{d} below the sampled {best} by more than {h}"
+        );
+    }
+    println!("largest gap to sampling {worst:.2e}");
+}
+
+/// `field::max_overlap` bounds the most influence capsules holding one point (the
+/// candidates touching one ray at once; `ray_slots` pads it): random tangles, the depth
+/// counted at 20,000 points each, never above the bound; and 30 capsules of radius 0.5
+/// crossing near one point (each within 0.45 of it), where the bound is the depth itself.
+#[test]
+fn ray_slots_hold_the_deepest_overlap() {
+    let mut rng = Rng::new(41, 0);
+    let star: Vec<curve::Capsule> = (0..30)
+        .map(|k| {
+            let a = std::f64::consts::PI * k as f64 / 30.0;
+            let dir = DVec3::new(a.cos(), a.sin(), 0.3 * (3.0 * a).sin()).normalize();
+            let off = DVec3::new(0.0, 0.0, 0.45 * if k % 2 == 0 { 1.0 } else { -1.0 });
+            curve::Capsule {
+                a: off - 4.0 * dir,
+                b: off + 4.0 * dir,
+                influence: 0.5,
+                hit: 0.4,
+                wisps_near: 1,
+            }
+        })
+        .collect();
+    let bound = field::max_overlap(std::slice::from_ref(&star));
+    let at_centre = star
+        .iter()
+        .filter(|c| curve::chord_distance(DVec3::ZERO, c.a, c.b) <= c.influence)
+        .count();
+    assert_eq!(at_centre, 30);
+    assert!(bound >= 30, "30 capsules hold the centre, bound {bound}");
+    for wisps in [4, 16, 40] {
+        let segs = tangle(&mut rng, wisps);
+        let caps = curve::capsules(&segs, 0.5);
+        let slots = field::max_overlap(&caps);
+        let flat: Vec<&curve::Capsule> = caps.iter().flatten().collect();
+        let mut deepest = 0;
+        for _ in 0..20_000 {
+            let p = rand_vec(&mut rng, 3.0);
+            let depth = flat
+                .iter()
+                .filter(|c| curve::chord_distance(p, c.a, c.b) <= c.influence)
+                .count();
+            deepest = deepest.max(depth);
+        }
+        println!(
+            "{wisps} wisps, {} segments: deepest overlap {deepest}, bound {slots}",
+            flat.len()
+        );
+        assert!(
+            deepest <= slots,
+            "{deepest} capsules hold one point, bound {slots}"
+        );
+    }
+}

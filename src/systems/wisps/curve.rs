@@ -174,6 +174,41 @@ pub fn lipschitz(ctrl: &[DVec3; 4], r: [f64; 2], w: [f64; 2]) -> f64 {
     2.0 * w_max / r_min * (1.0 + 2.0 * dr / s) + 2.0 * dw / s
 }
 
+/// The least distance between the line segments p0-p1 and q0-q1 (clamped closest points,
+/// Ericson's Real-Time Collision Detection 5.1.9).
+pub fn segment_distance(p0: DVec3, p1: DVec3, q0: DVec3, q1: DVec3) -> f64 {
+    let (d1, d2, r) = (p1 - p0, q1 - q0, p0 - q0);
+    let (a, e, f) = (d1.length_squared(), d2.length_squared(), d2.dot(r));
+    let (s, t) = if a <= 1e-18 && e <= 1e-18 {
+        (0.0, 0.0)
+    } else if a <= 1e-18 {
+        (0.0, (f / e).clamp(0.0, 1.0))
+    } else {
+        let c = d1.dot(r);
+        if e <= 1e-18 {
+            ((-c / a).clamp(0.0, 1.0), 0.0)
+        } else {
+            let b = d1.dot(d2);
+            let denom = a * e - b * b;
+            let mut s = if denom > 1e-18 {
+                ((b * f - c * e) / denom).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let mut t = (b * s + f) / e;
+            if t < 0.0 {
+                t = 0.0;
+                s = (-c / a).clamp(0.0, 1.0);
+            } else if t > 1.0 {
+                t = 1.0;
+                s = ((b - c) / a).clamp(0.0, 1.0);
+            }
+            (s, t)
+        }
+    };
+    ((p0 + d1 * s) - (q0 + d2 * t)).length()
+}
+
 /// Distance from `v` to the segment and the parameter t of the closest point found.
 pub fn distance(seg: &Segment, v: DVec3, method: Distance) -> (f64, f64) {
     match method {

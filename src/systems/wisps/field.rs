@@ -477,6 +477,7 @@ pub fn render_reference_tiled(
                 .collect()
         })
         .collect();
+    let slots = ray_slots(&caps);
     let total = std::cell::Cell::new(MarchCount::default());
     let trace = |ray: &Ray| {
         let cands = candidates(&caps, &shells, ray);
@@ -488,6 +489,7 @@ pub fn render_reference_tiled(
             ray,
             eps_per_t,
             &lines,
+            slots,
         );
         let mut sum = total.get();
         sum.steps += n.steps;
@@ -567,10 +569,53 @@ fn render_rays(
     (colours, depths)
 }
 
-/// Candidate slots per ray in the tiled march (`RAY_SLOTS` in `shaders/wisps/march.wgsl`):
-/// a ray crossing more influence capsules keeps the nearest (`keep_nearest`), and a ray
-/// whose answer lies beyond a dropped one is counted.
+/// The fewest candidate slots per ray of the tiled march (`RAY_SLOTS` in
+/// `shaders/wisps/march.wgsl`, set per scene by `ray_slots`): a ray's list is a window of
+/// its candidates (`keep_nearest`), so only candidates touching the ray at once need a slot
+/// each; a ray whose answer lies beyond one a full window dropped is counted.
 pub const RAY_SLOTS: usize = 48;
+
+/// The most slots a scene gets (private memory per pixel: 28 bytes a slot).
+pub const MAX_RAY_SLOTS: usize = 512;
+
+/// The slots a scene's rays need: `max_overlap`, a quarter more for wisps that move, a
+/// multiple of 16, at least `RAY_SLOTS`; above `MAX_RAY_SLOTS` the lists hold that many and
+/// the rays that need more are counted.
+pub fn ray_slots(caps: &[Vec<Capsule>]) -> usize {
+    (max_overlap(caps) * 5 / 4)
+        .next_multiple_of(16)
+        .clamp(RAY_SLOTS, MAX_RAY_SLOTS)
+}
+
+/// At most this many influence capsules hold one point (the candidates touching one ray at
+/// once): the most capsules one capsule meets, plus itself (the largest degree of the graph
+/// of capsules that meet bounds its largest clique). O(segments²) capsule tests after a box
+/// check, once per scene (3 ms for 1,000 segments).
+pub fn max_overlap(caps: &[Vec<Capsule>]) -> usize {
+    let all: Vec<&Capsule> = caps.iter().flatten().collect();
+    let boxes: Vec<(DVec3, DVec3)> = all
+        .iter()
+        .map(|c| {
+            let r = DVec3::splat(c.influence);
+            (c.a.min(c.b) - r, c.a.max(c.b) + r)
+        })
+        .collect();
+    let mut degree = vec![0usize; all.len()];
+    for i in 0..all.len() {
+        for j in i + 1..all.len() {
+            let (a, b) = (boxes[i], boxes[j]);
+            if a.0.cmpgt(b.1).any() || b.0.cmpgt(a.1).any() {
+                continue;
+            }
+            let d = curve::segment_distance(all[i].a, all[i].b, all[j].a, all[j].b);
+            if d <= all[i].influence + all[j].influence {
+                degree[i] += 1;
+                degree[j] += 1;
+            }
+        }
+    }
+    degree.iter().max().map_or(0, |d| d + 1)
+}
 
 /// The radius round a segment's chord within which the march samples: the hit capsule grown
 /// by twice the outline shell's half-width at the far side of the segment (`eps_per_t` t),
@@ -813,29 +858,40 @@ pub fn exact_sample(
     (f, step, densest_o)
 }
 
-/// A full ray list's choice (`fs` in `shaders/wisps/march.wgsl`): the first `RAY_SLOTS`
-/// candidates, then each later one replaces the kept one of farthest influence entry (the
-/// first such slot) if it begins nearer; back in segment order. Returns them and t_drop,
-/// where the first dropped candidate begins (+∞: none dropped).
-pub fn keep_nearest(cands: &[Candidate]) -> (Vec<Candidate>, f64) {
-    let mut kept: Vec<Candidate> = Vec::with_capacity(RAY_SLOTS);
+/// A candidate's first touch of the ray: the nearer of its influence and shell entries.
+fn entry_key(c: &Candidate) -> f64 {
+    c.t_in.min(c.s_in)
+}
+
+/// Where a candidate stops touching the ray: the farther of its influence and shell exits.
+fn reach(c: &Candidate) -> f64 {
+    c.t_out.max(c.s_out)
+}
+
+/// A ray list's window (`gather` in `shaders/wisps/march.wgsl`): of the candidates still
+/// touching the ray from `from` on, the first `RAY_SLOTS`, then each later one replaces the
+/// kept one of farthest entry (the first such slot) if it begins nearer; back in segment
+/// order. Returns them and t_drop, where the first dropped candidate begins (+∞: none
+/// dropped): no dropped candidate touches the ray before it.
+pub fn keep_nearest(cands: &[Candidate], from: f64, slots: usize) -> (Vec<Candidate>, f64) {
+    let mut kept: Vec<Candidate> = Vec::with_capacity(slots);
     let mut t_drop = f64::INFINITY;
-    for c in cands {
-        if kept.len() < RAY_SLOTS {
+    for c in cands.iter().filter(|c| reach(c) >= from) {
+        if kept.len() < slots {
             kept.push(*c);
             continue;
         }
         let mut slot = 0;
-        for q in 1..RAY_SLOTS {
-            if kept[q].t_in > kept[slot].t_in {
+        for q in 1..slots {
+            if entry_key(&kept[q]) > entry_key(&kept[slot]) {
                 slot = q;
             }
         }
-        if c.t_in >= kept[slot].t_in {
-            t_drop = t_drop.min(c.t_in);
+        if entry_key(c) >= entry_key(&kept[slot]) {
+            t_drop = t_drop.min(entry_key(c));
             continue;
         }
-        t_drop = t_drop.min(kept[slot].t_in);
+        t_drop = t_drop.min(entry_key(&kept[slot]));
         kept[slot] = *c;
     }
     kept.sort_by_key(|c| (c.wisp, c.seg));
@@ -843,14 +899,19 @@ pub fn keep_nearest(cands: &[Candidate]) -> (Vec<Candidate>, f64) {
 }
 
 /// The tiled march of one ray (`fs` in `shaders/wisps/march.wgsl`; the GPU takes the
-/// candidates from its screen tile's list, the same segments in the same order). Samples only
-/// inside shell intervals, jumping the gaps between them (no point there is inside, or in
-/// the outline); at each sample only the candidates whose influence interval holds t count,
-/// and a step never passes the next influence entry. A sample whose clear step (the pieces'
-/// bound) exceeds twice the outline half-width eps(t) is outside and off the outline: the
-/// ray moves by the clear step less eps with no exact field. Elsewhere the exact field
-/// decides: a hit is refined by bisection as in `march`, the outline shell is tested as
-/// there, and the step is the larger of the Lipschitz and clear steps.
+/// candidates from its screen tile's list, the same segments in the same order). The ray's
+/// candidates come a window at a time (`keep_nearest`): the march is exact up to the
+/// window's end, t_drop, and gathers again from its last sample there; only where more than
+/// `slots` candidates touch the ray at once is one dropped for good (`overflow`, when the
+/// answer lies beyond it). Samples only inside shell intervals, jumping the gaps between
+/// them (no point there is inside, or in the outline); at each sample only the candidates
+/// whose influence interval holds t count, and a step never passes the next influence entry
+/// or the window's end. A sample whose clear step (the pieces' bound) exceeds twice the
+/// outline half-width eps(t) is outside and off the outline: the ray moves by the clear step
+/// less eps with no exact field. Elsewhere the exact field decides: a hit is refined by
+/// bisection as in `march`, the outline shell is tested as there, and the step is the larger
+/// of the Lipschitz and clear steps.
+#[allow(clippy::too_many_arguments)]
 pub fn march_tiled(
     wisps: &[Vec<Segment>],
     cands: &[Candidate],
@@ -859,29 +920,7 @@ pub fn march_tiled(
     ray: &Ray,
     eps_per_t: f64,
     lines: &Outlines,
-) -> (Hit, MarchCount) {
-    let (kept, t_drop) = keep_nearest(cands);
-    let (hit, mut count) = march_kept(wisps, &kept, threshold, m, ray, eps_per_t, lines);
-    count.candidates = cands.len() as u32;
-    let decided = match hit {
-        Hit::Surface { t, .. } | Hit::Outline { t } => t,
-        Hit::Miss => f64::INFINITY,
-    };
-    if t_drop <= ray.t1 && decided >= t_drop {
-        count.overflow = 1;
-    }
-    (hit, count)
-}
-
-/// `march_tiled` over the candidates a full list kept.
-fn march_kept(
-    wisps: &[Vec<Segment>],
-    cands: &[Candidate],
-    threshold: f64,
-    m: &March,
-    ray: &Ray,
-    eps_per_t: f64,
-    lines: &Outlines,
+    slots: usize,
 ) -> (Hit, MarchCount) {
     let mut count = MarchCount {
         steps: 0,
@@ -890,63 +929,90 @@ fn march_kept(
         exact: 0,
     };
     let widest = lines.widest();
-    let pieced: Vec<_> = cands
-        .iter()
-        .map(|c| curve::pieces(&wisps[c.wisp][c.seg]))
-        .collect();
-    let active = |t: f64| -> Vec<Pieced> {
-        cands
+    let (mut kept, mut t_drop) = keep_nearest(cands, f64::NEG_INFINITY, slots);
+    let mut over = f64::INFINITY;
+    type PiecesOf = ([DVec3; curve::PIECES + 1], [f64; curve::PIECES]);
+    let active = |kept: &[Candidate], t: f64| -> Vec<(Candidate, usize)> {
+        kept.iter()
+            .enumerate()
+            .filter(|(_, c)| c.t_in <= t && t <= c.t_out)
+            .map(|(i, c)| (*c, i))
+            .collect()
+    };
+    let piece_all = |kept: &[Candidate]| -> Vec<_> {
+        kept.iter()
+            .map(|c| curve::pieces(&wisps[c.wisp][c.seg]))
+            .collect()
+    };
+    let mut pieced = piece_all(&kept);
+    // The exact field (f, Lipschitz step, outline scale) or the clear step at t.
+    let sample = |kept: &[Candidate], pieced: &[PiecesOf], t: f64, exact: bool| {
+        let act = active(kept, t);
+        let segs: Vec<Pieced> = act
             .iter()
-            .zip(&pieced)
-            .filter(|(c, _)| c.t_in <= t && t <= c.t_out)
-            .map(|(c, (pts, dev))| Pieced {
+            .map(|(c, i)| Pieced {
                 wisp: c.wisp,
                 index: c.seg,
                 seg: &wisps[c.wisp][c.seg],
-                pts,
-                dev,
+                pts: &pieced[*i].0,
+                dev: &pieced[*i].1,
                 outline: lines.of(c.wisp, c.seg),
             })
-            .collect()
+            .collect();
+        if exact {
+            let (f, s, o) = exact_sample(&segs, threshold, ray.at(t), m.distance, lines.taper);
+            (f, s, o, 0.0)
+        } else {
+            let clear = clear_step(&segs, threshold, ray.at(t));
+            (Density::default(), 0.0, 0.0, clear)
+        }
     };
-    let exact = |t: f64| exact_sample(&active(t), threshold, ray.at(t), m.distance, lines.taper);
-    let first = cands.iter().map(|c| c.s_in).fold(f64::INFINITY, f64::min);
-    let end = cands
-        .iter()
-        .map(|c| c.s_out)
-        .fold(f64::NEG_INFINITY, f64::max)
-        .min(ray.t1);
-    let mut t = first.max(ray.t0);
+    let first = kept.iter().map(|c| c.s_in).fold(f64::INFINITY, f64::min);
+    // A dropped candidate's shell may begin before the kept ones' first shell.
+    let mut t = first.min(t_drop).max(ray.t0);
     let mut t_prev: Option<f64> = None;
     let mut entry: Option<f64> = None;
-    while count.steps < m.max_steps && t <= end {
-        if !cands.iter().any(|c| c.s_in <= t && t <= c.s_out) {
-            // Between shell intervals: nothing here is inside or in the outline.
-            if let Some(te) = entry {
-                return (Hit::Outline { t: te }, count);
+    let mut result = None;
+    while count.steps < m.max_steps && t <= ray.t1 {
+        if t_drop.is_finite() && t >= t_drop {
+            // The window's end: gather again from the last sample (bisection may go back).
+            let (k, nd) = keep_nearest(cands, t_prev.unwrap_or(t), slots);
+            kept = k;
+            pieced = piece_all(&kept);
+            if nd <= t {
+                over = over.min(nd);
+                t_drop = f64::INFINITY;
+            } else {
+                t_drop = nd;
             }
-            let next = cands
-                .iter()
-                .map(|c| c.s_in)
-                .filter(|&s| s > t)
-                .fold(f64::INFINITY, f64::min);
-            t = next;
+        }
+        let inside = kept.iter().any(|c| c.s_in <= t && t <= c.s_out);
+        let next_shell = kept
+            .iter()
+            .map(|c| c.s_in)
+            .filter(|&s| s > t)
+            .fold(t_drop, f64::min);
+        let next_in = kept
+            .iter()
+            .map(|c| c.t_in)
+            .filter(|&s| s > t)
+            .fold(t_drop, f64::min);
+        if !inside {
+            // Between shell intervals: nothing here is inside or in the outline.
+            if entry.is_some() {
+                break;
+            }
+            t = next_shell;
             t_prev = None;
             continue;
         }
         count.steps += 1;
-        let next_in = cands
-            .iter()
-            .map(|c| c.t_in)
-            .filter(|&s| s > t)
-            .fold(f64::INFINITY, f64::min);
-        let segs = active(t);
-        let clear = clear_step(&segs, threshold, ray.at(t));
+        let clear = sample(&kept, &pieced, t, false).3;
         // Off every outline: the widest any wisp may draw.
         let eps = eps_per_t * t * widest;
         if clear > 2.0 * eps {
-            if let Some(te) = entry {
-                return (Hit::Outline { t: te }, count);
+            if entry.is_some() {
+                break;
             }
             let step = ((clear - eps) * m.step_scale)
                 .min(next_in - t)
@@ -956,43 +1022,39 @@ fn march_kept(
             continue;
         }
         count.exact += 1;
-        let (f, s_lip, o) = exact(t);
+        let (f, s_lip, o, _) = sample(&kept, &pieced, t, true);
         let eps = eps_per_t * t * o;
         let in_shell = f.rho + f.grad.length() * eps >= 0.0;
         if f.rho >= 0.0 {
             let Some(mut a) = t_prev else {
-                return (
-                    Hit::Surface {
-                        t,
-                        pos: ray.at(t),
-                        normal: normal(f.grad, -ray.dir),
-                    },
-                    count,
-                );
+                result = Some(Hit::Surface {
+                    t,
+                    pos: ray.at(t),
+                    normal: normal(f.grad, -ray.dir),
+                });
+                break;
             };
             let mut b = t;
             for _ in 0..m.refine {
                 let mid = 0.5 * (a + b);
-                if exact(mid).0.rho >= 0.0 {
+                if sample(&kept, &pieced, mid, true).0.rho >= 0.0 {
                     b = mid;
                 } else {
                     a = mid;
                 }
             }
             let t_hit = 0.5 * (a + b);
-            let g = exact(t_hit).0.grad;
-            return (
-                Hit::Surface {
-                    t: t_hit,
-                    pos: ray.at(t_hit),
-                    normal: normal(g, -ray.dir),
-                },
-                count,
-            );
+            let g = sample(&kept, &pieced, t_hit, true).0.grad;
+            result = Some(Hit::Surface {
+                t: t_hit,
+                pos: ray.at(t_hit),
+                normal: normal(g, -ray.dir),
+            });
+            break;
         }
-        if let Some(te) = entry {
+        if entry.is_some() {
             if !in_shell {
-                return (Hit::Outline { t: te }, count);
+                break;
             }
         } else if in_shell {
             entry = Some(t);
@@ -1005,8 +1067,17 @@ fn march_kept(
         t_prev = Some(t);
         t += step;
     }
-    match entry {
-        Some(te) => (Hit::Outline { t: te }, count),
-        None => (Hit::Miss, count),
+    let hit = result.unwrap_or(match entry {
+        Some(te) => Hit::Outline { t: te },
+        None => Hit::Miss,
+    });
+    let decided = match hit {
+        Hit::Surface { t, .. } => t,
+        Hit::Outline { t } if eps_per_t > 0.0 => t,
+        _ => f64::INFINITY,
+    };
+    if over <= ray.t1 && decided >= over {
+        count.overflow = 1;
     }
+    (hit, count)
 }

@@ -17,7 +17,8 @@ use glam::{DMat4, DVec3};
 /// Spline and neighbour kernels.
 pub const CURVES: &str = wgsl!("common/chord.wgsl", "wisps/curves.wgsl");
 
-/// The ray march and toon shading.
+/// The ray march and toon shading, with `field::RAY_SLOTS` candidate slots per ray
+/// (`march_source` sets a scene's own).
 pub const MARCH: &str = wgsl!(
     "common/frame.wgsl",
     "common/shadow.wgsl",
@@ -25,6 +26,24 @@ pub const MARCH: &str = wgsl!(
     "wisps/march.wgsl",
     "wisps/toon.wgsl"
 );
+
+/// The march with `slots` candidate slots per ray (a constant: WGSL sizes private arrays
+/// only by constants).
+pub fn march_source(slots: u32) -> String {
+    let line = format!(
+        "const RAY_SLOTS: u32 = {}u;",
+        crate::systems::wisps::field::RAY_SLOTS
+    );
+    debug_assert!(MARCH.contains(&line));
+    MARCH.replace(&line, &format!("const RAY_SLOTS: u32 = {slots}u;"))
+}
+
+/// The slots `wisps` need at rest (`field::ray_slots`).
+pub fn scene_slots(wisps: &Wisps) -> u32 {
+    let segs = super::curve::drawn_segments(wisps);
+    let caps = super::curve::capsules(&segs, wisps.threshold);
+    crate::systems::wisps::field::ray_slots(&caps) as u32
+}
 
 /// The wisps' shadow cast (`stage::shadow`).
 pub const CAST: &str = wgsl!(
@@ -405,6 +424,9 @@ pub struct MarchPass {
     outline_max: f32,
     /// Count steps and candidates (benches; costs atomics per pixel).
     pub counting: bool,
+    /// Candidate slots per ray (`scene_slots`, or `set_slots`).
+    slots: u32,
+    variant: Variant,
 }
 
 impl MarchPass {
@@ -443,7 +465,8 @@ impl MarchPass {
                 gpu::storage_entry(9, fs, true),
             ],
         );
-        let module = gpu::shader_module(device, "wisps/march", MARCH)?;
+        let slots = scene_slots(wisps);
+        let module = gpu::shader_module(device, "wisps/march", &march_source(slots))?;
         let pipeline_layout =
             pipeline::pipeline_layout(device, "wisp march", &[frame_layout, &layout]);
         let uniform = device.create_buffer(&wgpu::BufferDescriptor {
@@ -465,7 +488,24 @@ impl MarchPass {
             outlines,
             outline_max,
             counting: false,
+            slots,
+            variant,
         })
+    }
+
+    /// Candidate slots per ray.
+    pub fn slots(&self) -> u32 {
+        self.slots
+    }
+
+    /// Rebuild the march with `slots` candidate slots per ray (benches and tests; a scene
+    /// gets `scene_slots`).
+    pub fn set_slots(&mut self, gpu: &Gpu, slots: u32) -> Result<()> {
+        let slots = slots.clamp(1, crate::systems::wisps::field::MAX_RAY_SLOTS as u32);
+        self.module = gpu::shader_module(&gpu.device, "wisps/march", &march_source(slots))?;
+        self.slots = slots;
+        self.set_variant(gpu, self.variant);
+        Ok(())
     }
 
     fn pipeline(
@@ -494,6 +534,7 @@ impl MarchPass {
 
     /// Rebuild the pipeline for another MSAA sample count or shadow lookup.
     pub fn set_variant(&mut self, gpu: &Gpu, variant: Variant) {
+        self.variant = variant;
         self.pipeline = Self::pipeline(
             &gpu.device,
             &self.module,
@@ -586,7 +627,11 @@ impl MarchPass {
 
     /// The last frame's counters; None before the first frame.
     pub fn read_stats(&self, gpu: &Gpu) -> Result<Option<MarchStats>> {
-        self.tiles().map(|t| t.read_stats(gpu)).transpose()
+        let stats = self.tiles().map(|t| t.read_stats(gpu)).transpose()?;
+        Ok(stats.map(|s| MarchStats {
+            slots: self.slots,
+            ..s
+        }))
     }
 }
 

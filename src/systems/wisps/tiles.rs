@@ -19,8 +19,7 @@ pub const TILES: &str = wgsl!("wisps/tiles.wgsl");
 /// Tile side in samples.
 pub const TILE: u32 = 16;
 
-/// Most segments one tile lists (more are counted as an overflow): a ray keeps at most
-/// `field::RAY_SLOTS` candidates anyway.
+/// Most segments one tile lists (more are counted as an overflow).
 pub const MAX_CAPACITY: u32 = 1024;
 
 /// Keep in sync with `View` in `shaders/wisps/tiles.wgsl` and `march.wgsl`.
@@ -44,8 +43,8 @@ const _: () = assert!(std::mem::size_of::<GpuMarchView>() == 192);
 /// What one frame of the march counted (`stats` in the shaders).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct MarchStats {
-    /// Rays whose answer lies beyond a candidate their full list dropped (a full list keeps
-    /// the `field::RAY_SLOTS` nearest).
+    /// Rays whose answer lies beyond a candidate their full list dropped (more candidates
+    /// touched the ray at once than `field::ray_slots` gave the scene).
     pub ray_overflow: u32,
     /// Tiles whose list overflowed its capacity.
     pub tile_overflow: u32,
@@ -59,6 +58,11 @@ pub struct MarchStats {
     pub rays: u32,
     /// Pixels the march drew: surface or outline (when counting).
     pub covered: u32,
+    /// The most candidates one ray had touching it at once where its list overflowed (the
+    /// slots it needed; 0 without overflow).
+    pub slots_needed: u32,
+    /// The slots the lists hold (`field::ray_slots`).
+    pub slots: u32,
 }
 
 impl MarchStats {
@@ -71,8 +75,8 @@ impl MarchStats {
     pub fn warning(&self) -> Option<String> {
         (!self.complete()).then(|| {
             format!(
-                "wisps: {} tile list(s) overflowed (most segments in a tile: {}), {} ray(s) reached a candidate their full list dropped: the image may miss wisp density",
-                self.tile_overflow, self.most_in_a_tile, self.ray_overflow
+                "wisps: {} tile list(s) overflowed (most segments in a tile: {}), {} ray(s) reached a candidate their full list dropped (a ray had {} candidates touching it at once, the lists hold {}): the image may miss wisp density",
+                self.tile_overflow, self.most_in_a_tile, self.ray_overflow, self.slots_needed, self.slots
             )
         })
     }
@@ -333,6 +337,8 @@ impl TilePass {
             candidates: s[4],
             rays: s[5],
             covered: s[6],
+            slots_needed: s[7],
+            slots: 0,
         })
     }
 
