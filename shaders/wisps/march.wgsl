@@ -59,15 +59,7 @@ struct Capsule {
     b: vec4<f32>,
 }
 
-// Keep in sync with GpuMarchView in src/systems/wisps/tiles.rs.
-struct View {
-    view_proj: mat4x4<f32>,
-    inv_view_proj: mat4x4<f32>,
-    eye: vec4<f32>,
-    size: vec4<f32>,
-    tiles: vec4<u32>,
-    flags: vec4<u32>,
-}
+// `View`: shaders/wisps/view.wgsl.
 
 @group(1) @binding(0) var<uniform> draw: Draw;
 @group(1) @binding(1) var<storage, read> segments: array<Segment>;
@@ -83,29 +75,6 @@ struct View {
 @group(1) @binding(9) var<storage, read> outlines: array<vec4<f32>>;
 
 const PIECES: u32 = 8u;
-
-struct VOut {
-    @builtin(position) pos: vec4<f32>,
-}
-
-// One quad per tile; an empty tile's is degenerate (nothing to rasterise).
-@vertex
-fn vs(@builtin(vertex_index) v: u32, @builtin(instance_index) tile: u32) -> VOut {
-    var out: VOut;
-    if (tile_counts[tile] == 0u) {
-        out.pos = vec4<f32>(-2.0, -2.0, 0.0, 1.0);
-        return out;
-    }
-    var quad = array<vec2<u32>, 6>(
-        vec2<u32>(0u, 0u), vec2<u32>(1u, 0u), vec2<u32>(0u, 1u),
-        vec2<u32>(0u, 1u), vec2<u32>(1u, 0u), vec2<u32>(1u, 1u),
-    );
-    let side = u32(view.size.z);
-    let corner = (vec2<u32>(tile % view.tiles.x, tile / view.tiles.x) + quad[v]) * side;
-    let px = min(vec2<f32>(corner), view.size.xy);
-    out.pos = vec4<f32>(px.x / view.size.x * 2.0 - 1.0, 1.0 - px.y / view.size.y * 2.0, 0.0, 1.0);
-    return out;
-}
 
 fn bez(s: Segment, t: f32) -> vec3<f32> {
     let u = 1.0 - t;
@@ -543,9 +512,10 @@ fn ray_capsule(o: vec3<f32>, d: vec3<f32>, a: vec3<f32>, b: vec3<f32>, r: f32) -
     return vec2<f32>(lo, hi);
 }
 
-struct FOut {
-    @location(0) color: vec4<f32>,
-    @builtin(frag_depth) depth: f32,
+// A pixel's march: its colour and depth (depth < 0: no wisp there).
+struct PixelOut {
+    color: vec4<f32>,
+    depth: f32,
 }
 
 fn depth_of(p: vec3<f32>) -> f32 {
@@ -651,12 +621,9 @@ fn gather(tile: u32, eye: vec3<f32>, dir: vec3<f32>, t_far: f32, t_from: f32, t_
     return t_drop;
 }
 
-@fragment
-fn fs(in: VOut) -> FOut {
-    let pix = vec2<u32>(in.pos.xy);
-    let side = u32(view.size.z);
-    let tile = (pix.y / side) * view.tiles.x + pix.x / side;
-    let ndc = vec2<f32>(in.pos.x / view.size.x * 2.0 - 1.0, 1.0 - in.pos.y / view.size.y * 2.0);
+// The march of the ray through the centre `pos` of a pixel of `tile`.
+fn march_pixel(pos: vec2<f32>, tile: u32) -> PixelOut {
+    let ndc = vec2<f32>(pos.x / view.size.x * 2.0 - 1.0, 1.0 - pos.y / view.size.y * 2.0);
     let fw = view.inv_view_proj * vec4<f32>(ndc, 1.0, 1.0);
     let eye = view.eye.xyz;
     let to = fw.xyz / fw.w - eye;
@@ -777,7 +744,7 @@ fn fs(in: VOut) -> FOut {
     if (over <= t_far && decided >= over) {
         atomicAdd(&stats[0], 1u);
     }
-    var out: FOut;
+    var out: PixelOut;
     if (hit) {
         var th = t;
         if (t_prev >= 0.0) {
@@ -818,5 +785,45 @@ fn fs(in: VOut) -> FOut {
         }
         return out;
     }
-    discard;
+    out.color = vec4<f32>(0.0);
+    out.depth = -1.0;
+    return out;
 }
+
+// The march's image, per sample of the target; the composite (`shaders/wisps/composite.wgsl`)
+// draws it into the scene with its depth.
+@group(1) @binding(10) var march_color: texture_storage_2d<rgba16float, write>;
+@group(1) @binding(11) var march_depth: texture_storage_2d<r32float, write>;
+
+// The march in fragments (`block::MarchOn`): one quad per tile some segment reaches (`vs`,
+// shaders/wisps/tile_quad.wgsl), each pixel marched once, writing its colour and depth in
+// the scene pass.
+@fragment
+fn fs(in: VOut) -> FOut {
+    let pix = vec2<u32>(in.pos.xy);
+    let side = u32(view.size.z);
+    let r = march_pixel(in.pos.xy, (pix.y / side) * view.tiles.x + pix.x / side);
+    if (r.depth < 0.0) {
+        discard;
+    }
+    return FOut(r.color, r.depth);
+}
+
+// The march in compute: one workgroup per screen tile (TILE = 16 samples a side), one
+// invocation per pixel; a tile no segment reaches is skipped whole (the composite does not
+// read it).
+@compute @workgroup_size(16, 16)
+fn march(@builtin(workgroup_id) wg: vec3<u32>, @builtin(local_invocation_id) lid: vec3<u32>) {
+    let tile = wg.y * view.tiles.x + wg.x;
+    if (tile_counts[tile] == 0u) {
+        return;
+    }
+    let pix = wg.xy * 16u + lid.xy;
+    if (f32(pix.x) >= view.size.x || f32(pix.y) >= view.size.y) {
+        return;
+    }
+    let r = march_pixel(vec2<f32>(pix) + vec2<f32>(0.5), tile);
+    textureStore(march_color, pix, r.color);
+    textureStore(march_depth, pix, vec4<f32>(r.depth, 0.0, 0.0, 0.0));
+}
+

@@ -682,6 +682,17 @@ impl Stage {
         if let Some(t) = self.timer.as_mut() {
             t.begin(enc, Phase::Draw);
         }
+        if self.systems.iter().any(|s| s.draws_in_compute()) {
+            // Pixels in compute: what the scene pass then composites by depth.
+            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("pixels in compute"),
+                timestamp_writes: None,
+            });
+            pass.set_bind_group(0, &self.frame_bind_group, &[]);
+            for s in &self.systems {
+                s.draw_compute(&mut pass);
+            }
+        }
         let bg = linear_rgb(self.scene.render.background);
         let clear = wgpu::Color {
             r: bg[0] as f64,

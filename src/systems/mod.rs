@@ -155,6 +155,13 @@ pub trait HairSystem {
     fn draw_opaque(&self, _pass: &mut wgpu::RenderPass<'_>) {}
     /// The hair, with per-sample coverage; group 0 (the frame) is bound.
     fn draw(&self, pass: &mut wgpu::RenderPass<'_>, view: &View);
+    /// Whether `draw` composites per-pixel work recorded by `draw_compute`.
+    fn draws_in_compute(&self) -> bool {
+        false
+    }
+    /// Per-pixel work of `draw` done in compute (the wisps' march), after the shadows and
+    /// before the scene pass; group 0 (the frame) is bound.
+    fn draw_compute(&self, _pass: &mut wgpu::ComputePass<'_>) {}
     /// Whether this frame's hair is drawn by a compute rasteriser (`splat`) instead of
     /// `draw`: the stage then keeps the scene depth and composites the accumulation.
     fn splats(&self) -> bool {

@@ -53,6 +53,31 @@ fn toon_shake_frame_16_snapshot() {
     .unwrap();
 }
 
+/// The march in compute (a hardware GPU's default, `block::MarchOn`) draws the image the
+/// march in fragments draws (the software adapter's default): the same march per pixel,
+/// its colour and depth composited by depth, with the head in front of the back hair.
+#[test]
+fn march_in_compute_draws_the_fragment_image() {
+    use kami::systems::wisps::block::MarchOn;
+    let on = |on: MarchOn| {
+        let mut s = one_sample("toon");
+        s.wisps.as_mut().unwrap().march.on = on;
+        render(&s, (160, 160))
+    };
+    let (compute, fragment) = (on(MarchOn::Compute), on(MarchOn::Fragment));
+    let differ = compute
+        .pixels()
+        .zip(fragment.pixels())
+        .filter(|(a, b)| (0..3).any(|c| a[c].abs_diff(b[c]) > 2))
+        .count();
+    let hair = fragment.pixels().filter(|p| is_hair(p)).count();
+    assert!(hair > 3000, "{hair} hair pixels");
+    assert_eq!(
+        differ, 0,
+        "{differ} pixels differ between the march in compute and in fragments"
+    );
+}
+
 fn is_skin(p: &image::Rgba<u8>) -> bool {
     // The toon head's skin (0.98, 0.86, 0.78) lit: red well above blue.
     p[0] as i32 - p[2] as i32 > 25

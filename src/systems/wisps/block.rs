@@ -112,6 +112,34 @@ pub struct March {
     /// and no more accurate, above 1 may skip thin wisps: for benches only).
     #[serde(default = "one")]
     pub step_scale: f64,
+    /// Where the march runs (the same march and image either way).
+    #[serde(default)]
+    pub on: MarchOn,
+}
+
+/// Where the wisps' march runs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum MarchOn {
+    /// A compute pass on a hardware GPU (one workgroup per screen tile; a GPU gives compute
+    /// far more of its chip than fragment work), fragments on a software adapter (whose
+    /// compute dispatch ran on one of its threads: 1.6 times slower, `docs/wisps.md`).
+    #[default]
+    Auto,
+    /// A compute pass writing colour and depth images, composited into the scene by depth.
+    Compute,
+    /// A fragment shader over the screen tiles, writing colour and depth in the scene pass.
+    Fragment,
+}
+
+impl MarchOn {
+    /// Whether the march runs in compute on an adapter of `device_type`.
+    pub fn compute(self, device_type: wgpu::DeviceType) -> bool {
+        match self {
+            MarchOn::Auto => device_type != wgpu::DeviceType::Cpu,
+            MarchOn::Compute => true,
+            MarchOn::Fragment => false,
+        }
+    }
 }
 
 fn default_max_steps() -> u32 {
@@ -128,6 +156,7 @@ impl Default for March {
             max_steps: default_max_steps(),
             refine: default_refine(),
             step_scale: 1.0,
+            on: MarchOn::Auto,
         }
     }
 }

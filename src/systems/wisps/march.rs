@@ -10,21 +10,30 @@ use crate::gpu::gpu_data::linear_rgb;
 use crate::gpu::pipeline::{self, DrawPipeline, Variant};
 use crate::gpu::{self, Gpu};
 use crate::shaders::wgsl;
-use crate::systems::wisps::block::{Distance, Tones, Wisps};
+use crate::systems::wisps::block::{Distance, MarchOn, Tones, Wisps};
 use bytemuck::{Pod, Zeroable};
 use glam::{DMat4, DVec3};
 
 /// Spline and neighbour kernels.
 pub const CURVES: &str = wgsl!("common/chord.wgsl", "wisps/curves.wgsl");
 
-/// The ray march and toon shading, with `field::RAY_SLOTS` candidate slots per ray
+/// The ray march and toon shading (compute), with `field::RAY_SLOTS` candidate slots per ray
 /// (`march_source` sets a scene's own).
 pub const MARCH: &str = wgsl!(
     "common/frame.wgsl",
     "common/shadow.wgsl",
     "common/chord.wgsl",
+    "wisps/view.wgsl",
     "wisps/march.wgsl",
+    "wisps/tile_quad.wgsl",
     "wisps/toon.wgsl"
+);
+
+/// The march's image drawn into the scene by depth.
+pub const COMPOSITE: &str = wgsl!(
+    "wisps/view.wgsl",
+    "wisps/composite.wgsl",
+    "wisps/tile_quad.wgsl"
 );
 
 /// The march with `slots` candidate slots per ray (a constant: WGSL sizes private arrays
@@ -408,15 +417,17 @@ impl CurvePass {
 }
 
 /// The ray-march draw: the tile lists (compute, each frame) and one quad per tile.
+/// The ray march: in compute (`march` in `shaders/wisps/march.wgsl`: one workgroup per screen
+/// tile, one invocation per pixel) writing colour and depth images that the composite
+/// (`shaders/wisps/composite.wgsl`) draws into the scene pass by depth; or in fragments
+/// (`fs` there) over the same tiles, writing colour and depth in the scene pass
+/// (`block::MarchOn`). The same march and image either way.
 pub struct MarchPass {
-    module: wgpu::ShaderModule,
-    pipeline_layout: wgpu::PipelineLayout,
-    layout: wgpu::BindGroupLayout,
-    format: wgpu::TextureFormat,
-    pipeline: wgpu::RenderPipeline,
+    modules: Modules,
+    drawn: Drawn,
     uniform: wgpu::Buffer,
-    /// Built at the first `prepare` (the tiles need the target size).
-    tiles: Option<(TilePass, wgpu::BindGroup)>,
+    /// Built at the first `prepare` (the tiles and the march's image need the target size).
+    tiles: Option<Sized>,
     segments: u32,
     /// Per segment: outline scale and u at its ends (`toon::segment_outlines`).
     outlines: wgpu::Buffer,
@@ -427,6 +438,188 @@ pub struct MarchPass {
     /// Candidate slots per ray (`scene_slots`, or `set_slots`).
     slots: u32,
     variant: Variant,
+}
+
+/// The march's and the composite's modules and layouts.
+struct Modules {
+    module: wgpu::ShaderModule,
+    /// Group 1 of the march in compute and in fragments.
+    layout: wgpu::BindGroupLayout,
+    frag_layout: wgpu::BindGroupLayout,
+    pipeline_layout: wgpu::PipelineLayout,
+    frag_pipeline_layout: wgpu::PipelineLayout,
+    composite_module: wgpu::ShaderModule,
+    composite_pipeline_layout: wgpu::PipelineLayout,
+    composite_layout: wgpu::BindGroupLayout,
+    format: wgpu::TextureFormat,
+}
+
+impl Modules {
+    /// The march's pipelines in compute or in fragments. The march compiles the shadow
+    /// lookup (it shades); the scene pass's draw takes the sample count.
+    fn pipelines(&self, device: &wgpu::Device, variant: Variant, compute: bool) -> Drawn {
+        let draw = |label, layout, module, fragment_entry| {
+            DrawPipeline {
+                label,
+                layout,
+                module,
+                vertex_entry: "vs",
+                fragment_entry,
+                topology: wgpu::PrimitiveTopology::TriangleList,
+                cull_mode: None,
+                vertex_buffers: &[],
+                blend: None,
+                format: self.format,
+                variant,
+                physical: None,
+            }
+            .build(device)
+        };
+        if !compute {
+            return Drawn::Fragment(draw(
+                "wisp march",
+                &self.frag_pipeline_layout,
+                &self.module,
+                "fs",
+            ));
+        }
+        let march = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("wisp march"),
+            layout: Some(&self.pipeline_layout),
+            module: &self.module,
+            entry_point: Some("march"),
+            compilation_options: wgpu::PipelineCompilationOptions {
+                constants: &variant.constants(None),
+                ..Default::default()
+            },
+            cache: None,
+        });
+        Drawn::Compute {
+            march,
+            composite: draw(
+                "wisp composite",
+                &self.composite_pipeline_layout,
+                &self.composite_module,
+                "fs",
+            ),
+        }
+    }
+}
+
+/// The pipelines of where the march runs.
+enum Drawn {
+    Compute {
+        march: wgpu::ComputePipeline,
+        composite: wgpu::RenderPipeline,
+    },
+    Fragment(wgpu::RenderPipeline),
+}
+
+/// What follows the target's size: the tile lists (and the march's images), with the groups.
+struct Sized {
+    tiles: TilePass,
+    groups: Groups,
+}
+
+enum Groups {
+    Compute {
+        march: wgpu::BindGroup,
+        composite: wgpu::BindGroup,
+    },
+    Fragment(wgpu::BindGroup),
+}
+
+/// The march's colour (linear, half floats) and depth images.
+const MARCH_COLOR: wgpu::TextureFormat = wgpu::TextureFormat::Rgba16Float;
+const MARCH_DEPTH: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
+
+const _: () = assert!(tiles::TILE == 16, "the march's workgroup is one 16x16 tile");
+
+fn storage_texture_entry(binding: u32, format: wgpu::TextureFormat) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::StorageTexture {
+            access: wgpu::StorageTextureAccess::WriteOnly,
+            format,
+            view_dimension: wgpu::TextureViewDimension::D2,
+        },
+        count: None,
+    }
+}
+
+fn read_texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: false },
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+fn march_image(
+    gpu: &Gpu,
+    label: &str,
+    format: wgpu::TextureFormat,
+    size: (u32, u32),
+) -> wgpu::TextureView {
+    gpu.device
+        .create_texture(&wgpu::TextureDescriptor {
+            label: Some(label),
+            size: wgpu::Extent3d {
+                width: size.0.max(1),
+                height: size.1.max(1),
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage: wgpu::TextureUsages::STORAGE_BINDING | wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        })
+        .create_view(&Default::default())
+}
+
+/// Group 1 of the march: the same ten buffers in compute and in fragments (tile counts and
+/// the view read by the tile quads too), and in compute the two images it writes.
+fn march_layout(device: &wgpu::Device, compute: bool) -> wgpu::BindGroupLayout {
+    let (all, quads) = if compute {
+        (wgpu::ShaderStages::COMPUTE, wgpu::ShaderStages::COMPUTE)
+    } else {
+        (
+            wgpu::ShaderStages::FRAGMENT,
+            wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT,
+        )
+    };
+    let mut entries = vec![
+        gpu::uniform_entry(0, all),
+        gpu::storage_entry(1, all, true),
+        gpu::storage_entry(2, all, true),
+        gpu::storage_entry(3, all, true),
+        gpu::storage_entry(4, quads, true),
+        gpu::storage_entry(5, all, true),
+        gpu::uniform_entry(6, quads),
+        gpu::storage_entry(7, all, false),
+        gpu::storage_entry(8, all, true),
+        gpu::storage_entry(9, all, true),
+    ];
+    if compute {
+        entries.push(storage_texture_entry(10, MARCH_COLOR));
+        entries.push(storage_texture_entry(11, MARCH_DEPTH));
+    }
+    pipeline::layout(device, "wisp march", &entries)
+}
+
+fn texture_entry(binding: u32, view: &wgpu::TextureView) -> wgpu::BindGroupEntry<'_> {
+    wgpu::BindGroupEntry {
+        binding,
+        resource: wgpu::BindingResource::TextureView(view),
+    }
 }
 
 impl MarchPass {
@@ -447,41 +640,57 @@ impl MarchPass {
             bytemuck::cast_slice(&seg_outlines),
             wgpu::BufferUsages::empty(),
         );
+        let slots = scene_slots(wisps);
         let vf = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
-        let fs = wgpu::ShaderStages::FRAGMENT;
-        let layout = pipeline::layout(
+        let composite_layout = pipeline::layout(
             device,
-            "wisp march",
+            "wisp composite",
             &[
-                gpu::uniform_entry(0, fs),
-                gpu::storage_entry(1, fs, true),
-                gpu::storage_entry(2, fs, true),
-                gpu::storage_entry(3, fs, true),
-                gpu::storage_entry(4, vf, true),
-                gpu::storage_entry(5, fs, true),
-                gpu::uniform_entry(6, vf),
-                gpu::storage_entry(7, fs, false),
-                gpu::storage_entry(8, fs, true),
-                gpu::storage_entry(9, fs, true),
+                gpu::storage_entry(0, vf, true),
+                gpu::uniform_entry(1, vf),
+                read_texture_entry(2),
+                read_texture_entry(3),
             ],
         );
-        let slots = scene_slots(wisps);
-        let module = gpu::shader_module(device, "wisps/march", &march_source(slots))?;
-        let pipeline_layout =
-            pipeline::pipeline_layout(device, "wisp march", &[frame_layout, &layout]);
+        let layout = march_layout(device, true);
+        let frag_layout = march_layout(device, false);
+        let modules = Modules {
+            module: gpu::shader_module(device, "wisps/march", &march_source(slots))?,
+            pipeline_layout: pipeline::pipeline_layout(
+                device,
+                "wisp march",
+                &[frame_layout, &layout],
+            ),
+            frag_pipeline_layout: pipeline::pipeline_layout(
+                device,
+                "wisp march",
+                &[frame_layout, &frag_layout],
+            ),
+            layout,
+            frag_layout,
+            composite_module: gpu::shader_module(device, "wisps/composite", COMPOSITE)?,
+            composite_pipeline_layout: pipeline::pipeline_layout(
+                device,
+                "wisp composite",
+                &[frame_layout, &composite_layout],
+            ),
+            composite_layout,
+            format,
+        };
+        let drawn = modules.pipelines(
+            device,
+            variant,
+            wisps.march.on.compute(gpu.info.device_type),
+        );
         let uniform = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("wisp draw"),
             size: std::mem::size_of::<GpuWispDraw>() as u64,
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let pipeline = Self::pipeline(device, &module, &pipeline_layout, format, variant);
         Ok(MarchPass {
-            module,
-            pipeline_layout,
-            layout,
-            format,
-            pipeline,
+            modules,
+            drawn,
             uniform,
             tiles: None,
             segments: curves.segment_count,
@@ -493,6 +702,29 @@ impl MarchPass {
         })
     }
 
+    /// Whether the march runs in compute.
+    pub fn in_compute(&self) -> bool {
+        matches!(self.drawn, Drawn::Compute { .. })
+    }
+
+    /// Rebuild the pipelines for another MSAA sample count or shadow lookup.
+    pub fn set_variant(&mut self, gpu: &Gpu, variant: Variant) {
+        self.variant = variant;
+        self.drawn = self
+            .modules
+            .pipelines(&gpu.device, variant, self.in_compute());
+    }
+
+    /// Run the march where `on` says on this adapter (the groups follow at the next
+    /// `prepare`).
+    pub fn set_on(&mut self, gpu: &Gpu, on: MarchOn) {
+        let compute = on.compute(gpu.info.device_type);
+        if compute != self.in_compute() {
+            self.drawn = self.modules.pipelines(&gpu.device, self.variant, compute);
+            self.tiles = None;
+        }
+    }
+
     /// Candidate slots per ray.
     pub fn slots(&self) -> u32 {
         self.slots
@@ -502,46 +734,10 @@ impl MarchPass {
     /// gets `scene_slots`).
     pub fn set_slots(&mut self, gpu: &Gpu, slots: u32) -> Result<()> {
         let slots = slots.clamp(1, crate::systems::wisps::field::MAX_RAY_SLOTS as u32);
-        self.module = gpu::shader_module(&gpu.device, "wisps/march", &march_source(slots))?;
+        self.modules.module = gpu::shader_module(&gpu.device, "wisps/march", &march_source(slots))?;
         self.slots = slots;
         self.set_variant(gpu, self.variant);
         Ok(())
-    }
-
-    fn pipeline(
-        device: &wgpu::Device,
-        module: &wgpu::ShaderModule,
-        layout: &wgpu::PipelineLayout,
-        format: wgpu::TextureFormat,
-        variant: Variant,
-    ) -> wgpu::RenderPipeline {
-        DrawPipeline {
-            label: "wisp march",
-            layout,
-            module,
-            vertex_entry: "vs",
-            fragment_entry: "fs",
-            topology: wgpu::PrimitiveTopology::TriangleList,
-            cull_mode: None,
-            vertex_buffers: &[],
-            blend: None,
-            format,
-            variant,
-            physical: None,
-        }
-        .build(device)
-    }
-
-    /// Rebuild the pipeline for another MSAA sample count or shadow lookup.
-    pub fn set_variant(&mut self, gpu: &Gpu, variant: Variant) {
-        self.variant = variant;
-        self.pipeline = Self::pipeline(
-            &gpu.device,
-            &self.module,
-            &self.pipeline_layout,
-            self.format,
-            variant,
-        );
     }
 
     pub fn write(&self, gpu: &Gpu, uniform: &GpuWispDraw) {
@@ -562,7 +758,7 @@ impl MarchPass {
         if self
             .tiles
             .as_ref()
-            .is_none_or(|(t, _)| t.samples != view.samples)
+            .is_none_or(|t| t.tiles.samples != view.samples)
         {
             let tp = TilePass::new(
                 gpu,
@@ -571,28 +767,58 @@ impl MarchPass {
                 self.segments,
                 view.samples,
             )?;
-            let bg = pipeline::bind_buffers(
-                &gpu.device,
-                "wisp march",
-                &self.layout,
-                &[
-                    &self.uniform,
-                    &curves.segments,
-                    &curves.capsules,
-                    &tp.shells,
-                    &tp.counts,
-                    &tp.lists,
-                    &tp.view,
-                    &tp.stats,
-                    &curves.pieces,
-                    &self.outlines,
-                ],
-            );
-            self.tiles = Some((tp, bg));
+            let buffers = [
+                &self.uniform,
+                &curves.segments,
+                &curves.capsules,
+                &tp.shells,
+                &tp.counts,
+                &tp.lists,
+                &tp.view,
+                &tp.stats,
+                &curves.pieces,
+                &self.outlines,
+            ];
+            let mut entries: Vec<wgpu::BindGroupEntry> = buffers
+                .iter()
+                .enumerate()
+                .map(|(i, b)| gpu::entry(i as u32, b))
+                .collect();
+            let m = &self.modules;
+            let group = |layout, entries: &[wgpu::BindGroupEntry], label| {
+                gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some(label),
+                    layout,
+                    entries,
+                })
+            };
+            let groups = if self.in_compute() {
+                let color = march_image(gpu, "wisp march colour", MARCH_COLOR, view.samples);
+                let depth = march_image(gpu, "wisp march depth", MARCH_DEPTH, view.samples);
+                entries.push(texture_entry(10, &color));
+                entries.push(texture_entry(11, &depth));
+                Groups::Compute {
+                    march: group(&m.layout, &entries, "wisp march"),
+                    composite: group(
+                        &m.composite_layout,
+                        &[
+                            gpu::entry(0, &tp.counts),
+                            gpu::entry(1, &tp.view),
+                            texture_entry(2, &color),
+                            texture_entry(3, &depth),
+                        ],
+                        "wisp composite",
+                    ),
+                }
+            } else {
+                Groups::Fragment(group(&m.frag_layout, &entries, "wisp march"))
+            };
+            self.tiles = Some(Sized { tiles: tp, groups });
         }
-        let Some((tp, _)) = &self.tiles else {
+        let Some(sized) = &self.tiles else {
             return Ok(());
         };
+        let tp = &sized.tiles;
         // Outline shell half-width per unit distance: outline pixels at the focal length in
         // samples, times samples per output pixel.
         let eps_per_t = outline_px * view.samples_per_px.max(1.0) / view.focal_samples;
@@ -610,19 +836,43 @@ impl MarchPass {
         Ok(())
     }
 
-    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>) {
-        let Some((tp, bg)) = &self.tiles else {
+    /// The march in compute, after the shadows (group 0, the frame, is bound); nothing when
+    /// it runs in fragments.
+    pub fn march(&self, pass: &mut wgpu::ComputePass<'_>) {
+        let (Some(sized), Drawn::Compute { march, .. }) = (&self.tiles, &self.drawn) else {
             return;
         };
-        let (tx, ty) = tp.grid();
-        pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(1, bg, &[]);
+        let Groups::Compute { march: group, .. } = &sized.groups else {
+            return;
+        };
+        let (tx, ty) = sized.tiles.grid();
+        pass.set_pipeline(march);
+        pass.set_bind_group(1, group, &[]);
+        pass.dispatch_workgroups(tx, ty, 1);
+    }
+
+    /// In the scene pass, one quad per tile some segment reaches: the composite of the march
+    /// in compute, or the march in fragments.
+    pub fn draw(&self, pass: &mut wgpu::RenderPass<'_>) {
+        let Some(sized) = &self.tiles else {
+            return;
+        };
+        let (pipeline, group) = match (&self.drawn, &sized.groups) {
+            (Drawn::Compute { composite, .. }, Groups::Compute { composite: g, .. }) => {
+                (composite, g)
+            }
+            (Drawn::Fragment(p), Groups::Fragment(g)) => (p, g),
+            _ => return,
+        };
+        let (tx, ty) = sized.tiles.grid();
+        pass.set_pipeline(pipeline);
+        pass.set_bind_group(1, group, &[]);
         pass.draw(0..6, 0..tx * ty);
     }
 
     /// The tile pass of the last frame (tests, benches).
     pub fn tiles(&self) -> Option<&TilePass> {
-        self.tiles.as_ref().map(|(t, _)| t)
+        self.tiles.as_ref().map(|t| &t.tiles)
     }
 
     /// The last frame's counters; None before the first frame.

@@ -75,6 +75,7 @@ pub const KIND: Kind = Kind {
     shaders: &[
         ("wisps/curves", march::CURVES),
         ("wisps/march", march::MARCH),
+        ("wisps/composite", march::COMPOSITE),
         ("wisps/cast", march::CAST),
         // The toon shading is compiled inside the march module.
         ("wisps/toon", march::MARCH),
@@ -339,6 +340,14 @@ impl HairSystem for WispsSystem {
 
     fn draw(&self, _pass: &mut wgpu::RenderPass<'_>, _view: &View) {}
 
+    fn draws_in_compute(&self) -> bool {
+        self.draw.in_compute()
+    }
+
+    fn draw_compute(&self, pass: &mut wgpu::ComputePass<'_>) {
+        self.draw.march(pass);
+    }
+
     fn casts(&self) -> bool {
         true
     }
@@ -374,6 +383,7 @@ impl HairSystem for WispsSystem {
         }
         if let (Change::Redraw | Change::Resimulate, Some(w)) = (change, &scene.wisps) {
             self.wisps.toon = w.toon.clone();
+            self.draw.set_on(gpu, w.march.on);
             self.wisps.march = w.march;
             self.wisps.threshold = w.threshold;
         }

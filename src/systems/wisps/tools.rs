@@ -3,6 +3,7 @@
 //! 3D view and the keys, the skeleton overlay, and the wisps' `--set` keys. The viewer
 //! hosts it as a `KindUi` and knows none of it.
 
+use super::block::MarchOn;
 use super::edit::{self, Editor};
 use super::panel;
 use crate::error::Result;
@@ -36,7 +37,8 @@ impl KindUi for WispsUi {
     }
 
     /// `wisps.edit=on|off` (the mouse mode and overlay), `wisps.max_steps=N` (the ray
-    /// march's step budget: cheap previews), the Toon panel's controls
+    /// march's step budget: cheap previews), `wisps.march_on=auto|compute|fragment` (where
+    /// the march runs, `block::MarchOn`), the Toon panel's controls
     /// `wisps.toon.NAME=VALUE` and the outline scales `wisps.outline[.N]=S`
     /// (`panel::set_key`).
     fn set(
@@ -52,6 +54,18 @@ impl KindUi for WispsUi {
                 scene.wisps.as_mut().ok_or_else(none)?.march.max_steps = n;
                 Ok(())
             }),
+            "wisps.march_on" => {
+                let on = match value.map(str::trim) {
+                    Some("auto") => Ok(MarchOn::Auto),
+                    Some("compute") => Ok(MarchOn::Compute),
+                    Some("fragment") => Ok(MarchOn::Fragment),
+                    v => Err(format!("expected auto, compute or fragment, not {v:?}")),
+                };
+                on.and_then(|on| {
+                    scene.wisps.as_mut().ok_or_else(none)?.march.on = on;
+                    Ok(())
+                })
+            }
             k if k.starts_with("wisps.toon.") || k.starts_with("wisps.outline") => {
                 let w = scene.wisps.as_mut().ok_or_else(none);
                 w.and_then(|w| panel::set_key(w, key, value.ok_or("expected KEY=VALUE")?))
