@@ -162,6 +162,95 @@ pub fn march_frame(gpu: &Gpu, scene: &Scene, size: (u32, u32), frames: u32) -> R
     })
 }
 
+/// Wisp counts of the sweep (`with_count`: `toon.ron`'s 22 multiplied).
+pub const COUNTS: [usize; 3] = [22, 88, 200];
+
+/// Frame sizes of the sweep: 3840x2160 on a hardware GPU only (minutes a frame on two CPU
+/// cores).
+pub fn sweep_sizes(software: bool) -> &'static [(u32, u32)] {
+    if software {
+        &[(1280, 720), (1920, 1080)]
+    } else {
+        &[(1280, 720), (1920, 1080), (3840, 2160)]
+    }
+}
+
+/// Every wisp count at every sweep size, the march in fragments and in compute
+/// (`block::MarchOn`): ms per frame, fps, steps and candidates per ray, the ray slots and
+/// what overflowed. One timed frame each on the software adapter (seconds a frame), at most
+/// three on a GPU.
+fn sweep(gpu: &Gpu, scene: &Scene, frames: u32, md: &mut String, csv: &mut String) -> Result<()> {
+    use crate::systems::wisps::block::MarchOn;
+    let software = gpu.info.device_type == wgpu::DeviceType::Cpu;
+    let frames = if software { 1 } else { frames.min(3) };
+    writeln!(
+        md,
+        "\n## Wisp counts, sizes and where the march runs\n\n`toon.ron`'s wisps multiplied \
+         (`bench::wisps::with_count`), one sample per pixel, mean of {frames} frame(s) after \
+         a warm-up. Fragment: the march in a fragment shader over the screen tiles; compute: \
+         one workgroup per tile writing colour and depth images, composited into the scene \
+         by depth (`wisps.march.on`; Auto takes compute on a hardware GPU, fragments on a \
+         software adapter). A frame is the tile binning, the march and its composite.\n"
+    )
+    .ok();
+    writeln!(
+        md,
+        "| wisps | size | fragment ms | fps | compute ms | fps | compute / fragment | steps per ray | candidates per ray | ray slots | overflows |"
+    )
+    .ok();
+    writeln!(md, "|---|---|---|---|---|---|---|---|---|---|---|").ok();
+    for &count in &COUNTS {
+        let base = with_count(scene, count);
+        for &size in sweep_sizes(software) {
+            let mut ms = [0.0; 2];
+            let mut counted = MarchFrame {
+                ms: 0.0,
+                stats: MarchStats::default(),
+            };
+            for (i, on) in [MarchOn::Fragment, MarchOn::Compute].into_iter().enumerate() {
+                let mut s = base.clone();
+                if let Some(w) = s.wisps.as_mut() {
+                    w.march.on = on;
+                }
+                let f = march_frame(gpu, &s, size, frames)?;
+                ms[i] = f.ms;
+                counted = f;
+                writeln!(
+                    csv,
+                    "sweep,{count},,{}x{},{},{:.3},,,{:.3},{:.3},{:.4},{},",
+                    size.0,
+                    size.1,
+                    if i == 0 { "fragment" } else { "compute" },
+                    f.ms,
+                    f.steps_per_ray(),
+                    f.candidates_per_ray(),
+                    f.us_per_covered(),
+                    f.stats.most_in_a_tile
+                )
+                .ok();
+            }
+            let st = counted.stats;
+            writeln!(
+                md,
+                "| {count} | {}x{} | {:.1} | {:.1} | {:.1} | {:.1} | {:.2} | {:.1} | {:.1} | {} | {} |",
+                size.0,
+                size.1,
+                ms[0],
+                1e3 / ms[0],
+                ms[1],
+                1e3 / ms[1],
+                ms[1] / ms[0],
+                counted.steps_per_ray(),
+                counted.candidates_per_ray(),
+                st.slots,
+                st.ray_overflow + st.tile_overflow
+            )
+            .ok();
+        }
+    }
+    Ok(())
+}
+
 /// The report of the march before the tiled march (the per-box march with 64-slot
 /// neighbour lists), written by this bench at commit cf4fdeb and kept beside the report.
 pub const BEFORE: &str = "wisps_before.csv";
@@ -354,6 +443,7 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
         view.stats.most_in_a_tile
     )
     .ok();
+    sweep(gpu, &scene, frames, &mut md, &mut csv)?;
     let cost_plot = plot::loglog(
         "Toon wisps: ray march per frame",
         "pixels",
