@@ -11,6 +11,7 @@ pub mod springs;
 use super::{provenance, time_mean, write_report, Report};
 use crate::bench::plot::{self, Series};
 use crate::error::Result;
+use crate::gpu::timing::{PassTimes, Phase};
 use crate::gpu::Gpu;
 use crate::stage::{self, target, Quality, Stage};
 use crate::systems::wisps::block::{Distance, Skeleton};
@@ -79,16 +80,22 @@ struct Timed {
     stage: Stage,
     out: target::Offscreen,
     size: (u32, u32),
+    /// GPU times of the frames drawn since the last `take_times` (where the adapter has
+    /// timestamps).
+    times: Vec<PassTimes>,
 }
 
 impl Timed {
     fn new(gpu: &Gpu, scene: &Scene, size: (u32, u32)) -> Result<Timed> {
         stage::check_limits(gpu, scene, size)?;
         let quality = Quality::new(1, 1);
+        let mut stage = Stage::new(gpu, scene, target::OUTPUT_FORMAT, quality)?;
+        stage.enable_timing(gpu);
         Ok(Timed {
-            stage: Stage::new(gpu, scene, target::OUTPUT_FORMAT, quality)?,
+            stage,
             out: target::Offscreen::new(gpu, size)?,
             size,
+            times: Vec::new(),
         })
     }
 
@@ -101,8 +108,38 @@ impl Timed {
             });
         self.stage
             .render(gpu, &mut enc, &self.out.view, self.size, &look)?;
+        let Some(timer) = self.stage.timer() else {
+            gpu.queue.submit([enc.finish()]);
+            return gpu.wait();
+        };
+        timer.clear();
+        timer.finish(&mut enc);
         gpu.queue.submit([enc.finish()]);
-        gpu.wait()
+        timer.submitted();
+        if let Some(t) = timer.wait(gpu)? {
+            self.times.push(t);
+        }
+        Ok(())
+    }
+
+    /// The mean GPU milliseconds of the frames since the last call, per phase: generation
+    /// (the curve kernels and the tile binning), draw (the march, and the scene pass with
+    /// its composite), resolve, and the frame from first to last timestamp.
+    fn take_times(&mut self) -> Option<[f64; 4]> {
+        let times = std::mem::take(&mut self.times);
+        if times.is_empty() {
+            return None;
+        }
+        let n = times.len() as f64;
+        let mean = |f: &dyn Fn(&PassTimes) -> Option<f64>| {
+            times.iter().map(|t| f(t).unwrap_or(0.0)).sum::<f64>() / n
+        };
+        Some([
+            mean(&|t| t.get(Phase::Generation)),
+            mean(&|t| t.get(Phase::Draw)),
+            mean(&|t| t.get(Phase::Resolve)),
+            mean(&|t| t.frame),
+        ])
     }
 
     fn image(&mut self, gpu: &Gpu) -> Result<RgbaImage> {
@@ -132,6 +169,9 @@ pub struct MarchFrame {
     /// CPU wall milliseconds per drawn frame (submit to wait), mean after a warm-up.
     pub ms: f64,
     pub stats: MarchStats,
+    /// GPU milliseconds of the timed frames (`Timed::take_times`), where the adapter has
+    /// timestamps: generation (binning), draw (march and composite), resolve, frame.
+    pub gpu_ms: Option<[f64; 4]>,
 }
 
 impl MarchFrame {
@@ -154,11 +194,15 @@ impl MarchFrame {
 /// count one more.
 pub fn march_frame(gpu: &Gpu, scene: &Scene, size: (u32, u32), frames: u32) -> Result<MarchFrame> {
     let mut t = Timed::new(gpu, scene, size)?;
+    t.frame(gpu)?;
+    t.take_times();
     let secs = time_mean(frames, || t.frame(gpu))?;
+    let gpu_ms = t.take_times();
     let stats = t.counted(gpu)?;
     Ok(MarchFrame {
         ms: secs * 1e3,
         stats,
+        gpu_ms,
     })
 }
 
@@ -195,10 +239,10 @@ fn sweep(gpu: &Gpu, scene: &Scene, frames: u32, md: &mut String, csv: &mut Strin
     .ok();
     writeln!(
         md,
-        "| wisps | size | fragment ms | fps | compute ms | fps | compute / fragment | steps per ray | candidates per ray | ray slots | overflows |"
+        "| wisps | size | fragment ms | fps | compute ms | fps | compute / fragment | compute on the GPU: binning / march and composite / resolve / frame ms | steps per ray | candidates per ray | ray slots | overflows |"
     )
     .ok();
-    writeln!(md, "|---|---|---|---|---|---|---|---|---|---|---|").ok();
+    writeln!(md, "|---|---|---|---|---|---|---|---|---|---|---|---|").ok();
     for &count in &COUNTS {
         let base = with_count(scene, count);
         for &size in sweep_sizes(software) {
@@ -206,6 +250,7 @@ fn sweep(gpu: &Gpu, scene: &Scene, frames: u32, md: &mut String, csv: &mut Strin
             let mut counted = MarchFrame {
                 ms: 0.0,
                 stats: MarchStats::default(),
+                gpu_ms: None,
             };
             for (i, on) in [MarchOn::Fragment, MarchOn::Compute].into_iter().enumerate() {
                 let mut s = base.clone();
@@ -230,9 +275,12 @@ fn sweep(gpu: &Gpu, scene: &Scene, frames: u32, md: &mut String, csv: &mut Strin
                 .ok();
             }
             let st = counted.stats;
+            let split = counted.gpu_ms.map_or("no timestamps".into(), |g| {
+                format!("{:.2} / {:.2} / {:.2} / {:.2}", g[0], g[1], g[2], g[3])
+            });
             writeln!(
                 md,
-                "| {count} | {}x{} | {:.1} | {:.1} | {:.1} | {:.1} | {:.2} | {:.1} | {:.1} | {} | {} |",
+                "| {count} | {}x{} | {:.1} | {:.1} | {:.1} | {:.1} | {:.2} | {split} | {:.1} | {:.1} | {} | {} |",
                 size.0,
                 size.1,
                 ms[0],
