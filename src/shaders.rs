@@ -30,7 +30,11 @@ pub const STAGE: &[(&str, &str)] = &[
     ("stage/head", HEAD),
     ("stage/downsample", DOWNSAMPLE),
     ("stage/shadow", SHADOW),
+    ("stage/bandwidth", BANDWIDTH),
 ];
+
+/// `kami bench scale`'s bandwidth probe: a vec4 streaming copy in compute.
+pub const BANDWIDTH: &str = wgsl!("stage/bandwidth.wgsl");
 
 /// The shadow pass's resolve and probe (`stage::shadow`).
 pub const SHADOW: &str = wgsl!(

@@ -252,7 +252,10 @@ fn sweep(gpu: &Gpu, scene: &Scene, frames: u32, md: &mut String, csv: &mut Strin
                 stats: MarchStats::default(),
                 gpu_ms: None,
             };
-            for (i, on) in [MarchOn::Fragment, MarchOn::Compute].into_iter().enumerate() {
+            for (i, on) in [MarchOn::Fragment, MarchOn::Compute]
+                .into_iter()
+                .enumerate()
+            {
                 let mut s = base.clone();
                 if let Some(w) = s.wisps.as_mut() {
                     w.march.on = on;
