@@ -295,7 +295,7 @@ fn stream_bandwidth(gpu: &Gpu, timed: bool, bytes: u64) -> Result<f64> {
     let lim = gpu.device.limits();
     let bytes = (bytes
         .min(lim.max_buffer_size)
-        .min(u64::from(lim.max_storage_buffer_binding_size)))
+        .min(lim.max_storage_buffer_binding_size))
         / 16
         * 16;
     let device = &gpu.device;
