@@ -234,6 +234,46 @@ fn wall_ms(
     Ok(t.elapsed().as_secs_f64() * 1e3)
 }
 
+/// The least milliseconds of `runs` submissions of what `record` records: between
+/// timestamps where `timed`, else around a wait.
+fn best_ms(
+    gpu: &Gpu,
+    timed: bool,
+    runs: u32,
+    record: impl Fn(&mut wgpu::CommandEncoder),
+) -> Result<f64> {
+    let mut timer = if timed { GpuTimer::new(gpu) } else { None };
+    let mut best = f64::INFINITY;
+    for _ in 0..runs {
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        let t = Instant::now();
+        if let Some(tm) = timer.as_mut() {
+            tm.clear();
+            tm.begin(&mut enc, Phase::Simulation);
+        }
+        record(&mut enc);
+        if let Some(tm) = timer.as_mut() {
+            tm.end(&mut enc, Phase::Simulation);
+            tm.finish(&mut enc);
+        }
+        gpu.queue.submit([enc.finish()]);
+        let ms = match timer.as_mut() {
+            Some(tm) => {
+                tm.submitted();
+                tm.wait(gpu)?
+                    .and_then(|t| t.get(Phase::Simulation))
+                    .unwrap_or(f64::NAN)
+            }
+            None => {
+                gpu.wait()?;
+                t.elapsed().as_secs_f64() * 1e3
+            }
+        };
+        best = best.min(ms);
+    }
+    Ok(best)
+}
+
 /// Copy bandwidth of this device (bytes read + written per second): a large buffer copied
 /// into another, timed the same way as the passes.
 fn copy_bandwidth(gpu: &Gpu, timed: bool, bytes: u64) -> Result<f64> {
@@ -253,36 +293,9 @@ fn copy_bandwidth(gpu: &Gpu, timed: bool, bytes: u64) -> Result<f64> {
     enc.clear_buffer(&src, 0, None);
     gpu.queue.submit([enc.finish()]);
     gpu.wait()?;
-    let mut timer = if timed { GpuTimer::new(gpu) } else { None };
-    let mut best = Vec::new();
-    for _ in 0..5 {
-        let mut enc = gpu.device.create_command_encoder(&Default::default());
-        let t = Instant::now();
-        if let Some(tm) = timer.as_mut() {
-            tm.clear();
-            tm.begin(&mut enc, Phase::Simulation);
-        }
-        enc.copy_buffer_to_buffer(&src, 0, &dst, 0, bytes);
-        if let Some(tm) = timer.as_mut() {
-            tm.end(&mut enc, Phase::Simulation);
-            tm.finish(&mut enc);
-        }
-        gpu.queue.submit([enc.finish()]);
-        let ms = match timer.as_mut() {
-            Some(tm) => {
-                tm.submitted();
-                tm.wait(gpu)?
-                    .and_then(|t| t.get(Phase::Simulation))
-                    .unwrap_or(f64::NAN)
-            }
-            None => {
-                gpu.wait()?;
-                t.elapsed().as_secs_f64() * 1e3
-            }
-        };
-        best.push(ms);
-    }
-    let ms = best.into_iter().fold(f64::INFINITY, f64::min);
+    let ms = best_ms(gpu, timed, 5, |enc| {
+        enc.copy_buffer_to_buffer(&src, 0, &dst, 0, bytes)
+    })?;
     Ok(2.0 * bytes as f64 / (ms * 1e-3))
 }
 
@@ -330,40 +343,12 @@ fn stream_bandwidth(gpu: &Gpu, timed: bool, bytes: u64) -> Result<f64> {
     enc.clear_buffer(&src, 0, None);
     gpu.queue.submit([enc.finish()]);
     gpu.wait()?;
-    let mut timer = if timed { GpuTimer::new(gpu) } else { None };
-    let mut best = f64::INFINITY;
-    for _ in 0..6 {
-        let mut enc = device.create_command_encoder(&Default::default());
-        let t = Instant::now();
-        if let Some(tm) = timer.as_mut() {
-            tm.clear();
-            tm.begin(&mut enc, Phase::Simulation);
-        }
-        {
-            let mut pass = enc.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&pipeline);
-            pass.set_bind_group(0, &group, &[]);
-            pass.dispatch_workgroups(x, y, 1);
-        }
-        if let Some(tm) = timer.as_mut() {
-            tm.end(&mut enc, Phase::Simulation);
-            tm.finish(&mut enc);
-        }
-        gpu.queue.submit([enc.finish()]);
-        let ms = match timer.as_mut() {
-            Some(tm) => {
-                tm.submitted();
-                tm.wait(gpu)?
-                    .and_then(|t| t.get(Phase::Simulation))
-                    .unwrap_or(f64::NAN)
-            }
-            None => {
-                gpu.wait()?;
-                t.elapsed().as_secs_f64() * 1e3
-            }
-        };
-        best = best.min(ms);
-    }
+    let best = best_ms(gpu, timed, 6, |enc| {
+        let mut pass = enc.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &group, &[]);
+        pass.dispatch_workgroups(x, y, 1);
+    })?;
     Ok(2.0 * bytes as f64 / (best * 1e-3))
 }
 
