@@ -1,7 +1,10 @@
-// Toon wisps drawn by ray marching the blobby surface (Sakai section 5), each pixel once.
-// One quad per screen tile that some segment's influence reaches (`shaders/wisps/tiles.wgsl`
-// lists them); a pixel takes the ray through its centre, keeps the tile's segments whose
-// influence capsule the ray crosses (their influence and shell intervals along it), and
+// Toon wisps drawn by ray marching the blobby surface (Sakai section 5), each pixel once,
+// over the screen tiles some segment's influence reaches (`shaders/wisps/tiles.wgsl` lists
+// them): in compute (`march`, one workgroup per tile, colour and depth to images that
+// `shaders/wisps/composite.wgsl` draws into the scene) or in fragments (`fs`, one quad per
+// tile), `block::MarchOn`. A pixel takes the ray through its centre, keeps a window of the
+// tile's segments whose influence capsule the ray crosses (their influence and shell
+// intervals along it; `gather`), and
 // marches front to back only inside shell intervals (hit capsules grown by the outline):
 // outside them no point is inside the surface or its outline, so the ray jumps the gaps.
 // At each sample the field sums only the candidates whose influence interval holds t, and a
