@@ -278,9 +278,15 @@ fn sweep(gpu: &Gpu, scene: &Scene, frames: u32, md: &mut String, csv: &mut Strin
                 .ok();
             }
             let st = counted.stats;
-            let split = counted.gpu_ms.map_or("no timestamps".into(), |g| {
-                format!("{:.2} / {:.2} / {:.2} / {:.2}", g[0], g[1], g[2], g[3])
-            });
+            // A software adapter's timestamps miss its compute work (`bench scale` found
+            // the simulation's time in later phases): no split there.
+            let split = match counted.gpu_ms {
+                Some(g) if !software => {
+                    format!("{:.2} / {:.2} / {:.2} / {:.2}", g[0], g[1], g[2], g[3])
+                }
+                Some(_) => "— (software adapter)".into(),
+                None => "no timestamps".into(),
+            };
             writeln!(
                 md,
                 "| {count} | {}x{} | {:.1} | {:.1} | {:.1} | {:.1} | {:.2} | {split} | {:.1} | {:.1} | {} | {} |",
