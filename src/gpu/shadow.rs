@@ -114,16 +114,10 @@ const _: () = assert!(std::mem::size_of::<GpuShadow>() == 176);
 /// [`ROW`] words a row. Not a second uniform: one more uniform in group 0 crashed lavapipe
 /// (Mesa 22.3) in the wisps' draws.
 pub fn read_entry() -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding: 1,
-        visibility: wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Float { filterable: false },
-            view_dimension: wgpu::TextureViewDimension::D2,
-            multisampled: false,
-        },
-        count: None,
-    }
+    gpu::texture_entry(
+        1,
+        wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
+    )
 }
 
 /// Group 2 of a cast pipeline: the coverage being cast (read-write) and the phase.

@@ -178,16 +178,7 @@ impl DownsamplePass {
             device,
             "downsample",
             &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
+                gpu::texture_entry(0, wgpu::ShaderStages::FRAGMENT),
                 gpu::uniform_entry(1, wgpu::ShaderStages::FRAGMENT),
                 gpu::storage_entry(2, wgpu::ShaderStages::FRAGMENT, true),
             ],

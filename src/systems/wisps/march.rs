@@ -548,19 +548,6 @@ fn storage_texture_entry(binding: u32, format: wgpu::TextureFormat) -> wgpu::Bin
     }
 }
 
-fn read_texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::FRAGMENT,
-        ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Float { filterable: false },
-            view_dimension: wgpu::TextureViewDimension::D2,
-            multisampled: false,
-        },
-        count: None,
-    }
-}
-
 fn march_image(
     gpu: &Gpu,
     label: &str,
@@ -648,8 +635,8 @@ impl MarchPass {
             &[
                 gpu::storage_entry(0, vf, true),
                 gpu::uniform_entry(1, vf),
-                read_texture_entry(2),
-                read_texture_entry(3),
+                gpu::texture_entry(2, wgpu::ShaderStages::FRAGMENT),
+                gpu::texture_entry(3, wgpu::ShaderStages::FRAGMENT),
             ],
         );
         let layout = march_layout(device, true);
