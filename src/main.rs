@@ -862,18 +862,17 @@ fn run(cli: Cli) -> Result<()> {
             if !scale.is_finite() || scale <= 0.0 {
                 bail!("--scale {scale}: use a positive number");
             }
-            if kami::formats::Format::of(&output) == Some(kami::formats::Format::Abc) {
-                bail!(
-                    "{}: Kami reads Alembic but does not write it; write `.usda`, `.hair` or `.obj`",
-                    output.display()
-                );
-            }
-            if kami::formats::Format::of(&output).is_none() {
-                bail!(
+            match kami::formats::Format::of(&output) {
+                None => bail!(
                     "{}: not a strand format Kami writes; use {}",
                     output.display(),
                     kami::formats::EXTENSIONS
-                );
+                ),
+                Some(f) => {
+                    if let Some(why) = f.read_only() {
+                        bail!("{}: {why}", output.display());
+                    }
+                }
             }
             let is_scene = input
                 .extension()

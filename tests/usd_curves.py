@@ -4,6 +4,8 @@ Blender and Maya do, and print what Kami must make of them, for tests/it/usd_cur
 usage: usd_curves.py mixed OUT.usda   every basis and wrap, nested transforms, metres, z up
        usd_curves.py single OUT.usda  one catmullRom groom (kept cubic by Kami)
        usd_curves.py read IN.usda     print a file's curves as USD sees them
+       usd_curves.py crate IN.usda OUT    the same layer saved as OUT (.usdc or .usdz)
+OUT may end in .usdc (binary crate) or .usdz (the crate file packed) instead.
 
 The expected polylines are computed here, independently of Kami: each curve's basis from
 the USD spec's matrices, 8 samples a segment then the end, moved by USD's own
@@ -11,7 +13,7 @@ ComputeLocalToWorldTransform, then to Kami's space (centimetres, y up). Floats a
 import math
 import sys
 
-from pxr import Gf, Sdf, Usd, UsdGeom, Vt
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdUtils, Vt
 
 PER_SEGMENT = 8
 
@@ -133,7 +135,10 @@ def add_op(xf, op):
 
 
 def write(path, cases, mpu, up):
-    stage = Usd.Stage.CreateNew(path)
+    # The encoding follows the extension: .usda text, .usdc binary crate; a .usdz is the
+    # .usdc beside it packed by USD's own packager.
+    layer = path[:-1] + "c" if path.endswith(".usdz") else path
+    stage = Usd.Stage.CreateNew(layer)
     UsdGeom.SetStageMetersPerUnit(stage, mpu)
     UsdGeom.SetStageUpAxis(stage, up)
     root = UsdGeom.Xform.Define(stage, "/groom")
@@ -192,6 +197,8 @@ def write(path, cases, mpu, up):
             col = colors[j]
             expected["colors"] += [tuple(srgb(float(x)) for x in col)] * len(xs)
     stage.GetRootLayer().Save()
+    if path.endswith(".usdz"):
+        assert UsdUtils.CreateNewUsdzPackage(Sdf.AssetPath(layer), path)
     return expected
 
 
@@ -206,6 +213,12 @@ def main():
     mode, path = sys.argv[1], sys.argv[2]
     if mode == "mixed":
         show(write(path, CASES, 1.0, UsdGeom.Tokens.z))
+    elif mode == "crate":
+        out = sys.argv[3]
+        layer = out[:-1] + "c" if out.endswith(".usdz") else out
+        assert Sdf.Layer.FindOrOpen(path).Export(layer)
+        if out.endswith(".usdz"):
+            assert UsdUtils.CreateNewUsdzPackage(Sdf.AssetPath(layer), out)
     elif mode == "single":
         show(write(path, [("catmullRom", "pinned", [4, 6, 2], "vertex", "rotateY")], 0.01, UsdGeom.Tokens.y))
     else:

@@ -13,6 +13,7 @@ pub mod curves;
 pub mod hair;
 pub mod obj;
 pub mod usd;
+pub mod usdc;
 
 pub use curves::{Basis, Wrap};
 
@@ -228,14 +229,22 @@ impl Groom {
 }
 
 /// The extensions `read` and `write` know, for error messages.
-pub const EXTENSIONS: &str = "`.hair` (Cem Yuksel), `.obj` (polylines), `.usda` (USD BasisCurves), `.abc` (Alembic curves, read only)";
+pub const EXTENSIONS: &str = "`.hair` (Cem Yuksel), `.obj` (polylines), `.usda`, `.usdc`, `.usdz` or `.usd` (USD BasisCurves: text, binary crate, package), `.abc` (Alembic curves, read only)";
 
 /// The strand formats, told apart by extension.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Format {
     Hair,
     Obj,
+    /// USD text.
     Usda,
+    /// USD binary crate (`.usdc`; a `.usd` that begins with the crate magic).
+    Usdc,
+    /// A USD package (a zip whose first file is the root layer).
+    Usdz,
+    /// `.usd`: crate or text, told apart by the first bytes (written as a crate, USD's
+    /// default).
+    Usd,
     /// Alembic (Ogawa) curves, read only.
     Abc,
 }
@@ -248,36 +257,44 @@ impl Format {
             "hair" => Some(Format::Hair),
             "obj" => Some(Format::Obj),
             "usda" => Some(Format::Usda),
+            "usdc" => Some(Format::Usdc),
+            "usdz" => Some(Format::Usdz),
+            "usd" => Some(Format::Usd),
             "abc" => Some(Format::Abc),
+            _ => None,
+        }
+    }
+
+    /// Why Kami does not write this format, for one it reads only.
+    pub fn read_only(self) -> Option<&'static str> {
+        match self {
+            // No maintained Rust crate writes Alembic (docs/formats.md).
+            Format::Abc => Some(
+                "Kami reads Alembic but does not write it; write `.usda`, `.hair` or `.obj`",
+            ),
+            // openusd 0.6's crate writer makes files Pixar's USD opens without their prims
+            // (tried: `usd-core` 26.11 sees an empty stage).
+            Format::Usdc | Format::Usdz | Format::Usd => Some(
+                "Kami reads binary USD but writes USD as text: write `.usda` (Pixar's \
+                 `usdcat in.usda -o out.usdc` makes a crate file of it)",
+            ),
             _ => None,
         }
     }
 }
 
 fn format_of(path: &Path) -> Result<Format> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
-    match ext.as_deref() {
-        Some("hair") => Ok(Format::Hair),
-        Some("obj") => Ok(Format::Obj),
-        Some("usda") => Ok(Format::Usda),
-        Some("abc") => Ok(Format::Abc),
-        other => Err(KamiError::Data {
+    Format::of(path).ok_or_else(|| {
+        let ext = path.extension().and_then(|e| e.to_str());
+        KamiError::Data {
             path: path.display().to_string(),
             line: None,
             message: format!(
-                "{} is not a strand format Kami knows; use {EXTENSIONS}{}",
-                other.map_or("no extension".to_string(), |e| format!("`.{e}`")),
-                if matches!(other, Some("usd" | "usdc" | "usdz")) {
-                    " (binary USD is not read: save as .usda)"
-                } else {
-                    ""
-                }
+                "{} is not a strand format Kami knows; use {EXTENSIONS}",
+                ext.map_or("no extension".to_string(), |e| format!("`.{e}`")),
             ),
-        }),
-    }
+        }
+    })
 }
 
 /// Linear to sRGB encoding (the inverse of [`srgb_to_linear`]; values above 1 stay above).
@@ -343,7 +360,9 @@ fn read_bytes(origin: &str, bytes: &[u8], path: &Path) -> Result<Groom> {
     let groom = match format_of(path)? {
         Format::Hair => hair::parse(bytes, origin)?,
         Format::Obj => obj::parse(text(bytes, origin)?, origin)?,
-        Format::Usda => usd::parse(text(bytes, origin)?, origin)?,
+        Format::Usda | Format::Usdc | Format::Usdz | Format::Usd => {
+            usd_layer(origin, bytes, path)?.groom(origin, None)?
+        }
         Format::Abc => abc::parse(bytes, origin)?,
     };
     groom.check(origin)?;
@@ -354,6 +373,18 @@ fn read_bytes(origin: &str, bytes: &[u8], path: &Path) -> Result<Groom> {
 /// is what errors call the file (used by the fuzz harness and tests).
 pub fn parse(name: &str, bytes: &[u8]) -> Result<Groom> {
     read_bytes(name, bytes, Path::new(name))
+}
+
+/// A USD file's layer, whichever its encoding: the extension says which, and a `.usd`'s
+/// first bytes (a crate file begins with `PXR-USDC`).
+pub fn usd_layer(origin: &str, bytes: &[u8], path: &Path) -> Result<usd::Layer> {
+    match format_of(path)? {
+        Format::Usdc => usdc::layer(bytes, origin),
+        Format::Usdz => usdc::package(bytes, origin),
+        Format::Usd if bytes.starts_with(usdc::MAGIC) => usdc::layer(bytes, origin),
+        Format::Usda | Format::Usd => usd::layer(text(bytes, origin)?, origin),
+        _ => Err(data_error(origin, None, "this is not a USD file".into())),
+    }
 }
 
 fn text<'a>(bytes: &'a [u8], origin: &str) -> Result<&'a str> {
@@ -371,6 +402,9 @@ fn text<'a>(bytes: &'a [u8], origin: &str) -> Result<&'a str> {
 pub fn write(path: &Path, groom: &Groom) -> Result<()> {
     let format = format_of(path)?;
     let origin = path.display().to_string();
+    if let Some(why) = format.read_only() {
+        return Err(data_error(&origin, None, why.into()));
+    }
     groom.check(&origin)?;
     if groom.counts.is_empty() {
         return Err(data_error(
@@ -390,15 +424,8 @@ pub fn write(path: &Path, groom: &Groom) -> Result<()> {
     let bytes = match format {
         Format::Hair => hair::to_bytes(groom, &origin)?,
         Format::Obj => obj::to_string(groom).into_bytes(),
-        Format::Usda => usd::to_string(groom).into_bytes(),
-        // No maintained Rust crate writes Alembic (docs/formats.md).
-        Format::Abc => {
-            return Err(data_error(
-                &origin,
-                None,
-                "Kami reads Alembic but does not write it; write `.usda`, `.hair` or `.obj`".into(),
-            ))
-        }
+        // Read-only formats were refused above.
+        _ => usd::to_string(groom).into_bytes(),
     };
     std::fs::write(path, bytes).map_err(|source| KamiError::Io {
         path: path.to_path_buf(),

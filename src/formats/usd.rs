@@ -22,7 +22,7 @@
 
 use super::curves::{self, Basis, Wrap};
 use super::{data_error, Groom, Values};
-use crate::error::Result;
+use crate::error::{KamiError, Result};
 use glam::{DMat4, DVec3};
 use std::fmt::Write;
 
@@ -200,8 +200,8 @@ impl Lexer<'_> {
 }
 
 /// A parsed attribute value: numbers flattened (with the tuple size), or something else.
-#[derive(Debug)]
-enum Value {
+#[derive(Clone, Debug)]
+pub(super) enum Value {
     Nums {
         v: Vec<f64>,
         arity: usize,
@@ -210,6 +210,8 @@ enum Value {
     Text(String),
     /// An array of strings or tokens (`xformOpOrder`).
     Strs(Vec<String>),
+    /// `timeSamples`: (time code, value), in time order.
+    Samples(Vec<(f64, Value)>),
     Other,
 }
 
@@ -401,20 +403,39 @@ impl Parser<'_> {
                 })
             }
             Tok::Punct('{') => {
-                // timeSamples: `{ time: value, ... }`; the first sample stands for all.
+                // timeSamples: `{ time: value, ... }`.
                 let start = self.at - 1;
                 let is_samples = matches!(self.peek(), Some(Tok::Word(w)) if num(w).is_some())
                     && matches!(self.toks.get(self.at + 1), Some((Tok::Punct(':'), _)));
-                if is_samples {
-                    self.at += 2;
-                    let first = self.value()?;
+                if !is_samples {
                     self.at = start;
                     self.skip_group()?;
-                    return Ok(first);
+                    return Ok(Value::Other);
                 }
-                self.at = start;
-                self.skip_group()?;
-                Ok(Value::Other)
+                let mut samples: Vec<(f64, Value)> = Vec::new();
+                loop {
+                    match self.bump()? {
+                        Tok::Punct('}') => break,
+                        Tok::Punct(',') => {}
+                        Tok::Word(w) => {
+                            let Some(t) = num(&w).filter(|t| t.is_finite()) else {
+                                return Err(self.err(format!(
+                                    "expected a time code in timeSamples, found {w:?}"
+                                )));
+                            };
+                            self.expect(':')?;
+                            let v = self.value()?;
+                            samples.push((t, v));
+                        }
+                        t => {
+                            return Err(self.err(format!(
+                                "expected a time code in timeSamples, found {}",
+                                show(&t)
+                            )))
+                        }
+                    }
+                }
+                Ok(Value::Samples(sorted_samples(samples)))
             }
             t => {
                 self.at -= 1;
@@ -497,6 +518,8 @@ impl Parser<'_> {
                         match k.as_str() {
                             "metersPerUnit" => self.stage.meters_per_unit = Some((v, l)),
                             "upAxis" => self.stage.up_axis = Some((v, l)),
+                            "timeCodesPerSecond" | "framesPerSecond" | "startTimeCode"
+                            | "endTimeCode" => self.stage.clock.push((k, v, l)),
                             _ => {}
                         }
                     }
@@ -578,22 +601,28 @@ impl Parser<'_> {
     }
 }
 
-/// The stage's metadata Kami applies: its unit and up axis (values and lines).
-#[derive(Default)]
-struct Stage {
-    meters_per_unit: Option<(String, usize)>,
-    up_axis: Option<(String, usize)>,
+/// The stage's metadata Kami applies: its unit and up axis, and its clock (values and
+/// lines; line 0 in a crate file).
+#[derive(Clone, Default)]
+pub(super) struct Stage {
+    pub(super) meters_per_unit: Option<(String, usize)>,
+    pub(super) up_axis: Option<(String, usize)>,
+    /// `timeCodesPerSecond`, `framesPerSecond`, `startTimeCode`, `endTimeCode`.
+    pub(super) clock: Vec<(String, String, usize)>,
 }
 
-#[derive(Default)]
-struct Prim {
-    line: usize,
+#[derive(Clone, Default)]
+pub(super) struct Prim {
+    /// Its line in a text file; 0 in a crate file, where `path` names it.
+    pub(super) line: usize,
+    /// Its path (`/groom/hair`) in a crate file; empty in a text file, where `line` does.
+    pub(super) path: String,
     /// The prim this one is defined in.
-    parent: Option<usize>,
+    pub(super) parent: Option<usize>,
     /// A class prim, an inactive one, or inside one of those.
-    hidden: bool,
+    pub(super) hidden: bool,
     /// `def BasisCurves`.
-    curves: bool,
+    pub(super) curves: bool,
     counts: Option<(Vec<f64>, usize)>,
     points: Option<(Vec<f64>, usize)>,
     /// `type`, `basis` and `wrap` (value, line).
@@ -603,11 +632,53 @@ struct Prim {
     /// Numeric attributes, in file order: every one on a BasisCurves, the `xformOp:`s on
     /// the others.
     attrs: Vec<Attr>,
+    /// Attributes with time samples: name, samples (time order), interpolation, line.
+    timed: Vec<Timed>,
+}
+
+/// An attribute's time samples: name, (time code, value) in time order, interpolation, line.
+type Timed = (String, Vec<(f64, Value)>, Option<String>, usize);
+
+/// Samples in time order, a time authored twice keeping its last value (as USD does).
+fn sorted_samples(mut samples: Vec<(f64, Value)>) -> Vec<(f64, Value)> {
+    samples.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut out: Vec<(f64, Value)> = Vec::with_capacity(samples.len());
+    for s in samples {
+        match out.last_mut() {
+            Some(l) if l.0 == s.0 => *l = s,
+            _ => out.push(s),
+        }
+    }
+    out
 }
 
 impl Prim {
-    fn set(&mut self, name: &str, v: Value, interp: Option<String>, line: usize) {
+    /// A prim of a crate file, named by its path.
+    pub(super) fn new(path: String, parent: Option<usize>, hidden: bool, curves: bool) -> Prim {
+        Prim {
+            path,
+            parent,
+            hidden,
+            curves,
+            ..Prim::default()
+        }
+    }
+
+    /// Set attribute `name` (a `.timeSamples` suffix is the same attribute): time samples
+    /// are kept for [`Prim::at`], and their first value also stands as the attribute's
+    /// value, so that a file read without a time shows its first sample.
+    pub(super) fn set(&mut self, name: &str, v: Value, interp: Option<String>, line: usize) {
         let name = name.strip_suffix(".timeSamples").unwrap_or(name);
+        if let Value::Samples(samples) = v {
+            let Some(first) = samples.first().map(|s| s.1.clone()) else {
+                return;
+            };
+            self.set(name, first, interp.clone(), line);
+            if name.starts_with("xformOp:") || self.curves {
+                self.timed.push((name.to_string(), samples, interp, line));
+            }
+            return;
+        }
         match (name, v) {
             ("xformOpOrder", Value::Strs(order)) => self.order = Some((order, line)),
             (_, Value::Nums { v, arity, .. }) if name.starts_with("xformOp:") => {
@@ -632,6 +703,24 @@ impl Prim {
                 self.attrs.push((name.to_string(), v, arity, interp, line))
             }
             _ => {}
+        }
+    }
+
+    /// This prim with every time-sampled attribute at time code `t` ([`value_at`]).
+    pub(super) fn at(&self, t: f64) -> Prim {
+        let mut p = self.clone();
+        for (name, samples, interp, line) in &self.timed {
+            p.set(name, value_at(name, samples, t), interp.clone(), *line);
+        }
+        p
+    }
+
+    /// An error about this prim: at `line` of a text file, by the prim's path in a crate.
+    pub(super) fn error(&self, origin: &str, line: usize, m: String) -> KamiError {
+        if self.path.is_empty() {
+            data_error(origin, Some(line), m)
+        } else {
+            data_error(&format!("{origin}, prim {}", self.path), None, m)
         }
     }
 
@@ -668,18 +757,18 @@ impl Prim {
                 None => (false, op.as_str()),
             };
             let Some((_, v, arity, _, line)) = self.attr(name) else {
-                return Err(data_error(
+                return Err(self.error(
                     origin,
-                    Some(*oline),
+                    *oline,
                     format!("xformOpOrder names {name:?}, which this prim does not set"),
                 ));
             };
-            let op = xform_op(name, v, *arity).map_err(|m| data_error(origin, Some(*line), m))?;
+            let op = xform_op(name, v, *arity).map_err(|m| self.error(origin, *line, m))?;
             let op = if invert {
                 if op.determinant().abs() < 1e-300 {
-                    return Err(data_error(
+                    return Err(self.error(
                         origin,
-                        Some(*line),
+                        *line,
                         format!("{name} cannot be inverted (`!invert!` in xformOpOrder): it is singular"),
                     ));
                 }
@@ -690,6 +779,41 @@ impl Prim {
             m *= op;
         }
         Ok((m, reset))
+    }
+}
+
+/// An attribute's value at time code `t` from its samples (time order): between two samples
+/// of floating-point numbers of one shape, linearly interpolated (USD's default for them);
+/// integers (vertex counts, indices), quaternions (`orient`, which USD would slerp), tokens
+/// and samples of different shapes held from the earlier sample; before the first sample
+/// or after the last, that sample.
+fn value_at(name: &str, samples: &[(f64, Value)], t: f64) -> Value {
+    let i = samples.partition_point(|s| s.0 <= t);
+    if i == 0 {
+        return samples[0].1.clone();
+    }
+    let (t0, a) = (samples[i - 1].0, &samples[i - 1].1);
+    let Some((t1, b)) = samples.get(i).map(|s| (s.0, &s.1)) else {
+        return a.clone();
+    };
+    let blend = !(name == "curveVertexCounts"
+        || name.ends_with(":indices")
+        || name.starts_with("xformOp:orient"));
+    match (a, b) {
+        (
+            Value::Nums { v, arity, array },
+            Value::Nums {
+                v: w, arity: aw, ..
+            },
+        ) if blend && t > t0 && arity == aw && v.len() == w.len() => {
+            let u = (t - t0) / (t1 - t0);
+            Value::Nums {
+                v: v.iter().zip(w).map(|(x, y)| x + (y - x) * u).collect(),
+                arity: *arity,
+                array: *array,
+            }
+        }
+        _ => a.clone(),
     }
 }
 
@@ -781,12 +905,17 @@ fn show(t: &Tok) -> String {
 
 /// Parse usda text into a groom (see the module doc for what is kept).
 pub fn parse(text: &str, origin: &str) -> Result<Groom> {
+    layer(text, origin)?.groom(origin, None)
+}
+
+/// A text layer's prims and stage metadata.
+pub(super) fn layer(text: &str, origin: &str) -> Result<Layer> {
     let first = text.lines().next().unwrap_or("");
     if !first.starts_with("#usda ") {
         return Err(data_error(
             origin,
             Some(1),
-            "the first line is not `#usda 1.0`; Kami reads text USD (.usda) only".into(),
+            "the first line is not `#usda 1.0`: this is not a text USD file".into(),
         ));
     }
     let mut lx = Lexer {
@@ -807,30 +936,113 @@ pub fn parse(text: &str, origin: &str) -> Result<Groom> {
     };
     let mut prims = Vec::new();
     p.block(None, &mut prims, true)?;
-    let curves: Vec<&Prim> = prims.iter().filter(|p| p.curves && !p.hidden).collect();
-    if curves.is_empty() {
-        return Err(data_error(
-            origin,
-            None,
-            "no `def BasisCurves` prim: no strands in this file".into(),
-        ));
+    Ok(Layer {
+        prims,
+        stage: p.stage,
+    })
+}
+
+/// A USD layer as Kami reads it, text or crate: its prims in file order (parents before
+/// children) and the stage's metadata.
+pub struct Layer {
+    pub(super) prims: Vec<Prim>,
+    pub(super) stage: Stage,
+}
+
+impl Layer {
+    pub(super) fn new(prims: Vec<Prim>, stage: Stage) -> Layer {
+        Layer { prims, stage }
     }
-    let stage = stage_transform(&p.stage, origin)?;
-    let mut parts = Vec::with_capacity(curves.len());
-    for prim in curves {
-        // The prim's transform and its parents', up to a reset, then the stage's.
-        let mut world = DMat4::IDENTITY;
-        let mut at = Some(prim);
-        while let Some(q) = at {
-            let (local, reset) = q.local(origin)?;
-            world = local * world;
-            if reset {
-                break;
+
+    /// The time codes at which the drawn curves, or the transforms above them, have
+    /// samples, in order (empty for a still groom).
+    pub fn times(&self) -> Vec<f64> {
+        let mut t: Vec<f64> = Vec::new();
+        for prim in self.prims.iter().filter(|p| p.curves && !p.hidden) {
+            let mut at = Some(prim);
+            while let Some(q) = at {
+                t.extend(q.timed.iter().flat_map(|s| s.1.iter().map(|x| x.0)));
+                at = q.parent.map(|i| &self.prims[i]);
             }
-            at = q.parent.map(|i| &prims[i]);
         }
-        parts.push(curve_prim(prim, stage * world, origin)?);
+        t.sort_by(f64::total_cmp);
+        t.dedup();
+        t
     }
+
+    /// Time codes per second: the stage's `timeCodesPerSecond`, else its
+    /// `framesPerSecond`, else USD's fallback of 24.
+    pub fn time_codes_per_second(&self, origin: &str) -> Result<f64> {
+        for key in ["timeCodesPerSecond", "framesPerSecond"] {
+            if let Some((_, v, line)) = self.stage.clock.iter().rev().find(|c| c.0 == key) {
+                return match v.parse::<f64>() {
+                    Ok(x) if x.is_finite() && x > 0.0 => Ok(x),
+                    _ => Err(data_error(
+                        origin,
+                        (*line > 0).then_some(*line),
+                        format!("{key} is {v}; it must be a positive number"),
+                    )),
+                };
+            }
+        }
+        Ok(24.0)
+    }
+
+    /// The stage's `startTimeCode` and `endTimeCode`, where authored.
+    pub fn range(&self) -> (Option<f64>, Option<f64>) {
+        let get = |key: &str| {
+            self.stage
+                .clock
+                .iter()
+                .rev()
+                .find(|c| c.0 == key)
+                .and_then(|c| c.1.parse::<f64>().ok())
+                .filter(|x| x.is_finite())
+        };
+        (get("startTimeCode"), get("endTimeCode"))
+    }
+
+    /// The groom at time code `time` (samples interpolated as [`value_at`] says), or with
+    /// each attribute's first sample (`None`).
+    pub fn groom(&self, origin: &str, time: Option<f64>) -> Result<Groom> {
+        let prims: Vec<Prim>;
+        let prims = match time {
+            Some(t) => {
+                prims = self.prims.iter().map(|p| p.at(t)).collect();
+                &prims
+            }
+            None => &self.prims,
+        };
+        let curves: Vec<&Prim> = prims.iter().filter(|p| p.curves && !p.hidden).collect();
+        if curves.is_empty() {
+            return Err(data_error(
+                origin,
+                None,
+                "no `def BasisCurves` prim: no strands in this file".into(),
+            ));
+        }
+        let stage = stage_transform(&self.stage, origin)?;
+        let mut parts = Vec::with_capacity(curves.len());
+        for prim in curves {
+            // The prim's transform and its parents', up to a reset, then the stage's.
+            let mut world = DMat4::IDENTITY;
+            let mut at = Some(prim);
+            while let Some(q) = at {
+                let (local, reset) = q.local(origin)?;
+                world = local * world;
+                if reset {
+                    break;
+                }
+                at = q.parent.map(|i| &prims[i]);
+            }
+            parts.push(curve_prim(prim, stage * world, origin)?);
+        }
+        join_parts(parts)
+    }
+}
+
+/// Prims' grooms as one: of one basis, or all polylines.
+fn join_parts(mut parts: Vec<Groom>) -> Result<Groom> {
     // One basis for the whole groom: prims of different bases all become polylines.
     let same = parts
         .iter()
@@ -875,7 +1087,7 @@ fn stage_transform(stage: &Stage, origin: &str) -> Result<DMat4> {
             _ => {
                 return Err(data_error(
                     origin,
-                    Some(*line),
+                    (*line > 0).then_some(*line),
                     format!("metersPerUnit is {v}; it must be a positive number"),
                 ))
             }
@@ -888,7 +1100,7 @@ fn stage_transform(stage: &Stage, origin: &str) -> Result<DMat4> {
         Some((v, line)) => {
             return Err(data_error(
                 origin,
-                Some(line),
+                (line > 0).then_some(line),
                 format!("upAxis is {v:?}; USD allows \"Y\" or \"Z\""),
             ))
         }
@@ -901,7 +1113,7 @@ fn stage_transform(stage: &Stage, origin: &str) -> Result<DMat4> {
 /// with `varying` values (one per segment end) is evaluated here, as a groom keeps values
 /// per control point only.
 fn curve_prim(prim: &Prim, to_kami: DMat4, origin: &str) -> Result<Groom> {
-    let err = |line: usize, m: String| data_error(origin, Some(line), m);
+    let err = |line: usize, m: String| prim.error(origin, line, m);
     // USD's fallbacks: cubic Bézier, open. A prim that names no type and whose counts make
     // no Bézier curves is read as linear, with a warning (the points are all there).
     let untyped_linear = prim.token("type").is_none()

@@ -46,6 +46,23 @@ fn python(mode: &str, path: &std::path::Path) -> Vec<(String, Vec<String>)> {
         .collect()
 }
 
+/// Save the text layer `usda` as `out` (`.usdc` or `.usdz`) with Pixar's USD.
+fn crate_of(usda: &std::path::Path, out: &std::path::Path) {
+    let script = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/usd_curves.py");
+    let o = Command::new("python3")
+        .arg(&script)
+        .args(["crate"])
+        .arg(usda)
+        .arg(out)
+        .output()
+        .expect("python3 runs");
+    assert!(
+        o.status.success(),
+        "usd_curves.py crate failed: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
 fn field(lines: &[(String, Vec<String>)], name: &str) -> Vec<f64> {
     lines
         .iter()
@@ -73,12 +90,31 @@ fn flat3(v: &[[f32; 3]]) -> Vec<f64> {
 /// Every basis and wrap, widths per point and per segment end, colours per curve, a parent
 /// Xform (translate, rotateXYZ, scale) and an inner one, each prim with another op
 /// (transform, orient, rotateZYX, a pivot with `!invert!`, scale, rotateY, translate), in
-/// metres with z up: Kami's polylines match the spec's, moved as USD moves them.
+/// metres with z up: Kami's polylines match the spec's, moved as USD moves them, from the
+/// same stage saved by USD as text, as a binary crate file and as a `.usdz` package.
 #[test]
 fn every_basis_wrap_and_transform_as_usd_defines_them() {
-    let path = tmp("mixed.usda");
-    let expected = python("mixed", &path);
-    let g = formats::read(&path).unwrap_or_else(|e| panic!("{e}"));
+    let mut read = Vec::new();
+    for ext in ["usda", "usdc", "usdz"] {
+        let path = tmp(&format!("mixed.{ext}"));
+        let expected = python("mixed", &path);
+        let g = formats::read(&path).unwrap_or_else(|e| panic!("{ext}: {e}"));
+        check_mixed(&g, &expected);
+        read.push(g);
+    }
+    // The encodings hold the same numbers (text doubles read as f32 aside: the groom's
+    // transform differs by an f32 rounding, which moves points by ulps).
+    for g in &read[1..] {
+        assert_eq!(g.counts, read[0].counts);
+        let size = flat3(&read[0].points).iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let e = worst(&flat3(&g.points), &flat3(&read[0].points), size);
+        assert!(e < 1e-6, "crate and text differ by {e:e}");
+        assert_eq!(g.colors, read[0].colors);
+    }
+}
+
+fn check_mixed(g: &Groom, expected: &[(String, Vec<String>)]) {
+    let expected = expected.to_vec();
     // Prims of different bases: one groom of polylines.
     assert_eq!((g.basis, g.wrap), (Basis::Linear, Wrap::Nonperiodic));
     let counts: Vec<u32> = field(&expected, "counts")
@@ -120,6 +156,21 @@ fn one_basis_stays_cubic_through_convert() {
     let g = formats::read(&path).unwrap();
     assert_eq!((g.basis, g.wrap), (Basis::CatmullRom, Wrap::Pinned));
     assert_eq!(g.counts, vec![4, 6, 2]);
+    // The same layer as a crate file and a package: the same control points, to the ulps
+    // the text reader's f32 parse of the parent's `double3` translate costs.
+    for ext in ["usdc", "usdz"] {
+        let other = tmp(&format!("single.{ext}"));
+        crate_of(&path, &other);
+        let c = formats::read(&other).unwrap_or_else(|e| panic!("{ext}: {e}"));
+        assert_eq!((c.basis, c.wrap, &c.counts), (g.basis, g.wrap, &g.counts));
+        let size = flat3(&g.points).iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let e = worst(&flat3(&c.points), &flat3(&g.points), size);
+        assert!(e < 1e-6, "{ext}: control points off by {e:e}");
+        assert_eq!(c.widths, g.widths, "{ext}: widths");
+    }
+    // Kami writes USD as text only, and says so.
+    let e = formats::write(&tmp("out.usdc"), &g).unwrap_err().to_string();
+    assert!(e.contains("writes USD as text"), "{e}");
     let lin = g.clone().into_linear();
     let want = field(&expected, "points");
     let size = want.iter().fold(0.0f64, |m, v| m.max(v.abs()));
@@ -294,4 +345,88 @@ fn untyped_curves_follow_usd_or_are_read_linear_with_a_warning() {
         warned.len() == 1 && warned[0].contains("l.usda:2: this BasisCurves names no `type`"),
         "{warned:?}"
     );
+}
+
+/// The same faults in crate files and packages (saved by Pixar's USD): errors name the
+/// file and the prim's path, as the text reader names the line.
+#[test]
+fn bad_crate_files_name_the_file_and_prim() {
+    let pts = "int[] curveVertexCounts = [5]\npoint3f[] points = [(0,0,0),(0,1,0),(0,2,0),(0,3,0),(0,4,0)]";
+    let cases = [
+        (
+            format!("uniform token type = \"cubic\"\nuniform token basis = \"bezier\"\n{pts}"),
+            "curve 0 has 5 points, which make no nonperiodic bezier curve: it needs 3k + 1 points",
+        ),
+        (
+            format!("uniform token type = \"linear\"\nuniform token[] xformOpOrder = [\"xformOp:translate\"]\n{pts}"),
+            "xformOpOrder names \"xformOp:translate\", which this prim does not set",
+        ),
+        (
+            format!("uniform token type = \"cubic\"\nuniform token basis = \"bspline\"\n{pts}\nfloat[] widths = [1, 2, 3, 4] (interpolation = \"varying\")"),
+            "`widths` has 4 values with interpolation \"varying\", which does not fit 1 curves of 5 points (3 segment ends)",
+        ),
+    ];
+    for (i, (body, want)) in cases.iter().enumerate() {
+        let text = tmp(&format!("badc{i}.usda"));
+        std::fs::write(
+            &text,
+            format!("#usda 1.0\ndef Xform \"g\" {{\ndef BasisCurves \"c\" {{\n{body}\n}}\n}}\n"),
+        )
+        .unwrap();
+        for ext in ["usdc", "usdz"] {
+            let path = tmp(&format!("badc{i}.{ext}"));
+            crate_of(&text, &path);
+            let e = formats::read(&path)
+                .err()
+                .unwrap_or_else(|| panic!("case {i} ({ext}) was read"))
+                .to_string();
+            let place = format!("badc{i}.{ext}, prim /g/c: {want}");
+            assert!(e.contains(&place), "case {i} ({ext}): {e}");
+        }
+    }
+}
+
+/// Damaged binary USD: a crate file cut short or garbled after its magic, a package that
+/// is no zip, an empty one, one whose first file is no USD layer: errors naming the file,
+/// never a panic.
+#[test]
+fn damaged_binary_usd_is_refused_with_the_file_named() {
+    let path = tmp("whole.usdc");
+    python("mixed", &path);
+    let whole = std::fs::read(&path).unwrap();
+    let mut garbled = whole.clone();
+    for b in garbled[16..64].iter_mut() {
+        *b = 0xff;
+    }
+    let zip_of = |name: &str, body: &[u8]| -> Vec<u8> {
+        use std::io::Write;
+        let mut w = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
+        if !name.is_empty() {
+            w.start_file(
+                name,
+                zip::write::SimpleFileOptions::default()
+                    .compression_method(zip::CompressionMethod::Stored),
+            )
+            .unwrap();
+            w.write_all(body).unwrap();
+        }
+        w.finish().unwrap().into_inner()
+    };
+    let cases: Vec<(&str, Vec<u8>, &str)> = vec![
+        ("cut.usdc", whole[..whole.len() / 2].to_vec(), "cut.usdc"),
+        ("garbled.usdc", garbled, "garbled.usdc"),
+        ("text.usdc", b"#usda 1.0\n".to_vec(), "does not begin with `PXR-USDC`"),
+        ("notzip.usdz", b"not a zip at all".to_vec(), "not a USDZ package"),
+        ("empty.usdz", zip_of("", b""), "the package is empty"),
+        ("png.usdz", zip_of("tex.png", b"\x89PNG"), "USDZ's root layer is a .usda, .usdc or .usd"),
+        ("cutinside.usdz", zip_of("a.usdc", &whole[..100]), "cutinside.usdz (a.usdc)"),
+        ("plain.usd", b"#usda 1.0\n".to_vec(), "no `def BasisCurves` prim"),
+    ];
+    for (name, bytes, want) in cases {
+        let e = formats::parse(name, &bytes)
+            .err()
+            .unwrap_or_else(|| panic!("{name} was read"))
+            .to_string();
+        assert!(e.starts_with(name) && e.contains(want), "{name}: {e}");
+    }
 }
