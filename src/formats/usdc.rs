@@ -22,6 +22,8 @@ use std::collections::HashSet;
 use std::io::{Cursor, Read};
 use std::panic::{self, AssertUnwindSafe};
 
+mod bounds;
+
 /// The first bytes of a crate file.
 pub const MAGIC: &[u8] = b"PXR-USDC";
 
@@ -37,11 +39,7 @@ const MAX_LAYER: u64 = 1 << 32;
 
 /// Run `f`, turning a panic in the crate reader into an error naming `origin`.
 fn guarded<T>(origin: &str, what: &str, f: impl FnOnce() -> Result<T>) -> Result<T> {
-    let hook = panic::take_hook();
-    panic::set_hook(Box::new(|_| {}));
-    let r = panic::catch_unwind(AssertUnwindSafe(f));
-    panic::set_hook(hook);
-    r.unwrap_or_else(|p| {
+    panic::catch_unwind(AssertUnwindSafe(f)).unwrap_or_else(|p| {
         let why = p
             .downcast_ref::<String>()
             .map(String::as_str)
@@ -65,6 +63,9 @@ pub fn layer(bytes: &[u8], origin: &str) -> Result<Layer> {
         ));
     }
     guarded(origin, "reading the crate file", || {
+        // openusd allocates the counts it reads before reading what they count: every
+        // size Kami asks it to decode is checked against the file first.
+        bounds::check(bytes).map_err(|m| data_error(origin, None, m))?;
         let data = openusd::usdc::CrateData::open(Cursor::new(bytes), true).map_err(|e| {
             data_error(
                 origin,
