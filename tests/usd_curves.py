@@ -5,6 +5,9 @@ usage: usd_curves.py mixed OUT.usda   every basis and wrap, nested transforms, m
        usd_curves.py single OUT.usda  one catmullRom groom (kept cubic by Kami)
        usd_curves.py read IN.usda     print a file's curves as USD sees them
        usd_curves.py crate IN.usda OUT    the same layer saved as OUT (.usdc or .usdz)
+       usd_curves.py animated OUT.usda    a simulation cache: points time-sampled at time
+                                          codes 1 to 12 (30 per second), every 3rd code
+                                          authored, the rest interpolated by USD
 OUT may end in .usdc (binary crate) or .usdz (the crate file packed) instead.
 
 The expected polylines are computed here, independently of Kami: each curve's basis from
@@ -202,6 +205,34 @@ def write(path, cases, mpu, up):
     return expected
 
 
+def animated(path):
+    """Three linear curves of five points swaying in x: samples at time codes 1, 4, 7, 10
+    and 12, printed as USD resolves them at every time code from start to end."""
+    layer = path[:-1] + "c" if path.endswith(".usdz") else path
+    stage = Usd.Stage.CreateNew(layer)
+    UsdGeom.SetStageMetersPerUnit(stage, 0.01)
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    stage.SetTimeCodesPerSecond(30)
+    stage.SetStartTimeCode(1)
+    stage.SetEndTimeCode(12)
+    c = UsdGeom.BasisCurves.Define(stage, "/cache")
+    c.CreateTypeAttr("linear")
+    c.CreateCurveVertexCountsAttr(Vt.IntArray([5, 5, 5]))
+    c.CreateWidthsAttr(Vt.FloatArray([0.05])).Set(Vt.FloatArray([0.05]))
+    c.SetWidthsInterpolation("constant")
+    pts = c.CreatePointsAttr()
+    for t in [1, 4, 7, 10, 12]:
+        sway = math.sin(0.3 * t)
+        frame = [Gf.Vec3f(k + sway * j * 0.2, 10.0 - 2.0 * j, 0.1 * t) for k in range(3) for j in range(5)]
+        pts.Set(Vt.Vec3fArray(frame), Usd.TimeCode(t))
+    stage.GetRootLayer().Save()
+    if path.endswith(".usdz"):
+        assert UsdUtils.CreateNewUsdzPackage(Sdf.AssetPath(layer), path)
+    print("fps", stage.GetTimeCodesPerSecond())
+    for t in range(1, 13):
+        print("frame", t, *(repr(float(v)) for p in pts.Get(Usd.TimeCode(t)) for v in p))
+
+
 def show(expected):
     print("counts", *expected["counts"])
     print("points", *(repr(v) for p in expected["points"] for v in p))
@@ -213,6 +244,8 @@ def main():
     mode, path = sys.argv[1], sys.argv[2]
     if mode == "mixed":
         show(write(path, CASES, 1.0, UsdGeom.Tokens.z))
+    elif mode == "animated":
+        animated(path)
     elif mode == "crate":
         out = sys.argv[3]
         layer = out[:-1] + "c" if out.endswith(".usdz") else out

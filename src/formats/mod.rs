@@ -325,23 +325,38 @@ pub(crate) fn data_error(origin: &str, line: Option<usize>, message: String) -> 
 }
 
 /// Read a strand file at `time` seconds: an Alembic archive's sample nearest that time
-/// (`abc::Sample::Time`); the other formats hold one pose and refuse a time. `None` reads
-/// the first sample, as [`read`] does.
+/// (`abc::Sample::Time`), a USD file's groom at that time (time code = seconds times its
+/// `timeCodesPerSecond`, samples interpolated as USD does); the other formats hold one pose
+/// and refuse a time. `None` reads the first sample, as [`read`] does.
 pub fn read_at(path: &Path, time: Option<f64>) -> Result<Groom> {
     let Some(t) = time else { return read(path) };
     let origin = path.display().to_string();
-    if format_of(path)? != Format::Abc {
-        return Err(data_error(
-            &origin,
-            None,
-            format!("a time ({t} s) is for Alembic archives; this file holds one pose"),
-        ));
-    }
-    let options = abc::Options {
-        sample: abc::Sample::Time(t),
-        ..abc::Options::default()
+    let format = format_of(path)?;
+    let groom = match format {
+        Format::Abc => {
+            let options = abc::Options {
+                sample: abc::Sample::Time(t),
+                ..abc::Options::default()
+            };
+            abc::read(path, &options)?.into_groom(&origin)
+        }
+        Format::Usda | Format::Usdc | Format::Usdz | Format::Usd => {
+            let bytes = std::fs::read(path).map_err(|source| KamiError::Io {
+                path: path.to_path_buf(),
+                source,
+            })?;
+            let layer = usd_layer(&origin, &bytes, path)?;
+            let tc = t * layer.time_codes_per_second(&origin)?;
+            layer.groom(&origin, Some(tc))?
+        }
+        _ => {
+            return Err(data_error(
+                &origin,
+                None,
+                format!("a time ({t} s) is for Alembic and USD files; this file holds one pose"),
+            ))
+        }
     };
-    let groom = abc::read(path, &options)?.into_groom(&origin);
     groom.check(&origin)?;
     Ok(groom)
 }
@@ -505,4 +520,157 @@ pub(crate) fn evaluate(g: &Groom, attrs: &[(&Option<Values>, usize); 3]) -> Groo
             .collect()
     });
     lin
+}
+
+/// Most bytes of points an animated file may hold in memory as frames (`read_frames`):
+/// 2 GiB, about 180 frames of a million-point groom.
+pub const FRAMES_BUDGET: u64 = 2 << 30;
+
+/// A groom's motion as its file holds it (a simulation cache): every frame's points, in
+/// Kami's units, with the curve counts of the groom read at the first frame. Curves are
+/// polylines (cubic ones evaluated per frame).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Frames {
+    /// Frames per second the file plays at (USD: `timeCodesPerSecond`; Alembic: the
+    /// positions' time sampling).
+    pub fps: f64,
+    /// File time of each frame, seconds.
+    pub times: Vec<f64>,
+    /// Curve counts, the same at every frame.
+    pub counts: Vec<u32>,
+    /// Points of each frame (`counts` sums to each one's length).
+    pub points: Vec<Vec<[f32; 3]>>,
+}
+
+impl Frames {
+    /// Frame `i` as a groom (the counts and these points; no looks).
+    pub fn groom(&self, i: usize) -> Groom {
+        Groom {
+            counts: self.counts.clone(),
+            points: self.points[i].clone(),
+            ..Groom::default()
+        }
+    }
+}
+
+/// The frames of an animated strand file: USD time samples (one frame per time code from
+/// `startTimeCode` to `endTimeCode`, else from the first sample to the last) or Alembic
+/// samples (one frame per positions sample). `None` for a still file (no samples, or one).
+/// Refused when the frames would hold more than `budget` bytes of points, or when the
+/// curve counts change between frames (topology that changes is not played).
+pub fn read_frames(path: &Path, budget: u64) -> Result<Option<Frames>> {
+    let origin = path.display().to_string();
+    let format = format_of(path)?;
+    let bytes = std::fs::read(path).map_err(|source| KamiError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let mut frames: Vec<Groom> = Vec::new();
+    let (fps, times): (f64, Vec<f64>);
+    // Bytes of points `n` frames of `first` take, refused beyond the budget before
+    // anything is read.
+    let check = |first: &Groom, n: usize| -> Result<()> {
+        let need = first.points.len() as u64 * 12 * n as u64;
+        if need > budget {
+            return Err(data_error(
+                &origin,
+                None,
+                format!(
+                    "{n} frames of {} points take {:.2} GiB, over Kami's {:.2} GiB for a groom's \
+                     frames: play fewer frames (trim the cache in the tool that wrote it) or open \
+                     one frame (`time:` in the scene)",
+                    first.points.len(),
+                    need as f64 / (1u64 << 30) as f64,
+                    budget as f64 / (1u64 << 30) as f64
+                ),
+            ));
+        }
+        Ok(())
+    };
+    match format {
+        Format::Usda | Format::Usdc | Format::Usdz | Format::Usd => {
+            let layer = usd_layer(&origin, &bytes, path)?;
+            let samples = layer.times();
+            if samples.len() < 2 {
+                return Ok(None);
+            }
+            let tcps = layer.time_codes_per_second(&origin)?;
+            let (start, end) = layer.range();
+            let start = start.unwrap_or(samples[0]);
+            let end = end.unwrap_or(samples[samples.len() - 1]);
+            if !(end >= start) {
+                return Err(data_error(
+                    &origin,
+                    None,
+                    format!("endTimeCode {end} is before startTimeCode {start}"),
+                ));
+            }
+            let n = (end - start).floor() as usize + 1;
+            let first = layer.groom(&origin, Some(start))?.into_linear();
+            check(&first, n)?;
+            fps = tcps;
+            times = (0..n).map(|i| (start + i as f64) / tcps).collect();
+            frames.push(first);
+            for i in 1..n {
+                frames.push(layer.groom(&origin, Some(start + i as f64))?.into_linear());
+            }
+        }
+        Format::Abc => {
+            let first = abc::parse_with(&bytes, &origin, &abc::Options::default())?;
+            let Some(most) = first.objects.iter().max_by_key(|o| o.samples) else {
+                return Ok(None);
+            };
+            let n = most.samples as usize;
+            if n < 2 {
+                return Ok(None);
+            }
+            times = most.times.clone();
+            fps = match times.as_slice() {
+                [a, b, ..] if b > a => 1.0 / (b - a),
+                _ => 24.0,
+            };
+            let g0 = first.into_groom(&origin).into_linear();
+            check(&g0, n)?;
+            frames.push(g0);
+            for i in 1..n {
+                let options = abc::Options {
+                    sample: abc::Sample::Index(i as u32),
+                    ..abc::Options::default()
+                };
+                frames.push(
+                    abc::parse_with(&bytes, &origin, &options)?
+                        .into_groom(&origin)
+                        .into_linear(),
+                );
+            }
+        }
+        _ => return Ok(None),
+    }
+    let counts = frames[0].counts.clone();
+    let mut points = Vec::with_capacity(frames.len());
+    for (i, f) in frames.into_iter().enumerate() {
+        f.check(&origin)?;
+        if f.counts != counts {
+            return Err(data_error(
+                &origin,
+                None,
+                format!(
+                    "frame {i} (time {:.4} s) has {} curves of {} points, frame 0 {} of {}: \
+                     Kami plays caches whose curves keep their point counts",
+                    times.get(i).copied().unwrap_or(f64::NAN),
+                    f.counts.len(),
+                    f.points.len(),
+                    counts.len(),
+                    counts.iter().map(|&c| c as u64).sum::<u64>()
+                ),
+            ));
+        }
+        points.push(f.points);
+    }
+    Ok(Some(Frames {
+        fps,
+        times,
+        counts,
+        points,
+    }))
 }

@@ -13,7 +13,7 @@ use std::process::Command;
 /// Write `case` with Alembic into `dir` and return its path and what Alembic reads back at
 /// `sample`: per curves object, its path and world-space points. Fails, naming the pip
 /// command, when the Alembic bindings are missing.
-fn write(dir: &Path, case: &str, sample: u32) -> (PathBuf, Vec<(String, Vec<f64>)>) {
+pub(crate) fn write(dir: &Path, case: &str, sample: u32) -> (PathBuf, Vec<(String, Vec<f64>)>) {
     let path = dir.join(format!("{case}.abc"));
     let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/abc_write.py");
     let out = Command::new("python3")

@@ -8,6 +8,7 @@
 mod alembic;
 mod bad_input;
 mod bench_paths;
+mod caches;
 mod cli;
 mod common;
 mod contract;

@@ -126,13 +126,25 @@ pub struct StrandFile {
     /// Draw the file's widths where it has them (false: the material's tapered width).
     #[serde(default = "yes")]
     pub widths: bool,
-    /// For an Alembic archive: the time in seconds whose sample is the rest pose (the
-    /// nearest one); the first sample without it.
+    /// For an Alembic archive or an animated USD file: the time in seconds whose sample
+    /// is the groom (the nearest Alembic sample; USD's value at that time); the first
+    /// sample without it. A file read at a time holds still.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub time: Option<f64>,
+    /// Play the file's frames when it has several (a simulation cache: USD time samples,
+    /// Alembic samples), looping, at the file's rate; false holds the first (or `time`'s).
+    #[serde(default = "yes", skip_serializing_if = "is_true")]
+    pub play: bool,
     /// The strands as read, placed (filled by `Scene::load` or [`resolve_strand_files`]).
     #[serde(skip)]
     pub groom: Option<std::sync::Arc<crate::formats::Groom>>,
+    /// The file's frames when it plays them, the same strands as `groom`, placed.
+    #[serde(skip)]
+    pub frames: Option<std::sync::Arc<crate::formats::Frames>>,
+}
+
+fn is_true(b: &bool) -> bool {
+    *b
 }
 
 impl StrandFile {
@@ -155,9 +167,36 @@ pub fn resolve_strand_files(scene: &mut Scene, dir: &Path, origin: &str) -> Resu
         };
         // Cubic curves become the polylines they describe; the group resamples those.
         let mut read = crate::formats::read_at(&path, f.time)?.into_linear();
+        let mut frames = if f.play && f.time.is_none() {
+            crate::formats::read_frames(&path, crate::formats::FRAMES_BUDGET)?
+        } else {
+            None
+        };
+        if let Some(fr) = frames.as_mut() {
+            if fr.counts != read.counts {
+                return Err(KamiError::Data {
+                    path: path.display().to_string(),
+                    line: None,
+                    message: "the curves of the first frame differ from the groom's".into(),
+                });
+            }
+            // The groom is the first frame (its looks stay the file's).
+            read.points = fr.points[0].clone();
+        }
         // Strands with no length (every point the same) cannot be hair: left out, said.
         let before = read.counts.len();
-        drop_pointless_strands(&mut read);
+        if let Some(keep) = drop_pointless_strands(&mut read) {
+            if let Some(fr) = frames.as_mut() {
+                for pts in fr.points.iter_mut() {
+                    let mut i = 0;
+                    pts.retain(|_| {
+                        i += 1;
+                        keep[i - 1]
+                    });
+                }
+                fr.counts = read.counts.clone();
+            }
+        }
         if read.counts.len() < before {
             log::warn!(
                 "{}: {} of {before} strands have no length (all their points coincide) and are left out",
@@ -219,14 +258,43 @@ pub fn resolve_strand_files(scene: &mut Scene, dir: &Path, origin: &str) -> Resu
             }
         }
         groom.check(&path.display().to_string())?;
+        // The frames: the same strands, placed the same way.
+        f.frames = frames.map(|fr| {
+            let points = fr
+                .points
+                .iter()
+                .map(|pts| {
+                    let mut out = Vec::with_capacity(groom.points.len());
+                    for j in 0..take {
+                        let i = j * n / take;
+                        let range = starts[i]..starts[i] + read.counts[i] as usize;
+                        out.extend(pts[range].iter().map(|p| {
+                            let q = m.transform_point3(glam::DVec3::new(
+                                p[0] as f64,
+                                p[1] as f64,
+                                p[2] as f64,
+                            ));
+                            [q.x as f32, q.y as f32, q.z as f32]
+                        }));
+                    }
+                    out
+                })
+                .collect();
+            std::sync::Arc::new(crate::formats::Frames {
+                counts: groom.counts.clone(),
+                points,
+                ..fr
+            })
+        });
         g.count = take as u32;
         f.groom = Some(std::sync::Arc::new(groom));
     }
     Ok(())
 }
 
-/// Remove the strands whose points all coincide, with their attributes.
-fn drop_pointless_strands(g: &mut crate::formats::Groom) {
+/// Remove the strands whose points all coincide, with their attributes; the points kept
+/// (a mask over the old points) when any went.
+fn drop_pointless_strands(g: &mut crate::formats::Groom) -> Option<Vec<bool>> {
     let mut keep_point = Vec::with_capacity(g.points.len());
     let mut counts = Vec::with_capacity(g.counts.len());
     let mut at = 0usize;
@@ -240,7 +308,7 @@ fn drop_pointless_strands(g: &mut crate::formats::Groom) {
         at += c as usize;
     }
     if counts.len() == g.counts.len() {
-        return;
+        return None;
     }
     fn filter<T: Copy>(v: &mut Vec<T>, keep: &[bool]) {
         let mut i = 0;
@@ -260,6 +328,7 @@ fn drop_pointless_strands(g: &mut crate::formats::Groom) {
         filter(c, &keep_point);
     }
     g.counts = counts;
+    Some(keep_point)
 }
 
 impl Roots {
@@ -804,13 +873,16 @@ fn validate_file_group(p: &str, g: &HairGroup, f: &StrandFile) -> Result<()> {
     vec3(&format!("{p}.file.translate"), f.translate, BIG)?;
     if let Some(t) = f.time {
         finite(&format!("{p}.file.time"), t)?;
-        let abc =
-            crate::formats::Format::of(Path::new(&f.path)) == Some(crate::formats::Format::Abc);
-        if !abc {
+        use crate::formats::Format;
+        let timed = matches!(
+            Format::of(Path::new(&f.path)),
+            Some(Format::Abc | Format::Usda | Format::Usdc | Format::Usdz | Format::Usd)
+        );
+        if !timed {
             return Err(bad(
                 &format!("{p}.file.time"),
                 t,
-                "a time picks a sample of an Alembic archive (.abc); this file holds one pose",
+                "a time picks a sample of an Alembic archive or a USD file; this file holds one pose",
             ));
         }
     }

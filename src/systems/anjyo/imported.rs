@@ -315,7 +315,9 @@ pub fn scene_of(path: &Path) -> Result<Scene> {
                 colors: true,
                 widths: true,
                 time: None,
+                play: true,
                 groom: None,
+                frames: None,
             }),
             roots: Roots::default(),
             count: (n as u64).min(MAX_STRANDS) as u32,
@@ -344,6 +346,12 @@ pub fn scene_of(path: &Path) -> Result<Scene> {
     crate::systems::scene::validate(&scene).map_err(|e| crate::scene::in_file(e, &origin))?;
     // The file is read again through the group, as a scene file naming it would.
     resolve_strand_files(&mut scene, Path::new(""), &origin)?;
+    // A cache plays its frames: not simulated.
+    for g in &mut scene.groups {
+        if g.file.as_ref().is_some_and(|f| f.frames.is_some()) {
+            g.dynamic = false;
+        }
+    }
     Ok(scene)
 }
 

@@ -20,6 +20,7 @@ pub mod gpu_data;
 pub mod groom;
 pub mod imported;
 pub mod panel;
+pub mod playback;
 pub mod projective;
 pub mod projective_gpu;
 pub mod simulation;
@@ -211,6 +212,8 @@ pub struct AnjyoSystem {
     pub screen: ScreenLod,
     /// Ribbons or the compute rasteriser (`render.strands`).
     raster: StrandRaster,
+    /// Groups that play their file's frames (`playback`).
+    pub playback: Option<playback::Playback>,
 }
 
 /// Check the hair buffers against the storage-binding limit before allocating them.
@@ -232,13 +235,16 @@ pub fn scene_bounds(scene: &Scene) -> (DVec3, f64) {
     let mut r = head_r;
     for g in &scene.groups {
         if let Some(f) = &g.file {
-            // A file's strands reach as far as their farthest point.
-            let far = f.groom.as_ref().map_or(0.0, |gr| {
-                gr.points
-                    .iter()
+            // A file's strands reach as far as their farthest point, in any frame.
+            let reach = |pts: &[[f32; 3]]| {
+                pts.iter()
                     .map(|p| (DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64) - c).length())
                     .fold(0.0, f64::max)
-            });
+            };
+            let mut far = f.groom.as_ref().map_or(0.0, |gr| reach(&gr.points));
+            for pts in f.frames.iter().flat_map(|fr| fr.points.iter()) {
+                far = far.max(reach(pts));
+            }
             r = r.max(far);
             continue;
         }
@@ -447,6 +453,7 @@ impl AnjyoSystem {
     /// Groom the scene's hair on the GPU and set up its simulation and draw.
     pub fn new(gpu: &Gpu, scene: &Scene, setup: &DrawSetup) -> Result<AnjyoSystem> {
         let input = groom::prepare(scene)?;
+        let playback = playback_of(scene, &input)?;
         let hair = cantilever_gpu::groom_gpu(gpu, &input)?;
         let sim = Simulation::new(gpu, scene, &input, &hair)?;
         let rest = if sim.is_some() {
@@ -490,8 +497,44 @@ impl AnjyoSystem {
             seg_len: longest_segment(scene),
             screen: ScreenLod::FULL,
             raster: scene.render.strands,
+            playback,
         })
     }
+}
+
+/// The scene's playing groups, their frames resampled (`playback::group_frames`). A group
+/// that plays is not simulated: a dynamic one in a scene with dynamics is refused.
+fn playback_of(scene: &Scene, input: &GroomInput) -> Result<Option<playback::Playback>> {
+    let offsets = input.vertex_offsets();
+    let mut groups = Vec::new();
+    let mut fps = None;
+    for (gi, g) in scene.groups.iter().enumerate() {
+        let Some(frames) = playback::group_frames(g)? else {
+            continue;
+        };
+        if g.dynamic && scene.dynamics.is_some() {
+            return Err(crate::error::KamiError::Invalid {
+                file: String::new(),
+                field: format!("groups[{gi}].dynamic"),
+                value: "true".into(),
+                allowed: "a group that plays its file's frames is not simulated: set \
+                          `dynamic: false`, or `play: false` in its file to simulate from a \
+                          still frame"
+                    .into(),
+            });
+        }
+        fps = fps.or(g.file.as_ref().and_then(|f| f.frames.as_ref()).map(|f| f.fps));
+        let first = offsets[input.groups[gi].first_strand as usize] as u64;
+        groups.push(playback::GroupFrames {
+            at: first * crate::gpu::strands::NODE,
+            frames,
+        });
+    }
+    if groups.is_empty() {
+        return Ok(None);
+    }
+    let frames = groups.iter().map(|g| g.frames.len()).max().unwrap_or(1);
+    Ok(Some(playback::Playback::new(groups, frames, fps.unwrap_or(24.0))))
 }
 
 impl HairSystem for AnjyoSystem {
@@ -510,6 +553,10 @@ impl HairSystem for AnjyoSystem {
         ctx: &FrameCtx,
         frames: u32,
     ) -> Result<StepInfo> {
+        if let Some(p) = self.playback.as_mut() {
+            // After these frames the clock is at ctx.frame + frames: show that one.
+            p.show(gpu, &self.hair.vertices, ctx.frame + frames as u64);
+        }
         let Some(sim) = self.sim.as_mut() else {
             return Ok(StepInfo::default());
         };
@@ -581,6 +628,11 @@ impl HairSystem for AnjyoSystem {
             enc.copy_buffer_to_buffer(rest, 0, &self.hair.vertices, 0, rest.size());
             gpu.queue.submit([enc.finish()]);
             sim.reset(gpu);
+        }
+        if let Some(p) = self.playback.as_mut() {
+            p.invalidate();
+            p.show(gpu, &self.hair.vertices, 0);
+            gpu.queue.submit([]);
         }
         Ok(())
     }
