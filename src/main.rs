@@ -38,9 +38,10 @@ enum Command {
         /// With --frames: also write an animated PNG (APNG) here.
         #[arg(long)]
         apng: Option<PathBuf>,
-        /// Playback rate of --gif and --apng, frames per second.
-        #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=1000))]
-        fps: u32,
+        /// Playback rate of --gif and --apng, frames per second (default: a played cache's
+        /// own rate, else 10).
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1000))]
+        fps: Option<u32>,
         /// Image size as WIDTHxHEIGHT (default: the scene's render.size).
         #[arg(long, value_parser = parse_size)]
         size: Option<(u32, u32)>,
@@ -613,6 +614,10 @@ fn run(cli: Cli) -> Result<()> {
                     }
                     let dir = out.unwrap_or_else(|| PathBuf::from("frames"));
                     let count = last - first + 1;
+                    let fps = fps.unwrap_or_else(|| {
+                        s.cache_fps()
+                            .map_or(10, |f| (f.round() as u32).clamp(1, 1000))
+                    });
                     let mut sinks =
                         anim::Sinks::new(gif.as_deref(), apng.as_deref(), size, count, fps)?;
                     let mut progress = anim::Progress::new(count);

@@ -243,6 +243,8 @@ struct Gfx {
     panels: panel_cache::PanelCache,
     /// Fractions of a frame the clock owes (time scales below 1).
     clock_debt: f64,
+    /// When the clock last advanced while playing (a cache's wall-time pacing).
+    last_advance: Option<Instant>,
     /// The last edited scene the stage refused (not retried every frame; shown in red).
     refused: Option<Scene>,
     camera: OrbitCamera,
@@ -409,6 +411,7 @@ impl App {
             egui_state,
             panels,
             clock_debt: 0.0,
+            last_advance: None,
             refused: None,
             mouse: Mouse::default(),
             zero_size: false,
@@ -1056,6 +1059,7 @@ fn frame_body(
     if let Some(f) = state.host.seek.take() {
         g.stage.seek(&g.gpu, f)?;
         g.clock_debt = 0.0;
+        g.last_advance = None;
         state.kinds.iter_mut().for_each(|k| k.stale());
     }
 
@@ -1063,7 +1067,20 @@ fn frame_body(
     // motion is submitted on its own (the strips' picking reads it back) and never waited
     // for: the GPU times of every pass come back from timestamps a few frames later.
     if state.host.playing && g.frames > 0 {
-        g.clock_debt += state.view.time_scale;
+        // A cache plays at its file's rate in wall time (frames per second times the
+        // seconds since the last advance, a stall counting at most a quarter second);
+        // simulated hair one frame per drawn frame, so that a run is reproducible.
+        let per_draw = match g.stage.playback_fps() {
+            Some(fps) => {
+                let dt = g
+                    .last_advance
+                    .map_or(0.0, |t| now.duration_since(t).as_secs_f64());
+                dt.min(0.25) * fps
+            }
+            None => 1.0,
+        };
+        g.last_advance = Some(now);
+        g.clock_debt += state.view.time_scale * per_draw;
         let due = (g.clock_debt.floor() as u32).min(4);
         g.clock_debt -= g.clock_debt.floor();
         if due > 0 {

@@ -358,6 +358,12 @@ impl Stage {
     }
 
     /// Every system's counts added up.
+    /// The rate a system plays a file's frames at (a cache), frames per second: the
+    /// viewer paces its clock by it. None when everything is simulated.
+    pub fn playback_fps(&self) -> Option<f64> {
+        self.systems.iter().find_map(|s| s.playback_fps())
+    }
+
     pub fn stats(&self) -> SystemStats {
         self.systems
             .iter()

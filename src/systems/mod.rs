@@ -187,6 +187,11 @@ pub trait HairSystem {
     /// Take an edit classified as `Redraw` or `Resimulate` by the kind's `classify`.
     fn update(&mut self, gpu: &Gpu, scene: &Scene, change: Change) -> Result<()>;
     fn stats(&self) -> SystemStats;
+    /// Frames per second of a file's frames this system plays (a cache); None when its
+    /// motion is simulated, one frame per clock frame.
+    fn playback_fps(&self) -> Option<f64> {
+        None
+    }
     /// What the last drawn frame dropped that its image hides (a list that overflowed), read
     /// back from the GPU: callers ask at their own pace (the CLI after each frame, the viewer
     /// once a second). Empty when nothing was dropped.

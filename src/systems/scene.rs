@@ -95,14 +95,23 @@ impl Scene {
         Ok(scene)
     }
 
-    /// A scene showing one strand file (`.hair`, `.obj` polylines, `.usda`, `.abc`), as Anjyo hair
-    /// (`anjyo::imported::scene_of`). What `kami view groom.hair` and the Files panel open.
+    /// The rate of the first file cache a hair group plays (frames per second): what
+    /// `kami render --gif/--apng` plays at when no `--fps` is given.
+    pub fn cache_fps(&self) -> Option<f64> {
+        self.groups
+            .iter()
+            .find_map(|g| g.file.as_ref()?.frames.as_ref().map(|f| f.fps))
+    }
+
+    /// A scene showing one strand file (`.hair`, `.obj` polylines, USD in any encoding,
+    /// `.abc`), as Anjyo hair (`anjyo::imported::scene_of`). What `kami view groom.hair` and
+    /// the Files panel open; a cache plays its frames.
     pub fn from_strand_file(path: &Path) -> Result<Scene> {
         anjyo::imported::scene_of(path)
     }
 
     /// Read, parse and validate a scene file, then read the files it names (relative to its
-    /// folder) so that their errors name them; a strand file (`.hair`, `.obj`, `.usda`, `.abc`)
+    /// folder) so that their errors name them; a strand file (`.hair`, `.obj`, USD, `.abc`)
     /// opens as a scene of its own ([`Scene::from_strand_file`]).
     pub fn load(path: impl AsRef<Path>) -> Result<Scene> {
         let path = path.as_ref();

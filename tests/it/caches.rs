@@ -136,6 +136,8 @@ fn a_cache_plays_on_the_stage_and_loops() {
     let scene = kami::Scene::from_strand_file(&path).unwrap();
     let g = &scene.groups[0];
     assert!(!g.dynamic, "a playing cache is not simulated");
+    // Its rate is what `kami render --gif` plays at and the viewer paces its clock by.
+    assert_eq!(scene.cache_fps(), Some(30.0));
     let segments = g.segments;
     let gpu = common::gpu();
     let mut stage = Stage::new(
@@ -163,4 +165,56 @@ fn a_cache_plays_on_the_stage_and_loops() {
         let e = worst(&out.points, &expect(k));
         assert!(e < 1e-5, "frame {frame} (file frame {k}) off by {e:e}");
     }
+}
+
+/// "Simulate from here" (the Cache panel's button, `--set simulate_from_here`): the frame
+/// shown becomes the rest pose, the group is simulated from it, and the scene saved then
+/// reopens with that rest pose (the file read at that frame's time, not played).
+#[test]
+fn simulate_from_here_makes_the_shown_frame_the_rest_pose() {
+    let dir = scratch("simulate");
+    let path = dir.join("cache.usda");
+    let (_, want) = usd_animated(&path);
+    let mut scene = kami::Scene::from_strand_file(&path).unwrap();
+    assert!(scene.dynamics.is_none());
+    // Kami's frame 15 shows the file's frame 3.
+    kami::systems::anjyo::panel::simulate_from_here(&mut scene, 15).unwrap();
+    let g = &scene.groups[0];
+    let f = g.file.as_ref().unwrap();
+    assert!(g.dynamic && scene.dynamics.is_some());
+    assert!(f.frames.is_none() && !f.play);
+    assert_eq!(f.time, Some(4.0 / 30.0));
+    assert!(worst(&f.groom.as_ref().unwrap().points, &want[3]) < 2e-6);
+    // Saved and reopened: the same rest pose, read from the file at that time.
+    let saved = dir.join("from_here.ron");
+    std::fs::write(&saved, scene.to_ron()).unwrap();
+    let back = kami::Scene::load(&saved).unwrap();
+    let bf = back.groups[0].file.as_ref().unwrap();
+    assert!(bf.frames.is_none());
+    assert!(worst(&bf.groom.as_ref().unwrap().points, &want[3]) < 2e-6);
+    // The dynamics move it from there: a sideways pull swings the strands off the file's
+    // frame (they hang straight down in it).
+    scene.forces.gravity = [0.0, -150.0, 400.0];
+    let gpu = common::gpu();
+    let mut stage = Stage::new(
+        gpu,
+        &scene,
+        wgpu::TextureFormat::Rgba8UnormSrgb,
+        Quality::of(&scene),
+    )
+    .unwrap();
+    stage.seek(gpu, 0).unwrap();
+    let rest = stage.export(gpu).unwrap();
+    stage.seek(gpu, 10).unwrap();
+    let moved = stage.export(gpu).unwrap();
+    let d = rest
+        .points
+        .iter()
+        .zip(&moved.points)
+        .map(|(a, b)| (0..3).map(|k| (a[k] - b[k]).abs()).fold(0.0, f32::max))
+        .fold(0.0, f32::max);
+    assert!(d > 0.1, "the simulated strands did not move ({d})");
+    // Nothing plays any more: the key says so.
+    let e = kami::systems::anjyo::panel::simulate_from_here(&mut scene, 0).unwrap_err();
+    assert!(e.contains("no hair group plays"), "{e}");
 }

@@ -131,7 +131,13 @@ pub const KIND: Kind = Kind {
     ui: || Box::<panel::AnjyoUi>::default(),
     // The hair and segment counts (`Scene::counts`) are Anjyo's and fur's already.
     summary: |_| None,
-    moves: |s| s.dynamics.is_some(),
+    // Simulated, or playing a file's frames.
+    moves: |s| {
+        s.dynamics.is_some()
+            || s.groups
+                .iter()
+                .any(|g| g.file.as_ref().is_some_and(|f| f.frames.is_some()))
+    },
     scenes: &[
         "gust",
         "bob",
@@ -658,6 +664,10 @@ impl HairSystem for AnjyoSystem {
             Change::None | Change::Rebuild => {}
         }
         Ok(())
+    }
+
+    fn playback_fps(&self) -> Option<f64> {
+        self.playback.as_ref().map(|p| p.fps)
     }
 
     fn stats(&self) -> SystemStats {

@@ -29,6 +29,12 @@ pub const PANELS: &[Panel] = &[
         show: look,
     },
     Panel {
+        title: "Cache",
+        open: |s| s.groups.iter().any(plays),
+        adds: false,
+        show: cache,
+    },
+    Panel {
         title: "Dynamics",
         open: |s| s.dynamics.is_some() && !s.groups.is_empty(),
         adds: false,
@@ -62,11 +68,12 @@ impl KindUi for AnjyoUi {
     /// `color=r,g,b`, `width=w`, `ks=k`, `shininess=n`, `melanin=m`, `redness=r` (the
     /// physical mode's, `docs/shading.md`), `rigidity=EI` (every group),
     /// `file_colors=on|off`, `file_widths=on|off` (groups read from strand files),
-    /// `stiffness=root,tip`, `damping=rate`, `pseudo=on|off`.
+    /// `stiffness=root,tip`, `damping=rate`, `pseudo=on|off`, `simulate_from_here` (groups
+    /// playing a cache: the frame shown becomes their rest pose, simulated).
     fn set(
         &mut self,
         scene: &mut Scene,
-        _host: &mut Host,
+        host: &mut Host,
         key: &str,
         value: Option<&str>,
     ) -> Option<Result<(), String>> {
@@ -107,8 +114,85 @@ impl KindUi for AnjyoUi {
             "pseudo" => ui::on(value).map(|on| {
                 dynamics_of(scene).pseudo_force = on.then(default_pseudo_force);
             }),
+            "simulate_from_here" => simulate_from_here(scene, host.frame),
             _ => return None,
         })
+    }
+}
+
+/// Whether a group plays its file's frames.
+fn plays(g: &crate::systems::anjyo::block::HairGroup) -> bool {
+    g.file.as_ref().is_some_and(|f| f.frames.is_some())
+}
+
+/// Every playing group's frame shown at Kami's `frame` becomes its rest pose: the file is
+/// read at that time from now on (`time`, `play: false`, so a saved scene reopens the
+/// same), the group is simulated (the scene gets dynamics if it had none). The stage
+/// rebuilds the hair from the new rest pose.
+pub fn simulate_from_here(scene: &mut Scene, frame: u64) -> Result<(), String> {
+    let mut any = false;
+    for g in scene.groups.iter_mut().filter(|g| plays(g)) {
+        let Some(f) = g.file.as_mut() else { continue };
+        let (Some(frames), Some(groom)) = (f.frames.take(), f.groom.as_ref()) else {
+            continue;
+        };
+        let k = (frame % frames.points.len().max(1) as u64) as usize;
+        let mut rest = (**groom).clone();
+        rest.points = frames.points[k].clone();
+        f.groom = Some(std::sync::Arc::new(rest));
+        f.time = Some(frames.times[k]);
+        f.play = false;
+        g.dynamic = true;
+        any = true;
+    }
+    if !any {
+        return Err("no hair group plays a cache".into());
+    }
+    dynamics_of(scene);
+    Ok(())
+}
+
+/// The cache panel: which groups play which frames, a scrub over the file's frames, and
+/// "simulate from here".
+fn cache(ui: &mut Ui, cx: &mut PanelCx) {
+    let frame = cx.host.frame;
+    let mut longest = 0usize;
+    for g in cx.scene.groups.iter().filter(|g| plays(g)) {
+        let Some(fr) = g.file.as_ref().and_then(|f| f.frames.as_ref()) else {
+            continue;
+        };
+        let n = fr.points.len();
+        longest = longest.max(n);
+        let k = (frame % n.max(1) as u64) as usize;
+        ui.label(format!(
+            "{}: {n} frames at {:.3} fps; file frame {} of {n} ({:.3} s)",
+            g.name,
+            fr.fps,
+            k + 1,
+            fr.times[k]
+        ));
+    }
+    if longest > 0 {
+        let mut k = (frame % longest as u64) as usize;
+        // The timeline: the file's frames (Kami's clock loops over them).
+        if ui
+            .add(Slider::new(&mut k, 0..=longest - 1).text("file frame"))
+            .changed()
+        {
+            cx.host.seek = Some(k as u64);
+        }
+    }
+    if ui
+        .button("simulate from here")
+        .on_hover_text(
+            "the frame shown becomes the rest pose and Kami's dynamics move the hair from it \
+             (--set simulate_from_here)",
+        )
+        .clicked()
+    {
+        if let Err(e) = simulate_from_here(cx.scene, frame) {
+            cx.host.error = Some(e);
+        }
     }
 }
 
