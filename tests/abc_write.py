@@ -8,7 +8,10 @@ widths, catmullRom with a constant width, periodic bezier with indexed uniform c
 xforms (curves under nested, non-inheriting and matrix transforms), animated (three samples
 at 24 fps of moving curves under a moving transform), indexed (indexed uniform colours and an
 indexed constant width), bytes (8-bit colours `Cd` beside an integer `Cs`), empty (an archive
-without curves)."""
+without curves), unreal (Unreal Engine's groom schema as MetaHuman and Houdini export it: render
+strands with `groom_width` over Maya's `width`, `groom_color`, `groom_group_id`, `groom_root_uv`,
+and a guides object with a constant `groom_guide` of 1; `groom_version_major/minor`),
+guides_only (every curve a guide: refused)."""
 import sys
 
 import imath
@@ -150,6 +153,46 @@ def write(case, path):
         c = imath.C3cArray(2)
         c[0], c[1] = imath.Color3c(255, 0, 0), imath.Color3c(0, 51, 255)
         cd.set(G.OC3cGeomParamSample(c, Scope.kVertexScope))
+    elif case in ("unreal", "guides_only"):
+        def shorts(values):
+            a = imath.ShortArray(len(values))
+            for i, v in enumerate(values):
+                a[i] = v
+            return a
+
+        def version(arb):
+            for name, v in (("groom_version_major", 1), ("groom_version_minor", 5)):
+                p = G.OInt16GeomParam(arb, name, False, Scope.kConstantScope, 1)
+                p.set(G.OInt16GeomParamSample(shorts([v]), Scope.kConstantScope))
+
+        if case == "unreal":
+            # Six render strands of 3 points in two groups (ids 3 and 7).
+            pts = [(i, j, 0.1 * i) for i in range(6) for j in range(3)]
+            obj, schema = curves(top, "strands", pts, [3] * 6, lin, non, G.BasisType.kNoBasis,
+                                 ([9.0] * 18, Scope.kVertexScope))
+            arb = schema.getArbGeomParams()
+            version(arb)
+            gw = G.OFloatGeomParam(arb, "groom_width", False, Scope.kVertexScope, 1)
+            gw.set(G.OFloatGeomParamSample(floats([0.01 * (k + 1) for k in range(18)]), Scope.kVertexScope))
+            gc = G.OC3fGeomParam(arb, "groom_color", False, Scope.kUniformScope, 1)
+            gc.set(G.OC3fGeomParamSample(colors([(0.1 * i, 0.5, 0.2) for i in range(6)]), Scope.kUniformScope))
+            gid = G.OInt32GeomParam(arb, "groom_group_id", False, Scope.kUniformScope, 1)
+            gid.set(G.OInt32GeomParamSample(ints([3, 3, 7, 7, 7, 3]), Scope.kUniformScope))
+            uv = G.OV2fGeomParam(arb, "groom_root_uv", False, Scope.kUniformScope, 1)
+            a = imath.V2fArray(6)
+            for i in range(6):
+                a[i] = imath.V2f(i / 6.0, 0.25)
+            uv.set(G.OV2fGeomParamSample(a, Scope.kUniformScope))
+        # Guides: two curves (one per group), flagged by a constant groom_guide.
+        gpts = [(0, j, 0) for j in range(3)] + [(3, j, 0.3) for j in range(3)]
+        obj, schema = curves(top, "guides", gpts, [3, 3], lin, non, G.BasisType.kNoBasis,
+                             ([0.02], Scope.kConstantScope))
+        arb = schema.getArbGeomParams()
+        version(arb)
+        guide = G.OInt16GeomParam(arb, "groom_guide", False, Scope.kConstantScope, 1)
+        guide.set(G.OInt16GeomParamSample(shorts([1]), Scope.kConstantScope))
+        gid = G.OInt32GeomParam(arb, "groom_group_id", False, Scope.kUniformScope, 1)
+        gid.set(G.OInt32GeomParamSample(ints([3, 7]), Scope.kUniformScope))
     elif case == "empty":
         xform(top, "nothing", G.XformSample())
     else:

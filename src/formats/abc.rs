@@ -148,13 +148,20 @@ impl Curves {
             return g;
         }
         // Objects of different bases: each evaluated on its own, then joined.
-        let mut out = Groom::default();
+        let mut out = Groom {
+            group_ids: g.group_ids.clone(),
+            guides: g.guides.clone(),
+            root_uvs: g.root_uvs.clone(),
+            ..Groom::default()
+        };
         let mut at = 0usize;
         for (o, &(basis, wrap)) in self.objects.iter().zip(&kinds) {
             let counts = g.counts[o.strands.clone()].to_vec();
             let n: usize = counts.iter().map(|&c| c as usize).sum();
             let r = at..at + n;
             at += n;
+            // Every count makes a curve of its kind (`kinds` fell back to linear where
+            // not), so each strand stays one strand: the per-strand values stay as read.
             let part = Groom {
                 counts,
                 points: g.points[r.clone()].to_vec(),
@@ -163,6 +170,7 @@ impl Curves {
                 colors: g.colors.as_ref().map(|v| v[r.clone()].to_vec()),
                 basis,
                 wrap,
+                ..Groom::default()
             }
             .into_linear();
             out.counts.extend(part.counts);
@@ -228,6 +236,13 @@ pub fn parse_with(b: &[u8], origin: &str, options: &Options) -> Result<Curves> {
         return Err(archive.err(format!(
             "the {} curves object(s) hold no curves at the sample read: no strands in this file",
             reader.found
+        )));
+    }
+    if groom.guides.as_ref().is_some_and(|g| g.iter().all(|&x| x)) {
+        return Err(archive.err(format!(
+            "every one of its {} curves is a guide (groom_guide = 1): there are no strands to \
+             draw; export the render strands with the guides",
+            groom.counts.len()
         )));
     }
     Ok(Curves {
@@ -910,33 +925,113 @@ fn rotation(axis: [f64; 3], degrees: f64) -> M44 {
 }
 
 /// Per-point attribute arrays while objects are joined; an attribute one object lacks is
-/// dropped from all (as the usda reader does), so no value is made up.
+/// dropped from all (as the usda reader does), so no value is made up. One exception: an
+/// object of guides only (Unreal's `groom_guide`, which Unreal does not draw) that lacks a
+/// look the strand objects all have takes their mean (and root UVs of (0, 0)), so that
+/// guides exported without colours do not cost the groom its colours.
 #[derive(Default)]
 struct Parts {
-    groom: Groom,
-    objects: usize,
+    parts: Vec<Groom>,
 }
 
 impl Parts {
     fn push(&mut self, g: Groom) {
-        let first = self.objects == 0;
-        self.objects += 1;
-        let base = &mut self.groom;
-        fn join<T>(first: bool, a: &mut Option<Vec<T>>, b: Option<Vec<T>>) {
-            match (first, a.as_mut(), b) {
-                (true, _, b) => *a = b,
-                (false, Some(a), Some(b)) => a.extend(b),
-                _ => *a = None,
+        self.parts.push(g);
+    }
+
+    fn finish(mut self) -> Groom {
+        let guides_only =
+            |g: &Groom| g.guides.as_ref().is_some_and(|v| !v.is_empty() && v.iter().all(|&x| x));
+        fn mean<const N: usize>(v: &[[f32; N]]) -> [f32; N] {
+            let mut m = [0.0f64; N];
+            for x in v {
+                for k in 0..N {
+                    m[k] += x[k] as f64;
+                }
+            }
+            m.map(|x| (x / v.len().max(1) as f64) as f32)
+        }
+        let strands: Vec<&Groom> = self.parts.iter().filter(|g| !guides_only(g)).collect();
+        let all = |f: fn(&Groom) -> bool| !strands.is_empty() && strands.iter().all(|g| f(g));
+        let fill_w = all(|g| g.widths.is_some()).then(|| {
+            let v: Vec<[f32; 1]> = strands
+                .iter()
+                .flat_map(|g| g.widths.iter().flatten().map(|&w| [w]))
+                .collect();
+            mean(&v)[0]
+        });
+        let fill_o = all(|g| g.opacities.is_some()).then(|| {
+            let v: Vec<[f32; 1]> = strands
+                .iter()
+                .flat_map(|g| g.opacities.iter().flatten().map(|&w| [w]))
+                .collect();
+            mean(&v)[0]
+        });
+        let fill_c = all(|g| g.colors.is_some()).then(|| {
+            let v: Vec<[f32; 3]> = strands
+                .iter()
+                .flat_map(|g| g.colors.iter().flatten().copied())
+                .collect();
+            mean(&v)
+        });
+        let uvs = all(|g| g.root_uvs.is_some());
+        for g in self.parts.iter_mut().filter(|g| guides_only(g)) {
+            let n = g.points.len();
+            if g.root_uvs.is_none() && uvs {
+                g.root_uvs = Some(vec![[0.0; 2]; g.counts.len()]);
+            }
+            if let (None, Some(w)) = (&g.widths, fill_w) {
+                g.widths = Some(vec![w; n]);
+            }
+            if let (None, Some(o)) = (&g.opacities, fill_o) {
+                g.opacities = Some(vec![o; n]);
+            }
+            if let (None, Some(c)) = (&g.colors, fill_c) {
+                g.colors = Some(vec![c; n]);
             }
         }
-        join(first, &mut base.widths, g.widths);
-        join(first, &mut base.opacities, g.opacities);
-        join(first, &mut base.colors, g.colors);
-        base.counts.extend(g.counts);
-        base.points.extend(g.points);
-    }
-    fn finish(self) -> Groom {
-        self.groom
+        let mut base = Groom::default();
+        for (i, g) in self.parts.into_iter().enumerate() {
+            let first = i == 0;
+            fn join<T>(first: bool, a: &mut Option<Vec<T>>, b: Option<Vec<T>>) {
+                match (first, a.as_mut(), b) {
+                    (true, _, b) => *a = b,
+                    (false, Some(a), Some(b)) => a.extend(b),
+                    _ => *a = None,
+                }
+            }
+            join(first, &mut base.widths, g.widths);
+            join(first, &mut base.opacities, g.opacities);
+            join(first, &mut base.colors, g.colors);
+            // Unreal's per-strand values: an object without them is group 0 and no guide
+            // (as Unreal's importer reads it); root UVs are dropped unless every object has
+            // them.
+            fn fill<T: Clone>(
+                a: &mut Option<Vec<T>>,
+                na: usize,
+                b: Option<Vec<T>>,
+                nb: usize,
+                v: T,
+            ) {
+                match (a.as_mut(), b) {
+                    (None, None) => {}
+                    (Some(a), Some(b)) => a.extend(b),
+                    (Some(a), None) => a.extend(std::iter::repeat_n(v, nb)),
+                    (None, Some(b)) => {
+                        let mut x = vec![v; na];
+                        x.extend(b);
+                        *a = Some(x);
+                    }
+                }
+            }
+            let (na, nb) = (base.counts.len(), g.counts.len());
+            fill(&mut base.group_ids, na, g.group_ids, nb, 0);
+            fill(&mut base.guides, na, g.guides, nb, false);
+            join(first, &mut base.root_uvs, g.root_uvs);
+            base.counts.extend(g.counts);
+            base.points.extend(g.points);
+        }
+        base
     }
 }
 
@@ -1194,13 +1289,14 @@ impl Reader<'_> {
         };
 
         // Widths: the schema's `width` geom param.
-        let widths = match find("width") {
+        let mut widths = match find("width") {
             Some(w) => self.param(w, path, ".geom", 1, &shape)?,
             None => None,
         };
         // Colour and opacity from the arbitrary geom params, by the names tools use.
         let mut colors = None;
         let mut opacities = None;
+        let (mut group_ids, mut guides, mut root_uvs) = (None, None, None);
         if let Some(arb) = find(".arbGeomParams").filter(|p| p.kind == Kind::Compound) {
             let where_ = format!("object {path}, .geom/.arbGeomParams");
             let arb_props = a.properties(&a.group(arb.group, &where_)?, &where_)?;
@@ -1234,6 +1330,59 @@ impl Reader<'_> {
             }
             if let Some(o) = param(OPACITY, &[1]) {
                 opacities = self.param(o, path, ".geom/.arbGeomParams", 1, &shape)?;
+            }
+            // Unreal's groom schema ("Alembic for Grooms"): its width and colour win over
+            // the others; group ids, guide flags and root UVs are per curve.
+            let arb_where = ".geom/.arbGeomParams";
+            if let Some(w) = param(&["groom_width"], &[1]) {
+                if let Some(v) = self.param(w, path, arb_where, 1, &shape)? {
+                    widths = Some(v);
+                }
+            }
+            if let Some(c) = param(&["groom_color"], &[3, 4]) {
+                let e = param_extent(c, a).unwrap_or(3) as usize;
+                if let Some(v) = self.param(c, path, arb_where, e as u32, &shape)? {
+                    colors = Some(v.chunks_exact(e).map(|c| [c[0], c[1], c[2]]).collect());
+                }
+            }
+            let named = |n: &str| arb_props.iter().find(|p| p.name == n);
+            if let Some(p) = named("groom_group_id") {
+                group_ids = Some(
+                    self.per_curve(p, path, &counts)?
+                        .into_iter()
+                        .map(|v| v as i64)
+                        .collect(),
+                );
+            }
+            if let Some(p) = named("groom_guide") {
+                guides = Some(
+                    self.per_curve(p, path, &counts)?
+                        .into_iter()
+                        .map(|v| v != 0.0)
+                        .collect(),
+                );
+            }
+            if let Some(p) = param(&["groom_root_uv"], &[2]) {
+                if let Some(v) = self.param(p, path, arb_where, 2, &shape)? {
+                    // Per point as expanded: each curve's value at its root.
+                    let mut at = 0usize;
+                    let mut uvs = Vec::with_capacity(counts.len());
+                    for &c in &counts {
+                        uvs.push([v[2 * at], v[2 * at + 1]]);
+                        at += c as usize;
+                    }
+                    root_uvs = Some(uvs);
+                }
+            }
+            if let Some(p) = named("groom_version_major") {
+                let v = self.per_curve(p, path, &counts)?;
+                if v.first().is_some_and(|&m| m > 1.0) {
+                    log::warn!(
+                        "{}: object {path} follows Unreal's groom schema {}; Kami reads version 1",
+                        a.origin,
+                        v[0]
+                    );
+                }
             }
         }
 
@@ -1279,7 +1428,7 @@ impl Reader<'_> {
                 w.into_iter().map(|v| (v as f64 * scale) as f32).collect()
             }
         });
-        let first = self.groom.groom.counts.len();
+        let first: usize = self.groom.parts.iter().map(|g| g.counts.len()).sum();
         let strands = first..first + counts.len();
         self.groom.push(Groom {
             counts,
@@ -1287,6 +1436,9 @@ impl Reader<'_> {
             widths,
             opacities,
             colors,
+            group_ids,
+            guides,
+            root_uvs,
             ..Groom::default()
         });
         self.objects.push(CurvesObject {
@@ -1305,6 +1457,41 @@ impl Reader<'_> {
                 .collect(),
         });
         Ok(())
+    }
+
+    /// A per-curve number (Unreal's `groom_group_id`, `groom_guide`, any integer or float
+    /// type): one value for the object (constant), one per curve (uniform), or one per
+    /// point (vertex: each curve's root value).
+    fn per_curve(&self, p: &Property, path: &str, counts: &[u32]) -> Result<Vec<f64>> {
+        let a = self.a;
+        let what = format!("object {path}, .geom/.arbGeomParams/{}", p.name);
+        if p.kind == Kind::Compound || p.extent.max(1) != 1 || p.pod.size().is_none() {
+            return Err(a.err(format!("{what}: not one number per curve")));
+        }
+        if p.count == 0 {
+            return Ok(vec![0.0; counts.len()]);
+        }
+        let v = a.numbers(p, a.index(p, self.options.sample), &what)?;
+        let points: usize = counts.iter().map(|&c| c as usize).sum();
+        match v.len() {
+            1 => Ok(vec![v.get(0); counts.len()]),
+            n if n == counts.len() => Ok(v.iter().collect()),
+            n if n == points => {
+                let mut at = 0usize;
+                Ok(counts
+                    .iter()
+                    .map(|&c| {
+                        let x = v.get(at);
+                        at += c as usize;
+                        x
+                    })
+                    .collect())
+            }
+            n => Err(a.err(format!(
+                "{what}: {n} values fit neither the object, its {} curves nor its {points} points",
+                counts.len()
+            ))),
+        }
     }
 
     /// A geom param (`width`, a colour) expanded to one `extent`-tuple per point, flat; an

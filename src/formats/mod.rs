@@ -41,6 +41,14 @@ pub struct Groom {
     pub basis: Basis,
     /// Open, closed or pinned ends.
     pub wrap: Wrap,
+    /// Per strand: its group (Unreal's `groom_group_id`; Kami opens one hair group per
+    /// id), when the file has groups.
+    pub group_ids: Option<Vec<i64>>,
+    /// Per strand: a guide (Unreal's `groom_guide`): Kami simulates the guides and the
+    /// other strands follow them.
+    pub guides: Option<Vec<bool>>,
+    /// Per strand: the root's UV on the scalp (Unreal's `groom_root_uv`); kept, not drawn.
+    pub root_uvs: Option<Vec<[f32; 2]>>,
 }
 
 impl Groom {
@@ -122,6 +130,11 @@ impl Groom {
         join(&mut self.widths, na, other.widths, nb, 0.01);
         join(&mut self.opacities, na, other.opacities, nb, 1.0);
         join(&mut self.colors, na, other.colors, nb, [1.0; 3]);
+        // Per strand: group 0, not a guide, UV (0, 0) where one side has none.
+        let (sa, sb) = (self.counts.len(), other.counts.len());
+        join(&mut self.group_ids, sa, other.group_ids, sb, 0);
+        join(&mut self.guides, sa, other.guides, sb, false);
+        join(&mut self.root_uvs, sa, other.root_uvs, sb, [0.0; 2]);
         self.counts.extend(other.counts);
         self.points.extend(other.points);
     }
@@ -139,6 +152,18 @@ impl Groom {
                 "the strand counts add up to {total} points but there are {}",
                 self.points.len()
             )));
+        }
+        for (name, len) in [
+            ("group ids", self.group_ids.as_ref().map(Vec::len)),
+            ("guide flags", self.guides.as_ref().map(Vec::len)),
+            ("root UVs", self.root_uvs.as_ref().map(Vec::len)),
+        ] {
+            if let Some(n) = len.filter(|&n| n != self.counts.len()) {
+                return Err(bad(format!(
+                    "{n} {name} for {} strands",
+                    self.counts.len()
+                )));
+            }
         }
         if let Some(i) = self.counts.iter().position(|&c| c < 2) {
             return Err(bad(format!(
@@ -467,6 +492,24 @@ pub(crate) fn evaluate(g: &Groom, attrs: &[(&Option<Values>, usize); 3]) -> Groo
         std::array::from_fn(|i| attrs[i].0.as_ref().map(|_| Vec::new()));
     let mut lin = Groom::default();
     let (mut at, mut vat) = (0usize, 0usize);
+    // Per-strand values follow their strands.
+    let kept: Vec<bool> = g
+        .counts
+        .iter()
+        .map(|&c| curves::segments(g.basis, g.wrap, c as usize).is_some())
+        .collect();
+    fn per_strand<T: Copy>(v: &Option<Vec<T>>, kept: &[bool]) -> Option<Vec<T>> {
+        v.as_ref().map(|v| {
+            v.iter()
+                .zip(kept)
+                .filter(|(_, &k)| k)
+                .map(|(x, _)| *x)
+                .collect()
+        })
+    }
+    lin.group_ids = per_strand(&g.group_ids, &kept);
+    lin.guides = per_strand(&g.guides, &kept);
+    lin.root_uvs = per_strand(&g.root_uvs, &kept);
     for &c in &g.counts {
         let n = c as usize;
         // Counts that make no curve (`check` refuses them) are left out.

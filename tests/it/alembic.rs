@@ -465,3 +465,92 @@ fn a_time_is_chosen_from_the_command_line_and_the_scene() {
     let e = kami::Scene::load(&scene).unwrap_err().to_string();
     assert!(e.contains("groups[0].file.time"), "{e}");
 }
+
+/// Unreal's groom schema as MetaHuman and Houdini export it (`abc_write.py unreal`):
+/// `groom_width` wins over Maya's `width`, `groom_color` is the colour, and per strand the
+/// group id, the guide flag (a guides object with a constant `groom_guide`) and the root
+/// UV; a guides object without colours takes the strands' mean instead of costing the
+/// groom its colours. A file of guides only is refused, naming it.
+#[test]
+fn unreal_groom_attributes_are_read() {
+    let dir = scratch("unreal");
+    let (path, _) = write(&dir, "unreal", 0);
+    let g = formats::read(&path).unwrap();
+    assert_eq!(g.counts, vec![3; 8]);
+    let w = g.widths.as_ref().unwrap();
+    for (k, &x) in w[..18].iter().enumerate() {
+        assert!(close(x, 0.01 * (k + 1) as f64), "width {k} is {x}");
+    }
+    assert!(w[18..].iter().all(|&x| close(x, 0.02)), "guide widths {w:?}");
+    let c = g.colors.as_ref().unwrap();
+    for i in 0..6 {
+        let want = [0.1 * i as f64, 0.5, 0.2];
+        for k in 0..3 {
+            assert!(close(c[3 * i][k], want[k]), "strand {i} colour {:?}", c[3 * i]);
+        }
+    }
+    // The guides take the strands' mean colour.
+    assert!(close(c[18][0], 0.25) && close(c[18][1], 0.5), "{:?}", c[18]);
+    assert_eq!(g.group_ids, Some(vec![3, 3, 7, 7, 7, 3, 3, 7]));
+    assert_eq!(
+        g.guides,
+        Some(vec![false, false, false, false, false, false, true, true])
+    );
+    let uv = g.root_uvs.as_ref().unwrap();
+    assert!(close(uv[2][0], 2.0 / 6.0) && close(uv[2][1], 0.25), "{uv:?}");
+    assert_eq!(uv[6], [0.0, 0.0]);
+
+    let (only, _) = write(&dir, "guides_only", 0);
+    let e = formats::read(&only).unwrap_err().to_string();
+    assert!(
+        e.contains("guides_only.abc") && e.contains("every one of its 2 curves is a guide"),
+        "{e}"
+    );
+}
+
+/// Opened in Kami, Unreal's groups are Kami's groups (one per `groom_group_id`), and with
+/// dynamics the file's guides are the simulated strands: every other strand follows the
+/// guide of its own group.
+#[test]
+fn unreal_groups_and_guides_become_kamis() {
+    use kami::systems::anjyo::{follow, groom, projective::DynSetup};
+    let dir = scratch("unreal_scene");
+    let (path, _) = write(&dir, "unreal", 0);
+    let mut scene = kami::Scene::from_strand_file(&path).unwrap();
+    let names: Vec<(&str, u32)> = scene
+        .groups
+        .iter()
+        .map(|g| (g.name.as_str(), g.count))
+        .collect();
+    assert_eq!(names.len(), 2, "{names:?}");
+    assert!(names[0].0.ends_with("(group 3)") && names[1].0.ends_with("(group 7)"));
+    assert_eq!((names[0].1, names[1].1), (4, 4));
+    scene.dynamics = Some(Default::default());
+    let input = groom::prepare(&scene).unwrap();
+    let mask = follow::guide_mask(&scene, &input);
+    // Group 3: strands 0, 1, 5 and its guide; group 7: strands 2, 3, 4 and its guide.
+    assert_eq!(
+        mask,
+        vec![false, false, false, true, false, false, false, true]
+    );
+    let visible: Vec<f64> = input
+        .roots
+        .iter()
+        .map(|r| input.groups[r.group as usize].segments as f64)
+        .collect();
+    let setup = DynSetup::new(&scene, &input, &visible).unwrap();
+    assert_eq!(setup.strands.len(), 2);
+    let f = follow::FollowSetup::new(&scene, &input, &visible, &setup).unwrap();
+    assert_eq!(f.followers.len(), 6);
+    for fo in &f.followers {
+        let group = input.roots[fo.strand as usize].group;
+        for g in &fo.guides {
+            let guide = setup
+                .strands
+                .iter()
+                .find(|s| s.first_vertex == g.first_vertex)
+                .unwrap();
+            assert_eq!(input.roots[guide.strand as usize].group, group);
+        }
+    }
+}

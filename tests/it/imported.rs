@@ -37,6 +37,7 @@ fn imported_scene(mut scene: kami::Scene, groom: Groom, segments: u32) -> kami::
             widths: true,
             time: None,
             play: true,
+            group_id: None,
             groom: Some(Arc::new(groom.clone())),
             frames: None,
         }),

@@ -135,6 +135,9 @@ pub struct StrandFile {
     /// Alembic samples), looping, at the file's rate; false holds the first (or `time`'s).
     #[serde(default = "yes", skip_serializing_if = "is_true")]
     pub play: bool,
+    /// Only the strands of this group id (Unreal's `groom_group_id`); all without it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub group_id: Option<i64>,
     /// The strands as read, placed (filled by `Scene::load` or [`resolve_strand_files`]).
     #[serde(skip)]
     pub groom: Option<std::sync::Arc<crate::formats::Groom>>,
@@ -217,7 +220,13 @@ pub fn resolve_strand_files(scene: &mut Scene, dir: &Path, origin: &str) -> Resu
                 allowed: "the file has no strands".into(),
             });
         }
-        let take = (g.count as usize).min(n);
+        let selected = select_strands(&read, f.group_id, g.count as usize)
+            .map_err(|m| KamiError::Data {
+                path: path.display().to_string(),
+                line: None,
+                message: m,
+            })?;
+        let take = selected.len();
         let m = f.transform();
         let mut groom = crate::formats::Groom::default();
         let mut starts = Vec::with_capacity(n + 1);
@@ -226,9 +235,13 @@ pub fn resolve_strand_files(scene: &mut Scene, dir: &Path, origin: &str) -> Resu
             starts.push(acc);
             acc += c as usize;
         }
-        for j in 0..take {
-            // Strand j of `take`, spread evenly over the file's order.
-            let i = j * n / take;
+        fn pick<T: Copy>(v: &Option<Vec<T>>, selected: &[usize]) -> Option<Vec<T>> {
+            v.as_ref().map(|v| selected.iter().map(|&i| v[i]).collect())
+        }
+        groom.group_ids = pick(&read.group_ids, &selected);
+        groom.guides = pick(&read.guides, &selected);
+        groom.root_uvs = pick(&read.root_uvs, &selected);
+        for &i in &selected {
             let range = starts[i]..starts[i] + read.counts[i] as usize;
             groom.counts.push(read.counts[i]);
             groom
@@ -265,8 +278,7 @@ pub fn resolve_strand_files(scene: &mut Scene, dir: &Path, origin: &str) -> Resu
                 .iter()
                 .map(|pts| {
                     let mut out = Vec::with_capacity(groom.points.len());
-                    for j in 0..take {
-                        let i = j * n / take;
+                    for &i in &selected {
                         let range = starts[i]..starts[i] + read.counts[i] as usize;
                         out.extend(pts[range].iter().map(|p| {
                             let q = m.transform_point3(glam::DVec3::new(
@@ -292,15 +304,59 @@ pub fn resolve_strand_files(scene: &mut Scene, dir: &Path, origin: &str) -> Resu
     Ok(())
 }
 
+/// Which strands of `read` a group takes: those of `group_id` (all without one), at most
+/// `count` of them spread evenly over the file's order; every guide is kept (they are few
+/// and the others follow them) and the count thins the rest. Indices in file order.
+fn select_strands(
+    read: &crate::formats::Groom,
+    group_id: Option<i64>,
+    count: usize,
+) -> std::result::Result<Vec<usize>, String> {
+    let n = read.counts.len();
+    let ids: Vec<usize> = match (group_id, &read.group_ids) {
+        (None, _) => (0..n).collect(),
+        (Some(id), Some(g)) => (0..n).filter(|&i| g[i] == id).collect(),
+        (Some(id), None) => {
+            return Err(format!(
+                "group_id {id}: the file has no group ids (Unreal's groom_group_id)"
+            ))
+        }
+    };
+    if ids.is_empty() {
+        let known: std::collections::BTreeSet<i64> =
+            read.group_ids.iter().flatten().copied().collect();
+        return Err(format!(
+            "no strand has group id {} (the file's ids: {known:?})",
+            group_id.unwrap_or_default()
+        ));
+    }
+    let guide = |i: usize| read.guides.as_ref().is_some_and(|g| g[i]);
+    let (guides, others): (Vec<usize>, Vec<usize>) = ids.iter().partition(|&&i| guide(i));
+    if others.is_empty() {
+        return Err(format!(
+            "every one of the {} strands{} is a guide (groom_guide = 1): nothing to draw",
+            guides.len(),
+            group_id.map_or(String::new(), |id| format!(" of group id {id}"))
+        ));
+    }
+    let take = count.saturating_sub(guides.len()).clamp(1, others.len());
+    let mut out = guides;
+    out.extend((0..take).map(|j| others[j * others.len() / take]));
+    out.sort_unstable();
+    Ok(out)
+}
+
 /// Remove the strands whose points all coincide, with their attributes; the points kept
 /// (a mask over the old points) when any went.
 fn drop_pointless_strands(g: &mut crate::formats::Groom) -> Option<Vec<bool>> {
     let mut keep_point = Vec::with_capacity(g.points.len());
     let mut counts = Vec::with_capacity(g.counts.len());
+    let mut keep_strand = Vec::with_capacity(g.counts.len());
     let mut at = 0usize;
     for &c in &g.counts {
         let pts = &g.points[at..at + c as usize];
         let keep = pts.iter().any(|p| *p != pts[0]);
+        keep_strand.push(keep);
         keep_point.extend(std::iter::repeat_n(keep, c as usize));
         if keep {
             counts.push(c);
@@ -326,6 +382,15 @@ fn drop_pointless_strands(g: &mut crate::formats::Groom) -> Option<Vec<bool>> {
     }
     if let Some(c) = g.colors.as_mut() {
         filter(c, &keep_point);
+    }
+    if let Some(v) = g.group_ids.as_mut() {
+        filter(v, &keep_strand);
+    }
+    if let Some(v) = g.guides.as_mut() {
+        filter(v, &keep_strand);
+    }
+    if let Some(v) = g.root_uvs.as_mut() {
+        filter(v, &keep_strand);
     }
     g.counts = counts;
     Some(keep_point)

@@ -130,17 +130,31 @@ pub fn farthest_points(points: &[DVec3], m: usize) -> Vec<usize> {
 
 /// Per strand of the groom: whether the projective solver simulates it. Every strand of a
 /// dynamic group without a guide share (or with share 1); with a share, the farthest-point
-/// picks of each dynamic group. Strands of static groups are `false`.
+/// picks of each dynamic group; in a group whose strand file flags guides (Unreal's
+/// `groom_guide`), those. Strands of static groups are `false`.
 pub fn guide_mask(scene: &Scene, input: &GroomInput) -> Vec<bool> {
     let dynamic = |g: u32| scene.groups[g as usize].dynamic;
+    let mut mask: Vec<bool> = input.roots.iter().map(|r| dynamic(r.group)).collect();
+    // A file's own guides (Unreal's groom_guide) are its group's guides, share or not.
+    for (g, p) in input.groups.iter().enumerate() {
+        if let (Some(flags), true) = (&p.guides, dynamic(g as u32)) {
+            let first = p.first_strand as usize;
+            for (k, &f) in flags.iter().enumerate() {
+                mask[first + k] = f;
+            }
+        }
+    }
     let Some(share) = share(scene) else {
-        return input.roots.iter().map(|r| dynamic(r.group)).collect();
+        return mask;
     };
-    let mut mask = vec![false; input.roots.len()];
     for g in 0..input.groups.len() as u32 {
-        if !dynamic(g) {
+        if !dynamic(g) || input.groups[g as usize].guides.is_some() {
             continue;
         }
+        mask.iter_mut()
+            .zip(&input.roots)
+            .filter(|(_, r)| r.group == g)
+            .for_each(|(m, _)| *m = false);
         let members: Vec<usize> = (0..input.roots.len())
             .filter(|&i| input.roots[i].group == g)
             .collect();
@@ -183,7 +197,9 @@ impl FollowSetup {
         visible: &[f64],
         setup: &DynSetup,
     ) -> Option<FollowSetup> {
-        share(scene)?;
+        if share(scene).is_none() && input.groups.iter().all(|g| g.guides.is_none()) {
+            return None;
+        }
         let mask = guide_mask(scene, input);
         let offsets = input.vertex_offsets();
         let mut followers = Vec::new();

@@ -100,6 +100,9 @@ pub struct GroupParams {
     pub shapes: Option<std::sync::Arc<Vec<DVec3>>>,
     /// The file's own look per node, when it has widths, colours or opacities.
     pub looks: Option<std::sync::Arc<Vec<NodeLook>>>,
+    /// Per strand of the group: a guide the file flags (Unreal's `groom_guide`): the
+    /// simulated strands, the others follow them (`follow::guide_mask`).
+    pub guides: Option<Vec<bool>>,
 }
 
 impl GroupParams {
@@ -224,6 +227,12 @@ pub fn prepare(scene: &Scene) -> Result<GroomInput> {
                 strand_count: count,
                 shapes: Some(std::sync::Arc::new(nodes)),
                 looks: looks.map(std::sync::Arc::new),
+                // The strands `group_roots` took (`count` of the file's, spread evenly).
+                guides: g.file.as_ref().and_then(|f| {
+                    let v = f.groom.as_ref()?.guides.as_ref()?;
+                    let (n, take) = (v.len(), count as usize);
+                    Some((0..take).map(|j| v[j * n / take.max(1)]).collect())
+                }),
             });
             continue;
         }
@@ -328,6 +337,7 @@ pub fn prepare(scene: &Scene) -> Result<GroomInput> {
             strand_count: g.count,
             shapes: None,
             looks: None,
+            guides: None,
         });
     }
     Ok(GroomInput {

@@ -316,6 +316,7 @@ pub fn scene_of(path: &Path) -> Result<Scene> {
                 widths: true,
                 time: None,
                 play: true,
+                group_id: None,
                 groom: None,
                 frames: None,
             }),
@@ -346,6 +347,32 @@ pub fn scene_of(path: &Path) -> Result<Scene> {
     crate::systems::scene::validate(&scene).map_err(|e| crate::scene::in_file(e, &origin))?;
     // The file is read again through the group, as a scene file naming it would.
     resolve_strand_files(&mut scene, Path::new(""), &origin)?;
+    // Unreal's groups (groom_group_id): one hair group per id, each reading its strands.
+    let ids: std::collections::BTreeMap<i64, u32> = scene.groups[0]
+        .file
+        .as_ref()
+        .and_then(|f| f.groom.as_ref()?.group_ids.clone())
+        .into_iter()
+        .flatten()
+        .fold(Default::default(), |mut m, id| {
+            *m.entry(id).or_insert(0) += 1;
+            m
+        });
+    if ids.len() > 1 {
+        let one = scene.groups.remove(0);
+        for (&id, &n) in &ids {
+            let mut g = one.clone();
+            g.name = format!("{} (group {id})", one.name);
+            g.count = n;
+            if let Some(f) = g.file.as_mut() {
+                f.group_id = Some(id);
+                f.groom = None;
+                f.frames = None;
+            }
+            scene.groups.push(g);
+        }
+        resolve_strand_files(&mut scene, Path::new(""), &origin)?;
+    }
     // A cache plays its frames: not simulated.
     for g in &mut scene.groups {
         if g.file.as_ref().is_some_and(|f| f.frames.is_some()) {
