@@ -148,8 +148,8 @@ enum Command {
         /// With a scene input: prefer a software adapter even when a GPU is present.
         #[arg(long)]
         software: bool,
-        /// With an Alembic input: the time in seconds whose sample is read (the nearest
-        /// one); the first sample without it.
+        /// With an Alembic or USD input: the time in seconds whose sample is read (Alembic:
+        /// the nearest one; USD: the value at that time); the first sample without it.
         #[arg(long)]
         time: Option<f64>,
     },
@@ -883,7 +883,7 @@ fn run(cli: Cli) -> Result<()> {
                 .extension()
                 .is_some_and(|e| e.eq_ignore_ascii_case("ron"));
             if is_scene && time.is_some() {
-                bail!("--time is for an Alembic input; a scene's frame is --frame");
+                bail!("--time is for an Alembic or USD input; a scene's frame is --frame");
             }
             if !is_scene && frame != 0 {
                 bail!("--frame is for a scene input (.ron); a strand file has no frames");

@@ -940,8 +940,11 @@ impl Parts {
     }
 
     fn finish(mut self) -> Groom {
-        let guides_only =
-            |g: &Groom| g.guides.as_ref().is_some_and(|v| !v.is_empty() && v.iter().all(|&x| x));
+        let guides_only = |g: &Groom| {
+            g.guides
+                .as_ref()
+                .is_some_and(|v| !v.is_empty() && v.iter().all(|&x| x))
+        };
         fn mean<const N: usize>(v: &[[f32; N]]) -> [f32; N] {
             let mut m = [0.0f64; N];
             for x in v {

@@ -159,10 +159,7 @@ impl Groom {
             ("root UVs", self.root_uvs.as_ref().map(Vec::len)),
         ] {
             if let Some(n) = len.filter(|&n| n != self.counts.len()) {
-                return Err(bad(format!(
-                    "{n} {name} for {} strands",
-                    self.counts.len()
-                )));
+                return Err(bad(format!("{n} {name} for {} strands", self.counts.len())));
             }
         }
         if let Some(i) = self.counts.iter().position(|&c| c < 2) {
@@ -294,9 +291,9 @@ impl Format {
     pub fn read_only(self) -> Option<&'static str> {
         match self {
             // No maintained Rust crate writes Alembic (docs/formats.md).
-            Format::Abc => Some(
-                "Kami reads Alembic but does not write it; write `.usda`, `.hair` or `.obj`",
-            ),
+            Format::Abc => {
+                Some("Kami reads Alembic but does not write it; write `.usda`, `.hair` or `.obj`")
+            }
             // openusd 0.6's crate writer makes files Pixar's USD opens without their prims
             // (tried: `usd-core` 26.11 sees an empty stage).
             Format::Usdc | Format::Usdz | Format::Usd => Some(
@@ -641,7 +638,7 @@ pub fn read_frames(path: &Path, budget: u64) -> Result<Option<Frames>> {
             let (start, end) = layer.range();
             let start = start.unwrap_or(samples[0]);
             let end = end.unwrap_or(samples[samples.len() - 1]);
-            if !(end >= start) {
+            if end < start {
                 return Err(data_error(
                     &origin,
                     None,
@@ -649,13 +646,28 @@ pub fn read_frames(path: &Path, budget: u64) -> Result<Option<Frames>> {
                 ));
             }
             let n = (end - start).floor() as usize + 1;
-            let first = layer.groom(&origin, Some(start))?.into_linear();
+            // An error at a frame says which time code it is at.
+            let at = |tc: f64| {
+                layer.groom(&origin, Some(tc)).map_err(|e| match e {
+                    KamiError::Data {
+                        path,
+                        line,
+                        message,
+                    } => KamiError::Data {
+                        path,
+                        line,
+                        message: format!("at time code {tc}: {message}"),
+                    },
+                    e => e,
+                })
+            };
+            let first = at(start)?.into_linear();
             check(&first, n)?;
             fps = tcps;
             times = (0..n).map(|i| (start + i as f64) / tcps).collect();
             frames.push(first);
             for i in 1..n {
-                frames.push(layer.groom(&origin, Some(start + i as f64))?.into_linear());
+                frames.push(at(start + i as f64)?.into_linear());
             }
         }
         Format::Abc => {

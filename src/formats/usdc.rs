@@ -97,12 +97,13 @@ pub fn package(bytes: &[u8], origin: &str) -> Result<Layer> {
         )));
     }
     let mut layer_bytes = Vec::with_capacity(size as usize);
-    first
-        .read_to_end(&mut layer_bytes)
-        .map_err(|e| bad(format!("the package's first file {name:?} cannot be read: {e}")))?;
+    first.read_to_end(&mut layer_bytes).map_err(|e| {
+        bad(format!(
+            "the package's first file {name:?} cannot be read: {e}"
+        ))
+    })?;
     let lower = name.to_ascii_lowercase();
-    if lower.ends_with(".usda") || (!layer_bytes.starts_with(MAGIC) && !lower.ends_with(".usdc"))
-    {
+    if lower.ends_with(".usda") || (!layer_bytes.starts_with(MAGIC) && !lower.ends_with(".usdc")) {
         if !(lower.ends_with(".usda") || lower.ends_with(".usd")) {
             return Err(bad(format!(
                 "the package's first file is {name:?}; USDZ's root layer is a .usda, .usdc or .usd"
@@ -295,15 +296,29 @@ fn value(v: sdf::Value) -> Value {
         V::DoubleVec(v) => nums(v, 1, true),
         V::Vec2f(a) => nums(flat(&[[a.x, a.y]]), 2, false),
         V::Vec2d(a) => nums(flat(&[[a.x, a.y]]), 2, false),
-        V::Vec3h(a) => nums(vec![f64::from(a.x), f64::from(a.y), f64::from(a.z)], 3, false),
+        V::Vec3h(a) => nums(
+            vec![f64::from(a.x), f64::from(a.y), f64::from(a.z)],
+            3,
+            false,
+        ),
         V::Vec3f(a) => nums(flat(&[[a.x, a.y, a.z]]), 3, false),
         V::Vec3d(a) => nums(flat(&[[a.x, a.y, a.z]]), 3, false),
         V::Vec4f(a) => nums(flat(&[[a.x, a.y, a.z, a.w]]), 4, false),
         V::Vec4d(a) => nums(flat(&[[a.x, a.y, a.z, a.w]]), 4, false),
-        V::Vec2fVec(v) => nums(flat(&v.iter().map(|a| [a.x, a.y]).collect::<Vec<_>>()), 2, true),
-        V::Vec2dVec(v) => nums(flat(&v.iter().map(|a| [a.x, a.y]).collect::<Vec<_>>()), 2, true),
+        V::Vec2fVec(v) => nums(
+            flat(&v.iter().map(|a| [a.x, a.y]).collect::<Vec<_>>()),
+            2,
+            true,
+        ),
+        V::Vec2dVec(v) => nums(
+            flat(&v.iter().map(|a| [a.x, a.y]).collect::<Vec<_>>()),
+            2,
+            true,
+        ),
         V::Vec3hVec(v) => nums(
-            v.iter().flat_map(|a| [f64::from(a.x), f64::from(a.y), f64::from(a.z)]).collect(),
+            v.iter()
+                .flat_map(|a| [f64::from(a.x), f64::from(a.y), f64::from(a.z)])
+                .collect(),
             3,
             true,
         ),
@@ -327,7 +342,16 @@ fn value(v: sdf::Value) -> Value {
             4,
             true,
         ),
-        V::Quath(q) => nums(vec![f64::from(q.w), f64::from(q.x), f64::from(q.y), f64::from(q.z)], 4, false),
+        V::Quath(q) => nums(
+            vec![
+                f64::from(q.w),
+                f64::from(q.x),
+                f64::from(q.y),
+                f64::from(q.z),
+            ],
+            4,
+            false,
+        ),
         V::Quatf(q) => nums(flat(&[[q.w, q.x, q.y, q.z]]), 4, false),
         V::Quatd(q) => nums(flat(&[[q.w, q.x, q.y, q.z]]), 4, false),
         V::Matrix4d(m) => nums(m.0.to_vec(), 16, false),
@@ -338,4 +362,3 @@ fn value(v: sdf::Value) -> Value {
         _ => Value::Other,
     }
 }
-

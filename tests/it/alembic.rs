@@ -444,7 +444,7 @@ fn a_time_is_chosen_from_the_command_line_and_the_scene() {
     let o = crate::common::kami(&["convert", out.to_str().unwrap(), "x.usda", "--time", "1"]);
     let e = String::from_utf8_lossy(&o.stderr);
     assert!(
-        !o.status.success() && e.contains("is for Alembic archives"),
+        !o.status.success() && e.contains("is for Alembic and USD files"),
         "{e}"
     );
     // In a scene: the group's rest pose is that sample.
@@ -481,12 +481,19 @@ fn unreal_groom_attributes_are_read() {
     for (k, &x) in w[..18].iter().enumerate() {
         assert!(close(x, 0.01 * (k + 1) as f64), "width {k} is {x}");
     }
-    assert!(w[18..].iter().all(|&x| close(x, 0.02)), "guide widths {w:?}");
+    assert!(
+        w[18..].iter().all(|&x| close(x, 0.02)),
+        "guide widths {w:?}"
+    );
     let c = g.colors.as_ref().unwrap();
     for i in 0..6 {
         let want = [0.1 * i as f64, 0.5, 0.2];
         for k in 0..3 {
-            assert!(close(c[3 * i][k], want[k]), "strand {i} colour {:?}", c[3 * i]);
+            assert!(
+                close(c[3 * i][k], want[k]),
+                "strand {i} colour {:?}",
+                c[3 * i]
+            );
         }
     }
     // The guides take the strands' mean colour.
@@ -497,7 +504,10 @@ fn unreal_groom_attributes_are_read() {
         Some(vec![false, false, false, false, false, false, true, true])
     );
     let uv = g.root_uvs.as_ref().unwrap();
-    assert!(close(uv[2][0], 2.0 / 6.0) && close(uv[2][1], 0.25), "{uv:?}");
+    assert!(
+        close(uv[2][0], 2.0 / 6.0) && close(uv[2][1], 0.25),
+        "{uv:?}"
+    );
     assert_eq!(uv[6], [0.0, 0.0]);
 
     let (only, _) = write(&dir, "guides_only", 0);

@@ -4,7 +4,7 @@
 //! resampled as the rest pose is), refuses what it cannot hold, and turns into a simulated
 //! rest pose on request.
 
-use crate::common::{self, kami, scratch};
+use crate::common::{self, scratch};
 use glam::DVec3;
 use kami::formats::{self, Groom};
 use kami::stage::{Quality, Stage};
@@ -65,7 +65,10 @@ fn usd_time_samples_are_frames_at_the_file_rate() {
         assert_eq!(f.points.len(), 12, "{ext}: frames");
         assert_eq!(f.counts, vec![5, 5, 5]);
         for (i, t) in f.times.iter().enumerate() {
-            assert!((t - (1.0 + i as f64) / 30.0).abs() < 1e-12, "{ext}: time {i} is {t}");
+            assert!(
+                (t - (1.0 + i as f64) / 30.0).abs() < 1e-12,
+                "{ext}: time {i} is {t}"
+            );
         }
         for (i, (got, want)) in f.points.iter().zip(&want).enumerate() {
             let e = worst(got, want);
@@ -120,7 +123,22 @@ fn caches_beyond_the_budget_or_changing_shape_are_refused() {
         .unwrap_err()
         .to_string();
     assert!(
-        e.contains("growing.usda") && e.contains("frame 1") && e.contains("keep their point counts"),
+        e.contains("growing.usda")
+            && e.contains("frame 1")
+            && e.contains("keep their point counts"),
+        "{e}"
+    );
+    // A sample of points that does not match the counts: the time code and the line.
+    let text = "#usda 1.0\ndef BasisCurves \"c\" {\n  uniform token type = \"linear\"\n  \
+        int[] curveVertexCounts = [2]\n  \
+        point3f[] points.timeSamples = { 1: [(0,0,0),(0,1,0)], 2: [(0,0,0),(0,1,0),(0,2,0)] }\n}\n";
+    let path = dir.join("short.usda");
+    std::fs::write(&path, text).unwrap();
+    let e = formats::read_frames(&path, formats::FRAMES_BUDGET)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("short.usda:4: at time code 2: the curve vertex counts add up to 2 points but `points` (line 5) has 3"),
         "{e}"
     );
 }

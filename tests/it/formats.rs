@@ -533,8 +533,19 @@ fn unknown_extensions_list_the_formats() {
         e.contains("x.abc") && e.contains(".hair") && e.contains(".obj") && e.contains(".usda"),
         "{e}"
     );
-    let e = formats::read(&tmp("x.usdc")).unwrap_err().to_string();
-    assert!(e.contains("binary USD is not read"), "{e}");
+    // Binary USD is read, not written; an unknown extension lists what is.
+    let e = formats::write(&tmp("x.usdz"), &groom())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("x.usdz") && e.contains("writes USD as text"),
+        "{e}"
+    );
+    let e = formats::read(&tmp("x.fbx")).unwrap_err().to_string();
+    assert!(
+        e.contains("`.fbx` is not a strand format") && e.contains(".usdc"),
+        "{e}"
+    );
 }
 
 #[test]

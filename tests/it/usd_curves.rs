@@ -106,7 +106,9 @@ fn every_basis_wrap_and_transform_as_usd_defines_them() {
     // transform differs by an f32 rounding, which moves points by ulps).
     for g in &read[1..] {
         assert_eq!(g.counts, read[0].counts);
-        let size = flat3(&read[0].points).iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let size = flat3(&read[0].points)
+            .iter()
+            .fold(0.0f64, |m, v| m.max(v.abs()));
         let e = worst(&flat3(&g.points), &flat3(&read[0].points), size);
         assert!(e < 1e-6, "crate and text differ by {e:e}");
         assert_eq!(g.colors, read[0].colors);
@@ -169,7 +171,9 @@ fn one_basis_stays_cubic_through_convert() {
         assert_eq!(c.widths, g.widths, "{ext}: widths");
     }
     // Kami writes USD as text only, and says so.
-    let e = formats::write(&tmp("out.usdc"), &g).unwrap_err().to_string();
+    let e = formats::write(&tmp("out.usdc"), &g)
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("writes USD as text"), "{e}");
     let lin = g.clone().into_linear();
     let want = field(&expected, "points");
@@ -415,12 +419,32 @@ fn damaged_binary_usd_is_refused_with_the_file_named() {
     let cases: Vec<(&str, Vec<u8>, &str)> = vec![
         ("cut.usdc", whole[..whole.len() / 2].to_vec(), "cut.usdc"),
         ("garbled.usdc", garbled, "garbled.usdc"),
-        ("text.usdc", b"#usda 1.0\n".to_vec(), "does not begin with `PXR-USDC`"),
-        ("notzip.usdz", b"not a zip at all".to_vec(), "not a USDZ package"),
+        (
+            "text.usdc",
+            b"#usda 1.0\n".to_vec(),
+            "does not begin with `PXR-USDC`",
+        ),
+        (
+            "notzip.usdz",
+            b"not a zip at all".to_vec(),
+            "not a USDZ package",
+        ),
         ("empty.usdz", zip_of("", b""), "the package is empty"),
-        ("png.usdz", zip_of("tex.png", b"\x89PNG"), "USDZ's root layer is a .usda, .usdc or .usd"),
-        ("cutinside.usdz", zip_of("a.usdc", &whole[..100]), "cutinside.usdz (a.usdc)"),
-        ("plain.usd", b"#usda 1.0\n".to_vec(), "no `def BasisCurves` prim"),
+        (
+            "png.usdz",
+            zip_of("tex.png", b"\x89PNG"),
+            "USDZ's root layer is a .usda, .usdc or .usd",
+        ),
+        (
+            "cutinside.usdz",
+            zip_of("a.usdc", &whole[..100]),
+            "cutinside.usdz (a.usdc)",
+        ),
+        (
+            "plain.usd",
+            b"#usda 1.0\n".to_vec(),
+            "no `def BasisCurves` prim",
+        ),
     ];
     for (name, bytes, want) in cases {
         let e = formats::parse(name, &bytes)

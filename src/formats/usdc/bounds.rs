@@ -97,7 +97,9 @@ impl File<'_> {
             ));
         }
         if count > 0 && size == 0 {
-            return Err(format!("{what}: {count} values in an empty compressed block"));
+            return Err(format!(
+                "{what}: {count} values in an empty compressed block"
+            ));
         }
         if size > 0 && self.u8_at(at + 8)? != 0 {
             return Err(format!(
@@ -254,7 +256,9 @@ impl File<'_> {
         let major_minor = (self.version.0, self.version.1);
         if array {
             let Some(e) = element(ty) else {
-                return Err(format!("an array of value type {ty}, which holds no numbers"));
+                return Err(format!(
+                    "an array of value type {ty}, which holds no numbers"
+                ));
             };
             let mut p = at;
             if major_minor < (0, 5) {

@@ -220,8 +220,8 @@ pub fn resolve_strand_files(scene: &mut Scene, dir: &Path, origin: &str) -> Resu
                 allowed: "the file has no strands".into(),
             });
         }
-        let selected = select_strands(&read, f.group_id, g.count as usize)
-            .map_err(|m| KamiError::Data {
+        let selected =
+            select_strands(&read, f.group_id, g.count as usize).map_err(|m| KamiError::Data {
                 path: path.display().to_string(),
                 line: None,
                 message: m,

@@ -529,7 +529,11 @@ fn playback_of(scene: &Scene, input: &GroomInput) -> Result<Option<playback::Pla
                     .into(),
             });
         }
-        fps = fps.or(g.file.as_ref().and_then(|f| f.frames.as_ref()).map(|f| f.fps));
+        fps = fps.or(g
+            .file
+            .as_ref()
+            .and_then(|f| f.frames.as_ref())
+            .map(|f| f.fps));
         let first = offsets[input.groups[gi].first_strand as usize] as u64;
         groups.push(playback::GroupFrames {
             at: first * crate::gpu::strands::NODE,
@@ -540,7 +544,11 @@ fn playback_of(scene: &Scene, input: &GroomInput) -> Result<Option<playback::Pla
         return Ok(None);
     }
     let frames = groups.iter().map(|g| g.frames.len()).max().unwrap_or(1);
-    Ok(Some(playback::Playback::new(groups, frames, fps.unwrap_or(24.0))))
+    Ok(Some(playback::Playback::new(
+        groups,
+        frames,
+        fps.unwrap_or(24.0),
+    )))
 }
 
 impl HairSystem for AnjyoSystem {

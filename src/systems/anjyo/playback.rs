@@ -55,7 +55,8 @@ impl Playback {
         }
         for g in &self.groups {
             let f = &g.frames[k.min(g.frames.len() - 1)];
-            gpu.queue.write_buffer(vertices, g.at, bytemuck::cast_slice(f));
+            gpu.queue
+                .write_buffer(vertices, g.at, bytemuck::cast_slice(f));
         }
         self.shown = Some(k);
     }
@@ -70,11 +71,7 @@ impl Playback {
 /// spread evenly, as `imported::group_roots` takes them) resampled to `segments`. A strand
 /// that has no length in some frame keeps its nodes of the frame before.
 pub fn group_frames(g: &HairGroup) -> Result<Option<Vec<Vec<[f32; 4]>>>> {
-    let Some((file, frames)) = g
-        .file
-        .as_ref()
-        .and_then(|f| Some((f, f.frames.as_ref()?)))
-    else {
+    let Some((file, frames)) = g.file.as_ref().and_then(|f| Some((f, f.frames.as_ref()?))) else {
         return Ok(None);
     };
     let n = frames.counts.len();
@@ -110,7 +107,9 @@ pub fn group_frames(g: &HairGroup) -> Result<Option<Vec<Vec<[f32; 4]>>>> {
                 .map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64))
                 .collect();
             match resample(&strand, g.segments) {
-                Some(r) => nodes.extend(r.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32, 1.0])),
+                Some(r) => {
+                    nodes.extend(r.iter().map(|p| [p.x as f32, p.y as f32, p.z as f32, 1.0]))
+                }
                 None if k > 0 => {
                     let before = &out[k - 1][j * per..(j + 1) * per];
                     nodes.extend_from_slice(before);
