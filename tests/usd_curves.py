@@ -150,7 +150,7 @@ def write(path, cases, mpu, up):
     root.AddScaleOp().Set(Gf.Vec3f(2, 2, 2))
     inner = UsdGeom.Xform.Define(stage, "/groom/inner")
     inner.AddRotateZOp().Set(12.0)
-    expected = {"counts": [], "points": [], "widths": [], "colors": []}
+    expected = {"counts": [], "points": [], "widths": [], "colors": [], "opacities": []}
     ci = 0
     for k, (basis, wrap, counts, winterp, op) in enumerate(cases):
         c = UsdGeom.BasisCurves.Define(stage, f"/groom/inner/c{k}")
@@ -179,6 +179,10 @@ def write(path, cases, mpu, up):
         pv = UsdGeom.PrimvarsAPI(c).CreatePrimvar("displayColor", Sdf.ValueTypeNames.Color3fArray)
         pv.Set(Vt.Vec3fArray(colors))
         pv.SetInterpolation("uniform")
+        opacity = [0.3 + 0.05 * j for j in range(len(counts))]
+        po = UsdGeom.PrimvarsAPI(c).CreatePrimvar("displayOpacity", Sdf.ValueTypeNames.FloatArray)
+        po.Set(Vt.FloatArray(opacity))
+        po.SetInterpolation("uniform")
         # What Kami must read: stage numbers are float32 in the file.
         xf = c.ComputeLocalToWorldTransform(Usd.TimeCode.Default())
         scale = abs(xf.GetDeterminant3()) ** (1 / 3) * mpu / 0.01
@@ -199,6 +203,7 @@ def write(path, cases, mpu, up):
             expected["widths"] += [max(0.0, w * scale) for w in ws]
             col = colors[j]
             expected["colors"] += [tuple(srgb(float(x)) for x in col)] * len(xs)
+            expected["opacities"] += [float(Vt.FloatArray([opacity[j]])[0])] * len(xs)
     stage.GetRootLayer().Save()
     if path.endswith(".usdz"):
         assert UsdUtils.CreateNewUsdzPackage(Sdf.AssetPath(layer), path)
@@ -238,6 +243,7 @@ def show(expected):
     print("points", *(repr(v) for p in expected["points"] for v in p))
     print("widths", *(repr(v) for v in expected["widths"]))
     print("colors", *(repr(v) for p in expected["colors"] for v in p))
+    print("opacities", *(repr(v) for v in expected["opacities"]))
 
 
 def main():

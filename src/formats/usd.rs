@@ -708,7 +708,21 @@ impl Prim {
 
     /// This prim with every time-sampled attribute at time code `t` ([`value_at`]).
     pub(super) fn at(&self, t: f64) -> Prim {
-        let mut p = self.clone();
+        // Everything but the samples (a cache's samples are most of the file: cloning
+        // them per frame would copy the whole cache per frame).
+        let mut p = Prim {
+            line: self.line,
+            path: self.path.clone(),
+            parent: self.parent,
+            hidden: self.hidden,
+            curves: self.curves,
+            counts: self.counts.clone(),
+            points: self.points.clone(),
+            tokens: self.tokens.clone(),
+            order: self.order.clone(),
+            attrs: self.attrs.clone(),
+            timed: Vec::new(),
+        };
         for (name, samples, interp, line) in &self.timed {
             p.set(name, value_at(name, samples, t), interp.clone(), *line);
         }

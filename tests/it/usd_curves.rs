@@ -87,7 +87,8 @@ fn flat3(v: &[[f32; 3]]) -> Vec<f64> {
     v.iter().flatten().map(|&x| x as f64).collect()
 }
 
-/// Every basis and wrap, widths per point and per segment end, colours per curve, a parent
+/// Every basis and wrap, widths per point and per segment end, colours and opacities per
+/// curve, a parent
 /// Xform (translate, rotateXYZ, scale) and an inner one, each prim with another op
 /// (transform, orient, rotateZYX, a pivot with `!invert!`, scale, rotateY, translate), in
 /// metres with z up: Kami's polylines match the spec's, moved as USD moves them, from the
@@ -112,6 +113,7 @@ fn every_basis_wrap_and_transform_as_usd_defines_them() {
         let e = worst(&flat3(&g.points), &flat3(&read[0].points), size);
         assert!(e < 1e-6, "crate and text differ by {e:e}");
         assert_eq!(g.colors, read[0].colors);
+        assert_eq!(g.opacities, read[0].opacities);
     }
 }
 
@@ -146,6 +148,15 @@ fn check_mixed(g: &Groom, expected: &[(String, Vec<String>)]) {
         1.0,
     );
     assert!(e < 1e-7, "colours off by {e:e}");
+    let o: Vec<f64> = g
+        .opacities
+        .as_ref()
+        .expect("displayOpacity is read")
+        .iter()
+        .map(|&x| x as f64)
+        .collect();
+    let e = worst(&o, &field(&expected, "opacities"), 1.0);
+    assert!(e < 1e-7, "opacities off by {e:e}");
 }
 
 /// A groom of one basis stays cubic: its control points (moved by the prim's rotateY)
