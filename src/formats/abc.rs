@@ -91,10 +91,8 @@ pub struct CurvesObject {
     /// Index and time (seconds) of the positions sample read.
     pub sample: u32,
     pub time: f64,
-    /// Samples of the positions in the file (1 for a still object), and the time
-    /// (seconds) of each, as the property's time sampling gives them.
+    /// Samples of the positions in the file (1 for a still object).
     pub samples: u32,
-    pub times: Vec<f64>,
 }
 
 /// What an archive holds: every curves object's strands, concatenated in file order, and
@@ -1453,11 +1451,6 @@ impl Reader<'_> {
             sample: index,
             time,
             samples: p.count,
-            // A hostile count costs little: the times listed are at most one per 16 bytes
-            // of the file (a real cache stores a sample in far more).
-            times: (0..p.count.min((a.b.len() / 16) as u32))
-                .map(|i| a.time_samplings[p.time_sampling].time(i))
-                .collect(),
         });
         Ok(())
     }

@@ -566,6 +566,9 @@ pub(crate) fn evaluate(g: &Groom, attrs: &[(&Option<Values>, usize); 3]) -> Groo
 /// 2 GiB, about 180 frames of a million-point groom.
 pub const FRAMES_BUDGET: u64 = 2 << 30;
 
+/// Most frames a cache may play (an hour at 24 fps is 86,400).
+pub const MAX_FRAMES: usize = 100_000;
+
 /// A groom's motion as its file holds it (a simulation cache): every frame's points, in
 /// Kami's units, with the curve counts of the groom read at the first frame. Curves are
 /// polylines (cubic ones evaluated per frame).
@@ -610,7 +613,19 @@ pub fn read_frames(path: &Path, budget: u64) -> Result<Option<Frames>> {
     // Bytes of points `n` frames of `first` take, refused beyond the budget before
     // anything is read.
     let check = |first: &Groom, n: usize| -> Result<()> {
-        let need = first.points.len() as u64 * 12 * n as u64;
+        if first.points.is_empty() {
+            return Err(data_error(&origin, None, "the first frame has no points".into()));
+        }
+        if n > MAX_FRAMES {
+            return Err(data_error(
+                &origin,
+                None,
+                format!("{n} frames: Kami plays at most {MAX_FRAMES} frames of a cache"),
+            ));
+        }
+        let need = (first.points.len() as u64)
+            .saturating_mul(12)
+            .saturating_mul(n as u64);
         if need > budget {
             return Err(data_error(
                 &origin,
@@ -643,6 +658,15 @@ pub fn read_frames(path: &Path, budget: u64) -> Result<Option<Frames>> {
                     &origin,
                     None,
                     format!("endTimeCode {end} is before startTimeCode {start}"),
+                ));
+            }
+            if end - start >= MAX_FRAMES as f64 {
+                return Err(data_error(
+                    &origin,
+                    None,
+                    format!(
+                        "time codes {start} to {end}: Kami plays at most {MAX_FRAMES} frames of a cache"
+                    ),
                 ));
             }
             let n = (end - start).floor() as usize + 1;
@@ -679,25 +703,44 @@ pub fn read_frames(path: &Path, budget: u64) -> Result<Option<Frames>> {
             if n < 2 {
                 return Ok(None);
             }
-            times = most.times.clone();
-            fps = match times.as_slice() {
-                [a, b, ..] if b > a => 1.0 / (b - a),
-                _ => 24.0,
-            };
+            let path_of_most = most.path.clone();
             let g0 = first.into_groom(&origin).into_linear();
             check(&g0, n)?;
-            frames.push(g0);
-            for i in 1..n {
-                let options = abc::Options {
+            // Frame i is the most-sampled object's sample i; every object and transform is
+            // read at that sample's time (objects of other time samplings stay in step, and
+            // `time:` reads the same pose).
+            let mut t = Vec::with_capacity(n);
+            for i in 0..n {
+                let by_index = abc::Options {
                     sample: abc::Sample::Index(i as u32),
                     ..abc::Options::default()
                 };
+                let c = abc::parse_with(&bytes, &origin, &by_index)?;
+                let ti = c
+                    .objects
+                    .iter()
+                    .find(|o| o.path == path_of_most)
+                    .map_or(0.0, |o| o.time);
+                t.push(ti);
+                if i == 0 {
+                    frames.push(g0.clone());
+                    continue;
+                }
+                let by_time = abc::Options {
+                    sample: abc::Sample::Time(ti),
+                    ..abc::Options::default()
+                };
                 frames.push(
-                    abc::parse_with(&bytes, &origin, &options)?
+                    abc::parse_with(&bytes, &origin, &by_time)?
                         .into_groom(&origin)
                         .into_linear(),
                 );
             }
+            fps = match t.as_slice() {
+                [a, b, ..] if b > a => 1.0 / (b - a),
+                _ => 24.0,
+            };
+            times = t;
         }
         _ => return Ok(None),
     }

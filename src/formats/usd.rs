@@ -670,6 +670,8 @@ impl Prim {
     pub(super) fn set(&mut self, name: &str, v: Value, interp: Option<String>, line: usize) {
         let name = name.strip_suffix(".timeSamples").unwrap_or(name);
         if let Value::Samples(samples) = v {
+            // In time order, whatever the file's (a crate file's are as written).
+            let samples = sorted_samples(samples.into_iter().filter(|s| s.0.is_finite()).collect());
             let Some(first) = samples.first().map(|s| s.1.clone()) else {
                 return;
             };

@@ -10,14 +10,26 @@
 //!   a count of integers coded into it to at most 4 per decoded byte (2 bits each at the
 //!   least), so such a count is at most about 1020 c; the block must be one chunk (the
 //!   only kind `openusd` 0.6 decodes);
-//! - nesting (dictionaries, time samples) is at most [`MAX_NEST`] deep, and value types
-//!   that none of the fields Kami reads can hold (references, payloads, relocates) are
-//!   refused in them.
+//! - nesting is bounded: dictionaries at most [`MAX_NEST`] deep, time samples hold no time
+//!   samples or dictionaries, and value types that none of the fields Kami reads can hold
+//!   (references, payloads, relocates) are refused in them;
+//! - every value checked adds what openusd will decode for it to one running total, so
+//!   many time samples or dictionary entries pointing at one large array count each time
+//!   they would be decoded; the total is at most [`decode_budget`];
+//! - the path table is decoded here (LZ4, then Pixar's integer coding) and walked as
+//!   openusd walks it, with every index checked and the bytes of the path strings it would
+//!   build added up (a chain of nested paths costs the square of its depth).
 //!
-//! So a hostile crate file costs at most about a thousand times its size, as much as a
-//! real one of that size could decode to.
+//! So a hostile crate file costs at most [`decode_budget`] (64 times its size, and at
+//! least 64 MiB) in decoded values and path strings, not a terabyte allocation.
 
 const MAX_NEST: usize = 16;
+
+/// Bytes a crate file may decode to, in the values Kami reads and the path strings:
+/// 64 times the file, at least 64 MiB.
+pub fn decode_budget(file_len: usize) -> u64 {
+    (file_len as u64).saturating_mul(64).max(64 << 20)
+}
 
 /// The fields Kami asks `openusd` for (`usdc::walk`); the crate names `propertyChildren`
 /// `properties`.
@@ -26,6 +38,7 @@ const READ: &[&str] = &[
     "typeName",
     "active",
     "properties",
+    "propertyChildren",
     "primChildren",
     "interpolation",
     "default",
@@ -42,6 +55,8 @@ struct File<'a> {
     b: &'a [u8],
     /// (major, minor, patch).
     version: (u8, u8, u8),
+    /// Bytes decoded so far (values and path strings), against [`decode_budget`].
+    decoded: std::cell::Cell<u64>,
 }
 
 impl File<'_> {
@@ -81,6 +96,20 @@ impl File<'_> {
         if n.checked_mul(e).is_none_or(|need| need > room) {
             return Err(format!(
                 "{what} claims {n} elements of {e} bytes at offset {at}, but only {room} bytes follow"
+            ));
+        }
+        Ok(())
+    }
+
+    /// Count `bytes` more decoded; refused past the budget.
+    fn decode(&self, what: &str, bytes: u64) -> Result<(), String> {
+        let total = self.decoded.get().saturating_add(bytes);
+        self.decoded.set(total);
+        let budget = decode_budget(self.b.len());
+        if total > budget {
+            return Err(format!(
+                "{what}: the values would decode to more than {budget} bytes ({} times the file)",
+                budget / self.b.len().max(1) as u64
             ));
         }
         Ok(())
@@ -126,6 +155,7 @@ pub fn check(b: &[u8]) -> Result<(), String> {
     let f = File {
         b,
         version: (b[8], b[9], b[10]),
+        decoded: std::cell::Cell::new(0),
     };
     let (major, minor, patch) = f.version;
     if major != 0 || !(4..=12).contains(&minor) {
@@ -159,6 +189,7 @@ pub fn check(b: &[u8]) -> Result<(), String> {
         sections.push((name, start, start + size));
     }
     let section = |n: &str| sections.iter().find(|s| s.0 == n).map(|s| (s.1, s.2));
+    let mut token_lens: Vec<u64> = Vec::new();
     if let Some((at, end)) = section("TOKENS") {
         let count = f.u64_at(at)?;
         let raw = f.u64_at(at + 8)?;
@@ -167,6 +198,16 @@ pub fn check(b: &[u8]) -> Result<(), String> {
             return Err(format!(
                 "TOKENS: {count} tokens in {raw} bytes from a {size}-byte block do not fit its section"
             ));
+        }
+        let text = f.lz4("TOKENS", at + 24, size, raw)?;
+        token_lens = text
+            .strip_suffix(&[0])
+            .unwrap_or(&text)
+            .split(|&c| c == 0)
+            .map(|t| t.len() as u64)
+            .collect();
+        if text.is_empty() {
+            token_lens.clear();
         }
     }
     if let Some((at, end)) = section("STRINGS") {
@@ -190,9 +231,14 @@ pub fn check(b: &[u8]) -> Result<(), String> {
             return Err(format!("PATHS claims {paths} paths in {} bytes", end - at));
         }
         let mut next = at + 16;
+        let mut parts = Vec::new();
         for part in ["PATHS (indices)", "PATHS (names)", "PATHS (jumps)"] {
-            next = f.coded_ints(part, next, n, end)?;
+            let after = f.coded_ints(part, next, n, end)?;
+            parts.push(f.ints(part, next, n)?);
+            next = after;
         }
+        f.decode("PATHS", paths.saturating_mul(24))?;
+        f.walk_paths(paths, &parts[0], &parts[1], &parts[2], &token_lens)?;
     }
     if let Some((at, end)) = section("SPECS") {
         let n = f.u64_at(at)?;
@@ -249,13 +295,22 @@ impl File<'_> {
         let compressed = rep >> 61 & 1 == 1;
         let ty = rep >> 48 & 0xff;
         let at = rep & ((1 << 48) - 1);
-        if inlined || ty == 0 {
+        // Inlined, invalid, or an empty array (Pixar's writer stores one with payload 0).
+        if inlined || ty == 0 || (array && at == 0) {
             return Ok(());
         }
         let end = u64::MAX;
         let major_minor = (self.version.0, self.version.1);
-        if array {
-            let Some(e) = element(ty) else {
+        // String, asset-path and path-expression arrays: a u64 count of string indices at
+        // the payload, whatever the version (openusd's `read_string_vec`).
+        if array && matches!(ty, 10 | 12 | 57) {
+            let n = self.u64_at(at)?;
+            self.fits(what, at + 8, n, 4, end)?;
+            return self.decode(what, n.saturating_mul(24));
+        }
+        // A double vector is read as a float array (`read_floats`), compressed or not.
+        if array || ty == 48 {
+            let Some(e) = element(if ty == 48 { 9 } else { ty }) else {
                 return Err(format!(
                     "an array of value type {ty}, which holds no numbers"
                 ));
@@ -271,8 +326,12 @@ impl File<'_> {
             };
             p += len;
             let ints = matches!(ty, 3..=6);
-            let floats = matches!(ty, 7..=9 | 56);
-            if compressed && n >= 4 && (ints || floats) {
+            let floats = matches!(ty, 7..=9 | 48 | 56);
+            // What openusd allocates for the decoded array.
+            self.decode(what, n.saturating_mul(e))?;
+            // Compression of ints came with 0.5, of floats with 0.6 (before, raw).
+            let coded = (ints && major_minor >= (0, 5)) || (floats && major_minor >= (0, 6));
+            if compressed && n >= 4 && coded {
                 if ints {
                     self.coded_ints(what, p, n, end)?;
                 } else {
@@ -294,13 +353,21 @@ impl File<'_> {
         }
         match ty {
             // Token, string and path vectors (indices), doubles, layer offsets.
-            40 | 41 | 50 => self.fits(what, at + 8, self.u64_at(at)?, 4, end),
-            48 => self.fits(what, at + 8, self.u64_at(at)?, 8, end),
-            49 => self.fits(what, at + 8, self.u64_at(at)?, 16, end),
+            40 | 41 | 50 => {
+                let n = self.u64_at(at)?;
+                self.fits(what, at + 8, n, 4, end)?;
+                self.decode(what, n.saturating_mul(24))
+            }
+            49 => {
+                let n = self.u64_at(at)?;
+                self.fits(what, at + 8, n, 16, end)?;
+                self.decode(what, n.saturating_mul(16))
+            }
             // A dictionary: count, then per entry a string index, a jump and a value rep.
             31 => {
                 let n = self.u64_at(at)?;
                 self.fits(what, at + 8, n, 20, end)?;
+                self.decode(what, n.saturating_mul(64))?;
                 let mut p = at + 8;
                 for _ in 0..n {
                     let jump = self.u64_at(p + 4)? as i64;
@@ -323,8 +390,14 @@ impl File<'_> {
                     .ok_or("a jump out of the file")?;
                 let n = self.u64_at(reps)?;
                 self.fits(what, reps + 8, n, 8, end)?;
+                self.decode(what, n.saturating_mul(16))?;
                 for i in 0..n {
-                    self.value(what, self.u64_at(reps + 8 + 8 * i)?, depth + 1)?;
+                    let rep = self.u64_at(reps + 8 + 8 * i)?;
+                    // A sample is a value: not samples again, nor a dictionary.
+                    if matches!(rep >> 48 & 0xff, 31 | 46) && rep >> 62 & 1 == 0 {
+                        return Err("time samples holding time samples or dictionaries".into());
+                    }
+                    self.value(what, rep, depth + 1)?;
                 }
                 Ok(())
             }
@@ -339,6 +412,7 @@ impl File<'_> {
                     if header & bit != 0 {
                         let n = self.u64_at(p)?;
                         self.fits(what, p + 8, n, e, end)?;
+                        self.decode(what, n.saturating_mul(24))?;
                         p += 8 + n * e;
                     }
                 }
@@ -350,5 +424,122 @@ impl File<'_> {
                 "a value of type {other} (a reference, payload or relocation) where Kami expects a value"
             )),
         }
+    }
+}
+
+impl File<'_> {
+    /// LZ4 block at `at` (the chunk byte, then the block) of `size` bytes, decoding to at
+    /// most `raw` bytes.
+    fn lz4(&self, what: &str, at: u64, size: u64, raw: u64) -> Result<Vec<u8>, String> {
+        if size == 0 {
+            return Ok(Vec::new());
+        }
+        let start = at as usize;
+        let block = self
+            .b
+            .get(start..start + size as usize)
+            .ok_or_else(|| format!("{what}: the compressed block runs past the file"))?;
+        if block[0] != 0 {
+            return Err(format!("{what}: a compressed block in several chunks"));
+        }
+        self.decode(what, raw)?;
+        let mut out = vec![0u8; raw as usize];
+        let n = lz4_flex::block::decompress_into(&block[1..], &mut out)
+            .map_err(|e| format!("{what}: the compressed block does not decode ({e})"))?;
+        out.truncate(n);
+        Ok(out)
+    }
+
+    /// `count` integers coded as Pixar's crate codes them (a common value, 2-bit codes,
+    /// then 1-, 2- or 4-byte deltas), from the LZ4 block at `at` (its u64 size first).
+    fn ints(&self, what: &str, at: u64, count: u64) -> Result<Vec<i64>, String> {
+        let size = self.u64_at(at)?;
+        let n = count as usize;
+        let raw = (4 + n.div_ceil(4) + 4 * n) as u64;
+        let data = self.lz4(what, at + 8, size, raw)?;
+        if n == 0 {
+            return Ok(Vec::new());
+        }
+        let codes = n.div_ceil(4);
+        if data.len() < 4 + codes {
+            return Err(format!("{what}: the coded integers are cut short"));
+        }
+        let common = i32::from_le_bytes([data[0], data[1], data[2], data[3]]) as i64;
+        let mut at = 4 + codes;
+        let mut prev = 0i64;
+        let mut out = Vec::with_capacity(n);
+        for i in 0..n {
+            let code = data[4 + i / 4] >> (2 * (i % 4)) & 3;
+            let width = [0usize, 1, 2, 4][code as usize];
+            let bytes = data
+                .get(at..at + width)
+                .ok_or_else(|| format!("{what}: the coded integers are cut short"))?;
+            let delta = match code {
+                0 => common,
+                1 => bytes[0] as i8 as i64,
+                2 => i16::from_le_bytes([bytes[0], bytes[1]]) as i64,
+                _ => i32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]) as i64,
+            };
+            at += width;
+            prev = prev.wrapping_add(delta);
+            out.push(prev as i32 as i64);
+        }
+        Ok(out)
+    }
+
+    /// Walk the path tree as openusd builds it (`build_compressed_paths`), with every
+    /// index checked and the bytes of the strings it would build counted.
+    fn walk_paths(
+        &self,
+        paths: u64,
+        index: &[i64],
+        token: &[i64],
+        jump: &[i64],
+        token_lens: &[u64],
+    ) -> Result<(), String> {
+        let n = index.len();
+        if n == 0 {
+            return Ok(());
+        }
+        let what = "PATHS";
+        let mut len = vec![0u64; paths as usize];
+        let mut seen = vec![false; n];
+        // (entry, parent path length; None for the root)
+        let mut pending: Vec<(usize, Option<u64>)> = vec![(0, None)];
+        while let Some((mut i, mut parent)) = pending.pop() {
+            loop {
+                if i >= n || std::mem::replace(&mut seen[i], true) {
+                    return Err(format!("{what}: entry {i} is out of range or reached twice"));
+                }
+                let slot = usize::try_from(index[i])
+                    .ok()
+                    .filter(|&k| k < len.len())
+                    .ok_or_else(|| format!("{what}: path index {} is out of range", index[i]))?;
+                let here = match parent {
+                    None => 1,
+                    Some(p) => {
+                        let t = token[i].unsigned_abs() as usize;
+                        let tl = token_lens
+                            .get(t)
+                            .ok_or_else(|| format!("{what}: token {t} is out of range"))?;
+                        p + 1 + tl
+                    }
+                };
+                len[slot] = here;
+                self.decode(what, here)?;
+                let (has_child, has_sibling) = (jump[i] > 0 || jump[i] == -1, jump[i] >= 0);
+                if has_child && has_sibling {
+                    let s = i.checked_add(jump[i] as usize).filter(|&s| s < n);
+                    pending.push((s.ok_or("a sibling jump out of range")?, parent));
+                }
+                if has_child {
+                    parent = Some(here);
+                } else if !has_sibling {
+                    break;
+                }
+                i += 1;
+            }
+        }
+        Ok(())
     }
 }

@@ -307,7 +307,7 @@ pub fn resolve_strand_files(scene: &mut Scene, dir: &Path, origin: &str) -> Resu
 /// Which strands of `read` a group takes: those of `group_id` (all without one), at most
 /// `count` of them spread evenly over the file's order; every guide is kept (they are few
 /// and the others follow them) and the count thins the rest. Indices in file order.
-fn select_strands(
+pub fn select_strands(
     read: &crate::formats::Groom,
     group_id: Option<i64>,
     count: usize,

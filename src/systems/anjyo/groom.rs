@@ -227,11 +227,13 @@ pub fn prepare(scene: &Scene) -> Result<GroomInput> {
                 strand_count: count,
                 shapes: Some(std::sync::Arc::new(nodes)),
                 looks: looks.map(std::sync::Arc::new),
-                // The strands `group_roots` took (`count` of the file's, spread evenly).
+                // The strands `group_roots` took (every guide, `count` in all).
                 guides: g.file.as_ref().and_then(|f| {
-                    let v = f.groom.as_ref()?.guides.as_ref()?;
-                    let (n, take) = (v.len(), count as usize);
-                    Some((0..take).map(|j| v[j * n / take.max(1)]).collect())
+                    let groom = f.groom.as_ref()?;
+                    let v = groom.guides.as_ref()?;
+                    let picks =
+                        super::block::select_strands(groom, None, g.count as usize).ok()?;
+                    Some(picks.into_iter().map(|i| v[i]).collect())
                 }),
             });
             continue;

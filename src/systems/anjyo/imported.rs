@@ -174,9 +174,15 @@ pub fn group_roots(seed: u64, gi: usize, g: &HairGroup) -> Result<FileStrands> {
     }
     let has_look = groom.widths.is_some() || groom.colors.is_some() || groom.opacities.is_some();
     let mut looks = has_look.then(|| Vec::with_capacity(nodes.capacity()));
-    let take = (g.count as usize).min(all.len());
-    for j in 0..take {
-        let si = j * all.len() / take;
+    // At most `count`, spread evenly, every guide kept (`block::select_strands`).
+    let picks = super::block::select_strands(groom, None, g.count as usize).map_err(|m| {
+        KamiError::Data {
+            path: file.path.clone(),
+            line: None,
+            message: m,
+        }
+    })?;
+    for si in picks {
         let pts: Vec<DVec3> = all[si]
             .iter()
             .map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64))

@@ -125,18 +125,36 @@ fn plays(g: &crate::systems::anjyo::block::HairGroup) -> bool {
     g.file.as_ref().is_some_and(|f| f.frames.is_some())
 }
 
+/// The most frames of any playing group (the loop's length).
+fn longest_cache(scene: &Scene) -> usize {
+    scene
+        .groups
+        .iter()
+        .filter_map(|g| g.file.as_ref()?.frames.as_ref())
+        .map(|f| f.points.len())
+        .max()
+        .unwrap_or(1)
+}
+
+/// The frame of a cache of `n` frames shown at Kami's `frame`, as `playback::Playback`
+/// shows it: the loop runs over the longest cache, a shorter one holds its last frame.
+fn shown(frame: u64, longest: usize, n: usize) -> usize {
+    ((frame % longest.max(1) as u64) as usize).min(n.saturating_sub(1))
+}
+
 /// Every playing group's frame shown at Kami's `frame` becomes its rest pose: the file is
 /// read at that time from now on (`time`, `play: false`, so a saved scene reopens the
 /// same), the group is simulated (the scene gets dynamics if it had none). The stage
 /// rebuilds the hair from the new rest pose.
 pub fn simulate_from_here(scene: &mut Scene, frame: u64) -> Result<(), String> {
     let mut any = false;
+    let longest = longest_cache(scene);
     for g in scene.groups.iter_mut().filter(|g| plays(g)) {
         let Some(f) = g.file.as_mut() else { continue };
         let (Some(frames), Some(groom)) = (f.frames.take(), f.groom.as_ref()) else {
             continue;
         };
-        let k = (frame % frames.points.len().max(1) as u64) as usize;
+        let k = shown(frame, longest, frames.points.len());
         let mut rest = (**groom).clone();
         rest.points = frames.points[k].clone();
         f.groom = Some(std::sync::Arc::new(rest));
@@ -156,14 +174,13 @@ pub fn simulate_from_here(scene: &mut Scene, frame: u64) -> Result<(), String> {
 /// "simulate from here".
 fn cache(ui: &mut Ui, cx: &mut PanelCx) {
     let frame = cx.host.frame;
-    let mut longest = 0usize;
+    let longest = longest_cache(cx.scene);
     for g in cx.scene.groups.iter().filter(|g| plays(g)) {
         let Some(fr) = g.file.as_ref().and_then(|f| f.frames.as_ref()) else {
             continue;
         };
         let n = fr.points.len();
-        longest = longest.max(n);
-        let k = (frame % n.max(1) as u64) as usize;
+        let k = shown(frame, longest, n);
         ui.label(format!(
             "{}: {n} frames at {:.3} fps; file frame {} of {n} ({:.3} s)",
             g.name,
@@ -172,7 +189,7 @@ fn cache(ui: &mut Ui, cx: &mut PanelCx) {
             fr.times[k]
         ));
     }
-    if longest > 0 {
+    if longest > 1 {
         let mut k = (frame % longest as u64) as usize;
         // The timeline: the file's frames (Kami's clock loops over them).
         if ui
