@@ -614,7 +614,11 @@ pub fn read_frames(path: &Path, budget: u64) -> Result<Option<Frames>> {
     // anything is read.
     let check = |first: &Groom, n: usize| -> Result<()> {
         if first.points.is_empty() {
-            return Err(data_error(&origin, None, "the first frame has no points".into()));
+            return Err(data_error(
+                &origin,
+                None,
+                "the first frame has no points".into(),
+            ));
         }
         if n > MAX_FRAMES {
             return Err(data_error(

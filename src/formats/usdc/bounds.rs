@@ -509,7 +509,9 @@ impl File<'_> {
         while let Some((mut i, mut parent)) = pending.pop() {
             loop {
                 if i >= n || std::mem::replace(&mut seen[i], true) {
-                    return Err(format!("{what}: entry {i} is out of range or reached twice"));
+                    return Err(format!(
+                        "{what}: entry {i} is out of range or reached twice"
+                    ));
                 }
                 let slot = usize::try_from(index[i])
                     .ok()

@@ -231,8 +231,7 @@ pub fn prepare(scene: &Scene) -> Result<GroomInput> {
                 guides: g.file.as_ref().and_then(|f| {
                     let groom = f.groom.as_ref()?;
                     let v = groom.guides.as_ref()?;
-                    let picks =
-                        super::block::select_strands(groom, None, g.count as usize).ok()?;
+                    let picks = super::block::select_strands(groom, None, g.count as usize).ok()?;
                     Some(picks.into_iter().map(|i| v[i]).collect())
                 }),
             });
