@@ -2,12 +2,16 @@
 // the generator wrote this frame deposits its drawn segments with the widths fur/draw.wgsl
 // draws.
 
-// Keep in sync with GpuFurMaterial in src/systems/fur/gpu_data.rs (as fur/draw.wgsl).
+// GpuFurMaterial (src/systems/fur/gpu_data.rs, as fur/draw.wgsl's FurMaterial): the cast
+// reads the draw's materials buffer, so its elements must stride as GpuFurMaterial does;
+// the physical shading's parameters (`HairBsdf`, 7 vec4) are not read here.
+// tests/it/gpu_twins.rs checks the layout.
 struct CastMaterial {
     ambient: vec4<f32>,
     diffuse: vec4<f32>,
     specular: vec4<f32>,
     extra: vec4<f32>,
+    bsdf: array<vec4<f32>, 7>,
 }
 
 @group(1) @binding(0) var<storage, read> strands: array<Strand>;

@@ -20,6 +20,7 @@ mod formats;
 mod fur;
 mod fur_skinned;
 mod fuzz;
+mod gpu_twins;
 mod guides;
 mod hair_bsdf;
 mod imported;

@@ -113,10 +113,10 @@ const _: () = assert!(std::mem::size_of::<GpuRibbonVertex>() == 32);
 /// Keep in sync with `struct Params` in `shaders/strips/ribbon.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-struct GpuRibbonParams {
-    head: [[f32; 4]; 4],
+pub struct GpuRibbonParams {
+    pub head: [[f32; 4]; 4],
     /// x: strips; y: stride; z: invocations per dispatch row; w: unused.
-    counts: [u32; 4],
+    pub counts: [u32; 4],
 }
 const _: () = assert!(std::mem::size_of::<GpuRibbonParams>() == 80);
 
