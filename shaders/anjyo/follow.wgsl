@@ -10,7 +10,7 @@
 
 override WORKGROUP: u32;
 
-// Keep in sync with GpuFollowParams in src/systems/anjyo/follow_gpu.rs.
+// Twin of GpuFollowParams (tests/it/gpu_twins.rs checks it) in src/systems/anjyo/follow_gpu.rs.
 struct FollowParams {
     follower_count: u32,
     row_stride: u32,
@@ -23,7 +23,7 @@ struct FollowParams {
     head_inv: mat4x4<f32>,
 }
 
-// Keep in sync with GpuFollower in src/systems/anjyo/follow_gpu.rs.
+// Twin of GpuFollower (tests/it/gpu_twins.rs checks it) in src/systems/anjyo/follow_gpu.rs.
 struct Follower {
     // first vertex, moved segments, guide count, unused
     ids: vec4<u32>,

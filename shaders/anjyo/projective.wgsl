@@ -30,7 +30,7 @@ override WORKGROUP: u32;
 // false: the job has no External Force Field (eff_field would be zero), its lookup compiled out.
 override EFF_FIELD: bool = true;
 
-// Keep in sync with GpuDynParams in src/systems/anjyo/gpu_data.rs.
+// Twin of GpuDynParams (tests/it/gpu_twins.rs checks it) in src/systems/anjyo/gpu_data.rs.
 struct DynParams {
     strand_count: u32,
     row_stride: u32,
@@ -56,7 +56,7 @@ struct DynParams {
     head_radii: vec4<f32>,
 }
 
-// Keep in sync with GpuStep in src/gpu/gpu_data.rs (one 256-byte slot per substep).
+// Twin of GpuStep (tests/it/gpu_twins.rs checks it) in src/gpu/gpu_data.rs (one 256-byte slot per substep).
 struct Step {
     // xyz gravity + wind, w substep length h
     force: vec4<f32>,
@@ -68,7 +68,7 @@ struct Step {
     kick: vec4<u32>,
 }
 
-// Keep in sync with GpuDynStrand in src/systems/anjyo/gpu_data.rs (stored as three columns).
+// Twin of GpuDynStrand (tests/it/gpu_twins.rs checks it) in src/systems/anjyo/gpu_data.rs (stored as three columns).
 struct DynStrand {
     // strand, first vertex, state column, simulated segments
     ids: vec4<u32>,

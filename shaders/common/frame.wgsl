@@ -1,4 +1,4 @@
-// Per-frame view and light. Keep in sync with GpuFrame in src/gpu/gpu_data.rs.
+// Per-frame view and light. Twin of GpuFrame in src/gpu/gpu_data.rs.
 struct Frame {
     view_proj: mat4x4<f32>,
     eye: vec4<f32>,
@@ -17,7 +17,7 @@ struct Frame {
     shadow: ShadowParams,
 }
 
-// Keep in sync with GpuShadow in src/gpu/shadow.rs.
+// Twin of GpuShadow (tests/it/gpu_twins.rs checks it) in src/gpu/shadow.rs.
 struct ShadowParams {
     // xyz centre of the light-space box; w 1 while shadows are on
     center: vec4<f32>,

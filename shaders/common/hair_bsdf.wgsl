@@ -4,7 +4,7 @@
 // reference this must match; tests/it/hair_bsdf.rs bounds the difference). Evaluated per
 // node, never per fragment; every loop has a constant bound.
 
-// Keep in sync with GpuHairBsdf in src/systems/hair_bsdf.rs.
+// Twin of GpuHairBsdf (tests/it/gpu_twins.rs checks it) in src/systems/hair_bsdf.rs.
 struct HairBsdf {
     // rgb sigma_a; w 1 to shade physically
     sigma_a: vec4<f32>,

@@ -1,4 +1,4 @@
-// Load fields limited to half-spaces. Keep in sync with GpuLoad in src/systems/anjyo/gpu_data.rs and
+// Load fields limited to half-spaces. Twin of GpuLoad in src/systems/anjyo/gpu_data.rs and
 // ResolvedLoad in src/systems/anjyo/groom.rs. Needs `loads: array<Load>` bound by the including shader.
 struct Load {
     // xyz: force (uniform) or point (toward); w: 0 uniform, 1 toward.

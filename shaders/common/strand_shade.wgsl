@@ -6,7 +6,7 @@
 // The screen-space level of detail (src/systems/lod.rs) keeps every lod.y-th node (and the
 // last) and widens the fewer strands drawn by lod.x.
 
-// Keep in sync with GpuMaterial in src/systems/anjyo/gpu_data.rs.
+// Twin of GpuMaterial (tests/it/gpu_twins.rs checks it) in src/systems/anjyo/gpu_data.rs.
 struct Material {
     // rgb linear colour, w k_s
     color_ks: vec4<f32>,
@@ -25,7 +25,7 @@ struct Material {
 // x: width factor, y: node step (StrandsPass::prepare).
 @group(1) @binding(3) var<uniform> lod: vec4<f32>;
 // Per node (as verts), from strand files: x sRGB colour and opacity (unpack4x8unorm),
-// y width (f32 bits). Keep in sync with GpuLook in src/systems/anjyo/gpu_data.rs. One
+// y width (f32 bits). Twin of GpuLook in src/systems/anjyo/gpu_data.rs. One
 // placeholder entry when no group reads it.
 @group(1) @binding(5) var<storage, read> looks: array<vec2<u32>>;
 

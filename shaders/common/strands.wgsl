@@ -1,4 +1,4 @@
-// One layout for every kind of strand. Keep in sync with GpuStrand in src/gpu/gpu_data.rs.
+// One layout for every kind of strand. Twin of GpuStrand in src/gpu/gpu_data.rs.
 struct Strand {
     first_vertex: u32,
     segments: u32,

@@ -8,7 +8,7 @@
 // eff_field(p, sampling) is the same without the scale, for kernels that carry their own
 // scale per substep (several frames recorded in one submission).
 
-// Keep in sync with GpuEffGrid in src/forces/eff.rs.
+// Twin of GpuEffGrid (tests/it/gpu_twins.rs checks it) in src/forces/eff.rs.
 struct EffGrid {
     // xyz: the grid's min corner (world), w: the blend band outside it, in cells.
     origin: vec4<f32>,

@@ -5,7 +5,7 @@
 // normal; polylines a normal per control point, perpendicular to the segment in the hair plane
 // and rotated about it by a random angle (normal randomize); tubes their surface normal.
 
-// Keep in sync with GpuFurMaterial in src/systems/fur/gpu_data.rs.
+// Twin of GpuFurMaterial (tests/it/gpu_twins.rs checks it) in src/systems/fur/gpu_data.rs.
 struct FurMaterial {
     // rgb ambient, w root width
     ambient: vec4<f32>,

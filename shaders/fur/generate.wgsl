@@ -4,7 +4,7 @@
 // offsets), barycentrics from the 2048-entry table, root/normal/length from the (moving)
 // mesh, weightless direction and end point, floppiness, then the style's control points.
 
-// Keep in sync with GpuFurCoat in src/systems/fur/gpu_data.rs (one 256-byte slot per coat).
+// Twin of GpuFurCoat (tests/it/gpu_twins.rs checks it) in src/systems/fur/gpu_data.rs (one 256-byte slot per coat).
 struct Coat {
     drawn: u32,
     segments: u32,

@@ -1,7 +1,7 @@
 // The fur mesh's skin: its triangles read from storage (the same buffers the fur generator
 // reads), moved by the same deformation, lit like the head.
 
-// Keep in sync with GpuSkin in src/systems/fur/gpu_data.rs.
+// Twin of GpuSkin (tests/it/gpu_twins.rs checks it) in src/systems/fur/gpu_data.rs.
 struct Skin {
     color: vec4<f32>,
     motion: vec4<f32>,

@@ -2,7 +2,7 @@
 // vertices and normals, in head coordinates), lit by the scene light with a soft wrap so the
 // unlit side is not black.
 
-// Keep in sync with GpuHead in src/gpu/gpu_data.rs.
+// Twin of GpuHead (tests/it/gpu_twins.rs checks it) in src/gpu/gpu_data.rs.
 struct Head {
     model: mat4x4<f32>,
     rotation: mat4x4<f32>,

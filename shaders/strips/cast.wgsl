@@ -2,7 +2,7 @@
 // per strip deposits its centre line, stick by stick, as wide as the ribbon there, counted
 // STRIP_LAYERS times (a strip stands for a layer of hairs: src/systems/strips/ribbon.rs).
 
-// Keep in sync with GpuStripInfo (as shaders/strips/draw.wgsl).
+// Twin of GpuStripInfo (tests/it/gpu_twins.rs checks it) (as shaders/strips/draw.wgsl).
 struct CastInfo {
     side: vec4<f32>,
     normal: vec4<f32>,

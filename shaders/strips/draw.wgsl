@@ -15,7 +15,7 @@
 // coverage then goes through common/coverage.wgsl as every hair pass's does: blended
 // without MSAA, a per-sample mask with it (per-sample discard on GL).
 
-// Keep in sync with GpuStripInfo (and the copy in shaders/strips/ribbon.wgsl).
+// Twin of GpuStripInfo (tests/it/gpu_twins.rs checks it) (and the copy in shaders/strips/ribbon.wgsl).
 struct StripInfo {
     side: vec4<f32>,
     normal: vec4<f32>,
@@ -24,7 +24,7 @@ struct StripInfo {
     counts: vec4<u32>,
 }
 
-// Keep in sync with GpuRibbonVertex (and the copy in shaders/strips/ribbon.wgsl).
+// Twin of GpuRibbonVertex (tests/it/gpu_twins.rs checks it) (and the copy in shaders/strips/ribbon.wgsl).
 struct RibbonVertex {
     // xyz world position, w u
     position: vec4<f32>,
@@ -32,7 +32,7 @@ struct RibbonVertex {
     tangent: vec4<f32>,
 }
 
-// Keep in sync with GpuStripLook in src/systems/strips/ribbon.rs.
+// Twin of GpuStripLook (tests/it/gpu_twins.rs checks it) in src/systems/strips/ribbon.rs.
 struct StripLook {
     // x specular strength, y specular exponent, z alpha cutoff, w texture gain
     look: vec4<f32>,

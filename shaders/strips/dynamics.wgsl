@@ -14,7 +14,7 @@
 
 override WORKGROUP: u32;
 
-// Keep in sync with GpuParams in src/systems/strips/dynamics_gpu.rs.
+// Twin of GpuParams (tests/it/gpu_twins.rs checks it) in src/systems/strips/dynamics_gpu.rs.
 struct Params {
     count: u32,
     stride: u32,
@@ -39,7 +39,7 @@ struct Slot {
     index: vec4<u32>,
 }
 
-// Keep in sync with GpuStep.
+// Twin of GpuStep (tests/it/gpu_twins.rs checks it).
 struct Step {
     // Head pose and the map from a world point to the head frame's acceleration there, at
     // the step's start (0) and middle (1); the pose at its end (2).
@@ -56,7 +56,7 @@ struct Step {
     ramp1: array<vec4<f32>, 4>,
 }
 
-// Keep in sync with GpuStrip.
+// Twin of GpuStrip (tests/it/gpu_twins.rs checks it).
 struct Strip {
     // xyz root (head rest frame), w Psi's band
     root: vec4<f32>,
@@ -64,7 +64,7 @@ struct Strip {
     info: vec4<u32>,
 }
 
-// Keep in sync with GpuJoint.
+// Twin of GpuJoint (tests/it/gpu_twins.rs checks it).
 struct Joint {
     // Columns of the joint's reference frame in the parent's body frame; c0.w stick length,
     // c1.w outboard moment M_j.

@@ -9,7 +9,7 @@ override TINY2: f32;
 override SIDE_MIN: f32;
 override FOLD_COS: f32;
 
-// Keep in sync with GpuRibbonParams in src/systems/strips/ribbon.rs.
+// Twin of GpuRibbonParams (tests/it/gpu_twins.rs checks it) in src/systems/strips/ribbon.rs.
 struct Params {
     // Head pose (its rotation turns the rest side vectors and normals).
     head: mat4x4<f32>,
@@ -17,7 +17,7 @@ struct Params {
     counts: vec4<u32>,
 }
 
-// Keep in sync with GpuStripInfo (and the copy in shaders/strips/draw.wgsl).
+// Twin of GpuStripInfo (tests/it/gpu_twins.rs checks it) (and the copy in shaders/strips/draw.wgsl).
 struct StripInfo {
     // xyz side vector at rest (head rest frame), w root width
     side: vec4<f32>,
@@ -29,7 +29,7 @@ struct StripInfo {
     counts: vec4<u32>,
 }
 
-// Keep in sync with GpuRibbonVertex (and the copy in shaders/strips/draw.wgsl).
+// Twin of GpuRibbonVertex (tests/it/gpu_twins.rs checks it) (and the copy in shaders/strips/draw.wgsl).
 struct RibbonVertex {
     // xyz world position, w u (0 or 1, across)
     position: vec4<f32>,

@@ -3,7 +3,7 @@
 // wisp there, counted WISP_LAYERS times: a wisp is a solid surface, so a point behind one
 // reads far over the toon threshold (common/shadow.wgsl's `shadow_toon`).
 
-// Keep in sync with GpuSegment in src/systems/wisps/march.rs (as wisps/march.wgsl).
+// Twin of GpuSegment (tests/it/gpu_twins.rs checks it) in src/systems/wisps/march.rs (as wisps/march.wgsl).
 struct CastSegment {
     c0: vec4<f32>,
     c1: vec4<f32>,

@@ -13,7 +13,7 @@
 // capsule can be inside the surface: the march samples only inside them.
 // f64 reference: `src/systems/wisps/curve.rs` (`segments`, `capsules`).
 
-// Keep in sync with GpuWispParams in src/systems/wisps/march.rs.
+// Twin of GpuWispParams (tests/it/gpu_twins.rs checks it) in src/systems/wisps/march.rs.
 struct Params {
     // Applied to node positions (the head pose for still wisps; identity when the springs
     // already move the nodes in world space).
@@ -24,7 +24,7 @@ struct Params {
     shape: vec4<f32>,
 }
 
-// Keep in sync with GpuSegment in src/systems/wisps/march.rs.
+// Twin of GpuSegment (tests/it/gpu_twins.rs checks it) in src/systems/wisps/march.rs.
 struct Segment {
     // xyz control point; c0.w r0, c1.w r1, c2.w w0, c3.w w1
     c0: vec4<f32>,
@@ -66,7 +66,7 @@ fn bez_d1_at(v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, v3: vec3<f32>, t: f32)
     return 3.0 * u * u * (v1 - v0) + 6.0 * u * t * (v2 - v1) + 3.0 * t * t * (v3 - v2);
 }
 
-// Keep in sync with GpuCapsule in src/systems/wisps/march.rs.
+// Twin of GpuCapsule (tests/it/gpu_twins.rs checks it) in src/systems/wisps/march.rs.
 struct Capsule {
     a: vec4<f32>,
     b: vec4<f32>,

@@ -15,7 +15,7 @@
 // (eqs 14-22, `wisps/toon.wgsl`) with the angel halo, and a silhouette outline from a thin
 // shell around the surface. f64 twin: `march_tiled` in `src/systems/wisps/field.rs`.
 
-// Keep in sync with GpuWispDraw in src/systems/wisps/march.rs.
+// Twin of GpuWispDraw (tests/it/gpu_twins.rs checks it) in src/systems/wisps/march.rs.
 struct Draw {
     // The head's rotation (columns), for shading in its frame.
     head_x: vec4<f32>,
@@ -46,7 +46,7 @@ struct Draw {
     taper: vec4<f32>,
 }
 
-// Keep in sync with GpuSegment in src/systems/wisps/march.rs.
+// Twin of GpuSegment (tests/it/gpu_twins.rs checks it) in src/systems/wisps/march.rs.
 struct Segment {
     c0: vec4<f32>,
     c1: vec4<f32>,
@@ -56,7 +56,7 @@ struct Segment {
     hi: vec4<f32>,
 }
 
-// Keep in sync with GpuCapsule in src/systems/wisps/march.rs.
+// Twin of GpuCapsule (tests/it/gpu_twins.rs checks it) in src/systems/wisps/march.rs.
 struct Capsule {
     a: vec4<f32>,
     b: vec4<f32>,

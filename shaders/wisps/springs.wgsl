@@ -13,7 +13,7 @@
 override WORKGROUP: u32;
 override NEWTON: u32;
 
-// Keep in sync with GpuSpringParams in src/systems/wisps/springs_gpu.rs.
+// Twin of GpuSpringParams (tests/it/gpu_twins.rs checks it) in src/systems/wisps/springs_gpu.rs.
 struct Params {
     count: u32,
     row_stride: u32,
@@ -26,7 +26,7 @@ struct Params {
     hull_radii: vec4<f32>,
 }
 
-// One 256-byte slot per substep (keep in sync with GpuSubstep): index.x is the substep's
+// One 256-byte slot per substep (the twin of GpuSubstep): index.x is the substep's
 // index in this recording; its head poses are heads[2x] (start), heads[2x + 1] (middle) and
 // heads[2x + 2] (end). field[k] is gravity plus the keyed wind at the start (k = 0), middle
 // (1) and end (2), w the EFF's gust scale there.
@@ -35,7 +35,7 @@ struct Substep {
     field: array<vec4<f32>, 3>,
 }
 
-// Keep in sync with GpuMassPoint.
+// Twin of GpuMassPoint (tests/it/gpu_twins.rs checks it).
 struct MassPoint {
     // xyz rest position (head rest frame), w inverse mass (0: kinematic)
     rest: vec4<f32>,
@@ -43,7 +43,7 @@ struct MassPoint {
     edges: vec4<u32>,
 }
 
-// Keep in sync with GpuEdge.
+// Twin of GpuEdge (tests/it/gpu_twins.rs checks it).
 struct Edge {
     other: u32,
     rest: f32,

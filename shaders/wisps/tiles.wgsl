@@ -11,7 +11,7 @@
 
 // `View`: shaders/wisps/view.wgsl.
 
-// Keep in sync with GpuSegment in src/systems/wisps/march.rs.
+// Twin of GpuSegment (tests/it/gpu_twins.rs checks it) in src/systems/wisps/march.rs.
 struct Segment {
     c0: vec4<f32>,
     c1: vec4<f32>,
@@ -21,7 +21,7 @@ struct Segment {
     hi: vec4<f32>,
 }
 
-// Keep in sync with GpuCapsule in src/systems/wisps/march.rs.
+// Twin of GpuCapsule (tests/it/gpu_twins.rs checks it) in src/systems/wisps/march.rs.
 struct Capsule {
     // xyz c0, w the influence radius
     a: vec4<f32>,

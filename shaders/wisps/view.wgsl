@@ -1,4 +1,4 @@
-// The wisps' per-frame view (tiles, march and composite). Keep in sync with GpuMarchView in
+// The wisps' per-frame view (tiles, march and composite). Twin of GpuMarchView in
 // src/systems/wisps/tiles.rs.
 struct View {
     view_proj: mat4x4<f32>,

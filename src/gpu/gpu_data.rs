@@ -13,7 +13,7 @@ macro_rules! assert_size {
 }
 pub(crate) use assert_size;
 
-/// One strand of any kind. Keep in sync with `struct Strand` in `shaders/common/strands.wgsl`.
+/// One strand of any kind. Twin of `struct Strand` (`tests/it/gpu_twins.rs` checks it) in `shaders/common/strands.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuStrand {
@@ -37,7 +37,7 @@ pub struct GpuStrand {
 }
 assert_size!(GpuStrand, 32);
 
-/// Per-frame view and light. Keep in sync with `struct Frame` in `shaders/common/frame.wgsl`.
+/// Per-frame view and light. Twin of `struct Frame` (`tests/it/gpu_twins.rs` checks it) in `shaders/common/frame.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuFrame {
@@ -66,7 +66,7 @@ pub struct GpuFrame {
 }
 assert_size!(GpuFrame, 336);
 
-/// The head mesh's uniform. Keep in sync with `struct Head` in `shaders/stage/head.wgsl`.
+/// The head mesh's uniform. Twin of `struct Head` (`tests/it/gpu_twins.rs` checks it) in `shaders/stage/head.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuHead {
@@ -81,8 +81,8 @@ pub struct GpuHead {
 }
 assert_size!(GpuHead, 160);
 
-/// One substep's forces, in a 256-byte slot of a dynamic-offset uniform buffer. Keep in sync
-/// with `struct Step` in `shaders/anjyo/projective.wgsl`.
+/// One substep's forces, in a 256-byte slot of a dynamic-offset uniform buffer. Twin of
+/// `struct Step` in `shaders/anjyo/projective.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuStep {

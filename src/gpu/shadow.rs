@@ -84,7 +84,7 @@ impl ShadowVariant {
 /// Fixed-point scale of cast coverage; keep in sync with `shaders/common/shadow_cast.wgsl`.
 pub const FIXED: f64 = 4096.0;
 
-/// Keep in sync with `struct ShadowParams` in `shaders/common/frame.wgsl`.
+/// Twin of `struct ShadowParams` (`tests/it/gpu_twins.rs` checks it) in `shaders/common/frame.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuShadow {

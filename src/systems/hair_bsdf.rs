@@ -633,7 +633,7 @@ pub fn dual_radiance(b: &Bsdf, d: &DualScattering, a: &Angles, n: f64) -> [f64; 
     })
 }
 
-/// A material's physical shading as the shaders read it. Keep in sync with `struct HairBsdf`
+/// A material's physical shading as the shaders read it. Twin of `struct HairBsdf` (`tests/it/gpu_twins.rs` checks it)
 /// in `shaders/common/hair_bsdf.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]

@@ -5,7 +5,7 @@
 //! with the f64 reference.
 //!
 //! Its two GPU structs live here rather than in Anjyo's `gpu_data` because nothing else
-//! reads them; same rules (`#[repr(C)]`, `Pod`, a size check, "keep in sync").
+//! reads them; same rules (`#[repr(C)]`, `Pod`, a size check, a twin checked by `tests/it/gpu_twins.rs`).
 
 use super::follow::{FollowSetup, MAX_GUIDES};
 use crate::error::Result;
@@ -15,7 +15,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::DMat4;
 use wgpu::util::DeviceExt;
 
-/// Keep in sync with `struct FollowParams` in `shaders/anjyo/follow.wgsl`.
+/// Twin of `struct FollowParams` (`tests/it/gpu_twins.rs` checks it) in `shaders/anjyo/follow.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuFollowParams {
@@ -32,7 +32,7 @@ pub struct GpuFollowParams {
 }
 const _: () = assert!(std::mem::size_of::<GpuFollowParams>() == 176);
 
-/// Keep in sync with `struct Follower` in `shaders/anjyo/follow.wgsl`.
+/// Twin of `struct Follower` (`tests/it/gpu_twins.rs` checks it) in `shaders/anjyo/follow.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuFollower {

@@ -4,7 +4,7 @@
 use crate::gpu::gpu_data::assert_size;
 use bytemuck::{Pod, Zeroable};
 
-/// Groom input per strand. Keep in sync with `struct Root` in `shaders/anjyo/cantilever.wgsl`.
+/// Groom input per strand. Twin of `struct Root` (`tests/it/gpu_twins.rs` checks it) in `shaders/anjyo/cantilever.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuRoot {
@@ -15,7 +15,7 @@ pub struct GpuRoot {
 }
 assert_size!(GpuRoot, 32);
 
-/// Bending parameters per group. Keep in sync with `struct Group` in `shaders/anjyo/cantilever.wgsl`.
+/// Bending parameters per group. Twin of `struct Group` (`tests/it/gpu_twins.rs` checks it) in `shaders/anjyo/cantilever.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuGroomGroup {
@@ -34,7 +34,7 @@ pub struct GpuGroomGroup {
 }
 assert_size!(GpuGroomGroup, 48);
 
-/// A load field limited to half-spaces. Keep in sync with `struct Load` in
+/// A load field limited to half-spaces. Twin of `struct Load` (`tests/it/gpu_twins.rs` checks it) in
 /// `shaders/common/loads.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -48,7 +48,7 @@ pub struct GpuLoad {
 }
 assert_size!(GpuLoad, 96);
 
-/// A cut rule. Keep in sync with `struct Cut` in `shaders/anjyo/cantilever.wgsl`.
+/// A cut rule. Twin of `struct Cut` (`tests/it/gpu_twins.rs` checks it) in `shaders/anjyo/cantilever.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuCut {
@@ -60,7 +60,7 @@ pub struct GpuCut {
 }
 assert_size!(GpuCut, 32);
 
-/// Groom dispatch parameters. Keep in sync with `struct Params` in `shaders/anjyo/cantilever.wgsl`.
+/// Groom dispatch parameters. Twin of `struct Params` (`tests/it/gpu_twins.rs` checks it) in `shaders/anjyo/cantilever.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuGroomParams {
@@ -75,7 +75,7 @@ pub struct GpuGroomParams {
 }
 assert_size!(GpuGroomParams, 48);
 
-/// Look of a hair group. Keep in sync with `struct Material` in `shaders/anjyo/draw.wgsl`.
+/// Look of a hair group. Twin of `struct Material` (`tests/it/gpu_twins.rs` checks it) in `shaders/anjyo/draw.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
@@ -91,7 +91,7 @@ pub struct GpuMaterial {
 }
 assert_size!(GpuMaterial, 160);
 
-/// A node's own look, from a strand file. Keep in sync with `looks` in
+/// A node's own look, from a strand file. Twin of the elements of `looks` (`tests/it/gpu_twins.rs` checks it) in
 /// `shaders/common/strand_shade.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -120,7 +120,7 @@ impl GpuLook {
     }
 }
 
-/// Projective-dynamics parameters. Keep in sync with `struct DynParams` in
+/// Projective-dynamics parameters. Twin of `struct DynParams` (`tests/it/gpu_twins.rs` checks it) in
 /// `shaders/anjyo/projective.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -155,7 +155,7 @@ pub struct GpuDynParams {
 }
 assert_size!(GpuDynParams, 112);
 
-/// One simulated strand. Keep in sync with `struct DynStrand` in `shaders/anjyo/projective.wgsl`.
+/// One simulated strand. Twin of `struct DynStrand` (`tests/it/gpu_twins.rs` checks it) in `shaders/anjyo/projective.wgsl`.
 /// Uploaded as three columns (all `ids`, then all `root`, then all `extra`, each
 /// `state_stride` long) so that neighbouring invocations read neighbouring 16-byte words.
 #[repr(C)]

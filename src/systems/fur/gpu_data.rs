@@ -5,7 +5,7 @@ use crate::gpu::gpu_data::assert_size;
 use bytemuck::{Pod, Zeroable};
 
 /// One fur coat's generation parameters, in a 256-byte slot of a dynamic-offset uniform
-/// buffer. Keep in sync with `struct Coat` in `shaders/fur/generate.wgsl`.
+/// buffer. Twin of `struct Coat` (`tests/it/gpu_twins.rs` checks it) in `shaders/fur/generate.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct GpuFurCoat {
@@ -36,8 +36,8 @@ pub struct GpuFurCoat {
 }
 assert_size!(GpuFurCoat, 256);
 
-/// A fur coat's look (Van Gelder & Wilhelms Figure 2). Keep in sync with
-/// `struct FurMaterial` in `shaders/fur/draw.wgsl`.
+/// A fur coat's look (Van Gelder & Wilhelms Figure 2). Twin of
+/// `struct FurMaterial` (`tests/it/gpu_twins.rs` checks it) in `shaders/fur/draw.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuFurMaterial {
@@ -54,7 +54,7 @@ pub struct GpuFurMaterial {
 }
 assert_size!(GpuFurMaterial, 176);
 
-/// The fur mesh's skin. Keep in sync with `struct Skin` in `shaders/fur/skin.wgsl`.
+/// The fur mesh's skin. Twin of `struct Skin` (`tests/it/gpu_twins.rs` checks it) in `shaders/fur/skin.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuSkin {

@@ -57,7 +57,7 @@ const SLOT: u64 = 256;
 const LOOPS_PER_STICK: u64 = 3 + 32 * 3 + 20 + 2 * (1 + MAX_EXTRA as u64 + 8);
 const LOOP_LIMIT: u64 = 65_535;
 
-/// Keep in sync with `struct Params` in `shaders/strips/dynamics.wgsl`.
+/// Twin of `struct Params` (`tests/it/gpu_twins.rs` checks it) in `shaders/strips/dynamics.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct GpuParams {
@@ -78,7 +78,7 @@ pub struct GpuParams {
 }
 const _: () = assert!(std::mem::size_of::<GpuParams>() == 80 + 2 * 16 * MAX_EXTRA);
 
-/// Keep in sync with `struct Step`.
+/// Twin of `struct Step` (`tests/it/gpu_twins.rs` checks it).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct GpuStep {
@@ -94,7 +94,7 @@ pub struct GpuStep {
 }
 const _: () = assert!(std::mem::size_of::<GpuStep>() == 480);
 
-/// Keep in sync with `struct Strip`.
+/// Twin of `struct Strip` (`tests/it/gpu_twins.rs` checks it).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct GpuStrip {
@@ -104,7 +104,7 @@ pub struct GpuStrip {
     pub info: [u32; 4],
 }
 
-/// Keep in sync with `struct Joint`.
+/// Twin of `struct Joint` (`tests/it/gpu_twins.rs` checks it).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct GpuJoint {

@@ -83,7 +83,7 @@ pub const SIDE_MIN: f64 = 1e-2;
 /// Cosine between successive tangents under which parallel transport is skipped (a fold).
 pub const FOLD_COS: f64 = -0.99;
 
-/// One strip as the ribbon kernel reads it. Keep in sync with `struct StripInfo` in
+/// One strip as the ribbon kernel reads it. Twin of `struct StripInfo` (`tests/it/gpu_twins.rs` checks it) in
 /// `shaders/strips/ribbon.wgsl` and `shaders/strips/draw.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -99,7 +99,7 @@ pub struct GpuStripInfo {
 }
 const _: () = assert!(std::mem::size_of::<GpuStripInfo>() == 64);
 
-/// One ribbon vertex. Keep in sync with `struct RibbonVertex` in the two WGSL files.
+/// One ribbon vertex. Twin of `struct RibbonVertex` (`tests/it/gpu_twins.rs` checks it) in the two WGSL files.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuRibbonVertex {
@@ -110,7 +110,7 @@ pub struct GpuRibbonVertex {
 }
 const _: () = assert!(std::mem::size_of::<GpuRibbonVertex>() == 32);
 
-/// Keep in sync with `struct Params` in `shaders/strips/ribbon.wgsl`.
+/// Twin of `struct Params` (`tests/it/gpu_twins.rs` checks it) in `shaders/strips/ribbon.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuRibbonParams {
@@ -120,7 +120,7 @@ pub struct GpuRibbonParams {
 }
 const _: () = assert!(std::mem::size_of::<GpuRibbonParams>() == 80);
 
-/// Keep in sync with `struct StripLook` in `shaders/strips/draw.wgsl`.
+/// Twin of `struct StripLook` (`tests/it/gpu_twins.rs` checks it) in `shaders/strips/draw.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuStripLook {

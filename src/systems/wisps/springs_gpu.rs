@@ -42,7 +42,7 @@ const SLOT: u64 = 256;
 /// Scratch regions per point: velocity, RK4 stage states A and B (x, v), the stage sums.
 const REGIONS: u64 = 7;
 
-/// Keep in sync with `struct Params` in `shaders/wisps/springs.wgsl`.
+/// Twin of `struct Params` (`tests/it/gpu_twins.rs` checks it) in `shaders/wisps/springs.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuSpringParams {
@@ -58,7 +58,7 @@ pub struct GpuSpringParams {
 }
 const _: () = assert!(std::mem::size_of::<GpuSpringParams>() == 64);
 
-/// One substep's slot of the dynamic uniform. Keep in sync with `struct Substep`.
+/// One substep's slot of the dynamic uniform. Twin of `struct Substep` (`tests/it/gpu_twins.rs` checks it).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuSubstep {
@@ -71,7 +71,7 @@ pub struct GpuSubstep {
 const _: () = assert!(std::mem::size_of::<GpuSubstep>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuSubstep>() as u64 <= SLOT);
 
-/// Keep in sync with `struct MassPoint`.
+/// Twin of `struct MassPoint` (`tests/it/gpu_twins.rs` checks it).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMassPoint {
@@ -82,7 +82,7 @@ pub struct GpuMassPoint {
 }
 const _: () = assert!(std::mem::size_of::<GpuMassPoint>() == 32);
 
-/// Keep in sync with `struct Edge`.
+/// Twin of `struct Edge` (`tests/it/gpu_twins.rs` checks it).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuEdge {

@@ -22,7 +22,7 @@ pub const TILE: u32 = 16;
 /// Most segments one tile lists (more are counted as an overflow).
 pub const MAX_CAPACITY: u32 = 1024;
 
-/// Keep in sync with `View` in `shaders/wisps/tiles.wgsl` and `march.wgsl`.
+/// Twin of `View` (`tests/it/gpu_twins.rs` checks it) in `shaders/wisps/tiles.wgsl` and `march.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Pod, Zeroable)]
 pub struct GpuMarchView {
