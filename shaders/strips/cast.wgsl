@@ -2,21 +2,8 @@
 // per strip deposits its centre line, stick by stick, as wide as the ribbon there, counted
 // STRIP_LAYERS times (a strip stands for a layer of hairs: src/systems/strips/ribbon.rs).
 
-// Twin of GpuStripInfo (tests/it/gpu_twins.rs checks it) (as shaders/strips/draw.wgsl).
-struct CastInfo {
-    side: vec4<f32>,
-    normal: vec4<f32>,
-    color: vec4<f32>,
-    counts: vec4<u32>,
-}
-
-struct CastVertex {
-    position: vec4<f32>,
-    tangent: vec4<f32>,
-}
-
-@group(1) @binding(0) var<storage, read> verts: array<CastVertex>;
-@group(1) @binding(1) var<storage, read> info: array<CastInfo>;
+@group(1) @binding(0) var<storage, read> verts: array<RibbonVertex>;
+@group(1) @binding(1) var<storage, read> info: array<StripInfo>;
 // x stride (control point slots per strip), y strips, z strip layers (f32 bits)
 @group(1) @binding(2) var<uniform> cast_counts: vec4<u32>;
 

@@ -15,23 +15,6 @@
 // coverage then goes through common/coverage.wgsl as every hair pass's does: blended
 // without MSAA, a per-sample mask with it (per-sample discard on GL).
 
-// Twin of GpuStripInfo (tests/it/gpu_twins.rs checks it) (and the copy in shaders/strips/ribbon.wgsl).
-struct StripInfo {
-    side: vec4<f32>,
-    normal: vec4<f32>,
-    // rgb linear layer colour
-    color: vec4<f32>,
-    counts: vec4<u32>,
-}
-
-// Twin of GpuRibbonVertex (tests/it/gpu_twins.rs checks it) (and the copy in shaders/strips/ribbon.wgsl).
-struct RibbonVertex {
-    // xyz world position, w u
-    position: vec4<f32>,
-    // xyz unit tangent, w v
-    tangent: vec4<f32>,
-}
-
 // Twin of GpuStripLook (tests/it/gpu_twins.rs checks it) in src/systems/strips/ribbon.rs.
 struct StripLook {
     // x specular strength, y specular exponent, z alpha cutoff, w texture gain

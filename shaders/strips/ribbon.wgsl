@@ -17,26 +17,6 @@ struct Params {
     counts: vec4<u32>,
 }
 
-// Twin of GpuStripInfo (tests/it/gpu_twins.rs checks it) (and the copy in shaders/strips/draw.wgsl).
-struct StripInfo {
-    // xyz side vector at rest (head rest frame), w root width
-    side: vec4<f32>,
-    // xyz outward head normal at the root (head rest frame), w tip width
-    normal: vec4<f32>,
-    // rgb linear layer colour
-    color: vec4<f32>,
-    // x control points, y layer
-    counts: vec4<u32>,
-}
-
-// Twin of GpuRibbonVertex (tests/it/gpu_twins.rs checks it) (and the copy in shaders/strips/draw.wgsl).
-struct RibbonVertex {
-    // xyz world position, w u (0 or 1, across)
-    position: vec4<f32>,
-    // xyz unit tangent, w v (0 root to 1 tip)
-    tangent: vec4<f32>,
-}
-
 @group(0) @binding(0) var<uniform> params: Params;
 @group(0) @binding(1) var<storage, read> info: array<StripInfo>;
 // The dynamics' control points: xyz world position, index strip * stride + k.

@@ -24,18 +24,6 @@ struct Params {
     shape: vec4<f32>,
 }
 
-// Twin of GpuSegment (tests/it/gpu_twins.rs checks it) in src/systems/wisps/march.rs.
-struct Segment {
-    // xyz control point; c0.w r0, c1.w r1, c2.w w0, c3.w w1
-    c0: vec4<f32>,
-    c1: vec4<f32>,
-    c2: vec4<f32>,
-    c3: vec4<f32>,
-    // AABB of the control points; lo.w the Lipschitz bound, hi.w the wisp (as f32)
-    lo: vec4<f32>,
-    hi: vec4<f32>,
-}
-
 @group(0) @binding(0) var<uniform> params: Params;
 // Node positions (xyz), the wisps' nodes one after the other.
 @group(0) @binding(1) var<storage, read> positions: array<vec4<f32>>;
@@ -64,12 +52,6 @@ fn bez_at(v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, v3: vec3<f32>, t: f32) ->
 fn bez_d1_at(v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, v3: vec3<f32>, t: f32) -> vec3<f32> {
     let u = 1.0 - t;
     return 3.0 * u * u * (v1 - v0) + 6.0 * u * t * (v2 - v1) + 3.0 * t * t * (v3 - v2);
-}
-
-// Twin of GpuCapsule (tests/it/gpu_twins.rs checks it) in src/systems/wisps/march.rs.
-struct Capsule {
-    a: vec4<f32>,
-    b: vec4<f32>,
 }
 
 const MAX_NODES: u32 = 64u;

@@ -46,22 +46,6 @@ struct Draw {
     taper: vec4<f32>,
 }
 
-// Twin of GpuSegment (tests/it/gpu_twins.rs checks it) in src/systems/wisps/march.rs.
-struct Segment {
-    c0: vec4<f32>,
-    c1: vec4<f32>,
-    c2: vec4<f32>,
-    c3: vec4<f32>,
-    lo: vec4<f32>,
-    hi: vec4<f32>,
-}
-
-// Twin of GpuCapsule (tests/it/gpu_twins.rs checks it) in src/systems/wisps/march.rs.
-struct Capsule {
-    a: vec4<f32>,
-    b: vec4<f32>,
-}
-
 // `View`: shaders/wisps/view.wgsl.
 
 @group(1) @binding(0) var<uniform> draw: Draw;

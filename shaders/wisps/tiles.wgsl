@@ -11,24 +11,6 @@
 
 // `View`: shaders/wisps/view.wgsl.
 
-// Twin of GpuSegment (tests/it/gpu_twins.rs checks it) in src/systems/wisps/march.rs.
-struct Segment {
-    c0: vec4<f32>,
-    c1: vec4<f32>,
-    c2: vec4<f32>,
-    c3: vec4<f32>,
-    lo: vec4<f32>,
-    hi: vec4<f32>,
-}
-
-// Twin of GpuCapsule (tests/it/gpu_twins.rs checks it) in src/systems/wisps/march.rs.
-struct Capsule {
-    // xyz c0, w the influence radius
-    a: vec4<f32>,
-    // xyz c3, w the hit radius (< 0: never holds a hit)
-    b: vec4<f32>,
-}
-
 @group(0) @binding(0) var<uniform> view: View;
 @group(0) @binding(1) var<storage, read> segments: array<Segment>;
 @group(0) @binding(2) var<storage, read> capsules: array<Capsule>;

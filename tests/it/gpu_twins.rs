@@ -309,25 +309,13 @@ fn twins() -> Vec<Twin> {
             GpuStripInfo,
             [side, normal, color, counts],
             "StripInfo",
-            ["strips/ribbon.wgsl", "strips/draw.wgsl"]
+            ["strips/strip.wgsl"]
         ),
         twin!(
             GpuRibbonVertex,
             [position, tangent],
             "RibbonVertex",
-            ["strips/ribbon.wgsl", "strips/draw.wgsl"]
-        ),
-        twin!(
-            GpuStripInfo,
-            [side, normal, color, counts],
-            "CastInfo",
-            ["strips/cast.wgsl"]
-        ),
-        twin!(
-            GpuRibbonVertex,
-            [position, tangent],
-            "CastVertex",
-            ["strips/cast.wgsl"]
+            ["strips/strip.wgsl"]
         ),
         twin!(
             GpuRibbonParams,
@@ -351,13 +339,13 @@ fn twins() -> Vec<Twin> {
             GpuSegment,
             [c, lo, hi],
             "Segment",
-            ["wisps/curves.wgsl", "wisps/march.wgsl", "wisps/tiles.wgsl"]
+            ["wisps/segments.wgsl"]
         ),
         twin!(
             GpuCapsule,
             [a, b],
             "Capsule",
-            ["wisps/curves.wgsl", "wisps/march.wgsl", "wisps/tiles.wgsl"]
+            ["wisps/segments.wgsl"]
         ),
         twin!(
             GpuWispDraw,

@@ -37,7 +37,7 @@ use std::sync::Mutex;
 
 /// The ribbon-building kernel's module (the strips kind lists it as `("strips/ribbon",
 /// RIBBON)`).
-pub const RIBBON: &str = wgsl!("strips/ribbon.wgsl");
+pub const RIBBON: &str = wgsl!("strips/strip.wgsl", "strips/ribbon.wgsl");
 /// The ribbon drawing module (`("strips/draw", DRAW)`).
 pub const DRAW: &str = wgsl!(
     "common/frame.wgsl",
@@ -45,6 +45,7 @@ pub const DRAW: &str = wgsl!(
     "common/random.wgsl",
     "common/coverage.wgsl",
     "common/hair_bsdf.wgsl",
+    "strips/strip.wgsl",
     "strips/draw.wgsl"
 );
 
@@ -53,6 +54,7 @@ pub const CAST: &str = wgsl!(
     "common/frame.wgsl",
     "common/shadow.wgsl",
     "common/shadow_cast.wgsl",
+    "strips/strip.wgsl",
     "strips/cast.wgsl"
 );
 

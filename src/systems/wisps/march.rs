@@ -15,7 +15,11 @@ use bytemuck::{Pod, Zeroable};
 use glam::{DMat4, DVec3};
 
 /// Spline and neighbour kernels.
-pub const CURVES: &str = wgsl!("common/chord.wgsl", "wisps/curves.wgsl");
+pub const CURVES: &str = wgsl!(
+    "common/chord.wgsl",
+    "wisps/segments.wgsl",
+    "wisps/curves.wgsl"
+);
 
 /// The ray march and toon shading (compute), with `field::RAY_SLOTS` candidate slots per ray
 /// (`march_source` sets a scene's own).
@@ -24,6 +28,7 @@ pub const MARCH: &str = wgsl!(
     "common/shadow.wgsl",
     "common/chord.wgsl",
     "wisps/view.wgsl",
+    "wisps/segments.wgsl",
     "wisps/march.wgsl",
     "wisps/tile_quad.wgsl",
     "wisps/toon.wgsl"
