@@ -335,18 +335,8 @@ fn twins() -> Vec<Twin> {
             "Params",
             ["wisps/curves.wgsl"]
         ),
-        twin!(
-            GpuSegment,
-            [c, lo, hi],
-            "Segment",
-            ["wisps/segments.wgsl"]
-        ),
-        twin!(
-            GpuCapsule,
-            [a, b],
-            "Capsule",
-            ["wisps/segments.wgsl"]
-        ),
+        twin!(GpuSegment, [c, lo, hi], "Segment", ["wisps/segments.wgsl"]),
+        twin!(GpuCapsule, [a, b], "Capsule", ["wisps/segments.wgsl"]),
         twin!(
             GpuWispDraw,
             [

@@ -14,11 +14,7 @@ use bytemuck::{Pod, Zeroable};
 use glam::{DMat4, DVec3, DVec4};
 
 /// The bounds and binning kernels.
-pub const TILES: &str = wgsl!(
-    "wisps/view.wgsl",
-    "wisps/segments.wgsl",
-    "wisps/tiles.wgsl"
-);
+pub const TILES: &str = wgsl!("wisps/view.wgsl", "wisps/segments.wgsl", "wisps/tiles.wgsl");
 
 /// Tile side in samples.
 pub const TILE: u32 = 16;
