@@ -3,24 +3,14 @@
 // wisp there, counted WISP_LAYERS times: a wisp is a solid surface, so a point behind one
 // reads far over the toon threshold (common/shadow.wgsl's `shadow_toon`).
 
-// Twin of GpuSegment (tests/it/gpu_twins.rs checks it) in src/systems/wisps/march.rs (as wisps/march.wgsl).
-struct CastSegment {
-    c0: vec4<f32>,
-    c1: vec4<f32>,
-    c2: vec4<f32>,
-    c3: vec4<f32>,
-    lo: vec4<f32>,
-    hi: vec4<f32>,
-}
-
-@group(1) @binding(0) var<storage, read> segments: array<CastSegment>;
+@group(1) @binding(0) var<storage, read> segments: array<Segment>;
 // x: segments
 @group(1) @binding(1) var<uniform> cast_count: vec4<u32>;
 
 const CAST_PIECES: u32 = 6u;
 const WISP_LAYERS: f32 = 4.0;
 
-fn cast_bez(s: CastSegment, t: f32) -> vec3<f32> {
+fn cast_bez(s: Segment, t: f32) -> vec3<f32> {
     let u = 1.0 - t;
     return u * u * u * s.c0.xyz + 3.0 * u * u * t * s.c1.xyz + 3.0 * u * t * t * s.c2.xyz
         + t * t * t * s.c3.xyz;

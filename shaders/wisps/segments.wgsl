@@ -1,5 +1,5 @@
-// The wisps' curve segments and their capsules, as curves.wgsl writes them and tiles.wgsl
-// and march.wgsl read them: one definition for the three (included before each).
+// The wisps' curve segments and their capsules, as curves.wgsl writes them and tiles.wgsl,
+// march.wgsl and cast.wgsl read them: one definition for all four (included before each).
 
 // Twin of GpuSegment (tests/it/gpu_twins.rs checks it) in src/systems/wisps/march.rs.
 struct Segment {

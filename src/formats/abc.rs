@@ -1007,27 +1007,9 @@ impl Parts {
             // Unreal's per-strand values: an object without them is group 0 and no guide
             // (as Unreal's importer reads it); root UVs are dropped unless every object has
             // them.
-            fn fill<T: Clone>(
-                a: &mut Option<Vec<T>>,
-                na: usize,
-                b: Option<Vec<T>>,
-                nb: usize,
-                v: T,
-            ) {
-                match (a.as_mut(), b) {
-                    (None, None) => {}
-                    (Some(a), Some(b)) => a.extend(b),
-                    (Some(a), None) => a.extend(std::iter::repeat_n(v, nb)),
-                    (None, Some(b)) => {
-                        let mut x = vec![v; na];
-                        x.extend(b);
-                        *a = Some(x);
-                    }
-                }
-            }
             let (na, nb) = (base.counts.len(), g.counts.len());
-            fill(&mut base.group_ids, na, g.group_ids, nb, 0);
-            fill(&mut base.guides, na, g.guides, nb, false);
+            super::join_filled(&mut base.group_ids, na, g.group_ids, nb, 0);
+            super::join_filled(&mut base.guides, na, g.guides, nb, false);
             join(first, &mut base.root_uvs, g.root_uvs);
             base.counts.extend(g.counts);
             base.points.extend(g.points);

@@ -108,33 +108,15 @@ impl Groom {
                 other = other.into_linear();
             }
         }
-        fn join<T: Clone>(
-            a: &mut Option<Vec<T>>,
-            na: usize,
-            b: Option<Vec<T>>,
-            nb: usize,
-            fill: T,
-        ) {
-            match (a.as_mut(), b) {
-                (None, None) => {}
-                (Some(a), Some(b)) => a.extend(b),
-                (Some(a), None) => a.extend(std::iter::repeat_n(fill, nb)),
-                (None, Some(b)) => {
-                    let mut v = vec![fill; na];
-                    v.extend(b);
-                    *a = Some(v);
-                }
-            }
-        }
         let (na, nb) = (self.points.len(), other.points.len());
-        join(&mut self.widths, na, other.widths, nb, 0.01);
-        join(&mut self.opacities, na, other.opacities, nb, 1.0);
-        join(&mut self.colors, na, other.colors, nb, [1.0; 3]);
+        join_filled(&mut self.widths, na, other.widths, nb, 0.01);
+        join_filled(&mut self.opacities, na, other.opacities, nb, 1.0);
+        join_filled(&mut self.colors, na, other.colors, nb, [1.0; 3]);
         // Per strand: group 0, not a guide, UV (0, 0) where one side has none.
         let (sa, sb) = (self.counts.len(), other.counts.len());
-        join(&mut self.group_ids, sa, other.group_ids, sb, 0);
-        join(&mut self.guides, sa, other.guides, sb, false);
-        join(&mut self.root_uvs, sa, other.root_uvs, sb, [0.0; 2]);
+        join_filled(&mut self.group_ids, sa, other.group_ids, sb, 0);
+        join_filled(&mut self.guides, sa, other.guides, sb, false);
+        join_filled(&mut self.root_uvs, sa, other.root_uvs, sb, [0.0; 2]);
         self.counts.extend(other.counts);
         self.points.extend(other.points);
     }
@@ -468,6 +450,27 @@ pub fn write(path: &Path, groom: &Groom) -> Result<()> {
         path: path.to_path_buf(),
         source,
     })
+}
+
+/// `b` (`nb` values) after `a` (`na` values), where only one side has values: the other
+/// side's are `fill` (a neutral value, or Unreal's group 0 and "not a guide").
+pub(crate) fn join_filled<T: Clone>(
+    a: &mut Option<Vec<T>>,
+    na: usize,
+    b: Option<Vec<T>>,
+    nb: usize,
+    fill: T,
+) {
+    match (a.as_mut(), b) {
+        (None, None) => {}
+        (Some(a), Some(b)) => a.extend(b),
+        (Some(a), None) => a.extend(std::iter::repeat_n(fill, nb)),
+        (None, Some(b)) => {
+            let mut v = vec![fill; na];
+            v.extend(b);
+            *a = Some(v);
+        }
+    }
 }
 
 /// A prim's values of one attribute, and whether they are per segment end (`varying`).

@@ -64,6 +64,7 @@ pub const CAST: &str = wgsl!(
     "common/frame.wgsl",
     "common/shadow.wgsl",
     "common/shadow_cast.wgsl",
+    "wisps/segments.wgsl",
     "wisps/cast.wgsl"
 );
 
