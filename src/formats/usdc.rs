@@ -37,6 +37,16 @@ const MAX_DEPTH: usize = 128;
 /// stores its files uncompressed).
 const MAX_LAYER: u64 = 1 << 32;
 
+/// The pseudo-root's metadata Kami reads (`bounds` checks these fields too).
+const STAGE_KEYS: [&str; 6] = [
+    "metersPerUnit",
+    "upAxis",
+    "timeCodesPerSecond",
+    "framesPerSecond",
+    "startTimeCode",
+    "endTimeCode",
+];
+
 /// Run `f`, turning a panic in the crate reader into an error naming `origin`.
 fn guarded<T>(origin: &str, what: &str, f: impl FnOnce() -> Result<T>) -> Result<T> {
     panic::catch_unwind(AssertUnwindSafe(f)).unwrap_or_else(|p| {
@@ -131,14 +141,7 @@ fn walk(data: &dyn AbstractData, origin: &str) -> Result<Layer> {
                 )
             })
     };
-    for key in [
-        "metersPerUnit",
-        "upAxis",
-        "timeCodesPerSecond",
-        "framesPerSecond",
-        "startTimeCode",
-        "endTimeCode",
-    ] {
+    for key in STAGE_KEYS {
         let Some(v) = field(&root, key)? else {
             continue;
         };

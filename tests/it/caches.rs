@@ -7,7 +7,6 @@
 use crate::common::{self, scratch};
 use glam::DVec3;
 use kami::formats::{self, Groom};
-use kami::stage::{Quality, Stage};
 use std::path::Path;
 use std::process::Command;
 
@@ -158,13 +157,7 @@ fn a_cache_plays_on_the_stage_and_loops() {
     assert_eq!(scene.cache_fps(), Some(30.0));
     let segments = g.segments;
     let gpu = common::gpu();
-    let mut stage = Stage::new(
-        gpu,
-        &scene,
-        wgpu::TextureFormat::Rgba8UnormSrgb,
-        Quality::of(&scene),
-    )
-    .unwrap();
+    let mut stage = common::stage(gpu, &scene);
     let expect = |k: usize| -> Vec<[f64; 3]> {
         want[k]
             .chunks_exact(5)
@@ -214,13 +207,7 @@ fn simulate_from_here_makes_the_shown_frame_the_rest_pose() {
     // frame (they hang straight down in it).
     scene.forces.gravity = [0.0, -150.0, 400.0];
     let gpu = common::gpu();
-    let mut stage = Stage::new(
-        gpu,
-        &scene,
-        wgpu::TextureFormat::Rgba8UnormSrgb,
-        Quality::of(&scene),
-    )
-    .unwrap();
+    let mut stage = common::stage(gpu, &scene);
     stage.seek(gpu, 0).unwrap();
     let rest = stage.export(gpu).unwrap();
     stage.seek(gpu, 10).unwrap();

@@ -31,8 +31,8 @@ pub fn decode_budget(file_len: usize) -> u64 {
     (file_len as u64).saturating_mul(64).max(64 << 20)
 }
 
-/// The fields Kami asks `openusd` for (`usdc::walk`); the crate names `propertyChildren`
-/// `properties`.
+/// The fields Kami asks `openusd` for on prims and attributes (`usdc::walk`; the crate
+/// names `propertyChildren` `properties`), besides the stage's (`usdc::STAGE_KEYS`).
 const READ: &[&str] = &[
     "specifier",
     "typeName",
@@ -43,12 +43,6 @@ const READ: &[&str] = &[
     "interpolation",
     "default",
     "timeSamples",
-    "metersPerUnit",
-    "upAxis",
-    "timeCodesPerSecond",
-    "framesPerSecond",
-    "startTimeCode",
-    "endTimeCode",
 ];
 
 struct File<'a> {
@@ -254,7 +248,7 @@ pub fn check(b: &[u8]) -> Result<(), String> {
         let Some(name) = file.tokens.get(field.token_index) else {
             continue;
         };
-        if READ.contains(&name.as_str()) {
+        if READ.contains(&name.as_str()) || super::STAGE_KEYS.contains(&name.as_str()) {
             f.value(name, field.value_rep.0, 0)
                 .map_err(|m| format!("the field {name:?}: {m}"))?;
         }
