@@ -5,6 +5,7 @@
 //! `Preference::Software` (tests, snapshots) picks a CPU adapter (llvmpipe, lavapipe) first so
 //! images are deterministic, `Preference::Hardware` (the CLI and viewer) a real GPU first.
 
+pub mod bind;
 pub mod gpu_data;
 pub mod pipeline;
 pub mod shadow;

@@ -36,7 +36,7 @@ use target::{DownsamplePass, SceneTargets};
 /// `gpu` and `shaders` name none). `tests/it/shader_validation.rs` runs naga over all of them.
 pub fn shaders() -> Vec<(&'static str, &'static str)> {
     let mut all = crate::shaders::STAGE.to_vec();
-    all.push(("forces/eff", crate::forces::eff::EFF_MODULE));
+    all.push(("forces/eff", crate::systems::world::EFF_MODULE));
     for kind in KINDS {
         all.extend_from_slice(kind.shaders);
     }

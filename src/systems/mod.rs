@@ -20,6 +20,7 @@ pub mod scene;
 pub mod strips;
 pub mod ui;
 pub mod wisps;
+pub mod world;
 
 use crate::error::Result;
 use crate::forces::Forces;

@@ -8,13 +8,12 @@ use crate::common;
 
 use glam::DVec3;
 use kami::error::KamiError;
-use kami::forces::eff::{
-    self, Blower, Eff, EffDesc, EffGpu, EffSample, GustKey, BAND_CELLS, MAX_CELLS,
-};
+use kami::forces::eff::{Blower, Eff, EffDesc, EffSample, GustKey, BAND_CELLS, MAX_CELLS};
 use kami::forces::Forces;
 use kami::rng::pcg_hash;
 use kami::scene::Sampling;
 use kami::scene::{Interp, WindKey};
+use kami::systems::world::{self, EffGpu};
 use std::path::PathBuf;
 
 /// A reproducible uniform number in [0, 1).
@@ -1025,7 +1024,7 @@ fn gpu_sampling_matches_the_reference() {
     let pts = probe_points(&e);
     let delta = e.cell_size() * 1e-4;
     for sampling in [Sampling::Nearest, Sampling::Trilinear] {
-        let out = eff::sample_on_gpu(gpu, &g, &pts, sampling).unwrap();
+        let out = world::sample_on_gpu(gpu, &g, &pts, sampling).unwrap();
         let mut worst = 0.0f64;
         for (p, v) in pts.iter().zip(&out) {
             let p = glam::Vec3::from(*p).as_dvec3();
@@ -1046,17 +1045,17 @@ fn gpu_sampling_matches_the_reference() {
     }
     // No field: zero everywhere; a grid of another size written to it reads as no field.
     let none = EffGpu::new(gpu, None).unwrap();
-    let out = eff::sample_on_gpu(gpu, &none, &pts[..64], Sampling::Trilinear).unwrap();
+    let out = world::sample_on_gpu(gpu, &none, &pts[..64], Sampling::Trilinear).unwrap();
     assert!(out.iter().all(|v| *v == [0.0; 3]));
     none.write(gpu, Some(&e), frame);
-    let out = eff::sample_on_gpu(gpu, &none, &pts[..64], Sampling::Trilinear).unwrap();
+    let out = world::sample_on_gpu(gpu, &none, &pts[..64], Sampling::Trilinear).unwrap();
     assert!(out.iter().all(|v| *v == [0.0; 3]));
     // Painted cells reach the GPU with write_cells.
     let mut painted = e.clone();
     painted.paint(DVec3::from(d.center), 8.0, DVec3::new(0.0, 999.0, 0.0), 1.0);
     g.write_cells(gpu, &painted).unwrap();
     let c = DVec3::from(d.center).as_vec3().to_array();
-    let out = eff::sample_on_gpu(gpu, &g, &[c], Sampling::Nearest).unwrap();
+    let out = world::sample_on_gpu(gpu, &g, &[c], Sampling::Nearest).unwrap();
     let want = painted.sample_at(glam::Vec3::from(c).as_dvec3(), frame, Sampling::Nearest);
     assert!((glam::Vec3::from(out[0]).as_dvec3() - want).length() < 1e-3 * want.length());
 }

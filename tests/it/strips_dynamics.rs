@@ -8,7 +8,6 @@ use crate::common;
 
 use glam::{DMat4, DVec3};
 use kami::bench::strips::precision::*;
-use kami::forces::eff::EffGpu;
 use kami::forces::Forces;
 use kami::scene::hull::HeadHull;
 use kami::scene::Ellipsoid;
@@ -17,6 +16,7 @@ use kami::systems::strips::block::Motion;
 use kami::systems::strips::dynamics::*;
 use kami::systems::strips::dynamics_gpu::DynamicsGpu;
 use kami::systems::strips::RestStrip;
+use kami::systems::world::EffGpu;
 
 /// The head's hull (the ellipsoid here; a mesh head's SDF in `strips_mesh_head.rs`).
 fn hull(head: &Head) -> HeadHull {

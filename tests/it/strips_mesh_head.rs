@@ -7,7 +7,6 @@
 use crate::common;
 use common::{check_snapshot, Tolerance};
 use glam::{DMat4, DVec3};
-use kami::forces::eff::EffGpu;
 use kami::forces::Forces;
 use kami::scene::hull::{head_hull, head_mesh, HeadHull, ROOT_TOLERANCE, SDF_EPS_OUT};
 use kami::scene::sdf::{closest_point_triangle, Sdf};
@@ -15,6 +14,7 @@ use kami::scene::Ellipsoid;
 use kami::systems::strips::dynamics::Rig;
 use kami::systems::strips::dynamics_gpu::DynamicsGpu;
 use kami::systems::strips::{hom, RestStrip};
+use kami::systems::world::EffGpu;
 use kami::Scene;
 
 const SCENE: &str = "strips_mesh_head";

@@ -4,8 +4,9 @@
 use super::gpu_data::{GpuCut, GpuGroomGroup, GpuGroomParams, GpuLoad, GpuRoot};
 use super::groom::{BendMode, GroomInput, LoadField, ResolvedLoad};
 use crate::error::Result;
+use crate::gpu::gpu_data::GpuStrand;
 use crate::gpu::strands::StrandBuffers;
-use crate::gpu::{self, Gpu, WORKGROUP};
+use crate::gpu::{self, bind, Gpu, WORKGROUP};
 use crate::systems::anjyo::block::CutRule;
 use wgpu::util::DeviceExt;
 
@@ -39,21 +40,23 @@ impl CantileverPass {
     pub fn new(gpu: &Gpu) -> Result<CantileverPass> {
         let device = &gpu.device;
         let module = gpu::shader_module(device, "cantilever", super::CANTILEVER)?;
-        let cs = wgpu::ShaderStages::COMPUTE;
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("cantilever"),
-            entries: &[
-                gpu::uniform_entry(0, cs),
-                gpu::storage_entry(1, cs, true),
-                gpu::storage_entry(2, cs, true),
-                gpu::storage_entry(3, cs, true),
-                gpu::storage_entry(4, cs, true),
-                gpu::storage_entry(5, cs, false),
-                gpu::storage_entry(6, cs, false),
-                gpu::storage_entry(7, cs, false),
-                gpu::storage_entry(8, cs, true),
+        let vec4 = bind::storage_rw::<[f32; 4]>;
+        let layout = bind::layout(
+            device,
+            "cantilever",
+            wgpu::ShaderStages::COMPUTE,
+            &[
+                bind::uniform::<GpuGroomParams>(),
+                bind::storage::<GpuRoot>(),
+                bind::storage::<GpuGroomGroup>(),
+                bind::storage::<GpuLoad>(),
+                bind::storage::<GpuCut>(),
+                bind::storage_rw::<GpuStrand>(),
+                vec4(),
+                vec4(),
+                bind::storage::<f32>(),
             ],
-        });
+        );
         let [bend, iterate, finish] = gpu::compute_pipelines(
             device,
             "cantilever",
@@ -190,7 +193,7 @@ impl CantileverPass {
             mapped_at_creation: false,
         });
         let sdf = super::head_sdf_buffer(gpu, &input.head, "head sdf")?;
-        let bind_group = gpu::pipeline::bind_buffers(
+        let bind_group = bind::buffers(
             device,
             "cantilever",
             &self.layout,

@@ -17,10 +17,10 @@
 use super::gpu_data::{GpuDynParams, GpuDynStrand};
 use super::projective::{DynSetup, StepForces, MAX_TURN, POLE_SIN};
 use crate::error::Result;
-use crate::forces::eff::{EffGpu, EFF_WGSL};
 use crate::gpu::gpu_data::GpuStep;
 use crate::gpu::strands::StrandBuffers;
 use crate::gpu::{self, Gpu, WORKGROUP};
+use crate::systems::world::{EffGpu, EFF_WGSL};
 use glam::DMat4;
 use std::sync::OnceLock;
 use wgpu::util::DeviceExt;

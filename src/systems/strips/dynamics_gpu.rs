@@ -20,7 +20,6 @@
 use super::dynamics::{check_extra, step_length, steps_per_frame, ExtraForce, Rig, MAX_EXTRA};
 use super::dynamics::{HeadFrame, COLLISION_ACCEL};
 use crate::error::{KamiError, Result};
-use crate::forces::eff::EffGpu;
 use crate::forces::Forces;
 use crate::gpu::{self, Gpu, WORKGROUP};
 use crate::scene::head::EPS_OUT;
@@ -29,6 +28,7 @@ use crate::scene::Head;
 use crate::scene::Sampling;
 use crate::shaders::wgsl;
 use crate::systems::strips::block::Motion;
+use crate::systems::world::EffGpu;
 use bytemuck::{Pod, Zeroable};
 
 /// The kernel's module: the EFF (`forces/eff.wgsl`, the same text as `EFF_WGSL`), the

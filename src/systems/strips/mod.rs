@@ -18,11 +18,11 @@ pub mod tools;
 
 use super::{Change, DrawSetup, FrameCtx, HairSystem, Kind, Panel, StepInfo, SystemStats, View};
 use crate::error::{KamiError, Result};
-use crate::forces::eff::EffGpu;
 use crate::forces::Forces;
 use crate::gpu::Gpu;
 use crate::scene::Head;
 use crate::systems::strips::block::Strips;
+use crate::systems::world::EffGpu;
 use crate::systems::Scene;
 use glam::DVec3;
 use ribbon::RibbonPass;

@@ -10,7 +10,7 @@
 //! with `queue.write_buffer` before the submission that runs them: record once per
 //! submission. The scene's forces are read from the `Forces` handed to `record` (the
 //! stage's, each frame): head motion, keyed wind and the gust scale act from the next
-//! recording; the EFF's cells are uploaded at `new` (`forces::eff::EffGpu`, sampled with
+//! recording; the EFF's cells are uploaded at `new` (`systems::world::EffGpu`, sampled with
 //! `shaders/forces/eff.wgsl`) and the shared gravity also sets the natural lengths, so those
 //! two build the system again (`super::classify`). The head hull is the ellipsoid or a mesh
 //! head's SDF (`shaders/common/sdf.wgsl`, the `SDF_HEAD` constant compiles the SDF path out
@@ -18,7 +18,6 @@
 
 use super::springs::{Lattice, NEWTON};
 use crate::error::Result;
-use crate::forces::eff::EffGpu;
 use crate::forces::{wind_at, Forces};
 use crate::gpu::{self, Gpu, WORKGROUP};
 use crate::scene::head::EPS_OUT;
@@ -26,6 +25,7 @@ use crate::scene::hull::{head_hull, HeadHull, SDF_EPS_OUT};
 use crate::scene::Head;
 use crate::shaders::wgsl;
 use crate::systems::wisps::block::{Integrator, Springs};
+use crate::systems::world::EffGpu;
 use bytemuck::{Pod, Zeroable};
 
 /// The kernel's module (the wisps kind lists it as `("wisps/springs", SPRINGS)`): the EFF
