@@ -751,7 +751,8 @@ impl Stage {
 }
 
 /// What the shading pipelines compile of the shadow lookup for `scene` when it has a shadow
-/// structure (`casting`): its method, as toon steps in a scene with wisps.
+/// structure (`casting`): its method, as toon steps in a scene with a kind that reads them
+/// so (`Kind::shadow_steps`).
 fn shadow_variant(scene: &Scene, casting: bool) -> ShadowVariant {
     if !casting {
         return ShadowVariant::OFF;
@@ -761,7 +762,9 @@ fn shadow_variant(scene: &Scene, casting: bool) -> ShadowVariant {
             crate::scene::ShadowMethod::Volume => Lookup::Volume,
             crate::scene::ShadowMethod::DeepOpacity => Lookup::DeepOpacity,
         },
-        toon: scene.wisps.is_some(),
+        toon: crate::systems::KINDS
+            .iter()
+            .any(|k| k.shadow_steps && (k.in_scene)(scene)),
     }
 }
 

@@ -5,8 +5,8 @@
 //! (`FrameCtx`) each frame, and draws them all into one depth-tested pass. The viewer's panels,
 //! tools and `--set` keys, its Files list, the CLI's summary line, the shader registry, the
 //! fuzzer's words, the limits check, the scene bounds and the scene's checks and files iterate
-//! `KINDS` too, so adding a kind is a new folder, one line in `KINDS` and its block's field in
-//! `Scene` (`scene.rs`; docs/adding-a-kind.md).
+//! `KINDS` too, so adding a kind is a new folder and one entry in the `kinds!` list below, which writes
+//! `KINDS` and the kind's fields of `Scene` (docs/adding-a-kind.md).
 //!
 //! A system owns everything of its kind: its scene block (`<kind>/block.rs`), CPU references,
 //! GPU passes, draw pipelines, its shaders (`shaders/<kind>/`), its egui panels and its viewer
@@ -26,7 +26,6 @@ use crate::error::Result;
 use crate::forces::Forces;
 use crate::gpu::Gpu;
 use glam::{DMat4, DVec3};
-pub use scene::Scene;
 use std::path::Path;
 
 /// The one clock of a frame, handed to every system: frames since the rest pose, the shared
@@ -275,10 +274,54 @@ pub struct Kind {
     pub invariants: fn(&Scene) -> std::result::Result<(), (&'static str, String)>,
     /// Tokens of the kind's scene block for the scene fuzzer's dictionary (`fuzz`).
     pub fuzz_words: &'static [&'static str],
+    /// Whether the kind's hair reads the shadow as toon steps rather than a smooth fraction:
+    /// the stage compiles the shading pipelines' shadow lookup that way when the scene has
+    /// this kind (a property of the kind, known before any system is built).
+    pub shadow_steps: bool,
+    /// The rate of the first file cache the kind's block plays (frames per second), if any
+    /// (`Scene::cache_fps`).
+    pub cache_fps: fn(&Scene) -> Option<f64>,
+    /// Opens a strand file (`.hair`, OBJ, USD, Alembic) as a scene of this kind's hair, not
+    /// yet validated (`Scene::from_strand_file`); `None`: the kind shows no strand files.
+    pub opens: Option<fn(&Path) -> Result<Scene>>,
+    /// A reload's merge of the kind's block finer than the whole block (`merge_edits`):
+    /// `(base, ours, theirs, out)`, with `out` already holding the block-wise pick.
+    pub merge: fn(&Scene, &Scene, &Scene, &mut Scene),
 }
 
-/// Every kind of hair Kami knows, in drawing order.
-pub const KINDS: &[&Kind] = &[&anjyo::KIND, &fur::KIND, &wisps::KIND, &strips::KIND];
+scene::kinds! {
+    // Every kind of hair Kami knows, in drawing order, with the fields its block adds to the
+    // scene file (`Scene`): adding a kind is its folder and one entry here.
+    anjyo {
+        /// The load Anjyo's groom is styled under: the hair's weight per unit length, in the
+        /// units of `rigidity` (a setting of the groom, not a force of the world: hair in
+        /// motion falls under `forces.gravity`).
+        #[serde(default = "anjyo::block::default_groom_load")]
+        groom_load: [f64; 3] = anjyo::block::default_groom_load(),
+        /// Anjyo's hair groups; empty when the scene shows only other kinds.
+        #[serde(default)]
+        groups: Vec<anjyo::block::HairGroup> = Vec::new(),
+        /// Hair in motion (Anjyo section 3). Absent: the groom is static and no simulation
+        /// buffers or passes are built.
+        #[serde(default)]
+        dynamics: Option<anjyo::block::Dynamics> = None,
+    },
+    fur {
+        /// Fur on a triangle mesh (Van Gelder & Wilhelms).
+        #[serde(default)]
+        fur: Option<fur::block::Fur> = None,
+    },
+    wisps {
+        /// Toon wisps (Sakai): skeletons drawn as a ray-marched blobby surface.
+        #[serde(default)]
+        wisps: Option<wisps::block::Wisps> = None,
+    },
+    strips {
+        /// Directable strips (Kazama et al.): layered reed strips on damped angular springs.
+        #[serde(default)]
+        strips: Option<strips::block::Strips> = None,
+    },
+}
 
 /// The kind called `name`.
 pub fn kind(name: &str) -> Option<&'static Kind> {

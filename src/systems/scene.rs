@@ -6,76 +6,86 @@
 //! own), `validate` runs the shared checks and every kind's, and a failure names the file,
 //! the field, the value and what is allowed.
 
-use super::anjyo::block::HairGroup;
-use super::{anjyo, fur, strips, wisps, KINDS};
+use super::{Scene, KINDS};
 use crate::error::Result;
-use crate::scene::{
-    self, CameraDesc, Ellipsoid, ForcesDesc, Head, Light, RenderSettings, MAX_STRANDS,
-};
-use serde::{Deserialize, Serialize};
+use crate::scene::{self, Ellipsoid, Head, Light, RenderSettings, MAX_STRANDS};
 use std::path::{Path, PathBuf};
 
-/// A whole scene: the shared blocks (`crate::scene`) and each kind's block (its type and
-/// checks in `systems/<kind>/block.rs`). The file format is this struct's fields.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Scene {
-    /// Seed of every random draw (pores, lengths, per-strand ambient).
-    #[serde(default)]
-    pub seed: u64,
-    /// The head hull (a default head when absent: fur scenes need none).
-    #[serde(default)]
-    pub head: Head,
-    /// The load Anjyo's groom is styled under: the hair's weight per unit length, in the
-    /// units of `rigidity` (a setting of the groom, not a force of the world: hair in motion
-    /// falls under `forces.gravity`).
-    #[serde(default = "anjyo::block::default_groom_load")]
-    pub groom_load: [f64; 3],
-    /// The world's forces, shared by every kind (`scene::forces`).
-    #[serde(default)]
-    pub forces: ForcesDesc,
-    /// Anjyo's hair groups; empty when the scene shows only other kinds (fur, wisps, strips).
-    #[serde(default)]
-    pub groups: Vec<anjyo::block::HairGroup>,
-    #[serde(default)]
-    pub camera: CameraDesc,
-    #[serde(default)]
-    pub light: Light,
-    #[serde(default)]
-    pub render: RenderSettings,
-    /// Hair in motion (Anjyo section 3). Absent: the groom is static and no simulation
-    /// buffers or passes are built.
-    #[serde(default)]
-    pub dynamics: Option<anjyo::block::Dynamics>,
-    /// Fur on a triangle mesh (Van Gelder & Wilhelms).
-    #[serde(default)]
-    pub fur: Option<fur::block::Fur>,
-    /// Toon wisps (Sakai): skeletons drawn as a ray-marched blobby surface.
-    #[serde(default)]
-    pub wisps: Option<wisps::block::Wisps>,
-    /// Directable strips (Kazama et al.): layered reed strips on damped angular springs.
-    #[serde(default)]
-    pub strips: Option<strips::block::Strips>,
-}
-
-impl Default for Scene {
-    /// The file `Scene()`: the default head, camera, light and render settings and no hair
-    /// (not a valid scene by itself: `validate` asks for some hair).
-    fn default() -> Self {
-        Scene {
-            seed: 0,
-            head: Head::default(),
-            groom_load: anjyo::block::default_groom_load(),
-            forces: ForcesDesc::default(),
-            groups: Vec::new(),
-            camera: CameraDesc::default(),
-            light: Light::default(),
-            render: RenderSettings::default(),
-            dynamics: None,
-            fur: None,
-            wisps: None,
-            strips: None,
+/// Writes, from the one list of kinds in `systems/mod.rs`, `KINDS` and the scene file's type
+/// `Scene`: the blocks every scene shares (`crate::scene`), then each kind's fields (their
+/// types, checks and file reading in `systems/<kind>/block.rs`), with its `Default` and the
+/// block-wise pick of a reload's merge. The file format is `Scene`'s fields. A macro, not
+/// `#[serde(flatten)]`: RON writes flattened structs as maps with quoted keys, and
+/// `deny_unknown_fields` (the old-format messages rely on it) does not work with flatten.
+macro_rules! kinds {
+    ($(
+        $kind:ident {
+            $( $(#[$m:meta])* $field:ident : $ty:ty = $default:expr ),* $(,)?
         }
+    ),* $(,)?) => {
+        /// Every kind of hair Kami knows, in drawing order.
+        pub const KINDS: &[&Kind] = &[$(&$kind::KIND),*];
+
+        /// A whole scene: the shared blocks (`crate::scene`) and each kind's fields (their
+        /// types and checks in `systems/<kind>/block.rs`). The file format is this struct's
+        /// fields.
+        #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+        #[serde(deny_unknown_fields)]
+        pub struct Scene {
+            /// Seed of every random draw (pores, lengths, per-strand ambient).
+            #[serde(default)]
+            pub seed: u64,
+            /// The head hull (a default head when absent: fur scenes need none).
+            #[serde(default)]
+            pub head: $crate::scene::Head,
+            /// The world's forces, shared by every kind (`scene::forces`).
+            #[serde(default)]
+            pub forces: $crate::scene::ForcesDesc,
+            #[serde(default)]
+            pub camera: $crate::scene::CameraDesc,
+            #[serde(default)]
+            pub light: $crate::scene::Light,
+            #[serde(default)]
+            pub render: $crate::scene::RenderSettings,
+            $($( $(#[$m])* pub $field: $ty, )*)*
+        }
+
+        impl Default for Scene {
+            /// The file `Scene()`: the default head, camera, light and render settings and no
+            /// hair (not a valid scene by itself: `validate` asks for some hair).
+            fn default() -> Self {
+                Scene {
+                    seed: 0,
+                    head: Default::default(),
+                    forces: Default::default(),
+                    camera: Default::default(),
+                    light: Default::default(),
+                    render: Default::default(),
+                    $($( $field: $default, )*)*
+                }
+            }
+        }
+
+        impl Scene {
+            /// Each kind field of `self` (the file's new version) picked block-wise against
+            /// `base` and `ours` (`scene::merge_edits`).
+            fn pick_kind_fields(&mut self, base: &Scene, ours: &Scene) {
+                $($(
+                    self.$field =
+                        $crate::systems::scene::pick(&base.$field, &ours.$field, self.$field.clone());
+                )*)*
+            }
+        }
+    };
+}
+pub(crate) use kinds;
+
+/// `theirs` unless it equals `base` and `ours` was edited: then `ours` (`merge_edits`).
+pub fn pick<T: PartialEq + Clone>(base: &T, ours: &T, theirs: T) -> T {
+    if theirs == *base && ours != base {
+        ours.clone()
+    } else {
+        theirs
     }
 }
 
@@ -98,16 +108,19 @@ impl Scene {
     /// The rate of the first file cache a hair group plays (frames per second): what
     /// `kami render --gif/--apng` plays at when no `--fps` is given.
     pub fn cache_fps(&self) -> Option<f64> {
-        self.groups
-            .iter()
-            .find_map(|g| g.file.as_ref()?.frames.as_ref().map(|f| f.fps))
+        KINDS.iter().find_map(|k| (k.cache_fps)(self))
     }
 
     /// A scene showing one strand file (`.hair`, `.obj` polylines, USD in any encoding,
-    /// `.abc`), as Anjyo hair (`anjyo::imported::scene_of`). What `kami view groom.hair` and
-    /// the Files panel open; a cache plays its frames.
+    /// `.abc`), as the hair of the first kind that opens strand files (`Kind::opens`, which
+    /// validates what it makes). What `kami view groom.hair` and the Files panel open; a
+    /// cache plays its frames.
     pub fn from_strand_file(path: &Path) -> Result<Scene> {
-        anjyo::imported::scene_of(path)
+        let open = KINDS
+            .iter()
+            .find_map(|k| k.opens)
+            .expect("a kind opens strand files");
+        open(path)
     }
 
     /// Read, parse and validate a scene file, then read the files it names (relative to its
@@ -184,65 +197,23 @@ impl Scene {
 /// material apart (a colour set in the Hair look panel survives an edit of the group's
 /// count). Where both changed, the file wins: it was saved last.
 pub fn merge_edits(base: &Scene, ours: &Scene, theirs: Scene) -> Scene {
-    fn pick<T: PartialEq + Clone>(base: &T, ours: &T, theirs: T) -> T {
-        if theirs == *base && ours != base {
-            ours.clone()
-        } else {
-            theirs
-        }
-    }
-    fn group(b: &HairGroup, o: &HairGroup, t: HairGroup) -> HairGroup {
-        let material = pick(&b.material, &o.material, t.material.clone());
-        // The rest of the group, compared with the material left out.
-        let rest = |g: &HairGroup| HairGroup {
-            material: b.material.clone(),
-            ..g.clone()
-        };
-        HairGroup {
-            material,
-            ..pick(&rest(b), &rest(o), rest(&t))
-        }
-    }
-    let groups_of = |b: &[HairGroup], o: &[HairGroup], t: Vec<HairGroup>| {
-        if b.len() == o.len() && b.len() == t.len() {
-            b.iter()
-                .zip(o)
-                .zip(t)
-                .map(|((b, o), t)| group(b, o, t))
-                .collect()
-        } else {
-            pick(&b.to_vec(), &o.to_vec(), t)
-        }
-    };
-    // Destructured, so a new field of any of these blocks fails to compile until it is
-    // merged here too.
-    let Scene {
-        seed,
-        head,
-        groom_load,
-        forces,
-        groups,
-        camera,
-        light,
-        render,
-        dynamics,
-        fur,
-        wisps,
-        strips,
-    } = theirs;
+    let (b, o) = (base, ours);
+    let mut out = theirs.clone();
+    // Destructured, so a new shared field fails to compile until it is merged here too (the
+    // kinds' fields are picked by `kinds!`, finer by each kind's `merge`).
     let Head {
         center,
         radii,
         color,
         visible,
         mesh,
-    } = head;
+    } = theirs.head.clone();
     let Light {
         direction,
         intensity,
         ambient,
         color: light_color,
-    } = light;
+    } = theirs.light.clone();
     let RenderSettings {
         size,
         background,
@@ -253,47 +224,43 @@ pub fn merge_edits(base: &Scene, ours: &Scene, theirs: Scene) -> Scene {
         strands,
         shading,
         shadows,
-    } = render;
-    let (b, o) = (base, ours);
-    Scene {
-        seed: pick(&b.seed, &o.seed, seed),
-        head: Head {
-            center: pick(&b.head.center, &o.head.center, center),
-            radii: pick(&b.head.radii, &o.head.radii, radii),
-            color: pick(&b.head.color, &o.head.color, color),
-            visible: pick(&b.head.visible, &o.head.visible, visible),
-            mesh: pick(&b.head.mesh, &o.head.mesh, mesh),
-        },
-        groom_load: pick(&b.groom_load, &o.groom_load, groom_load),
-        forces: pick(&b.forces, &o.forces, forces),
-        groups: groups_of(&b.groups, &o.groups, groups),
-        camera: pick(&b.camera, &o.camera, camera),
-        light: Light {
-            direction: pick(&b.light.direction, &o.light.direction, direction),
-            intensity: pick(&b.light.intensity, &o.light.intensity, intensity),
-            ambient: pick(&b.light.ambient, &o.light.ambient, ambient),
-            color: pick(&b.light.color, &o.light.color, light_color),
-        },
-        render: RenderSettings {
-            size: pick(&b.render.size, &o.render.size, size),
-            background: pick(&b.render.background, &o.render.background, background),
-            msaa: pick(&b.render.msaa, &o.render.msaa, msaa),
-            supersample: pick(&b.render.supersample, &o.render.supersample, supersample),
-            min_width: pick(&b.render.min_width, &o.render.min_width, min_width),
-            lod_tolerance_px: pick(
-                &b.render.lod_tolerance_px,
-                &o.render.lod_tolerance_px,
-                lod_tolerance_px,
-            ),
-            strands: pick(&b.render.strands, &o.render.strands, strands),
-            shading: pick(&b.render.shading, &o.render.shading, shading),
-            shadows: pick(&b.render.shadows, &o.render.shadows, shadows),
-        },
-        dynamics: pick(&b.dynamics, &o.dynamics, dynamics),
-        fur: pick(&b.fur, &o.fur, fur),
-        wisps: pick(&b.wisps, &o.wisps, wisps),
-        strips: pick(&b.strips, &o.strips, strips),
+    } = theirs.render.clone();
+    out.seed = pick(&b.seed, &o.seed, theirs.seed);
+    out.head = Head {
+        center: pick(&b.head.center, &o.head.center, center),
+        radii: pick(&b.head.radii, &o.head.radii, radii),
+        color: pick(&b.head.color, &o.head.color, color),
+        visible: pick(&b.head.visible, &o.head.visible, visible),
+        mesh: pick(&b.head.mesh, &o.head.mesh, mesh),
+    };
+    out.forces = pick(&b.forces, &o.forces, theirs.forces.clone());
+    out.camera = pick(&b.camera, &o.camera, theirs.camera.clone());
+    out.light = Light {
+        direction: pick(&b.light.direction, &o.light.direction, direction),
+        intensity: pick(&b.light.intensity, &o.light.intensity, intensity),
+        ambient: pick(&b.light.ambient, &o.light.ambient, ambient),
+        color: pick(&b.light.color, &o.light.color, light_color),
+    };
+    out.render = RenderSettings {
+        size: pick(&b.render.size, &o.render.size, size),
+        background: pick(&b.render.background, &o.render.background, background),
+        msaa: pick(&b.render.msaa, &o.render.msaa, msaa),
+        supersample: pick(&b.render.supersample, &o.render.supersample, supersample),
+        min_width: pick(&b.render.min_width, &o.render.min_width, min_width),
+        lod_tolerance_px: pick(
+            &b.render.lod_tolerance_px,
+            &o.render.lod_tolerance_px,
+            lod_tolerance_px,
+        ),
+        strands: pick(&b.render.strands, &o.render.strands, strands),
+        shading: pick(&b.render.shading, &o.render.shading, shading),
+        shadows: pick(&b.render.shadows, &o.render.shadows, shadows),
+    };
+    out.pick_kind_fields(b, o);
+    for k in KINDS {
+        (k.merge)(b, o, &theirs, &mut out);
     }
+    out
 }
 
 /// Check every field of a parsed scene: the shared blocks, that it shows some hair, each

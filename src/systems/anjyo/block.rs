@@ -1137,3 +1137,31 @@ fn material(mp: &str, m: &Material) -> Result<()> {
     m.physical.validate(&format!("{mp}.physical"))?;
     Ok(())
 }
+
+/// A reload's merge of the hair groups (`Kind::merge`): while the number of groups stays,
+/// each group with its material apart (a colour set in the Hair look panel survives an edit
+/// of the group's count in the file); otherwise the block-wise pick already in `out`.
+pub fn merge_groups(base: &Scene, ours: &Scene, theirs: &Scene, out: &mut Scene) {
+    use crate::systems::scene::pick;
+    let (b, o, t) = (&base.groups, &ours.groups, &theirs.groups);
+    if b.len() != o.len() || b.len() != t.len() {
+        return;
+    }
+    out.groups = b
+        .iter()
+        .zip(o)
+        .zip(t)
+        .map(|((b, o), t)| {
+            let material = pick(&b.material, &o.material, t.material.clone());
+            // The rest of the group, compared with the material left out.
+            let rest = |g: &HairGroup| HairGroup {
+                material: b.material.clone(),
+                ..g.clone()
+            };
+            HairGroup {
+                material,
+                ..pick(&rest(b), &rest(o), rest(t))
+            }
+        })
+        .collect();
+}

@@ -160,6 +160,15 @@ pub const KIND: Kind = Kind {
     ],
     invariants: block::invariants,
     fuzz_words: FUZZ_WORDS,
+    shadow_steps: false,
+    // The first hair group playing a file cache sets the rate.
+    cache_fps: |s| {
+        s.groups
+            .iter()
+            .find_map(|g| g.file.as_ref()?.frames.as_ref().map(|f| f.fps))
+    },
+    opens: Some(imported::scene_of),
+    merge: block::merge_groups,
 };
 
 /// The words of Anjyo's blocks (hair groups, their roots and cuts, the dynamics) for the

@@ -133,6 +133,10 @@ pub const KIND: Kind = Kind {
         "full_distance:",
         "wavelength:",
     ],
+    shadow_steps: false,
+    cache_fps: |_| None,
+    opens: None,
+    merge: |_, _, _, _| {},
 };
 
 /// The hair slots at full density against the storage-binding limit, before the mesh is

@@ -110,6 +110,10 @@ pub const KIND: Kind = Kind {
         "from:",
         "to:",
     ],
+    shadow_steps: false,
+    cache_fps: |_| None,
+    opens: None,
+    merge: |_, _, _, _| {},
 };
 
 pub const PANELS: &[Panel] = &[

@@ -144,6 +144,11 @@ pub const KIND: Kind = Kind {
         "triangle:",
         "offset:",
     ],
+    // Toon shading reads the shadow as steps (Sakai).
+    shadow_steps: true,
+    cache_fps: |_| None,
+    opens: None,
+    merge: |_, _, _, _| {},
 };
 
 fn build(gpu: &Gpu, scene: &Scene, setup: &DrawSetup) -> Result<Box<dyn HairSystem>> {
