@@ -31,8 +31,11 @@ pub fn difference(a: &image::RgbaImage, b: &image::RgbaImage) -> (f64, f64, u8) 
 }
 
 fn frames_of(scene: &Scene) -> Vec<u32> {
-    // Scenes in motion: Anjyo's dynamics or the wisps' springs.
-    if scene.dynamics.is_some() || scene.wisps.as_ref().is_some_and(|w| w.springs.is_some()) {
+    // Scenes in motion: any kind whose hair moves over frames (`Kind::moves`).
+    if crate::systems::KINDS
+        .iter()
+        .any(|k| (k.in_scene)(scene) && (k.moves)(scene))
+    {
         vec![0, MOTION_FRAME]
     } else {
         vec![0]

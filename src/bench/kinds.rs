@@ -1,7 +1,8 @@
-//! The kinds' benches in one table: `kami bench <name>` is built from each entry (its
-//! options, help and dispatch, in `main.rs`), so a kind's bench is its report file under
-//! `bench/` plus one entry here; the CLI names no kind. Every entry takes an input path, an
-//! output folder, optionally a frame count, and writes the files it lists.
+//! The kinds' benches in one table, so the CLI names no kind: `kami bench <name>` is built
+//! from each `KIND_BENCHES` entry (its options, help and dispatch, in `src/cli/bench`), so a
+//! kind's bench is its report file under `bench/` plus one entry here. (A kind's own
+//! commands, such as `kami fingers`, are `Kind::commands`.) Every bench takes an input path,
+//! an output folder, optionally a frame count, and writes the files it lists.
 
 use super::Report;
 use crate::error::Result;

@@ -287,6 +287,16 @@ pub struct Kind {
     /// A reload's merge of the kind's block finer than the whole block (`merge_edits`):
     /// `(base, ours, theirs, out)`, with `out` already holding the block-wise pick.
     pub merge: fn(&Scene, &Scene, &Scene, &mut Scene),
+    /// Commands the kind adds to `kami` (`kami fingers`), listed after `bench`.
+    pub commands: &'static [KindCommand],
+}
+
+/// A command a kind adds to `kami`, defined in the kind's folder.
+pub struct KindCommand {
+    /// Its options and help: a clap command named as the command.
+    pub command: fn() -> clap::Command,
+    /// Run it on what the command line gave.
+    pub run: fn(&clap::ArgMatches) -> Result<()>,
 }
 
 scene::kinds! {

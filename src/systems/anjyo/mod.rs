@@ -169,6 +169,7 @@ pub const KIND: Kind = Kind {
     },
     opens: Some(imported::scene_of),
     merge: block::merge_groups,
+    commands: &[],
 };
 
 /// The words of Anjyo's blocks (hair groups, their roots and cuts, the dynamics) for the

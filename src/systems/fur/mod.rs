@@ -137,6 +137,7 @@ pub const KIND: Kind = Kind {
     cache_fps: |_| None,
     opens: None,
     merge: |_, _, _, _| {},
+    commands: &[],
 };
 
 /// The hair slots at full density against the storage-binding limit, before the mesh is

@@ -114,6 +114,7 @@ pub const KIND: Kind = Kind {
     cache_fps: |_| None,
     opens: None,
     merge: |_, _, _, _| {},
+    commands: &[],
 };
 
 pub const PANELS: &[Panel] = &[

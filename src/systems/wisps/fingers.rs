@@ -980,3 +980,54 @@ pub fn skeleton_from_dir(dir: &Path) -> Result<(Skeleton, usize, usize)> {
     })?;
     Ok((sk, found, seq.frames.len()))
 }
+
+/// Draw a toon-wisp skeleton with two fingertips (Sakai section 6): track a depth
+/// sequence (depth_0000.png ... and camera.ron) and print the skeleton as RON.
+#[derive(clap::Parser)]
+#[command(name = "fingers")]
+struct Fingers {
+    /// Directory of the depth sequence, e.g. assets/depth/hand.
+    #[arg(required_unless_present = "synthesize")]
+    dir: Option<PathBuf>,
+    /// Write the synthetic hand sequence into this directory instead of tracking.
+    #[arg(long, conflicts_with_all = ["dir", "out"])]
+    synthesize: Option<PathBuf>,
+    /// Also write the skeleton to this file.
+    #[arg(short, long)]
+    out: Option<PathBuf>,
+}
+
+/// `kami fingers`, the kind's own command (listed in the kind's `Kind::commands`): its
+/// options and help.
+pub fn command() -> clap::Command {
+    <Fingers as clap::CommandFactory>::command()
+}
+
+/// Run `kami fingers`: write the synthetic sequence (`--synthesize`), or track `DIR` and
+/// print the skeleton as RON (the summary on stderr), also to `--out`.
+pub fn run_command(m: &clap::ArgMatches) -> Result<()> {
+    let a = <Fingers as clap::FromArgMatches>::from_arg_matches(m)
+        .map_err(|e| KamiError::Option(e.to_string()))?;
+    if let Some(to) = a.synthesize {
+        let frames = synthesize(&HandSpec::default());
+        write_sequence(&to, &frames)?;
+        println!(
+            "wrote {} depth frames and camera.ron to {}",
+            frames.len(),
+            to.display()
+        );
+    } else if let Some(dir) = a.dir {
+        let (skeleton, found, frames) = skeleton_from_dir(&dir)?;
+        let ron = skeleton_ron(&skeleton);
+        eprintln!(
+            "two fingertips in {found} of {frames} frames: {} nodes",
+            skeleton.nodes.len()
+        );
+        println!("{ron}");
+        if let Some(out) = a.out {
+            std::fs::write(&out, format!("{ron}\n"))
+                .map_err(|e| KamiError::Option(format!("cannot write {}: {e}", out.display())))?;
+        }
+    }
+    Ok(())
+}

@@ -149,6 +149,11 @@ pub const KIND: Kind = Kind {
     cache_fps: |_| None,
     opens: None,
     merge: |_, _, _, _| {},
+    // Tracks finger skeletons from photographs (Sakai section 6).
+    commands: &[super::KindCommand {
+        command: fingers::command,
+        run: fingers::run_command,
+    }],
 };
 
 fn build(gpu: &Gpu, scene: &Scene, setup: &DrawSetup) -> Result<Box<dyn HairSystem>> {
