@@ -100,6 +100,16 @@ pub fn phi_range(field: &str, r: (f64, f64)) -> Result<()> {
 /// The largest coordinate or length a scene may name.
 pub const BIG: f64 = 1e6;
 
+/// The head ellipsoid's centre and radii: what the kinds' builders need of a head (they run
+/// this same check on a head built in code, not one of their own).
+pub fn head_shape(head: &Head) -> Result<()> {
+    vec3("head.center", head.center, BIG)?;
+    for (i, r) in head.radii.iter().enumerate() {
+        positive(&format!("head.radii[{i}]"), *r, BIG)?;
+    }
+    Ok(())
+}
+
 /// Check the blocks every scene shares: the head (and its mesh), the forces, the camera,
 /// the light and the render settings.
 pub fn shared(
@@ -109,10 +119,7 @@ pub fn shared(
     light: &Light,
     render: &RenderSettings,
 ) -> Result<()> {
-    vec3("head.center", head.center, BIG)?;
-    for (i, r) in head.radii.iter().enumerate() {
-        positive(&format!("head.radii[{i}]"), *r, BIG)?;
-    }
+    head_shape(head)?;
     color("head.color", head.color, 1.0)?;
     if let Some(m) = &head.mesh {
         validate_head_mesh(m)?;

@@ -336,6 +336,177 @@ fn bad_strips_are_refused_with_the_field() {
     assert!(e.contains("nowhere.eff"), "{e}");
 }
 
+/// (file, field, value, allowed) of a validation error.
+fn parts(e: KamiError) -> (String, String, String, String) {
+    match e {
+        KamiError::Invalid {
+            file,
+            field,
+            value,
+            allowed,
+        } => (file, field, value, allowed),
+        other => panic!("expected an invalid-value error, got {other}"),
+    }
+}
+
+/// The strips block has one set of bounds: whatever the scene file may not hold, the
+/// runtime types built from a scene in code (`hom::build`, `dynamics::Rig::new`,
+/// `keyframe::solve`) refuse with the same field, value and words (the file's error names
+/// the file too), and whatever it may hold they take. Before, a curl of 120° per stick was
+/// refused by the file (±90°) and built by `hom` (±180°), a layer stiffness of 2e6 refused
+/// by the file (at most 1e6) and simulated by `Rig` (only >= 0), 100 sticks refused by the
+/// file (64) and built by `hom` (1024), 5000 steps per frame refused by the file (4096) and
+/// run by `Rig` (a million).
+#[test]
+fn one_set_of_bounds_on_every_path() {
+    use kami::systems::strips::block::{Layer, Motion, MAX_CURL, MAX_LAYER_STIFFNESS};
+    let text = std::fs::read_to_string(common::root().join("assets/scenes/strips.ron")).unwrap();
+    let base = Scene::from_ron(&text, "strips.ron").unwrap();
+    // The scene validator's verdict on `s` as a scene file.
+    let from_file = |s: &Scene| {
+        Scene::from_ron(&s.to_ron(), "strips.ron")
+            .map(|_| ())
+            .map_err(parts)
+    };
+    assert_eq!(MAX_CURL, 90.0);
+    type Change = fn(&mut Layer);
+    let layers: [(&str, Change, bool); 11] = [
+        ("curl", |l| l.curl = 120.0, false),
+        ("curl", |l| l.curl = -120.0, false),
+        ("curl", |l| l.curl = 180.0, false),
+        ("curl", |l| l.curl = 90.0, true),
+        ("curl", |l| l.curl = -90.0, true),
+        ("stiffness", |l| l.stiffness = 2e6, false),
+        ("stiffness", |l| l.stiffness = MAX_LAYER_STIFFNESS, true),
+        ("stiffness", |l| l.stiffness = 0.0, true),
+        ("sticks", |l| l.sticks = 100, false),
+        ("width[1]", |l| l.width[1] = 0.0, false),
+        ("azimuth", |l| l.azimuth = [0.0, 400.0], false),
+    ];
+    for (field, change, ok) in layers {
+        let mut s = base.clone();
+        change(&mut s.strips.as_mut().unwrap().layers[0]);
+        let file = from_file(&s);
+        let built = hom::build(s.strips.as_ref().unwrap(), &s.head)
+            .map(|_| ())
+            .map_err(parts);
+        if ok {
+            assert!(file.is_ok(), "{field}: the file refused {file:?}");
+            assert!(built.is_ok(), "{field}: hom::build refused {built:?}");
+            continue;
+        }
+        let (f, got, value, allowed) = file.expect_err(&format!("the file took the bad {field}"));
+        assert_eq!(
+            (f.as_str(), got.as_str()),
+            ("strips.ron", format!("strips.layers[0].{field}").as_str())
+        );
+        assert_eq!(
+            built.expect_err(&format!("hom::build took the bad {field}")),
+            (String::new(), got, value, allowed),
+            "hom::build and the scene file disagree"
+        );
+    }
+    // The message a user reads names the file and the field.
+    let mut s = base.clone();
+    s.strips.as_mut().unwrap().layers[0].curl = 120.0;
+    let e = Scene::from_ron(&s.to_ron(), "strips.ron")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("strips.ron")
+            && e.contains("`strips.layers[0].curl` = 120")
+            && e.contains("[-90, 90]"),
+        "{e}"
+    );
+
+    // The motion: `Rig::new` (and the GPU pass, through the same `check_motion`).
+    let rest = hom::build(base.strips.as_ref().unwrap(), &base.head).unwrap();
+    type Move = fn(&mut Motion);
+    let motions: [(&str, Move, bool); 6] = [
+        ("stiffness", |m| m.stiffness = 2e9, false),
+        ("stiffness", |m| m.stiffness = 1e9, true),
+        ("spring", |m| m.spring = 2e9, false),
+        ("collision", |m| m.collision = 2e9, false),
+        (
+            "steps_per_second",
+            |m| {
+                m.frame_time = 1.0;
+                m.steps_per_second = 5000.0
+            },
+            false,
+        ),
+        ("frame_time", |m| m.frame_time = 11.0, false),
+    ];
+    for (field, change, ok) in motions {
+        let mut s = base.clone();
+        change(&mut s.strips.as_mut().unwrap().motion);
+        let m = &s.strips.as_ref().unwrap().motion;
+        let file = from_file(&s);
+        let rig = dynamics::Rig::new(&rest, m).map(|_| ()).map_err(parts);
+        if ok {
+            assert!(file.is_ok(), "{field}: the file refused {file:?}");
+            assert!(rig.is_ok(), "{field}: Rig::new refused {rig:?}");
+            continue;
+        }
+        let (f, got, value, allowed) = file.expect_err(&format!("the file took the bad {field}"));
+        assert_eq!(
+            (f.as_str(), got.as_str()),
+            ("strips.ron", format!("strips.motion.{field}").as_str())
+        );
+        assert_eq!(
+            rig.expect_err(&format!("Rig::new took the bad {field}")),
+            (String::new(), got, value, allowed),
+            "Rig::new and the scene file disagree"
+        );
+    }
+    // A rest strip carries its layer's stiffness multiplier, under the layer's bound.
+    let mut stiff = rest[..1].to_vec();
+    stiff[0].stiffness = 2e6;
+    let mut s = base.clone();
+    s.strips.as_mut().unwrap().layers[0].stiffness = 2e6;
+    let (.., layer_allowed) = from_file(&s).unwrap_err();
+    let (_, _, _, rig_allowed) = parts(dynamics::Rig::new(&stiff, &Motion::default()).unwrap_err());
+    assert_eq!(rig_allowed, layer_allowed);
+
+    // Key-frame edits: `keyframe::solve` refuses as the file does (a second key before the
+    // first underflowed a frame count there).
+    let forces = Forces::new(&base.forces, &base.head);
+    let bad_edits = [
+        (
+            Edit {
+                strip: 3,
+                from: 5,
+                to: 3,
+                target: [0.0; 3],
+                radius: 6.0,
+            },
+            "to",
+        ),
+        (
+            Edit {
+                strip: 500,
+                from: 1,
+                to: 5,
+                target: [0.0; 3],
+                radius: 6.0,
+            },
+            "strip",
+        ),
+    ];
+    for (edit, field) in bad_edits {
+        let mut s = base.clone();
+        s.strips.as_mut().unwrap().edits = vec![edit];
+        let st = s.strips.as_ref().unwrap();
+        let file = from_file(&s).unwrap_err();
+        assert_eq!(file.1, format!("strips.edits[0].{field}"));
+        let solved = keyframe::solve(&rest, &st.motion, &forces, &s.head, &st.edits)
+            .map(|_| ())
+            .map_err(parts)
+            .unwrap_err();
+        assert_eq!(solved, (String::new(), file.1, file.2, file.3));
+    }
+}
+
 /// The Key frames panel's "add an edit": the target is 5 cm from where the strip's tip would
 /// be at the second key (swung out about the root), and the scene with the edit validates
 /// and solves to within 0.1 cm.

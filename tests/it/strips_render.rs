@@ -280,10 +280,10 @@ fn hom_is_deterministic_and_rejects_bad_layers() {
         ("length", Box::new(|l| l.length = -1.0)),
         ("sticks", Box::new(|l| l.sticks = 0)),
         ("sticks", Box::new(|l| l.sticks = 1 << 30)),
-        ("width", Box::new(|l| l.width = [0.0, 1.0])),
+        ("width[0]", Box::new(|l| l.width = [0.0, 1.0])),
         ("droop", Box::new(|l| l.droop = 1.5)),
         ("curl", Box::new(|l| l.curl = f64::INFINITY)),
-        ("color", Box::new(|l| l.color = [2.0, 0.0, 0.0])),
+        ("color[0]", Box::new(|l| l.color = [2.0, 0.0, 0.0])),
     ];
     for (field, f) in bad {
         let mut s = bob();

@@ -1,5 +1,6 @@
 //! Directable strips (Kazama, Sugisaki, Morishima): the scene block (`strips`) and its
-//! checks (`validate`). The Hair Object Model is a set of reed-shaped strips (textured
+//! checks (`validate`, `check`: the block's one set of bounds, which the runtime types run
+//! too). The Hair Object Model is a set of reed-shaped strips (textured
 //! ribbons tapering to the tip) arranged in layers around the head, as stylists' layer model
 //! does. Each strip follows a chain of rigid sticks whose joints are damped angular springs
 //! with two degrees of freedom (eq 1), driven by the scene's shared forces (gravity, the
@@ -42,7 +43,7 @@ pub struct Strips {
 pub struct Layer {
     #[serde(default)]
     pub name: String,
-    /// Strips in this layer (>= 1).
+    /// Strips in this layer (>= 1; at most `MAX_STRIPS` in all layers).
     pub count: u32,
     /// Polar angle of the root ring from the crown (+y), degrees, in (0, 180).
     pub polar: f64,
@@ -53,7 +54,8 @@ pub struct Layer {
     pub azimuth: [f64; 2],
     /// Strip length (world units).
     pub length: f64,
-    /// Rigid sticks per strip (the chain has `sticks + 1` control points).
+    /// Rigid sticks per strip (the chain has `sticks + 1` control points), 1 to
+    /// `MAX_STRIP_STICKS`.
     #[serde(default = "default_sticks")]
     pub sticks: u32,
     /// Ribbon width at the root and at the tip (world units; the reed tapers between).
@@ -62,10 +64,12 @@ pub struct Layer {
     /// How the rest shape leaves the head: 0 along the head normal, 1 straight down.
     #[serde(default = "default_droop")]
     pub droop: f64,
-    /// Extra bend at each joint of the rest shape toward the head (degrees per stick).
+    /// Extra bend at each joint of the rest shape toward the head (degrees per stick, at
+    /// most `MAX_CURL` either way).
     #[serde(default)]
     pub curl: f64,
-    /// Multiplies `motion.stiffness` for this layer (outer layers are often softer).
+    /// Multiplies `motion.stiffness` for this layer (outer layers are often softer); in
+    /// [0, `MAX_LAYER_STIFFNESS`].
     #[serde(default = "one")]
     pub stiffness: f64,
     /// Base colour (linear RGB, 0..1); the texture modulates it root to tip.
@@ -104,7 +108,7 @@ pub struct Motion {
     /// Air resistance I2 (>= 0).
     #[serde(default = "default_damping")]
     pub damping: f64,
-    /// Stiffness τ of the root joint (>= 0).
+    /// Stiffness τ of the root joint, in [0, `MAX_MOTION_STIFFNESS`].
     #[serde(default = "default_stiffness")]
     pub stiffness: f64,
     /// τ at the tip as a share of τ at the root (the strip softens toward the tip).
@@ -254,7 +258,7 @@ pub fn validate(s: &Scene) -> Result<()> {
     let Some(st) = &s.strips else {
         return Ok(());
     };
-    validate_strips(st)?;
+    check(st)?;
     // Roots on a mesh head, checked here when the mesh can be read now, so that a root off
     // the scalp names the scene file; a mesh that cannot be read yet (a path relative to the
     // scene file is resolved after validation) is placed, and refused, when the strips are
@@ -267,6 +271,12 @@ pub fn validate(s: &Scene) -> Result<()> {
     Ok(())
 }
 
+// The bounds of the strips block: one set. The scene validator checks them (`check`, with
+// the file named by the loader); the runtime types run the same checks, not checks of their
+// own, on blocks built in code (`hom::build`: `check_layers`; `dynamics::Rig::new` and the
+// GPU pass: `check_motion`, `check_layer_stiffness`; `keyframe::solve`: `check_edits`); the
+// Strips panel's sliders read them. docs/strips.md lists them.
+
 /// Most strips in a scene (the paper's 120 with a wide margin; one GPU invocation each).
 pub const MAX_STRIPS: u64 = 65_536;
 /// Most sticks per strip (the GPU walks a chain in one invocation).
@@ -274,51 +284,39 @@ pub const MAX_STRIP_STICKS: u32 = 64;
 /// Most key-frame edits (the GPU reads them all for every control point).
 pub const MAX_STRIP_EDITS: usize = 16;
 /// Most simulation steps per rendered frame.
-const MAX_STEPS_PER_FRAME: f64 = 4096.0;
+pub const MAX_STEPS_PER_FRAME: f64 = 4096.0;
+/// Largest `curl`, degrees per stick either way: a right angle. Past it each stick folds
+/// back over its parent (the rest shape coils inside a stick's length), and at 180° a stick
+/// lies on its parent, where the ribbon's tangent (the sum of the two sticks' directions)
+/// and the joint's rest frame (the two directions' cross product) vanish.
+pub const MAX_CURL: f64 = 90.0;
+/// Largest layer `stiffness` (a multiplier of `motion.stiffness`).
+pub const MAX_LAYER_STIFFNESS: f64 = 1e6;
+/// Largest `motion.stiffness` τ, `spring` k and `collision` κ (the exact propagator takes
+/// any τ; the bound keeps τ/I1 and the forces finite in f32 on the GPU).
+pub const MAX_MOTION_STIFFNESS: f64 = 1e9;
+/// Longest `motion.frame_time`, seconds.
+pub const MAX_FRAME_TIME: f64 = 10.0;
+/// Highest `motion.steps_per_second`.
+pub const MAX_STEPS_PER_SECOND: f64 = 1e6;
 
-fn validate_strips(st: &Strips) -> Result<()> {
-    if st.layers.is_empty() {
+/// Check every number of a strips block (the head's mesh placement aside: `validate`).
+pub fn check(st: &Strips) -> Result<()> {
+    let total = check_layers(&st.layers)?;
+    check_motion(&st.motion)?;
+    check_look(&st.look)?;
+    check_edits(&st.edits, total)
+}
+
+/// Check the layers; the number of strips they make.
+pub fn check_layers(layers: &[Layer]) -> Result<u64> {
+    if layers.is_empty() {
         return Err(bad("strips.layers", "[]", "needs at least one layer"));
     }
     let mut total = 0u64;
-    for (i, l) in st.layers.iter().enumerate() {
-        let f = |name: &str| format!("strips.layers[{i}].{name}");
-        if l.count == 0 {
-            return Err(bad(&f("count"), 0, "a layer needs at least one strip"));
-        }
+    for (i, l) in layers.iter().enumerate() {
+        check_layer(i, l)?;
         total += l.count as u64;
-        within(&f("polar"), l.polar, 0.0, 180.0)?;
-        if l.polar <= 0.0 || l.polar >= 180.0 {
-            return Err(bad(
-                &f("polar"),
-                l.polar,
-                "must be strictly between 0 and 180 degrees",
-            ));
-        }
-        for (k, a) in l.azimuth.iter().enumerate() {
-            within(&f(&format!("azimuth[{k}]")), *a, -720.0, 720.0)?;
-        }
-        if l.azimuth[1] < l.azimuth[0] || l.azimuth[1] - l.azimuth[0] > 360.0 {
-            return Err(bad(
-                &f("azimuth"),
-                format!("{:?}", l.azimuth),
-                "must be [from, to] with from <= to <= from + 360",
-            ));
-        }
-        positive(&f("length"), l.length, BIG)?;
-        if l.sticks == 0 || l.sticks > MAX_STRIP_STICKS {
-            return Err(bad(
-                &f("sticks"),
-                l.sticks,
-                &format!("must be in 1..={MAX_STRIP_STICKS}"),
-            ));
-        }
-        positive(&f("width[0]"), l.width[0], BIG)?;
-        positive(&f("width[1]"), l.width[1], BIG)?;
-        within(&f("droop"), l.droop, 0.0, 1.0)?;
-        within(&f("curl"), l.curl, -90.0, 90.0)?;
-        within(&f("stiffness"), l.stiffness, 0.0, 1e6)?;
-        color(&f("color"), l.color, 1.0)?;
     }
     if total > MAX_STRIPS {
         return Err(bad(
@@ -327,15 +325,78 @@ fn validate_strips(st: &Strips) -> Result<()> {
             &format!("the total must be at most {MAX_STRIPS} strips"),
         ));
     }
-    let m = &st.motion;
+    Ok(total)
+}
+
+/// Check layer `i`.
+pub fn check_layer(i: usize, l: &Layer) -> Result<()> {
+    let f = |name: &str| format!("strips.layers[{i}].{name}");
+    if l.count == 0 {
+        return Err(bad(&f("count"), 0, "a layer needs at least one strip"));
+    }
+    within(&f("polar"), l.polar, 0.0, 180.0)?;
+    if l.polar <= 0.0 || l.polar >= 180.0 {
+        return Err(bad(
+            &f("polar"),
+            l.polar,
+            "must be strictly between 0 and 180 degrees",
+        ));
+    }
+    for (k, a) in l.azimuth.iter().enumerate() {
+        within(&f(&format!("azimuth[{k}]")), *a, -720.0, 720.0)?;
+    }
+    if l.azimuth[1] < l.azimuth[0] || l.azimuth[1] - l.azimuth[0] > 360.0 {
+        return Err(bad(
+            &f("azimuth"),
+            format!("{:?}", l.azimuth),
+            "must be [from, to] with from <= to <= from + 360",
+        ));
+    }
+    positive(&f("length"), l.length, BIG)?;
+    if l.sticks == 0 || l.sticks > MAX_STRIP_STICKS {
+        return Err(bad(
+            &f("sticks"),
+            l.sticks,
+            &format!("must be in 1..={MAX_STRIP_STICKS}"),
+        ));
+    }
+    positive(&f("width[0]"), l.width[0], BIG)?;
+    positive(&f("width[1]"), l.width[1], BIG)?;
+    within(&f("droop"), l.droop, 0.0, 1.0)?;
+    within(&f("curl"), l.curl, -MAX_CURL, MAX_CURL)?;
+    check_layer_stiffness(&f("stiffness"), l.stiffness)?;
+    color(&f("color"), l.color, 1.0)
+}
+
+/// A layer's stiffness multiplier, wherever it travels (`RestStrip::stiffness` too).
+pub fn check_layer_stiffness(field: &str, v: f64) -> Result<()> {
+    within(field, v, 0.0, MAX_LAYER_STIFFNESS)
+}
+
+/// Check the motion (eq 1's I1, I2, τ, eq 2's k and κ, the clock).
+pub fn check_motion(m: &Motion) -> Result<()> {
     positive("strips.motion.inertia", m.inertia, BIG)?;
     within("strips.motion.damping", m.damping, 0.0, BIG)?;
-    within("strips.motion.stiffness", m.stiffness, 0.0, 1e9)?;
+    within(
+        "strips.motion.stiffness",
+        m.stiffness,
+        0.0,
+        MAX_MOTION_STIFFNESS,
+    )?;
     within("strips.motion.stiffness_tip", m.stiffness_tip, 0.0, 1.0)?;
-    within("strips.motion.spring", m.spring, 0.0, 1e9)?;
-    within("strips.motion.collision", m.collision, 0.0, 1e9)?;
-    positive("strips.motion.frame_time", m.frame_time, 10.0)?;
-    positive("strips.motion.steps_per_second", m.steps_per_second, 1e6)?;
+    within("strips.motion.spring", m.spring, 0.0, MAX_MOTION_STIFFNESS)?;
+    within(
+        "strips.motion.collision",
+        m.collision,
+        0.0,
+        MAX_MOTION_STIFFNESS,
+    )?;
+    positive("strips.motion.frame_time", m.frame_time, MAX_FRAME_TIME)?;
+    positive(
+        "strips.motion.steps_per_second",
+        m.steps_per_second,
+        MAX_STEPS_PER_SECOND,
+    )?;
     let steps = m.frame_time * m.steps_per_second;
     if steps > MAX_STEPS_PER_FRAME {
         return Err(bad(
@@ -344,7 +405,10 @@ fn validate_strips(st: &Strips) -> Result<()> {
             &format!("frame_time x steps_per_second must be at most {MAX_STEPS_PER_FRAME} steps per frame"),
         ));
     }
-    let l = &st.look;
+    Ok(())
+}
+
+fn check_look(l: &Look) -> Result<()> {
     if l.hairs == 0 || l.hairs > 256 {
         return Err(bad("strips.look.hairs", l.hairs, "must be in 1..=256"));
     }
@@ -352,21 +416,25 @@ fn validate_strips(st: &Strips) -> Result<()> {
     within("strips.look.alpha_cutoff", l.alpha_cutoff as f64, 0.0, 1.0)?;
     within("strips.look.specular[0]", l.specular[0] as f64, 0.0, 10.0)?;
     within("strips.look.specular[1]", l.specular[1] as f64, 1.0, 4096.0)?;
-    l.physical.validate("strips.look.physical")?;
-    if st.edits.len() > MAX_STRIP_EDITS {
+    l.physical.validate("strips.look.physical")
+}
+
+/// Check the key-frame edits of a block whose layers make `strips` strips.
+pub fn check_edits(edits: &[Edit], strips: u64) -> Result<()> {
+    if edits.len() > MAX_STRIP_EDITS {
         return Err(bad(
             "strips.edits",
-            st.edits.len(),
+            edits.len(),
             &format!("at most {MAX_STRIP_EDITS} key-frame edits"),
         ));
     }
-    for (i, e) in st.edits.iter().enumerate() {
+    for (i, e) in edits.iter().enumerate() {
         let f = |name: &str| format!("strips.edits[{i}].{name}");
-        if e.strip as u64 >= total {
+        if e.strip as u64 >= strips {
             return Err(bad(
                 &f("strip"),
                 e.strip,
-                &format!("names no strip: the layers have {total}"),
+                &format!("names no strip: the layers have {strips}"),
             ));
         }
         if e.to <= e.from {

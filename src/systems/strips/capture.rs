@@ -635,6 +635,9 @@ pub fn fit(
     baseline: &Capture,
     strips: &crate::systems::strips::block::Strips,
 ) -> Result<crate::forces::eff::Eff> {
+    // The strands' model is a strips block: its own check first (the motion's frame time
+    // is eq 3's time unit here, under the block's bound).
+    super::block::check_motion(&strips.motion)?;
     let frame_time = strips.motion.frame_time;
     let shown = wind_samples(capture, Some(baseline), frame_time, FIT_STEP)?;
     let frames = FIT_STEP as u32;

@@ -62,7 +62,7 @@ use crate::forces::Forces;
 use crate::scene::head::Ellipsoid;
 use crate::scene::hull::{head_hull, HeadHull};
 use crate::scene::{Head, HeadKey, Interp, WindKey};
-use crate::systems::strips::block::Motion;
+use crate::systems::strips::block::{check_layer_stiffness, Motion, MAX_STEPS_PER_FRAME};
 use glam::{DMat3, DMat4, DVec3, DVec4};
 use std::f64::consts::{PI, TAU};
 
@@ -429,67 +429,16 @@ fn invalid(field: String, value: String, allowed: &str) -> KamiError {
     }
 }
 
-/// Check the motion's numbers the dynamics use.
-pub fn check_motion(m: &Motion) -> Result<()> {
-    let checks: [(&str, f64, bool, &str); 8] = [
-        ("inertia", m.inertia, m.inertia > 0.0, "a number > 0"),
-        ("damping", m.damping, m.damping >= 0.0, "a number >= 0"),
-        (
-            "stiffness",
-            m.stiffness,
-            m.stiffness >= 0.0,
-            "a number >= 0",
-        ),
-        (
-            "stiffness_tip",
-            m.stiffness_tip,
-            m.stiffness_tip >= 0.0,
-            "a share >= 0",
-        ),
-        ("spring", m.spring, m.spring >= 0.0, "a number >= 0"),
-        (
-            "collision",
-            m.collision,
-            m.collision >= 0.0,
-            "a number >= 0",
-        ),
-        (
-            "frame_time",
-            m.frame_time,
-            m.frame_time > 0.0,
-            "seconds > 0",
-        ),
-        (
-            "steps_per_second",
-            m.steps_per_second,
-            m.steps_per_second > 0.0,
-            "a rate > 0",
-        ),
-    ];
-    for (name, value, ok, allowed) in checks {
-        if !(ok && value.is_finite()) {
-            return Err(invalid(
-                format!("strips.motion.{name}"),
-                value.to_string(),
-                allowed,
-            ));
-        }
-    }
-    let spf = m.frame_time * m.steps_per_second;
-    if spf > 1e6 {
-        return Err(invalid(
-            "strips.motion.steps_per_second".into(),
-            m.steps_per_second.to_string(),
-            "at most a million steps per frame",
-        ));
-    }
-    Ok(())
-}
+/// The motion's numbers are checked by the strips block's one check (the scene validator's,
+/// with its bounds and messages); `Rig::new` and the GPU pass run it on motions built in code.
+pub use crate::systems::strips::block::check_motion;
 
 /// Steps per rendered frame: the rate rounded to a whole number per frame (at least one),
 /// so frames land on steps.
 pub fn steps_per_frame(m: &Motion) -> u32 {
-    (m.frame_time * m.steps_per_second).round().clamp(1.0, 1e6) as u32
+    (m.frame_time * m.steps_per_second)
+        .round()
+        .clamp(1.0, MAX_STEPS_PER_FRAME) as u32
 }
 
 /// The step length `Rig::step` takes for `m` (seconds).
@@ -564,13 +513,8 @@ impl Rig {
                     "finite coordinates",
                 ));
             }
-            if !(s.stiffness.is_finite() && s.stiffness >= 0.0) {
-                return Err(invalid(
-                    field("stiffness"),
-                    s.stiffness.to_string(),
-                    "a multiplier >= 0",
-                ));
-            }
+            // The layer's bound (a rest strip carries its layer's multiplier).
+            check_layer_stiffness(&field("stiffness"), s.stiffness)?;
             let normal = s.normal.normalize_or_zero();
             if !s.normal.is_finite() || normal == DVec3::ZERO {
                 return Err(invalid(

@@ -36,18 +36,12 @@ use crate::scene::head::{push_out_implicit, Ellipsoid};
 use crate::scene::hull::{root_reach, HeadMeshData, OffScalp, SDF_EPS_OUT};
 use crate::scene::sdf::Sdf;
 use crate::scene::Head;
-use crate::systems::strips::block::{Layer, Strips};
+use crate::systems::strips::block::{check_layers, Layer, Strips, MAX_STRIPS};
 use glam::DVec3;
 
 /// Gap between the shells of successive layers, as a share of the head's mean radius
 /// (about 2 mm on the default head: a strip's thickness).
 pub const SHELL: f64 = 0.02;
-
-/// At most this many strips in one scene (a bound that keeps a typo from allocating
-/// gigabytes; the paper draws 120).
-pub const MAX_STRIPS: u64 = 1 << 20;
-/// At most this many sticks per strip.
-pub const MAX_STICKS: u32 = 1024;
 
 /// Strips the scene's layers make, in layer order.
 pub fn strip_count(strips: &Strips) -> usize {
@@ -61,68 +55,6 @@ fn invalid(field: String, value: impl std::fmt::Display, allowed: &str) -> KamiE
         value: value.to_string(),
         allowed: allowed.to_string(),
     }
-}
-
-/// Check one layer's numbers (the scene validation may have done so; `build` must not
-/// produce NaN or a huge allocation from a scene built in code either).
-fn check_layer(i: usize, l: &Layer) -> Result<()> {
-    let f = |name: &str| format!("strips.layers[{i}].{name}");
-    if l.count == 0 {
-        return Err(invalid(f("count"), l.count, "at least 1 strip"));
-    }
-    if !(l.polar.is_finite() && l.polar > 0.0 && l.polar < 180.0) {
-        return Err(invalid(f("polar"), l.polar, "degrees in (0, 180)"));
-    }
-    let [a0, a1] = l.azimuth;
-    if !(a0.is_finite() && a1.is_finite() && a1 >= a0) {
-        return Err(invalid(
-            f("azimuth"),
-            format!("{:?}", l.azimuth),
-            "finite degrees [from, to] with to >= from",
-        ));
-    }
-    if !(l.length.is_finite() && l.length > 0.0) {
-        return Err(invalid(f("length"), l.length, "a positive length"));
-    }
-    if l.sticks == 0 || l.sticks > MAX_STICKS {
-        return Err(invalid(
-            f("sticks"),
-            l.sticks,
-            &format!("1 to {MAX_STICKS} sticks"),
-        ));
-    }
-    if !(l.width.iter().all(|w| w.is_finite() && *w >= 0.0) && l.width[0] > 0.0) {
-        return Err(invalid(
-            f("width"),
-            format!("{:?}", l.width),
-            "[root, tip] with root > 0 and tip >= 0",
-        ));
-    }
-    if !(l.droop.is_finite() && (0.0..=1.0).contains(&l.droop)) {
-        return Err(invalid(f("droop"), l.droop, "a share in [0, 1]"));
-    }
-    if !(l.curl.is_finite() && l.curl.abs() <= 180.0) {
-        return Err(invalid(
-            f("curl"),
-            l.curl,
-            "degrees per stick in [-180, 180]",
-        ));
-    }
-    if !(l.stiffness.is_finite() && l.stiffness >= 0.0) {
-        return Err(invalid(f("stiffness"), l.stiffness, "a multiplier >= 0"));
-    }
-    if !l
-        .color
-        .iter()
-        .all(|c| c.is_finite() && (0.0..=1.0).contains(c))
-    {
-        return Err(invalid(
-            f("color"),
-            format!("{:?}", l.color),
-            "linear RGB in [0, 1]",
-        ));
-    }
-    Ok(())
 }
 
 /// Azimuths (degrees) of a layer's roots: evenly over the range, both ends included unless
@@ -262,26 +194,10 @@ pub fn roots_on_mesh(
 
 /// The rest strips of the scene's layers, in layer order (strip index = position here).
 pub fn build(strips: &Strips, head: &Head) -> Result<Vec<RestStrip>> {
-    if !head.radii.iter().all(|r| r.is_finite() && *r > 0.0)
-        || !head.center.iter().all(|c| c.is_finite())
-    {
-        return Err(invalid(
-            "head".into(),
-            format!("center {:?} radii {:?}", head.center, head.radii),
-            "finite centre and positive radii",
-        ));
-    }
-    let total: u64 = strips.layers.iter().map(|l| l.count as u64).sum();
-    if total > MAX_STRIPS {
-        return Err(invalid(
-            "strips.layers[*].count".into(),
-            total,
-            &format!("at most {MAX_STRIPS} strips in all"),
-        ));
-    }
-    for (i, l) in strips.layers.iter().enumerate() {
-        check_layer(i, l)?;
-    }
+    // The scene validator's own checks (one set of bounds, the same messages): a scene
+    // built in code reaches here unvalidated, and must not make NaN or a huge allocation.
+    crate::scene::validate::head_shape(head)?;
+    let total = check_layers(&strips.layers)?;
     let mesh = crate::scene::hull::head_mesh(head)?;
     let placed = match &mesh {
         Some(m) => Some(roots_on_mesh(strips, head, m)?),

@@ -16,10 +16,10 @@
 
 use super::dynamics::{self, ExtraForce};
 use super::RestStrip;
-use crate::error::{KamiError, Result};
+use crate::error::Result;
 use crate::forces::Forces;
 use crate::scene::Head;
-use crate::systems::strips::block::{Edit, Motion};
+use crate::systems::strips::block::{check_edits, Edit, Motion};
 use glam::DVec3;
 
 /// How close (world units) the solved tip must come to the target.
@@ -64,16 +64,12 @@ pub fn solve(
     head: &Head,
     edits: &[Edit],
 ) -> Result<Vec<Solved>> {
+    // The block's own check of the edits (its bounds and messages), against these strips.
+    check_edits(edits, rest.len() as u64)?;
     let mut out: Vec<Solved> = Vec::new();
-    for (i, e) in edits.iter().enumerate() {
-        let strip = rest
-            .get(e.strip as usize)
-            .ok_or_else(|| KamiError::Invalid {
-                file: String::new(),
-                field: format!("strips.edits[{i}].strip"),
-                value: e.strip.to_string(),
-                allowed: format!("names no strip: there are {}", rest.len()),
-            })?;
+    for e in edits {
+        // In range: `check_edits` compared every index with `rest.len()`.
+        let strip = &rest[e.strip as usize];
         let before: Vec<ExtraForce> = out.iter().map(|s| s.extra).collect();
         out.push(solve_one(strip, e, motion, forces, head, &before)?);
     }

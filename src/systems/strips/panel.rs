@@ -9,10 +9,12 @@ use crate::forces::eff::{Eff, EffDesc, EffSample, GustKey};
 use crate::forces::Forces;
 use crate::scene::Interp;
 use crate::scene::Sampling;
-use crate::systems::strips::block::{Edit, Layer, Strips};
+use crate::systems::strips::block::{
+    Edit, Layer, Strips, MAX_CURL, MAX_LAYER_STIFFNESS, MAX_STRIP_STICKS,
+};
 use crate::systems::ui::{self, PanelCx};
 use crate::systems::Scene;
-use egui::{Color32, ComboBox, DragValue, Slider, Ui};
+use egui::{Color32, ComboBox, DragValue, Slider, SliderClamping, Ui};
 use glam::DVec3;
 
 pub fn strips(ui: &mut Ui, cx: &mut PanelCx) {
@@ -30,25 +32,32 @@ pub fn strips(ui: &mut Ui, cx: &mut PanelCx) {
     crate::systems::hair_bsdf::panel(ui, shading, &mut k.shading, &mut k.physical);
 }
 
+/// A slider over a handy part of a value's range (the block's bounds are wider): it never
+/// rewrites a value the scene file set outside that part (egui's default clamps what it
+/// shows), and the scene validator checks whatever is typed.
+fn part(slider: Slider<'_>) -> Slider<'_> {
+    slider.clamping(SliderClamping::Edits)
+}
+
 fn motion(ui: &mut Ui, st: &mut Strips) {
     let m = &mut st.motion;
     ui.label("joints: I1 Φ'' + I2 Φ' + τ (Φ − Φ0) = H");
-    ui.add(
+    ui.add(part(
         Slider::new(&mut m.stiffness, 0.0..=20000.0)
             .logarithmic(true)
             .text("stiffness τ (root)"),
-    );
+    ));
     ui.add(Slider::new(&mut m.stiffness_tip, 0.0..=1.0).text("τ at the tip (share)"));
-    ui.add(
+    ui.add(part(
         Slider::new(&mut m.damping, 0.0..=200.0)
             .logarithmic(true)
             .text("air resistance I2"),
-    );
-    ui.add(
+    ));
+    ui.add(part(
         Slider::new(&mut m.inertia, 0.01..=100.0)
             .logarithmic(true)
             .text("inertia I1 (root)"),
-    );
+    ));
     // The oscillation a joint would have alone: what τ, I1 and I2 mean to an animator.
     let w0 = (m.stiffness / m.inertia).sqrt();
     let zeta = m.damping / (2.0 * (m.stiffness * m.inertia).sqrt()).max(1e-12);
@@ -58,22 +67,22 @@ fn motion(ui: &mut Ui, st: &mut Strips) {
         zeta,
         if zeta >= 1.0 { " (no overshoot)" } else { "" }
     ));
-    ui.add(
+    ui.add(part(
         Slider::new(&mut m.spring, 0.0..=2000.0)
             .logarithmic(true)
             .text("spring k (S)"),
-    );
-    ui.add(
+    ));
+    ui.add(part(
         Slider::new(&mut m.collision, 0.0..=100.0)
             .logarithmic(true)
             .text("collision κ (Ψ)"),
-    );
+    ));
     ui.label("gravity, wind and head motion: the Forces panel");
-    ui.add(
+    ui.add(part(
         Slider::new(&mut m.steps_per_second, 15.0..=2000.0)
             .logarithmic(true)
             .text("steps per second"),
-    );
+    ));
     ui.checkbox(
         &mut m.preload,
         "hold the groomed shape under gravity (preload)",
@@ -125,8 +134,10 @@ fn layers(ui: &mut Ui, st: &mut Strips) {
 }
 
 fn layer(ui: &mut Ui, l: &mut Layer) {
-    ui.add(Slider::new(&mut l.count, 1..=120).text("strips"));
-    ui.add(Slider::new(&mut l.polar, 1.0..=179.0).text("ring (degrees from the crown)"));
+    ui.add(part(Slider::new(&mut l.count, 1..=120).text("strips")));
+    ui.add(part(
+        Slider::new(&mut l.polar, 1.0..=179.0).text("ring (degrees from the crown)"),
+    ));
     ui.horizontal(|ui| {
         ui.label("azimuth");
         ui.add(DragValue::new(&mut l.azimuth[0]).range(-360.0..=360.0));
@@ -138,15 +149,21 @@ fn layer(ui: &mut Ui, l: &mut Layer) {
     if l.azimuth[1] - l.azimuth[0] > 360.0 {
         l.azimuth[1] = l.azimuth[0] + 360.0;
     }
-    ui.add(Slider::new(&mut l.length, 1.0..=80.0).text("length"));
-    ui.add(Slider::new(&mut l.sticks, 1..=32).text("sticks"));
-    ui.add(Slider::new(&mut l.width[0], 0.1..=10.0).text("width at the root"));
-    ui.add(Slider::new(&mut l.width[1], 0.1..=10.0).text("width at the tip"));
+    ui.add(part(Slider::new(&mut l.length, 1.0..=80.0).text("length")));
+    // The block's bounds where they make a usable slider.
+    ui.add(Slider::new(&mut l.sticks, 1..=MAX_STRIP_STICKS).text("sticks"));
+    ui.add(part(
+        Slider::new(&mut l.width[0], 0.1..=10.0).text("width at the root"),
+    ));
+    ui.add(part(
+        Slider::new(&mut l.width[1], 0.1..=10.0).text("width at the tip"),
+    ));
     ui.add(Slider::new(&mut l.droop, 0.0..=1.0).text("droop"));
-    ui.add(Slider::new(&mut l.curl, -30.0..=30.0).text("curl (degrees per stick)"));
+    ui.add(Slider::new(&mut l.curl, -MAX_CURL..=MAX_CURL).text("curl (degrees per stick)"));
     ui.add(
-        Slider::new(&mut l.stiffness, 0.05..=20.0)
+        Slider::new(&mut l.stiffness, 0.0..=MAX_LAYER_STIFFNESS)
             .logarithmic(true)
+            .smallest_positive(0.01)
             .text("stiffness × "),
     );
     ui.horizontal(|ui| {
@@ -158,15 +175,23 @@ fn layer(ui: &mut Ui, l: &mut Layer) {
 fn look(ui: &mut Ui, st: &mut Strips) {
     let k = &mut st.look;
     ui.label("look (the strand texture is generated at start-up)");
-    ui.add(Slider::new(&mut k.hairs, 4..=64).text("hairs across a strip"));
-    ui.add(Slider::new(&mut k.tip_shade, 0.2..=3.0).text("tip shade"));
-    ui.add(Slider::new(&mut k.alpha_cutoff, 0.0..=0.95).text("alpha cut-off"));
-    ui.add(Slider::new(&mut k.specular[0], 0.0..=2.0).text("specular"));
-    ui.add(
+    ui.add(part(
+        Slider::new(&mut k.hairs, 4..=64).text("hairs across a strip"),
+    ));
+    ui.add(part(
+        Slider::new(&mut k.tip_shade, 0.2..=3.0).text("tip shade"),
+    ));
+    ui.add(part(
+        Slider::new(&mut k.alpha_cutoff, 0.0..=0.95).text("alpha cut-off"),
+    ));
+    ui.add(part(
+        Slider::new(&mut k.specular[0], 0.0..=2.0).text("specular"),
+    ));
+    ui.add(part(
         Slider::new(&mut k.specular[1], 2.0..=400.0)
             .logarithmic(true)
             .text("specular exponent"),
-    );
+    ));
 }
 
 /// The brush of the EFF panel (kept between frames).
