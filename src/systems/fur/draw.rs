@@ -2,13 +2,13 @@
 //! ribbons for line, polyline and curve hairs, 6-sided tubes for tube hairs, one instanced
 //! draw per coat over the hairs the generator wrote this frame.
 
-use super::generate::{motion_uniform, style_code, FurGpu};
+use super::generate::{motion_uniform, style_code, FurGpu, GpuJoints};
 use super::gpu_data::{GpuFurMaterial, GpuSkin};
 use super::setup::FurSetup;
 use crate::error::Result;
-use crate::gpu::gpu_data::linear_rgb;
+use crate::gpu::gpu_data::{linear_rgb, GpuStrand};
 use crate::gpu::pipeline::{self, DrawPipeline, Variant};
-use crate::gpu::{self, Gpu};
+use crate::gpu::{self, bind, Gpu};
 use crate::systems::fur::block::FurStyle;
 
 pub struct FurPass {
@@ -113,24 +113,26 @@ impl FurPass {
         let module = gpu::shader_module(device, "fur draw", super::DRAW)?;
         let mesh_module = gpu::shader_module(device, "fur skin", super::SKIN)?;
         let vs = wgpu::ShaderStages::VERTEX;
-        let layout = pipeline::layout(
+        let layout = bind::layout(
             device,
             "fur",
+            vs,
             &[
-                gpu::storage_entry(0, vs, true),
-                gpu::storage_entry(1, vs, true),
-                gpu::storage_entry(2, vs, true),
-                gpu::storage_entry(3, vs, true),
+                bind::storage::<GpuStrand>(),
+                bind::storage::<[f32; 4]>(),
+                bind::storage::<[f32; 4]>(),
+                bind::storage::<GpuFurMaterial>(),
             ],
         );
-        let mesh_layout = pipeline::layout(
+        let mesh_layout = bind::layout(
             device,
             "fur skin",
+            vs,
             &[
-                gpu::uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT),
-                gpu::storage_entry(1, vs, true),
-                gpu::storage_entry(2, vs, true),
-                gpu::uniform_entry(3, vs),
+                bind::uniform::<GpuSkin>().seen_by(wgpu::ShaderStages::VERTEX_FRAGMENT),
+                bind::storage::<[f32; 4]>(),
+                bind::storage::<[u32; 4]>(),
+                bind::uniform::<GpuJoints>(),
             ],
         );
         let pipeline_layout = pipeline::pipeline_layout(device, "fur", &[frame_layout, &layout]);
@@ -144,15 +146,15 @@ impl FurPass {
             variant,
             false,
         );
-        let cs = wgpu::ShaderStages::COMPUTE;
-        let cast_layout = pipeline::layout(
+        let cast_layout = bind::layout(
             device,
             "fur cast",
+            wgpu::ShaderStages::COMPUTE,
             &[
-                gpu::storage_entry(0, cs, true),
-                gpu::storage_entry(1, cs, true),
-                gpu::storage_entry(2, cs, true),
-                gpu::storage_entry(3, cs, true),
+                bind::storage::<GpuStrand>(),
+                bind::storage::<[f32; 4]>(),
+                bind::storage::<GpuFurMaterial>(),
+                bind::storage::<[u32; 2]>(),
             ],
         );
         let cast_module = gpu::shader_module(device, "fur cast", super::CAST)?;
@@ -272,7 +274,7 @@ impl FurPass {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let bind_group = pipeline::bind_buffers(
+        let bind_group = bind::buffers(
             device,
             "fur",
             &self.layout,
@@ -283,7 +285,7 @@ impl FurPass {
                 &materials,
             ],
         );
-        let mesh_bind_group = pipeline::bind_buffers(
+        let mesh_bind_group = bind::buffers(
             device,
             "fur skin",
             &self.mesh_layout,
@@ -306,7 +308,7 @@ impl FurPass {
             bytemuck::cast_slice(&none),
             wgpu::BufferUsages::empty(),
         );
-        let cast_group = pipeline::bind_buffers(
+        let cast_group = bind::buffers(
             device,
             "fur cast",
             &self.cast_layout,

@@ -6,15 +6,18 @@ use super::gpu_data::GpuFurCoat;
 use super::setup::{FurSetup, TABLE};
 use crate::error::Result;
 use crate::gpu::strands::StrandBuffers;
-use crate::gpu::{self, Gpu, WORKGROUP};
+use crate::gpu::{self, bind, Gpu, WORKGROUP};
 use crate::systems::fur::block::{FurStyle, MeshMotion};
 use glam::DVec3;
 
 /// Bytes of one coat's uniform record (the dynamic-offset alignment).
 const SLOT: u64 = 256;
 const U32: u64 = std::mem::size_of::<u32>() as u64;
+/// The skin's joint matrices, the uniform `joints: array<mat4x4<f32>, MAX_JOINTS>` of
+/// `shaders/fur/generate.wgsl` and `shaders/fur/skin.wgsl`.
+pub type GpuJoints = [[f32; 16]; crate::scene::skinned::MAX_JOINTS];
 /// Bytes of the joint-matrix uniform.
-const JOINTS: u64 = (crate::scene::skinned::MAX_JOINTS * std::mem::size_of::<[f32; 16]>()) as u64;
+const JOINTS: u64 = std::mem::size_of::<GpuJoints>() as u64;
 /// Bytes of one hair slot's info: (skin normal, random), (hair-plane normal, 0).
 pub const INFO: u64 = std::mem::size_of::<[[f32; 4]; 2]>() as u64;
 
@@ -58,22 +61,23 @@ impl FurGpu {
     pub fn new(gpu: &Gpu, setup: &FurSetup) -> Result<FurGpu> {
         let device = &gpu.device;
         let module = gpu::shader_module(device, "fur generate", super::GENERATE)?;
-        let cs = wgpu::ShaderStages::COMPUTE;
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("fur_gen"),
-            entries: &[
-                gpu::dynamic_uniform_entry(0, cs, SLOT),
-                gpu::storage_entry(1, cs, true),
-                gpu::storage_entry(2, cs, true),
-                gpu::storage_entry(3, cs, true),
-                gpu::storage_entry(4, cs, true),
-                gpu::storage_entry(5, cs, true),
-                gpu::storage_entry(6, cs, false),
-                gpu::storage_entry(7, cs, false),
-                gpu::storage_entry(8, cs, true),
-                gpu::uniform_entry(9, cs),
+        let layout = bind::layout(
+            device,
+            "fur_gen",
+            wgpu::ShaderStages::COMPUTE,
+            &[
+                bind::dynamic_uniform::<GpuFurCoat>(),
+                bind::storage::<[f32; 4]>(),
+                bind::storage::<[u32; 4]>(),
+                bind::storage::<u32>(),
+                bind::storage::<u32>(),
+                bind::storage::<[f32; 2]>(),
+                bind::storage_rw::<[f32; 4]>(),
+                bind::storage_rw::<[f32; 4]>(),
+                bind::storage::<[f32; 4]>(),
+                bind::uniform::<GpuJoints>(),
             ],
-        });
+        );
         let [pipeline] = gpu::compute_pipelines(
             device,
             "fur generate",
@@ -180,30 +184,28 @@ impl FurGpu {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let entry = gpu::entry;
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("fur_gen"),
-            layout: &layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                        buffer: &coats,
-                        offset: 0,
-                        size: wgpu::BufferSize::new(SLOT),
-                    }),
-                },
-                entry(1, &mesh),
-                entry(2, &tris_buf),
-                entry(3, &first),
-                entry(4, &offsets),
-                entry(5, &table),
-                entry(6, &strands.vertices),
-                entry(7, &info),
-                entry(8, &dirs),
-                entry(9, &joints),
+        let coat = wgpu::BufferBinding {
+            buffer: &coats,
+            offset: 0,
+            size: wgpu::BufferSize::new(SLOT),
+        };
+        let bind_group = bind::group(
+            device,
+            "fur_gen",
+            &layout,
+            &[
+                wgpu::BindingResource::Buffer(coat),
+                mesh.as_entire_binding(),
+                tris_buf.as_entire_binding(),
+                first.as_entire_binding(),
+                offsets.as_entire_binding(),
+                table.as_entire_binding(),
+                strands.vertices.as_entire_binding(),
+                info.as_entire_binding(),
+                dirs.as_entire_binding(),
+                joints.as_entire_binding(),
             ],
-        });
+        );
         Ok(FurGpu {
             pipeline,
             bind_group,

@@ -20,8 +20,9 @@
 use super::dynamics::{check_extra, step_length, steps_per_frame, ExtraForce, Rig, MAX_EXTRA};
 use super::dynamics::{HeadFrame, COLLISION_ACCEL};
 use crate::error::{KamiError, Result};
+use crate::forces::eff::GpuEffGrid;
 use crate::forces::Forces;
-use crate::gpu::{self, Gpu, WORKGROUP};
+use crate::gpu::{self, bind, Gpu, WORKGROUP};
 use crate::scene::head::EPS_OUT;
 use crate::scene::hull::{head_hull, SDF_EPS_OUT};
 use crate::scene::Head;
@@ -77,6 +78,10 @@ pub struct GpuParams {
     pub extra_accel: [[f32; 4]; MAX_EXTRA],
 }
 const _: () = assert!(std::mem::size_of::<GpuParams>() == 80 + 2 * 16 * MAX_EXTRA);
+
+/// One step's slot of the dynamic uniform: x is the step's index in `steps` (`struct Slot`
+/// in `shaders/strips/dynamics.wgsl`; each slot is `SLOT` bytes apart).
+type GpuSlot = [u32; 4];
 
 /// Twin of `struct Step` (`tests/it/gpu_twins.rs` checks it).
 #[repr(C)]
@@ -225,26 +230,28 @@ impl DynamicsGpu {
             ),
         };
         let module = gpu::shader_module(device, "strips dynamics", source)?;
-        let cs = wgpu::ShaderStages::COMPUTE;
-        let mut entries = vec![
-            gpu::uniform_entry(0, cs),
-            gpu::dynamic_uniform_entry(1, cs, SLOT),
-            gpu::storage_entry(2, cs, true),
-            gpu::storage_entry(3, cs, true),
-            gpu::storage_entry(4, cs, true),
-            gpu::storage_entry(5, cs, false),
-            gpu::storage_entry(6, cs, false),
-            gpu::storage_entry(7, cs, false),
-            gpu::uniform_entry(8, cs),
-            gpu::storage_entry(9, cs, true),
+        let vec4_rw = bind::storage_rw::<[f32; 4]>;
+        let mut bindings = vec![
+            bind::uniform::<GpuParams>(),
+            bind::dynamic_uniform::<GpuSlot>(),
+            bind::storage::<GpuStrip>(),
+            bind::storage::<GpuJoint>(),
+            bind::storage::<GpuStep>(),
+            vec4_rw(),
+            vec4_rw(),
+            vec4_rw(),
+            bind::uniform::<GpuEffGrid>(),
+            bind::storage::<[f32; 4]>(),
         ];
         if sdf.is_some() {
-            entries.push(gpu::storage_entry(10, cs, true));
+            bindings.push(bind::storage::<f32>());
         }
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("strips dynamics"),
-            entries: &entries,
-        });
+        let layout = bind::layout(
+            device,
+            "strips dynamics",
+            wgpu::ShaderStages::COMPUTE,
+            &bindings,
+        );
         let [pipeline] = gpu::compute_pipelines(
             device,
             "strips dynamics",
@@ -405,27 +412,18 @@ impl DynamicsGpu {
         b: [&wgpu::Buffer; 10],
         sdf: Option<&wgpu::Buffer>,
     ) -> wgpu::BindGroup {
-        let mut entries: Vec<wgpu::BindGroupEntry> = b
-            .iter()
-            .enumerate()
-            .map(|(i, buf)| gpu::entry(i as u32, buf))
-            .collect();
-        if let Some(sdf) = sdf {
-            entries.push(gpu::entry(10, sdf));
-        }
-        entries[1] = wgpu::BindGroupEntry {
-            binding: 1,
-            resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                buffer: b[1],
-                offset: 0,
-                size: wgpu::BufferSize::new(SLOT),
-            }),
+        let slot = wgpu::BufferBinding {
+            buffer: b[1],
+            offset: 0,
+            size: wgpu::BufferSize::new(SLOT),
         };
-        device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("strips dynamics"),
-            layout,
-            entries: &entries,
-        })
+        let mut resources: Vec<wgpu::BindingResource> =
+            b.iter().map(|buf| buf.as_entire_binding()).collect();
+        resources[1] = wgpu::BindingResource::Buffer(slot);
+        if let Some(sdf) = sdf {
+            resources.push(sdf.as_entire_binding());
+        }
+        bind::group(device, "strips dynamics", layout, &resources)
     }
 
     fn rebind(&mut self, device: &wgpu::Device) {

@@ -28,7 +28,7 @@ use super::texture::{self, StrandTexture};
 use super::RestStrip;
 use crate::error::{KamiError, Result};
 use crate::gpu::pipeline::{self, DrawPipeline, Variant};
-use crate::gpu::{self, Gpu, WORKGROUP};
+use crate::gpu::{self, bind, Gpu, WORKGROUP};
 use crate::shaders::wgsl;
 use crate::systems::strips::block::Look;
 use bytemuck::{Pod, Zeroable};
@@ -413,15 +413,15 @@ impl RibbonPass {
         let info = strip_info(rest);
         let dims = gpu.dispatch_dims(strips, WORKGROUP)?;
 
-        let cs = wgpu::ShaderStages::COMPUTE;
-        let build_layout = pipeline::layout(
+        let build_layout = bind::layout(
             device,
             "strips ribbon",
+            wgpu::ShaderStages::COMPUTE,
             &[
-                gpu::uniform_entry(0, cs),
-                gpu::storage_entry(1, cs, true),
-                gpu::storage_entry(2, cs, true),
-                gpu::storage_entry(3, cs, false),
+                bind::uniform::<GpuRibbonParams>(),
+                bind::storage::<GpuStripInfo>(),
+                bind::storage::<[f32; 4]>(),
+                bind::storage_rw::<GpuRibbonVertex>(),
             ],
         );
         let build_module = gpu::shader_module(device, "strips ribbon", RIBBON)?;
@@ -461,29 +461,16 @@ impl RibbonPass {
         let module = gpu::shader_module(device, "strips draw", DRAW)?;
         let vs = wgpu::ShaderStages::VERTEX;
         let fs = wgpu::ShaderStages::FRAGMENT;
-        let draw_layout = pipeline::layout(
+        let draw_layout = bind::layout(
             device,
             "strips draw",
+            vs | fs,
             &[
-                gpu::storage_entry(0, vs, true),
-                gpu::storage_entry(1, vs | fs, true),
-                gpu::uniform_entry(2, vs | fs),
-                wgpu::BindGroupLayoutEntry {
-                    binding: 3,
-                    visibility: fs,
-                    ty: wgpu::BindingType::Texture {
-                        sample_type: wgpu::TextureSampleType::Float { filterable: true },
-                        view_dimension: wgpu::TextureViewDimension::D2,
-                        multisampled: false,
-                    },
-                    count: None,
-                },
-                wgpu::BindGroupLayoutEntry {
-                    binding: 4,
-                    visibility: fs,
-                    ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                    count: None,
-                },
+                bind::storage::<GpuRibbonVertex>().seen_by(vs),
+                bind::storage::<GpuStripInfo>(),
+                bind::uniform::<GpuStripLook>(),
+                bind::filtered_texture_2d().seen_by(fs),
+                bind::sampler().seen_by(fs),
             ],
         );
         let pipeline_layout =
@@ -545,23 +532,18 @@ impl RibbonPass {
         look: &wgpu::Buffer,
         texture: &StrandTexture,
     ) -> wgpu::BindGroup {
-        device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("strips draw"),
+        bind::group(
+            device,
+            "strips draw",
             layout,
-            entries: &[
-                gpu::entry(0, vertices),
-                gpu::entry(1, info),
-                gpu::entry(2, look),
-                wgpu::BindGroupEntry {
-                    binding: 3,
-                    resource: wgpu::BindingResource::TextureView(&texture.view),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 4,
-                    resource: wgpu::BindingResource::Sampler(&texture.sampler),
-                },
+            &[
+                vertices.as_entire_binding(),
+                info.as_entire_binding(),
+                look.as_entire_binding(),
+                wgpu::BindingResource::TextureView(&texture.view),
+                wgpu::BindingResource::Sampler(&texture.sampler),
             ],
-        })
+        )
     }
 
     fn pipeline(
@@ -630,7 +612,7 @@ impl RibbonPass {
             .lock()
             .map_err(|_| KamiError::Gpu("the ribbon bind group lock was poisoned".into()))?;
         if bound.as_ref().is_none_or(|(b, _)| b != points) {
-            let bg = pipeline::bind_buffers(
+            let bg = bind::buffers(
                 &gpu.device,
                 "strips ribbon",
                 &self.build_layout,
@@ -659,14 +641,14 @@ impl RibbonPass {
         cast_layout: &wgpu::BindGroupLayout,
     ) -> Result<StripCast> {
         let device = &gpu.device;
-        let cs = wgpu::ShaderStages::COMPUTE;
-        let layout = pipeline::layout(
+        let layout = bind::layout(
             device,
             "strips cast",
+            wgpu::ShaderStages::COMPUTE,
             &[
-                gpu::storage_entry(0, cs, true),
-                gpu::storage_entry(1, cs, true),
-                gpu::uniform_entry(2, cs),
+                bind::storage::<GpuRibbonVertex>(),
+                bind::storage::<GpuStripInfo>(),
+                bind::uniform::<[u32; 4]>(),
             ],
         );
         let module = gpu::shader_module(device, "strips cast", CAST)?;
@@ -693,7 +675,7 @@ impl RibbonPass {
                 usage: wgpu::BufferUsages::UNIFORM,
             },
         );
-        let group = pipeline::bind_buffers(
+        let group = bind::buffers(
             device,
             "strips cast",
             &layout,

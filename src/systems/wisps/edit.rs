@@ -26,12 +26,13 @@ pub const PICK_PX: f64 = 10.0;
 /// Nodes closer to the cursor than the best by at most this many pixels count as a tie,
 /// and the one nearest the eye wins (nodes drawn on top of one another).
 pub const TIE_PX: f64 = 1.0;
-/// Most nodes per skeleton and most skeletons (the validator's limits).
-pub const MAX_NODES: usize = 64;
-pub const MAX_SKELETONS: usize = 4096;
-/// Radius and weight are clamped into [MIN_VALUE, MAX_VALUE].
+/// Most nodes per skeleton and most skeletons: the scene check's limits (`block.rs`).
+pub use super::block::{MAX_WISPS as MAX_SKELETONS, MAX_WISP_NODES as MAX_NODES};
+/// Radius and weight are clamped into [MIN_VALUE, MAX_VALUE]: the scene check's upper bound
+/// (`scene::validate::BIG`), and a floor above its 0 so a drag cannot shrink a node to
+/// nothing.
 pub const MIN_VALUE: f64 = 1e-3;
-pub const MAX_VALUE: f64 = 1e6;
+pub const MAX_VALUE: f64 = crate::scene::validate::BIG;
 /// Node coordinates stay within ±LIMIT.
 pub const LIMIT: f64 = 1e6;
 /// A node added past the tip has the tip's radius times this.

@@ -25,7 +25,7 @@ pub const MAX_FRAMES: usize = 10_000;
 /// Most pixels over a whole sequence (256 MiB of 16-bit depth).
 pub const MAX_TOTAL_PIXELS: u64 = 1 << 27;
 /// Most nodes a scene's skeleton may hold (the scene validation's limit).
-const MAX_NODES: usize = 64;
+use super::block::MAX_WISP_NODES as MAX_NODES;
 /// camera.ron is a few lines; anything far larger is not one.
 const MAX_CAMERA_BYTES: u64 = 64 << 10;
 

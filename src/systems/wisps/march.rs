@@ -4,11 +4,11 @@
 //! and toon-shades the blobby surface, each pixel once (a render pipeline writing depth).
 //! The f64 references are `curve.rs`, `tiles.rs` and `field.rs` (`march_tiled`).
 
-use super::tiles::{self, MarchStats, TilePass};
+use super::tiles::{self, GpuMarchStats, GpuMarchView, MarchStats, TilePass};
 use crate::error::{KamiError, Result};
 use crate::gpu::gpu_data::linear_rgb;
 use crate::gpu::pipeline::{self, DrawPipeline, Variant};
-use crate::gpu::{self, Gpu};
+use crate::gpu::{self, bind, Gpu};
 use crate::shaders::wgsl;
 use crate::systems::wisps::block::{Distance, MarchOn, Tones, Wisps};
 use bytemuck::{Pod, Zeroable};
@@ -83,11 +83,11 @@ impl WispCast {
         cast_layout: &wgpu::BindGroupLayout,
     ) -> Result<WispCast> {
         let device = &gpu.device;
-        let cs = wgpu::ShaderStages::COMPUTE;
-        let layout = pipeline::layout(
+        let layout = bind::layout(
             device,
             "wisp cast",
-            &[gpu::storage_entry(0, cs, true), gpu::uniform_entry(1, cs)],
+            wgpu::ShaderStages::COMPUTE,
+            &[bind::storage::<GpuSegment>(), bind::uniform::<[u32; 4]>()],
         );
         let module = gpu::shader_module(device, "wisp cast", CAST)?;
         let pl =
@@ -108,8 +108,7 @@ impl WispCast {
                 usage: wgpu::BufferUsages::UNIFORM,
             },
         );
-        let group =
-            pipeline::bind_buffers(device, "wisp cast", &layout, &[&curves.segments, &count]);
+        let group = bind::buffers(device, "wisp cast", &layout, &[&curves.segments, &count]);
         Ok(WispCast {
             pipeline,
             group,
@@ -285,19 +284,19 @@ impl CurvePass {
                 rw.push([n.r as f32, n.w as f32, 0.0, 0.0]);
             }
         }
-        let cs = wgpu::ShaderStages::COMPUTE;
-        let layout = pipeline::layout(
+        let layout = bind::layout(
             device,
             "wisp curves",
+            wgpu::ShaderStages::COMPUTE,
             &[
-                gpu::uniform_entry(0, cs),
-                gpu::storage_entry(1, cs, true),
-                gpu::storage_entry(2, cs, true),
-                gpu::storage_entry(3, cs, true),
-                gpu::storage_entry(4, cs, false),
-                gpu::storage_entry(5, cs, false),
-                gpu::storage_entry(6, cs, false),
-                gpu::storage_entry(7, cs, false),
+                bind::uniform::<GpuWispParams>(),
+                bind::storage::<[f32; 4]>(),
+                bind::storage::<[f32; 4]>(),
+                bind::storage::<[u32; 2]>(),
+                bind::storage_rw::<GpuSegment>(),
+                bind::storage_rw::<GpuCapsule>(),
+                bind::storage_rw::<u32>(),
+                bind::storage_rw::<[f32; 4]>(),
             ],
         );
         let module = gpu::shader_module(device, "wisps/curves", CURVES)?;
@@ -334,7 +333,7 @@ impl CurvePass {
             "wisp pieces",
             n_seg as u64 * (super::curve::PIECES as u64 + 1) * 16,
         );
-        let bind_group = pipeline::bind_buffers(
+        let bind_group = bind::buffers(
             device,
             "wisp curves",
             &layout,
@@ -541,19 +540,6 @@ const MARCH_DEPTH: wgpu::TextureFormat = wgpu::TextureFormat::R32Float;
 
 const _: () = assert!(tiles::TILE == 16, "the march's workgroup is one 16x16 tile");
 
-fn storage_texture_entry(binding: u32, format: wgpu::TextureFormat) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::StorageTexture {
-            access: wgpu::StorageTextureAccess::WriteOnly,
-            format,
-            view_dimension: wgpu::TextureViewDimension::D2,
-        },
-        count: None,
-    }
-}
-
 fn march_image(
     gpu: &Gpu,
     label: &str,
@@ -589,30 +575,23 @@ fn march_layout(device: &wgpu::Device, compute: bool) -> wgpu::BindGroupLayout {
             wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT,
         )
     };
-    let mut entries = vec![
-        gpu::uniform_entry(0, all),
-        gpu::storage_entry(1, all, true),
-        gpu::storage_entry(2, all, true),
-        gpu::storage_entry(3, all, true),
-        gpu::storage_entry(4, quads, true),
-        gpu::storage_entry(5, all, true),
-        gpu::uniform_entry(6, quads),
-        gpu::storage_entry(7, all, false),
-        gpu::storage_entry(8, all, true),
-        gpu::storage_entry(9, all, true),
+    let mut slots = vec![
+        bind::uniform::<GpuWispDraw>(),
+        bind::storage::<GpuSegment>(),
+        bind::storage::<GpuCapsule>(),
+        bind::storage::<f32>(),
+        bind::storage::<u32>().seen_by(quads),
+        bind::storage::<u32>(),
+        bind::uniform::<GpuMarchView>().seen_by(quads),
+        bind::storage_rw::<GpuMarchStats>(),
+        bind::storage::<[f32; 4]>(),
+        bind::storage::<[f32; 4]>(),
     ];
     if compute {
-        entries.push(storage_texture_entry(10, MARCH_COLOR));
-        entries.push(storage_texture_entry(11, MARCH_DEPTH));
+        slots.push(bind::storage_texture_2d(MARCH_COLOR));
+        slots.push(bind::storage_texture_2d(MARCH_DEPTH));
     }
-    pipeline::layout(device, "wisp march", &entries)
-}
-
-fn texture_entry(binding: u32, view: &wgpu::TextureView) -> wgpu::BindGroupEntry<'_> {
-    wgpu::BindGroupEntry {
-        binding,
-        resource: wgpu::BindingResource::TextureView(view),
-    }
+    bind::layout(device, "wisp march", all, &slots)
 }
 
 impl MarchPass {
@@ -635,14 +614,15 @@ impl MarchPass {
         );
         let slots = scene_slots(wisps);
         let vf = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT;
-        let composite_layout = pipeline::layout(
+        let composite_layout = bind::layout(
             device,
             "wisp composite",
+            wgpu::ShaderStages::FRAGMENT,
             &[
-                gpu::storage_entry(0, vf, true),
-                gpu::uniform_entry(1, vf),
-                gpu::texture_entry(2, wgpu::ShaderStages::FRAGMENT),
-                gpu::texture_entry(3, wgpu::ShaderStages::FRAGMENT),
+                bind::storage::<u32>().seen_by(vf),
+                bind::uniform::<GpuMarchView>().seen_by(vf),
+                bind::texture_2d(),
+                bind::texture_2d(),
             ],
         );
         let layout = march_layout(device, true);
@@ -772,39 +752,35 @@ impl MarchPass {
                 &curves.pieces,
                 &self.outlines,
             ];
-            let mut entries: Vec<wgpu::BindGroupEntry> = buffers
-                .iter()
-                .enumerate()
-                .map(|(i, b)| gpu::entry(i as u32, b))
-                .collect();
+            let mut resources: Vec<wgpu::BindingResource> =
+                buffers.iter().map(|b| b.as_entire_binding()).collect();
             let m = &self.modules;
-            let group = |layout, entries: &[wgpu::BindGroupEntry], label| {
-                gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some(label),
-                    layout,
-                    entries,
-                })
-            };
             let groups = if self.in_compute() {
                 let color = march_image(gpu, "wisp march colour", MARCH_COLOR, view.samples);
                 let depth = march_image(gpu, "wisp march depth", MARCH_DEPTH, view.samples);
-                entries.push(texture_entry(10, &color));
-                entries.push(texture_entry(11, &depth));
+                resources.push(wgpu::BindingResource::TextureView(&color));
+                resources.push(wgpu::BindingResource::TextureView(&depth));
                 Groups::Compute {
-                    march: group(&m.layout, &entries, "wisp march"),
-                    composite: group(
+                    march: bind::group(&gpu.device, "wisp march", &m.layout, &resources),
+                    composite: bind::group(
+                        &gpu.device,
+                        "wisp composite",
                         &m.composite_layout,
                         &[
-                            gpu::entry(0, &tp.counts),
-                            gpu::entry(1, &tp.view),
-                            texture_entry(2, &color),
-                            texture_entry(3, &depth),
+                            tp.counts.as_entire_binding(),
+                            tp.view.as_entire_binding(),
+                            wgpu::BindingResource::TextureView(&color),
+                            wgpu::BindingResource::TextureView(&depth),
                         ],
-                        "wisp composite",
                     ),
                 }
             } else {
-                Groups::Fragment(group(&m.frag_layout, &entries, "wisp march"))
+                Groups::Fragment(bind::group(
+                    &gpu.device,
+                    "wisp march",
+                    &m.frag_layout,
+                    &resources,
+                ))
             };
             self.tiles = Some(Sized { tiles: tp, groups });
         }

@@ -18,8 +18,9 @@
 
 use super::springs::{Lattice, NEWTON};
 use crate::error::Result;
+use crate::forces::eff::GpuEffGrid;
 use crate::forces::{wind_at, Forces};
-use crate::gpu::{self, Gpu, WORKGROUP};
+use crate::gpu::{self, bind, Gpu, WORKGROUP};
 use crate::scene::head::EPS_OUT;
 use crate::scene::hull::{head_hull, HeadHull, SDF_EPS_OUT};
 use crate::scene::Head;
@@ -143,22 +144,23 @@ impl SpringsGpu {
             wgpu::BufferUsages::empty(),
         );
         let module = gpu::shader_module(device, "wisps springs", SPRINGS)?;
-        let cs = wgpu::ShaderStages::COMPUTE;
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("wisps springs"),
-            entries: &[
-                gpu::uniform_entry(0, cs),
-                gpu::dynamic_uniform_entry(1, cs, SLOT),
-                gpu::storage_entry(2, cs, true),
-                gpu::storage_entry(3, cs, true),
-                gpu::storage_entry(4, cs, true),
-                gpu::storage_entry(5, cs, false),
-                gpu::storage_entry(6, cs, false),
-                gpu::uniform_entry(7, cs),
-                gpu::storage_entry(8, cs, true),
-                gpu::storage_entry(9, cs, true),
+        let layout = bind::layout(
+            device,
+            "wisps springs",
+            wgpu::ShaderStages::COMPUTE,
+            &[
+                bind::uniform::<GpuSpringParams>(),
+                bind::dynamic_uniform::<GpuSubstep>(),
+                bind::storage::<GpuMassPoint>(),
+                bind::storage::<GpuEdge>(),
+                bind::storage::<[[f32; 4]; 4]>(),
+                bind::storage_rw::<[f32; 4]>(),
+                bind::storage_rw::<[f32; 4]>(),
+                bind::uniform::<GpuEffGrid>(),
+                bind::storage::<[f32; 4]>(),
+                bind::storage::<f32>(),
             ],
-        });
+        );
         let [pin, rk1, rk2, rk3, rk4, kick, drift] = gpu::compute_pipelines(
             device,
             "wisps springs",
@@ -306,29 +308,28 @@ impl SpringsGpu {
         sdf: &wgpu::Buffer,
     ) -> wgpu::BindGroup {
         let [params, steps, points, edges, heads, positions, scratch] = buffers;
-        device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("wisps springs"),
+        let substep = wgpu::BufferBinding {
+            buffer: steps,
+            offset: 0,
+            size: wgpu::BufferSize::new(SLOT),
+        };
+        bind::group(
+            device,
+            "wisps springs",
             layout,
-            entries: &[
-                gpu::entry(0, params),
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                        buffer: steps,
-                        offset: 0,
-                        size: wgpu::BufferSize::new(SLOT),
-                    }),
-                },
-                gpu::entry(2, points),
-                gpu::entry(3, edges),
-                gpu::entry(4, heads),
-                gpu::entry(5, positions),
-                gpu::entry(6, scratch),
-                gpu::entry(7, &eff.grid),
-                gpu::entry(8, &eff.cells),
-                gpu::entry(9, sdf),
+            &[
+                params.as_entire_binding(),
+                wgpu::BindingResource::Buffer(substep),
+                points.as_entire_binding(),
+                edges.as_entire_binding(),
+                heads.as_entire_binding(),
+                positions.as_entire_binding(),
+                scratch.as_entire_binding(),
+                eff.grid.as_entire_binding(),
+                eff.cells.as_entire_binding(),
+                sdf.as_entire_binding(),
             ],
-        })
+        )
     }
 
     /// Take motion settings that keep the lattice (damping, step, integrator, collision);

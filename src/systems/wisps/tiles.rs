@@ -7,8 +7,9 @@
 //! reference: `tile_rects` and `tile_lists` here.
 
 use super::curve::Capsule;
+use super::march::{GpuCapsule, GpuSegment};
 use crate::error::{KamiError, Result};
-use crate::gpu::{self, Gpu};
+use crate::gpu::{self, bind, Gpu};
 use crate::shaders::wgsl;
 use bytemuck::{Pod, Zeroable};
 use glam::{DMat4, DVec3, DVec4};
@@ -39,6 +40,10 @@ pub struct GpuMarchView {
 }
 
 const _: () = assert!(std::mem::size_of::<GpuMarchView>() == 192);
+
+/// The march's counters as the shaders hold them (`stats: array<atomic<u32>, 8>`), read
+/// back into [`MarchStats`].
+pub type GpuMarchStats = [u32; 8];
 
 /// What one frame of the march counted (`stats` in the shaders).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -237,19 +242,19 @@ impl TilePass {
         let (tx, ty) = grid(samples);
         let tiles = u64::from(tx) * u64::from(ty);
         let cap = capacity(gpu, segments, tiles)?;
-        let cs = wgpu::ShaderStages::COMPUTE;
-        let layout = crate::gpu::pipeline::layout(
+        let layout = bind::layout(
             device,
             "wisp tiles",
+            wgpu::ShaderStages::COMPUTE,
             &[
-                gpu::uniform_entry(0, cs),
-                gpu::storage_entry(1, cs, true),
-                gpu::storage_entry(2, cs, true),
-                gpu::storage_entry(3, cs, false),
-                gpu::storage_entry(4, cs, false),
-                gpu::storage_entry(5, cs, false),
-                gpu::storage_entry(6, cs, false),
-                gpu::storage_entry(7, cs, false),
+                bind::uniform::<GpuMarchView>(),
+                bind::storage::<GpuSegment>(),
+                bind::storage::<GpuCapsule>(),
+                bind::storage_rw::<[i32; 4]>(),
+                bind::storage_rw::<f32>(),
+                bind::storage_rw::<u32>(),
+                bind::storage_rw::<u32>(),
+                bind::storage_rw::<GpuMarchStats>(),
             ],
         );
         let module = gpu::shader_module(device, "wisps/tiles", TILES)?;
@@ -273,7 +278,7 @@ impl TilePass {
         let counts = storage(device, "wisp tile counts", tiles * 4);
         let lists = storage(device, "wisp tile lists", tiles * u64::from(cap) * 4);
         let stats = storage(device, "wisp march stats", 32);
-        let bind_group = crate::gpu::pipeline::bind_buffers(
+        let bind_group = bind::buffers(
             device,
             "wisp tiles",
             &layout,
