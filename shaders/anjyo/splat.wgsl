@@ -23,8 +23,8 @@
 @group(2) @binding(0) var<storage, read_write> accum: array<atomic<u32>>;
 @group(2) @binding(1) var scene_depth: SceneDepth;
 
-// Fixed-point scales of the accumulation; keep in sync with stage/downsample.wgsl and
-// src/systems/anjyo/splat.rs.
+// Fixed-point scales of the accumulation, as in stage/downsample.wgsl and
+// src/gpu/splat.rs (tests/it/gpu_twins.rs checks them).
 const COLOR_SCALE: f32 = 16384.0;
 const DEPTH_SCALE: f32 = 4096.0;
 // Coverage is clamped below 1 in -ln(1 - a), so it stays finite.

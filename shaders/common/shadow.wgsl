@@ -34,7 +34,7 @@ fn shadow_lookup() -> u32 {
 // layer's end.
 // A texture, not a storage buffer: every shader stage may read it without counting against
 // the storage buffers a stage may bind (the wisps' march binds many). Word i lies at
-// (i % SHADOW_ROW, i / SHADOW_ROW); keep in sync with ROW in src/stage/shadow.rs.
+// (i % SHADOW_ROW, i / SHADOW_ROW); SHADOW_ROW is ROW in src/gpu/shadow.rs (gpu_twins checks).
 @group(0) @binding(1) var shadow_map: texture_2d<f32>;
 
 const SHADOW_ROW: u32 = 256u;

@@ -3,8 +3,8 @@
 // segment of its hair; the stage runs every caster once per phase: deep opacity first takes
 // the first depth of every texel (phase 0, atomicMax of its complement), then the coverage (phase 1); the
 // volume has one phase. Coverage is the strand's projected area (width times the length
-// across the light) over the cell's area, in fixed point (SHADOW_FIXED, keep in sync with
-// src/gpu/shadow.rs), spread bilinearly over the 4 nearest columns.
+// across the light) over the cell's area, in fixed point (SHADOW_FIXED, checked against
+// src/gpu/shadow.rs by tests/it/gpu_twins.rs), spread bilinearly over the 4 nearest columns.
 
 @group(2) @binding(0) var<storage, read_write> shadow_accum: array<atomic<u32>>;
 // x: the phase (0 first depth, 1 coverage)

@@ -53,7 +53,7 @@ const POLYLINE: u32 = 1u;
 // Per mesh vertex: the unit body-segment direction (the fur's or its region's).
 @group(0) @binding(8) var<storage, read> dirs: array<vec4<f32>>;
 // The skin's joint matrices this frame (G(joint) * inverse bind, fitted).
-// Keep MAX_JOINTS in sync with kami::scene::skinned::MAX_JOINTS.
+// MAX_JOINTS is kami::scene::skinned::MAX_JOINTS (tests/it/gpu_twins.rs checks it).
 const MAX_JOINTS: u32 = 64u;
 @group(0) @binding(9) var<uniform> joints: array<mat4x4<f32>, MAX_JOINTS>;
 

@@ -14,7 +14,7 @@ struct Skin {
 @group(1) @binding(0) var<uniform> skin: Skin;
 @group(1) @binding(1) var<storage, read> mesh: array<vec4<f32>>;
 @group(1) @binding(2) var<storage, read> tris: array<vec4<u32>>;
-// Keep MAX_JOINTS in sync with kami::scene::skinned::MAX_JOINTS.
+// MAX_JOINTS is kami::scene::skinned::MAX_JOINTS (tests/it/gpu_twins.rs checks it).
 const MAX_JOINTS: u32 = 64u;
 @group(1) @binding(3) var<uniform> joints: array<mat4x4<f32>, MAX_JOINTS>;
 

@@ -22,7 +22,7 @@ struct Resolve {
 // Five words per scene sample: sum rgb a wt, sum a wt, sum -ln(1 - a) (anjyo/splat.wgsl).
 @group(0) @binding(2) var<storage, read> accum: array<u32>;
 
-// Keep in sync with anjyo/splat.wgsl.
+// As in anjyo/splat.wgsl and src/gpu/splat.rs (tests/it/gpu_twins.rs checks them).
 const COLOR_SCALE: f32 = 16384.0;
 const DEPTH_SCALE: f32 = 4096.0;
 

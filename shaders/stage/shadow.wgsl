@@ -3,7 +3,8 @@
 // probe evaluates `shadow_strands` and `shadow_opaque` at given points (the contract tests
 // and `kami bench shadows` compare it with the f64 reference, src/stage/shadow.rs).
 
-// Keep in sync with SHADOW_FIXED and SHADOW_DEPTH_SCALE in common/shadow_cast.wgsl.
+// SHADOW_FIXED and SHADOW_DEPTH_SCALE of common/shadow_cast.wgsl, and src/gpu/shadow.rs
+// (tests/it/gpu_twins.rs checks them).
 const FIXED: f32 = 4096.0;
 const DEPTH_SCALE: f32 = 16777215.0;
 
@@ -39,8 +40,9 @@ fn resolve(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 }
 
-@group(1) @binding(2) var<storage, read> probe_points: array<vec4<f32>>;
-@group(1) @binding(3) var<storage, read_write> probe_out: array<vec4<f32>>;
+// The probe's own group 1 (no entry point reads both it and the resolve's).
+@group(1) @binding(0) var<storage, read> probe_points: array<vec4<f32>>;
+@group(1) @binding(1) var<storage, read_write> probe_out: array<vec4<f32>>;
 
 @compute @workgroup_size(64)
 fn probe(@builtin(global_invocation_id) id: vec3<u32>) {

@@ -8,6 +8,7 @@
 //! drawing egui straight onto the scene gives (up to 8-bit rounding where a pixel is partly
 //! transparent, e.g. anti-aliased edges over the 3D view).
 
+use crate::gpu::bind;
 use egui::epaint::ClippedShape;
 use egui::{Pos2, Rect};
 
@@ -161,10 +162,12 @@ impl PanelCache {
             label: Some("panel cache"),
             source: wgpu::ShaderSource::Wgsl(SHADER.into()),
         });
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("panel cache"),
-            entries: &[crate::gpu::texture_entry(0, wgpu::ShaderStages::FRAGMENT)],
-        });
+        let layout = bind::layout(
+            device,
+            "panel cache",
+            wgpu::ShaderStages::FRAGMENT,
+            &[bind::texture_2d()],
+        );
         let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("panel cache"),
             bind_group_layouts: &[Some(&layout)],
@@ -257,15 +260,13 @@ impl PanelCache {
                 view_formats: &[],
             });
             let view = tex.create_view(&Default::default());
-            let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("panel cache"),
-                layout: &self.layout,
-                entries: &[wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: wgpu::BindingResource::TextureView(&view),
-                }],
-            });
-            self.texture = Some((view, bind, size));
+            let group = bind::group(
+                device,
+                "panel cache",
+                &self.layout,
+                &[wgpu::BindingResource::TextureView(&view)],
+            );
+            self.texture = Some((view, group, size));
             self.shapes = None;
         }
         let prev = self

@@ -7,10 +7,12 @@
 //! bound is not far below the ribbons, the compute route is not the lever.
 
 use crate::error::Result;
-use crate::gpu::{self, Gpu};
+use crate::gpu::gpu_data::GpuStrand;
+use crate::gpu::{self, bind, Gpu};
 use crate::stage::camera::Camera;
 use crate::stage::Stage;
 use crate::systems::anjyo::AnjyoSystem;
+use bytemuck::{Pod, Zeroable};
 use std::time::Instant;
 use wgpu::util::DeviceExt;
 
@@ -56,6 +58,16 @@ fn splat(@builtin(global_invocation_id) id: vec3<u32>) {
 }
 "#;
 
+/// The probe's `Params` (a twin of `struct Params` in `SHADER`).
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct ProbeParams {
+    view_proj: [f32; 16],
+    size: [u32; 2],
+    count: u32,
+    _pad: u32,
+}
+
 /// The probe's result: CPU wall milliseconds (median of `runs`, submit to wait) and the
 /// pixel steps it counted (so a pass that did nothing cannot pass for a fast one).
 pub struct Probe {
@@ -73,17 +85,15 @@ pub fn probe(gpu: &Gpu, stage: &Stage, size: (u32, u32), runs: u32) -> Result<Op
     let (c, r) = stage.bounds();
     let (near, far) = cam.clip_planes(c, r);
     let vp = cam.view_proj(size.0 as f64 / size.1 as f64, near, far);
-    let mut params = Vec::with_capacity(80);
-    params.extend_from_slice(bytemuck::cast_slice(&vp.to_cols_array()));
-    params.extend_from_slice(bytemuck::cast_slice(&[
-        size.0,
-        size.1,
-        anjyo.hair.strand_count,
-        0,
-    ]));
+    let params = ProbeParams {
+        view_proj: vp.to_cols_array(),
+        size: [size.0, size.1],
+        count: anjyo.hair.strand_count,
+        _pad: 0,
+    };
     let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("splat params"),
-        contents: &params,
+        contents: bytemuck::bytes_of(&params),
         usage: wgpu::BufferUsages::UNIFORM,
     });
     let pixels = size.0 as u64 * size.1 as u64;
@@ -100,20 +110,20 @@ pub fn probe(gpu: &Gpu, stage: &Stage, size: (u32, u32), runs: u32) -> Result<Op
         include_str!("../../shaders/common/strands.wgsl")
     );
     let module = gpu::shader_module(device, "splat probe", &source)?;
-    let cs = wgpu::ShaderStages::COMPUTE;
-    let layout = gpu::pipeline::layout(
+    let layout = bind::layout(
         device,
         "splat probe",
+        wgpu::ShaderStages::COMPUTE,
         &[
-            gpu::uniform_entry(0, cs),
-            gpu::storage_entry(1, cs, true),
-            gpu::storage_entry(2, cs, true),
-            gpu::storage_entry(3, cs, false),
+            bind::uniform::<ProbeParams>(),
+            bind::storage::<GpuStrand>(),
+            bind::storage::<[f32; 4]>(),
+            bind::storage_rw::<u32>(),
         ],
     );
     let [pipeline] =
         gpu::compute_pipelines(device, "splat probe", &layout, &module, ["splat"], &[]);
-    let bind = gpu::pipeline::bind_buffers(
+    let group = bind::buffers(
         device,
         "splat probe",
         &layout,
@@ -129,7 +139,7 @@ pub fn probe(gpu: &Gpu, stage: &Stage, size: (u32, u32), runs: u32) -> Result<Op
         {
             let mut pass = enc.begin_compute_pass(&Default::default());
             pass.set_pipeline(&pipeline);
-            pass.set_bind_group(0, &bind, &[]);
+            pass.set_bind_group(0, &group, &[]);
             pass.dispatch_workgroups(gx, gy, 1);
         }
         gpu.queue.submit([enc.finish()]);

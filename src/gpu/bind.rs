@@ -86,6 +86,15 @@ pub fn texture_2d() -> Slot {
     })
 }
 
+/// A multisampled 2D float texture read with `textureLoad` (`texture_multisampled_2d<f32>`).
+pub fn multisampled_texture_2d() -> Slot {
+    Slot::of(wgpu::BindingType::Texture {
+        sample_type: wgpu::TextureSampleType::Float { filterable: false },
+        view_dimension: wgpu::TextureViewDimension::D2,
+        multisampled: true,
+    })
+}
+
 /// A 2D float texture read through a filtering sampler.
 pub fn filtered_texture_2d() -> Slot {
     Slot::of(wgpu::BindingType::Texture {

@@ -5,11 +5,12 @@
 //! buffers (the resolve copies one into the other), since wgpu forbids one buffer read-only
 //! and read-write in one dispatch.
 
-use crate::gpu;
+use crate::gpu::bind;
+use crate::gpu::gpu_data::GpuFrame;
 use bytemuck::{Pod, Zeroable};
 
 /// Words per row of the resolved structure's texture (`SHADOW_ROW` in
-/// `shaders/common/shadow.wgsl`).
+/// `shaders/common/shadow.wgsl`; `tests/it/gpu_twins.rs` checks it).
 pub const ROW: u32 = 256;
 
 /// An `R32Float` texture holding `words` words, [`ROW`] a row (a 1 x 1 placeholder for 0).
@@ -81,8 +82,12 @@ impl ShadowVariant {
     }
 }
 
-/// Fixed-point scale of cast coverage; keep in sync with `shaders/common/shadow_cast.wgsl`.
+/// Fixed-point scale of cast coverage (`SHADOW_FIXED` in `shaders/common/shadow_cast.wgsl`,
+/// `FIXED` in `shaders/stage/shadow.wgsl`; `tests/it/gpu_twins.rs` checks both).
 pub const FIXED: f64 = 4096.0;
+/// Fixed-point scale of the nearest caster's depth, 2^24 - 1 (`SHADOW_DEPTH_SCALE`,
+/// `DEPTH_SCALE` in the same shaders, checked the same way).
+pub const DEPTH_SCALE: f64 = 16_777_215.0;
 
 /// Twin of `struct ShadowParams` (`tests/it/gpu_twins.rs` checks it) in `shaders/common/frame.wgsl`.
 #[repr(C)]
@@ -113,22 +118,18 @@ const _: () = assert!(std::mem::size_of::<GpuShadow>() == 176);
 /// [`GpuShadow`]): group 0's binding 1, the resolved structure, an `R32Float` texture of
 /// [`ROW`] words a row. Not a second uniform: one more uniform in group 0 crashed lavapipe
 /// (Mesa 22.3) in the wisps' draws.
-pub fn read_entry() -> wgpu::BindGroupLayoutEntry {
-    gpu::texture_entry(
-        1,
-        wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
-    )
+pub fn read_slot() -> bind::Slot {
+    bind::texture_2d().seen_by(wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE)
 }
 
-/// Group 2 of a cast pipeline: the coverage being cast (read-write) and the phase.
+/// Group 2 of a cast pipeline: the coverage being cast (read-write, atomic words) and the
+/// phase (x; `vec4<u32>`).
 pub fn cast_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
-    gpu::pipeline::layout(
+    bind::layout(
         device,
         "shadow cast",
-        &[
-            gpu::storage_entry(0, wgpu::ShaderStages::COMPUTE, false),
-            gpu::uniform_entry(1, wgpu::ShaderStages::COMPUTE),
-        ],
+        wgpu::ShaderStages::COMPUTE,
+        &[bind::storage_rw::<u32>(), bind::uniform::<[u32; 4]>()],
     )
 }
 
@@ -136,16 +137,11 @@ pub fn cast_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
 /// `shaders/common/frame.wgsl`, with the shadow's box) and the resolved structure (binding
 /// 1).
 pub fn frame_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
-    gpu::pipeline::layout(
+    bind::layout(
         device,
         "frame",
-        &[
-            gpu::uniform_entry(
-                0,
-                wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
-            ),
-            read_entry(),
-        ],
+        wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE,
+        &[bind::uniform::<GpuFrame>(), read_slot()],
     )
 }
 
@@ -156,17 +152,15 @@ pub fn frame_group(
     frame: &wgpu::Buffer,
     map: &wgpu::TextureView,
 ) -> wgpu::BindGroup {
-    device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("frame"),
+    bind::group(
+        device,
+        "frame",
         layout,
-        entries: &[
-            gpu::entry(0, frame),
-            wgpu::BindGroupEntry {
-                binding: 1,
-                resource: wgpu::BindingResource::TextureView(map),
-            },
+        &[
+            frame.as_entire_binding(),
+            wgpu::BindingResource::TextureView(map),
         ],
-    })
+    )
 }
 
 /// A group 0 over `frame` (whose `shadow` is off) with no structure (passes drawn outside

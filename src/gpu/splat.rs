@@ -6,11 +6,12 @@
 //! Systems bind it as group 2 of their splat pipelines; the layout differs with and
 //! without MSAA (the depth texture is multisampled or not), so both are built up front.
 
-use crate::gpu::{self, Gpu};
+use crate::gpu::{bind, Gpu};
 
 /// `u32` words per sample: r, g, b, weight, optical depth.
 pub const WORDS: u64 = 5;
-/// Fixed-point scales; keep in sync with `shaders/anjyo/splat.wgsl`.
+/// Fixed-point scales of the accumulation (the same consts in `shaders/anjyo/splat.wgsl` and
+/// `shaders/stage/downsample.wgsl`; `tests/it/gpu_twins.rs` checks them).
 pub const COLOR_SCALE: f64 = 16384.0;
 pub const DEPTH_SCALE: f64 = 4096.0;
 
@@ -23,28 +24,18 @@ pub struct SplatLayouts {
 
 impl SplatLayouts {
     pub fn new(device: &wgpu::Device) -> SplatLayouts {
-        let make = |multisampled: bool| {
-            gpu::pipeline::layout(
+        // `scene_depth` is a `SceneDepth`: `common/depth_single.wgsl` or `depth_msaa.wgsl`.
+        let make = |depth: bind::Slot| {
+            bind::layout(
                 device,
                 "splat target",
-                &[
-                    gpu::storage_entry(0, wgpu::ShaderStages::COMPUTE, false),
-                    wgpu::BindGroupLayoutEntry {
-                        binding: 1,
-                        visibility: wgpu::ShaderStages::COMPUTE,
-                        ty: wgpu::BindingType::Texture {
-                            sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                            view_dimension: wgpu::TextureViewDimension::D2,
-                            multisampled,
-                        },
-                        count: None,
-                    },
-                ],
+                wgpu::ShaderStages::COMPUTE,
+                &[bind::storage_rw::<u32>(), depth],
             )
         };
         SplatLayouts {
-            single: make(false),
-            multi: make(true),
+            single: make(bind::texture_2d()),
+            multi: make(bind::multisampled_texture_2d()),
         }
     }
 
@@ -82,17 +73,15 @@ impl SplatTarget {
                 | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let bind_group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("splat target"),
-            layout: layouts.for_samples(samples),
-            entries: &[
-                gpu::entry(0, &accum),
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::TextureView(depth),
-                },
+        let bind_group = bind::group(
+            &gpu.device,
+            "splat target",
+            layouts.for_samples(samples),
+            &[
+                accum.as_entire_binding(),
+                wgpu::BindingResource::TextureView(depth),
             ],
-        });
+        );
         Ok(SplatTarget { accum, bind_group })
     }
 }

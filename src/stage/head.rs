@@ -5,7 +5,7 @@
 use crate::error::Result;
 use crate::gpu::gpu_data::{linear_rgb, GpuHead};
 use crate::gpu::pipeline::{self, DrawPipeline, Variant};
-use crate::gpu::{self, Gpu};
+use crate::gpu::{self, bind, Gpu};
 use crate::scene::{Ellipsoid, HeadMesh};
 use glam::{DMat4, DVec3, Mat4};
 use wgpu::util::DeviceExt;
@@ -44,10 +44,11 @@ impl HeadPass {
     ) -> Result<HeadPass> {
         let device = &gpu.device;
         let module = gpu::shader_module(device, "head", crate::shaders::HEAD)?;
-        let layout = pipeline::layout(
+        let layout = bind::layout(
             device,
             "head",
-            &[gpu::uniform_entry(0, wgpu::ShaderStages::VERTEX_FRAGMENT)],
+            wgpu::ShaderStages::VERTEX_FRAGMENT,
+            &[bind::uniform::<GpuHead>()],
         );
         let pl = pipeline::pipeline_layout(device, "head", &[frame_layout, &layout]);
         let pipeline = Self::pipeline(device, &module, &pl, color_format, variant);
@@ -59,7 +60,7 @@ impl HeadPass {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let bind_group = pipeline::bind_buffers(device, "head", &layout, &[&uniform]);
+        let bind_group = bind::buffers(device, "head", &layout, &[&uniform]);
         Ok(HeadPass {
             module,
             pipeline_layout: pl,

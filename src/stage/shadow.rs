@@ -16,8 +16,9 @@
 //! reference of `shadow_strands` (brute force over every segment).
 
 use crate::error::{KamiError, Result};
+use crate::gpu::gpu_data::GpuFrame;
 use crate::gpu::shadow::{self as layouts, GpuShadow};
-use crate::gpu::{self, Gpu};
+use crate::gpu::{self, bind, Gpu};
 use crate::scene::{ShadowMethod, Shadows};
 use glam::{DMat4, DVec3};
 
@@ -176,23 +177,15 @@ impl ShadowPass {
     pub fn new(gpu: &Gpu, frame: &wgpu::Buffer) -> Result<ShadowPass> {
         let device = &gpu.device;
         let placeholder = layouts::map_texture(device, 0).create_view(&Default::default());
-        let params_layout = gpu::pipeline::layout(
-            device,
-            "shadow params",
-            &[gpu::uniform_entry(0, wgpu::ShaderStages::COMPUTE)],
-        );
-        let params_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("shadow params"),
-            layout: &params_layout,
-            entries: &[gpu::entry(0, frame)],
-        });
-        let resolve_layout = gpu::pipeline::layout(
+        let cs = wgpu::ShaderStages::COMPUTE;
+        let params_layout =
+            bind::layout(device, "shadow params", cs, &[bind::uniform::<GpuFrame>()]);
+        let params_group = bind::buffers(device, "shadow params", &params_layout, &[frame]);
+        let resolve_layout = bind::layout(
             device,
             "shadow resolve",
-            &[
-                gpu::storage_entry(0, wgpu::ShaderStages::COMPUTE, true),
-                gpu::storage_entry(1, wgpu::ShaderStages::COMPUTE, false),
-            ],
+            cs,
+            &[bind::storage::<u32>(), bind::storage_rw::<f32>()],
         );
         let module = gpu::shader_module(device, "shadow", MODULE)?;
         let pl = gpu::pipeline::pipeline_layout(
@@ -277,14 +270,14 @@ impl ShadowPass {
         let cast = buffer("shadow cast");
         let resolved = buffer("shadow resolved");
         let cast_groups = [0, 1].map(|p| {
-            gpu::pipeline::bind_buffers(
+            bind::buffers(
                 &gpu.device,
                 "shadow cast",
                 &self.cast_layout,
                 &[&cast, &self.phases[p]],
             )
         });
-        let resolve_group = gpu::pipeline::bind_buffers(
+        let resolve_group = bind::buffers(
             &gpu.device,
             "shadow resolve",
             &self.resolve_layout,
@@ -367,13 +360,11 @@ impl ShadowPass {
             return Ok(Vec::new());
         }
         let device = &gpu.device;
-        let layout = gpu::pipeline::layout(
+        let layout = bind::layout(
             device,
             "shadow probe",
-            &[
-                gpu::storage_entry(2, wgpu::ShaderStages::COMPUTE, true),
-                gpu::storage_entry(3, wgpu::ShaderStages::COMPUTE, false),
-            ],
+            wgpu::ShaderStages::COMPUTE,
+            &[bind::storage::<[f32; 4]>(), bind::storage_rw::<[f32; 4]>()],
         );
         let pl = gpu::pipeline::pipeline_layout(device, "shadow probe", &[frame_layout, &layout]);
         let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
@@ -404,11 +395,7 @@ impl ShadowPass {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("shadow probe"),
-            layout: &layout,
-            entries: &[gpu::entry(2, &input), gpu::entry(3, &output)],
-        });
+        let group = bind::buffers(device, "shadow probe", &layout, &[&input, &output]);
         let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("shadow probe"),
         });

@@ -5,7 +5,7 @@
 //! offscreen texture that `read_rgba` copies back.
 
 use crate::error::{KamiError, Result};
-use crate::gpu::{self, Gpu};
+use crate::gpu::{self, bind, Gpu};
 
 pub use crate::gpu::pipeline::{DEPTH_FORMAT, SCENE_FORMAT};
 
@@ -174,13 +174,15 @@ impl DownsamplePass {
     pub fn new(gpu: &Gpu, output_format: wgpu::TextureFormat) -> Result<DownsamplePass> {
         let device = &gpu.device;
         let module = gpu::shader_module(device, "downsample", crate::shaders::DOWNSAMPLE)?;
-        let layout = gpu::pipeline::layout(
+        let layout = bind::layout(
             device,
             "downsample",
+            wgpu::ShaderStages::FRAGMENT,
             &[
-                gpu::texture_entry(0, wgpu::ShaderStages::FRAGMENT),
-                gpu::uniform_entry(1, wgpu::ShaderStages::FRAGMENT),
-                gpu::storage_entry(2, wgpu::ShaderStages::FRAGMENT, true),
+                bind::texture_2d(),
+                // `struct Resolve`, uploaded as eight words (`bind`).
+                bind::uniform::<[u32; 8]>(),
+                bind::storage::<u32>(),
             ],
         );
         let pl = gpu::pipeline::pipeline_layout(device, "downsample", &[&layout]);
@@ -262,18 +264,16 @@ impl DownsamplePass {
                 0,
             ]),
         );
-        let group = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("downsample"),
-            layout: &self.layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: wgpu::BindingResource::TextureView(&targets.resolved),
-                },
-                gpu::entry(1, &self.uniform),
-                gpu::entry(2, accum.unwrap_or(&self.no_accum)),
+        let group = bind::group(
+            &gpu.device,
+            "downsample",
+            &self.layout,
+            &[
+                wgpu::BindingResource::TextureView(&targets.resolved),
+                self.uniform.as_entire_binding(),
+                accum.unwrap_or(&self.no_accum).as_entire_binding(),
             ],
-        });
+        );
         ResolveBinding {
             group,
             factor: targets.factor,

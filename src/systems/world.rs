@@ -119,7 +119,7 @@ pub fn sample_on_gpu(
     points: &[[f32; 3]],
     sampling: Sampling,
 ) -> Result<Vec<[f32; 3]>> {
-    use crate::gpu::{self, WORKGROUP};
+    use crate::gpu::{self, bind, WORKGROUP};
     use wgpu::util::DeviceExt;
     if points.is_empty() {
         return Ok(Vec::new());
@@ -130,17 +130,18 @@ pub fn sample_on_gpu(
     let bytes = points.len() as u64 * 16;
     gpu.check_storage_size("EFF sample points", bytes)?;
     let module = gpu::shader_module(device, "eff sample", EFF_MODULE)?;
-    let cs = wgpu::ShaderStages::COMPUTE;
-    let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("eff sample"),
-        entries: &[
-            gpu::uniform_entry(0, cs),
-            gpu::storage_entry(1, cs, true),
-            gpu::uniform_entry(2, cs),
-            gpu::storage_entry(3, cs, true),
-            gpu::storage_entry(4, cs, false),
+    let layout = bind::layout(
+        device,
+        "eff sample",
+        wgpu::ShaderStages::COMPUTE,
+        &[
+            bind::uniform::<GpuEffGrid>(),
+            bind::storage::<[f32; 4]>(),
+            bind::uniform::<[u32; 4]>(),
+            bind::storage::<[f32; 4]>(),
+            bind::storage_rw::<[f32; 4]>(),
         ],
-    });
+    );
     let [pipeline] = gpu::compute_pipelines(
         device,
         "eff sample",
@@ -171,17 +172,12 @@ pub fn sample_on_gpu(
         usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
         mapped_at_creation: false,
     });
-    let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("eff sample"),
-        layout: &layout,
-        entries: &[
-            gpu::entry(0, &eff.grid),
-            gpu::entry(1, &eff.cells),
-            gpu::entry(2, &params),
-            gpu::entry(3, &input),
-            gpu::entry(4, &output),
-        ],
-    });
+    let group = bind::buffers(
+        device,
+        "eff sample",
+        &layout,
+        &[&eff.grid, &eff.cells, &params, &input, &output],
+    );
     let mut enc = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
         label: Some("eff sample"),
     });
@@ -191,7 +187,7 @@ pub fn sample_on_gpu(
             timestamp_writes: None,
         });
         pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &bind, &[]);
+        pass.set_bind_group(0, &group, &[]);
         pass.dispatch_workgroups(dims.0, dims.1, 1);
     }
     gpu.queue.submit([enc.finish()]);

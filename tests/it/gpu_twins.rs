@@ -554,3 +554,68 @@ fn a_drifted_field_is_reported() {
     let p = compare(&t, module, layouter).join("\n");
     assert!(p.contains("`Root` is 32 bytes, GpuRoot is 48"), "{p}");
 }
+
+/// The value of the WGSL `const name` in `module`, as f64 (a literal initialiser).
+fn wgsl_const(module: &naga::Module, name: &str) -> Option<f64> {
+    let (_, c) = module
+        .constants
+        .iter()
+        .find(|(_, c)| c.name.as_deref() == Some(name))?;
+    match module.global_expressions[c.init] {
+        naga::Expression::Literal(l) => Some(match l {
+            naga::Literal::F32(v) => f64::from(v),
+            naga::Literal::F64(v) | naga::Literal::AbstractFloat(v) => v,
+            naga::Literal::U32(v) => f64::from(v),
+            naga::Literal::I32(v) => f64::from(v),
+            naga::Literal::AbstractInt(v) => v as f64,
+            _ => return None,
+        }),
+        _ => None,
+    }
+}
+
+/// Numbers Rust and WGSL both use that cannot be pipeline-overridable constants (an array
+/// size, a fixed-point scale read in several modules): (file under `shaders/`, WGSL const,
+/// the Rust value it must equal, where that lives).
+fn twin_constants() -> Vec<(&'static str, &'static str, f64, &'static str)> {
+    use kami::gpu::{shadow, splat};
+    let joints = kami::scene::skinned::MAX_JOINTS as f64;
+    vec![
+        ("fur/generate.wgsl", "MAX_JOINTS", joints, "scene::skinned::MAX_JOINTS"),
+        ("fur/skin.wgsl", "MAX_JOINTS", joints, "scene::skinned::MAX_JOINTS"),
+        ("anjyo/splat.wgsl", "COLOR_SCALE", splat::COLOR_SCALE, "gpu::splat::COLOR_SCALE"),
+        ("anjyo/splat.wgsl", "DEPTH_SCALE", splat::DEPTH_SCALE, "gpu::splat::DEPTH_SCALE"),
+        ("stage/downsample.wgsl", "COLOR_SCALE", splat::COLOR_SCALE, "gpu::splat::COLOR_SCALE"),
+        ("stage/downsample.wgsl", "DEPTH_SCALE", splat::DEPTH_SCALE, "gpu::splat::DEPTH_SCALE"),
+        ("common/shadow_cast.wgsl", "SHADOW_FIXED", shadow::FIXED, "gpu::shadow::FIXED"),
+        ("stage/shadow.wgsl", "FIXED", shadow::FIXED, "gpu::shadow::FIXED"),
+        (
+            "common/shadow_cast.wgsl",
+            "SHADOW_DEPTH_SCALE",
+            shadow::DEPTH_SCALE,
+            "gpu::shadow::DEPTH_SCALE",
+        ),
+        ("stage/shadow.wgsl", "DEPTH_SCALE", shadow::DEPTH_SCALE, "gpu::shadow::DEPTH_SCALE"),
+        ("common/shadow.wgsl", "SHADOW_ROW", f64::from(shadow::ROW), "gpu::shadow::ROW"),
+    ]
+}
+
+/// Every shared constant has the Rust value in every shader that declares it, read by naga.
+#[test]
+fn shared_constants_match_their_rust_values() {
+    let mut cache = HashMap::new();
+    let mut problems = Vec::new();
+    for (file, name, want, rust) in twin_constants() {
+        let (module_name, (module, _)) = module_with(file, &mut cache);
+        match wgsl_const(module, name) {
+            Some(v) if v == want => {}
+            Some(v) => problems.push(format!(
+                "shaders/{file} (module {module_name}): const {name} = {v}, {rust} = {want}"
+            )),
+            None => problems.push(format!(
+                "shaders/{file} (module {module_name}): no literal const {name} (Rust: {rust})"
+            )),
+        }
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}

@@ -99,14 +99,15 @@ fn wgsl_bsdf_matches_the_f64_reference() {
         &format!("{}\n{ENTRY}", kami::shaders::HAIR_BSDF),
     )
     .unwrap();
-    let c = wgpu::ShaderStages::COMPUTE;
-    let layout = kami::gpu::pipeline::layout(
+    use kami::gpu::bind;
+    let layout = bind::layout(
         dev,
         "hair bsdf contract",
+        wgpu::ShaderStages::COMPUTE,
         &[
-            kami::gpu::storage_entry(0, c, true),
-            kami::gpu::storage_entry(1, c, true),
-            kami::gpu::storage_entry(2, c, false),
+            bind::storage::<kami::systems::hair_bsdf::GpuHairBsdf>(),
+            bind::storage::<[f32; 4]>(),
+            bind::storage_rw::<[f32; 4]>(),
         ],
     );
     let pl = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -132,15 +133,12 @@ fn wgsl_bsdf_matches_the_f64_reference() {
         &vec![0u8; out_bytes],
         wgpu::BufferUsages::COPY_SRC,
     );
-    let bind = dev.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: None,
-        layout: &layout,
-        entries: &[
-            kami::gpu::entry(0, &mats_buf),
-            kami::gpu::entry(1, &in_buf),
-            kami::gpu::entry(2, &out_buf),
-        ],
-    });
+    let bind = bind::buffers(
+        dev,
+        "hair bsdf contract",
+        &layout,
+        &[&mats_buf, &in_buf, &out_buf],
+    );
     let mut enc = dev.create_command_encoder(&Default::default());
     {
         let mut pass = enc.begin_compute_pass(&Default::default());

@@ -82,22 +82,12 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let view = stage.scene_depth().expect("the stage drew");
     let (w, h) = SIZE;
     let module = kami::gpu::shader_module(&gpu.device, "read depth", READ).unwrap();
-    let layout = kami::gpu::pipeline::layout(
+    use kami::gpu::bind;
+    let layout = bind::layout(
         &gpu.device,
         "read depth",
-        &[
-            wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::COMPUTE,
-                ty: wgpu::BindingType::Texture {
-                    sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                    view_dimension: wgpu::TextureViewDimension::D2,
-                    multisampled: false,
-                },
-                count: None,
-            },
-            kami::gpu::storage_entry(1, wgpu::ShaderStages::COMPUTE, false),
-        ],
+        wgpu::ShaderStages::COMPUTE,
+        &[bind::texture_2d(), bind::storage_rw::<f32>()],
     );
     let pipeline_layout = gpu
         .device
@@ -123,17 +113,15 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         &vec![0u8; bytes as usize],
         wgpu::BufferUsages::COPY_SRC,
     );
-    let bind = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: None,
-        layout: &layout,
-        entries: &[
-            wgpu::BindGroupEntry {
-                binding: 0,
-                resource: wgpu::BindingResource::TextureView(view),
-            },
-            kami::gpu::entry(1, &out),
+    let bind = bind::group(
+        &gpu.device,
+        "read depth",
+        &layout,
+        &[
+            wgpu::BindingResource::TextureView(view),
+            out.as_entire_binding(),
         ],
-    });
+    );
     let mut enc = gpu.device.create_command_encoder(&Default::default());
     {
         let mut pass = enc.begin_compute_pass(&Default::default());

@@ -289,11 +289,12 @@ fn wait_outlasts_one_fence_timeout() {
             multiview_mask: None,
             cache: None,
         });
-    let bind = gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: None,
-        layout: &pipe.get_bind_group_layout(0),
-        entries: &[kami::gpu::entry(0, &uni)],
-    });
+    let bind = kami::gpu::bind::buffers(
+        &gpu.device,
+        "busy",
+        &pipe.get_bind_group_layout(0),
+        &[&uni],
+    );
     let out = gpu.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("busy readback"),
         size: (side * side * 4) as u64,

@@ -767,16 +767,8 @@ impl Probe {
             mapped_at_creation: false,
         });
         let group = |i: u32, bufs: &[&wgpu::Buffer]| {
-            let entries: Vec<wgpu::BindGroupEntry> = bufs
-                .iter()
-                .enumerate()
-                .map(|(k, b)| kami::gpu::entry(k as u32, b))
-                .collect();
-            d.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("toon probe"),
-                layout: &self.pipeline.get_bind_group_layout(i),
-                entries: &entries,
-            })
+            let layout = self.pipeline.get_bind_group_layout(i);
+            kami::gpu::bind::buffers(d, "toon probe", &layout, bufs)
         };
         let groups = [
             group(0, &[&frame_buf]),

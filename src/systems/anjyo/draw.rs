@@ -14,11 +14,11 @@
 
 use super::gpu_data::{GpuLook, GpuMaterial};
 use crate::error::Result;
-use crate::gpu::gpu_data::linear_rgb;
+use crate::gpu::gpu_data::{linear_rgb, GpuStrand};
 use crate::gpu::pipeline::{self, DrawPipeline, Variant};
 use crate::gpu::splat::SplatLayouts;
 use crate::gpu::strands::StrandBuffers;
-use crate::gpu::{self, Gpu};
+use crate::gpu::{self, bind, Gpu};
 use crate::systems::anjyo::block::Material;
 
 /// Strands of a group of `count` drawn at level of detail `fraction`: the first ones, a
@@ -96,17 +96,18 @@ impl StrandsPass {
     ) -> Result<StrandsPass> {
         let device = &gpu.device;
         let module = gpu::shader_module(device, "anjyo draw", super::DRAW)?;
-        let vs = wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::COMPUTE;
-        let layout = pipeline::layout(
+        // Group 1 of `common/strand_shade.wgsl` (and `strand_drawn.wgsl`, compute only).
+        let layout = bind::layout(
             device,
             "strands",
+            wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::COMPUTE,
             &[
-                gpu::storage_entry(0, vs, true),
-                gpu::storage_entry(1, vs, true),
-                gpu::storage_entry(2, vs, true),
-                gpu::uniform_entry(3, vs),
-                gpu::storage_entry(4, wgpu::ShaderStages::COMPUTE, true),
-                gpu::storage_entry(5, vs, true),
+                bind::storage::<GpuStrand>(),
+                bind::storage::<[f32; 4]>(),
+                bind::storage::<GpuMaterial>(),
+                bind::uniform::<[f32; 4]>(),
+                bind::storage::<[u32; 2]>().seen_by(wgpu::ShaderStages::COMPUTE),
+                bind::storage::<GpuLook>(),
             ],
         );
         let pl = pipeline::pipeline_layout(device, "strands", &[frame_layout, &layout]);
@@ -296,7 +297,7 @@ impl StrandsPass {
             bytemuck::cast_slice(&drawn),
             wgpu::BufferUsages::COPY_DST,
         );
-        let bind_group = pipeline::bind_buffers(
+        let bind_group = bind::buffers(
             &gpu.device,
             "strands",
             &self.layout,

@@ -10,7 +10,7 @@
 use super::follow::{FollowSetup, MAX_GUIDES};
 use crate::error::Result;
 use crate::gpu::strands::StrandBuffers;
-use crate::gpu::{self, Gpu, WORKGROUP};
+use crate::gpu::{self, bind, Gpu, WORKGROUP};
 use bytemuck::{Pod, Zeroable};
 use glam::DMat4;
 use wgpu::util::DeviceExt;
@@ -68,17 +68,18 @@ impl FollowPass {
     pub fn new(gpu: &Gpu) -> Result<FollowPass> {
         let device = &gpu.device;
         let module = gpu::shader_module(device, "follow", super::FOLLOW)?;
-        let cs = wgpu::ShaderStages::COMPUTE;
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("follow"),
-            entries: &[
-                gpu::uniform_entry(0, cs),
-                gpu::storage_entry(1, cs, true),
-                gpu::storage_entry(2, cs, false),
-                gpu::storage_entry(3, cs, true),
-                gpu::storage_entry(4, cs, true),
+        let layout = bind::layout(
+            device,
+            "follow",
+            wgpu::ShaderStages::COMPUTE,
+            &[
+                bind::uniform::<GpuFollowParams>(),
+                bind::storage::<GpuFollower>(),
+                bind::storage_rw::<[f32; 4]>(),
+                bind::storage::<f32>(),
+                bind::storage::<[f32; 4]>(),
             ],
-        });
+        );
         // One pipeline per head kind: with the SDF path compiled out for an ellipsoid head
         // (SDF_HEAD, common/sdf.wgsl), which a software adapter would otherwise run too.
         let pipeline = |sdf: bool| {
@@ -170,17 +171,12 @@ impl FollowPass {
         });
         enc.copy_buffer_to_buffer(&hair.vertices, 0, &rest, 0, hair.vertices.size());
         gpu.queue.submit([enc.finish()]);
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("follow"),
-            layout: &self.layout,
-            entries: &[
-                gpu::entry(0, &params),
-                gpu::entry(1, &followers),
-                gpu::entry(2, &hair.vertices),
-                gpu::entry(3, &sdf),
-                gpu::entry(4, &rest),
-            ],
-        });
+        let bind_group = bind::buffers(
+            device,
+            "follow",
+            &self.layout,
+            &[&params, &followers, &hair.vertices, &sdf, &rest],
+        );
         Ok(FollowJob {
             params,
             bind_group,

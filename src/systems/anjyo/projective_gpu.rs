@@ -17,9 +17,10 @@
 use super::gpu_data::{GpuDynParams, GpuDynStrand};
 use super::projective::{DynSetup, StepForces, MAX_TURN, POLE_SIN};
 use crate::error::Result;
+use crate::forces::eff::GpuEffGrid;
 use crate::gpu::gpu_data::GpuStep;
 use crate::gpu::strands::StrandBuffers;
-use crate::gpu::{self, Gpu, WORKGROUP};
+use crate::gpu::{self, bind, Gpu, WORKGROUP};
 use crate::systems::world::{EffGpu, EFF_WGSL};
 use glam::DMat4;
 use std::sync::OnceLock;
@@ -166,20 +167,23 @@ impl ProjectivePass {
     pub fn new(gpu: &Gpu) -> Result<ProjectivePass> {
         let device = &gpu.device;
         let module = gpu::shader_module(device, "projective", &source())?;
-        let cs = wgpu::ShaderStages::COMPUTE;
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("projective"),
-            entries: &[
-                gpu::uniform_entry(0, cs),
-                gpu::dynamic_uniform_entry(1, cs, SLOT),
-                gpu::storage_entry(2, cs, true),
-                gpu::storage_entry(3, cs, false),
-                gpu::storage_entry(4, cs, false),
-                gpu::uniform_entry(5, cs),
-                gpu::storage_entry(6, cs, true),
-                gpu::storage_entry(7, cs, true),
+        let vec4 = bind::storage_rw::<[f32; 4]>;
+        let layout = bind::layout(
+            device,
+            "projective",
+            wgpu::ShaderStages::COMPUTE,
+            &[
+                bind::uniform::<GpuDynParams>(),
+                bind::dynamic_uniform::<GpuStep>(),
+                // The strand records as three columns of words (`GpuDynStrand` split).
+                bind::storage::<[u32; 4]>(),
+                vec4(),
+                vec4(),
+                bind::uniform::<GpuEffGrid>(),
+                bind::storage::<[f32; 4]>(),
+                bind::storage::<f32>(),
             ],
-        });
+        );
         let [init] = gpu::compute_pipelines(
             device,
             "projective",
@@ -330,27 +334,25 @@ impl ProjectivePass {
         hair: &StrandBuffers,
         eff: &EffGpu,
     ) -> wgpu::BindGroup {
-        device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("projective"),
-            layout: &self.layout,
-            entries: &[
-                gpu::entry(0, params),
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                        buffer: steps,
-                        offset: 0,
-                        size: wgpu::BufferSize::new(SLOT),
-                    }),
-                },
-                gpu::entry(2, strands),
-                gpu::entry(3, state),
-                gpu::entry(4, &hair.vertices),
-                gpu::entry(5, &eff.grid),
-                gpu::entry(6, &eff.cells),
-                gpu::entry(7, sdf),
+        bind::group(
+            device,
+            "projective",
+            &self.layout,
+            &[
+                params.as_entire_binding(),
+                wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: steps,
+                    offset: 0,
+                    size: wgpu::BufferSize::new(SLOT),
+                }),
+                strands.as_entire_binding(),
+                state.as_entire_binding(),
+                hair.vertices.as_entire_binding(),
+                eff.grid.as_entire_binding(),
+                eff.cells.as_entire_binding(),
+                sdf.as_entire_binding(),
             ],
-        })
+        )
     }
 
     /// Update parameters that do not change the layout (tuning from the viewer).

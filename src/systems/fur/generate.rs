@@ -57,39 +57,79 @@ pub struct FurGpu {
     tri_count: u32,
 }
 
+/// The generation kernel's layout and pipeline (`shaders/fur/generate.wgsl`).
+fn generate_pipeline(
+    device: &wgpu::Device,
+) -> Result<(wgpu::BindGroupLayout, wgpu::ComputePipeline)> {
+    let module = gpu::shader_module(device, "fur generate", super::GENERATE)?;
+    let layout = bind::layout(
+        device,
+        "fur_gen",
+        wgpu::ShaderStages::COMPUTE,
+        &[
+            bind::dynamic_uniform::<GpuFurCoat>(),
+            bind::storage::<[f32; 4]>(),
+            bind::storage::<[u32; 4]>(),
+            bind::storage::<u32>(),
+            bind::storage::<u32>(),
+            bind::storage::<[f32; 2]>(),
+            bind::storage_rw::<[f32; 4]>(),
+            bind::storage_rw::<[f32; 4]>(),
+            bind::storage::<[f32; 4]>(),
+            bind::uniform::<GpuJoints>(),
+        ],
+    );
+    let [pipeline] = gpu::compute_pipelines(
+        device,
+        "fur generate",
+        &layout,
+        &module,
+        ["generate"],
+        &[
+            ("WORKGROUP", WORKGROUP as f64),
+            ("TABLE", TABLE as f64),
+            ("EPS_OUT", crate::scene::head::EPS_OUT),
+        ],
+    );
+    Ok((layout, pipeline))
+}
+
+/// The mesh as the kernel reads it: two vec4 per vertex (position and hair length, normal),
+/// then, for a skin, two more per vertex (joint indices as floats, weights) from the
+/// returned base.
+fn mesh_words(setup: &FurSetup) -> (Vec<[f32; 4]>, u32) {
+    let mut mesh: Vec<[f32; 4]> = setup
+        .mesh
+        .positions
+        .iter()
+        .zip(&setup.mesh.normals)
+        .zip(&setup.lengths)
+        .flat_map(|((p, n), l)| {
+            [
+                [p.x as f32, p.y as f32, p.z as f32, *l as f32],
+                [n.x as f32, n.y as f32, n.z as f32, 0.0],
+            ]
+        })
+        .collect();
+    // A skin appends two vec4 per vertex: joint indices (as floats), weights.
+    let skin_base = match &setup.skin {
+        None => 0,
+        Some(sk) => {
+            let base = mesh.len() as u32;
+            for (j, w) in sk.joints.iter().zip(&sk.weights) {
+                mesh.push(j.map(|x| x as f32));
+                mesh.push(w.map(|x| x as f32));
+            }
+            base
+        }
+    };
+    (mesh, skin_base)
+}
+
 impl FurGpu {
     pub fn new(gpu: &Gpu, setup: &FurSetup) -> Result<FurGpu> {
         let device = &gpu.device;
-        let module = gpu::shader_module(device, "fur generate", super::GENERATE)?;
-        let layout = bind::layout(
-            device,
-            "fur_gen",
-            wgpu::ShaderStages::COMPUTE,
-            &[
-                bind::dynamic_uniform::<GpuFurCoat>(),
-                bind::storage::<[f32; 4]>(),
-                bind::storage::<[u32; 4]>(),
-                bind::storage::<u32>(),
-                bind::storage::<u32>(),
-                bind::storage::<[f32; 2]>(),
-                bind::storage_rw::<[f32; 4]>(),
-                bind::storage_rw::<[f32; 4]>(),
-                bind::storage::<[f32; 4]>(),
-                bind::uniform::<GpuJoints>(),
-            ],
-        );
-        let [pipeline] = gpu::compute_pipelines(
-            device,
-            "fur generate",
-            &layout,
-            &module,
-            ["generate"],
-            &[
-                ("WORKGROUP", WORKGROUP as f64),
-                ("TABLE", TABLE as f64),
-                ("EPS_OUT", crate::scene::head::EPS_OUT),
-            ],
-        );
+        let (layout, pipeline) = generate_pipeline(device)?;
         let runs: Vec<(u32, u32, u32)> = setup
             .fur
             .coats
@@ -99,31 +139,7 @@ impl FurGpu {
             .map(|(i, (c, a))| (a.total, c.style.segments(), i as u32))
             .collect();
         let strands = StrandBuffers::from_runs(gpu, "fur", &runs)?;
-        let mut mesh: Vec<[f32; 4]> = setup
-            .mesh
-            .positions
-            .iter()
-            .zip(&setup.mesh.normals)
-            .zip(&setup.lengths)
-            .flat_map(|((p, n), l)| {
-                [
-                    [p.x as f32, p.y as f32, p.z as f32, *l as f32],
-                    [n.x as f32, n.y as f32, n.z as f32, 0.0],
-                ]
-            })
-            .collect();
-        // A skin appends two vec4 per vertex: joint indices (as floats), weights.
-        let skin_base = match &setup.skin {
-            None => 0,
-            Some(sk) => {
-                let base = mesh.len() as u32;
-                for (j, w) in sk.joints.iter().zip(&sk.weights) {
-                    mesh.push(j.map(|x| x as f32));
-                    mesh.push(w.map(|x| x as f32));
-                }
-                base
-            }
-        };
+        let (mesh, skin_base) = mesh_words(setup);
         let tris: Vec<[u32; 4]> = setup
             .mesh
             .triangles

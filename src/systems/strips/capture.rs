@@ -83,36 +83,7 @@ impl Capture {
         let Some((hline, header)) = rows.next() else {
             return Err(data(path, None, "empty: no header line"));
         };
-        // Column of each of COLUMNS in a row.
-        let mut at = [usize::MAX; 6];
-        let names: Vec<&str> = header.split(',').map(str::trim).collect();
-        for (i, n) in names.iter().enumerate() {
-            let n = n.to_ascii_lowercase();
-            let Some(c) = COLUMNS.iter().position(|c| *c == n) else {
-                return Err(err(
-                    hline,
-                    format!(
-                        "unknown column `{n}`: the columns are {}",
-                        COLUMNS.join(", ")
-                    ),
-                ));
-            };
-            if at[c] != usize::MAX {
-                return Err(err(hline, format!("column `{n}` appears twice")));
-            }
-            at[c] = i;
-        }
-        if let Some(c) = at.iter().position(|&i| i == usize::MAX) {
-            return Err(err(
-                hline,
-                format!(
-                    "missing column `{}`: the header needs {}",
-                    COLUMNS[c],
-                    COLUMNS.join(", ")
-                ),
-            ));
-        }
-        let ncol = names.len();
+        let (at, ncol) = columns(header, path, hline)?;
 
         // The first frame fixes the layout: (strand, marker) → (position, line).
         let mut first: BTreeMap<(usize, usize), (DVec3, usize)> = BTreeMap::new();
@@ -156,39 +127,8 @@ impl Capture {
                     format!("{} fields; the header has {ncol} columns", fields.len()),
                 ));
             }
-            let int = |c: usize, cap: u64| -> Result<u64> {
-                let t = fields[at[c]];
-                let v: u64 = t.parse().map_err(|_| {
-                    err(
-                        line,
-                        format!("{}: `{t}` is not a whole number >= 0", COLUMNS[c]),
-                    )
-                })?;
-                if v >= cap {
-                    return Err(err(
-                        line,
-                        format!("{} {v}: Kami reads fewer than {cap}", COLUMNS[c]),
-                    ));
-                }
-                Ok(v)
-            };
-            let f = int(0, u32::MAX as u64)?;
-            let s = int(1, MAX_STRANDS as u64)? as usize;
-            let m = int(2, MAX_MARKERS as u64)? as usize;
-            let mut p = [0.0f64; 3];
-            for (k, v) in p.iter_mut().enumerate() {
-                let t = fields[at[3 + k]];
-                *v = t
-                    .parse()
-                    .map_err(|_| err(line, format!("{}: `{t}` is not a number", COLUMNS[3 + k])))?;
-                if !v.is_finite() {
-                    return Err(err(
-                        line,
-                        format!("{}: `{t}` is not finite", COLUMNS[3 + k]),
-                    ));
-                }
-            }
-            let p = DVec3::from(p);
+            let (f, s, m, p) = marker_row(&fields, &at, path, line)?;
+
             let start_f = *start.get_or_insert(f);
             if f < frame {
                 return Err(err(
@@ -686,4 +626,83 @@ pub fn fit(
         .map(|k| (shown[k].position, solve(k, f0)))
         .collect();
     crate::forces::eff::Eff::from_samples(&fitted, &pairs)
+}
+
+/// The column of each of `COLUMNS` in the marker file's `header` (line `hline` of `path`),
+/// and how many columns it has.
+fn columns(header: &str, path: &str, hline: usize) -> Result<([usize; 6], usize)> {
+    let err = |line: usize, m: String| data(path, Some(line), m);
+    // Column of each of COLUMNS in a row.
+    let mut at = [usize::MAX; 6];
+    let names: Vec<&str> = header.split(',').map(str::trim).collect();
+    for (i, n) in names.iter().enumerate() {
+        let n = n.to_ascii_lowercase();
+        let Some(c) = COLUMNS.iter().position(|c| *c == n) else {
+            return Err(err(
+                hline,
+                format!(
+                    "unknown column `{n}`: the columns are {}",
+                    COLUMNS.join(", ")
+                ),
+            ));
+        };
+        if at[c] != usize::MAX {
+            return Err(err(hline, format!("column `{n}` appears twice")));
+        }
+        at[c] = i;
+    }
+    if let Some(c) = at.iter().position(|&i| i == usize::MAX) {
+        return Err(err(
+            hline,
+            format!(
+                "missing column `{}`: the header needs {}",
+                COLUMNS[c],
+                COLUMNS.join(", ")
+            ),
+        ));
+    }
+    Ok((at, names.len()))
+}
+
+/// One marker row's frame, strand, marker and position (line `line` of `path`).
+fn marker_row(
+    fields: &[&str],
+    at: &[usize; 6],
+    path: &str,
+    line: usize,
+) -> Result<(u64, usize, usize, DVec3)> {
+    let err = |line: usize, m: String| data(path, Some(line), m);
+    let int = |c: usize, cap: u64| -> Result<u64> {
+        let t = fields[at[c]];
+        let v: u64 = t.parse().map_err(|_| {
+            err(
+                line,
+                format!("{}: `{t}` is not a whole number >= 0", COLUMNS[c]),
+            )
+        })?;
+        if v >= cap {
+            return Err(err(
+                line,
+                format!("{} {v}: Kami reads fewer than {cap}", COLUMNS[c]),
+            ));
+        }
+        Ok(v)
+    };
+    let f = int(0, u32::MAX as u64)?;
+    let s = int(1, MAX_STRANDS as u64)? as usize;
+    let m = int(2, MAX_MARKERS as u64)? as usize;
+    let mut p = [0.0f64; 3];
+    for (k, v) in p.iter_mut().enumerate() {
+        let t = fields[at[3 + k]];
+        *v = t
+            .parse()
+            .map_err(|_| err(line, format!("{}: `{t}` is not a number", COLUMNS[3 + k])))?;
+        if !v.is_finite() {
+            return Err(err(
+                line,
+                format!("{}: `{t}` is not finite", COLUMNS[3 + k]),
+            ));
+        }
+    }
+    Ok((f, s, m, DVec3::from(p)))
 }

@@ -335,37 +335,7 @@ pub fn eff(ui: &mut Ui, cx: &mut PanelCx) {
         );
     }
     ui.separator();
-    ui.label("gust: the field's scale over time (frame, scale)");
-    let mut remove = None;
-    for (i, k) in desc.gust.iter_mut().enumerate() {
-        ui.horizontal(|ui| {
-            ui.add(
-                DragValue::new(&mut k.frame)
-                    .range(0.0..=100_000.0)
-                    .speed(1.0),
-            );
-            ui.add(DragValue::new(&mut k.scale).range(0.0..=100.0).speed(0.05));
-            let mut linear = k.interp == Interp::Linear;
-            ui.checkbox(&mut linear, "blend");
-            k.interp = if linear { Interp::Linear } else { Interp::Step };
-            if ui.small_button("x").clicked() {
-                remove = Some(i);
-            }
-        });
-    }
-    if let Some(i) = remove {
-        desc.gust.remove(i);
-    }
-    if ui.small_button("add a gust key").clicked() {
-        let frame = desc.gust.last().map_or(0.0, |k| k.frame + 10.0);
-        desc.gust.push(GustKey {
-            frame,
-            scale: 1.0,
-            interp: Interp::Linear,
-        });
-    }
-    // Keys stay in frame order (the validator requires it).
-    desc.gust.sort_by(|a, b| a.frame.total_cmp(&b.frame));
+    gust_keys(ui, &mut desc.gust);
     ui.separator();
     ui.label("brush: paint a force into the cells around a point");
     let b = &mut s.brush;
@@ -434,6 +404,41 @@ pub fn eff(ui: &mut Ui, cx: &mut PanelCx) {
             }
         }
     });
+}
+
+/// The EFF's gust keys (frame, scale, blend), kept in frame order.
+fn gust_keys(ui: &mut Ui, gust: &mut Vec<GustKey>) {
+    ui.label("gust: the field's scale over time (frame, scale)");
+    let mut remove = None;
+    for (i, k) in gust.iter_mut().enumerate() {
+        ui.horizontal(|ui| {
+            ui.add(
+                DragValue::new(&mut k.frame)
+                    .range(0.0..=100_000.0)
+                    .speed(1.0),
+            );
+            ui.add(DragValue::new(&mut k.scale).range(0.0..=100.0).speed(0.05));
+            let mut linear = k.interp == Interp::Linear;
+            ui.checkbox(&mut linear, "blend");
+            k.interp = if linear { Interp::Linear } else { Interp::Step };
+            if ui.small_button("x").clicked() {
+                remove = Some(i);
+            }
+        });
+    }
+    if let Some(i) = remove {
+        gust.remove(i);
+    }
+    if ui.small_button("add a gust key").clicked() {
+        let frame = gust.last().map_or(0.0, |k| k.frame + 10.0);
+        gust.push(GustKey {
+            frame,
+            scale: 1.0,
+            interp: Interp::Linear,
+        });
+    }
+    // Keys stay in frame order (the validator requires it).
+    gust.sort_by(|a, b| a.frame.total_cmp(&b.frame));
 }
 
 /// The key-frame timeline (section 4): each edit pulls one strip toward a target between
