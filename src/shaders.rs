@@ -8,6 +8,17 @@
 
 /// Concatenate shader files (paths under `shaders/`) into one WGSL source.
 macro_rules! wgsl {
+    // A simulation kernel: the world it binds at group 3 (`shaders/common/world.wgsl`, with
+    // the EFF and head-hull functions that read it) before the kernel's own files.
+    (world; $($file:literal),+ $(,)?) => {
+        $crate::shaders::wgsl!(
+            "forces/eff.wgsl",
+            "common/ellipsoid.wgsl",
+            "common/sdf.wgsl",
+            "common/world.wgsl",
+            $($file),+
+        )
+    };
     ($($file:literal),+ $(,)?) => {
         concat!($(include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/shaders/", $file)), "\n"),+)
     };

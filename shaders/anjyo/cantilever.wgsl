@@ -70,8 +70,7 @@ const FLAG_DONE: u32 = 2u;
 // Converged mode only: joint rotations [0, total) and their previous values [total, 2 total).
 @group(0) @binding(7) var<storage, read_write> scratch: array<vec4<f32>>;
 
-// The mesh head's signed distance field (common/sdf.wgsl); a placeholder for an ellipsoid.
-@group(0) @binding(8) var<storage, read> sdf_data: array<f32>;
+// The head's hull and field: the world at group 3 (common/world.wgsl).
 
 fn hull() -> HeadHull {
     return head_hull(params.head_center, params.head_radii);

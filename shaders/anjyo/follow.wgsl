@@ -40,9 +40,8 @@ struct Follower {
 @group(0) @binding(0) var<uniform> params: FollowParams;
 @group(0) @binding(1) var<storage, read> followers: array<Follower>;
 @group(0) @binding(2) var<storage, read_write> verts: array<vec4<f32>>;
-// The mesh head's signed distance field (common/sdf.wgsl); a placeholder for an ellipsoid.
-@group(0) @binding(3) var<storage, read> sdf_data: array<f32>;
-@group(0) @binding(4) var<storage, read> rest: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read> rest: array<vec4<f32>>;
+// The head's hull and field: the world at group 3 (common/world.wgsl).
 
 fn xform_point(m: mat4x4<f32>, p: vec3<f32>) -> vec3<f32> {
     return (m * vec4<f32>(p, 1.0)).xyz;

@@ -84,11 +84,7 @@ struct DynStrand {
 @group(0) @binding(2) var<storage, read> dyn_strands: array<vec4<u32>>;
 @group(0) @binding(3) var<storage, read_write> state: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read_write> verts: array<vec4<f32>>;
-@group(0) @binding(5) var<uniform> eff: EffGrid;
-@group(0) @binding(6) var<storage, read> eff_cells: array<vec4<f32>>;
-
-// The mesh head's signed distance field (common/sdf.wgsl); a placeholder for an ellipsoid.
-@group(0) @binding(7) var<storage, read> sdf_data: array<f32>;
+// The EFF and the head's field: the world at group 3 (common/world.wgsl).
 
 fn hull() -> HeadHull {
     return head_hull(params.head_center, params.head_radii);

@@ -4,8 +4,8 @@
 // step's record picked by the dynamic `slot`. The propagators (the exact damped-oscillator
 // flow over a full and a half step) are computed in f64 on the CPU per joint and uploaded;
 // the head poses, the head-acceleration maps, the uniform wind and the extra forces' ramps
-// per step are too. Follows forces/eff.wgsl (eff_field), common/ellipsoid.wgsl and the head:
-// common/ellipsoid_head.wgsl, or on a mesh head common/sdf.wgsl (the field in `sdf_data`,
+// per step are too. Follows the world (common/world.wgsl at group 3: forces/eff.wgsl's
+// eff_field, common/ellipsoid.wgsl and common/sdf.wgsl, the mesh head's field in `sdf_data`,
 // trilinear, as Rig::step reads it through scene::hull::HeadHull; flags.y = 1 selects it).
 //
 // Loops per invocation and dispatch stay far below llvmpipe's 65,535 (the Rust side refuses
@@ -93,11 +93,7 @@ struct Joint {
 @group(0) @binding(6) var<storage, read_write> scratch: array<vec4<f32>>;
 // World control points, strip * stride + k, w = 1 (the ribbons read them).
 @group(0) @binding(7) var<storage, read_write> pos: array<vec4<f32>>;
-@group(0) @binding(8) var<uniform> eff: EffGrid;
-@group(0) @binding(9) var<storage, read> eff_cells: array<vec4<f32>>;
-// The mesh head's signed distance field (common/sdf.wgsl); bound only on mesh heads (the
-// module for other scenes never reads it).
-@group(0) @binding(10) var<storage, read> sdf_data: array<f32>;
+// The EFF and the head's field: the world at group 3 (common/world.wgsl).
 
 const TAU: f32 = 6.28318530717959;
 

@@ -60,11 +60,7 @@ struct Edge {
 // Regions of `count` entries: 0 velocity, 1 A.x, 2 A.v, 3 B.x, 4 B.v, 5 sum of k_x,
 // 6 sum of k_v.
 @group(0) @binding(6) var<storage, read_write> scratch: array<vec4<f32>>;
-// The scene's EFF (forces/eff.wgsl; flagged absent in eff.dims.w for none).
-@group(0) @binding(7) var<uniform> eff: EffGrid;
-@group(0) @binding(8) var<storage, read> eff_cells: array<vec4<f32>>;
-// The mesh head's SDF (common/sdf.wgsl; a placeholder for an ellipsoid head).
-@group(0) @binding(9) var<storage, read> sdf_data: array<f32>;
+// The scene's EFF and the head's field: the world at group 3 (common/world.wgsl).
 
 const VEL: u32 = 0u;
 const AX: u32 = 1u;

@@ -68,8 +68,9 @@ pub fn groom(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Re
         let cpu = t.elapsed().as_secs_f64();
 
         let strands = input.strand_buffers(gpu)?;
-        let pass = CantileverPass::new(gpu)?;
-        let job = pass.prepare(gpu, &input, &strands)?;
+        let world = crate::systems::world::WorldGpu::of_scene(gpu, &s)?;
+        let pass = CantileverPass::new(gpu, &world)?;
+        let job = pass.prepare(gpu, &world, &input, &strands)?;
         let runs = if converged { 2 } else { 5 };
         let gpu_t = time_mean(runs, || {
             let mut enc = gpu

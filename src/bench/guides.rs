@@ -45,9 +45,10 @@ fn run_share(gpu: &Gpu, scene: &Scene, share: f64) -> Result<ShareRun> {
         d.guides = (share < 1.0).then_some(share);
     }
     let input = prepare(&scene)?;
-    let hair = cantilever_gpu::groom_gpu(gpu, &input)?;
+    let world = crate::systems::world::WorldGpu::of_scene(gpu, &scene)?;
+    let hair = cantilever_gpu::groom_gpu(gpu, &world, &input)?;
     let mut sim =
-        Simulation::new(gpu, &scene, &input, &hair)?.ok_or_else(|| crate::KamiError::Invalid {
+        Simulation::new(gpu, &world, &scene, &input, &hair)?.ok_or_else(|| crate::KamiError::Invalid {
             file: String::new(),
             field: "dynamics".into(),
             value: "None".into(),

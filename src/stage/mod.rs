@@ -26,6 +26,7 @@ use crate::gpu::shadow::{Lookup, ShadowVariant};
 use crate::gpu::timing::{GpuTimer, Phase};
 use crate::gpu::{self, Gpu};
 use crate::systems::Scene;
+use crate::systems::world::WorldGpu;
 use crate::systems::{Change, DrawSetup, FrameCtx, HairSystem, StepInfo, SystemStats, View, KINDS};
 use camera::Camera;
 use glam::{DMat4, DVec3};
@@ -93,6 +94,9 @@ pub struct Applied {
 pub struct Stage {
     scene: Scene,
     forces: Forces,
+    /// The scene's world on the GPU (gravity, hull, EFF, head field), uploaded once and
+    /// bound by every system's simulation kernels (`systems::world`).
+    world: WorldGpu,
     /// The clock: frames since the rest pose.
     frame: u64,
     systems: Vec<Box<dyn HairSystem>>,
@@ -187,8 +191,11 @@ impl Stage {
         let shadow = shadow::ShadowPass::new(gpu, &frame_buffer)?;
         let frame_bind_group =
             gpu::shadow::frame_group(device, &frame_layout, &frame_buffer, shadow.read_view());
+        let forces = Forces::new(&scene.forces, &scene.head);
+        let world = WorldGpu::of(gpu, &forces, &scene.head)?;
         let mut stage = Stage {
-            forces: Forces::new(&scene.forces, &scene.head),
+            forces,
+            world,
             scene: scene.clone(),
             frame: 0,
             systems: Vec::new(),
@@ -210,7 +217,7 @@ impl Stage {
         for kind in KINDS {
             if (kind.in_scene)(scene) {
                 (kind.check_limits)(gpu, scene)?;
-                let system = (kind.build)(gpu, scene, &stage.draw_setup())?;
+                let system = (kind.build)(gpu, scene, &stage.draw_setup(&stage.world))?;
                 stage.systems.push(system);
             }
         }
@@ -220,8 +227,10 @@ impl Stage {
         Ok(stage)
     }
 
-    fn draw_setup(&self) -> DrawSetup<'_> {
+    /// What systems are built for, over `world` (the stage's, or the one an edit makes).
+    fn draw_setup<'a>(&'a self, world: &'a WorldGpu) -> DrawSetup<'a> {
         DrawSetup {
+            world,
             frame_layout: &self.frame_layout,
             splat_layouts: &self.splat_layouts,
             shadow_cast_layout: &self.shadow.cast_layout,
@@ -474,6 +483,16 @@ impl Stage {
     /// an unreadable mesh) the error is returned and the stage keeps drawing the scene it had.
     pub fn apply(&mut self, gpu: &Gpu, new: &Scene) -> Result<Applied> {
         let mut applied = Applied::default();
+        // The world first: rewritten in place when the new forces and head fit it; otherwise
+        // (another EFF grid size, a field appearing or going, another kind of head or field
+        // size) a new one, and every system is built again over it.
+        let forces = Forces::new(&new.forces, &new.head);
+        let hull = crate::scene::hull::head_hull(&new.head)?;
+        let new_world = if self.world.fits(&forces, &hull) {
+            None
+        } else {
+            Some(WorldGpu::new(gpu, &forces, &hull)?)
+        };
         // First pass: classify, and build what must be built.
         let mut plan: Vec<Planned> = Vec::new();
         for (k, kind) in KINDS.iter().enumerate() {
@@ -482,11 +501,13 @@ impl Stage {
                 (false, false) => continue,
                 (true, false) => Change::Rebuild,
                 (false, true) => Change::Rebuild,
+                (true, true) if new_world.is_some() => Change::Rebuild,
                 (true, true) => (kind.classify)(&self.scene, new),
             };
             let built = if change == Change::Rebuild && (kind.in_scene)(new) {
                 (kind.check_limits)(gpu, new)?;
-                Some((kind.build)(gpu, new, &self.draw_setup())?)
+                let world = new_world.as_ref().unwrap_or(&self.world);
+                Some((kind.build)(gpu, new, &self.draw_setup(world))?)
             } else {
                 None
             };
@@ -523,8 +544,12 @@ impl Stage {
                 _ => {}
             }
         }
+        match new_world {
+            Some(w) => self.world = w,
+            None => self.world.write(gpu, &forces, &hull)?,
+        }
         self.scene = new.clone();
-        self.forces = Forces::new(&new.forces, &new.head);
+        self.forces = forces;
         self.ensure_head(gpu)?;
         if applied.restarted {
             // Systems built just now are at rest already.

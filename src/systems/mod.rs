@@ -72,10 +72,15 @@ pub struct View {
     pub focal_samples: f64,
 }
 
-/// What a system's draw pipelines are built for: the shared frame bind group (group 0,
+/// What a system's pipelines are built for: the shared frame bind group (group 0,
 /// `shaders/common/frame.wgsl`), the scene target format, its MSAA sample count and the
-/// shadow lookup the shading compiles.
+/// shadow lookup the shading compiles; and the world its simulation kernels bind.
 pub struct DrawSetup<'a> {
+    /// The scene's world on the GPU (gravity, hull, EFF, head field), the stage's: every
+    /// simulation kernel binds its group at `world::WORLD_GROUP`. A system keeps its group,
+    /// which the stage rewrites in place on edits that fit it; an edit that needs a new
+    /// world builds every system again (`Stage::apply`).
+    pub world: &'a world::WorldGpu,
     pub frame_layout: &'a wgpu::BindGroupLayout,
     /// Group 2 of a compute rasteriser for thin strands (`gpu::splat`).
     pub splat_layouts: &'a crate::gpu::splat::SplatLayouts,

@@ -1,10 +1,247 @@
-//! The world every kind's kernels read, on the GPU: the External Force Field's grid and
-//! cells (`EffGpu`, sampled by `shaders/forces/eff.wgsl`). The f64 side (`forces::eff::Eff`)
-//! stays in `forces`, which knows no GPU; kinds reach the upload here.
+//! The world every kind's kernels read, on the GPU. The stage owns one [`WorldGpu`] per scene
+//! and uploads into it, once, what every simulation kernel reads of the world: gravity, the
+//! head's hull (ellipsoid, or a mesh head's signed distance field) and the External Force
+//! Field's grid and cells. Every simulation kernel (Anjyo's cantilever, projective and
+//! follower passes, the wisps' springs, the strips' motion) binds its bind group at
+//! [`WORLD_GROUP`] and reads it through `shaders/common/world.wgsl`; no kind uploads a copy
+//! of its own. A kind gets the world through `DrawSetup::world` when it is built.
+//!
+//! What changes per substep (keyed wind, the gust scale, the head's pose) is still evaluated
+//! by each kind from the stage's `Forces` at its own substep times and carried in its own
+//! substep slots. The f64 side (`forces::eff::Eff`, `forces::Forces`) stays in `forces`,
+//! which knows no GPU.
 
 use crate::error::{KamiError, Result};
 use crate::forces::eff::{Eff, GpuEffGrid};
+use crate::forces::Forces;
+use crate::gpu::{bind, Gpu};
+use crate::scene::hull::HeadHull;
 use crate::scene::Sampling;
+use bytemuck::{Pod, Zeroable};
+use std::cell::Cell;
+
+/// The bind group index of the world in every simulation kernel's pipeline layout (groups
+/// 0 to 2 are the kernel's own, or the frame, kind and splat/cast groups of draw passes).
+pub const WORLD_GROUP: u32 = 3;
+
+/// Twin of `struct World` in `shaders/common/world.wgsl` (`tests/it/gpu_twins.rs` checks it).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuWorld {
+    /// xyz `Forces::gravity`, w 0.
+    pub gravity: [f32; 4],
+    /// `HeadHull::gpu_params().0`: xyz the ellipsoid's centre, w 1 when the hull is the SDF.
+    pub hull_center: [f32; 4],
+    /// `HeadHull::gpu_params().1`: xyz the ellipsoid's radii, w 0.
+    pub hull_radii: [f32; 4],
+}
+const _: () = assert!(std::mem::size_of::<GpuWorld>() == 48);
+
+impl GpuWorld {
+    pub fn new(forces: &Forces, hull: &HeadHull) -> GpuWorld {
+        let g = forces.gravity;
+        let (hull_center, hull_radii) = hull.gpu_params();
+        GpuWorld {
+            gravity: [g.x as f32, g.y as f32, g.z as f32, 0.0],
+            hull_center,
+            hull_radii,
+        }
+    }
+}
+
+thread_local! {
+    /// (EFF grids, head fields) uploaded by this thread: what `uploads` reports.
+    static UPLOADS: Cell<(u64, u64)> = const { Cell::new((0, 0)) };
+}
+
+/// How many EFF grids and head signed distance fields this thread has uploaded to the GPU so
+/// far (a new upload, not a rewrite in place): tests check a scene uploads each once.
+pub fn uploads() -> (u64, u64) {
+    UPLOADS.with(|u| u.get())
+}
+
+fn count_upload(eff: u64, sdf: u64) {
+    UPLOADS.with(|u| {
+        let (e, s) = u.get();
+        u.set((e + eff, s + sdf));
+    });
+}
+
+/// The world of one scene on the GPU (group [`WORLD_GROUP`] of every simulation kernel):
+/// `GpuWorld` (binding 0), the EFF's grid and cells (1, 2; a one-cell grid flagged absent
+/// without a field) and the head's SDF words (3; a placeholder on an ellipsoid head).
+pub struct WorldGpu {
+    layout: wgpu::BindGroupLayout,
+    world: wgpu::Buffer,
+    eff: EffGpu,
+    sdf: wgpu::Buffer,
+    /// Words `sdf` holds.
+    sdf_words: usize,
+    sdf_head: bool,
+    has_eff: bool,
+    group: wgpu::BindGroup,
+}
+
+impl WorldGpu {
+    /// Upload the world of a scene with these forces and this head hull.
+    pub fn new(gpu: &Gpu, forces: &Forces, hull: &HeadHull) -> Result<WorldGpu> {
+        let device = &gpu.device;
+        let words = hull.gpu_sdf();
+        gpu.check_storage_size("the head's signed distance field", 4 * words.len() as u64)?;
+        let eff = EffGpu::new(gpu, forces.eff.as_deref())?;
+        let sdf = crate::gpu::storage_buffer(
+            device,
+            "world head sdf",
+            bytemuck::cast_slice(&words),
+            wgpu::BufferUsages::empty(),
+        );
+        count_upload(0, 1);
+        let world = crate::gpu::storage_buffer(
+            device,
+            "world",
+            bytemuck::bytes_of(&GpuWorld::new(forces, hull)),
+            wgpu::BufferUsages::UNIFORM,
+        );
+        let layout = Self::make_layout(device);
+        let group = bind::buffers(
+            device,
+            "world",
+            &layout,
+            &[&world, &eff.grid, &eff.cells, &sdf],
+        );
+        Ok(WorldGpu {
+            layout,
+            world,
+            eff,
+            sdf,
+            sdf_words: words.len(),
+            sdf_head: hull.sdf().is_some(),
+            has_eff: forces.eff.is_some(),
+            group,
+        })
+    }
+
+    /// The world of a scene's `forces` around its `head` (the hull of `scene::hull::head_hull`).
+    pub fn of(gpu: &Gpu, forces: &Forces, head: &crate::scene::Head) -> Result<WorldGpu> {
+        Self::new(gpu, forces, &crate::scene::hull::head_hull(head)?)
+    }
+
+    /// The world of `scene` as the stage makes it (tests and benches that build one kind's
+    /// passes without a stage).
+    pub fn of_scene(gpu: &Gpu, scene: &crate::systems::Scene) -> Result<WorldGpu> {
+        Self::of(gpu, &Forces::new(&scene.forces, &scene.head), &scene.head)
+    }
+
+    fn make_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+        bind::layout(
+            device,
+            "world",
+            wgpu::ShaderStages::COMPUTE,
+            &[
+                bind::uniform::<GpuWorld>(),
+                bind::uniform::<GpuEffGrid>(),
+                bind::storage::<[f32; 4]>(),
+                bind::storage::<f32>(),
+            ],
+        )
+    }
+
+    /// The layout of group [`WORLD_GROUP`].
+    pub fn layout(&self) -> &wgpu::BindGroupLayout {
+        &self.layout
+    }
+
+    /// The bind group to bind at [`WORLD_GROUP`].
+    pub fn group(&self) -> &wgpu::BindGroup {
+        &self.group
+    }
+
+    /// Whether the head is a mesh's SDF (kernels compile the SDF path in: `SDF_HEAD`).
+    pub fn sdf_head(&self) -> bool {
+        self.sdf_head
+    }
+
+    /// Whether the scene has an EFF (kernels compile its sampling in).
+    pub fn has_eff(&self) -> bool {
+        self.has_eff
+    }
+
+    /// The EFF's grid and cells (the probe `sample_on_gpu` binds them).
+    pub fn eff(&self) -> &EffGpu {
+        &self.eff
+    }
+
+    /// Whether `write` can take these forces and hull in place: the same EFF grid size and
+    /// presence, the same kind of hull and SDF size. Otherwise the scene needs a new world,
+    /// and every kernel built over this one is built again (they compile in or out what is
+    /// present).
+    pub fn fits(&self, forces: &Forces, hull: &HeadHull) -> bool {
+        let cells = forces.eff.as_deref().map_or(1, |e| e.cell_count());
+        forces.eff.is_some() == self.has_eff
+            && cells == self.eff.count
+            && hull.sdf().is_some() == self.sdf_head
+            && hull.gpu_sdf().len() == self.sdf_words
+    }
+
+    /// Rewrite the world in place (an edit of the forces or the head, or the EFF brush):
+    /// refused, before writing anything, when it does not `fit`.
+    pub fn write(&self, gpu: &Gpu, forces: &Forces, hull: &HeadHull) -> Result<()> {
+        if !self.fits(forces, hull) {
+            return Err(KamiError::Gpu(
+                "the world's grids changed size: make a new WorldGpu".into(),
+            ));
+        }
+        gpu.queue.write_buffer(
+            &self.world,
+            0,
+            bytemuck::bytes_of(&GpuWorld::new(forces, hull)),
+        );
+        self.eff.write(gpu, forces.eff.as_deref(), 1.0);
+        if let Some(e) = forces.eff.as_deref() {
+            self.eff.write_cells(gpu, e)?;
+        }
+        if hull.sdf().is_some() {
+            gpu.queue
+                .write_buffer(&self.sdf, 0, bytemuck::cast_slice(&hull.gpu_sdf()));
+        }
+        Ok(())
+    }
+
+    /// The compute pipelines of `entries` in `module` over the kernel's own group 0
+    /// (`layout`) and the world at [`WORLD_GROUP`], with the module's overridable
+    /// `constants` (as `gpu::compute_pipelines`).
+    pub fn compute_pipelines<const N: usize>(
+        &self,
+        device: &wgpu::Device,
+        label: &str,
+        layout: &wgpu::BindGroupLayout,
+        module: &wgpu::ShaderModule,
+        entries: [&str; N],
+        constants: &[(&str, f64)],
+    ) -> [wgpu::ComputePipeline; N] {
+        let mut groups = [None; WORLD_GROUP as usize + 1];
+        groups[0] = Some(layout);
+        groups[WORLD_GROUP as usize] = Some(&self.layout);
+        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some(label),
+            bind_group_layouts: &groups,
+            immediate_size: 0,
+        });
+        entries.map(|entry| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry),
+                layout: Some(&pl),
+                module,
+                entry_point: Some(entry),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants,
+                    ..Default::default()
+                },
+                cache: None,
+            })
+        })
+    }
+}
 
 /// The EFF on the GPU: `grid` is the `EffGrid` uniform of `shaders/forces/eff.wgsl`, `cells`
 /// its storage buffer (one `vec4<f32>` per cell). A scene without an EFF gets a one-cell
@@ -20,6 +257,7 @@ impl EffGpu {
     pub fn new(gpu: &crate::gpu::Gpu, eff: Option<&Eff>) -> Result<EffGpu> {
         let data = crate::forces::eff::cell_data(eff);
         gpu.check_storage_size("the EFF grid", (data.len() * 16) as u64)?;
+        count_upload(1, 0);
         let grid = crate::gpu::storage_buffer(
             &gpu.device,
             "eff grid",
@@ -119,7 +357,7 @@ pub fn sample_on_gpu(
     points: &[[f32; 3]],
     sampling: Sampling,
 ) -> Result<Vec<[f32; 3]>> {
-    use crate::gpu::{self, bind, WORKGROUP};
+    use crate::gpu::{self, WORKGROUP};
     use wgpu::util::DeviceExt;
     if points.is_empty() {
         return Ok(Vec::new());

@@ -203,7 +203,12 @@ fn extreme_valid_scene_renders_finite_hair() {
     );
     let scene = Scene::from_ron(&text, "extreme.ron").unwrap();
     let input = kami::systems::anjyo::groom::prepare(&scene).unwrap();
-    let hair = kami::systems::anjyo::cantilever_gpu::groom_gpu(gpu, &input).unwrap();
+    let hair = kami::systems::anjyo::cantilever_gpu::groom_gpu(
+        gpu,
+        &common::groom_world(gpu, &input),
+        &input,
+    )
+    .unwrap();
     let v = hair.read_vertices(gpu).unwrap();
     assert!(
         v.iter().all(|p| p.iter().all(|c| c.is_finite())),

@@ -186,6 +186,39 @@ pub fn stage(gpu: &Gpu, scene: &kami::Scene) -> kami::stage::Stage {
     .unwrap()
 }
 
+/// The world `scene`'s kernels bind, as the stage makes it (`systems::world`), for tests that
+/// build one kind's passes without a stage.
+pub fn world(gpu: &Gpu, scene: &kami::Scene) -> kami::systems::world::WorldGpu {
+    kami::systems::world::WorldGpu::of_scene(gpu, scene).unwrap()
+}
+
+/// The world of `forces` around `head` (the hull of `scene::hull::head_hull`).
+pub fn world_of(
+    gpu: &Gpu,
+    forces: &kami::forces::Forces,
+    head: &kami::scene::Head,
+) -> kami::systems::world::WorldGpu {
+    kami::systems::world::WorldGpu::of(gpu, forces, head).unwrap()
+}
+
+/// The world of `head` with no forces (no EFF).
+pub fn still_world(gpu: &Gpu, head: &kami::scene::Head) -> kami::systems::world::WorldGpu {
+    world_of(
+        gpu,
+        &kami::forces::Forces::new(&Default::default(), head),
+        head,
+    )
+}
+
+/// A world with no forces around `input`'s head hull: what the groom (the cantilever) reads.
+pub fn groom_world(
+    gpu: &Gpu,
+    input: &kami::systems::anjyo::groom::GroomInput,
+) -> kami::systems::world::WorldGpu {
+    let forces = kami::forces::Forces::new(&Default::default(), &Default::default());
+    kami::systems::world::WorldGpu::new(gpu, &forces, &input.head).unwrap()
+}
+
 /// Shipped scene `name` with each strand group's count divided by `divisor` (quicker tests).
 pub fn thinned(name: &str, divisor: u32) -> kami::Scene {
     let mut s = scene(name);

@@ -37,7 +37,7 @@ impl Comparison {
 fn compare(input: &GroomInput) -> Comparison {
     let gpu = common::gpu();
     let reference = cantilever::bend_all(input);
-    let hair = cantilever_gpu::groom_gpu(gpu, input).unwrap();
+    let hair = cantilever_gpu::groom_gpu(gpu, &common::groom_world(gpu, input), input).unwrap();
     let verts = hair.read_vertices(gpu).unwrap();
     let strands = hair.read_strands(gpu).unwrap();
     let offsets = input.vertex_offsets();
@@ -209,10 +209,16 @@ fn projective_against_reference(
     }
     let input = prepare(&scene).unwrap();
     let groomed = cantilever::bend_all(&input);
-    let hair = cantilever_gpu::groom_gpu(gpu, &input).unwrap();
-    let mut sim = kami::systems::anjyo::simulation::Simulation::new(gpu, &scene, &input, &hair)
-        .unwrap()
-        .unwrap();
+    let hair = cantilever_gpu::groom_gpu(gpu, &common::groom_world(gpu, &input), &input).unwrap();
+    let mut sim = kami::systems::anjyo::simulation::Simulation::new(
+        gpu,
+        &common::world(gpu, &scene),
+        &scene,
+        &input,
+        &hair,
+    )
+    .unwrap()
+    .unwrap();
     let mut cpu = CpuSim::new(
         DynSetup::new(&scene, &input, &groomed.visible).unwrap(),
         groomed.nodes.clone(),
@@ -293,10 +299,17 @@ fn several_frames_per_submission_match_one_by_one() {
     let input = prepare(&scene).unwrap();
     let mut runs = Vec::new();
     for per_submit in [1, 3] {
-        let hair = cantilever_gpu::groom_gpu(gpu, &input).unwrap();
-        let mut sim = kami::systems::anjyo::simulation::Simulation::new(gpu, &scene, &input, &hair)
-            .unwrap()
-            .unwrap();
+        let hair =
+            cantilever_gpu::groom_gpu(gpu, &common::groom_world(gpu, &input), &input).unwrap();
+        let mut sim = kami::systems::anjyo::simulation::Simulation::new(
+            gpu,
+            &common::world(gpu, &scene),
+            &scene,
+            &input,
+            &hair,
+        )
+        .unwrap()
+        .unwrap();
         for _ in 0..18 / per_submit {
             let mut enc = gpu.device.create_command_encoder(&Default::default());
             sim.record_frames(gpu, &mut enc, &hair, per_submit);

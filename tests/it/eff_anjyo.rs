@@ -90,8 +90,10 @@ fn median(mut v: Vec<f64>) -> f64 {
 
 /// Run the GPU simulation `frames` frames; the node positions.
 fn run_gpu(gpu: &kami::gpu::Gpu, scene: &Scene, input: &GroomInput, frames: u32) -> Vec<DVec3> {
-    let hair = cantilever_gpu::groom_gpu(gpu, input).unwrap();
-    let mut sim = Simulation::new(gpu, scene, input, &hair).unwrap().unwrap();
+    let hair = cantilever_gpu::groom_gpu(gpu, &common::groom_world(gpu, input), input).unwrap();
+    let mut sim = Simulation::new(gpu, &common::world(gpu, scene), scene, input, &hair)
+        .unwrap()
+        .unwrap();
     for _ in 0..frames {
         let mut enc = gpu.device.create_command_encoder(&Default::default());
         sim.record_frame(gpu, &mut enc, &hair);
@@ -235,8 +237,8 @@ fn gpu_matches_the_reference_with_a_field() {
     scene.forces.eff = Some(busy_field(&scene));
     let input = prepare(&scene).unwrap();
     let groomed = cantilever::bend_all(&input);
-    let hair = cantilever_gpu::groom_gpu(gpu, &input).unwrap();
-    let mut sim = Simulation::new(gpu, &scene, &input, &hair)
+    let hair = cantilever_gpu::groom_gpu(gpu, &common::groom_world(gpu, &input), &input).unwrap();
+    let mut sim = Simulation::new(gpu, &common::world(gpu, &scene), &scene, &input, &hair)
         .unwrap()
         .unwrap();
     let mut cpu = CpuSim::new(
@@ -298,8 +300,9 @@ fn several_frames_per_submission_see_their_own_gust() {
     let input = prepare(&scene).unwrap();
     let mut runs = Vec::new();
     for per_submit in [1, 3] {
-        let hair = cantilever_gpu::groom_gpu(gpu, &input).unwrap();
-        let mut sim = Simulation::new(gpu, &scene, &input, &hair)
+        let hair =
+            cantilever_gpu::groom_gpu(gpu, &common::groom_world(gpu, &input), &input).unwrap();
+        let mut sim = Simulation::new(gpu, &common::world(gpu, &scene), &scene, &input, &hair)
             .unwrap()
             .unwrap();
         for _ in 0..18 / per_submit {

@@ -56,12 +56,19 @@ fn twins() -> Vec<Twin> {
     use kami::systems::wisps::march::{GpuCapsule, GpuSegment, GpuWispDraw, GpuWispParams};
     use kami::systems::wisps::springs_gpu::{GpuEdge, GpuMassPoint, GpuSpringParams, GpuSubstep};
     use kami::systems::wisps::tiles::GpuMarchView;
+    use kami::systems::world::GpuWorld;
     vec![
         twin!(
             GpuEffGrid,
             [origin, cell, dims, outside],
             "EffGrid",
             ["forces/eff.wgsl"]
+        ),
+        twin!(
+            GpuWorld,
+            [gravity, hull_center, hull_radii],
+            "World",
+            ["common/world.wgsl"]
         ),
         twin!(
             GpuStrand,
@@ -581,22 +588,72 @@ fn twin_constants() -> Vec<(&'static str, &'static str, f64, &'static str)> {
     use kami::gpu::{shadow, splat};
     let joints = kami::scene::skinned::MAX_JOINTS as f64;
     vec![
-        ("fur/generate.wgsl", "MAX_JOINTS", joints, "scene::skinned::MAX_JOINTS"),
-        ("fur/skin.wgsl", "MAX_JOINTS", joints, "scene::skinned::MAX_JOINTS"),
-        ("anjyo/splat.wgsl", "COLOR_SCALE", splat::COLOR_SCALE, "gpu::splat::COLOR_SCALE"),
-        ("anjyo/splat.wgsl", "DEPTH_SCALE", splat::DEPTH_SCALE, "gpu::splat::DEPTH_SCALE"),
-        ("stage/downsample.wgsl", "COLOR_SCALE", splat::COLOR_SCALE, "gpu::splat::COLOR_SCALE"),
-        ("stage/downsample.wgsl", "DEPTH_SCALE", splat::DEPTH_SCALE, "gpu::splat::DEPTH_SCALE"),
-        ("common/shadow_cast.wgsl", "SHADOW_FIXED", shadow::FIXED, "gpu::shadow::FIXED"),
-        ("stage/shadow.wgsl", "FIXED", shadow::FIXED, "gpu::shadow::FIXED"),
+        (
+            "fur/generate.wgsl",
+            "MAX_JOINTS",
+            joints,
+            "scene::skinned::MAX_JOINTS",
+        ),
+        (
+            "fur/skin.wgsl",
+            "MAX_JOINTS",
+            joints,
+            "scene::skinned::MAX_JOINTS",
+        ),
+        (
+            "anjyo/splat.wgsl",
+            "COLOR_SCALE",
+            splat::COLOR_SCALE,
+            "gpu::splat::COLOR_SCALE",
+        ),
+        (
+            "anjyo/splat.wgsl",
+            "DEPTH_SCALE",
+            splat::DEPTH_SCALE,
+            "gpu::splat::DEPTH_SCALE",
+        ),
+        (
+            "stage/downsample.wgsl",
+            "COLOR_SCALE",
+            splat::COLOR_SCALE,
+            "gpu::splat::COLOR_SCALE",
+        ),
+        (
+            "stage/downsample.wgsl",
+            "DEPTH_SCALE",
+            splat::DEPTH_SCALE,
+            "gpu::splat::DEPTH_SCALE",
+        ),
+        (
+            "common/shadow_cast.wgsl",
+            "SHADOW_FIXED",
+            shadow::FIXED,
+            "gpu::shadow::FIXED",
+        ),
+        (
+            "stage/shadow.wgsl",
+            "FIXED",
+            shadow::FIXED,
+            "gpu::shadow::FIXED",
+        ),
         (
             "common/shadow_cast.wgsl",
             "SHADOW_DEPTH_SCALE",
             shadow::DEPTH_SCALE,
             "gpu::shadow::DEPTH_SCALE",
         ),
-        ("stage/shadow.wgsl", "DEPTH_SCALE", shadow::DEPTH_SCALE, "gpu::shadow::DEPTH_SCALE"),
-        ("common/shadow.wgsl", "SHADOW_ROW", f64::from(shadow::ROW), "gpu::shadow::ROW"),
+        (
+            "stage/shadow.wgsl",
+            "DEPTH_SCALE",
+            shadow::DEPTH_SCALE,
+            "gpu::shadow::DEPTH_SCALE",
+        ),
+        (
+            "common/shadow.wgsl",
+            "SHADOW_ROW",
+            f64::from(shadow::ROW),
+            "gpu::shadow::ROW",
+        ),
     ]
 }
 

@@ -36,9 +36,11 @@ fn read(gpu: &kami::gpu::Gpu, hair: &kami::gpu::strands::StrandBuffers) -> Vec<D
 fn run_rest(scene: &Scene, frames: u32) -> (GroomInput, Simulation, Vec<DVec3>, Vec<DVec3>) {
     let gpu = common::gpu();
     let input = prepare(scene).unwrap();
-    let hair = cantilever_gpu::groom_gpu(gpu, &input).unwrap();
+    let hair = cantilever_gpu::groom_gpu(gpu, &common::groom_world(gpu, &input), &input).unwrap();
     let rest = read(gpu, &hair);
-    let mut sim = Simulation::new(gpu, scene, &input, &hair).unwrap().unwrap();
+    let mut sim = Simulation::new(gpu, &common::world(gpu, scene), scene, &input, &hair)
+        .unwrap()
+        .unwrap();
     for _ in 0..frames {
         let mut enc = gpu.device.create_command_encoder(&Default::default());
         sim.record_frame(gpu, &mut enc, &hair);

@@ -82,7 +82,7 @@ fn an_exported_groom_imports_back_to_the_same_rest_pose() {
 
     let back = imported_scene(scene.clone(), out.clone(), 18);
     let input = prepare(&back).unwrap();
-    let hair = cantilever_gpu::groom_gpu(gpu, &input).unwrap();
+    let hair = cantilever_gpu::groom_gpu(gpu, &common::groom_world(gpu, &input), &input).unwrap();
     let nodes = hair.read_vertices(gpu).unwrap();
     let len = 18.0;
     let worst_gpu = nodes
@@ -131,9 +131,9 @@ fn imported_strands_move_under_the_gust_as_the_reference_does() {
     let scene = imported_scene(scene, out, 12);
     let input = prepare(&scene).unwrap();
     let groomed = cantilever::bend_all(&input);
-    let hair = cantilever_gpu::groom_gpu(gpu, &input).unwrap();
+    let hair = cantilever_gpu::groom_gpu(gpu, &common::groom_world(gpu, &input), &input).unwrap();
     let rest = hair.read_vertices(gpu).unwrap();
-    let mut sim = Simulation::new(gpu, &scene, &input, &hair)
+    let mut sim = Simulation::new(gpu, &common::world(gpu, &scene), &scene, &input, &hair)
         .unwrap()
         .expect("the imported group is simulated");
     let mut cpu = CpuSim::new(
@@ -257,8 +257,8 @@ fn imported_roots_ride_a_captured_head() {
     scene.forces.head_capture = Some(hc);
     scene.forces.head_motion.clear();
     let input = prepare(&scene).unwrap();
-    let hair = cantilever_gpu::groom_gpu(gpu, &input).unwrap();
-    let mut sim = Simulation::new(gpu, &scene, &input, &hair)
+    let hair = cantilever_gpu::groom_gpu(gpu, &common::groom_world(gpu, &input), &input).unwrap();
+    let mut sim = Simulation::new(gpu, &common::world(gpu, &scene), &scene, &input, &hair)
         .unwrap()
         .unwrap();
     let forces = kami::forces::Forces::new(&scene.forces, &scene.head);

@@ -294,7 +294,7 @@ fn cantilever_on_mesh_head_matches_reference_and_stays_outside() {
     let m = data(&scene);
     let input = prepare(&scene).unwrap();
     let reference = cantilever::bend_all(&input);
-    let hair = cantilever_gpu::groom_gpu(gpu, &input).unwrap();
+    let hair = cantilever_gpu::groom_gpu(gpu, &common::groom_world(gpu, &input), &input).unwrap();
     let verts = hair.read_vertices(gpu).unwrap();
     let offsets = input.vertex_offsets();
     let mut errs = Vec::new();
@@ -369,10 +369,16 @@ fn projective_on_mesh_head_matches_reference_and_stays_outside() {
     let m = data(&scene);
     let input = prepare(&scene).unwrap();
     let groomed = cantilever::bend_all(&input);
-    let hair = cantilever_gpu::groom_gpu(gpu, &input).unwrap();
-    let mut sim = kami::systems::anjyo::simulation::Simulation::new(gpu, &scene, &input, &hair)
-        .unwrap()
-        .unwrap();
+    let hair = cantilever_gpu::groom_gpu(gpu, &common::groom_world(gpu, &input), &input).unwrap();
+    let mut sim = kami::systems::anjyo::simulation::Simulation::new(
+        gpu,
+        &common::world(gpu, &scene),
+        &scene,
+        &input,
+        &hair,
+    )
+    .unwrap()
+    .unwrap();
     let mut cpu = CpuSim::new(
         DynSetup::new(&scene, &input, &groomed.visible).unwrap(),
         groomed.nodes.clone(),

@@ -201,7 +201,8 @@ fn gpu_grooms_stay_outside_the_head_with_exact_lengths() {
     let gpu = common::gpu();
     for (name, scene) in common::grown_scenes() {
         let input = prepare(&scene).unwrap();
-        let hair = cantilever_gpu::groom_gpu(gpu, &input).unwrap();
+        let hair =
+            cantilever_gpu::groom_gpu(gpu, &common::groom_world(gpu, &input), &input).unwrap();
         let v = hair.read_vertices(gpu).unwrap();
         let offsets = input.vertex_offsets();
         for (i, r) in input.roots.iter().enumerate() {

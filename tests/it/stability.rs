@@ -176,10 +176,16 @@ fn run_gpu(
     input: &kami::systems::anjyo::groom::GroomInput,
     frames: u32,
 ) -> Vec<[f32; 4]> {
-    let hair = cantilever_gpu::groom_gpu(gpu, input).unwrap();
-    let mut sim = kami::systems::anjyo::simulation::Simulation::new(gpu, scene, input, &hair)
-        .unwrap()
-        .unwrap();
+    let hair = cantilever_gpu::groom_gpu(gpu, &common::groom_world(gpu, input), input).unwrap();
+    let mut sim = kami::systems::anjyo::simulation::Simulation::new(
+        gpu,
+        &common::world(gpu, scene),
+        scene,
+        input,
+        &hair,
+    )
+    .unwrap()
+    .unwrap();
     for _ in 0..frames {
         let mut enc = gpu.device.create_command_encoder(&Default::default());
         sim.record_frame(gpu, &mut enc, &hair);
@@ -672,24 +678,32 @@ fn static_groups_allocate_nothing() {
     let gpu = common::gpu();
     let still = common::scene("bob");
     let input = prepare(&still).unwrap();
-    let hair = cantilever_gpu::groom_gpu(gpu, &input).unwrap();
-    assert!(
-        kami::systems::anjyo::simulation::Simulation::new(gpu, &still, &input, &hair)
-            .unwrap()
-            .is_none()
-    );
+    let hair = cantilever_gpu::groom_gpu(gpu, &common::groom_world(gpu, &input), &input).unwrap();
+    assert!(kami::systems::anjyo::simulation::Simulation::new(
+        gpu,
+        &common::world(gpu, &still),
+        &still,
+        &input,
+        &hair
+    )
+    .unwrap()
+    .is_none());
     let mut frozen = common::scene("gust");
     for g in &mut frozen.groups {
         g.count = 50;
         g.dynamic = false;
     }
     let input = prepare(&frozen).unwrap();
-    let hair = cantilever_gpu::groom_gpu(gpu, &input).unwrap();
-    assert!(
-        kami::systems::anjyo::simulation::Simulation::new(gpu, &frozen, &input, &hair)
-            .unwrap()
-            .is_none()
-    );
+    let hair = cantilever_gpu::groom_gpu(gpu, &common::groom_world(gpu, &input), &input).unwrap();
+    assert!(kami::systems::anjyo::simulation::Simulation::new(
+        gpu,
+        &common::world(gpu, &frozen),
+        &frozen,
+        &input,
+        &hair
+    )
+    .unwrap()
+    .is_none());
     frozen.groups[1].dynamic = true;
     let input = prepare(&frozen).unwrap();
     let groomed = cantilever::bend_all(&input);

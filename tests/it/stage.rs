@@ -393,3 +393,46 @@ fn an_edit_at_frame_n_acts_from_the_next_step() {
         "the wind set at frame 2 changed nothing by frame 4"
     );
 }
+
+/// One world per scene (issue 35 item 1): a scene whose three moving kinds all read the EFF
+/// and a mesh head's signed distance field uploads each once (the stage's
+/// `systems::world::WorldGpu`), not once per kind or per kernel; frames upload neither; an
+/// edit the world fits (the gust keys) rewrites it in place, and one it does not (the EFF
+/// gone) makes one new world and builds every system again over it.
+#[test]
+fn the_world_is_uploaded_once_per_scene() {
+    use kami::systems::world::uploads;
+    let gpu = common::gpu();
+    let mut scene = common::scene("strips_mesh_head");
+    let anjyo = common::thinned("mesh_head", 16);
+    (scene.groups, scene.dynamics) = (anjyo.groups, anjyo.dynamics);
+    scene.wisps = common::scene("toon_mesh_head").wisps;
+    scene.forces.eff = common::scene("strips").forces.eff;
+    let before = uploads();
+    let mut s = stage(gpu, &scene);
+    assert_eq!(kinds(&s), ["anjyo", "wisps", "strips"]);
+    let (eff, sdf) = uploads();
+    assert_eq!(
+        (eff - before.0, sdf - before.1),
+        (1, 1),
+        "one EFF grid and one head field for the whole scene"
+    );
+    advance(gpu, &mut s, 2);
+    assert_eq!(uploads(), (eff, sdf), "frames upload no grid");
+
+    let mut gusty = scene.clone();
+    if let Some(e) = gusty.forces.eff.as_mut() {
+        e.gust.truncate(1);
+    }
+    s.apply(gpu, &gusty).unwrap();
+    assert_eq!(uploads(), (eff, sdf), "an edit that fits rewrites the world");
+
+    let mut still = gusty.clone();
+    still.forces.eff = None;
+    let applied = s.apply(gpu, &still).unwrap();
+    assert!(applied.restarted);
+    assert!(applied.changes.iter().all(|(_, c)| *c == Change::Rebuild));
+    assert_eq!(uploads(), (eff + 1, sdf + 1), "a new world, once");
+    advance(gpu, &mut s, 1);
+    gpu.take_error().unwrap();
+}

@@ -16,7 +16,6 @@ use kami::systems::strips::block::Motion;
 use kami::systems::strips::dynamics::*;
 use kami::systems::strips::dynamics_gpu::DynamicsGpu;
 use kami::systems::strips::RestStrip;
-use kami::systems::world::EffGpu;
 
 /// The head's hull (the ellipsoid here; a mesh head's SDF in `strips_mesh_head.rs`).
 fn hull(head: &Head) -> HeadHull {
@@ -743,10 +742,16 @@ fn contract_scenes() -> Vec<(&'static str, Setup, f64)> {
 #[test]
 fn gpu_matches_the_f64_reference() {
     let gpu = common::gpu();
-    let eff = EffGpu::new(gpu, None).unwrap();
     for (name, s, bound) in contract_scenes() {
         let mut rig = Rig::new(&s.rest, &s.motion).unwrap();
-        let mut g = DynamicsGpu::new(gpu, &rig, &s.motion, &s.head, &eff).unwrap();
+        let mut g = DynamicsGpu::new(
+            gpu,
+            &common::still_world(gpu, &s.head),
+            &rig,
+            &s.motion,
+            &s.head,
+        )
+        .unwrap();
         g.set_extra(gpu, &s.extra).unwrap();
         let stride = rig.stride();
         assert_eq!(g.stride() as usize, stride);
@@ -799,10 +804,16 @@ fn gpu_matches_the_f64_reference() {
 #[test]
 fn gpu_refuses_too_many_extra_forces() {
     let gpu = common::gpu();
-    let eff = EffGpu::new(gpu, None).unwrap();
     let s = Setup::gust();
     let rig = Rig::new(&s.rest, &s.motion).unwrap();
-    let mut g = DynamicsGpu::new(gpu, &rig, &s.motion, &s.head, &eff).unwrap();
+    let mut g = DynamicsGpu::new(
+        gpu,
+        &common::still_world(gpu, &s.head),
+        &rig,
+        &s.motion,
+        &s.head,
+    )
+    .unwrap();
     let e = s.extra[0];
     g.set_extra(gpu, &vec![e; MAX_EXTRA]).unwrap();
     let msg = g
@@ -961,8 +972,14 @@ fn preload_holds_the_groomed_shape_under_gravity() {
 
     // On the GPU.
     let gpu = common::gpu();
-    let eff = EffGpu::new(gpu, None).unwrap();
-    let mut g = DynamicsGpu::new(gpu, &b, &on, &scene.head, &eff).unwrap();
+    let mut g = DynamicsGpu::new(
+        gpu,
+        &common::still_world(gpu, &scene.head),
+        &b,
+        &on,
+        &scene.head,
+    )
+    .unwrap();
     let start = g.read_points(gpu).unwrap();
     let mut enc = gpu.device.create_command_encoder(&Default::default());
     g.record(gpu, &mut enc, &forces, 0, frames).unwrap();

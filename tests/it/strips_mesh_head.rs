@@ -14,7 +14,6 @@ use kami::scene::Ellipsoid;
 use kami::systems::strips::dynamics::Rig;
 use kami::systems::strips::dynamics_gpu::DynamicsGpu;
 use kami::systems::strips::{hom, RestStrip};
-use kami::systems::world::EffGpu;
 use kami::Scene;
 
 const SCENE: &str = "strips_mesh_head";
@@ -136,8 +135,7 @@ fn strips_stay_out_of_the_sdf_and_gpu_matches_the_reference() {
     let stride = rig.stride();
     let mut ellipsoid = rig.clone();
     let ellipsoid_hull = HeadHull::Ellipsoid(Ellipsoid::new(head.center, head.radii));
-    let eff = EffGpu::new(gpu, None).unwrap();
-    let mut g = DynamicsGpu::new(gpu, &rig, motion, head, &eff).unwrap();
+    let mut g = DynamicsGpu::new(gpu, &common::still_world(gpu, head), &rig, motion, head).unwrap();
     let (mut cpu_low, mut gpu_low, mut ell_low) = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
     let (mut cpu_root, mut gpu_root): (f64, f64) = (0.0, 0.0);
     let mut apart: Vec<f64> = Vec::new();

@@ -623,7 +623,9 @@ fn gpu_matches_cpu() {
         );
         let lat = Lattice::build(&w, &sp, &head, &still(&head)).unwrap();
         let m = Motion::new(&sp, &head).unwrap();
-        let mut gs = springs_gpu::SpringsGpu::new(gpu, &lat, &sp, &head, &f).unwrap();
+        let mut gs =
+            springs_gpu::SpringsGpu::new(gpu, &common::world_of(gpu, &f, &head), &lat, &sp, &head)
+                .unwrap();
         assert_eq!(gs.primaries(), 14);
         let mut st = State::rest(&lat);
         let t = std::time::Instant::now();
@@ -695,7 +697,9 @@ fn gpu_collision_matches_cpu() {
         let w = wisps(vec![skeleton("draped", &p, 0.5)], sp.clone(), vec![]);
         let lat = Lattice::build(&w, &sp, &head, &still(&head)).unwrap();
         let m = Motion::new(&sp, &head).unwrap();
-        let mut gs = springs_gpu::SpringsGpu::new(gpu, &lat, &sp, &head, &f).unwrap();
+        let mut gs =
+            springs_gpu::SpringsGpu::new(gpu, &common::world_of(gpu, &f, &head), &lat, &sp, &head)
+                .unwrap();
         let mut st = State::rest(&lat);
         let mut history = Vec::new();
         let (mut worst, mut deep): (f64, f64) = (0.0, f64::INFINITY);

@@ -8,6 +8,7 @@ use crate::gpu::gpu_data::GpuStrand;
 use crate::gpu::strands::StrandBuffers;
 use crate::gpu::{self, bind, Gpu, WORKGROUP};
 use crate::systems::anjyo::block::CutRule;
+use crate::systems::world::{WorldGpu, WORLD_GROUP};
 use wgpu::util::DeviceExt;
 
 /// The cantilever kernel (`shaders/anjyo/cantilever.wgsl`): long-lived pipelines and layout.
@@ -21,6 +22,8 @@ pub struct CantileverPass {
 /// One groom's uploaded inputs and bind group, ready to dispatch.
 pub struct CantileverJob {
     bind_group: wgpu::BindGroup,
+    /// The world's group (the head's hull and field), bound at `WORLD_GROUP`.
+    world: wgpu::BindGroup,
     dims: (u32, u32),
     /// `iterate` dispatches needed (0 when no group uses the converged mode).
     iterate_dispatches: u32,
@@ -37,7 +40,8 @@ pub fn iterations_per_dispatch(segments: u32, load_loops: u32) -> u32 {
 }
 
 impl CantileverPass {
-    pub fn new(gpu: &Gpu) -> Result<CantileverPass> {
+    /// The pipelines, over the layout of `world` at `WORLD_GROUP`.
+    pub fn new(gpu: &Gpu, world: &WorldGpu) -> Result<CantileverPass> {
         let device = &gpu.device;
         let module = gpu::shader_module(device, "cantilever", super::CANTILEVER)?;
         let vec4 = bind::storage_rw::<[f32; 4]>;
@@ -54,10 +58,9 @@ impl CantileverPass {
                 bind::storage_rw::<GpuStrand>(),
                 vec4(),
                 vec4(),
-                bind::storage::<f32>(),
             ],
         );
-        let [bend, iterate, finish] = gpu::compute_pipelines(
+        let [bend, iterate, finish] = world.compute_pipelines(
             device,
             "cantilever",
             &layout,
@@ -83,6 +86,7 @@ impl CantileverPass {
     pub fn prepare(
         &self,
         gpu: &Gpu,
+        world: &WorldGpu,
         input: &GroomInput,
         strands: &StrandBuffers,
     ) -> Result<CantileverJob> {
@@ -192,7 +196,6 @@ impl CantileverPass {
             usage: wgpu::BufferUsages::STORAGE,
             mapped_at_creation: false,
         });
-        let sdf = super::head_sdf_buffer(gpu, &input.head, "head sdf")?;
         let bind_group = bind::buffers(
             device,
             "cantilever",
@@ -206,11 +209,11 @@ impl CantileverPass {
                 &strands.strands,
                 &strands.vertices,
                 &scratch,
-                &sdf,
             ],
         );
         Ok(CantileverJob {
             bind_group,
+            world: world.group().clone(),
             dims,
             iterate_dispatches: most.div_ceil(chunk),
         })
@@ -223,6 +226,7 @@ impl CantileverPass {
             timestamp_writes: None,
         });
         pass.set_bind_group(0, &job.bind_group, &[]);
+        pass.set_bind_group(WORLD_GROUP, &job.world, &[]);
         pass.set_pipeline(&self.bend);
         pass.dispatch_workgroups(job.dims.0, job.dims.1, 1);
         if job.iterate_dispatches > 0 {
@@ -277,11 +281,12 @@ fn gpu_cut(c: &CutRule) -> GpuCut {
     }
 }
 
-/// Groom a whole scene on the GPU and wait: strand buffers holding the bent hair.
-pub fn groom_gpu(gpu: &Gpu, input: &GroomInput) -> Result<StrandBuffers> {
+/// Groom a whole scene on the GPU and wait: strand buffers holding the bent hair. `world` is
+/// the scene's (its hull is `input.head`).
+pub fn groom_gpu(gpu: &Gpu, world: &WorldGpu, input: &GroomInput) -> Result<StrandBuffers> {
     let strands = input.strand_buffers(gpu)?;
-    let pass = CantileverPass::new(gpu)?;
-    let job = pass.prepare(gpu, input, &strands)?;
+    let pass = CantileverPass::new(gpu, world)?;
+    let job = pass.prepare(gpu, world, input, &strands)?;
     let mut enc = gpu
         .device
         .create_command_encoder(&wgpu::CommandEncoderDescriptor {

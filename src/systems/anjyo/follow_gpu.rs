@@ -11,6 +11,7 @@ use super::follow::{FollowSetup, MAX_GUIDES};
 use crate::error::Result;
 use crate::gpu::strands::StrandBuffers;
 use crate::gpu::{self, bind, Gpu, WORKGROUP};
+use crate::systems::world::{WorldGpu, WORLD_GROUP};
 use bytemuck::{Pod, Zeroable};
 use glam::DMat4;
 use wgpu::util::DeviceExt;
@@ -60,12 +61,15 @@ pub struct FollowPass {
 pub struct FollowJob {
     params: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
+    /// The world's group (the head's hull and field), bound at `WORLD_GROUP`.
+    world: wgpu::BindGroup,
     dims: (u32, u32),
     base: GpuFollowParams,
 }
 
 impl FollowPass {
-    pub fn new(gpu: &Gpu) -> Result<FollowPass> {
+    /// The pipelines, over the layout of `world` at `WORLD_GROUP`.
+    pub fn new(gpu: &Gpu, world: &WorldGpu) -> Result<FollowPass> {
         let device = &gpu.device;
         let module = gpu::shader_module(device, "follow", super::FOLLOW)?;
         let layout = bind::layout(
@@ -76,14 +80,13 @@ impl FollowPass {
                 bind::uniform::<GpuFollowParams>(),
                 bind::storage::<GpuFollower>(),
                 bind::storage_rw::<[f32; 4]>(),
-                bind::storage::<f32>(),
                 bind::storage::<[f32; 4]>(),
             ],
         );
         // One pipeline per head kind: with the SDF path compiled out for an ellipsoid head
         // (SDF_HEAD, common/sdf.wgsl), which a software adapter would otherwise run too.
         let pipeline = |sdf: bool| {
-            let [p] = gpu::compute_pipelines(
+            let [p] = world.compute_pipelines(
                 device,
                 "follow",
                 &layout,
@@ -109,6 +112,7 @@ impl FollowPass {
     pub fn prepare(
         &self,
         gpu: &Gpu,
+        world: &WorldGpu,
         setup: &FollowSetup,
         hair: &StrandBuffers,
     ) -> Result<FollowJob> {
@@ -158,7 +162,6 @@ impl FollowPass {
             bytemuck::cast_slice(&records),
             wgpu::BufferUsages::empty(),
         );
-        let sdf = super::head_sdf_buffer(gpu, &setup.head, "follow head sdf")?;
         // The rest shape: the groom as it is now, before any step.
         let rest = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("follow rest pose"),
@@ -175,11 +178,12 @@ impl FollowPass {
             device,
             "follow",
             &self.layout,
-            &[&params, &followers, &hair.vertices, &sdf, &rest],
+            &[&params, &followers, &hair.vertices, &rest],
         );
         Ok(FollowJob {
             params,
             bind_group,
+            world: world.group().clone(),
             dims,
             base,
         })
@@ -202,6 +206,7 @@ impl FollowPass {
         let sdf = job.base.head_center[3] > 0.5;
         pass.set_pipeline(if sdf { &self.sdf } else { &self.ellipsoid });
         pass.set_bind_group(0, &job.bind_group, &[]);
+        pass.set_bind_group(WORLD_GROUP, &job.world, &[]);
         pass.dispatch_workgroups(job.dims.0, job.dims.1, 1);
     }
 

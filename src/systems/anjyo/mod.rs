@@ -41,9 +41,8 @@ use simulation::Simulation;
 
 /// Cantilever bending (groom).
 pub const CANTILEVER: &str = wgsl!(
+    world;
     "common/strands.wgsl",
-    "common/ellipsoid.wgsl",
-    "common/sdf.wgsl",
     "common/rotate.wgsl",
     "common/loads.wgsl",
     "anjyo/cantilever.wgsl",
@@ -51,20 +50,14 @@ pub const CANTILEVER: &str = wgsl!(
 
 /// Projective dynamics (Anjyo section 3).
 pub const PROJECTIVE: &str = wgsl!(
-    "common/ellipsoid.wgsl",
-    "common/sdf.wgsl",
+    world;
     "common/rotate.wgsl",
     "common/random.wgsl",
-    "forces/eff.wgsl",
     "anjyo/projective.wgsl",
 );
 
 /// Followers rebuilt from their guides (`follow`).
-pub const FOLLOW: &str = wgsl!(
-    "common/ellipsoid.wgsl",
-    "common/sdf.wgsl",
-    "anjyo/follow.wgsl",
-);
+pub const FOLLOW: &str = wgsl!(world; "anjyo/follow.wgsl");
 
 /// Hair ribbons with Anjyo's anisotropic specular.
 pub const DRAW: &str = wgsl!(
@@ -190,23 +183,6 @@ const FUZZ_WORDS: &[&str] = &[
     "alpha:", "epsilon_pore:", "epsilon_tip:", "near:", "start:", "end:", "max_iterations:",
     "tolerance:", "guides:",
 ];
-
-/// The head's signed distance field as a storage buffer for the kernels that collide with
-/// the head (cantilever, projective, follow); a placeholder word for an ellipsoid head.
-pub fn head_sdf_buffer(
-    gpu: &Gpu,
-    head: &crate::scene::hull::HeadHull,
-    label: &str,
-) -> Result<wgpu::Buffer> {
-    let words = head.gpu_sdf();
-    gpu.check_storage_size("the head's signed distance field", 4 * words.len() as u64)?;
-    Ok(crate::gpu::storage_buffer(
-        &gpu.device,
-        label,
-        bytemuck::cast_slice(&words),
-        wgpu::BufferUsages::empty(),
-    ))
-}
 
 /// Anjyo hair of one scene: the groom, its simulation if the scene has dynamics, the draw.
 pub struct AnjyoSystem {
@@ -470,8 +446,8 @@ impl AnjyoSystem {
     pub fn new(gpu: &Gpu, scene: &Scene, setup: &DrawSetup) -> Result<AnjyoSystem> {
         let input = groom::prepare(scene)?;
         let playback = playback_of(scene, &input)?;
-        let hair = cantilever_gpu::groom_gpu(gpu, &input)?;
-        let sim = Simulation::new(gpu, scene, &input, &hair)?;
+        let hair = cantilever_gpu::groom_gpu(gpu, setup.world, &input)?;
+        let sim = Simulation::new(gpu, setup.world, scene, &input, &hair)?;
         let rest = if sim.is_some() {
             let bytes = hair.vertex_count as u64 * NODE;
             let rest = gpu.device.create_buffer(&wgpu::BufferDescriptor {

@@ -1,8 +1,9 @@
 //! The projective-dynamics kernel (`shaders/anjyo/projective.wgsl`): the f32 twin of the f64
 //! reference in `projective.rs`, one invocation per strand and one substep per dispatch;
 //! `tests/it/contract.rs` and `tests/it/eff_anjyo.rs` (with an External Force Field) compare them.
-//! The EFF is bound beside the substeps; each substep carries its own gust scale, so several
-//! frames recorded in one submission each see their own.
+//! The EFF and the head's hull and field are the scene's world (`systems::world`, bound at
+//! `WORLD_GROUP`); each substep carries its own gust scale, so several frames recorded in
+//! one submission each see their own.
 //!
 //! Layout for coalescing (one invocation per strand, so neighbouring invocations are
 //! neighbouring strands): the angle state is segment-major, segment i of strand column c at
@@ -17,11 +18,10 @@
 use super::gpu_data::{GpuDynParams, GpuDynStrand};
 use super::projective::{DynSetup, StepForces, MAX_TURN, POLE_SIN};
 use crate::error::Result;
-use crate::forces::eff::GpuEffGrid;
 use crate::gpu::gpu_data::GpuStep;
 use crate::gpu::strands::StrandBuffers;
 use crate::gpu::{self, bind, Gpu, WORKGROUP};
-use crate::systems::world::{EffGpu, EFF_WGSL};
+use crate::systems::world::{WorldGpu, WORLD_GROUP};
 use glam::DMat4;
 use std::sync::OnceLock;
 use wgpu::util::DeviceExt;
@@ -110,8 +110,6 @@ impl Variant {
 /// ring of per-substep uniforms. Only strands of dynamic groups get state.
 pub struct ProjectiveJob {
     params: wgpu::Buffer,
-    /// The mesh head's SDF (`shaders/common/sdf.wgsl`; a placeholder for an ellipsoid).
-    sdf: wgpu::Buffer,
     strands: wgpu::Buffer,
     pub state: wgpu::Buffer,
     steps: wgpu::Buffer,
@@ -119,11 +117,10 @@ pub struct ProjectiveJob {
     /// The `advance` pipeline of this job's [`Variant`].
     advance: wgpu::ComputePipeline,
     bind_group: wgpu::BindGroup,
+    /// The world's group (the EFF, the head's hull and field), bound at `WORLD_GROUP`.
+    world: wgpu::BindGroup,
     dims: (u32, u32),
     pub layout: StateLayout,
-    /// The scene's External Force Field (an absent one without): `eff.write_cells` after
-    /// painting it.
-    pub eff: EffGpu,
 }
 
 fn mat(m: DMat4) -> [[f32; 4]; 4] {
@@ -153,20 +150,11 @@ pub fn gpu_step(f: &StepForces) -> GpuStep {
     }
 }
 
-/// The module's source: `anjyo::PROJECTIVE` samples the EFF, so it needs
-/// `forces/eff.wgsl` before it; added here when the module list does not have it.
-fn source() -> std::borrow::Cow<'static, str> {
-    if super::PROJECTIVE.contains("fn eff_field(") {
-        super::PROJECTIVE.into()
-    } else {
-        format!("{EFF_WGSL}\n{}", super::PROJECTIVE).into()
-    }
-}
-
 impl ProjectivePass {
-    pub fn new(gpu: &Gpu) -> Result<ProjectivePass> {
+    /// The pipelines, over the layout of `world` at `WORLD_GROUP`.
+    pub fn new(gpu: &Gpu, world: &WorldGpu) -> Result<ProjectivePass> {
         let device = &gpu.device;
-        let module = gpu::shader_module(device, "projective", &source())?;
+        let module = gpu::shader_module(device, "projective", super::PROJECTIVE)?;
         let vec4 = bind::storage_rw::<[f32; 4]>;
         let layout = bind::layout(
             device,
@@ -179,12 +167,9 @@ impl ProjectivePass {
                 bind::storage::<[u32; 4]>(),
                 vec4(),
                 vec4(),
-                bind::uniform::<GpuEffGrid>(),
-                bind::storage::<[f32; 4]>(),
-                bind::storage::<f32>(),
             ],
         );
-        let [init] = gpu::compute_pipelines(
+        let [init] = world.compute_pipelines(
             device,
             "projective",
             &layout,
@@ -216,10 +201,15 @@ impl ProjectivePass {
     }
 
     /// The `advance` pipeline specialised for `v` (compiled on first use).
-    fn advance_pipeline(&self, device: &wgpu::Device, v: Variant) -> wgpu::ComputePipeline {
+    fn advance_pipeline(
+        &self,
+        device: &wgpu::Device,
+        world: &WorldGpu,
+        v: Variant,
+    ) -> wgpu::ComputePipeline {
         self.advance[v.index()]
             .get_or_init(|| {
-                let [advance] = gpu::compute_pipelines(
+                let [advance] = world.compute_pipelines(
                     device,
                     "projective",
                     &self.layout,
@@ -236,6 +226,7 @@ impl ProjectivePass {
     pub fn prepare(
         &self,
         gpu: &Gpu,
+        world: &WorldGpu,
         setup: &DynSetup,
         hair: &StrandBuffers,
     ) -> Result<ProjectiveJob> {
@@ -290,29 +281,19 @@ impl ProjectivePass {
         });
         let capacity = 16;
         let steps = Self::step_ring(device, capacity);
-        // The field's own uniform stays at scale 1: the kernel scales by the substep's gust.
-        let eff = EffGpu::new(gpu, setup.forces.eff.as_deref())?;
-        let sdf = super::head_sdf_buffer(gpu, &setup.head, "head sdf")?;
-        let bind_group = self.bind(
-            device,
-            [&params, &strands, &state, &sdf],
-            &steps,
-            hair,
-            &eff,
-        );
-        let advance = self.advance_pipeline(device, Variant::of(setup));
+        let bind_group = self.bind(device, [&params, &strands, &state], &steps, hair);
+        let advance = self.advance_pipeline(device, world, Variant::of(setup));
         Ok(ProjectiveJob {
             params,
-            sdf,
             strands,
             state,
             steps,
             capacity,
             advance,
             bind_group,
+            world: world.group().clone(),
             dims,
             layout,
-            eff,
         })
     }
 
@@ -329,10 +310,9 @@ impl ProjectivePass {
     fn bind(
         &self,
         device: &wgpu::Device,
-        [params, strands, state, sdf]: [&wgpu::Buffer; 4],
+        [params, strands, state]: [&wgpu::Buffer; 3],
         steps: &wgpu::Buffer,
         hair: &StrandBuffers,
-        eff: &EffGpu,
     ) -> wgpu::BindGroup {
         bind::group(
             device,
@@ -348,9 +328,6 @@ impl ProjectivePass {
                 strands.as_entire_binding(),
                 state.as_entire_binding(),
                 hair.vertices.as_entire_binding(),
-                eff.grid.as_entire_binding(),
-                eff.cells.as_entire_binding(),
-                sdf.as_entire_binding(),
             ],
         )
     }
@@ -372,6 +349,7 @@ impl ProjectivePass {
         });
         pass.set_pipeline(&self.init);
         pass.set_bind_group(0, &job.bind_group, &[0]);
+        pass.set_bind_group(WORLD_GROUP, &job.world, &[]);
         pass.dispatch_workgroups(job.dims.0, job.dims.1, 1);
     }
 
@@ -393,10 +371,9 @@ impl ProjectivePass {
             job.steps = Self::step_ring(&gpu.device, job.capacity);
             job.bind_group = self.bind(
                 &gpu.device,
-                [&job.params, &job.strands, &job.state, &job.sdf],
+                [&job.params, &job.strands, &job.state],
                 &job.steps,
                 hair,
-                &job.eff,
             );
         }
         let mut bytes = Vec::with_capacity(substeps.len() * SLOT as usize);
@@ -409,6 +386,7 @@ impl ProjectivePass {
             timestamp_writes: None,
         });
         pass.set_pipeline(&job.advance);
+        pass.set_bind_group(WORLD_GROUP, &job.world, &[]);
         for i in 0..substeps.len() as u32 {
             pass.set_bind_group(0, &job.bind_group, &[i * SLOT as u32]);
             pass.dispatch_workgroups(job.dims.0, job.dims.1, 1);

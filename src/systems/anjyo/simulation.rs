@@ -12,6 +12,7 @@ use super::projective_gpu::{ProjectiveJob, ProjectivePass};
 use crate::error::Result;
 use crate::gpu::strands::StrandBuffers;
 use crate::gpu::Gpu;
+use crate::systems::world::WorldGpu;
 use crate::systems::Scene;
 use crate::systems::StepInfo;
 
@@ -32,11 +33,13 @@ pub struct Simulation {
 }
 
 impl Simulation {
-    /// Set up and initialise the simulation for a groom already bent into `hair`; `None`
+    /// Set up and initialise the simulation for a groom already bent into `hair`, over the
+    /// scene's `world` (the EFF and head field the kernels bind); `None`
     /// when the scene has no dynamics (nothing is allocated then). Reads the groom's drawn
     /// lengths back once, to size the simulated strands.
     pub fn new(
         gpu: &Gpu,
+        world: &WorldGpu,
         scene: &Scene,
         input: &GroomInput,
         hair: &StrandBuffers,
@@ -52,13 +55,13 @@ impl Simulation {
         let Some(setup) = DynSetup::new(scene, input, &visible) else {
             return Ok(None);
         };
-        let pass = ProjectivePass::new(gpu)?;
-        let job = pass.prepare(gpu, &setup, hair)?;
+        let pass = ProjectivePass::new(gpu, world)?;
+        let job = pass.prepare(gpu, world, &setup, hair)?;
         let follow = FollowSetup::new(scene, input, &visible, &setup);
         let follow_gpu = match &follow {
             Some(f) => {
-                let fp = FollowPass::new(gpu)?;
-                let fj = fp.prepare(gpu, f, hair)?;
+                let fp = FollowPass::new(gpu, world)?;
+                let fj = fp.prepare(gpu, world, f, hair)?;
                 Some((fp, fj))
             }
             None => None,

@@ -6,49 +6,33 @@
 //! outboard moment and the exact propagators of a full and a half step (they depend only on
 //! I1, I2, τ and dt, so the kernel needs no transcendental branches); per step of a
 //! recording the head poses and head-acceleration maps at the step's start and middle, its
-//! end pose, the uniform keyed wind and the extra forces' ramps. These are written with
-//! `queue.write_buffer` before the submission that runs them: record once per submission.
-//! The EFF is sampled in the kernel (`eff_force`) at the strength its owner last wrote with
-//! `EffGpu::write`: constant over one recording (the stage records a frame per submission).
-//! At most `MAX_EXTRA` (16) extra forces (a uniform array): `set_extra` refuses more.
+//! end pose, the uniform keyed wind with the EFF's gust scale and the extra forces' ramps.
+//! These are written with `queue.write_buffer` before the submission that runs them: record
+//! once per submission. At most `MAX_EXTRA` (16) extra forces (a uniform array):
+//! `set_extra` refuses more.
 //!
-//! The head is the scene's hull: on a mesh head the kernel is built from `DYNAMICS_SDF`
-//! and its signed distance field is uploaded once (binding 10, `HeadHull::gpu_sdf`); a
-//! scene without a mesh head gets `DYNAMICS`, whose layout has no field binding, and
-//! uploads no field.
+//! The EFF's grid and cells and the mesh head's signed distance field are the scene's world
+//! (`systems::world::WorldGpu`, bound at `WORLD_GROUP`): the kernel samples the field
+//! (`eff_field`) scaled by each step's gust, and on an ellipsoid head the pipeline compiles
+//! the SDF path out (`SDF_HEAD`).
 
 use super::dynamics::{check_extra, step_length, steps_per_frame, ExtraForce, Rig, MAX_EXTRA};
 use super::dynamics::{HeadFrame, COLLISION_ACCEL};
 use crate::error::{KamiError, Result};
-use crate::forces::eff::GpuEffGrid;
 use crate::forces::Forces;
 use crate::gpu::{self, bind, Gpu, WORKGROUP};
 use crate::scene::head::EPS_OUT;
-use crate::scene::hull::{head_hull, SDF_EPS_OUT};
+use crate::scene::hull::SDF_EPS_OUT;
 use crate::scene::Head;
 use crate::scene::Sampling;
 use crate::shaders::wgsl;
 use crate::systems::strips::block::Motion;
-use crate::systems::world::EffGpu;
+use crate::systems::world::{WorldGpu, WORLD_GROUP};
 use bytemuck::{Pod, Zeroable};
 
-/// The kernel's module: the EFF (`forces/eff.wgsl`, the same text as `EFF_WGSL`), the
-/// ellipsoid head, then the kernel.
-pub const DYNAMICS: &str = wgsl!(
-    "forces/eff.wgsl",
-    "common/ellipsoid.wgsl",
-    "common/ellipsoid_head.wgsl",
-    "strips/dynamics.wgsl"
-);
-
-/// The kernel on a mesh head: the head's signed distance field (`common/sdf.wgsl`, read
-/// from binding 10) instead of the ellipsoid.
-pub const DYNAMICS_SDF: &str = wgsl!(
-    "forces/eff.wgsl",
-    "common/ellipsoid.wgsl",
-    "common/sdf.wgsl",
-    "strips/dynamics.wgsl"
-);
+/// The kernel's module: the world (`common/world.wgsl` with the EFF and the hulls, the same
+/// text every kind reads), then the kernel.
+pub const DYNAMICS: &str = wgsl!(world; "strips/dynamics.wgsl");
 
 /// Bytes per step slot of the dynamic uniform (the adapters' offset alignment).
 const SLOT: u64 = 256;
@@ -134,10 +118,10 @@ pub struct DynamicsGpu {
     state: wgpu::Buffer,
     scratch: wgpu::Buffer,
     points: wgpu::Buffer,
-    eff_grid: wgpu::Buffer,
-    eff_cells: wgpu::Buffer,
-    /// The mesh head's signed distance field (binding 10); `None` on an ellipsoid head.
-    sdf: Option<wgpu::Buffer>,
+    /// The world's group (the EFF, the head's field), bound at `WORLD_GROUP`.
+    world: wgpu::BindGroup,
+    /// Whether the head is a mesh's SDF (the world's).
+    sdf_head: bool,
     steps: wgpu::Buffer,
     slots: wgpu::Buffer,
     /// Steps the `steps` and `slots` buffers hold.
@@ -178,8 +162,14 @@ pub fn check_extras(extra: &[ExtraForce]) -> Result<()> {
 
 impl DynamicsGpu {
     /// Upload `rig` (its current state) with the forces' settings of `motion` and the
-    /// hull of `head` (its SDF on a mesh head); `eff` is bound as the kernel's EFF.
-    pub fn new(gpu: &Gpu, rig: &Rig, motion: &Motion, head: &Head, eff: &EffGpu) -> Result<Self> {
+    /// hull of `head`, over the scene's `world` (its EFF and the head's field).
+    pub fn new(
+        gpu: &Gpu,
+        world: &WorldGpu,
+        rig: &Rig,
+        motion: &Motion,
+        head: &Head,
+    ) -> Result<Self> {
         super::dynamics::check_motion(motion)?;
         let device = &gpu.device;
         let count = rig.strip_count() as u32;
@@ -201,65 +191,8 @@ impl DynamicsGpu {
             });
         }
         let dims = gpu.dispatch_dims(count, WORKGROUP)?;
-        let hull = head_hull(head)?;
-        let sdf = match hull.sdf() {
-            Some(_) => {
-                let words = hull.gpu_sdf();
-                gpu.check_storage_size("the head's signed distance field", 4 * words.len() as u64)?;
-                Some(gpu::storage_buffer(
-                    device,
-                    "strips head sdf",
-                    bytemuck::cast_slice(&words),
-                    wgpu::BufferUsages::empty(),
-                ))
-            }
-            None => None,
-        };
-        let (source, constants): (&str, &[(&str, f64)]) = match sdf {
-            Some(_) => (
-                DYNAMICS_SDF,
-                &[
-                    ("WORKGROUP", WORKGROUP as f64),
-                    ("EPS_OUT", EPS_OUT),
-                    ("SDF_EPS_OUT", SDF_EPS_OUT),
-                ],
-            ),
-            None => (
-                DYNAMICS,
-                &[("WORKGROUP", WORKGROUP as f64), ("EPS_OUT", EPS_OUT)],
-            ),
-        };
-        let module = gpu::shader_module(device, "strips dynamics", source)?;
-        let vec4_rw = bind::storage_rw::<[f32; 4]>;
-        let mut bindings = vec![
-            bind::uniform::<GpuParams>(),
-            bind::dynamic_uniform::<GpuSlot>(),
-            bind::storage::<GpuStrip>(),
-            bind::storage::<GpuJoint>(),
-            bind::storage::<GpuStep>(),
-            vec4_rw(),
-            vec4_rw(),
-            vec4_rw(),
-            bind::uniform::<GpuEffGrid>(),
-            bind::storage::<[f32; 4]>(),
-        ];
-        if sdf.is_some() {
-            bindings.push(bind::storage::<f32>());
-        }
-        let layout = bind::layout(
-            device,
-            "strips dynamics",
-            wgpu::ShaderStages::COMPUTE,
-            &bindings,
-        );
-        let [pipeline] = gpu::compute_pipelines(
-            device,
-            "strips dynamics",
-            &layout,
-            &module,
-            ["step"],
-            constants,
-        );
+        let sdf_head = world.sdf_head();
+        let (layout, pipeline) = Self::pipeline(gpu, world)?;
         let strips: Vec<GpuStrip> = rig
             .strips
             .iter()
@@ -328,8 +261,6 @@ impl DynamicsGpu {
             wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::VERTEX,
         );
         let (steps, slots) = Self::per_step(gpu, 1)?;
-        let eff_grid = eff.grid.clone();
-        let eff_cells = eff.cells.clone();
         let bind_group = Self::bind(
             device,
             &layout,
@@ -342,10 +273,7 @@ impl DynamicsGpu {
                 &state_buf,
                 &scratch,
                 &points_buf,
-                &eff_grid,
-                &eff_cells,
             ],
-            sdf.as_ref(),
         );
         let mut me = DynamicsGpu {
             pipeline,
@@ -356,9 +284,8 @@ impl DynamicsGpu {
             state: state_buf,
             scratch,
             points: points_buf,
-            eff_grid,
-            eff_cells,
-            sdf,
+            world: world.group().clone(),
+            sdf_head,
             steps,
             slots,
             capacity: 1,
@@ -377,6 +304,47 @@ impl DynamicsGpu {
         };
         me.update_params(gpu, motion, head);
         Ok(me)
+    }
+
+    /// The kernel's own layout (group 0) and its pipeline over it and the world (on an
+    /// ellipsoid head the SDF path compiled out).
+    fn pipeline(
+        gpu: &Gpu,
+        world: &WorldGpu,
+    ) -> Result<(wgpu::BindGroupLayout, wgpu::ComputePipeline)> {
+        let device = &gpu.device;
+        let constants = [
+            ("WORKGROUP", WORKGROUP as f64),
+            ("EPS_OUT", EPS_OUT),
+            ("SDF_EPS_OUT", SDF_EPS_OUT),
+            ("SDF_HEAD", f64::from(u8::from(world.sdf_head()))),
+        ];
+        let module = gpu::shader_module(device, "strips dynamics", DYNAMICS)?;
+        let vec4_rw = bind::storage_rw::<[f32; 4]>;
+        let layout = bind::layout(
+            device,
+            "strips dynamics",
+            wgpu::ShaderStages::COMPUTE,
+            &[
+                bind::uniform::<GpuParams>(),
+                bind::dynamic_uniform::<GpuSlot>(),
+                bind::storage::<GpuStrip>(),
+                bind::storage::<GpuJoint>(),
+                bind::storage::<GpuStep>(),
+                vec4_rw(),
+                vec4_rw(),
+                vec4_rw(),
+            ],
+        );
+        let [pipeline] = world.compute_pipelines(
+            device,
+            "strips dynamics",
+            &layout,
+            &module,
+            ["step"],
+            &constants,
+        );
+        Ok((layout, pipeline))
     }
 
     /// Step records and their slots for `capacity` steps.
@@ -409,8 +377,7 @@ impl DynamicsGpu {
     fn bind(
         device: &wgpu::Device,
         layout: &wgpu::BindGroupLayout,
-        b: [&wgpu::Buffer; 10],
-        sdf: Option<&wgpu::Buffer>,
+        b: [&wgpu::Buffer; 8],
     ) -> wgpu::BindGroup {
         let slot = wgpu::BufferBinding {
             buffer: b[1],
@@ -420,9 +387,6 @@ impl DynamicsGpu {
         let mut resources: Vec<wgpu::BindingResource> =
             b.iter().map(|buf| buf.as_entire_binding()).collect();
         resources[1] = wgpu::BindingResource::Buffer(slot);
-        if let Some(sdf) = sdf {
-            resources.push(sdf.as_entire_binding());
-        }
         bind::group(device, "strips dynamics", layout, &resources)
     }
 
@@ -439,10 +403,7 @@ impl DynamicsGpu {
                 &self.state,
                 &self.scratch,
                 &self.points,
-                &self.eff_grid,
-                &self.eff_cells,
             ],
-            self.sdf.as_ref(),
         );
     }
 
@@ -556,7 +517,7 @@ impl DynamicsGpu {
             ],
             flags: [
                 u32::from(m.sampling == Sampling::Trilinear),
-                u32::from(self.sdf.is_some()),
+                u32::from(self.sdf_head),
                 0,
                 0,
             ],
@@ -653,6 +614,7 @@ impl DynamicsGpu {
             timestamp_writes: None,
         });
         pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(WORLD_GROUP, &self.world, &[]);
         let (x, y) = self.dims;
         for i in 0..steps {
             pass.set_bind_group(0, &self.bind_group, &[i * SLOT as u32]);

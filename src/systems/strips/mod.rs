@@ -22,7 +22,6 @@ use crate::forces::Forces;
 use crate::gpu::Gpu;
 use crate::scene::Head;
 use crate::systems::strips::block::Strips;
-use crate::systems::world::EffGpu;
 use crate::systems::Scene;
 use glam::DVec3;
 use ribbon::RibbonPass;
@@ -75,7 +74,6 @@ pub const KIND: Kind = Kind {
     scenes: &["strips", "eff_capture", "strips_turn", "strips_mesh_head"],
     shaders: &[
         ("strips/dynamics", dynamics_gpu::DYNAMICS),
-        ("strips/dynamics_sdf", dynamics_gpu::DYNAMICS_SDF),
         ("strips/ribbon", ribbon::RIBBON),
         ("strips/draw", ribbon::DRAW),
         ("strips/cast", ribbon::CAST),
@@ -195,15 +193,14 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
     }
 }
 
-/// Kazama's strips of one scene: the rest strips, their motion on the GPU, the EFF they
-/// read, and the ribbons drawn from their control points.
+/// Kazama's strips of one scene: the rest strips, their motion on the GPU (reading the
+/// stage's world: the EFF, the head's field), and the ribbons drawn from their control points.
 pub struct StripsSystem {
     pub strips: Strips,
     pub head: Head,
     pub rest: Vec<RestStrip>,
     /// The solved key-frame edits (their extra forces are on the GPU).
     pub solved: Vec<keyframe::Solved>,
-    eff: EffGpu,
     pub dynamics: dynamics_gpu::DynamicsGpu,
     pub ribbon: RibbonPass,
     /// The ribbons' shadow cast.
@@ -227,8 +224,8 @@ impl StripsSystem {
         let rest = hom::build(&strips, &head)?;
         let solved = keyframe::solve(&rest, &strips.motion, &forces, &head, &strips.edits)?;
         let rig = dynamics::Rig::posed(&rest, &strips.motion, &head, forces.gravity)?;
-        let eff = EffGpu::new(gpu, forces.eff.as_deref())?;
-        let mut dynamics = dynamics_gpu::DynamicsGpu::new(gpu, &rig, &strips.motion, &head, &eff)?;
+        let mut dynamics =
+            dynamics_gpu::DynamicsGpu::new(gpu, setup.world, &rig, &strips.motion, &head)?;
         dynamics.set_extra(gpu, &solved.iter().map(|s| s.extra).collect::<Vec<_>>())?;
         let mut ribbon = RibbonPass::new(
             gpu,
@@ -253,7 +250,6 @@ impl StripsSystem {
             head,
             rest,
             solved,
-            eff,
             dynamics,
             cast: ribbon.shadow_cast(gpu, setup.frame_layout, setup.shadow_cast_layout)?,
             ribbon,
@@ -293,10 +289,6 @@ impl HairSystem for StripsSystem {
         ctx: &FrameCtx,
         frames: u32,
     ) -> Result<StepInfo> {
-        // The gust scale at the recording's start holds for its frames (the viewer and
-        // renders record one frame per submission).
-        self.eff
-            .write(gpu, ctx.forces.eff.as_deref(), ctx.frame as f64);
         self.dynamics
             .record(gpu, enc, ctx.forces, ctx.frame, frames)?;
         Ok(StepInfo {
@@ -356,9 +348,6 @@ impl HairSystem for StripsSystem {
                 let extra: Vec<dynamics::ExtraForce> = solved.iter().map(|s| s.extra).collect();
                 dynamics_gpu::check_extras(&extra)?;
                 self.dynamics.check_rig(&rig)?;
-                if let Some(e) = forces.eff.as_deref() {
-                    self.eff.write_cells(gpu, e)?;
-                }
                 self.dynamics.set_rig(rig)?;
                 self.dynamics.update_params(gpu, &st.motion, &scene.head);
                 self.solved = solved;

@@ -244,10 +244,10 @@ impl WispsSystem {
                 let lattice = springs::Lattice::build(&wisps, sp, &scene.head, &forces)?;
                 Nodes::Springs(Box::new(springs_gpu::SpringsGpu::new(
                     gpu,
+                    setup.world,
                     &lattice,
                     sp,
                     &scene.head,
-                    &forces,
                 )?))
             }
             None => Nodes::Still(crate::gpu::storage_buffer(
@@ -378,19 +378,9 @@ impl HairSystem for WispsSystem {
         self.draw.set_variant(gpu, variant);
     }
 
-    /// A `Redraw`: toon colours, thresholds and march settings; a `Resimulate`: those and
-    /// the EFF's cells (same grid).
+    /// A `Redraw`: toon colours, thresholds and march settings; a `Resimulate`: those (the
+    /// EFF's new cells are the world's, which the stage rewrites).
     fn update(&mut self, gpu: &Gpu, scene: &Scene, change: Change) -> Result<()> {
-        if change == Change::Resimulate {
-            if let (Nodes::Springs(s), Some(e)) = (
-                &self.nodes,
-                crate::forces::Forces::new(&scene.forces, &scene.head)
-                    .eff
-                    .as_deref(),
-            ) {
-                s.write_eff_cells(gpu, e)?;
-            }
-        }
         if let (Change::Redraw | Change::Resimulate, Some(w)) = (change, &scene.wisps) {
             self.wisps.toon = w.toon.clone();
             self.draw.set_on(gpu, w.march.on);

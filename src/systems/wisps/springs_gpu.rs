@@ -10,15 +10,14 @@
 //! with `queue.write_buffer` before the submission that runs them: record once per
 //! submission. The scene's forces are read from the `Forces` handed to `record` (the
 //! stage's, each frame): head motion, keyed wind and the gust scale act from the next
-//! recording; the EFF's cells are uploaded at `new` (`systems::world::EffGpu`, sampled with
-//! `shaders/forces/eff.wgsl`) and the shared gravity also sets the natural lengths, so those
-//! two build the system again (`super::classify`). The head hull is the ellipsoid or a mesh
-//! head's SDF (`shaders/common/sdf.wgsl`, the `SDF_HEAD` constant compiles the SDF path out
-//! on ellipsoid heads).
+//! recording. The EFF's grid and cells and the mesh head's SDF are the scene's world
+//! (`systems::world::WorldGpu`, bound at `WORLD_GROUP`, sampled with
+//! `shaders/forces/eff.wgsl` and `shaders/common/sdf.wgsl`; the `SDF_HEAD` constant compiles
+//! the SDF path out on ellipsoid heads); the shared gravity also sets the natural lengths, so
+//! it builds the system again (`super::classify`).
 
 use super::springs::{Lattice, NEWTON};
 use crate::error::Result;
-use crate::forces::eff::GpuEffGrid;
 use crate::forces::{wind_at, Forces};
 use crate::gpu::{self, bind, Gpu, WORKGROUP};
 use crate::scene::head::EPS_OUT;
@@ -26,17 +25,13 @@ use crate::scene::hull::{head_hull, HeadHull, SDF_EPS_OUT};
 use crate::scene::Head;
 use crate::shaders::wgsl;
 use crate::systems::wisps::block::{Integrator, Springs};
-use crate::systems::world::EffGpu;
+use crate::systems::world::{WorldGpu, WORLD_GROUP};
 use bytemuck::{Pod, Zeroable};
 
-/// The kernel's module (the wisps kind lists it as `("wisps/springs", SPRINGS)`): the EFF
-/// (`forces/eff.wgsl`, the same text every kind samples), the hulls, then the kernel.
-pub const SPRINGS: &str = wgsl!(
-    "forces/eff.wgsl",
-    "common/ellipsoid.wgsl",
-    "common/sdf.wgsl",
-    "wisps/springs.wgsl"
-);
+/// The kernel's module (the wisps kind lists it as `("wisps/springs", SPRINGS)`): the world
+/// (`common/world.wgsl` with the EFF and the hulls, the same text every kind reads), then
+/// the kernel.
+pub const SPRINGS: &str = wgsl!(world; "wisps/springs.wgsl");
 
 /// Bytes per substep slot of the dynamic uniform (the adapters' offset alignment).
 const SLOT: u64 = 256;
@@ -107,8 +102,8 @@ pub struct SpringsGpu {
     scratch: wgpu::Buffer,
     heads: wgpu::Buffer,
     steps: wgpu::Buffer,
-    eff: EffGpu,
-    sdf: wgpu::Buffer,
+    /// The world's group (the EFF, the head's field), bound at `WORLD_GROUP`.
+    world: wgpu::BindGroup,
     /// Substeps the `heads` and `steps` buffers hold.
     capacity: u32,
     bind_group: wgpu::BindGroup,
@@ -121,28 +116,19 @@ pub struct SpringsGpu {
 }
 
 impl SpringsGpu {
-    /// Upload `lattice` (built for `forces`, see `Lattice::build`) with the motion settings
-    /// of `springs`, the hull of `head` (its SDF for a mesh head) and the EFF of `forces`.
+    /// Upload `lattice` (see `Lattice::build`) with the motion settings of `springs` and the
+    /// hull of `head`, over the scene's `world` (its EFF and the head's field).
     pub fn new(
         gpu: &Gpu,
+        world: &WorldGpu,
         lattice: &Lattice,
         springs: &Springs,
         head: &Head,
-        forces: &Forces,
     ) -> Result<Self> {
         let device = &gpu.device;
         let count = lattice.points.len() as u32;
         let dims = gpu.dispatch_dims(count, WORKGROUP)?;
         let hull = head_hull(head)?;
-        let eff = EffGpu::new(gpu, forces.eff.as_deref())?;
-        let words = hull.gpu_sdf();
-        gpu.check_storage_size("the head's signed distance field", 4 * words.len() as u64)?;
-        let sdf = gpu::storage_buffer(
-            device,
-            "wisps head sdf",
-            bytemuck::cast_slice(&words),
-            wgpu::BufferUsages::empty(),
-        );
         let module = gpu::shader_module(device, "wisps springs", SPRINGS)?;
         let layout = bind::layout(
             device,
@@ -156,12 +142,9 @@ impl SpringsGpu {
                 bind::storage::<[[f32; 4]; 4]>(),
                 bind::storage_rw::<[f32; 4]>(),
                 bind::storage_rw::<[f32; 4]>(),
-                bind::uniform::<GpuEffGrid>(),
-                bind::storage::<[f32; 4]>(),
-                bind::storage::<f32>(),
             ],
         );
-        let [pin, rk1, rk2, rk3, rk4, kick, drift] = gpu::compute_pipelines(
+        let [pin, rk1, rk2, rk3, rk4, kick, drift] = world.compute_pipelines(
             device,
             "wisps springs",
             &layout,
@@ -172,7 +155,7 @@ impl SpringsGpu {
                 ("NEWTON", NEWTON as f64),
                 ("EPS_OUT", EPS_OUT),
                 ("SDF_EPS_OUT", SDF_EPS_OUT),
-                ("SDF_HEAD", f64::from(u8::from(hull.sdf().is_some()))),
+                ("SDF_HEAD", f64::from(u8::from(world.sdf_head()))),
             ],
         );
         let records: Vec<GpuMassPoint> = lattice
@@ -249,8 +232,6 @@ impl SpringsGpu {
             [
                 &params, &steps, &points, &edges, &heads, &positions, &scratch,
             ],
-            &eff,
-            &sdf,
         );
         let mut me = SpringsGpu {
             pin,
@@ -265,8 +246,7 @@ impl SpringsGpu {
             scratch,
             heads,
             steps,
-            eff,
-            sdf,
+            world: world.group().clone(),
             capacity: 1,
             bind_group,
             dims,
@@ -304,8 +284,6 @@ impl SpringsGpu {
         device: &wgpu::Device,
         layout: &wgpu::BindGroupLayout,
         buffers: [&wgpu::Buffer; 7],
-        eff: &EffGpu,
-        sdf: &wgpu::Buffer,
     ) -> wgpu::BindGroup {
         let [params, steps, points, edges, heads, positions, scratch] = buffers;
         let substep = wgpu::BufferBinding {
@@ -325,9 +303,6 @@ impl SpringsGpu {
                 heads.as_entire_binding(),
                 positions.as_entire_binding(),
                 scratch.as_entire_binding(),
-                eff.grid.as_entire_binding(),
-                eff.cells.as_entire_binding(),
-                sdf.as_entire_binding(),
             ],
         )
     }
@@ -393,8 +368,6 @@ impl SpringsGpu {
                     &self.positions,
                     &self.scratch,
                 ],
-                &self.eff,
-                &self.sdf,
             );
         }
         let half = 2.0 * self.substeps as f64;
@@ -415,6 +388,7 @@ impl SpringsGpu {
         });
         let (x, y) = self.dims;
         pass.set_bind_group(0, &self.bind_group, &[0]);
+        pass.set_bind_group(WORLD_GROUP, &self.world, &[]);
         pass.set_pipeline(&self.pin);
         pass.dispatch_workgroups(x, y, 1);
         for i in 0..steps {
@@ -429,12 +403,6 @@ impl SpringsGpu {
             }
         }
         Ok(())
-    }
-
-    /// Upload the cells of `eff`, a field on the grid this pass was built with (the EFF
-    /// brush); refused for another grid.
-    pub fn write_eff_cells(&self, gpu: &Gpu, eff: &crate::forces::eff::Eff) -> Result<()> {
-        self.eff.write_cells(gpu, eff)
     }
 
     /// Every point, `vec4<f32>` xyz world, primaries first.
