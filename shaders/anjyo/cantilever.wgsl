@@ -17,8 +17,6 @@ struct Params {
     row_stride: u32,
     // Converged-mode iterations per `iterate` dispatch.
     chunk: u32,
-    head_center: vec4<f32>,
-    head_radii: vec4<f32>,
 }
 
 struct Root {
@@ -73,7 +71,7 @@ const FLAG_DONE: u32 = 2u;
 // The head's hull and field: the world at group 3 (common/world.wgsl).
 
 fn hull() -> HeadHull {
-    return head_hull(params.head_center, params.head_radii);
+    return world_hull();
 }
 
 fn group_load(g: Group, rest: vec3<f32>, p: vec3<f32>) -> vec3<f32> {

@@ -16,8 +16,6 @@ struct FollowParams {
     row_stride: u32,
     collision: u32,
     _p: u32,
-    head_center: vec4<f32>,
-    head_radii: vec4<f32>,
     // The head pose at the end of the frame, and its inverse.
     head: mat4x4<f32>,
     head_inv: mat4x4<f32>,
@@ -78,7 +76,7 @@ fn follow(@builtin(global_invocation_id) id: vec3<u32>) {
     let k = f.ids.y;
     let n = f.ids.z;
     let d = f.root.w;
-    let hl = head_hull(params.head_center, params.head_radii);
+    let hl = world_hull();
     let root = xform_point(params.head, f.root.xyz);
     verts[base] = vec4<f32>(root, 1.0);
     var prev_p = root;

@@ -52,8 +52,6 @@ struct DynParams {
     sigma_end: f32,
     state_stride: u32,
     _p2: f32,
-    head_center: vec4<f32>,
-    head_radii: vec4<f32>,
 }
 
 // Twin of GpuStep (tests/it/gpu_twins.rs checks it) in src/gpu/gpu_data.rs (one 256-byte slot per substep).
@@ -87,7 +85,7 @@ struct DynStrand {
 // The EFF and the head's field: the world at group 3 (common/world.wgsl).
 
 fn hull() -> HeadHull {
-    return head_hull(params.head_center, params.head_radii);
+    return world_hull();
 }
 
 fn direction(theta: f32, phi: f32) -> vec3<f32> {

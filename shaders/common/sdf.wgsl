@@ -1,8 +1,8 @@
-// The head hull of the Anjyo kernels: the ellipsoid (common/ellipsoid.wgsl) or a mesh head's
+// The head hull of every simulation kernel: the ellipsoid (common/ellipsoid.wgsl) or a mesh head's
 // signed distance field. Keep in step with src/scene/hull.rs (HeadHull) and
 // src/scene/sdf.rs (Sdf::sample, Sdf::gradient, Sdf::to_gpu).
 //
-// The field is read from `sdf_data`, which each kernel declares at its own binding:
+// The field is read from `sdf_data`, the world's (common/world.wgsl, group 3):
 // words 0..8 are origin.xyz, cell, node counts x y z (as f32), unused; the values follow,
 // x fastest. Trilinear between nodes, the analytic gradient of the trilinear interpolant;
 // outside the grid the value at the nearest grid point plus the distance to it.
@@ -21,7 +21,7 @@ struct HeadHull {
 // `follow_gpu::FollowPass`).
 override SDF_HEAD: bool = true;
 
-// From the kernels' parameters: head_center.w = 1 selects the SDF.
+// From the world's hull (`world_hull`, common/world.wgsl): center.w = 1 selects the SDF.
 fn head_hull(center: vec4<f32>, radii: vec4<f32>) -> HeadHull {
     return HeadHull(Hull(center.xyz, radii.xyz), SDF_HEAD && center.w > 0.5);
 }

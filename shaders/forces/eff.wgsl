@@ -1,12 +1,12 @@
 // The External Force Field, sampled on the GPU: the f32 twin of `Eff::sample` in
 // src/forces/eff.rs (read its docs for the grid, the outside force and the blend band).
-// A kernel that samples the EFF concatenates this file and declares
-//   var<uniform> eff: EffGrid;                       (any group/binding it likes)
-//   var<storage, read> eff_cells: array<vec4<f32>>;  (one force per cell, xyz; x fastest)
-// and calls eff_force(p, sampling) with p in world units and sampling 0 (nearest) or 1
-// (trilinear): the force with the gust scale of the frame `EffGpu::write` last wrote.
-// eff_field(p, sampling) is the same without the scale, for kernels that carry their own
-// scale per substep (several frames recorded in one submission).
+// The globals it reads, `eff: EffGrid` (uniform) and `eff_cells: array<vec4<f32>>` (storage,
+// one force per cell, xyz; x fastest), are the world's (common/world.wgsl, group 3) in every
+// simulation kernel, and the probe's own in `systems::world::EFF_MODULE`.
+// eff_field(p, sampling), p in world units and sampling 0 (nearest) or 1 (trilinear), is
+// the field without the gust: kernels scale it by their substep's gust (several frames
+// recorded in one submission each see their own). eff_force(p, sampling) is the field times
+// the scale in `outside.w` (1 in the world; the probe `sample_on_gpu` writes its own).
 
 // Twin of GpuEffGrid (tests/it/gpu_twins.rs checks it) in src/forces/eff.rs.
 struct EffGrid {

@@ -6,7 +6,8 @@
 // the head poses, the head-acceleration maps, the uniform wind and the extra forces' ramps
 // per step are too. Follows the world (common/world.wgsl at group 3: forces/eff.wgsl's
 // eff_field, common/ellipsoid.wgsl and common/sdf.wgsl, the mesh head's field in `sdf_data`,
-// trilinear, as Rig::step reads it through scene::hull::HeadHull; flags.y = 1 selects it).
+// trilinear, as Rig::step reads it through scene::hull::HeadHull; world.hull_center.w = 1
+// selects it).
 //
 // Loops per invocation and dispatch stay far below llvmpipe's 65,535 (the Rust side refuses
 // strips with too many sticks): 3 passes over the sticks, 2 force sums over the extras, and
@@ -22,11 +23,9 @@ struct Params {
     extras: u32,
     // xyz gravity, w spring k
     gravity: vec4<f32>,
-    // xyz hull centre, w collision kappa
-    hull_center: vec4<f32>,
-    // xyz hull radii, w Psi at the surface for kappa = 1
-    hull_radii: vec4<f32>,
-    // x EFF sampling (0 nearest, 1 trilinear), y 1 when the head is the SDF in sdf_data
+    // x collision kappa, y Psi at the surface for kappa = 1 (the hull is the world's)
+    collision: vec4<f32>,
+    // x EFF sampling (0 nearest, 1 trilinear)
     flags: vec4<u32>,
     // xyz centre (world), w radius
     extra_center: array<vec4<f32>, 16>,
@@ -128,15 +127,12 @@ fn unpose(m: mat4x4<f32>, x: vec3<f32>) -> vec3<f32> {
 }
 
 fn hull() -> HeadHull {
-    return head_hull(
-        vec4<f32>(params.hull_center.xyz, f32(params.flags.y)),
-        vec4<f32>(params.hull_radii.xyz, 0.0),
-    );
+    return world_hull();
 }
 
 // Psi (see dynamics::collision_accel), head-local.
 fn collision(local: vec3<f32>, band: f32) -> vec3<f32> {
-    let kappa = params.hull_center.w;
+    let kappa = params.collision.x;
     if kappa <= 0.0 || band <= 0.0 {
         return vec3<f32>(0.0);
     }
@@ -164,7 +160,7 @@ fn collision(local: vec3<f32>, band: f32) -> vec3<f32> {
     if u <= 0.0 {
         return vec3<f32>(0.0);
     }
-    return n * (kappa * params.hull_radii.w * u * u);
+    return n * (kappa * params.collision.y * u * u);
 }
 
 fn ramp(st: u32, e: u32, mid: bool) -> f32 {
@@ -192,7 +188,7 @@ fn accel(x: vec3<f32>, goal: vec3<f32>, band: f32, st: u32, mid: bool) -> vec3<f
     if spring > 0.0 {
         a -= spring * (x - posed(m, goal));
     }
-    if params.hull_center.w > 0.0 {
+    if params.collision.x > 0.0 {
         a += rotation(m) * collision(unpose(m, x), band);
     }
     for (var e = 0u; e < params.extras; e++) {

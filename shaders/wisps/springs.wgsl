@@ -21,9 +21,6 @@ struct Params {
     _p0: u32,
     // x step length (seconds), y c_damp
     step: vec4<f32>,
-    // xyz hull centre, w 1 when the hull is the SDF in sdf_data (HeadHull::gpu_params)
-    hull_center: vec4<f32>,
-    hull_radii: vec4<f32>,
 }
 
 // One 256-byte slot per substep (the twin of GpuSubstep): index.x is the substep's
@@ -131,7 +128,7 @@ fn collide(x: ptr<function, vec3<f32>>, v: ptr<function, vec3<f32>>) {
     }
     let h0 = head(0u);
     let h1 = head(2u);
-    let hl = head_hull(params.hull_center, params.hull_radii);
+    let hl = world_hull();
     var q = unpose(h1, *x);
     if head_eval(hl, q) >= 0.0 {
         return;

@@ -52,7 +52,8 @@
 //!
 //! Gust keys scale the whole field (grid and outside force) over time, like the scene's
 //! keyed wind: `Eff::scale_at(frame)` (1 without keys). `sample` is the unscaled field,
-//! `sample_at` includes the gust; `EffGpu::write` puts the scale into the uniform each frame.
+//! `sample_at` includes the gust. On the GPU the world's grid stays at scale 1 and each kernel
+//! multiplies `eff_field` by the gust of its own substep (`systems::world`).
 //!
 //! # EFF files
 //!

@@ -7,7 +7,7 @@
 //! once per step; the per-root acceleration of a moving head is linear in the root's
 //! head-local position, so one matrix carries it to the GPU. The one field that varies in
 //! space is the External Force Field (`eff`): a grid of winds around the head, sampled per
-//! point (`Forces::wind_at_point`, and `systems::world::EffGpu` + `shaders/forces/eff.wgsl` on the GPU).
+//! point (`Forces::wind_at_point`, and the stage's `systems::world::WorldGpu` + `shaders/forces/eff.wgsl` on the GPU).
 
 pub mod eff;
 

@@ -21,6 +21,13 @@ use std::sync::{Arc, Mutex};
 /// passed to the shaders as the pipeline-overridable constant `WORKGROUP`).
 pub const WORKGROUP: u32 = 64;
 
+/// The most storage buffers one shader stage of Kami's binds, over all its bind groups
+/// (Anjyo's cantilever: seven of its own and the world's EFF cells and head field, see
+/// `systems::world`). WebGPU guarantees 8; `Gpu::new` refuses an adapter offering fewer than
+/// this, with a message, rather than failing at the first pipeline
+/// (`tests/it/shader_validation.rs` keeps the number true).
+pub const STORAGE_BUFFERS_PER_STAGE: u32 = 9;
+
 /// Which kind of adapter to look for first.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Preference {
@@ -153,6 +160,14 @@ impl Gpu {
                 info.name,
                 info.backend,
                 needed - downlevel.flags
+            )));
+        }
+        let storage = adapter.limits().max_storage_buffers_per_shader_stage;
+        if storage < STORAGE_BUFFERS_PER_STAGE {
+            return Err(KamiError::Device(format!(
+                "adapter {} ({:?}) offers {storage} storage buffers per shader stage; Kami's \
+                 kernels bind up to {STORAGE_BUFFERS_PER_STAGE}; try KAMI_BACKEND=vulkan",
+                info.name, info.backend
             )));
         }
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {

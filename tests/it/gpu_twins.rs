@@ -120,16 +120,7 @@ fn twins() -> Vec<Twin> {
         ),
         twin!(
             GpuFollowParams,
-            [
-                follower_count,
-                row_stride,
-                collision,
-                _pad,
-                head_center,
-                head_radii,
-                head,
-                head_inv
-            ],
+            [follower_count, row_stride, collision, _pad, head, head_inv],
             "FollowParams",
             ["anjyo/follow.wgsl"]
         ),
@@ -167,14 +158,7 @@ fn twins() -> Vec<Twin> {
         twin!(GpuCut, [kind, _pad, a], "Cut", ["anjyo/cantilever.wgsl"]),
         twin!(
             GpuGroomParams,
-            [
-                strand_count,
-                total_vertices,
-                row_stride,
-                chunk,
-                head_center,
-                head_radii
-            ],
+            [strand_count, total_vertices, row_stride, chunk],
             "Params",
             ["anjyo/cantilever.wgsl"]
         ),
@@ -212,9 +196,7 @@ fn twins() -> Vec<Twin> {
                 inertia_tip,
                 sigma_end,
                 state_stride,
-                _pad,
-                head_center,
-                head_radii
+                _pad
             ],
             "DynParams",
             ["anjyo/projective.wgsl"]
@@ -285,8 +267,7 @@ fn twins() -> Vec<Twin> {
                 row_stride,
                 extras,
                 gravity,
-                hull_center,
-                hull_radii,
+                collision,
                 flags,
                 extra_center,
                 extra_accel
@@ -366,15 +347,7 @@ fn twins() -> Vec<Twin> {
         ),
         twin!(
             GpuSpringParams,
-            [
-                count,
-                row_stride,
-                collide,
-                _pad,
-                step,
-                hull_center,
-                hull_radii
-            ],
+            [count, row_stride, collide, _pad, step],
             "Params",
             ["wisps/springs.wgsl"]
         ),

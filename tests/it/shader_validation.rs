@@ -64,3 +64,28 @@ fn registry_lists_every_shader_file() {
         }
     }
 }
+
+/// `gpu::STORAGE_BUFFERS_PER_STAGE`, which `Gpu::new` asks of the adapter, is the most storage
+/// buffers any registered module declares (over all its groups: a kernel's own and the
+/// world's at `WORLD_GROUP`), so an adapter that passes the check can build every pipeline.
+#[test]
+fn the_storage_buffer_limit_covers_every_module() {
+    let mut most = (0, String::new());
+    for (name, source) in kami::stage::shaders() {
+        let module = naga::front::wgsl::parse_str(source).unwrap();
+        let n = module
+            .global_variables
+            .iter()
+            .filter(|(_, g)| matches!(g.space, naga::AddressSpace::Storage { .. }))
+            .count() as u32;
+        if n > most.0 {
+            most = (n, name.to_string());
+        }
+    }
+    assert_eq!(
+        most.0,
+        kami::gpu::STORAGE_BUFFERS_PER_STAGE,
+        "{} declares the most storage buffers",
+        most.1
+    );
+}

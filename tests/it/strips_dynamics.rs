@@ -744,14 +744,8 @@ fn gpu_matches_the_f64_reference() {
     let gpu = common::gpu();
     for (name, s, bound) in contract_scenes() {
         let mut rig = Rig::new(&s.rest, &s.motion).unwrap();
-        let mut g = DynamicsGpu::new(
-            gpu,
-            &common::still_world(gpu, &s.head),
-            &rig,
-            &s.motion,
-            &s.head,
-        )
-        .unwrap();
+        let mut g =
+            DynamicsGpu::new(gpu, &common::still_world(gpu, &s.head), &rig, &s.motion).unwrap();
         g.set_extra(gpu, &s.extra).unwrap();
         let stride = rig.stride();
         assert_eq!(g.stride() as usize, stride);
@@ -806,14 +800,7 @@ fn gpu_refuses_too_many_extra_forces() {
     let gpu = common::gpu();
     let s = Setup::gust();
     let rig = Rig::new(&s.rest, &s.motion).unwrap();
-    let mut g = DynamicsGpu::new(
-        gpu,
-        &common::still_world(gpu, &s.head),
-        &rig,
-        &s.motion,
-        &s.head,
-    )
-    .unwrap();
+    let mut g = DynamicsGpu::new(gpu, &common::still_world(gpu, &s.head), &rig, &s.motion).unwrap();
     let e = s.extra[0];
     g.set_extra(gpu, &vec![e; MAX_EXTRA]).unwrap();
     let msg = g
@@ -972,14 +959,7 @@ fn preload_holds_the_groomed_shape_under_gravity() {
 
     // On the GPU.
     let gpu = common::gpu();
-    let mut g = DynamicsGpu::new(
-        gpu,
-        &common::still_world(gpu, &scene.head),
-        &b,
-        &on,
-        &scene.head,
-    )
-    .unwrap();
+    let mut g = DynamicsGpu::new(gpu, &common::still_world(gpu, &scene.head), &b, &on).unwrap();
     let start = g.read_points(gpu).unwrap();
     let mut enc = gpu.device.create_command_encoder(&Default::default());
     g.record(gpu, &mut enc, &forces, 0, frames).unwrap();

@@ -135,7 +135,7 @@ fn strips_stay_out_of_the_sdf_and_gpu_matches_the_reference() {
     let stride = rig.stride();
     let mut ellipsoid = rig.clone();
     let ellipsoid_hull = HeadHull::Ellipsoid(Ellipsoid::new(head.center, head.radii));
-    let mut g = DynamicsGpu::new(gpu, &common::still_world(gpu, head), &rig, motion, head).unwrap();
+    let mut g = DynamicsGpu::new(gpu, &common::still_world(gpu, head), &rig, motion).unwrap();
     let (mut cpu_low, mut gpu_low, mut ell_low) = (f64::INFINITY, f64::INFINITY, f64::INFINITY);
     let (mut cpu_root, mut gpu_root): (f64, f64) = (0.0, 0.0);
     let mut apart: Vec<f64> = Vec::new();

@@ -214,7 +214,7 @@ fn gpu_springs_match_f64_under_wind_and_eff() {
         let no_wind = run(&gusty(&head, false, true));
         let no_eff = run(&gusty(&head, true, false));
         let mut gs =
-            springs_gpu::SpringsGpu::new(gpu, &common::world_of(gpu, &f, &head), &lat, &sp, &head)
+            springs_gpu::SpringsGpu::new(gpu, &common::world_of(gpu, &f, &head), &lat, &sp)
                 .unwrap();
         let mut frame = 0u64;
         for chunk in chunks {
@@ -487,14 +487,9 @@ fn mesh_head_springs_stay_out_of_the_sdf() {
             ..placed.springs.clone().unwrap()
         };
         let lat = Lattice::build(&placed, &sp, head, &forces).unwrap();
-        let mut gs = springs_gpu::SpringsGpu::new(
-            gpu,
-            &common::world_of(gpu, &forces, head),
-            &lat,
-            &sp,
-            head,
-        )
-        .unwrap();
+        let mut gs =
+            springs_gpu::SpringsGpu::new(gpu, &common::world_of(gpu, &forces, head), &lat, &sp)
+                .unwrap();
         let m = Motion::new(&sp, head).unwrap();
         let mut st = State::rest(&lat);
         for frame in 0..frames as u64 {

@@ -624,7 +624,7 @@ fn gpu_matches_cpu() {
         let lat = Lattice::build(&w, &sp, &head, &still(&head)).unwrap();
         let m = Motion::new(&sp, &head).unwrap();
         let mut gs =
-            springs_gpu::SpringsGpu::new(gpu, &common::world_of(gpu, &f, &head), &lat, &sp, &head)
+            springs_gpu::SpringsGpu::new(gpu, &common::world_of(gpu, &f, &head), &lat, &sp)
                 .unwrap();
         assert_eq!(gs.primaries(), 14);
         let mut st = State::rest(&lat);
@@ -698,7 +698,7 @@ fn gpu_collision_matches_cpu() {
         let lat = Lattice::build(&w, &sp, &head, &still(&head)).unwrap();
         let m = Motion::new(&sp, &head).unwrap();
         let mut gs =
-            springs_gpu::SpringsGpu::new(gpu, &common::world_of(gpu, &f, &head), &lat, &sp, &head)
+            springs_gpu::SpringsGpu::new(gpu, &common::world_of(gpu, &f, &head), &lat, &sp)
                 .unwrap();
         let mut st = State::rest(&lat);
         let mut history = Vec::new();

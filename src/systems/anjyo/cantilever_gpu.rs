@@ -161,8 +161,6 @@ impl CantileverPass {
             total_vertices: strands.vertex_count,
             row_stride: dims.0 * WORKGROUP,
             chunk,
-            head_center: input.head.gpu_params().0,
-            head_radii: input.head.gpu_params().1,
         };
         let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("cantilever params"),

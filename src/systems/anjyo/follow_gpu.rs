@@ -24,14 +24,11 @@ pub struct GpuFollowParams {
     pub row_stride: u32,
     pub collision: u32,
     pub _pad: u32,
-    /// `HeadHull::gpu_params` (w = 1 selects the SDF).
-    pub head_center: [f32; 4],
-    pub head_radii: [f32; 4],
     /// Head pose at the end of the frame and its inverse.
     pub head: [[f32; 4]; 4],
     pub head_inv: [[f32; 4]; 4],
 }
-const _: () = assert!(std::mem::size_of::<GpuFollowParams>() == 176);
+const _: () = assert!(std::mem::size_of::<GpuFollowParams>() == 144);
 
 /// Twin of `struct Follower` (`tests/it/gpu_twins.rs` checks it) in `shaders/anjyo/follow.wgsl`.
 #[repr(C)]
@@ -63,6 +60,8 @@ pub struct FollowJob {
     bind_group: wgpu::BindGroup,
     /// The world's group (the head's hull and field), bound at `WORLD_GROUP`.
     world: wgpu::BindGroup,
+    /// Whether the world's head is a mesh's SDF (the pipeline with the SDF path).
+    sdf_head: bool,
     dims: (u32, u32),
     base: GpuFollowParams,
 }
@@ -142,13 +141,10 @@ impl FollowPass {
             .collect();
         let bytes = std::mem::size_of_val(records.as_slice()) as u64;
         gpu.check_storage_size("the follower table", bytes)?;
-        let (head_center, head_radii) = setup.head.gpu_params();
         let base = GpuFollowParams {
             follower_count: setup.followers.len() as u32,
             row_stride: dims.0 * WORKGROUP,
             collision: u32::from(setup.collision),
-            head_center,
-            head_radii,
             ..Default::default()
         };
         let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -184,6 +180,7 @@ impl FollowPass {
             params,
             bind_group,
             world: world.group().clone(),
+            sdf_head: world.sdf_head(),
             dims,
             base,
         })
@@ -203,8 +200,11 @@ impl FollowPass {
             label: Some("follow"),
             timestamp_writes: None,
         });
-        let sdf = job.base.head_center[3] > 0.5;
-        pass.set_pipeline(if sdf { &self.sdf } else { &self.ellipsoid });
+        pass.set_pipeline(if job.sdf_head {
+            &self.sdf
+        } else {
+            &self.ellipsoid
+        });
         pass.set_bind_group(0, &job.bind_group, &[]);
         pass.set_bind_group(WORLD_GROUP, &job.world, &[]);
         pass.dispatch_workgroups(job.dims.0, job.dims.1, 1);

@@ -70,10 +70,8 @@ pub struct GpuGroomParams {
     pub row_stride: u32,
     /// Converged-mode iterations per `iterate` dispatch.
     pub chunk: u32,
-    pub head_center: [f32; 4],
-    pub head_radii: [f32; 4],
 }
-assert_size!(GpuGroomParams, 48);
+assert_size!(GpuGroomParams, 16);
 
 /// Look of a hair group. Twin of `struct Material` (`tests/it/gpu_twins.rs` checks it) in `shaders/anjyo/draw.wgsl`.
 #[repr(C)]
@@ -150,10 +148,8 @@ pub struct GpuDynParams {
     /// `(i - 1) * state_stride + c`.
     pub state_stride: u32,
     pub _pad: f32,
-    pub head_center: [f32; 4],
-    pub head_radii: [f32; 4],
 }
-assert_size!(GpuDynParams, 112);
+assert_size!(GpuDynParams, 80);
 
 /// One simulated strand. Twin of `struct DynStrand` (`tests/it/gpu_twins.rs` checks it) in `shaders/anjyo/projective.wgsl`.
 /// Uploaded as three columns (all `ids`, then all `root`, then all `extra`, each

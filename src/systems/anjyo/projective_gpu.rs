@@ -421,7 +421,5 @@ fn gpu_params(setup: &DynSetup, row_stride: u32, layout: StateLayout) -> GpuDynP
         sigma_end: p.stiffness.end as f32,
         state_stride: layout.stride,
         _pad: 0.0,
-        head_center: setup.head.gpu_params().0,
-        head_radii: setup.head.gpu_params().1,
     }
 }

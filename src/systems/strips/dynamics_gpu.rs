@@ -23,7 +23,6 @@ use crate::forces::Forces;
 use crate::gpu::{self, bind, Gpu, WORKGROUP};
 use crate::scene::head::EPS_OUT;
 use crate::scene::hull::SDF_EPS_OUT;
-use crate::scene::Head;
 use crate::scene::Sampling;
 use crate::shaders::wgsl;
 use crate::systems::strips::block::Motion;
@@ -52,16 +51,14 @@ pub struct GpuParams {
     pub extras: u32,
     /// xyz gravity, w spring k.
     pub gravity: [f32; 4],
-    /// xyz hull centre, w collision κ.
-    pub hull_center: [f32; 4],
-    /// xyz hull radii, w Ψ at the surface for κ = 1.
-    pub hull_radii: [f32; 4],
-    /// x EFF sampling (0 nearest, 1 trilinear), y 1 when the head is the SDF at binding 10.
+    /// x collision κ, y Ψ at the surface for κ = 1 (the hull is the world's).
+    pub collision: [f32; 4],
+    /// x EFF sampling (0 nearest, 1 trilinear).
     pub flags: [u32; 4],
     pub extra_center: [[f32; 4]; MAX_EXTRA],
     pub extra_accel: [[f32; 4]; MAX_EXTRA],
 }
-const _: () = assert!(std::mem::size_of::<GpuParams>() == 80 + 2 * 16 * MAX_EXTRA);
+const _: () = assert!(std::mem::size_of::<GpuParams>() == 64 + 2 * 16 * MAX_EXTRA);
 
 /// One step's slot of the dynamic uniform: x is the step's index in `steps` (`struct Slot`
 /// in `shaders/strips/dynamics.wgsl`; each slot is `SLOT` bytes apart).
@@ -120,8 +117,6 @@ pub struct DynamicsGpu {
     points: wgpu::Buffer,
     /// The world's group (the EFF, the head's field), bound at `WORLD_GROUP`.
     world: wgpu::BindGroup,
-    /// Whether the head is a mesh's SDF (the world's).
-    sdf_head: bool,
     steps: wgpu::Buffer,
     slots: wgpu::Buffer,
     /// Steps the `steps` and `slots` buffers hold.
@@ -134,7 +129,6 @@ pub struct DynamicsGpu {
     /// The rig (its joints for the propagators; `set_rig` swaps in new constants).
     rig: Rig,
     motion: Motion,
-    head: Head,
     /// The scene's gravity (`Forces::gravity`) in the params uniform: taken from the forces
     /// each `record`, rewritten only when it changes.
     gravity: glam::DVec3,
@@ -161,15 +155,9 @@ pub fn check_extras(extra: &[ExtraForce]) -> Result<()> {
 }
 
 impl DynamicsGpu {
-    /// Upload `rig` (its current state) with the forces' settings of `motion` and the
-    /// hull of `head`, over the scene's `world` (its EFF and the head's field).
-    pub fn new(
-        gpu: &Gpu,
-        world: &WorldGpu,
-        rig: &Rig,
-        motion: &Motion,
-        head: &Head,
-    ) -> Result<Self> {
+    /// Upload `rig` (its current state) with the forces' settings of `motion`, over the
+    /// scene's `world` (its EFF and the head's hull and field).
+    pub fn new(gpu: &Gpu, world: &WorldGpu, rig: &Rig, motion: &Motion) -> Result<Self> {
         super::dynamics::check_motion(motion)?;
         let device = &gpu.device;
         let count = rig.strip_count() as u32;
@@ -191,7 +179,6 @@ impl DynamicsGpu {
             });
         }
         let dims = gpu.dispatch_dims(count, WORKGROUP)?;
-        let sdf_head = world.sdf_head();
         let (layout, pipeline) = Self::pipeline(gpu, world)?;
         let strips: Vec<GpuStrip> = rig
             .strips
@@ -285,7 +272,6 @@ impl DynamicsGpu {
             scratch,
             points: points_buf,
             world: world.group().clone(),
-            sdf_head,
             steps,
             slots,
             capacity: 1,
@@ -297,12 +283,11 @@ impl DynamicsGpu {
             rig: rig.clone(),
             motion: motion.clone(),
             gravity: glam::DVec3::ZERO,
-            head: head.clone(),
             extra: Vec::new(),
             rest_state,
             rest_points,
         };
-        me.update_params(gpu, motion, head);
+        me.update_params(gpu, motion);
         Ok(me)
     }
 
@@ -444,7 +429,7 @@ impl DynamicsGpu {
     /// Take the forces' settings of `motion` (spring, collision, sampling, frame
     /// time and step rate), the joints' constants of the rig (see `set_rig`) and the hull
     /// of `head`.
-    pub fn update_params(&mut self, gpu: &Gpu, motion: &Motion, head: &Head) {
+    pub fn update_params(&mut self, gpu: &Gpu, motion: &Motion) {
         self.motion = motion.clone();
         let dt = step_length(motion);
         let props = self.rig.propagator_table(dt);
@@ -485,13 +470,11 @@ impl DynamicsGpu {
             gpu.queue
                 .write_buffer(&self.joints, 0, bytemuck::cast_slice(&joints));
         }
-        self.head = head.clone();
         self.write_params(gpu);
     }
 
     fn write_params(&self, gpu: &Gpu) {
         let m = &self.motion;
-        let head = &self.head;
         let mut p = GpuParams {
             count: self.count,
             stride: self.stride,
@@ -503,24 +486,8 @@ impl DynamicsGpu {
                 self.gravity.z as f32,
                 m.spring as f32,
             ],
-            hull_center: [
-                head.center[0] as f32,
-                head.center[1] as f32,
-                head.center[2] as f32,
-                m.collision as f32,
-            ],
-            hull_radii: [
-                head.radii[0] as f32,
-                head.radii[1] as f32,
-                head.radii[2] as f32,
-                COLLISION_ACCEL as f32,
-            ],
-            flags: [
-                u32::from(m.sampling == Sampling::Trilinear),
-                u32::from(self.sdf_head),
-                0,
-                0,
-            ],
+            collision: [m.collision as f32, COLLISION_ACCEL as f32, 0.0, 0.0],
+            flags: [u32::from(m.sampling == Sampling::Trilinear), 0, 0, 0],
             extra_center: [[0.0; 4]; MAX_EXTRA],
             extra_accel: [[0.0; 4]; MAX_EXTRA],
         };

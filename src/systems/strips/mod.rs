@@ -225,7 +225,7 @@ impl StripsSystem {
         let solved = keyframe::solve(&rest, &strips.motion, &forces, &head, &strips.edits)?;
         let rig = dynamics::Rig::posed(&rest, &strips.motion, &head, forces.gravity)?;
         let mut dynamics =
-            dynamics_gpu::DynamicsGpu::new(gpu, setup.world, &rig, &strips.motion, &head)?;
+            dynamics_gpu::DynamicsGpu::new(gpu, setup.world, &rig, &strips.motion)?;
         dynamics.set_extra(gpu, &solved.iter().map(|s| s.extra).collect::<Vec<_>>())?;
         let mut ribbon = RibbonPass::new(
             gpu,
@@ -349,7 +349,7 @@ impl HairSystem for StripsSystem {
                 dynamics_gpu::check_extras(&extra)?;
                 self.dynamics.check_rig(&rig)?;
                 self.dynamics.set_rig(rig)?;
-                self.dynamics.update_params(gpu, &st.motion, &scene.head);
+                self.dynamics.update_params(gpu, &st.motion);
                 self.solved = solved;
                 self.dynamics.set_extra(gpu, &extra)?;
                 self.ribbon.set_shading(scene.render.shading);

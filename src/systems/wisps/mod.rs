@@ -163,9 +163,10 @@ fn build(gpu: &Gpu, scene: &Scene, setup: &DrawSetup) -> Result<Box<dyn HairSyst
 /// Toon colours, thresholds and march settings are uniforms: a `Redraw`. Skeletons, springs
 /// and the head (collision, rest lengths, a mesh head's scalp and SDF) build the system
 /// again, and so do the shared gravity (the natural lengths hold the drawn shape under it)
-/// and the EFF's grid (its buffers); the EFF's cells (the brush) are uploaded again from the
-/// next step (`Resimulate`). Keyed wind, the EFF's gust keys and head motion are read from
-/// the stage's forces at every step: no change.
+/// and the EFF's grid; the EFF's cells (the brush) act from the next step (`Resimulate`:
+/// the stage rewrites them in the world the kernel binds, `systems::world`). Keyed wind,
+/// the EFF's gust keys and head motion are read from the stage's forces at every step: no
+/// change.
 pub fn classify(old: &Scene, new: &Scene) -> Change {
     let grid = |s: &Scene| {
         crate::forces::Forces::new(&s.forces, &s.head)
@@ -247,7 +248,6 @@ impl WispsSystem {
                     setup.world,
                     &lattice,
                     sp,
-                    &scene.head,
                 )?))
             }
             None => Nodes::Still(crate::gpu::storage_buffer(

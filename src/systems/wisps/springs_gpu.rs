@@ -21,8 +21,7 @@ use crate::error::Result;
 use crate::forces::{wind_at, Forces};
 use crate::gpu::{self, bind, Gpu, WORKGROUP};
 use crate::scene::head::EPS_OUT;
-use crate::scene::hull::{head_hull, HeadHull, SDF_EPS_OUT};
-use crate::scene::Head;
+use crate::scene::hull::SDF_EPS_OUT;
 use crate::shaders::wgsl;
 use crate::systems::wisps::block::{Integrator, Springs};
 use crate::systems::world::{WorldGpu, WORLD_GROUP};
@@ -48,11 +47,8 @@ pub struct GpuSpringParams {
     pub _pad: u32,
     /// x step length (seconds), y c_damp.
     pub step: [f32; 4],
-    /// xyz hull centre, w 1 when the hull is the SDF (`HeadHull::gpu_params`).
-    pub hull_center: [f32; 4],
-    pub hull_radii: [f32; 4],
 }
-const _: () = assert!(std::mem::size_of::<GpuSpringParams>() == 64);
+const _: () = assert!(std::mem::size_of::<GpuSpringParams>() == 32);
 
 /// One substep's slot of the dynamic uniform. Twin of `struct Substep` (`tests/it/gpu_twins.rs` checks it).
 #[repr(C)]
@@ -116,19 +112,12 @@ pub struct SpringsGpu {
 }
 
 impl SpringsGpu {
-    /// Upload `lattice` (see `Lattice::build`) with the motion settings of `springs` and the
-    /// hull of `head`, over the scene's `world` (its EFF and the head's field).
-    pub fn new(
-        gpu: &Gpu,
-        world: &WorldGpu,
-        lattice: &Lattice,
-        springs: &Springs,
-        head: &Head,
-    ) -> Result<Self> {
+    /// Upload `lattice` (see `Lattice::build`) with the motion settings of `springs`, over
+    /// the scene's `world` (its EFF and the head's hull and field).
+    pub fn new(gpu: &Gpu, world: &WorldGpu, lattice: &Lattice, springs: &Springs) -> Result<Self> {
         let device = &gpu.device;
         let count = lattice.points.len() as u32;
         let dims = gpu.dispatch_dims(count, WORKGROUP)?;
-        let hull = head_hull(head)?;
         let module = gpu::shader_module(device, "wisps springs", SPRINGS)?;
         let layout = bind::layout(
             device,
@@ -256,7 +245,7 @@ impl SpringsGpu {
             integrator: springs.integrator,
             rest,
         };
-        me.update_params(gpu, springs, &hull);
+        me.update_params(gpu, springs);
         Ok(me)
     }
 
@@ -308,21 +297,17 @@ impl SpringsGpu {
     }
 
     /// Take motion settings that keep the lattice (damping, step, integrator, collision);
-    /// stiffness, masses and `hold_shape` need a new lattice, and so does another kind of
-    /// hull (the pipelines compile the SDF path in or out).
-    pub fn update_params(&mut self, gpu: &Gpu, springs: &Springs, hull: &HeadHull) {
+    /// stiffness, masses and `hold_shape` need a new lattice. The hull is the world's.
+    pub fn update_params(&mut self, gpu: &Gpu, springs: &Springs) {
         self.substeps = springs.substeps.max(1);
         self.integrator = springs.integrator;
         let dt = springs.frame_time / self.substeps as f64;
-        let (hull_center, hull_radii) = hull.gpu_params();
         let p = GpuSpringParams {
             count: self.count,
             row_stride: self.dims.0 * WORKGROUP,
             collide: u32::from(springs.collide),
             _pad: 0,
             step: [dt as f32, springs.damping as f32, 0.0, 0.0],
-            hull_center,
-            hull_radii,
         };
         gpu.queue
             .write_buffer(&self.params, 0, bytemuck::bytes_of(&p));
