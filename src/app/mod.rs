@@ -1034,22 +1034,8 @@ fn frame_body(
     panel_left: f32,
     mut shots: Vec<PathBuf>,
 ) -> Result<()> {
-    // A still view (nothing edited, moved or playing for a moment) is drawn at full
-    // quality: what the frame budget dropped comes back within a second.
-    let camera = g.camera.camera();
-    let edited =
-        !state.requests.is_empty() || state.host.seek.is_some() || state.scene != *g.stage.scene();
-    let moved = edited || state.host.playing || g.last_camera != Some(camera);
-    g.last_camera = Some(camera);
     let now = Instant::now();
-    if moved {
-        g.still_since = None;
-    } else if g.still_since.is_none() {
-        g.still_since = Some(now);
-    }
-    state
-        .view
-        .set_still(g.still_since.is_some_and(|t| now - t >= STILL_AFTER));
+    let edited = note_stillness(g, state, now);
     // A frame that loads, edits, or builds other pipelines or targets is no measure of the
     // live frame's cost: the next frame's period, which holds it, is not taken.
     let rebuilds = edited || state.view.quality(&state.scene) != g.stage.quality;
@@ -1062,41 +1048,7 @@ fn frame_body(
         g.last_advance = None;
         state.kinds.iter_mut().for_each(|k| k.stale());
     }
-
-    // The clock: `time_scale` frames per drawn frame, from the second drawn frame on. The
-    // motion is submitted on its own (the strips' picking reads it back) and never waited
-    // for: the GPU times of every pass come back from timestamps a few frames later.
-    if state.host.playing && g.frames > 0 {
-        // A cache plays at its file's rate in wall time (frames per second times the
-        // seconds since the last advance, a stall counting at most a quarter second);
-        // simulated hair one frame per drawn frame, so that a run is reproducible.
-        let per_draw = match g.stage.playback_fps() {
-            Some(fps) => {
-                let dt = g
-                    .last_advance
-                    .map_or(0.0, |t| now.duration_since(t).as_secs_f64());
-                dt.min(0.25) * fps
-            }
-            None => 1.0,
-        };
-        g.last_advance = Some(now);
-        g.clock_debt += state.view.time_scale * per_draw;
-        let due = (g.clock_debt.floor() as u32).min(4);
-        g.clock_debt -= g.clock_debt.floor();
-        if due > 0 {
-            let mut enc = g
-                .gpu
-                .device
-                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                    label: Some("viewer advance"),
-                });
-            let info = g.stage.advance(&g.gpu, &mut enc, due)?;
-            g.gpu.queue.submit([enc.finish()]);
-            if info.substeps > 0 {
-                state.stats.substeps = info.substeps;
-            }
-        }
-    }
+    advance_clock(g, state, now)?;
     // The kinds' tools read back what they follow (the picked strip's outline).
     for i in 0..state.kinds.len() {
         let t = tool(g, i);
@@ -1116,19 +1068,8 @@ fn frame_body(
         return Ok(());
     }
     state.stats.size = (w, h);
-    let acquire = Instant::now();
-    let acquired = g.surface.get_current_texture();
-    let acquire_ms = acquire.elapsed().as_secs_f64() * 1e3;
-    let surface_tex = match acquired {
-        wgpu::CurrentSurfaceTexture::Success(t) | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
-        wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
-            g.surface.configure(&g.gpu.device, &g.config);
-            return Ok(());
-        }
-        other => {
-            log::warn!("surface: {other:?}; skipping a frame");
-            return Ok(());
-        }
+    let Some((surface_tex, acquire_ms)) = acquire(g) else {
+        return Ok(());
     };
     let target = surface_tex.texture.create_view(&Default::default());
 
@@ -1160,7 +1101,106 @@ fn frame_body(
     let record_ms = t.elapsed().as_secs_f64() * 1e3;
     let st = &mut state.stats;
     st.record_ms = st.record_ema.add(record_ms);
-    // GPU times of an earlier frame, when they have arrived (never waited for).
+    note_times(g, st);
+    let render_ms = st.render_ms;
+
+    if !shots.is_empty() {
+        let frame = Canvas {
+            size: (w, h),
+            scene_w,
+            look: &look,
+            screen: &screen,
+        };
+        screenshots(g, state, shots, &frame)?;
+    }
+    adapt_lod(g, state, render_ms, stalled_before);
+    g.acquire_ms = acquire_ms;
+    g.frames += 1;
+    Ok(())
+}
+
+/// Whether this frame edits the scene; marks the view still when nothing was edited, moved
+/// or playing for a moment. A still view is drawn at full quality: what the frame budget
+/// dropped comes back within a second.
+fn note_stillness(g: &mut Gfx, state: &mut ViewerState, now: Instant) -> bool {
+    let camera = g.camera.camera();
+    let edited =
+        !state.requests.is_empty() || state.host.seek.is_some() || state.scene != *g.stage.scene();
+    let moved = edited || state.host.playing || g.last_camera != Some(camera);
+    g.last_camera = Some(camera);
+    if moved {
+        g.still_since = None;
+    } else if g.still_since.is_none() {
+        g.still_since = Some(now);
+    }
+    state
+        .view
+        .set_still(g.still_since.is_some_and(|t| now - t >= STILL_AFTER));
+    edited
+}
+
+/// The clock: `time_scale` frames per drawn frame, from the second drawn frame on. The
+/// motion is submitted on its own (the strips' picking reads it back) and never waited
+/// for: the GPU times of every pass come back from timestamps a few frames later.
+fn advance_clock(g: &mut Gfx, state: &mut ViewerState, now: Instant) -> Result<()> {
+    if state.host.playing && g.frames > 0 {
+        // A cache plays at its file's rate in wall time (frames per second times the
+        // seconds since the last advance, a stall counting at most a quarter second);
+        // simulated hair one frame per drawn frame, so that a run is reproducible.
+        let per_draw = match g.stage.playback_fps() {
+            Some(fps) => {
+                let dt = g
+                    .last_advance
+                    .map_or(0.0, |t| now.duration_since(t).as_secs_f64());
+                dt.min(0.25) * fps
+            }
+            None => 1.0,
+        };
+        g.last_advance = Some(now);
+        g.clock_debt += state.view.time_scale * per_draw;
+        let due = (g.clock_debt.floor() as u32).min(4);
+        g.clock_debt -= g.clock_debt.floor();
+        if due > 0 {
+            let mut enc = g
+                .gpu
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("viewer advance"),
+                });
+            let info = g.stage.advance(&g.gpu, &mut enc, due)?;
+            g.gpu.queue.submit([enc.finish()]);
+            if info.substeps > 0 {
+                state.stats.substeps = info.substeps;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The surface's next texture and the milliseconds spent waiting for it; `None` when there
+/// is none this frame (an outdated or lost surface is configured again).
+fn acquire(g: &mut Gfx) -> Option<(wgpu::SurfaceTexture, f64)> {
+    let acquire = Instant::now();
+    let acquired = g.surface.get_current_texture();
+    let acquire_ms = acquire.elapsed().as_secs_f64() * 1e3;
+    match acquired {
+        wgpu::CurrentSurfaceTexture::Success(t) | wgpu::CurrentSurfaceTexture::Suboptimal(t) => {
+            Some((t, acquire_ms))
+        }
+        wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
+            g.surface.configure(&g.gpu.device, &g.config);
+            None
+        }
+        other => {
+            log::warn!("surface: {other:?}; skipping a frame");
+            None
+        }
+    }
+}
+
+/// GPU times of an earlier frame, when they have arrived (never waited for), and each
+/// system's counts, into the Stats panel.
+fn note_times(g: &mut Gfx, st: &mut params::Stats) {
     if let Some(times) = g.stage.timer().and_then(|t| t.poll(&g.gpu)) {
         st.gpu = Some(times);
         if let Some(ms) = times.get(Phase::Simulation) {
@@ -1184,37 +1224,55 @@ fn frame_body(
         .iter()
         .map(|s| (s.kind(), s.stats()))
         .collect();
-    let render_ms = st.render_ms;
+}
 
-    if !shots.is_empty() {
-        // A screenshot is always at full quality: every hair, the scene's MSAA, full
-        // resolution (a share the user set by hand stays).
-        let live = g.stage.quality;
-        let full = state.view.full_quality(&state.scene);
-        g.stage.set_quality(&g.gpu, full);
-        let look = Look {
-            lod: if state.view.adaptive_lod {
-                1.0
-            } else {
-                state.view.hair_fraction
-            },
-            ..look
-        };
-        for path in shots {
-            let shot = Offscreen::with_format(&g.gpu, (w, h), g.config.format)?;
-            draw(g, &shot.view, (w, h), scene_w, &look, &screen)?;
-            let img = shot.read_rgba(&g.gpu)?;
-            match img.save(&path) {
-                Ok(()) => state.host.message = Some(format!("screenshot {}", path.display())),
-                Err(e) => state.host.error = Some(format!("cannot write {}: {e}", path.display())),
-            }
+/// What one drawn frame is drawn with: its size, the scene's width, the view and egui's
+/// screen.
+struct Canvas<'a> {
+    size: (u32, u32),
+    scene_w: u32,
+    look: &'a Look,
+    screen: &'a egui_wgpu::ScreenDescriptor,
+}
+
+/// The screenshots asked for this frame. A screenshot is always at full quality: every
+/// hair, the scene's MSAA, full resolution (a share the user set by hand stays).
+fn screenshots(
+    g: &mut Gfx,
+    state: &mut ViewerState,
+    shots: Vec<PathBuf>,
+    frame: &Canvas,
+) -> Result<()> {
+    let (w, h) = frame.size;
+    let live = g.stage.quality;
+    let full = state.view.full_quality(&state.scene);
+    g.stage.set_quality(&g.gpu, full);
+    let look = Look {
+        lod: if state.view.adaptive_lod {
+            1.0
+        } else {
+            state.view.hair_fraction
+        },
+        ..*frame.look
+    };
+    for path in shots {
+        let shot = Offscreen::with_format(&g.gpu, (w, h), g.config.format)?;
+        draw(g, &shot.view, (w, h), frame.scene_w, &look, frame.screen)?;
+        let img = shot.read_rgba(&g.gpu)?;
+        match img.save(&path) {
+            Ok(()) => state.host.message = Some(format!("screenshot {}", path.display())),
+            Err(e) => state.host.error = Some(format!("cannot write {}: {e}", path.display())),
         }
-        g.stage.set_quality(&g.gpu, live);
-        g.stalled = true;
     }
-    // Level of detail: keep the frame's work inside the budget (`ViewSettings::adapt`):
-    // the frame's period less its wait for the surface, or the GPU's time where the GPU
-    // is the slower.
+    g.stage.set_quality(&g.gpu, live);
+    g.stalled = true;
+    Ok(())
+}
+
+/// Level of detail: keep the frame's work inside the budget (`ViewSettings::adapt`): the
+/// frame's period less its wait for the surface, or the GPU's time where the GPU is the
+/// slower.
+fn adapt_lod(g: &Gfx, state: &mut ViewerState, render_ms: f64, stalled_before: bool) {
     if state.view.adaptive_lod {
         let gpu_ms = if state.stats.timestamps {
             render_ms + state.stats.ui_ms
@@ -1231,9 +1289,6 @@ fn frame_body(
         state.view.msaa_dropped = false;
         state.view.scale_pct = 100;
     }
-    g.acquire_ms = acquire_ms;
-    g.frames += 1;
-    Ok(())
 }
 
 /// Scene then panels into `target`, in one submission that nothing waits for.

@@ -53,78 +53,9 @@ pub fn groom(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Re
     // (GPU seconds, CPU fallbacks, GPU fallbacks) per bending mode.
     let mut modes = Vec::new();
     for (label, converged) in [("paper", false), ("converged", true)] {
-        let mut s = scene.clone();
-        if converged {
-            for g in &mut s.groups {
-                g.bending = Bending::Converged {
-                    max_iterations: 400,
-                    tolerance: 1e-5,
-                };
-            }
-        }
-        let input = prepare(&s)?;
-        let t = Instant::now();
-        let reference = cantilever::bend_all(&input);
-        let cpu = t.elapsed().as_secs_f64();
-
-        let strands = input.strand_buffers(gpu)?;
-        let world = crate::systems::world::WorldGpu::of_scene(gpu, &s)?;
-        let pass = CantileverPass::new(gpu, &world)?;
-        let job = pass.prepare(gpu, &world, &input, &strands)?;
-        let runs = if converged { 2 } else { 5 };
-        let gpu_t = time_mean(runs, || {
-            let mut enc = gpu
-                .device
-                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                    label: Some("bench groom"),
-                });
-            pass.dispatch(&mut enc, &job);
-            gpu.queue.submit([enc.finish()]);
-            gpu.wait()
-        })?;
-        // f32 GPU against f64 reference, relative to hair length.
-        let verts = strands.read_vertices(gpu)?;
-        let offsets = input.vertex_offsets();
-        let mut worst = 0.0f64;
-        for (i, r) in input.roots.iter().enumerate() {
-            let len = r.seg_len * input.groups[r.group as usize].segments as f64;
-            for (v, p) in verts
-                .iter()
-                .enumerate()
-                .take(offsets[i + 1] as usize)
-                .skip(offsets[i] as usize)
-            {
-                let g = DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
-                worst = worst.max((g - reference.nodes[v]).length() / len);
-            }
-        }
-        for (solver, secs) in [("CPU f64 reference", cpu), ("GPU kernel (f32)", gpu_t)] {
-            let ratio = PAPER_GROOM_SECONDS * (hairs as f64 / PAPER_GROOM_HAIRS) / secs;
-            let _ = writeln!(
-                md,
-                "| {label} | {solver} | {:.1} | {:.0} | {:.0} | {:.0}x faster |",
-                secs * 1e3,
-                hairs as f64 / secs,
-                segs as f64 / secs,
-                ratio
-            );
-            let _ = writeln!(
-                csv,
-                "throughput,,,{label} {solver},,,,,{:.3}",
-                secs * 1e6 / hairs as f64
-            );
-        }
-        let _ = writeln!(
-            md,
-            "| {label} | GPU vs CPU | max node difference {:.2e} of hair length | | | |",
-            worst
-        );
-        let gpu_fallbacks = strands
-            .read_strands(gpu)?
-            .iter()
-            .filter(|s| s.flags & 1 != 0)
-            .count();
-        modes.push((gpu_t, reference.fallbacks as usize, gpu_fallbacks));
+        modes.push(groom_mode(
+            gpu, &scene, label, converged, &mut md, &mut csv,
+        )?);
     }
     let (paper, conv) = (modes[0], modes[1]);
     let _ = writeln!(
@@ -141,14 +72,112 @@ pub fn groom(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Re
         conv.1,
         conv.2
     );
+    groom_render(gpu, &scene, frames, &mut md, &mut csv)?;
+    groom_accuracy(&mut md, &mut csv);
+    groom_fewest_segments(&mut md);
+    write_report(out, "groom", &md, &csv)?;
+    Ok(Report { markdown: md, csv })
+}
 
-    // Render time per frame at 1280x720.
+/// One bending mode's throughput rows (CPU f64 reference and GPU kernel) and the largest
+/// GPU-against-CPU node difference; returns (GPU seconds, CPU fallbacks, GPU fallbacks).
+fn groom_mode(
+    gpu: &Gpu,
+    scene: &Scene,
+    label: &str,
+    converged: bool,
+    md: &mut String,
+    csv: &mut String,
+) -> Result<(f64, usize, usize)> {
+    let (hairs, segs) = scene.counts();
+    let mut s = scene.clone();
+    if converged {
+        for g in &mut s.groups {
+            g.bending = Bending::Converged {
+                max_iterations: 400,
+                tolerance: 1e-5,
+            };
+        }
+    }
+    let input = prepare(&s)?;
+    let t = Instant::now();
+    let reference = cantilever::bend_all(&input);
+    let cpu = t.elapsed().as_secs_f64();
+
+    let strands = input.strand_buffers(gpu)?;
+    let world = crate::systems::world::WorldGpu::of_scene(gpu, &s)?;
+    let pass = CantileverPass::new(gpu, &world)?;
+    let job = pass.prepare(gpu, &world, &input, &strands)?;
+    let runs = if converged { 2 } else { 5 };
+    let gpu_t = time_mean(runs, || {
+        let mut enc = gpu
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("bench groom"),
+            });
+        pass.dispatch(&mut enc, &job);
+        gpu.queue.submit([enc.finish()]);
+        gpu.wait()
+    })?;
+    // f32 GPU against f64 reference, relative to hair length.
+    let verts = strands.read_vertices(gpu)?;
+    let offsets = input.vertex_offsets();
+    let mut worst = 0.0f64;
+    for (i, r) in input.roots.iter().enumerate() {
+        let len = r.seg_len * input.groups[r.group as usize].segments as f64;
+        for (v, p) in verts
+            .iter()
+            .enumerate()
+            .take(offsets[i + 1] as usize)
+            .skip(offsets[i] as usize)
+        {
+            let g = DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
+            worst = worst.max((g - reference.nodes[v]).length() / len);
+        }
+    }
+    for (solver, secs) in [("CPU f64 reference", cpu), ("GPU kernel (f32)", gpu_t)] {
+        let ratio = PAPER_GROOM_SECONDS * (hairs as f64 / PAPER_GROOM_HAIRS) / secs;
+        let _ = writeln!(
+            md,
+            "| {label} | {solver} | {:.1} | {:.0} | {:.0} | {:.0}x faster |",
+            secs * 1e3,
+            hairs as f64 / secs,
+            segs as f64 / secs,
+            ratio
+        );
+        let _ = writeln!(
+            csv,
+            "throughput,,,{label} {solver},,,,,{:.3}",
+            secs * 1e6 / hairs as f64
+        );
+    }
+    let _ = writeln!(
+        md,
+        "| {label} | GPU vs CPU | max node difference {:.2e} of hair length | | | |",
+        worst
+    );
+    let gpu_fallbacks = strands
+        .read_strands(gpu)?
+        .iter()
+        .filter(|s| s.flags & 1 != 0)
+        .count();
+    Ok((gpu_t, reference.fallbacks as usize, gpu_fallbacks))
+}
+
+/// Render time per frame at 1280x720, one stage (one groom), the anti-aliasing switched as
+/// the viewer does it.
+fn groom_render(
+    gpu: &Gpu,
+    scene: &Scene,
+    frames: u32,
+    md: &mut String,
+    csv: &mut String,
+) -> Result<()> {
     let size = (1280, 720);
     let _ = writeln!(md, "\n| render 1280x720 | ms/frame | fps |");
     let _ = writeln!(md, "|---|---:|---:|");
-    // One stage (one groom); the anti-aliasing is switched as the viewer does it.
-    crate::stage::check_limits(gpu, &scene, size)?;
-    let mut stage = Stage::new(gpu, &scene, target::OUTPUT_FORMAT, Quality::of(&scene))?;
+    crate::stage::check_limits(gpu, scene, size)?;
+    let mut stage = Stage::new(gpu, scene, target::OUTPUT_FORMAT, Quality::of(scene))?;
     let image = target::Offscreen::new(gpu, size)?;
     let look = stage.look();
     for (msaa, ss) in [(1, 1), (4, 1), (4, 2)] {
@@ -171,8 +200,25 @@ pub fn groom(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Re
         );
         let _ = writeln!(csv, "render,,,msaa{msaa} ss{ss},,,,,{:.1}", secs * 1e6);
     }
+    Ok(())
+}
 
-    // Accuracy against the elastica.
+/// A unit-length beam clamped horizontally at the origin, of `k` segments, unit rigidity.
+fn unit_beam(k: u32, load: &dyn Fn(DVec3, DVec3) -> DVec3) -> Beam<'_> {
+    Beam {
+        root: DVec3::ZERO,
+        dir: DVec3::X,
+        seg_len: 1.0 / k as f64,
+        segments: k,
+        rigidity: 1.0,
+        load,
+        hull: None,
+    }
+}
+
+/// Accuracy against the elastica: the tip drop of both bending modes against the exact
+/// heavy cantilever, over G and the segment count.
+fn groom_accuracy(md: &mut String, csv: &mut String) {
     let _ = writeln!(md, "\n**Tip drop against the exact heavy cantilever** (clamped horizontally, G = wL^3/EI; relative error of the tip drop; the paper mode's own limit is an EI of 2EI, shown as `paper vs G/2`).\n");
     let _ = writeln!(md, "| G | exact drop/L | k | paper | paper vs G/2 | converged | iterations | CPU µs/strand (conv.) |");
     let _ = writeln!(md, "|---:|---:|---:|---:|---:|---:|---:|---:|");
@@ -181,15 +227,7 @@ pub fn groom(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Re
         let half = elastica::tip_drop(g / 2.0);
         for k in [5u32, 10, 20, 40, 80, 160] {
             let load = move |_: DVec3, _: DVec3| DVec3::new(0.0, -g, 0.0);
-            let beam = Beam {
-                root: DVec3::ZERO,
-                dir: DVec3::X,
-                seg_len: 1.0 / k as f64,
-                segments: k,
-                rigidity: 1.0,
-                load: &load,
-                hull: None,
-            };
+            let beam = unit_beam(k, &load);
             let paper = -cantilever::bend_paper(&beam).last().unwrap().y;
             let t = Instant::now();
             let (nodes, info) = cantilever::bend_converged(&beam, 20_000, 1e-10);
@@ -217,6 +255,10 @@ pub fn groom(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Re
             );
         }
     }
+}
+
+/// The converged mode's fewest segments for a 1 % tip error, per G.
+fn groom_fewest_segments(md: &mut String) {
     let _ = writeln!(md, "\nConverged mode, fewest segments for 1 % tip error:\n");
     let _ = writeln!(md, "| G | k | error |");
     let _ = writeln!(md, "|---:|---:|---:|");
@@ -225,15 +267,7 @@ pub fn groom(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Re
         let mut found = None;
         for k in 1..=200u32 {
             let load = move |_: DVec3, _: DVec3| DVec3::new(0.0, -g, 0.0);
-            let beam = Beam {
-                root: DVec3::ZERO,
-                dir: DVec3::X,
-                seg_len: 1.0 / k as f64,
-                segments: k,
-                rigidity: 1.0,
-                load: &load,
-                hull: None,
-            };
+            let beam = unit_beam(k, &load);
             let (nodes, _) = cantilever::bend_converged(&beam, 20_000, 1e-10);
             let err = (-nodes.last().unwrap().y - exact).abs() / exact;
             if err <= 0.01 {
@@ -250,8 +284,6 @@ pub fn groom(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Re
             }
         }
     }
-    write_report(out, "groom", &md, &csv)?;
-    Ok(Report { markdown: md, csv })
 }
 
 /// Complete elliptic integral of the first kind K(m = k^2), by the arithmetic-geometric mean.
@@ -569,66 +601,11 @@ pub fn dynamics(gpu: &Gpu, gust_path: &Path, out: &Path) -> Result<Report> {
     let _ = writeln!(summary, "|---|---:|---:|---:|---:|");
     for (ci, (name, scene)) in dynamic_cases(&gust).into_iter().enumerate() {
         let reference = run_cpu(&retime(&scene, REF_SPF, FRAME_TIME), frames)?;
-        let mut points = Vec::new();
-        let mut rows = Vec::new();
-        for spf in SWEEP_SPF {
-            let s = retime(&scene, spf, FRAME_TIME);
-            let run = run_cpu(&s, frames)?;
-            let (err, tip) = errors(&run, &reference);
-            let dt = FRAME_TIME / spf as f64;
-            let cost = run.seconds * 1e6 / run.strands as f64 / T_END;
-            let ns = run.seconds * 1e9 / run.segment_substeps as f64;
-            let _ = writeln!(
-                md,
-                "| {name} | {dt:.4} | {err:.2e} | {tip:.2e} | {cost:.1} | {ns:.1} |"
-            );
-            let _ = writeln!(
-                csv,
-                "{name},{dt},{},{err:.4e},{tip:.4e},{:.4},{cost:.3},{ns:.2},{}",
-                spf * frames,
-                run.seconds,
-                run.clamped
-            );
-            points.push((cost, err));
-            rows.push((dt, err, tip, cost));
-        }
-        // Observed order: least-squares slope of log error against log dt over the three
-        // finest steps (well above the reference's own error).
-        let fine = &rows[rows.len() - 3..];
-        let (mx, my) = fine.iter().fold((0.0, 0.0), |a, r| {
-            (a.0 + r.0.ln() / 3.0, a.1 + r.1.max(1e-300).ln() / 3.0)
-        });
-        let (sxy, sxx) = fine.iter().fold((0.0, 0.0), |a, r| {
-            let dx = r.0.ln() - mx;
-            (a.0 + dx * (r.1.max(1e-300).ln() - my), a.1 + dx * dx)
-        });
-        let order = sxy / sxx;
-        // Largest stable dt without substeps: no angular clamp and bounded error.
-        let mut largest = None;
-        for dt in [0.025, 0.05, 0.1, 0.2, 0.4, 0.8, 1.6] {
-            let mut s = retime(&scene, 1, dt);
-            s.dynamics.as_mut().unwrap().max_substeps = 1;
-            let run = run_cpu(&s, (T_END / dt).round() as u32)?;
-            let (err, _) = errors(&run, &reference);
-            if run.clamped == 0 && err.is_finite() && err < 0.5 {
-                largest = Some(dt);
-            } else {
-                break;
-            }
-        }
-        let theory = {
-            let s = retime(&scene, 1, 0.1);
-            let input = prepare(&s)?;
-            let groomed = cantilever::bend_all(&input);
-            let setup = DynSetup::new(&s, &input, &groomed.visible).unwrap();
-            let fmax = (0..(T_END / 0.1) as u64)
-                .map(|n| {
-                    let f = step_forces(&setup.forces, &setup.params, n, 1, 0);
-                    f.force.length()
-                })
-                .fold(0.0, f64::max);
-            2.0 / (setup.max_cu * fmax).sqrt()
-        };
+        let rows = dt_sweep(&name, &scene, &reference, frames, &mut md, &mut csv)?;
+        let points = rows.iter().map(|r| (r.3, r.1)).collect();
+        let order = observed_order(&rows);
+        let largest = largest_stable_dt(&scene, &reference)?;
+        let theory = verlet_limit(&scene)?;
         let to_one = rows
             .iter()
             .filter(|r| r.2 <= 0.01)
@@ -651,9 +628,105 @@ pub fn dynamics(gpu: &Gpu, gust_path: &Path, out: &Path) -> Result<Report> {
         });
     }
     md.push_str(&summary);
+    dynamics_at_paper_size(gpu, &gust, gust_path, &mut md, &mut csv)?;
+    pendulum_table(&mut md, &mut csv);
+    write_dynamics(out, &md, &csv, &series)?;
+    Ok(Report { markdown: md, csv })
+}
 
-    // GPU: the paper's size (the full gust, ~10,000 hairs), advanced through the stage.
-    let mut stage = Stage::new(gpu, &gust, target::OUTPUT_FORMAT, Quality::of(&gust))?;
+/// One configuration's table rows over `SWEEP_SPF`, against its reference run.
+fn dt_sweep(
+    name: &str,
+    scene: &Scene,
+    reference: &DynRun,
+    frames: u32,
+    md: &mut String,
+    csv: &mut String,
+) -> Result<Vec<SweepRow>> {
+    let mut rows = Vec::new();
+    for spf in SWEEP_SPF {
+        let s = retime(scene, spf, FRAME_TIME);
+        let run = run_cpu(&s, frames)?;
+        let (err, tip) = errors(&run, reference);
+        let dt = FRAME_TIME / spf as f64;
+        let cost = run.seconds * 1e6 / run.strands as f64 / T_END;
+        let ns = run.seconds * 1e9 / run.segment_substeps as f64;
+        let _ = writeln!(
+            md,
+            "| {name} | {dt:.4} | {err:.2e} | {tip:.2e} | {cost:.1} | {ns:.1} |"
+        );
+        let _ = writeln!(
+            csv,
+            "{name},{dt},{},{err:.4e},{tip:.4e},{:.4},{cost:.3},{ns:.2},{}",
+            spf * frames,
+            run.seconds,
+            run.clamped
+        );
+        rows.push((dt, err, tip, cost));
+    }
+    Ok(rows)
+}
+
+/// One step of a configuration's sweep: (dt, RMS error, tip error, cost).
+type SweepRow = (f64, f64, f64, f64);
+
+/// Observed order: least-squares slope of log error against log dt over the three finest
+/// steps (well above the reference's own error).
+fn observed_order(rows: &[SweepRow]) -> f64 {
+    let fine = &rows[rows.len() - 3..];
+    let (mx, my) = fine.iter().fold((0.0, 0.0), |a, r| {
+        (a.0 + r.0.ln() / 3.0, a.1 + r.1.max(1e-300).ln() / 3.0)
+    });
+    let (sxy, sxx) = fine.iter().fold((0.0, 0.0), |a, r| {
+        let dx = r.0.ln() - mx;
+        (a.0 + dx * (r.1.max(1e-300).ln() - my), a.1 + dx * dx)
+    });
+    sxy / sxx
+}
+
+/// Largest stable dt without substeps: no angular clamp and bounded error.
+fn largest_stable_dt(scene: &Scene, reference: &DynRun) -> Result<Option<f64>> {
+    let mut largest = None;
+    for dt in [0.025, 0.05, 0.1, 0.2, 0.4, 0.8, 1.6] {
+        let mut s = retime(scene, 1, dt);
+        s.dynamics.as_mut().unwrap().max_substeps = 1;
+        let run = run_cpu(&s, (T_END / dt).round() as u32)?;
+        let (err, _) = errors(&run, reference);
+        if run.clamped == 0 && err.is_finite() && err < 0.5 {
+            largest = Some(dt);
+        } else {
+            break;
+        }
+    }
+    Ok(largest)
+}
+
+/// The Verlet stability limit 2/omega at dt = 0.1 (omega from the setup's `max_cu` and the
+/// largest force over the run).
+fn verlet_limit(scene: &Scene) -> Result<f64> {
+    let s = retime(scene, 1, 0.1);
+    let input = prepare(&s)?;
+    let groomed = cantilever::bend_all(&input);
+    let setup = DynSetup::new(&s, &input, &groomed.visible).unwrap();
+    let fmax = (0..(T_END / 0.1) as u64)
+        .map(|n| {
+            let f = step_forces(&setup.forces, &setup.params, n, 1, 0);
+            f.force.length()
+        })
+        .fold(0.0, f64::max);
+    Ok(2.0 / (setup.max_cu * fmax).sqrt())
+}
+
+/// GPU: the paper's size (the full gust, ~10,000 hairs), advanced through the stage, next
+/// to the CPU f64 reference.
+fn dynamics_at_paper_size(
+    gpu: &Gpu,
+    gust: &Scene,
+    gust_path: &Path,
+    md: &mut String,
+    csv: &mut String,
+) -> Result<()> {
+    let mut stage = Stage::new(gpu, gust, target::OUTPUT_FORMAT, Quality::of(gust))?;
     let (strands, segments) = {
         let sim = stage
             .system::<AnjyoSystem>()
@@ -682,12 +755,15 @@ pub fn dynamics(gpu: &Gpu, gust_path: &Path, out: &Path) -> Result<Report> {
     })?;
     let per_frame_substeps = substeps as f64 / (n + 1) as f64;
     let gpu_ns = secs * 1e9 / (segments as f64 * per_frame_substeps);
-    let cpu = run_cpu(&retime(&gust, 1, 0.1), 5)?;
+    let cpu = run_cpu(&retime(gust, 1, 0.1), 5)?;
     let cpu_ns = cpu.seconds * 1e9 / cpu.segment_substeps as f64;
     let _ = writeln!(md, "\n**At the paper's size** (gust scene, {} hairs, {} simulated segments, dt = 0.1): GPU {:.1} ms per frame ({gpu_ns:.1} ns per segment-step); CPU f64 reference {cpu_ns:.1} ns per segment-step ({:.0} ms per frame). The paper: about 40 s per frame for 20,000 hairs.", strands, segments, secs * 1e3, cpu_ns * segments as f64 * 1e-6);
     let _ = writeln!(csv, "gpu gust,0.1,,,,{secs:.5},,{gpu_ns:.2},");
+    Ok(())
+}
 
-    // Rigid pendulum: large-swing period against the exact elliptic integral.
+/// Rigid pendulum: large-swing period against the exact elliptic integral.
+fn pendulum_table(md: &mut String, csv: &mut String) {
     let _ = writeln!(
         md,
         "\n**One-segment strand = rigid pendulum**: period against 4 K(sin(a/2))/omega0.\n"
@@ -708,7 +784,15 @@ pub fn dynamics(gpu: &Gpu, gust_path: &Path, out: &Path) -> Result<Report> {
             let _ = writeln!(csv, "pendulum a={amp},{dt},,{:.4e},,,,,", t / exact - 1.0);
         }
     }
+}
 
+/// Writes `dynamics.png` (error against cost), `dynamics.md` and `dynamics.csv` into `out`.
+fn write_dynamics(
+    out: &Path,
+    md: &str,
+    csv: &str,
+    series: &[crate::bench::plot::Series],
+) -> Result<()> {
     std::fs::create_dir_all(out).map_err(|source| crate::KamiError::Io {
         path: out.to_path_buf(),
         source,
@@ -717,7 +801,7 @@ pub fn dynamics(gpu: &Gpu, gust_path: &Path, out: &Path) -> Result<Report> {
         "PROJECTIVE DYNAMICS: ERROR VS COST",
         "CPU US PER STRAND PER UNIT TIME",
         "RMS ERROR / HAIR LENGTH",
-        &series,
+        series,
         Some((0.01, "1% ERROR")),
     );
     let png = out.join("dynamics.png");
@@ -725,16 +809,15 @@ pub fn dynamics(gpu: &Gpu, gust_path: &Path, out: &Path) -> Result<Report> {
         path: png.clone(),
         message: e.to_string(),
     })?;
-    for (name, text) in [("dynamics.md", &md), ("dynamics.csv", &csv)] {
+    for (name, text) in [("dynamics.md", md), ("dynamics.csv", csv)] {
         let p = out.join(name);
         std::fs::write(&p, text).map_err(|source| crate::KamiError::Io {
             path: p.clone(),
             source,
         })?;
     }
-    Ok(Report { markdown: md, csv })
+    Ok(())
 }
-
 /// The error for a benchmark scene without a dynamic hair group.
 fn no_dynamics(path: &Path) -> crate::KamiError {
     crate::KamiError::Invalid {

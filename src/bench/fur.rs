@@ -142,8 +142,28 @@ pub fn run(gpu: &Gpu, scenes: &Path, out: &Path, frames: u32) -> Result<Report> 
         SIZE.0,
         SIZE.1
     );
+    fur_styles(gpu, scenes, frames, &mut md, &mut csv)?;
+    fur_fig9(gpu, scenes, frames, &mut md, &mut csv)?;
+    fur_culling(gpu, scenes, out, frames, &mut md, &mut csv)?;
+    let write = |name: &str, text: &str| {
+        std::fs::write(out.join(name), text).map_err(|source| crate::KamiError::Io {
+            path: out.join(name),
+            source,
+        })
+    };
+    write("fur.md", &md)?;
+    write("fur.csv", &csv)?;
+    Ok(Report { markdown: md, csv })
+}
 
-    // 1. Styles.
+/// Table 1: hairs per second by style, against the paper's rates.
+fn fur_styles(
+    gpu: &Gpu,
+    scenes: &Path,
+    frames: u32,
+    md: &mut String,
+    csv: &mut String,
+) -> Result<()> {
     let _ = writeln!(md, "**Hairs per second by style** (the `fur_<style>.ron` scenes, one coat, Figure 2's Figure 8 look; paper: 150 MHz SGI RE-II, CPU time):\n");
     let _ = writeln!(
         md,
@@ -182,8 +202,17 @@ pub fn run(gpu: &Gpu, scenes: &Path, out: &Path, frames: u32) -> Result<Report> 
             );
         }
     }
+    Ok(())
+}
 
-    // 2. Figure 9 at the paper's 500,000 hairs.
+/// Table 2: Figure 9 at the paper's 500,000 hairs.
+fn fur_fig9(
+    gpu: &Gpu,
+    scenes: &Path,
+    frames: u32,
+    md: &mut String,
+    csv: &mut String,
+) -> Result<()> {
     let mut fig9 = Scene::load(scenes.join("fur_fig9.ron"))?;
     if let Some(f) = fig9.fur.as_mut() {
         f.hairs = PAPER_FIG9_HAIRS;
@@ -212,8 +241,19 @@ pub fn run(gpu: &Gpu, scenes: &Path, out: &Path, frames: u32) -> Result<Report> 
             PAPER_FIG9_SECONDS / secs
         );
     }
+    Ok(())
+}
 
-    // 3. Culling.
+/// Table 3, distance-based culling: image error against the full-density render versus hairs
+/// drawn and time, and the contact sheet `fur_culling.png`.
+fn fur_culling(
+    gpu: &Gpu,
+    scenes: &Path,
+    out: &Path,
+    frames: u32,
+    md: &mut String,
+    csv: &mut String,
+) -> Result<()> {
     let base = Scene::load(scenes.join("fur_fig9.ron"))?;
     let quality = Quality::new(base.render.msaa, base.render.supersample);
     let _ = writeln!(md, "\n**Distance-based culling** (`fur_fig9.ron`, {} hairs, MSAA {} x supersample {}): the camera backs away along its line of sight to k times the distance at which the model fills the view. Error against the full-density render at the same distance, in levels of 255: *tile* = mean over the model of the difference of 8x8-pixel block means (the look), *pixel* = mean per-pixel difference over the model (dominated by which hairs land where). The floor is the full-density render with another seed (the same look, other hairs).\n",
@@ -282,15 +322,7 @@ pub fn run(gpu: &Gpu, scenes: &Path, out: &Path, frames: u32) -> Result<Report> 
         message: e.to_string(),
     })?;
     let _ = writeln!(md, "\n`fur_culling.png`: rows all hairs / culled / culled without width compensation; columns k = {DISTANCES:?}, each magnified so the model is the same size (nearest-neighbour, so the pixels the viewer would see are visible).");
-    let write = |name: &str, text: &str| {
-        std::fs::write(out.join(name), text).map_err(|source| crate::KamiError::Io {
-            path: out.join(name),
-            source,
-        })
-    };
-    write("fur.md", &md)?;
-    write("fur.csv", &csv)?;
-    Ok(Report { markdown: md, csv })
+    Ok(())
 }
 
 /// The scene's own quality, MSAA without supersampling, and no MSAA (the paper's GL drew

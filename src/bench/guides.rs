@@ -199,42 +199,7 @@ pub fn run(gpu: &Gpu, scene_path: &Path, out: &Path) -> Result<Report> {
     let mut csv = String::from(
         "config,share,simulated,followers,substeps_per_frame,ms_per_frame,follow_kernel_ms,speedup,frame,follower_rms,follower_max,follower_rms_rel,follower_max_rel,guide_rms\n",
     );
-    let _ = writeln!(md, "### `kami bench guides` — {}\n", scene_path.display());
-    let _ = writeln!(md, "{}\n", provenance());
-    let _ = writeln!(
-        md,
-        "Adapter: {}. {strands} strands; each share simulates `ceil(share × count)` guides per \
-         group (farthest-point picks on the scalp) and rebuilds the others from their 3 \
-         nearest guides (`systems::anjyo::follow`).\n",
-        gpu.describe()
-    );
-    let _ = writeln!(
-        md,
-        "**How followers are built** (`src/systems/anjyo/follow.rs`): guides are picked per \
-         group by farthest-point sampling of the pores; each follower takes its 3 nearest \
-         guides of its group with inverse-distance-squared weights; after each frame's \
-         substeps the follower kernel turns every segment of the follower's own groomed \
-         shape by the weighted shortest-arc rotations of its guides' same segments, keeps \
-         its segment length, and pushes nodes out of the head. The share comes from the \
-         scene (`Dynamics(guides: Some(0.25), ...)`) or the Anjyo panel's Dynamics section.\n"
-    );
-    let _ = writeln!(
-        md,
-        "**Time**: CPU wall time of recording, submitting and waiting for one frame of the \
-         simulation (all substeps, plus the follower kernel), median over {} frames, on the \
-         adapter above — on a software adapter this is CPU time, not a GPU's, and on a \
-         shared machine it is noisy. *Followers* is the follower kernel alone (median of 10 \
-         dispatches, each submitted and waited for). \
-         **Error**: position of the followers' moving nodes against the run that simulates \
-         every strand (same configuration), at frames {:?} (frame 0: the followers rebuilt \
-         from the groomed guides by the f64 reference, against the groom): RMS and worst \
-         node, in scene units (the head's radii are 9.6 × 11.5 × 7.8) and relative to the \
-         hair length (RMS over the mean length, worst node over its own strand's). *Guides* \
-         is the RMS drift of the guides themselves (fewer strands can mean fewer substeps: \
-         the stiffest simulated segment sets the substep count).\n",
-        CHECK_FRAMES.last().unwrap(),
-        CHECK_FRAMES
-    );
+    guides_intro(gpu, scene_path, strands, &mut md);
     let mut series = Vec::new();
     // (ns per simulated segment-substep at share 1, ns per follower node at best) per config.
     let mut costs = Vec::new();
@@ -253,61 +218,7 @@ pub fn run(gpu: &Gpu, scene_path: &Path, out: &Path) -> Result<Report> {
                 .map(|r| r.follow_seconds * 1e9 / r.follower_nodes as f64)
                 .fold(f64::INFINITY, f64::min),
         ));
-        let _ = writeln!(
-            md,
-            "| share | simulated | followers | substeps / frame | ms / frame | followers (ms) | speed-up | frame | followers RMS | followers worst | RMS / length | worst / length | guides RMS |"
-        );
-        let _ = writeln!(
-            md,
-            "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
-        );
-        let ref_ms = median(&reference.frame_seconds) * 1e3;
-        let mut points = Vec::new();
-        for r in &runs {
-            let ms = median(&r.frame_seconds) * 1e3;
-            let speedup = ref_ms / ms;
-            let fol: Vec<(usize, usize, f64)> = r
-                .followers
-                .iter()
-                .map(|f| {
-                    (
-                        f.first_vertex as usize,
-                        f.segments as usize,
-                        lengths[f.strand as usize],
-                    )
-                })
-                .collect();
-            let gd: Vec<(usize, usize, f64)> =
-                r.guide_ranges.iter().map(|&(b, k)| (b, k, 1.0)).collect();
-            for (fi, frame) in CHECK_FRAMES.iter().enumerate() {
-                if r.followers.is_empty() && *frame == 0 {
-                    continue;
-                }
-                let (rms, max, rms_rel, max_rel) = errors(&r.nodes[fi], &reference.nodes[fi], &fol);
-                let (g_rms, ..) = errors(&r.nodes[fi], &reference.nodes[fi], &gd);
-                let _ = writeln!(
-                    md,
-                    "| {} | {} | {} | {:.1} | {ms:.1} | {:.1} | {speedup:.2} | {frame} | {rms:.3} | {max:.3} | {rms_rel:.2e} | {max_rel:.2e} | {g_rms:.1e} |",
-                    r.share,
-                    r.simulated,
-                    r.followers.len(),
-                    r.substeps,
-                    r.follow_seconds * 1e3
-                );
-                let _ = writeln!(
-                    csv,
-                    "{label},{},{},{},{},{ms:.3},{:.3},{speedup:.3},{frame},{rms:.5e},{max:.5e},{rms_rel:.5e},{max_rel:.5e},{g_rms:.5e}",
-                    r.share,
-                    r.simulated,
-                    r.followers.len(),
-                    r.substeps,
-                    r.follow_seconds * 1e3
-                );
-                if !r.followers.is_empty() && *frame == *CHECK_FRAMES.last().unwrap() {
-                    points.push((ms, rms_rel));
-                }
-            }
-        }
+        let points = share_rows(label, &runs, &lengths, &mut md, &mut csv);
         series.push(Series {
             name: format!(
                 "{} STEP{} PER FRAME",
@@ -350,4 +261,114 @@ pub fn run(gpu: &Gpu, scene_path: &Path, out: &Path) -> Result<Report> {
         message: e.to_string(),
     })?;
     Ok(Report { markdown: md, csv })
+}
+
+/// The report's heading and the paragraphs on how followers are built and what the time
+/// and error columns measure.
+fn guides_intro(gpu: &Gpu, scene_path: &Path, strands: usize, md: &mut String) {
+    let _ = writeln!(md, "### `kami bench guides` — {}\n", scene_path.display());
+    let _ = writeln!(md, "{}\n", provenance());
+    let _ = writeln!(
+        md,
+        "Adapter: {}. {strands} strands; each share simulates `ceil(share × count)` guides per \
+         group (farthest-point picks on the scalp) and rebuilds the others from their 3 \
+         nearest guides (`systems::anjyo::follow`).\n",
+        gpu.describe()
+    );
+    let _ = writeln!(
+        md,
+        "**How followers are built** (`src/systems/anjyo/follow.rs`): guides are picked per \
+         group by farthest-point sampling of the pores; each follower takes its 3 nearest \
+         guides of its group with inverse-distance-squared weights; after each frame's \
+         substeps the follower kernel turns every segment of the follower's own groomed \
+         shape by the weighted shortest-arc rotations of its guides' same segments, keeps \
+         its segment length, and pushes nodes out of the head. The share comes from the \
+         scene (`Dynamics(guides: Some(0.25), ...)`) or the Anjyo panel's Dynamics section.\n"
+    );
+    let _ = writeln!(
+        md,
+        "**Time**: CPU wall time of recording, submitting and waiting for one frame of the \
+         simulation (all substeps, plus the follower kernel), median over {} frames, on the \
+         adapter above — on a software adapter this is CPU time, not a GPU's, and on a \
+         shared machine it is noisy. *Followers* is the follower kernel alone (median of 10 \
+         dispatches, each submitted and waited for). \
+         **Error**: position of the followers' moving nodes against the run that simulates \
+         every strand (same configuration), at frames {:?} (frame 0: the followers rebuilt \
+         from the groomed guides by the f64 reference, against the groom): RMS and worst \
+         node, in scene units (the head's radii are 9.6 × 11.5 × 7.8) and relative to the \
+         hair length (RMS over the mean length, worst node over its own strand's). *Guides* \
+         is the RMS drift of the guides themselves (fewer strands can mean fewer substeps: \
+         the stiffest simulated segment sets the substep count).\n",
+        CHECK_FRAMES.last().unwrap(),
+        CHECK_FRAMES
+    );
+}
+
+/// One configuration's table: a row per share and checked frame (time, speed-up, follower
+/// and guide error against `runs[0]`, which simulates every strand); returns the plot's
+/// (ms per frame, relative RMS error) points at the last checked frame.
+fn share_rows(
+    label: &str,
+    runs: &[ShareRun],
+    lengths: &[f64],
+    md: &mut String,
+    csv: &mut String,
+) -> Vec<(f64, f64)> {
+    let reference = &runs[0];
+    let _ = writeln!(
+        md,
+        "| share | simulated | followers | substeps / frame | ms / frame | followers (ms) | speed-up | frame | followers RMS | followers worst | RMS / length | worst / length | guides RMS |"
+    );
+    let _ = writeln!(
+        md,
+        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+    );
+    let ref_ms = median(&reference.frame_seconds) * 1e3;
+    let mut points = Vec::new();
+    for r in runs {
+        let ms = median(&r.frame_seconds) * 1e3;
+        let speedup = ref_ms / ms;
+        let fol: Vec<(usize, usize, f64)> = r
+            .followers
+            .iter()
+            .map(|f| {
+                (
+                    f.first_vertex as usize,
+                    f.segments as usize,
+                    lengths[f.strand as usize],
+                )
+            })
+            .collect();
+        let gd: Vec<(usize, usize, f64)> =
+            r.guide_ranges.iter().map(|&(b, k)| (b, k, 1.0)).collect();
+        for (fi, frame) in CHECK_FRAMES.iter().enumerate() {
+            if r.followers.is_empty() && *frame == 0 {
+                continue;
+            }
+            let (rms, max, rms_rel, max_rel) = errors(&r.nodes[fi], &reference.nodes[fi], &fol);
+            let (g_rms, ..) = errors(&r.nodes[fi], &reference.nodes[fi], &gd);
+            let _ = writeln!(
+                md,
+                "| {} | {} | {} | {:.1} | {ms:.1} | {:.1} | {speedup:.2} | {frame} | {rms:.3} | {max:.3} | {rms_rel:.2e} | {max_rel:.2e} | {g_rms:.1e} |",
+                r.share,
+                r.simulated,
+                r.followers.len(),
+                r.substeps,
+                r.follow_seconds * 1e3
+            );
+            let _ = writeln!(
+                csv,
+                "{label},{},{},{},{},{ms:.3},{:.3},{speedup:.3},{frame},{rms:.5e},{max:.5e},{rms_rel:.5e},{max_rel:.5e},{g_rms:.5e}",
+                r.share,
+                r.simulated,
+                r.followers.len(),
+                r.substeps,
+                r.follow_seconds * 1e3
+            );
+            if !r.followers.is_empty() && *frame == *CHECK_FRAMES.last().unwrap() {
+                points.push((ms, rms_rel));
+            }
+        }
+    }
+    points
 }

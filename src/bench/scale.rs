@@ -322,20 +322,19 @@ fn stream_bandwidth(gpu: &Gpu, timed: bool, bytes: u64) -> Result<f64> {
     };
     let src = make(wgpu::BufferUsages::COPY_DST);
     let dst = make(wgpu::BufferUsages::empty());
-    let cs = wgpu::ShaderStages::COMPUTE;
-    let layout = crate::gpu::pipeline::layout(
+    let layout = crate::gpu::bind::layout(
         device,
         "bandwidth probe",
+        wgpu::ShaderStages::COMPUTE,
         &[
-            crate::gpu::storage_entry(0, cs, true),
-            crate::gpu::storage_entry(1, cs, false),
+            crate::gpu::bind::storage::<[f32; 4]>(),
+            crate::gpu::bind::storage_rw::<[f32; 4]>(),
         ],
     );
     let module = crate::gpu::shader_module(device, "stage/bandwidth", crate::shaders::BANDWIDTH)?;
     let [pipeline] =
         crate::gpu::compute_pipelines(device, "bandwidth probe", &layout, &module, ["stream"], &[]);
-    let group =
-        crate::gpu::pipeline::bind_buffers(device, "bandwidth probe", &layout, &[&src, &dst]);
+    let group = crate::gpu::bind::buffers(device, "bandwidth probe", &layout, &[&src, &dst]);
     let groups = (bytes / 16).div_ceil(256);
     let x = groups.min(65_535) as u32;
     let y = groups.div_ceil(u64::from(x)) as u32;
@@ -358,22 +357,7 @@ fn opt(v: Option<f64>) -> String {
 
 /// Run the sweep over `base_path`'s scene; writes `scale.md`, `scale.csv` and `scale.png`.
 pub fn run(gpu: &Gpu, base_path: &Path, sweep: &Sweep, out: &Path) -> Result<Report> {
-    let mut base = Scene::load(base_path)?;
-    if let Some(m) = sweep.msaa {
-        base.render.msaa = m;
-    }
-    if let Some(f) = sweep.supersample {
-        base.render.supersample = f;
-    }
-    crate::systems::scene::validate(&base)?;
-    if base.dynamics.is_none() || !base.groups.iter().any(|g| g.dynamic) {
-        return Err(KamiError::Invalid {
-            file: base_path.display().to_string(),
-            field: "dynamics".into(),
-            value: "none".into(),
-            allowed: "a scene with dynamic strand hair (e.g. assets/scenes/gust.ron)".into(),
-        });
-    }
+    let base = load_base(base_path, sweep)?;
     let timed = !sweep.cpu_clock && GpuTimer::new(gpu).is_some();
     let software = gpu.info.device_type == wgpu::DeviceType::Cpu;
     let probe = if software { 64 << 20 } else { 1 << 30 };
@@ -436,65 +420,120 @@ pub fn run(gpu: &Gpu, base_path: &Path, sweep: &Sweep, out: &Path) -> Result<Rep
             }
             eprintln!("scale: {n} strands x {k} segments");
             let mut p = measure(gpu, &scene, sweep, timed)?;
-            let sim = p.phases[Phase::Simulation as usize];
-            let bytes =
-                (p.sim_segments * BYTES_PER_SEGMENT + p.sim_strands * BYTES_PER_STRAND) as f64;
-            // Where the timestamps miss the compute work, cost the simulation by the CPU clock.
-            let missed =
-                matches!((sim, p.sim_alone_ms), (Some(ts), Some(cpu)) if cpu > 3.0 * ts + 1.0);
+            let (missed, gbs, bound) = point_row(&mut p, peak, timed, &mut md, &mut csv);
             suspect |= missed;
-            let sim_cost = if missed { p.sim_alone_ms } else { sim };
-            p.sim_cost = sim_cost;
-            let (ns, gbs, bound) = match sim_cost {
-                Some(ms) if p.substeps > 0.0 => {
-                    let per_sub = ms * 1e-3 / p.substeps;
-                    (
-                        per_sub * 1e9 / p.sim_segments.max(1) as f64,
-                        bytes / per_sub * 1e-9,
-                        per_sub / (bytes / peak),
-                    )
-                }
-                _ => (f64::NAN, f64::NAN, f64::NAN),
-            };
             if bound < 1.0 {
                 beaten.push(format!("{n} × {k} ({gbs:.0} GB/s)"));
             }
-            let ph = |q: Phase| p.phases[q as usize];
-            let _ = writeln!(
-                md,
-                "| {} | {} | {} | {:.1} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {ns:.2} | {gbs:.1} | {bound:.1} |",
-                p.strands,
-                p.segments,
-                p.total_segments,
-                p.substeps,
-                opt(sim),
-                opt(p.sim_alone_ms),
-                opt(ph(Phase::Generation)),
-                opt(ph(Phase::Draw)),
-                opt(ph(Phase::Resolve)),
-                p.frame_ms,
-                p.cpu_ms
-            );
-            let c = |v: Option<f64>| v.map_or(String::new(), |x| format!("{x:.4}"));
-            let _ = writeln!(
-                csv,
-                "{},{},{},{:.2},{},{},{},{},{},{:.4},{:.4},{ns:.3},{gbs:.3},{bound:.3},{}",
-                p.strands,
-                p.segments,
-                p.total_segments,
-                p.substeps,
-                c(sim),
-                c(p.sim_alone_ms),
-                c(ph(Phase::Generation)),
-                c(ph(Phase::Draw)),
-                c(ph(Phase::Resolve)),
-                p.frame_ms,
-                p.cpu_ms,
-                if timed { "gpu-timestamps" } else { "cpu-wait" }
-            );
             points.push(p);
         }
     }
+    sweep_notes(&mut md, &beaten, suspect, &skipped);
+    render_vs_walk(&mut md, &points);
+    let series = scale_series(sweep, &points);
+    super::write_report(out, "scale", &md, &csv)?;
+    let plot = crate::bench::plot::loglog(
+        "FRAME AND SIMULATION TIME VS STRANDS",
+        "STRANDS",
+        "MS PER FRAME",
+        &series,
+        None,
+    );
+    let png = out.join("scale.png");
+    plot.save(&png).map_err(|e| KamiError::Image {
+        path: png.clone(),
+        message: e.to_string(),
+    })?;
+    Ok(Report { markdown: md, csv })
+}
+
+/// The base scene with the sweep's anti-aliasing, refused unless it has dynamic strand hair.
+fn load_base(base_path: &Path, sweep: &Sweep) -> Result<Scene> {
+    let mut base = Scene::load(base_path)?;
+    if let Some(m) = sweep.msaa {
+        base.render.msaa = m;
+    }
+    if let Some(f) = sweep.supersample {
+        base.render.supersample = f;
+    }
+    crate::systems::scene::validate(&base)?;
+    if base.dynamics.is_none() || !base.groups.iter().any(|g| g.dynamic) {
+        return Err(KamiError::Invalid {
+            file: base_path.display().to_string(),
+            field: "dynamics".into(),
+            value: "none".into(),
+            allowed: "a scene with dynamic strand hair (e.g. assets/scenes/gust.ron)".into(),
+        });
+    }
+    Ok(base)
+}
+
+/// One point's table and CSV rows, its simulation costed by the timestamps or, where they
+/// missed the compute work, by the CPU clock (into `p.sim_cost`); returns (whether the
+/// timestamps missed, simulation GB/s, × bound).
+fn point_row(
+    p: &mut Point,
+    peak: f64,
+    timed: bool,
+    md: &mut String,
+    csv: &mut String,
+) -> (bool, f64, f64) {
+    let sim = p.phases[Phase::Simulation as usize];
+    let bytes = (p.sim_segments * BYTES_PER_SEGMENT + p.sim_strands * BYTES_PER_STRAND) as f64;
+    // Where the timestamps miss the compute work, cost the simulation by the CPU clock.
+    let missed = matches!((sim, p.sim_alone_ms), (Some(ts), Some(cpu)) if cpu > 3.0 * ts + 1.0);
+    let sim_cost = if missed { p.sim_alone_ms } else { sim };
+    p.sim_cost = sim_cost;
+    let (ns, gbs, bound) = match sim_cost {
+        Some(ms) if p.substeps > 0.0 => {
+            let per_sub = ms * 1e-3 / p.substeps;
+            (
+                per_sub * 1e9 / p.sim_segments.max(1) as f64,
+                bytes / per_sub * 1e-9,
+                per_sub / (bytes / peak),
+            )
+        }
+        _ => (f64::NAN, f64::NAN, f64::NAN),
+    };
+    let ph = |q: Phase| p.phases[q as usize];
+    let _ = writeln!(
+        md,
+        "| {} | {} | {} | {:.1} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {ns:.2} | {gbs:.1} | {bound:.1} |",
+        p.strands,
+        p.segments,
+        p.total_segments,
+        p.substeps,
+        opt(sim),
+        opt(p.sim_alone_ms),
+        opt(ph(Phase::Generation)),
+        opt(ph(Phase::Draw)),
+        opt(ph(Phase::Resolve)),
+        p.frame_ms,
+        p.cpu_ms
+    );
+    let c = |v: Option<f64>| v.map_or(String::new(), |x| format!("{x:.4}"));
+    let _ = writeln!(
+        csv,
+        "{},{},{},{:.2},{},{},{},{},{},{:.4},{:.4},{ns:.3},{gbs:.3},{bound:.3},{}",
+        p.strands,
+        p.segments,
+        p.total_segments,
+        p.substeps,
+        c(sim),
+        c(p.sim_alone_ms),
+        c(ph(Phase::Generation)),
+        c(ph(Phase::Draw)),
+        c(ph(Phase::Resolve)),
+        p.frame_ms,
+        p.cpu_ms,
+        if timed { "gpu-timestamps" } else { "cpu-wait" }
+    );
+    (missed, gbs, bound)
+}
+
+/// The notes under the table: points that beat the bandwidth probe, timestamps that missed
+/// compute work, skipped points.
+fn sweep_notes(md: &mut String, beaten: &[String], suspect: bool, skipped: &[String]) {
     if beaten.is_empty() {
         let _ = writeln!(
             md,
@@ -514,10 +553,14 @@ pub fn run(gpu: &Gpu, base_path: &Path, sweep: &Sweep, out: &Path) -> Result<Rep
     if !skipped.is_empty() {
         let _ = writeln!(md, "\nSkipped: {}.", skipped.join("; "));
     }
+}
+
+/// How to draw thin strands: rendering alone beside the compute walk's lower bound.
+fn render_vs_walk(md: &mut String, points: &[Point]) {
     let _ = writeln!(md, "\n**How to draw thin strands** (issue 12, item 6: measure before choosing). Rendering alone (generation, the triangle-strip ribbons, resolve; CPU wall around a wait) beside `bench::splat`: a compute pass that only walks every segment across the pixels it crosses and counts them (no depth, shading or coverage), the lower bound of a compute rasteriser at this size.\n");
     let _ = writeln!(md, "| strands | segments/strand | render alone ms | compute walk ms | pixel steps | render / walk |");
     let _ = writeln!(md, "|---:|---:|---:|---:|---:|---:|");
-    for p in &points {
+    for p in points {
         if let Some(pr) = &p.probe {
             let _ = writeln!(
                 md,
@@ -531,6 +574,10 @@ pub fn run(gpu: &Gpu, base_path: &Path, sweep: &Sweep, out: &Path) -> Result<Rep
             );
         }
     }
+}
+
+/// The plot's series: frame and simulation time against strands, per segment count.
+fn scale_series(sweep: &Sweep, points: &[Point]) -> Vec<crate::bench::plot::Series> {
     let mut series = Vec::new();
     for (i, &k) in sweep.segments.iter().enumerate() {
         let pts: Vec<&Point> = points.iter().filter(|p| p.segments == k).collect();
@@ -551,18 +598,5 @@ pub fn run(gpu: &Gpu, base_path: &Path, sweep: &Sweep, out: &Path) -> Result<Rep
                 .collect(),
         });
     }
-    super::write_report(out, "scale", &md, &csv)?;
-    let plot = crate::bench::plot::loglog(
-        "FRAME AND SIMULATION TIME VS STRANDS",
-        "STRANDS",
-        "MS PER FRAME",
-        &series,
-        None,
-    );
-    let png = out.join("scale.png");
-    plot.save(&png).map_err(|e| KamiError::Image {
-        path: png.clone(),
-        message: e.to_string(),
-    })?;
-    Ok(Report { markdown: md, csv })
+    series
 }

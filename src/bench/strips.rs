@@ -154,7 +154,36 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
     .ok();
     writeln!(md, "Adapter: {}.\n", gpu.describe()).ok();
 
-    // 1. Speed against strip count.
+    let speed_plot = speed_section(gpu, &scene, strips, scene_path, frames, &mut md, &mut csv)?;
+    let precision_plot = precision_section(steps, &mut md, &mut csv)?;
+
+    // 3. The motion nearest and trilinear EFF sampling give the scene.
+    let (sampling_md, sampling_csv, sampling_plot) = sampling_section(&scene, scene_path)?;
+    md.push_str(&sampling_md);
+
+    quote_capture(out, &mut md)?;
+
+    write_report(out, "strips", &md, &csv)?;
+    save(out, "strips_speed.png", speed_plot)?;
+    save(out, "strips_precision.png", precision_plot)?;
+    save(out, "strips_sampling.png", sampling_plot)?;
+    let p = out.join("strips_sampling.csv");
+    std::fs::write(&p, sampling_csv).map_err(|source| crate::KamiError::Io { path: p, source })?;
+    Ok(Report { markdown: md, csv })
+}
+
+/// Table 1, speed against strip count: dynamics and full-frame ms for each of `COUNTS`;
+/// returns the plot.
+fn speed_section(
+    gpu: &Gpu,
+    scene: &Scene,
+    strips: &crate::systems::strips::block::Strips,
+    scene_path: &Path,
+    frames: u32,
+    md: &mut String,
+    csv: &mut String,
+) -> Result<image::RgbaImage> {
+    let steps = dynamics::steps_per_frame(&strips.motion);
     writeln!(md, "## Strips per second\n").ok();
     writeln!(
         md,
@@ -181,7 +210,7 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
     let mut full_pts = Vec::new();
     let mut fps_120 = None;
     for &n in &COUNTS {
-        let s = scaled(&scene, n);
+        let s = scaled(scene, n);
         let count: u32 = s
             .strips
             .as_ref()
@@ -246,8 +275,12 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
         ],
         None,
     );
+    Ok(speed_plot)
+}
 
-    // 2. Work against precision of the angular-spring solver (f64 CPU reference).
+/// Table 2, work against precision of the angular-spring solver (f64 CPU reference), and
+/// the notes under it; returns the plot.
+fn precision_section(steps: u32, md: &mut String, csv: &mut String) -> Result<image::RgbaImage> {
     let setup = Setup::gust();
     let rows = precision::work_precision(&setup, &RATES, PRECISION_FRAMES)?;
     let seconds = PRECISION_FRAMES as f64 * setup.motion.frame_time;
@@ -274,36 +307,7 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
     )
     .ok();
     writeln!(md, "|---:|---:|---:|---:|---:|---:|---|").ok();
-    let mut pts = Vec::new();
-    for r in &rows {
-        let us = r.ns_per_strip_step * r.steps_per_second * 1e-3;
-        writeln!(
-            md,
-            "| {:.0} | {:.3} | {:.3e} | {:.3e} | {:.0} | {us:.1} | {} |",
-            r.steps_per_second,
-            r.dt * 1e3,
-            r.tip_error,
-            r.tip_error_rel,
-            r.ns_per_strip_step,
-            if r.stable { "yes" } else { "no" }
-        )
-        .ok();
-        writeln!(
-            csv,
-            "precision,{},{},{},,,,{:.6e},{:.6e},{:.2},{}",
-            setup.rest.len(),
-            r.steps_per_second,
-            r.dt,
-            r.tip_error,
-            r.tip_error_rel,
-            r.ns_per_strip_step,
-            r.stable
-        )
-        .ok();
-        if r.stable && r.tip_error_rel > 0.0 && r.tip_error_rel.is_finite() {
-            pts.push((us, r.tip_error_rel));
-        }
-    }
+    let pts = precision_rows(&setup, &rows, md, csv);
     let ns_mean = mean_ns(&rows);
     writeln!(md).ok();
     writeln!(
@@ -372,13 +376,53 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
         }],
         Some((0.01, "1 %")),
     );
+    Ok(precision_plot)
+}
 
-    // 3. The motion nearest and trilinear EFF sampling give the scene.
-    let (sampling_md, sampling_csv, sampling_plot) = sampling_section(&scene, scene_path)?;
-    md.push_str(&sampling_md);
+/// The work-precision table's rows; returns the plot's (µs per strip-second, relative tip
+/// error) points of the stable rows.
+fn precision_rows(
+    setup: &Setup,
+    rows: &[PrecisionRow],
+    md: &mut String,
+    csv: &mut String,
+) -> Vec<(f64, f64)> {
+    let mut pts = Vec::new();
+    for r in rows {
+        let us = r.ns_per_strip_step * r.steps_per_second * 1e-3;
+        writeln!(
+            md,
+            "| {:.0} | {:.3} | {:.3e} | {:.3e} | {:.0} | {us:.1} | {} |",
+            r.steps_per_second,
+            r.dt * 1e3,
+            r.tip_error,
+            r.tip_error_rel,
+            r.ns_per_strip_step,
+            if r.stable { "yes" } else { "no" }
+        )
+        .ok();
+        writeln!(
+            csv,
+            "precision,{},{},{},,,,{:.6e},{:.6e},{:.2},{}",
+            setup.rest.len(),
+            r.steps_per_second,
+            r.dt,
+            r.tip_error,
+            r.tip_error_rel,
+            r.ns_per_strip_step,
+            r.stable
+        )
+        .ok();
+        if r.stable && r.tip_error_rel > 0.0 && r.tip_error_rel.is_finite() {
+            pts.push((us, r.tip_error_rel));
+        }
+    }
+    pts
+}
 
-    // 4. EFF fit: the capture round trip writes capture.md, capture.csv and capture.png
-    // into `out`; its tables are quoted here (headings demoted) so strips.md stands alone.
+/// EFF fit: the capture round trip writes capture.md, capture.csv and capture.png into
+/// `out`; its tables are quoted here (headings demoted) so strips.md stands alone.
+fn quote_capture(out: &Path, md: &mut String) -> Result<()> {
     super::capture::write_report(out)?;
     let cap_path = out.join("capture.md");
     let cap = std::fs::read_to_string(&cap_path).map_err(|source| crate::KamiError::Io {
@@ -400,14 +444,7 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
         writeln!(quoted, "{demote}{line}").ok();
     }
     md.push_str(quoted.trim_start());
-
-    write_report(out, "strips", &md, &csv)?;
-    save(out, "strips_speed.png", speed_plot)?;
-    save(out, "strips_precision.png", precision_plot)?;
-    save(out, "strips_sampling.png", sampling_plot)?;
-    let p = out.join("strips_sampling.csv");
-    std::fs::write(&p, sampling_csv).map_err(|source| crate::KamiError::Io { path: p, source })?;
-    Ok(Report { markdown: md, csv })
+    Ok(())
 }
 
 /// Mean f64 cost per strip-step over the stable rows (the cost hardly depends on dt).

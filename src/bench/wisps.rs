@@ -396,7 +396,42 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
     )
     .ok();
 
-    // 1. Cost against wisp count and image size, before and after.
+    let cost_plot = cost_section(gpu, &scene, frames, out, &mut md, &mut csv)?;
+    let error_plot = error_section(gpu, &scene, frames, &mut md, &mut csv)?;
+    springs_section(scene_path, out, &mut md, &mut csv)?;
+
+    // The hand-written sections after the measured tables are kept from the report this
+    // one replaces.
+    if let Ok(old) = std::fs::read_to_string(out.join("wisps.md")) {
+        if let Some(at) = old.find(HAND_WRITTEN) {
+            md.push('\n');
+            md.push_str(&old[at..]);
+        }
+    }
+    write_report(out, "wisps", &md, &csv)?;
+    for (name, img) in [
+        ("wisps_cost.png", cost_plot),
+        ("wisps_error.png", error_plot),
+    ] {
+        let p = out.join(name);
+        img.save(&p).map_err(|e| crate::KamiError::Io {
+            path: p.clone(),
+            source: std::io::Error::other(e),
+        })?;
+    }
+    Ok(Report { markdown: md, csv })
+}
+
+/// Table 1, cost against wisp count and image size, before and after, the viewer's size
+/// and the sweep; returns the plot.
+fn cost_section(
+    gpu: &Gpu,
+    scene: &Scene,
+    frames: u32,
+    out: &Path,
+    md: &mut String,
+    csv: &mut String,
+) -> Result<RgbaImage> {
     let before = before_costs(out);
     writeln!(
         md,
@@ -415,9 +450,31 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
     )
     .ok();
     writeln!(md, "|---|---|---|---|---|---|---|---|---|---|---|").ok();
+    let cost_series = cost_rows(gpu, scene, frames, &before, md, csv)?;
+    viewer_cost(gpu, scene, frames, md, csv)?;
+    sweep(gpu, scene, frames, md, csv)?;
+    Ok(plot::loglog(
+        "Toon wisps: ray march per frame",
+        "pixels",
+        "ms per frame",
+        &cost_series,
+        None,
+    ))
+}
+
+/// The cost table's rows: each of `COPIES` times the scene at each of `SIDES`, next to the
+/// recorded cost before the tiled march; returns the plot's series.
+fn cost_rows(
+    gpu: &Gpu,
+    scene: &Scene,
+    frames: u32,
+    before: &[(usize, u32, f64)],
+    md: &mut String,
+    csv: &mut String,
+) -> Result<Vec<Series>> {
     let mut cost_series = Vec::new();
     for (i, &copies) in COPIES.iter().enumerate() {
-        let s = multiplied(&scene, copies);
+        let s = multiplied(scene, copies);
         let w = s.wisps.as_ref().map(|w| w.skeletons.len()).unwrap_or(0);
         let segs = s
             .wisps
@@ -471,8 +528,18 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
             });
         }
     }
-    // The viewer's default size, the issue's goal (10 fps there).
-    let view = march_frame(gpu, &scene, VIEWER, frames)?;
+    Ok(cost_series)
+}
+
+/// The viewer's default size, the issue's goal (10 fps there).
+fn viewer_cost(
+    gpu: &Gpu,
+    scene: &Scene,
+    frames: u32,
+    md: &mut String,
+    csv: &mut String,
+) -> Result<()> {
+    let view = march_frame(gpu, scene, VIEWER, frames)?;
     writeln!(
         md,
         "\nAt the viewer's size, {}x{} (22 wisps): **{:.1} ms per frame** ({:.2} fps for the \
@@ -500,18 +567,19 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
         view.stats.most_in_a_tile
     )
     .ok();
-    sweep(gpu, &scene, frames, &mut md, &mut csv)?;
-    let cost_plot = plot::loglog(
-        "Toon wisps: ray march per frame",
-        "pixels",
-        "ms per frame",
-        &cost_series,
-        None,
-    );
+    Ok(())
+}
 
-    // 2. Image error of each variant against the f64 truth.
+/// Table 2, image error of each variant against the f64 truth; returns the plot.
+fn error_section(
+    gpu: &Gpu,
+    scene: &Scene,
+    frames: u32,
+    md: &mut String,
+    csv: &mut String,
+) -> Result<RgbaImage> {
     let size = (ERROR_SIDE, ERROR_SIDE);
-    let truth = truth_image(gpu, &scene, size)?;
+    let truth = truth_image(gpu, scene, size)?;
     writeln!(
         md,
         "## Ray march error against the f64 reference ({ERROR_SIDE}², against \
@@ -525,29 +593,9 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
     )
     .ok();
     writeln!(md, "|---|---|---|---|---|").ok();
-    let mut variants: Vec<(String, Distance, f64, u32)> = Vec::new();
-    for step in [0.5, 1.0, 2.0, 4.0] {
-        variants.push((format!("Newton, step {step}"), Distance::Newton, step, 8));
-    }
-    for refine in [4, 16] {
-        variants.push((
-            format!("Newton, {refine} bisections"),
-            Distance::Newton,
-            1.0,
-            refine,
-        ));
-    }
-    for pieces in [1, 2, 4, 8] {
-        variants.push((
-            format!("polyline {pieces}"),
-            Distance::Polyline { pieces },
-            1.0,
-            8,
-        ));
-    }
     let mut newton_pts = Vec::new();
     let mut poly_pts = Vec::new();
-    for (name, distance, step, refine) in variants {
+    for (name, distance, step, refine) in error_variants() {
         let mut s = scene.clone();
         if let Some(w) = s.wisps.as_mut() {
             w.march.distance = distance;
@@ -602,8 +650,37 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
          what the bound buys.\n"
     )
     .ok();
+    Ok(error_plot)
+}
 
-    // 3. Mass springs: work against precision (f64 reference, CPU).
+/// The error table's variants: (name, distance method, step scale, bisections).
+fn error_variants() -> Vec<(String, Distance, f64, u32)> {
+    let mut variants: Vec<(String, Distance, f64, u32)> = Vec::new();
+    for step in [0.5, 1.0, 2.0, 4.0] {
+        variants.push((format!("Newton, step {step}"), Distance::Newton, step, 8));
+    }
+    for refine in [4, 16] {
+        variants.push((
+            format!("Newton, {refine} bisections"),
+            Distance::Newton,
+            1.0,
+            refine,
+        ));
+    }
+    for pieces in [1, 2, 4, 8] {
+        variants.push((
+            format!("polyline {pieces}"),
+            Distance::Polyline { pieces },
+            1.0,
+            8,
+        ));
+    }
+    variants
+}
+
+/// Table 3, mass springs: work against precision (f64 reference, CPU) on three wisps of
+/// `toon_shake.ron` beside the scene; writes `wisps_springs.png`.
+fn springs_section(scene_path: &Path, out: &Path, md: &mut String, csv: &mut String) -> Result<()> {
     let shake_path = scene_path.with_file_name("toon_shake.ron");
     let shake = Scene::load(&shake_path)?;
     if let Some(w) = shake.wisps.as_ref() {
@@ -681,25 +758,5 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
             source: std::io::Error::other(e),
         })?;
     }
-
-    // The hand-written sections after the measured tables are kept from the report this
-    // one replaces.
-    if let Ok(old) = std::fs::read_to_string(out.join("wisps.md")) {
-        if let Some(at) = old.find(HAND_WRITTEN) {
-            md.push('\n');
-            md.push_str(&old[at..]);
-        }
-    }
-    write_report(out, "wisps", &md, &csv)?;
-    for (name, img) in [
-        ("wisps_cost.png", cost_plot),
-        ("wisps_error.png", error_plot),
-    ] {
-        let p = out.join(name);
-        img.save(&p).map_err(|e| crate::KamiError::Io {
-            path: p.clone(),
-            source: std::io::Error::other(e),
-        })?;
-    }
-    Ok(Report { markdown: md, csv })
+    Ok(())
 }

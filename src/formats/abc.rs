@@ -1210,58 +1210,9 @@ impl Reader<'_> {
         self.budget -= n as u64;
 
         let nv = find("nVertices").ok_or_else(|| err("the curves have no nVertices".into()))?;
-        if nv.kind != Kind::Array || nv.pod.is_float() || nv.pod.size().is_none() {
-            return Err(err("nVertices is not an array of integers".into()));
-        }
-        let raw = a.numbers(nv, a.index(nv, sample), &what("nVertices"))?;
-        let mut counts = Vec::with_capacity(raw.len());
-        let mut total = 0u64;
-        for (i, c) in raw.iter().enumerate() {
-            if !(2.0..=u32::MAX as f64).contains(&c) {
-                return Err(err(format!(
-                    "curve {i} has {c} vertices; Kami needs at least 2"
-                )));
-            }
-            total += c as u64;
-            counts.push(c as u32);
-        }
-        if total != n as u64 {
-            return Err(err(format!(
-                "nVertices adds up to {total} points but P has {n}"
-            )));
-        }
-
+        let counts = self.vertex_counts(nv, path, n)?;
         let (curve_type, wrap, basis) = match find("curveBasisAndType") {
-            Some(bt) if bt.count > 0 => {
-                let v = a.numbers(bt, a.index(bt, sample), &what("curveBasisAndType"))?;
-                if v.len() < 3 {
-                    return Err(err(format!(
-                        "curveBasisAndType has {} values, not 4",
-                        v.len()
-                    )));
-                }
-                let t = match v.get(0) as u32 {
-                    0 => CurveType::Cubic,
-                    1 => CurveType::Linear,
-                    2 => CurveType::VariableOrder,
-                    t => return Err(err(format!("curve type {t} is not one Alembic knows"))),
-                };
-                let w = if v.get(1) == 0.0 {
-                    Wrap::NonPeriodic
-                } else {
-                    Wrap::Periodic
-                };
-                let b = match v.get(2) as u32 {
-                    0 => Basis::NoBasis,
-                    1 => Basis::Bezier,
-                    2 => Basis::Bspline,
-                    3 => Basis::CatmullRom,
-                    4 => Basis::Hermite,
-                    5 => Basis::Power,
-                    b => return Err(err(format!("curve basis {b} is not one Alembic knows"))),
-                };
-                (t, w, b)
-            }
+            Some(bt) if bt.count > 0 => self.basis_and_type(bt, path)?,
             _ => return Err(err("the curves have no curveBasisAndType".into())),
         };
         let shape = Shape {
@@ -1272,127 +1223,30 @@ impl Reader<'_> {
         };
 
         // Widths: the schema's `width` geom param.
-        let mut widths = match find("width") {
-            Some(w) => self.param(w, path, ".geom", 1, &shape)?,
-            None => None,
+        let mut attrs = Attrs {
+            widths: match find("width") {
+                Some(w) => self.param(w, path, ".geom", 1, &shape)?,
+                None => None,
+            },
+            ..Attrs::default()
         };
         // Colour and opacity from the arbitrary geom params, by the names tools use.
-        let mut colors = None;
-        let mut opacities = None;
-        let (mut group_ids, mut guides, mut root_uvs) = (None, None, None);
         if let Some(arb) = find(".arbGeomParams").filter(|p| p.kind == Kind::Compound) {
-            let where_ = format!("object {path}, .geom/.arbGeomParams");
-            let arb_props = a.properties(&a.group(arb.group, &where_)?, &where_)?;
-            let param = |names: &[&str], extents: &[u32]| -> Option<&Property> {
-                names.iter().find_map(|n| {
-                    arb_props.iter().find(|p| {
-                        p.name == *n && param_extent(p, a).is_some_and(|e| extents.contains(&e))
-                    })
-                })
-            };
-            const COLOR: &[&str] = &["Cs", "Cd", "color", "displayColor", "primvars:displayColor"];
-            const OPACITY: &[&str] = &[
-                "opacity",
-                "Alpha",
-                "displayOpacity",
-                "primvars:displayOpacity",
-            ];
-            if let Some(c) = param(COLOR, &[3, 4]) {
-                let extent = param_extent(c, a).unwrap_or(3);
-                if let Some(v) = self.param(c, path, ".geom/.arbGeomParams", extent, &shape)? {
-                    let e = extent as usize;
-                    colors = Some(
-                        v.chunks_exact(e)
-                            .map(|c| [c[0], c[1], c[2]])
-                            .collect::<Vec<[f32; 3]>>(),
-                    );
-                    if e == 4 {
-                        opacities = Some(v.chunks_exact(4).map(|c| c[3]).collect());
-                    }
-                }
-            }
-            if let Some(o) = param(OPACITY, &[1]) {
-                opacities = self.param(o, path, ".geom/.arbGeomParams", 1, &shape)?;
-            }
-            // Unreal's groom schema ("Alembic for Grooms"): its width and colour win over
-            // the others; group ids, guide flags and root UVs are per curve.
-            let arb_where = ".geom/.arbGeomParams";
-            if let Some(w) = param(&["groom_width"], &[1]) {
-                if let Some(v) = self.param(w, path, arb_where, 1, &shape)? {
-                    widths = Some(v);
-                }
-            }
-            if let Some(c) = param(&["groom_color"], &[3, 4]) {
-                let e = param_extent(c, a).unwrap_or(3) as usize;
-                if let Some(v) = self.param(c, path, arb_where, e as u32, &shape)? {
-                    colors = Some(v.chunks_exact(e).map(|c| [c[0], c[1], c[2]]).collect());
-                }
-            }
-            let named = |n: &str| arb_props.iter().find(|p| p.name == n);
-            if let Some(p) = named("groom_group_id") {
-                group_ids = Some(
-                    self.per_curve(p, path, &counts)?
-                        .into_iter()
-                        .map(|v| v as i64)
-                        .collect(),
-                );
-            }
-            if let Some(p) = named("groom_guide") {
-                guides = Some(
-                    self.per_curve(p, path, &counts)?
-                        .into_iter()
-                        .map(|v| v != 0.0)
-                        .collect(),
-                );
-            }
-            if let Some(p) = param(&["groom_root_uv"], &[2]) {
-                if let Some(v) = self.param(p, path, arb_where, 2, &shape)? {
-                    // Per point as expanded: each curve's value at its root.
-                    let mut at = 0usize;
-                    let mut uvs = Vec::with_capacity(counts.len());
-                    for &c in &counts {
-                        uvs.push([v[2 * at], v[2 * at + 1]]);
-                        at += c as usize;
-                    }
-                    root_uvs = Some(uvs);
-                }
-            }
-            if let Some(p) = named("groom_version_major") {
-                let v = self.per_curve(p, path, &counts)?;
-                if v.first().is_some_and(|&m| m > 1.0) {
-                    log::warn!(
-                        "{}: object {path} follows Unreal's groom schema {}; Kami reads version 1",
-                        a.origin,
-                        v[0]
-                    );
-                }
-            }
+            self.arb_geom_params(arb, path, &shape, &mut attrs)?;
         }
+        let Attrs {
+            widths,
+            colors,
+            opacities,
+            group_ids,
+            guides,
+            root_uvs,
+        } = attrs;
 
         // World space: points through the matrix, widths by its mean scale.
         let identity = *world == IDENTITY;
-        let scale = {
-            let m = world;
-            let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-                - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-                + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
-            det.abs().cbrt()
-        };
-        let points: Vec<[f32; 3]> = (0..n)
-            .map(|i| [pos.get(3 * i), pos.get(3 * i + 1), pos.get(3 * i + 2)])
-            .map(|p| {
-                if identity {
-                    [p[0] as f32, p[1] as f32, p[2] as f32]
-                } else {
-                    let m = world;
-                    let w = p[0] * m[0][3] + p[1] * m[1][3] + p[2] * m[2][3] + m[3][3];
-                    let w = if w == 0.0 { 1.0 } else { w };
-                    std::array::from_fn(|j| {
-                        ((p[0] * m[0][j] + p[1] * m[1][j] + p[2] * m[2][j] + m[3][j]) / w) as f32
-                    })
-                }
-            })
-            .collect();
+        let scale = mean_scale(world);
+        let points = world_points(&pos, n, world);
         if let Some(i) = points.iter().position(|p| p.iter().any(|v| !v.is_finite())) {
             return Err(err(format!(
                 "point {i} is not finite{}: {:?}",
@@ -1434,6 +1288,176 @@ impl Reader<'_> {
             time,
             samples: p.count,
         });
+        Ok(())
+    }
+
+    /// The points per curve (`nVertices`): integers, each at least 2, adding up to the
+    /// object's `n` points.
+    fn vertex_counts(&self, nv: &Property, path: &str, n: usize) -> Result<Vec<u32>> {
+        let a = self.a;
+        let err = |m: String| a.err(format!("object {path}: {m}"));
+        if nv.kind != Kind::Array || nv.pod.is_float() || nv.pod.size().is_none() {
+            return Err(err("nVertices is not an array of integers".into()));
+        }
+        let raw = a.numbers(
+            nv,
+            a.index(nv, self.options.sample),
+            &format!("object {path}, .geom/nVertices"),
+        )?;
+        let mut counts = Vec::with_capacity(raw.len());
+        let mut total = 0u64;
+        for (i, c) in raw.iter().enumerate() {
+            if !(2.0..=u32::MAX as f64).contains(&c) {
+                return Err(err(format!(
+                    "curve {i} has {c} vertices; Kami needs at least 2"
+                )));
+            }
+            total += c as u64;
+            counts.push(c as u32);
+        }
+        if total != n as u64 {
+            return Err(err(format!(
+                "nVertices adds up to {total} points but P has {n}"
+            )));
+        }
+        Ok(counts)
+    }
+
+    /// The curves' type, wrap and basis from a sampled `curveBasisAndType`.
+    fn basis_and_type(&self, bt: &Property, path: &str) -> Result<(CurveType, Wrap, Basis)> {
+        let a = self.a;
+        let err = |m: String| a.err(format!("object {path}: {m}"));
+        let v = a.numbers(
+            bt,
+            a.index(bt, self.options.sample),
+            &format!("object {path}, .geom/curveBasisAndType"),
+        )?;
+        if v.len() < 3 {
+            return Err(err(format!(
+                "curveBasisAndType has {} values, not 4",
+                v.len()
+            )));
+        }
+        let t = match v.get(0) as u32 {
+            0 => CurveType::Cubic,
+            1 => CurveType::Linear,
+            2 => CurveType::VariableOrder,
+            t => return Err(err(format!("curve type {t} is not one Alembic knows"))),
+        };
+        let w = if v.get(1) == 0.0 {
+            Wrap::NonPeriodic
+        } else {
+            Wrap::Periodic
+        };
+        let b = match v.get(2) as u32 {
+            0 => Basis::NoBasis,
+            1 => Basis::Bezier,
+            2 => Basis::Bspline,
+            3 => Basis::CatmullRom,
+            4 => Basis::Hermite,
+            5 => Basis::Power,
+            b => return Err(err(format!("curve basis {b} is not one Alembic knows"))),
+        };
+        Ok((t, w, b))
+    }
+
+    /// Colour, opacity and Unreal's groom attributes from the arbitrary geom params
+    /// (`.arbGeomParams`), by the names tools use, into `attrs`.
+    fn arb_geom_params(
+        &self,
+        arb: &Property,
+        path: &str,
+        shape: &Shape,
+        attrs: &mut Attrs,
+    ) -> Result<()> {
+        let a = self.a;
+        let counts = shape.counts;
+        let where_ = format!("object {path}, .geom/.arbGeomParams");
+        let arb_props = a.properties(&a.group(arb.group, &where_)?, &where_)?;
+        let param = |names: &[&str], extents: &[u32]| -> Option<&Property> {
+            names.iter().find_map(|n| {
+                arb_props.iter().find(|p| {
+                    p.name == *n && param_extent(p, a).is_some_and(|e| extents.contains(&e))
+                })
+            })
+        };
+        const COLOR: &[&str] = &["Cs", "Cd", "color", "displayColor", "primvars:displayColor"];
+        const OPACITY: &[&str] = &[
+            "opacity",
+            "Alpha",
+            "displayOpacity",
+            "primvars:displayOpacity",
+        ];
+        if let Some(c) = param(COLOR, &[3, 4]) {
+            let extent = param_extent(c, a).unwrap_or(3);
+            if let Some(v) = self.param(c, path, ".geom/.arbGeomParams", extent, shape)? {
+                let e = extent as usize;
+                attrs.colors = Some(
+                    v.chunks_exact(e)
+                        .map(|c| [c[0], c[1], c[2]])
+                        .collect::<Vec<[f32; 3]>>(),
+                );
+                if e == 4 {
+                    attrs.opacities = Some(v.chunks_exact(4).map(|c| c[3]).collect());
+                }
+            }
+        }
+        if let Some(o) = param(OPACITY, &[1]) {
+            attrs.opacities = self.param(o, path, ".geom/.arbGeomParams", 1, shape)?;
+        }
+        // Unreal's groom schema ("Alembic for Grooms"): its width and colour win over
+        // the others; group ids, guide flags and root UVs are per curve.
+        let arb_where = ".geom/.arbGeomParams";
+        if let Some(w) = param(&["groom_width"], &[1]) {
+            if let Some(v) = self.param(w, path, arb_where, 1, shape)? {
+                attrs.widths = Some(v);
+            }
+        }
+        if let Some(c) = param(&["groom_color"], &[3, 4]) {
+            let e = param_extent(c, a).unwrap_or(3) as usize;
+            if let Some(v) = self.param(c, path, arb_where, e as u32, shape)? {
+                attrs.colors = Some(v.chunks_exact(e).map(|c| [c[0], c[1], c[2]]).collect());
+            }
+        }
+        let named = |n: &str| arb_props.iter().find(|p| p.name == n);
+        if let Some(p) = named("groom_group_id") {
+            attrs.group_ids = Some(
+                self.per_curve(p, path, counts)?
+                    .into_iter()
+                    .map(|v| v as i64)
+                    .collect(),
+            );
+        }
+        if let Some(p) = named("groom_guide") {
+            attrs.guides = Some(
+                self.per_curve(p, path, counts)?
+                    .into_iter()
+                    .map(|v| v != 0.0)
+                    .collect(),
+            );
+        }
+        if let Some(p) = param(&["groom_root_uv"], &[2]) {
+            if let Some(v) = self.param(p, path, arb_where, 2, shape)? {
+                // Per point as expanded: each curve's value at its root.
+                let mut at = 0usize;
+                let mut uvs = Vec::with_capacity(counts.len());
+                for &c in counts {
+                    uvs.push([v[2 * at], v[2 * at + 1]]);
+                    at += c as usize;
+                }
+                attrs.root_uvs = Some(uvs);
+            }
+        }
+        if let Some(p) = named("groom_version_major") {
+            let v = self.per_curve(p, path, counts)?;
+            if v.first().is_some_and(|&m| m > 1.0) {
+                log::warn!(
+                    "{}: object {path} follows Unreal's groom schema {}; Kami reads version 1",
+                    a.origin,
+                    v[0]
+                );
+            }
+        }
         Ok(())
     }
 
@@ -1561,6 +1585,47 @@ impl Reader<'_> {
                 ))
             })
     }
+}
+
+/// The optional attributes of one curves object as read: per point (widths, colours,
+/// opacities) and per curve (Unreal's group ids, guide flags, root UVs).
+#[derive(Default)]
+struct Attrs {
+    widths: Option<Vec<f32>>,
+    colors: Option<Vec<[f32; 3]>>,
+    opacities: Option<Vec<f32>>,
+    group_ids: Option<Vec<i64>>,
+    guides: Option<Vec<bool>>,
+    root_uvs: Option<Vec<[f32; 2]>>,
+}
+
+/// The mean scale of a transform (the cube root of its 3x3 determinant), for widths.
+fn mean_scale(m: &M44) -> f64 {
+    let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+        - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    det.abs().cbrt()
+}
+
+/// The `n` points of `pos` through the matrix `world` (row vectors, Imath's order),
+/// divided by w; untouched under the identity.
+fn world_points(pos: &Values, n: usize, world: &M44) -> Vec<[f32; 3]> {
+    let identity = *world == IDENTITY;
+    (0..n)
+        .map(|i| [pos.get(3 * i), pos.get(3 * i + 1), pos.get(3 * i + 2)])
+        .map(|p| {
+            if identity {
+                [p[0] as f32, p[1] as f32, p[2] as f32]
+            } else {
+                let m = world;
+                let w = p[0] * m[0][3] + p[1] * m[1][3] + p[2] * m[2][3] + m[3][3];
+                let w = if w == 0.0 { 1.0 } else { w };
+                std::array::from_fn(|j| {
+                    ((p[0] * m[0][j] + p[1] * m[1][j] + p[2] * m[2][j] + m[3][j]) / w) as f32
+                })
+            }
+        })
+        .collect()
 }
 
 /// The extent of a geom param's values (its own, or its `.vals`' when indexed).

@@ -611,146 +611,21 @@ pub fn read_frames(path: &Path, budget: u64) -> Result<Option<Frames>> {
         path: path.to_path_buf(),
         source,
     })?;
-    let mut frames: Vec<Groom> = Vec::new();
-    let (fps, times): (f64, Vec<f64>);
-    // Bytes of points `n` frames of `first` take, refused beyond the budget before
-    // anything is read.
-    let check = |first: &Groom, n: usize| -> Result<()> {
-        if first.points.is_empty() {
-            return Err(data_error(
-                &origin,
-                None,
-                "the first frame has no points".into(),
-            ));
-        }
-        if n > MAX_FRAMES {
-            return Err(data_error(
-                &origin,
-                None,
-                format!("{n} frames: Kami plays at most {MAX_FRAMES} frames of a cache"),
-            ));
-        }
-        let need = (first.points.len() as u64)
-            .saturating_mul(12)
-            .saturating_mul(n as u64);
-        if need > budget {
-            return Err(data_error(
-                &origin,
-                None,
-                format!(
-                    "{n} frames of {} points take {:.2} GiB, over Kami's {:.2} GiB for a groom's \
-                     frames: play fewer frames (trim the cache in the tool that wrote it) or open \
-                     one frame (`time:` in the scene)",
-                    first.points.len(),
-                    need as f64 / (1u64 << 30) as f64,
-                    budget as f64 / (1u64 << 30) as f64
-                ),
-            ));
-        }
-        Ok(())
-    };
-    match format {
+    let sampled = match format {
         Format::Usda | Format::Usdc | Format::Usdz | Format::Usd => {
-            let layer = usd_layer(&origin, &bytes, path)?;
-            let samples = layer.times();
-            if samples.len() < 2 {
-                return Ok(None);
-            }
-            let tcps = layer.time_codes_per_second(&origin)?;
-            let (start, end) = layer.range();
-            let start = start.unwrap_or(samples[0]);
-            let end = end.unwrap_or(samples[samples.len() - 1]);
-            if end < start {
-                return Err(data_error(
-                    &origin,
-                    None,
-                    format!("endTimeCode {end} is before startTimeCode {start}"),
-                ));
-            }
-            if end - start >= MAX_FRAMES as f64 {
-                return Err(data_error(
-                    &origin,
-                    None,
-                    format!(
-                        "time codes {start} to {end}: Kami plays at most {MAX_FRAMES} frames of a cache"
-                    ),
-                ));
-            }
-            let n = (end - start).floor() as usize + 1;
-            // An error at a frame says which time code it is at.
-            let at = |tc: f64| {
-                layer.groom(&origin, Some(tc)).map_err(|e| match e {
-                    KamiError::Data {
-                        path,
-                        line,
-                        message,
-                    } => KamiError::Data {
-                        path,
-                        line,
-                        message: format!("at time code {tc}: {message}"),
-                    },
-                    e => e,
-                })
-            };
-            let first = at(start)?.into_linear();
-            check(&first, n)?;
-            fps = tcps;
-            times = (0..n).map(|i| (start + i as f64) / tcps).collect();
-            frames.push(first);
-            for i in 1..n {
-                frames.push(at(start + i as f64)?.into_linear());
-            }
+            usd_frames(&origin, &bytes, path, budget)?
         }
-        Format::Abc => {
-            let first = abc::parse_with(&bytes, &origin, &abc::Options::default())?;
-            let Some(most) = first.objects.iter().max_by_key(|o| o.samples) else {
-                return Ok(None);
-            };
-            let n = most.samples as usize;
-            if n < 2 {
-                return Ok(None);
-            }
-            let path_of_most = most.path.clone();
-            let g0 = first.into_groom(&origin).into_linear();
-            check(&g0, n)?;
-            // Frame i is the most-sampled object's sample i; every object and transform is
-            // read at that sample's time (objects of other time samplings stay in step, and
-            // `time:` reads the same pose).
-            let mut t = Vec::with_capacity(n);
-            for i in 0..n {
-                let by_index = abc::Options {
-                    sample: abc::Sample::Index(i as u32),
-                    ..abc::Options::default()
-                };
-                let c = abc::parse_with(&bytes, &origin, &by_index)?;
-                let ti = c
-                    .objects
-                    .iter()
-                    .find(|o| o.path == path_of_most)
-                    .map_or(0.0, |o| o.time);
-                t.push(ti);
-                if i == 0 {
-                    frames.push(g0.clone());
-                    continue;
-                }
-                let by_time = abc::Options {
-                    sample: abc::Sample::Time(ti),
-                    ..abc::Options::default()
-                };
-                frames.push(
-                    abc::parse_with(&bytes, &origin, &by_time)?
-                        .into_groom(&origin)
-                        .into_linear(),
-                );
-            }
-            fps = match t.as_slice() {
-                [a, b, ..] if b > a => 1.0 / (b - a),
-                _ => 24.0,
-            };
-            times = t;
-        }
+        Format::Abc => abc_frames(&origin, &bytes, budget)?,
         _ => return Ok(None),
-    }
+    };
+    let Some(Sampled {
+        fps,
+        times,
+        grooms: frames,
+    }) = sampled
+    else {
+        return Ok(None);
+    };
     let counts = frames[0].counts.clone();
     let mut points = Vec::with_capacity(frames.len());
     for (i, f) in frames.into_iter().enumerate() {
@@ -777,5 +652,163 @@ pub fn read_frames(path: &Path, budget: u64) -> Result<Option<Frames>> {
         times,
         counts,
         points,
+    }))
+}
+
+/// A cache's frames as read, before their counts are checked against each other.
+struct Sampled {
+    fps: f64,
+    times: Vec<f64>,
+    grooms: Vec<Groom>,
+}
+
+/// Bytes of points `n` frames of `first` take, refused beyond the budget before anything
+/// is read (and a first frame without points, or more than `MAX_FRAMES` frames).
+fn check_frames(origin: &str, first: &Groom, n: usize, budget: u64) -> Result<()> {
+    if first.points.is_empty() {
+        return Err(data_error(
+            origin,
+            None,
+            "the first frame has no points".into(),
+        ));
+    }
+    if n > MAX_FRAMES {
+        return Err(data_error(
+            origin,
+            None,
+            format!("{n} frames: Kami plays at most {MAX_FRAMES} frames of a cache"),
+        ));
+    }
+    let need = (first.points.len() as u64)
+        .saturating_mul(12)
+        .saturating_mul(n as u64);
+    if need > budget {
+        return Err(data_error(
+            origin,
+            None,
+            format!(
+                "{n} frames of {} points take {:.2} GiB, over Kami's {:.2} GiB for a groom's \
+                 frames: play fewer frames (trim the cache in the tool that wrote it) or open \
+                 one frame (`time:` in the scene)",
+                first.points.len(),
+                need as f64 / (1u64 << 30) as f64,
+                budget as f64 / (1u64 << 30) as f64
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// A USD layer's frames: one per time code from `startTimeCode` to `endTimeCode`, else
+/// from the first sample to the last; `None` with fewer than two samples.
+fn usd_frames(origin: &str, bytes: &[u8], path: &Path, budget: u64) -> Result<Option<Sampled>> {
+    let layer = usd_layer(origin, bytes, path)?;
+    let samples = layer.times();
+    if samples.len() < 2 {
+        return Ok(None);
+    }
+    let tcps = layer.time_codes_per_second(origin)?;
+    let (start, end) = layer.range();
+    let start = start.unwrap_or(samples[0]);
+    let end = end.unwrap_or(samples[samples.len() - 1]);
+    if end < start {
+        return Err(data_error(
+            origin,
+            None,
+            format!("endTimeCode {end} is before startTimeCode {start}"),
+        ));
+    }
+    if end - start >= MAX_FRAMES as f64 {
+        return Err(data_error(
+            origin,
+            None,
+            format!(
+                "time codes {start} to {end}: Kami plays at most {MAX_FRAMES} frames of a cache"
+            ),
+        ));
+    }
+    let n = (end - start).floor() as usize + 1;
+    // An error at a frame says which time code it is at.
+    let at = |tc: f64| {
+        layer.groom(origin, Some(tc)).map_err(|e| match e {
+            KamiError::Data {
+                path,
+                line,
+                message,
+            } => KamiError::Data {
+                path,
+                line,
+                message: format!("at time code {tc}: {message}"),
+            },
+            e => e,
+        })
+    };
+    let first = at(start)?.into_linear();
+    check_frames(origin, &first, n, budget)?;
+    let times = (0..n).map(|i| (start + i as f64) / tcps).collect();
+    let mut grooms = vec![first];
+    for i in 1..n {
+        grooms.push(at(start + i as f64)?.into_linear());
+    }
+    Ok(Some(Sampled {
+        fps: tcps,
+        times,
+        grooms,
+    }))
+}
+
+/// An Alembic archive's frames: one per sample of its most-sampled object; `None` with
+/// fewer than two.
+fn abc_frames(origin: &str, bytes: &[u8], budget: u64) -> Result<Option<Sampled>> {
+    let first = abc::parse_with(bytes, origin, &abc::Options::default())?;
+    let Some(most) = first.objects.iter().max_by_key(|o| o.samples) else {
+        return Ok(None);
+    };
+    let n = most.samples as usize;
+    if n < 2 {
+        return Ok(None);
+    }
+    let path_of_most = most.path.clone();
+    let g0 = first.into_groom(origin).into_linear();
+    check_frames(origin, &g0, n, budget)?;
+    // Frame i is the most-sampled object's sample i; every object and transform is read at
+    // that sample's time (objects of other time samplings stay in step, and `time:` reads
+    // the same pose).
+    let mut grooms = Vec::new();
+    let mut t = Vec::with_capacity(n);
+    for i in 0..n {
+        let by_index = abc::Options {
+            sample: abc::Sample::Index(i as u32),
+            ..abc::Options::default()
+        };
+        let c = abc::parse_with(bytes, origin, &by_index)?;
+        let ti = c
+            .objects
+            .iter()
+            .find(|o| o.path == path_of_most)
+            .map_or(0.0, |o| o.time);
+        t.push(ti);
+        if i == 0 {
+            grooms.push(g0.clone());
+            continue;
+        }
+        let by_time = abc::Options {
+            sample: abc::Sample::Time(ti),
+            ..abc::Options::default()
+        };
+        grooms.push(
+            abc::parse_with(bytes, origin, &by_time)?
+                .into_groom(origin)
+                .into_linear(),
+        );
+    }
+    let fps = match t.as_slice() {
+        [a, b, ..] if b > a => 1.0 / (b - a),
+        _ => 24.0,
+    };
+    Ok(Some(Sampled {
+        fps,
+        times: t,
+        grooms,
     }))
 }

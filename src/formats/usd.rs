@@ -1130,8 +1130,81 @@ fn stage_transform(stage: &Stage, origin: &str) -> Result<DMat4> {
 /// per control point only.
 fn curve_prim(prim: &Prim, to_kami: DMat4, origin: &str) -> Result<Groom> {
     let err = |line: usize, m: String| prim.error(origin, line, m);
-    // USD's fallbacks: cubic Bézier, open. A prim that names no type and whose counts make
-    // no Bézier curves is read as linear, with a warning (the points are all there).
+    let (basis, wrap) = basis_and_wrap(prim, origin)?;
+    let (counts, cline) = prim.counts.as_ref().ok_or_else(|| {
+        err(
+            prim.line,
+            "this BasisCurves has no `curveVertexCounts`".into(),
+        )
+    })?;
+    let (pts, pline) = prim.points.as_ref().ok_or_else(|| {
+        err(
+            prim.line,
+            "this BasisCurves has no `point3f[] points`".into(),
+        )
+    })?;
+    let npts = pts.len() / 3;
+    let mut g = Groom {
+        basis,
+        wrap,
+        ..Groom::default()
+    };
+    let (sum, varying_total) = vertex_counts(prim, origin, counts, *cline, &mut g)?;
+    if sum != npts as u64 {
+        return Err(err(*cline, format!("the curve vertex counts add up to {sum} points but `points` (line {pline}) has {npts}")));
+    }
+    // Without a transform the file's numbers are kept bit for bit (-0 stays -0).
+    let moved = to_kami != DMat4::IDENTITY;
+    for (i, p) in pts.chunks_exact(3).enumerate() {
+        let q = if moved {
+            to_kami.transform_point3(DVec3::new(p[0], p[1], p[2]))
+        } else {
+            DVec3::new(p[0], p[1], p[2])
+        };
+        let q = [q.x as f32, q.y as f32, q.z as f32];
+        if q.iter().any(|v| !v.is_finite()) {
+            return Err(err(*pline, format!("point {i} is not finite: {q:?}")));
+        }
+        g.points.push(q);
+    }
+    let counts = g.counts.clone();
+    let fit = Fit {
+        prim,
+        origin,
+        counts: &counts,
+        npts,
+        varying: varying_total as usize,
+        cubic: basis != Basis::Linear,
+    };
+    // Widths are lengths: they scale with the transform (its mean scale).
+    let scale = to_kami.determinant().abs().cbrt();
+    let widths = fit
+        .expand("widths", 1)?
+        .map(|(w, v): Values| (w.into_iter().map(|x| x * scale).collect(), v));
+    // displayColor is linear (USD's rule without a `colorSpace`); Kami's colours are sRGB.
+    let colors = fit
+        .expand("primvars:displayColor", 3)?
+        .map(|(c, v): Values| (c.into_iter().map(super::linear_to_srgb).collect(), v));
+    let opacities = fit.expand("primvars:displayOpacity", 1)?;
+    let attrs = [(&widths, 1), (&opacities, 1), (&colors, 3)];
+    if attrs.iter().any(|(a, _)| a.as_ref().is_some_and(|a| a.1)) {
+        return Ok(super::evaluate(&g, &attrs));
+    }
+    let f32s = |a: &Option<(Vec<f64>, bool)>| {
+        a.as_ref()
+            .map(|a| a.0.iter().map(|&x| x as f32).collect::<Vec<f32>>())
+    };
+    g.widths = f32s(&widths);
+    g.opacities = f32s(&opacities);
+    g.colors = f32s(&colors).map(|c| c.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect());
+    Ok(g)
+}
+
+/// A BasisCurves prim's basis and wrap from its `type`, `basis` and `wrap` tokens. USD's
+/// fallbacks: cubic Bézier, open. A prim that names no type and whose counts make no
+/// Bézier curves is read as linear, with a warning (the points are all there).
+fn basis_and_wrap(prim: &Prim, origin: &str) -> Result<(Basis, Wrap)> {
+    let err = |line: usize, m: String| prim.error(origin, line, m);
     let untyped_linear = prim.token("type").is_none()
         && prim.token("basis").is_none()
         && prim.counts.as_ref().is_some_and(|(c, _)| {
@@ -1180,36 +1253,33 @@ fn curve_prim(prim: &Prim, to_kami: DMat4, origin: &str) -> Result<Groom> {
             ))
         }
     };
-    let (counts, cline) = prim.counts.as_ref().ok_or_else(|| {
-        err(
-            prim.line,
-            "this BasisCurves has no `curveVertexCounts`".into(),
-        )
-    })?;
-    let (pts, pline) = prim.points.as_ref().ok_or_else(|| {
-        err(
-            prim.line,
-            "this BasisCurves has no `point3f[] points`".into(),
-        )
-    })?;
-    let npts = pts.len() / 3;
-    let mut g = Groom {
-        basis,
-        wrap,
-        ..Groom::default()
-    };
+    Ok((basis, wrap))
+}
+
+/// The curve vertex counts into `g.counts`, each a whole number of 2 or more that makes a
+/// curve of `g`'s basis and wrap; returns their sum and the number of segment ends (the
+/// count of `varying` values).
+fn vertex_counts(
+    prim: &Prim,
+    origin: &str,
+    counts: &[f64],
+    cline: usize,
+    g: &mut Groom,
+) -> Result<(u64, u64)> {
+    let err = |line: usize, m: String| prim.error(origin, line, m);
+    let (basis, wrap) = (g.basis, g.wrap);
     let mut sum = 0u64;
     let mut varying_total = 0u64;
     for (i, &c) in counts.iter().enumerate() {
         if c.fract() != 0.0 || !(2.0..=u32::MAX as f64).contains(&c) {
             return Err(err(
-                *cline,
+                cline,
                 format!("curve vertex count {c} is not a whole number of 2 or more"),
             ));
         }
         let Some(segs) = curves::segments(basis, wrap, c as usize) else {
             return Err(err(
-                *cline,
+                cline,
                 format!(
                     "curve {i} has {c} points, which make no {} {} curve: it needs {}",
                     wrap.token(),
@@ -1222,26 +1292,27 @@ fn curve_prim(prim: &Prim, to_kami: DMat4, origin: &str) -> Result<Groom> {
         varying_total += curves::varying_count(wrap, basis, segs) as u64;
         g.counts.push(c as u32);
     }
-    if sum != npts as u64 {
-        return Err(err(*cline, format!("the curve vertex counts add up to {sum} points but `points` (line {pline}) has {npts}")));
-    }
-    // Without a transform the file's numbers are kept bit for bit (-0 stays -0).
-    let moved = to_kami != DMat4::IDENTITY;
-    for (i, p) in pts.chunks_exact(3).enumerate() {
-        let q = if moved {
-            to_kami.transform_point3(DVec3::new(p[0], p[1], p[2]))
-        } else {
-            DVec3::new(p[0], p[1], p[2])
-        };
-        let q = [q.x as f32, q.y as f32, q.z as f32];
-        if q.iter().any(|v| !v.is_finite()) {
-            return Err(err(*pline, format!("point {i} is not finite: {q:?}")));
-        }
-        g.points.push(q);
-    }
-    let counts = g.counts.clone();
-    // Per-point values, or per segment end (`varying` on cubic curves).
-    let expand = |name: &str, arity: usize| -> Result<Option<(Vec<f64>, bool)>> {
+    Ok((sum, varying_total))
+}
+
+/// What a curve prim's values are expanded against: its curves, its points and its
+/// segment ends.
+struct Fit<'a> {
+    prim: &'a Prim,
+    origin: &'a str,
+    counts: &'a [u32],
+    npts: usize,
+    /// Segment ends over all curves (the count of `varying` values on cubic curves).
+    varying: usize,
+    cubic: bool,
+}
+
+impl Fit<'_> {
+    /// Attribute `name` (tuples of `arity`, indexed through `name:indices` when there is
+    /// one) per point, or per segment end (`varying` on cubic curves: the flag is set).
+    fn expand(&self, name: &str, arity: usize) -> Result<Option<Values>> {
+        let (prim, npts, varying, counts) = (self.prim, self.npts, self.varying, self.counts);
+        let err = |line: usize, m: String| prim.error(self.origin, line, m);
         let Some((_, vals, ar, interp, line)) = prim.attr(name) else {
             return Ok(None);
         };
@@ -1269,7 +1340,6 @@ fn curve_prim(prim: &Prim, to_kami: DMat4, origin: &str) -> Result<Groom> {
             ));
         }
         let n = vals.len() / arity;
-        let varying = varying_total as usize;
         let mode = match interp.as_deref() {
             Some(m) => m,
             None if n == 1 => "constant",
@@ -1277,7 +1347,7 @@ fn curve_prim(prim: &Prim, to_kami: DMat4, origin: &str) -> Result<Groom> {
             None if n == npts => "vertex",
             None => "varying",
         };
-        let cubic = basis != Basis::Linear;
+        let cubic = self.cubic;
         Ok(Some(match mode {
             "constant" if n == 1 => (vals.iter().cycle().take(npts * arity).copied().collect(), false),
             "uniform" if n == counts.len() => (
@@ -1299,25 +1369,5 @@ fn curve_prim(prim: &Prim, to_kami: DMat4, origin: &str) -> Result<Groom> {
                 )))
             }
         }))
-    };
-    // Widths are lengths: they scale with the transform (its mean scale).
-    let scale = to_kami.determinant().abs().cbrt();
-    let widths =
-        expand("widths", 1)?.map(|(w, v): Values| (w.into_iter().map(|x| x * scale).collect(), v));
-    // displayColor is linear (USD's rule without a `colorSpace`); Kami's colours are sRGB.
-    let colors = expand("primvars:displayColor", 3)?
-        .map(|(c, v): Values| (c.into_iter().map(super::linear_to_srgb).collect(), v));
-    let opacities = expand("primvars:displayOpacity", 1)?;
-    let attrs = [(&widths, 1), (&opacities, 1), (&colors, 3)];
-    if attrs.iter().any(|(a, _)| a.as_ref().is_some_and(|a| a.1)) {
-        return Ok(super::evaluate(&g, &attrs));
     }
-    let f32s = |a: &Option<(Vec<f64>, bool)>| {
-        a.as_ref()
-            .map(|a| a.0.iter().map(|&x| x as f32).collect::<Vec<f32>>())
-    };
-    g.widths = f32s(&widths);
-    g.opacities = f32s(&opacities);
-    g.colors = f32s(&colors).map(|c| c.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect());
-    Ok(g)
 }

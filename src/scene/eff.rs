@@ -172,11 +172,7 @@ impl EffFile {
     pub fn read(path: impl AsRef<Path>) -> Result<EffFile> {
         let path = path.as_ref();
         let name = path.display().to_string();
-        let err = |line: usize, message: String| KamiError::Data {
-            path: name.clone(),
-            line: if line == 0 { None } else { Some(line) },
-            message,
-        };
+        let err = |line: usize, message: String| data_err(&name, line, message);
         let io = |source| KamiError::Io {
             path: path.to_path_buf(),
             source,
@@ -201,159 +197,14 @@ impl EffFile {
             number: 0,
             buf: String::new(),
         };
-        // Version line.
-        let (n, first) = lines
-            .next_content()
-            .map_err(|m| err(lines.number, m))?
-            .ok_or_else(|| err(0, "empty file: an EFF file starts with `kami-eff 1`".into()))?;
-        let mut words = first.split_whitespace();
-        if words.next() != Some("kami-eff") {
-            return Err(err(
-                n,
-                format!("not an EFF file: the first line must be `kami-eff {FILE_VERSION}`"),
-            ));
-        }
-        match words.next().map(str::parse::<u32>) {
-            Some(Ok(FILE_VERSION)) if words.next().is_none() => {}
-            _ => {
-                return Err(err(
-                    n,
-                    format!(
-                        "unsupported version line `{first}`: this Kami reads `kami-eff \
-                         {FILE_VERSION}`"
-                    ),
-                ))
-            }
-        }
-        // Header.
-        let mut resolution: Option<[u32; 3]> = None;
-        let mut vecs: [Option<DVec3>; 4] = [None; 4];
-        const VEC_KEYS: [&str; 4] = ["origin", "cell", "source", "head"];
-        let mut strength: Option<f64> = None;
-        let header_end = loop {
-            let Some((n, line)) = lines.next_content().map_err(|m| err(lines.number, m))? else {
-                return Err(err(
-                    lines.number,
-                    "truncated header: no `cells` line".into(),
-                ));
-            };
-            let mut words = line.split_whitespace();
-            let key = words.next().unwrap_or_default();
-            let rest: Vec<&str> = words.collect();
-            let dup = |k: &str| err(n, format!("`{k}` is given twice"));
-            match key {
-                "cells" => {
-                    if !rest.is_empty() {
-                        return Err(err(n, "`cells` takes nothing after it".into()));
-                    }
-                    break n;
-                }
-                "resolution" => {
-                    if resolution.is_some() {
-                        return Err(dup(key));
-                    }
-                    let r =
-                        parse_n::<u32, 3>(&rest).map_err(|m| err(n, format!("resolution: {m}")))?;
-                    cell_total("resolution", r)
-                        .map_err(|(v, a)| err(n, format!("resolution {v}: {a}")))?;
-                    resolution = Some(r);
-                }
-                "strength" => {
-                    if strength.is_some() {
-                        return Err(dup(key));
-                    }
-                    let [s] =
-                        parse_n::<f64, 1>(&rest).map_err(|m| err(n, format!("strength: {m}")))?;
-                    check_finite(&[s]).map_err(|m| err(n, format!("strength: {m}")))?;
-                    strength = Some(s);
-                }
-                k if VEC_KEYS.contains(&k) => {
-                    let slot = VEC_KEYS.iter().position(|v| *v == k).unwrap();
-                    if vecs[slot].is_some() {
-                        return Err(dup(key));
-                    }
-                    let v = parse_n::<f64, 3>(&rest).map_err(|m| err(n, format!("{k}: {m}")))?;
-                    check_finite(&v).map_err(|m| err(n, format!("{k}: {m}")))?;
-                    if k == "cell" && v.iter().any(|c| *c <= 0.0) {
-                        return Err(err(n, format!("cell: sizes must be > 0, found {v:?}")));
-                    }
-                    vecs[slot] = Some(DVec3::from(v));
-                }
-                other => {
-                    return Err(err(
-                        n,
-                        format!(
-                            "unknown header key `{other}` (expected resolution, origin, cell, \
-                             source, head, strength, then cells)"
-                        ),
-                    ))
-                }
-            }
-        };
-        let missing = |k: &str| {
-            err(
-                header_end,
-                format!("the header has no `{k}` line before `cells`"),
-            )
-        };
-        let dims = resolution.ok_or_else(|| missing("resolution"))?;
-        let [origin, cell, source, head] = [0, 1, 2, 3].map(|i| vecs[i]);
-        let origin = origin.ok_or_else(|| missing("origin"))?;
-        let cell = cell.ok_or_else(|| missing("cell"))?;
-        let source = source.ok_or_else(|| missing("source"))?;
-        let head = head.ok_or_else(|| missing("head"))?;
-        let strength = strength.ok_or_else(|| missing("strength"))?;
-        if strength != 0.0 && (head - source).length() < 1e-9 {
-            return Err(err(
-                header_end,
-                "source and head coincide: the outside force has no direction".into(),
-            ));
-        }
-        let grid = Grid { origin, cell, dims };
-        let count = grid.count();
-        let wrong_size = |line: usize, found: String| {
-            err(
-                line,
-                format!(
-                    "an EFF file of the wrong size: the header's resolution {dims:?} needs \
-                     {count} cell lines, {found}"
-                ),
-            )
-        };
-        let mut cells = Vec::with_capacity(count);
-        let mut defined = Vec::with_capacity(count);
-        while let Some((n, line)) = lines.next_content().map_err(|m| err(lines.number, m))? {
-            if cells.len() == count {
-                return Err(wrong_size(n, "and there is more".into()));
-            }
-            let ijk = grid.ijk(cells.len());
-            let mut words = line.split_whitespace();
-            let flag = match words.next() {
-                Some("d") => true,
-                Some("i") => false,
-                other => {
-                    return Err(err(
-                        n,
-                        format!(
-                            "cell {ijk:?}: a cell line starts with `d` (defined) or `i` \
-                             (filled), found `{}`",
-                            other.unwrap_or_default()
-                        ),
-                    ))
-                }
-            };
-            let rest: Vec<&str> = words.collect();
-            let v = parse_n::<f64, 3>(&rest).map_err(|m| err(n, format!("cell {ijk:?}: {m}")))?;
-            check_finite(&v).map_err(|m| err(n, format!("cell {ijk:?}: {m}")))?;
-            cells.push(DVec3::from(v));
-            defined.push(flag);
-        }
-        if cells.len() < count {
-            return Err(wrong_size(
-                lines.number,
-                format!("the file ends after {}", cells.len()),
-            ));
-        }
+        version_line(&mut lines, &name)?;
+        let Header {
+            grid,
+            source,
+            head,
+            strength,
+        } = read_header(&mut lines, &name)?;
+        let (cells, defined) = read_cells(&mut lines, &name, &grid)?;
         Ok(EffFile {
             path: name,
             grid,
@@ -364,6 +215,198 @@ impl EffFile {
             defined,
         })
     }
+}
+
+/// An error at `line` of the file `name` (0: the file as a whole).
+fn data_err(name: &str, line: usize, message: String) -> KamiError {
+    KamiError::Data {
+        path: name.to_string(),
+        line: if line == 0 { None } else { Some(line) },
+        message,
+    }
+}
+
+/// The version line, `kami-eff 1`.
+fn version_line<R: BufRead>(lines: &mut Lines<'_, R>, name: &str) -> Result<()> {
+    let err = |line: usize, message: String| data_err(name, line, message);
+    let (n, first) = lines
+        .next_content()
+        .map_err(|m| err(lines.number, m))?
+        .ok_or_else(|| err(0, "empty file: an EFF file starts with `kami-eff 1`".into()))?;
+    let mut words = first.split_whitespace();
+    if words.next() != Some("kami-eff") {
+        return Err(err(
+            n,
+            format!("not an EFF file: the first line must be `kami-eff {FILE_VERSION}`"),
+        ));
+    }
+    match words.next().map(str::parse::<u32>) {
+        Some(Ok(FILE_VERSION)) if words.next().is_none() => Ok(()),
+        _ => Err(err(
+            n,
+            format!(
+                "unsupported version line `{first}`: this Kami reads `kami-eff \
+                 {FILE_VERSION}`"
+            ),
+        )),
+    }
+}
+
+/// An EFF file's header as read: the grid, the outside force's source, head and strength.
+struct Header {
+    grid: Grid,
+    source: DVec3,
+    head: DVec3,
+    strength: f64,
+}
+
+/// The header, up to its `cells` line: each key once, every one of them given, and an
+/// outside force with a direction.
+fn read_header<R: BufRead>(lines: &mut Lines<'_, R>, name: &str) -> Result<Header> {
+    let err = |line: usize, message: String| data_err(name, line, message);
+    let mut resolution: Option<[u32; 3]> = None;
+    let mut vecs: [Option<DVec3>; 4] = [None; 4];
+    const VEC_KEYS: [&str; 4] = ["origin", "cell", "source", "head"];
+    let mut strength: Option<f64> = None;
+    let header_end = loop {
+        let Some((n, line)) = lines.next_content().map_err(|m| err(lines.number, m))? else {
+            return Err(err(
+                lines.number,
+                "truncated header: no `cells` line".into(),
+            ));
+        };
+        let mut words = line.split_whitespace();
+        let key = words.next().unwrap_or_default();
+        let rest: Vec<&str> = words.collect();
+        let dup = |k: &str| err(n, format!("`{k}` is given twice"));
+        match key {
+            "cells" => {
+                if !rest.is_empty() {
+                    return Err(err(n, "`cells` takes nothing after it".into()));
+                }
+                break n;
+            }
+            "resolution" => {
+                if resolution.is_some() {
+                    return Err(dup(key));
+                }
+                let r = parse_n::<u32, 3>(&rest).map_err(|m| err(n, format!("resolution: {m}")))?;
+                cell_total("resolution", r)
+                    .map_err(|(v, a)| err(n, format!("resolution {v}: {a}")))?;
+                resolution = Some(r);
+            }
+            "strength" => {
+                if strength.is_some() {
+                    return Err(dup(key));
+                }
+                let [s] = parse_n::<f64, 1>(&rest).map_err(|m| err(n, format!("strength: {m}")))?;
+                check_finite(&[s]).map_err(|m| err(n, format!("strength: {m}")))?;
+                strength = Some(s);
+            }
+            k if VEC_KEYS.contains(&k) => {
+                let slot = VEC_KEYS.iter().position(|v| *v == k).unwrap();
+                if vecs[slot].is_some() {
+                    return Err(dup(key));
+                }
+                let v = parse_n::<f64, 3>(&rest).map_err(|m| err(n, format!("{k}: {m}")))?;
+                check_finite(&v).map_err(|m| err(n, format!("{k}: {m}")))?;
+                if k == "cell" && v.iter().any(|c| *c <= 0.0) {
+                    return Err(err(n, format!("cell: sizes must be > 0, found {v:?}")));
+                }
+                vecs[slot] = Some(DVec3::from(v));
+            }
+            other => {
+                return Err(err(
+                    n,
+                    format!(
+                        "unknown header key `{other}` (expected resolution, origin, cell, \
+                         source, head, strength, then cells)"
+                    ),
+                ))
+            }
+        }
+    };
+    let missing = |k: &str| {
+        err(
+            header_end,
+            format!("the header has no `{k}` line before `cells`"),
+        )
+    };
+    let dims = resolution.ok_or_else(|| missing("resolution"))?;
+    let [origin, cell, source, head] = [0, 1, 2, 3].map(|i| vecs[i]);
+    let origin = origin.ok_or_else(|| missing("origin"))?;
+    let cell = cell.ok_or_else(|| missing("cell"))?;
+    let source = source.ok_or_else(|| missing("source"))?;
+    let head = head.ok_or_else(|| missing("head"))?;
+    let strength = strength.ok_or_else(|| missing("strength"))?;
+    if strength != 0.0 && (head - source).length() < 1e-9 {
+        return Err(err(
+            header_end,
+            "source and head coincide: the outside force has no direction".into(),
+        ));
+    }
+    Ok(Header {
+        grid: Grid { origin, cell, dims },
+        source,
+        head,
+        strength,
+    })
+}
+
+/// The cell lines after the header, exactly one per cell of `grid`: each cell's force and
+/// whether it was defined (`d`) or filled (`i`).
+fn read_cells<R: BufRead>(
+    lines: &mut Lines<'_, R>,
+    name: &str,
+    grid: &Grid,
+) -> Result<(Vec<DVec3>, Vec<bool>)> {
+    let err = |line: usize, message: String| data_err(name, line, message);
+    let dims = grid.dims;
+    let count = grid.count();
+    let wrong_size = |line: usize, found: String| {
+        err(
+            line,
+            format!(
+                "an EFF file of the wrong size: the header's resolution {dims:?} needs \
+                 {count} cell lines, {found}"
+            ),
+        )
+    };
+    let mut cells = Vec::with_capacity(count);
+    let mut defined = Vec::with_capacity(count);
+    while let Some((n, line)) = lines.next_content().map_err(|m| err(lines.number, m))? {
+        if cells.len() == count {
+            return Err(wrong_size(n, "and there is more".into()));
+        }
+        let ijk = grid.ijk(cells.len());
+        let mut words = line.split_whitespace();
+        let flag = match words.next() {
+            Some("d") => true,
+            Some("i") => false,
+            other => {
+                return Err(err(
+                    n,
+                    format!(
+                        "cell {ijk:?}: a cell line starts with `d` (defined) or `i` \
+                         (filled), found `{}`",
+                        other.unwrap_or_default()
+                    ),
+                ))
+            }
+        };
+        let rest: Vec<&str> = words.collect();
+        let v = parse_n::<f64, 3>(&rest).map_err(|m| err(n, format!("cell {ijk:?}: {m}")))?;
+        check_finite(&v).map_err(|m| err(n, format!("cell {ijk:?}: {m}")))?;
+        cells.push(DVec3::from(v));
+        defined.push(flag);
+    }
+    if cells.len() < count {
+        return Err(wrong_size(
+            lines.number,
+            format!("the file ends after {}", cells.len()),
+        ));
+    }
+    Ok((cells, defined))
 }
 
 pub(crate) fn bad(field: &str, value: impl std::fmt::Display, allowed: &str) -> KamiError {

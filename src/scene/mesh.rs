@@ -890,17 +890,47 @@ fn orient(positions: &[DVec3], triangles: &mut [[u32; 3]]) -> Closed {
         reversed: 0,
         vertices: vec![false; positions.len()],
     };
-    // Weld: the first vertex at each position stands for all (-0.0 counts as 0.0).
-    let mut first = HashMap::with_capacity(positions.len().min(triangles.len() * 3));
-    let weld: Vec<u32> = (0..positions.len())
+    let weld = weld(positions, triangles.len());
+    let (edges, runs) = edge_runs(triangles, &weld);
+    let mut adj = Adjacency::new(triangles.len(), &edges, &runs);
+    // Breadth-first over each closed component: flip[t] says whether t is reversed.
+    let mut flip: Vec<Option<bool>> = vec![None; triangles.len()];
+    let mut queue = std::collections::VecDeque::new();
+    let mut members = Vec::new();
+    for seed in 0..triangles.len() {
+        let root = find_root(&mut adj.parent, seed as u32) as usize;
+        if !adj.in_edges[seed] || adj.open[root] || flip[seed].is_some() {
+            continue;
+        }
+        members.clear();
+        if !adj.spread(seed, &mut flip, &mut queue, &mut members) {
+            closed.non_orientable += 1;
+            continue;
+        }
+        turn_outwards(positions, triangles, &members, &flip, &mut closed);
+    }
+    closed
+}
+
+/// Weld: the first vertex at each position stands for all (-0.0 counts as 0.0).
+fn weld(positions: &[DVec3], triangles: usize) -> Vec<u32> {
+    let mut first = HashMap::with_capacity(positions.len().min(triangles * 3));
+    (0..positions.len())
         .map(|i| {
             let key = (positions[i] + DVec3::ZERO).to_array().map(f64::to_bits);
             *first.entry(key).or_insert(i as u32)
         })
-        .collect();
-    drop(first);
-    // Edges as (undirected key, triangle, whether the triangle runs from low to high).
-    let mut edges: Vec<(u64, u32, bool)> = Vec::with_capacity(triangles.len() * 3);
+        .collect()
+}
+
+/// An edge of a triangle: (undirected key, triangle, whether the triangle runs from low to
+/// high).
+type Edge = (u64, u32, bool);
+
+/// The edges of the triangles with area (between welded vertices), sorted by key, and the
+/// runs of equal keys (the undirected edges) as ranges into them.
+fn edge_runs(triangles: &[[u32; 3]], weld: &[u32]) -> (Vec<Edge>, Vec<(usize, usize)>) {
+    let mut edges: Vec<Edge> = Vec::with_capacity(triangles.len() * 3);
     for (t, tri) in triangles.iter().enumerate() {
         let w = tri.map(|i| weld[i as usize]);
         if w[0] == w[1] || w[1] == w[2] || w[2] == w[0] {
@@ -913,7 +943,6 @@ fn orient(positions: &[DVec3], triangles: &mut [[u32; 3]]) -> Closed {
         }
     }
     edges.sort_unstable_by_key(|e| e.0);
-    // Runs of equal keys are the undirected edges; union their triangles.
     let mut runs = Vec::new();
     let mut s = 0;
     while s < edges.len() {
@@ -924,61 +953,91 @@ fn orient(positions: &[DVec3], triangles: &mut [[u32; 3]]) -> Closed {
         runs.push((s, e));
         s = e;
     }
-    let mut parent: Vec<u32> = (0..triangles.len() as u32).collect();
-    fn find(parent: &mut [u32], mut x: u32) -> u32 {
-        while parent[x as usize] != x {
-            parent[x as usize] = parent[parent[x as usize] as usize];
-            x = parent[x as usize];
-        }
-        x
+    (edges, runs)
+}
+
+/// The root of `x` in a union-find forest, halving the path on the way.
+fn find_root(parent: &mut [u32], mut x: u32) -> u32 {
+    while parent[x as usize] != x {
+        parent[x as usize] = parent[parent[x as usize] as usize];
+        x = parent[x as usize];
     }
-    for &(s, e) in &runs {
-        let a = find(&mut parent, edges[s].1);
-        for edge in &edges[s + 1..e] {
-            let b = find(&mut parent, edge.1);
-            parent[b as usize] = a;
+    x
+}
+
+/// How the triangles meet across their edges.
+struct Adjacency {
+    /// Union-find parents: triangles that share an edge share a root (a component).
+    parent: Vec<u32>,
+    /// Per root: the component has an edge used once (boundary) or thrice (non-manifold).
+    open: Vec<bool>,
+    /// Per triangle: it has edges (it has area).
+    in_edges: Vec<bool>,
+    /// Per triangle, the other triangle across each of its edges, with their directions.
+    across: Vec<[(u32, bool, bool); 3]>,
+    /// Per triangle, how many of `across` are filled.
+    slot: Vec<u8>,
+}
+
+impl Adjacency {
+    /// Unions the triangles of each run, then marks open components and records, for each
+    /// edge shared by exactly two triangles, each one's neighbour across it.
+    fn new(triangles: usize, edges: &[Edge], runs: &[(usize, usize)]) -> Adjacency {
+        let mut parent: Vec<u32> = (0..triangles as u32).collect();
+        for &(s, e) in runs {
+            let a = find_root(&mut parent, edges[s].1);
+            for edge in &edges[s + 1..e] {
+                let b = find_root(&mut parent, edge.1);
+                parent[b as usize] = a;
+            }
+        }
+        let mut open = vec![false; triangles];
+        let mut in_edges = vec![false; triangles];
+        let mut across: Vec<[(u32, bool, bool); 3]> =
+            vec![[(u32::MAX, false, false); 3]; triangles];
+        let mut slot = vec![0u8; triangles];
+        for &(s, e) in runs {
+            let root = find_root(&mut parent, edges[s].1);
+            for edge in &edges[s..e] {
+                in_edges[edge.1 as usize] = true;
+            }
+            if e - s != 2 {
+                open[root as usize] = true;
+                continue;
+            }
+            let (x, y) = (edges[s], edges[s + 1]);
+            for (me, other) in [(x, y), (y, x)] {
+                let t = me.1 as usize;
+                across[t][slot[t] as usize] = (other.1, me.2, other.2);
+                slot[t] += 1;
+            }
+        }
+        Adjacency {
+            parent,
+            open,
+            in_edges,
+            across,
+            slot,
         }
     }
-    // A component with an edge used once (boundary) or thrice (non-manifold) is open.
-    let mut open = vec![false; triangles.len()];
-    let mut in_edges = vec![false; triangles.len()];
-    // Per triangle, the other triangle across each of its edges, with their directions.
-    let mut across: Vec<[(u32, bool, bool); 3]> =
-        vec![[(u32::MAX, false, false); 3]; triangles.len()];
-    let mut slot = vec![0u8; triangles.len()];
-    for &(s, e) in &runs {
-        let root = find(&mut parent, edges[s].1);
-        for edge in &edges[s..e] {
-            in_edges[edge.1 as usize] = true;
-        }
-        if e - s != 2 {
-            open[root as usize] = true;
-            continue;
-        }
-        let (x, y) = (edges[s], edges[s + 1]);
-        for (me, other) in [(x, y), (y, x)] {
-            let t = me.1 as usize;
-            across[t][slot[t] as usize] = (other.1, me.2, other.2);
-            slot[t] += 1;
-        }
-    }
-    // Breadth-first over each closed component: flip[t] says whether t is reversed.
-    let mut flip: Vec<Option<bool>> = vec![None; triangles.len()];
-    let mut queue = std::collections::VecDeque::new();
-    let mut members = Vec::new();
-    for seed in 0..triangles.len() {
-        let root = find(&mut parent, seed as u32) as usize;
-        if !in_edges[seed] || open[root] || flip[seed].is_some() {
-            continue;
-        }
-        members.clear();
+
+    /// Breadth-first from `seed` (kept as it is) over its closed component, setting each
+    /// member's `flip` and listing it in `members`; false when no consistent orientation
+    /// exists.
+    fn spread(
+        &self,
+        seed: usize,
+        flip: &mut [Option<bool>],
+        queue: &mut std::collections::VecDeque<usize>,
+        members: &mut Vec<usize>,
+    ) -> bool {
         flip[seed] = Some(false);
         queue.push_back(seed);
         let mut orientable = true;
         while let Some(t) = queue.pop_front() {
             members.push(t);
             let ft = flip[t].unwrap_or(false);
-            for &(u, mine, theirs) in &across[t][..slot[t] as usize] {
+            for &(u, mine, theirs) in &self.across[t][..self.slot[t] as usize] {
                 // Consistent neighbours run a shared edge in opposite directions.
                 let want = !(theirs ^ mine ^ ft);
                 match flip[u as usize] {
@@ -991,56 +1050,65 @@ fn orient(positions: &[DVec3], triangles: &mut [[u32; 3]]) -> Closed {
                 }
             }
         }
-        if !orientable {
-            closed.non_orientable += 1;
-            continue;
+        orientable
+    }
+}
+
+/// A triangle as it is, or reversed (`[a, c, b]`).
+fn wound([a, b, c]: [u32; 3], f: bool) -> [u32; 3] {
+    if f {
+        [a, c, b]
+    } else {
+        [a, b, c]
+    }
+}
+
+/// Turn one consistently wound closed component (`members`, the first its seed) to a
+/// positive signed volume, counting it into `closed`; a flat one (a double-sided sheet)
+/// has no inside to choose and is left as it is.
+fn turn_outwards(
+    positions: &[DVec3],
+    triangles: &mut [[u32; 3]],
+    members: &[usize],
+    flip: &[Option<bool>],
+    closed: &mut Closed,
+) {
+    // Signed volume (sum of p0 . (p1 x p2) / 6) about a vertex of the component.
+    let o = positions[triangles[members[0]][0] as usize];
+    let extent = members
+        .iter()
+        .flat_map(|&t| triangles[t])
+        .map(|i| (positions[i as usize] - o).abs().max_element())
+        .fold(0.0, f64::max);
+    let volume: f64 = members
+        .iter()
+        .map(|&t| {
+            let [a, b, c] =
+                wound(triangles[t], flip[t] == Some(true)).map(|i| positions[i as usize] - o);
+            a.dot(b.cross(c))
+        })
+        .sum::<f64>()
+        / 6.0;
+    if volume.abs() <= 1e-12 * extent.powi(3) {
+        return;
+    }
+    closed.components += 1;
+    let outward_flips = volume < 0.0;
+    let mut reversed = 0;
+    for &t in members {
+        let f = (flip[t] == Some(true)) ^ outward_flips;
+        if f {
+            triangles[t] = wound(triangles[t], true);
+            reversed += 1;
         }
-        let tri = |[a, b, c]: [u32; 3], f: bool| {
-            if f {
-                [a, c, b]
-            } else {
-                [a, b, c]
-            }
-        };
-        // Signed volume (sum of p0 . (p1 x p2) / 6) about a vertex of the component.
-        let o = positions[triangles[seed][0] as usize];
-        let extent = members
-            .iter()
-            .flat_map(|&t| triangles[t])
-            .map(|i| (positions[i as usize] - o).abs().max_element())
-            .fold(0.0, f64::max);
-        let volume: f64 = members
-            .iter()
-            .map(|&t| {
-                let [a, b, c] =
-                    tri(triangles[t], flip[t] == Some(true)).map(|i| positions[i as usize] - o);
-                a.dot(b.cross(c))
-            })
-            .sum::<f64>()
-            / 6.0;
-        if volume.abs() <= 1e-12 * extent.powi(3) {
-            // Flat (a double-sided sheet): no inside to choose.
-            continue;
-        }
-        closed.components += 1;
-        let outward_flips = volume < 0.0;
-        let mut reversed = 0;
-        for &t in &members {
-            let f = (flip[t] == Some(true)) ^ outward_flips;
-            if f {
-                triangles[t] = tri(triangles[t], true);
-                reversed += 1;
-            }
-            for &v in &triangles[t] {
-                closed.vertices[v as usize] = true;
-            }
-        }
-        if reversed > 0 {
-            closed.components_reversed += 1;
-            closed.reversed += reversed;
+        for &v in &triangles[t] {
+            closed.vertices[v as usize] = true;
         }
     }
-    closed
+    if reversed > 0 {
+        closed.components_reversed += 1;
+        closed.reversed += reversed;
+    }
 }
 
 /// The line of the first OBJ statement that cannot be parsed or that points past the

@@ -21,7 +21,8 @@ use glam::{DMat4, DQuat, DVec3, DVec4};
 use std::path::Path;
 
 /// The most joints a skin may have (the GPU's joint uniform holds this many matrices).
-/// Keep in sync with `MAX_JOINTS` in `shaders/fur/generate.wgsl` and `shaders/fur/skin.wgsl`.
+/// Also `MAX_JOINTS` in `shaders/fur/generate.wgsl` and `shaders/fur/skin.wgsl` (array sizes,
+/// so not overridable; `tests/it/gpu_twins.rs` checks them).
 pub const MAX_JOINTS: usize = 64;
 
 /// A node of the hierarchy: its parent and rest transform.
@@ -235,32 +236,8 @@ pub fn load(path: &Path, animation: Option<&str>, fps: f64) -> Result<SkinnedMes
     if !(fps.is_finite() && fps > 0.0) {
         return Err(err(&name, format!("fps must be positive, got {fps}")));
     }
-    let bad = |e: gltf::Error| err(&name, format!("not usable glTF: {e}"));
-    let bytes = std::fs::read(path).map_err(|e| err(&name, format!("not usable glTF: {e}")))?;
-    let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(bad)?;
-    // gltf-json 1.4's validation indexes the POSITION accessor without a bounds check (a
-    // panic on a bad index): check it first, then validate.
-    let json = gltf.document.into_json();
-    for (mi, m) in json.meshes.iter().enumerate() {
-        for (pi, p) in m.primitives.iter().enumerate() {
-            for (sem, a) in &p.attributes {
-                if a.value() >= json.accessors.len() {
-                    return Err(err(
-                        &name,
-                        format!(
-                            "not usable glTF: mesh {mi} primitive {pi}: attribute {sem:?} names                              accessor {}, but there are {}",
-                            a.value(),
-                            json.accessors.len()
-                        ),
-                    ));
-                }
-            }
-        }
-    }
-    let doc = &gltf::Document::from_json(json).map_err(bad)?;
-    let base = path.parent().unwrap_or(Path::new("."));
-    let buffers = gltf::import_buffers(doc, Some(base), gltf.blob)
-        .map_err(|e| err(&name, format!("cannot read its buffers: {e}")))?;
+    let (doc, buffers) = open(path, &name)?;
+    let doc = &doc;
     let node = doc
         .nodes()
         .find(|n| n.mesh().is_some() && n.skin().is_some())
@@ -268,180 +245,28 @@ pub fn load(path: &Path, animation: Option<&str>, fps: f64) -> Result<SkinnedMes
     let (gmesh, gskin) = (node.mesh().unwrap_or_else(|| unreachable!()), node.skin());
     let gskin = gskin.unwrap_or_else(|| unreachable!());
     let get = |b: gltf::Buffer<'_>| buffers.get(b.index()).map(|d| &d.0[..]);
-
-    // The skin: joints and inverse bind matrices.
-    let joint_nodes: Vec<usize> = gskin.joints().map(|j| j.index()).collect();
-    if joint_nodes.is_empty() || joint_nodes.len() > MAX_JOINTS {
-        return Err(err(
-            &name,
-            format!(
-                "the skin has {} joints: Kami skins with 1 to {MAX_JOINTS}",
-                joint_nodes.len()
-            ),
-        ));
-    }
-    let inverse_bind: Vec<DMat4> = match gskin.reader(get).read_inverse_bind_matrices() {
-        Some(it) => it
-            .map(|m| DMat4::from_cols_array_2d(&m.map(|c| c.map(f64::from))))
-            .collect(),
-        None if gskin.inverse_bind_matrices().is_some() => {
-            return Err(err(&name, "the inverse bind matrices cannot be read"))
-        }
-        None => vec![DMat4::IDENTITY; joint_nodes.len()],
-    };
-    if inverse_bind.len() != joint_nodes.len() {
-        return Err(err(
-            &name,
-            format!(
-                "{} inverse bind matrices for {} joints",
-                inverse_bind.len(),
-                joint_nodes.len()
-            ),
-        ));
-    }
-    if let Some(i) = inverse_bind.iter().position(|m| !m.is_finite()) {
-        return Err(err(&name, format!("inverse bind matrix {i} is not finite")));
-    }
+    let (joint_nodes, inverse_bind) = read_skin(&name, &gskin, &buffers)?;
 
     // The surface: every triangle primitive of the mesh, merged.
-    let (mut positions, mut normals, mut triangles) = (Vec::new(), Vec::new(), Vec::new());
-    let (mut joints, mut weights) = (Vec::new(), Vec::new());
-    let mut all_normals = true;
+    let mut s = Surface::default();
     for (pi, prim) in gmesh.primitives().enumerate() {
         if prim.mode() != gltf::mesh::Mode::Triangles {
             log::warn!("{name}: primitive {pi} is not a triangle list: ignored");
             continue;
         }
-        let missing = |what: &str| err(&name, format!("primitive {pi} has no usable {what}"));
-        let r = prim.reader(get);
-        let base = positions.len() as u32;
-        let p: Vec<DVec3> = r
-            .read_positions()
-            .ok_or_else(|| missing("POSITION"))?
-            .map(|v| DVec3::from(v.map(f64::from)))
-            .collect();
-        let count = p.len();
-        let j: Vec<[u16; 4]> = r
-            .read_joints(0)
-            .ok_or_else(|| missing("JOINTS_0"))?
-            .into_u16()
-            .collect();
-        let w: Vec<[f32; 4]> = r
-            .read_weights(0)
-            .ok_or_else(|| missing("WEIGHTS_0"))?
-            .into_f32()
-            .collect();
-        if j.len() != count || w.len() != count {
-            return Err(err(
-                &name,
-                format!(
-                    "primitive {pi}: {count} positions but {} JOINTS_0 and {} WEIGHTS_0",
-                    j.len(),
-                    w.len()
-                ),
-            ));
-        }
-        match r.read_normals() {
-            Some(n) => {
-                let n: Vec<DVec3> = n.map(|v| DVec3::from(v.map(f64::from))).collect();
-                if n.len() != count {
-                    return Err(err(
-                        &name,
-                        format!("primitive {pi}: {count} positions but {} normals", n.len()),
-                    ));
-                }
-                normals.extend(n);
-            }
-            None => all_normals = false,
-        }
-        let idx: Vec<u32> = match r.read_indices() {
-            Some(i) => i.into_u32().collect(),
-            None if prim.indices().is_some() => return Err(missing("indices")),
-            None => (0..count as u32).collect(),
-        };
-        if idx.len() % 3 != 0 {
-            return Err(err(
-                &name,
-                format!(
-                    "primitive {pi}: {} indices is not a triangle list",
-                    idx.len()
-                ),
-            ));
-        }
-        if let Some(bad) = idx.iter().find(|&&i| i as usize >= count) {
-            return Err(err(
-                &name,
-                format!("primitive {pi}: index {bad}, but there are {count} vertices"),
-            ));
-        }
-        for (vi, (jv, wv)) in j.iter().zip(&w).enumerate() {
-            let v = positions.len() + vi;
-            if let Some(bad) = jv.iter().find(|&&x| x as usize >= joint_nodes.len()) {
-                return Err(err(
-                    &name,
-                    format!(
-                        "vertex {v} uses joint {bad}, but the skin has {} joints",
-                        joint_nodes.len()
-                    ),
-                ));
-            }
-            if wv.iter().any(|x| !x.is_finite() || *x < 0.0) {
-                return Err(err(
-                    &name,
-                    format!("vertex {v} has weights {wv:?}: they must be finite and >= 0"),
-                ));
-            }
-            let sum: f64 = wv.iter().map(|&x| x as f64).sum();
-            if sum <= 0.0 {
-                return Err(err(&name, format!("vertex {v} has no joint weight")));
-            }
-            joints.push(jv.map(u32::from));
-            weights.push(wv.map(|x| x as f64 / sum));
-        }
-        positions.extend(p);
-        triangles.extend(
-            idx.chunks(3)
-                .map(|c| [c[0] + base, c[1] + base, c[2] + base]),
-        );
+        s.read_primitive(&name, pi, &prim, &buffers, joint_nodes.len())?;
     }
+    let Surface {
+        positions,
+        normals,
+        triangles,
+        joints,
+        weights,
+        some_without_normals,
+    } = s;
+    let all_normals = !some_without_normals;
     let mesh = Mesh::new(positions, triangles, all_normals.then_some(normals), &name)?;
-
-    // The hierarchy, refusing cycles (a node with two parents is refused by the crate's
-    // validation or counted here).
-    let count = doc.nodes().count();
-    let mut nodes: Vec<Node> = doc
-        .nodes()
-        .map(|n| {
-            let (t, r, s) = n.transform().decomposed();
-            Node {
-                parent: None,
-                translation: DVec3::from(t.map(f64::from)),
-                rotation: unit_quat(DVec4::from(r.map(f64::from))),
-                scale: DVec3::from(s.map(f64::from)),
-            }
-        })
-        .collect();
-    for n in doc.nodes() {
-        for c in n.children() {
-            if nodes[c.index()].parent.is_some() {
-                return Err(err(&name, format!("node {} has two parents", c.index())));
-            }
-            nodes[c.index()].parent = Some(n.index());
-        }
-    }
-    for (i, n) in nodes.iter().enumerate() {
-        if !(n.translation.is_finite() && n.rotation.is_finite() && n.scale.is_finite()) {
-            return Err(err(&name, format!("node {i}'s transform is not finite")));
-        }
-        let (mut at, mut steps) = (i, 0);
-        while let Some(p) = nodes[at].parent {
-            at = p;
-            steps += 1;
-            if steps > count {
-                return Err(err(&name, format!("node {i} is in a cycle of parents")));
-            }
-        }
-    }
+    let nodes = read_nodes(&name, doc)?;
 
     // The animation.
     let names: Vec<String> = doc
@@ -481,6 +306,237 @@ pub fn load(path: &Path, animation: Option<&str>, fps: f64) -> Result<SkinnedMes
             fit: DMat4::IDENTITY,
         },
     })
+}
+
+/// The glTF document of `path` (validated) and its buffers.
+fn open(path: &Path, name: &str) -> Result<(gltf::Document, Vec<gltf::buffer::Data>)> {
+    let bad = |e: gltf::Error| err(name, format!("not usable glTF: {e}"));
+    let bytes = std::fs::read(path).map_err(|e| err(name, format!("not usable glTF: {e}")))?;
+    let gltf = gltf::Gltf::from_slice_without_validation(&bytes).map_err(bad)?;
+    // gltf-json 1.4's validation indexes the POSITION accessor without a bounds check (a
+    // panic on a bad index): check it first, then validate.
+    let json = gltf.document.into_json();
+    for (mi, m) in json.meshes.iter().enumerate() {
+        for (pi, p) in m.primitives.iter().enumerate() {
+            for (sem, a) in &p.attributes {
+                if a.value() >= json.accessors.len() {
+                    return Err(err(
+                        name,
+                        format!(
+                            "not usable glTF: mesh {mi} primitive {pi}: attribute {sem:?} names                              accessor {}, but there are {}",
+                            a.value(),
+                            json.accessors.len()
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    let doc = gltf::Document::from_json(json).map_err(bad)?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    let buffers = gltf::import_buffers(&doc, Some(base), gltf.blob)
+        .map_err(|e| err(name, format!("cannot read its buffers: {e}")))?;
+    Ok((doc, buffers))
+}
+
+/// The skin: its joints' nodes (1 to `MAX_JOINTS`) and their inverse bind matrices (one
+/// per joint, finite; identities when the skin has none).
+fn read_skin(
+    name: &str,
+    gskin: &gltf::Skin<'_>,
+    buffers: &[gltf::buffer::Data],
+) -> Result<(Vec<usize>, Vec<DMat4>)> {
+    let get = |b: gltf::Buffer<'_>| buffers.get(b.index()).map(|d| &d.0[..]);
+    let joint_nodes: Vec<usize> = gskin.joints().map(|j| j.index()).collect();
+    if joint_nodes.is_empty() || joint_nodes.len() > MAX_JOINTS {
+        return Err(err(
+            name,
+            format!(
+                "the skin has {} joints: Kami skins with 1 to {MAX_JOINTS}",
+                joint_nodes.len()
+            ),
+        ));
+    }
+    let inverse_bind: Vec<DMat4> = match gskin.reader(get).read_inverse_bind_matrices() {
+        Some(it) => it
+            .map(|m| DMat4::from_cols_array_2d(&m.map(|c| c.map(f64::from))))
+            .collect(),
+        None if gskin.inverse_bind_matrices().is_some() => {
+            return Err(err(name, "the inverse bind matrices cannot be read"))
+        }
+        None => vec![DMat4::IDENTITY; joint_nodes.len()],
+    };
+    if inverse_bind.len() != joint_nodes.len() {
+        return Err(err(
+            name,
+            format!(
+                "{} inverse bind matrices for {} joints",
+                inverse_bind.len(),
+                joint_nodes.len()
+            ),
+        ));
+    }
+    if let Some(i) = inverse_bind.iter().position(|m| !m.is_finite()) {
+        return Err(err(name, format!("inverse bind matrix {i} is not finite")));
+    }
+    Ok((joint_nodes, inverse_bind))
+}
+
+/// The mesh's triangle primitives merged, with each vertex's joints and normalised weights.
+#[derive(Default)]
+struct Surface {
+    positions: Vec<DVec3>,
+    normals: Vec<DVec3>,
+    triangles: Vec<[u32; 3]>,
+    joints: Vec<[u32; 4]>,
+    weights: Vec<[f64; 4]>,
+    /// A primitive had no normals (then the mesh's are computed).
+    some_without_normals: bool,
+}
+
+impl Surface {
+    /// Appends triangle primitive `pi`: its positions, joints and weights (one each per
+    /// vertex, the joints within the skin's `joints`, the weights finite, >= 0 and not all
+    /// zero), normals where it has them, and its triangles.
+    fn read_primitive(
+        &mut self,
+        name: &str,
+        pi: usize,
+        prim: &gltf::Primitive<'_>,
+        buffers: &[gltf::buffer::Data],
+        joints: usize,
+    ) -> Result<()> {
+        let get = |b: gltf::Buffer<'_>| buffers.get(b.index()).map(|d| &d.0[..]);
+        let missing = |what: &str| err(name, format!("primitive {pi} has no usable {what}"));
+        let r = prim.reader(get);
+        let base = self.positions.len() as u32;
+        let p: Vec<DVec3> = r
+            .read_positions()
+            .ok_or_else(|| missing("POSITION"))?
+            .map(|v| DVec3::from(v.map(f64::from)))
+            .collect();
+        let count = p.len();
+        let j: Vec<[u16; 4]> = r
+            .read_joints(0)
+            .ok_or_else(|| missing("JOINTS_0"))?
+            .into_u16()
+            .collect();
+        let w: Vec<[f32; 4]> = r
+            .read_weights(0)
+            .ok_or_else(|| missing("WEIGHTS_0"))?
+            .into_f32()
+            .collect();
+        if j.len() != count || w.len() != count {
+            return Err(err(
+                name,
+                format!(
+                    "primitive {pi}: {count} positions but {} JOINTS_0 and {} WEIGHTS_0",
+                    j.len(),
+                    w.len()
+                ),
+            ));
+        }
+        match r.read_normals() {
+            Some(n) => {
+                let n: Vec<DVec3> = n.map(|v| DVec3::from(v.map(f64::from))).collect();
+                if n.len() != count {
+                    return Err(err(
+                        name,
+                        format!("primitive {pi}: {count} positions but {} normals", n.len()),
+                    ));
+                }
+                self.normals.extend(n);
+            }
+            None => self.some_without_normals = true,
+        }
+        let idx: Vec<u32> = match r.read_indices() {
+            Some(i) => i.into_u32().collect(),
+            None if prim.indices().is_some() => return Err(missing("indices")),
+            None => (0..count as u32).collect(),
+        };
+        if idx.len() % 3 != 0 {
+            return Err(err(
+                name,
+                format!(
+                    "primitive {pi}: {} indices is not a triangle list",
+                    idx.len()
+                ),
+            ));
+        }
+        if let Some(bad) = idx.iter().find(|&&i| i as usize >= count) {
+            return Err(err(
+                name,
+                format!("primitive {pi}: index {bad}, but there are {count} vertices"),
+            ));
+        }
+        for (vi, (jv, wv)) in j.iter().zip(&w).enumerate() {
+            let v = self.positions.len() + vi;
+            if let Some(bad) = jv.iter().find(|&&x| x as usize >= joints) {
+                return Err(err(
+                    name,
+                    format!("vertex {v} uses joint {bad}, but the skin has {joints} joints"),
+                ));
+            }
+            if wv.iter().any(|x| !x.is_finite() || *x < 0.0) {
+                return Err(err(
+                    name,
+                    format!("vertex {v} has weights {wv:?}: they must be finite and >= 0"),
+                ));
+            }
+            let sum: f64 = wv.iter().map(|&x| x as f64).sum();
+            if sum <= 0.0 {
+                return Err(err(name, format!("vertex {v} has no joint weight")));
+            }
+            self.joints.push(jv.map(u32::from));
+            self.weights.push(wv.map(|x| x as f64 / sum));
+        }
+        self.positions.extend(p);
+        self.triangles.extend(
+            idx.chunks(3)
+                .map(|c| [c[0] + base, c[1] + base, c[2] + base]),
+        );
+        Ok(())
+    }
+}
+
+/// The hierarchy, refusing cycles (a node with two parents is refused by the crate's
+/// validation or counted here) and transforms that are not finite.
+fn read_nodes(name: &str, doc: &gltf::Document) -> Result<Vec<Node>> {
+    let count = doc.nodes().count();
+    let mut nodes: Vec<Node> = doc
+        .nodes()
+        .map(|n| {
+            let (t, r, s) = n.transform().decomposed();
+            Node {
+                parent: None,
+                translation: DVec3::from(t.map(f64::from)),
+                rotation: unit_quat(DVec4::from(r.map(f64::from))),
+                scale: DVec3::from(s.map(f64::from)),
+            }
+        })
+        .collect();
+    for n in doc.nodes() {
+        for c in n.children() {
+            if nodes[c.index()].parent.is_some() {
+                return Err(err(name, format!("node {} has two parents", c.index())));
+            }
+            nodes[c.index()].parent = Some(n.index());
+        }
+    }
+    for (i, n) in nodes.iter().enumerate() {
+        if !(n.translation.is_finite() && n.rotation.is_finite() && n.scale.is_finite()) {
+            return Err(err(name, format!("node {i}'s transform is not finite")));
+        }
+        let (mut at, mut steps) = (i, 0);
+        while let Some(p) = nodes[at].parent {
+            at = p;
+            steps += 1;
+            if steps > count {
+                return Err(err(name, format!("node {i} is in a cycle of parents")));
+            }
+        }
+    }
+    Ok(nodes)
 }
 
 fn read_animation<'a>(

@@ -597,6 +597,49 @@ impl Stage {
         // Thin strands drawn by a compute rasteriser read the scene depth and need an
         // accumulation: targets are made for whether any system splats this frame.
         let splatting = self.systems.iter().any(|s| s.splats());
+        self.ensure_targets(gpu, size, splatting)?;
+        // The frame uniform first: systems that work in screen space (the wisps' tiles)
+        // prepare with the same view-projection the shaders see.
+        let bounds = self.bounds();
+        let (mut uniform, view) = self.frame_view(look, bounds, size);
+        self.mark(enc, Phase::Generation, true);
+        let ctx = clock(self.frame, &self.forces);
+        for s in &mut self.systems {
+            s.prepare(gpu, enc, &ctx, &view)?;
+        }
+        let head_pose = ctx.head;
+        if let Some(t) = self.timer.as_mut() {
+            t.end(enc, Phase::Generation);
+        }
+        self.bind_splat(gpu, splatting)?;
+        self.cast_shadows(gpu, enc, bounds, casting, head_pose, &mut uniform)?;
+        if let Some(t) = self.timer.as_mut() {
+            t.begin(enc, Phase::Draw);
+        }
+        let Some(targets) = self.targets.as_ref() else {
+            return Err(crate::KamiError::Gpu("scene targets missing".into()));
+        };
+        let bg = linear_rgb(self.scene.render.background);
+        let clear = wgpu::Color {
+            r: bg[0] as f64,
+            g: bg[1] as f64,
+            b: bg[2] as f64,
+            a: 1.0,
+        };
+        self.draw_passes(enc, targets, &view, splatting, clear);
+        if let Some(t) = self.timer.as_mut() {
+            t.end(enc, Phase::Draw);
+            t.begin(enc, Phase::Resolve);
+        }
+        self.downsample
+            .draw(enc, &targets.resolve, output, size, clear);
+        self.mark(enc, Phase::Resolve, false);
+        Ok(())
+    }
+
+    /// Make the scene targets again when the region's size or whether a system splats
+    /// changed.
+    fn ensure_targets(&mut self, gpu: &Gpu, size: (u32, u32), splatting: bool) -> Result<()> {
         let stale = self
             .targets
             .as_ref()
@@ -618,9 +661,12 @@ impl Stage {
                 resolve_splat: false,
             });
         }
-        // The frame uniform first: systems that work in screen space (the wisps' tiles)
-        // prepare with the same view-projection the shaders see.
-        let bounds = self.bounds();
+        Ok(())
+    }
+
+    /// This frame's uniform (before its shadow parameters) and the view the systems
+    /// prepare with, for a region of `size` output pixels.
+    fn frame_view(&self, look: &Look, bounds: (DVec3, f64), size: (u32, u32)) -> (GpuFrame, View) {
         let samples = self.targets.as_ref().map_or(size, |t| t.scene.size);
         let mut uniform = frame_uniform(&self.scene, look, bounds, samples, self.quality.msaa);
         // Samples per output pixel (widths given in pixels, such as the wisps' outline).
@@ -637,14 +683,12 @@ impl Stage {
             samples_per_px: f64::from(uniform.flags[1]),
             focal_samples: f64::from(uniform.raster[0]),
         };
-        self.mark(enc, Phase::Generation, true);
-        let ctx = clock(self.frame, &self.forces);
-        for s in &mut self.systems {
-            s.prepare(gpu, enc, &ctx, &view)?;
-        }
-        if let Some(t) = self.timer.as_mut() {
-            t.end(enc, Phase::Generation);
-        }
+        (uniform, view)
+    }
+
+    /// The splat target (made when first needed) and the resolve binding, compositing the
+    /// accumulation when a system splats this frame.
+    fn bind_splat(&mut self, gpu: &Gpu, splatting: bool) -> Result<()> {
         let Some(targets) = self.targets.as_mut() else {
             return Err(crate::KamiError::Gpu("scene targets missing".into()));
         };
@@ -667,15 +711,27 @@ impl Stage {
             targets.resolve = self.downsample.bind(gpu, &targets.scene, accum);
             targets.resolve_splat = splatting;
         }
-        let targets = &*targets;
-        // Hair shadows: cast, resolve, and bind for every draw below.
+        Ok(())
+    }
+
+    /// Hair shadows: cast and resolve, the parameters into `uniform` (written to the frame
+    /// buffer, bound for every draw after), and the head posed.
+    fn cast_shadows(
+        &mut self,
+        gpu: &Gpu,
+        enc: &mut wgpu::CommandEncoder,
+        bounds: (DVec3, f64),
+        casting: bool,
+        head_pose: DMat4,
+        uniform: &mut GpuFrame,
+    ) -> Result<()> {
         let settings = self.scene.render.shadows;
         let light_box = shadow::LightBox::fit(bounds, DVec3::from(self.scene.light.direction));
         let head = self
             .scene
             .head
             .visible
-            .then(|| head_sphere(&self.scene, ctx.head));
+            .then(|| head_sphere(&self.scene, head_pose));
         let mut params = shadow::params(&settings, &light_box, head, casting);
         if self.shadow_variant.toon {
             // Toon wisps: shadows are steps (`shadow_toon`).
@@ -694,8 +750,8 @@ impl Stage {
         }
         uniform.shadow = params;
         gpu.queue
-            .write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&uniform));
-        self.last_frame = uniform;
+            .write_buffer(&self.frame_buffer, 0, bytemuck::bytes_of(&*uniform));
+        self.last_frame = *uniform;
         let systems = &self.systems;
         self.shadow.record(enc, &self.frame_bind_group, |pass| {
             for s in systems {
@@ -706,13 +762,23 @@ impl Stage {
             h.prepare(
                 &gpu.queue,
                 &self.scene.head_ellipsoid(),
-                ctx.head,
+                head_pose,
                 self.scene.head.color,
             );
         }
-        if let Some(t) = self.timer.as_mut() {
-            t.begin(enc, Phase::Draw);
-        }
+        Ok(())
+    }
+
+    /// The draw passes into the scene targets: pixels in compute, the scene pass (opaque
+    /// first, then every system's hair with its coverage) and the thin strands' splats.
+    fn draw_passes(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        targets: &Targets,
+        view: &View,
+        splatting: bool,
+        clear: wgpu::Color,
+    ) {
         if self.systems.iter().any(|s| s.draws_in_compute()) {
             // Pixels in compute: what the scene pass then composites by depth.
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -724,13 +790,6 @@ impl Stage {
                 s.draw_compute(&mut pass);
             }
         }
-        let bg = linear_rgb(self.scene.render.background);
-        let clear = wgpu::Color {
-            r: bg[0] as f64,
-            g: bg[1] as f64,
-            b: bg[2] as f64,
-            a: 1.0,
-        };
         {
             let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("scene"),
@@ -749,7 +808,7 @@ impl Stage {
                 s.draw_opaque(&mut pass);
             }
             for s in &self.systems {
-                s.draw(&mut pass, &view);
+                s.draw(&mut pass, view);
             }
         }
         if let Some(sp) = targets.splat.as_ref().filter(|_| splatting) {
@@ -764,14 +823,6 @@ impl Stage {
                 s.splat(&mut pass);
             }
         }
-        if let Some(t) = self.timer.as_mut() {
-            t.end(enc, Phase::Draw);
-            t.begin(enc, Phase::Resolve);
-        }
-        self.downsample
-            .draw(enc, &targets.resolve, output, size, clear);
-        self.mark(enc, Phase::Resolve, false);
-        Ok(())
     }
 }
 

@@ -1,12 +1,42 @@
-//! Layers point one way (../shared/DESIGN.md): read from the sources, so a `use` that points
-//! back up fails here, naming the file and the line.
+//! Layers point one way (../shared/DESIGN.md), read by a parser: every source file under
+//! `src/` is parsed with `syn`, every path it names that leads into the crate (`use` trees of
+//! any shape, `crate::`/`super::`/`self::` chains, paths through a child module or an alias a
+//! `use` made) is resolved to the module it reaches, and each arrow is checked against the
+//! diagram. A path that points back up fails here, naming the file and the line.
+//!
+//! ```text
+//! main.rs (CLI) ──► app (viewer) ──► stage ──► systems/<kind> ──► forces ──► scene ──► error, rng
+//!       └──────► bench ──────────────┘   │            │
+//!                                        └────────────┴──────────► gpu (the leaf)
+//! ```
 
-use std::path::Path;
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+use syn::visit::Visit;
 
-/// The `.rs` files under `dir`, recursively.
-fn sources(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
-    for e in std::fs::read_dir(dir).unwrap() {
-        let p = e.unwrap().path();
+/// A module path inside the crate, as segments (`["systems", "wisps", "march"]`).
+type ModPath = Vec<String>;
+
+/// One path a file names that leads into the crate.
+#[derive(Debug, Clone)]
+struct Arrow {
+    /// The file, relative to the crate root.
+    file: String,
+    line: usize,
+    /// Where the naming code sits (its module).
+    from: ModPath,
+    /// The crate path it resolves to (module and item segments).
+    to: ModPath,
+}
+
+/// The `.rs` files under `dir`, recursively, sorted.
+fn sources(dir: &Path, out: &mut Vec<PathBuf>) {
+    let mut entries: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    entries.sort();
+    for p in entries {
         if p.is_dir() {
             sources(&p, out);
         } else if p.extension().is_some_and(|x| x == "rs") {
@@ -15,74 +45,588 @@ fn sources(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
     }
 }
 
-/// Layers point one way: systems import neither the viewer (`app`)
-/// nor the stage; the forces import no system; the scene imports no solver, no forces and
-/// no GPU; `gpu` and the shader list below them name nothing of ours above them.
+/// The module a file under `src/` defines (`src/stage/mod.rs` → `stage`; `src/main.rs` →
+/// `main`, the binary, which reaches the library as `kami::`).
+fn module_of(rel: &Path) -> ModPath {
+    let mut segs: ModPath = rel
+        .iter()
+        .map(|s| s.to_string_lossy().trim_end_matches(".rs").to_string())
+        .collect();
+    if segs.last().is_some_and(|s| s == "mod" || s == "lib") {
+        segs.pop();
+    }
+    segs
+}
+
+/// Walks one file's syntax tree, resolving every crate path it names.
+struct Walker<'a> {
+    file: String,
+    /// The binary (`main.rs` and its modules) names the library as `kami::`.
+    binary: bool,
+    /// Every module the crate has (from the file tree plus inline `mod` blocks seen).
+    modules: &'a BTreeSet<ModPath>,
+    /// The module scopes entered (file module, then inline `mod` blocks).
+    scope: Vec<ModPath>,
+    /// Names a `use` bound in each scope, to what crate path.
+    aliases: Vec<BTreeMap<String, ModPath>>,
+    out: Vec<Arrow>,
+}
+
+impl Walker<'_> {
+    fn here(&self) -> &ModPath {
+        self.scope.last().unwrap()
+    }
+
+    /// Resolves a path's leading segments to a crate path, or `None` for another crate's
+    /// path, a local name, or a primitive.
+    fn resolve(&self, segs: &[String]) -> Option<ModPath> {
+        let first = segs.first()?;
+        let here = self.here().clone();
+        let (mut base, rest) = match first.as_str() {
+            "crate" if !self.binary => (ModPath::new(), &segs[1..]),
+            "kami" if self.binary => (ModPath::new(), &segs[1..]),
+            "crate" => (vec!["main".to_string()], &segs[1..]),
+            "self" => (here, &segs[1..]),
+            "super" => {
+                let mut at = here;
+                let mut i = 0;
+                while segs.get(i).is_some_and(|s| s == "super") {
+                    at.pop();
+                    i += 1;
+                }
+                (at, &segs[i..])
+            }
+            _ => {
+                // A child module of this scope, or a name a `use` bound.
+                let mut child = here.clone();
+                child.push(first.clone());
+                if self.modules.contains(&child) {
+                    (child, &segs[1..])
+                } else if let Some(p) = self.aliases.iter().rev().find_map(|a| a.get(first)) {
+                    (p.clone(), &segs[1..])
+                } else {
+                    return None;
+                }
+            }
+        };
+        base.extend(rest.iter().cloned());
+        Some(base)
+    }
+
+    fn push(&mut self, to: ModPath, line: usize) {
+        let from = self.here().clone();
+        self.out.push(Arrow {
+            file: self.file.clone(),
+            line,
+            from,
+            to,
+        });
+    }
+
+    /// Records every leaf of a `use` tree and binds its names in the current scope.
+    fn use_tree(&mut self, prefix: &mut Vec<String>, tree: &syn::UseTree) {
+        match tree {
+            syn::UseTree::Path(p) => {
+                prefix.push(p.ident.to_string());
+                self.use_tree(prefix, &p.tree);
+                prefix.pop();
+            }
+            syn::UseTree::Name(n) => {
+                let name = n.ident.to_string();
+                self.use_leaf(
+                    prefix,
+                    &name,
+                    (name != "self").then(|| name.clone()),
+                    n.ident.span(),
+                );
+            }
+            syn::UseTree::Rename(r) => {
+                self.use_leaf(
+                    prefix,
+                    &r.ident.to_string(),
+                    Some(r.rename.to_string()),
+                    r.ident.span(),
+                );
+            }
+            syn::UseTree::Glob(g) => {
+                if let Some(to) = self.resolve(prefix) {
+                    self.push(to, g.star_token.span.start().line);
+                }
+            }
+            syn::UseTree::Group(g) => {
+                for t in &g.items {
+                    self.use_tree(prefix, t);
+                }
+            }
+        }
+    }
+
+    fn use_leaf(
+        &mut self,
+        prefix: &[String],
+        name: &str,
+        bind: Option<String>,
+        span: proc_macro2::Span,
+    ) {
+        let mut segs = prefix.to_vec();
+        if name != "self" {
+            segs.push(name.to_string());
+        }
+        if let Some(to) = self.resolve(&segs) {
+            self.push(to.clone(), span.start().line);
+            let bind = bind.or_else(|| prefix.last().cloned());
+            if let Some(b) = bind {
+                self.aliases.last_mut().unwrap().insert(b, to);
+            }
+        }
+    }
+}
+
+impl<'ast> Visit<'ast> for Walker<'_> {
+    fn visit_item_mod(&mut self, m: &'ast syn::ItemMod) {
+        if m.content.is_none() {
+            return;
+        }
+        let mut inner = self.here().clone();
+        inner.push(m.ident.to_string());
+        self.scope.push(inner);
+        self.aliases.push(BTreeMap::new());
+        // `use` items bind for the whole module, wherever they sit in it: read them first.
+        for item in &m.content.as_ref().unwrap().1 {
+            if let syn::Item::Use(u) = item {
+                self.use_tree(&mut Vec::new(), &u.tree);
+            }
+        }
+        for item in &m.content.as_ref().unwrap().1 {
+            if !matches!(item, syn::Item::Use(_)) {
+                self.visit_item(item);
+            }
+        }
+        self.aliases.pop();
+        self.scope.pop();
+    }
+
+    fn visit_item_use(&mut self, u: &'ast syn::ItemUse) {
+        // Uses inside function bodies: bind for the rest of the file (close enough for names).
+        self.use_tree(&mut Vec::new(), &u.tree);
+    }
+
+    fn visit_path(&mut self, p: &'ast syn::Path) {
+        let segs: Vec<String> = p.segments.iter().map(|s| s.ident.to_string()).collect();
+        if segs.len() > 1 || p.leading_colon.is_none() {
+            if let Some(to) = self.resolve(&segs) {
+                if segs.len() > 1 {
+                    let line = p.segments[0].ident.span().start().line;
+                    self.push(to, line);
+                }
+            }
+        }
+        syn::visit::visit_path(self, p);
+    }
+
+    fn visit_macro(&mut self, m: &'ast syn::Macro) {
+        // Paths inside macro calls (`format!`, `matches!`, `assert!`) are tokens, not syntax:
+        // parse them as expressions where they are, so `crate::x::y` there is seen too.
+        if let Ok(args) = m.parse_body_with(
+            syn::punctuated::Punctuated::<syn::Expr, syn::Token![,]>::parse_terminated,
+        ) {
+            for e in &args {
+                self.visit_expr(e);
+            }
+        }
+        syn::visit::visit_macro(self, m);
+    }
+}
+
+/// Every arrow in `src/`, and every module the crate has.
+fn arrows() -> (Vec<Arrow>, BTreeSet<ModPath>) {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let src = root.join("src");
+    let mut files = Vec::new();
+    sources(&src, &mut files);
+    let mut modules: BTreeSet<ModPath> = files
+        .iter()
+        .map(|f| module_of(f.strip_prefix(&src).unwrap()))
+        .collect();
+    let parsed: Vec<(PathBuf, syn::File)> = files
+        .iter()
+        .map(|f| {
+            let text = std::fs::read_to_string(f).unwrap();
+            let ast = syn::parse_file(&text)
+                .unwrap_or_else(|e| panic!("{}: does not parse: {e}", f.display()));
+            (f.clone(), ast)
+        })
+        .collect();
+    // Inline `mod x { … }` blocks are modules too (tests, small helpers).
+    struct Inline<'m>(&'m mut BTreeSet<ModPath>, ModPath);
+    impl<'ast> Visit<'ast> for Inline<'_> {
+        fn visit_item_mod(&mut self, m: &'ast syn::ItemMod) {
+            if m.content.is_some() {
+                self.1.push(m.ident.to_string());
+                self.0.insert(self.1.clone());
+                syn::visit::visit_item_mod(self, m);
+                self.1.pop();
+            }
+        }
+    }
+    for (f, ast) in &parsed {
+        let m = module_of(f.strip_prefix(&src).unwrap());
+        Inline(&mut modules, m).visit_file(ast);
+    }
+    let mut out = Vec::new();
+    for (f, ast) in &parsed {
+        let rel = f.strip_prefix(&src).unwrap();
+        let module = module_of(rel);
+        let mut w = Walker {
+            file: f.strip_prefix(root).unwrap().display().to_string(),
+            binary: module.first().is_some_and(|m| m == "main" || m == "cli"),
+            modules: &modules,
+            scope: vec![module],
+            aliases: vec![BTreeMap::new()],
+            out: Vec::new(),
+        };
+        // File-level `use` items bind for the whole file: read them first.
+        for item in &ast.items {
+            if let syn::Item::Use(u) = item {
+                w.use_tree(&mut Vec::new(), &u.tree);
+            }
+        }
+        for item in &ast.items {
+            if !matches!(item, syn::Item::Use(_)) {
+                w.visit_item(item);
+            }
+        }
+        out.extend(w.out);
+    }
+    // The crate root's re-exports (`kami::Scene`, `crate::Result`) lead to their modules.
+    let root_names: BTreeMap<String, ModPath> = out
+        .iter()
+        .filter(|a| a.file == "src/lib.rs" && a.from.is_empty())
+        .filter_map(|a| Some((a.to.last()?.clone(), a.to.clone())))
+        .collect();
+    for a in &mut out {
+        let top = a.to.first().cloned().unwrap_or_default();
+        if !modules.contains(&vec![top.clone()]) {
+            if let Some(p) = root_names.get(&top) {
+                a.to = p.iter().chain(&a.to[1..]).cloned().collect();
+            }
+        }
+    }
+    (out, modules)
+}
+
+/// The kinds: the folders under `src/systems/`.
+fn kinds() -> Vec<String> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("src/systems");
+    let mut k: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.is_dir())
+        .map(|p| p.file_name().unwrap().to_string_lossy().to_string())
+        .collect();
+    k.sort();
+    k
+}
+
+/// The layer a module belongs to: its top module, with `systems/<kind>` a layer of its own
+/// (`kind`), the rest of `systems` the shared one (`systems`), and the binary `main`.
+fn layer(m: &ModPath, kinds: &[String]) -> String {
+    match m.first().map(String::as_str) {
+        None => "lib".into(),
+        Some("systems") if m.get(1).is_some_and(|k| kinds.contains(k)) => "kind".into(),
+        Some("cli") => "main".into(),
+        Some(top) => top.into(),
+    }
+}
+
+/// What each layer may name (besides itself), from the diagram in ../shared/DESIGN.md.
+/// Modules the diagram leaves out sit where their imports put them: `formats` (strand files)
+/// and `anim` beside `scene`, `output` (image files) beside `error`, `shaders` (the registry
+/// the kinds feed) above `gpu`, `fuzz` (the harness over every reader) beside `bench`.
+fn allowed(layer: &str) -> &'static [&'static str] {
+    const LEAF: &[&str] = &["error", "rng"];
+    match layer {
+        "error" | "rng" => &[],
+        "output" => &["error"],
+        "gpu" => &["error", "rng", "output"],
+        "shaders" => &["error", "gpu"],
+        "scene" | "formats" | "anim" => &["error", "rng", "output", "scene", "formats", "anim"],
+        "forces" => &["error", "rng", "output", "scene", "formats", "anim"],
+        "kind" | "systems" => &[
+            "error", "rng", "output", "scene", "formats", "anim", "forces", "gpu", "shaders",
+            "systems", "kind",
+        ],
+        "stage" => &[
+            "error", "rng", "output", "scene", "formats", "anim", "forces", "gpu", "shaders",
+            "systems",
+        ],
+        "app" => &[
+            "error", "rng", "output", "scene", "formats", "anim", "forces", "gpu", "shaders",
+            "systems", "stage",
+        ],
+        "bench" | "fuzz" => &[
+            "error", "rng", "output", "scene", "formats", "anim", "forces", "gpu", "shaders",
+            "systems", "kind", "stage", "bench", "fuzz",
+        ],
+        "main" | "lib" => &[
+            "error", "rng", "output", "scene", "formats", "anim", "forces", "gpu", "shaders",
+            "systems", "stage", "bench", "fuzz", "app", "main",
+        ],
+        _ => LEAF,
+    }
+}
+
+/// Code outside a kind's folder that may still name the kind: (file or folder prefix, kind or
+/// `*`, why). Adding a kind touches its folder, the `KINDS` line and its bench file; every
+/// other entry here is a study that needs one kind's insides, and says which.
+const NAMES_A_KIND: &[(&str, &str, &str)] = &[
+    (
+        "src/systems/mod.rs",
+        "*",
+        "the `KINDS` registry: the one line that lists every kind",
+    ),
+    ("src/bench/anjyo", "anjyo", "the kind's own bench file"),
+    ("src/bench/fur.rs", "fur", "the kind's own bench file"),
+    ("src/bench/strips", "strips", "the kind's own bench files"),
+    ("src/bench/wisps", "wisps", "the kind's own bench files"),
+    (
+        "src/bench/capture.rs",
+        "strips",
+        "the EFF fitted to capture is the strips kind's (Kazama et al.), its study reads the fit",
+    ),
+    (
+        "src/bench/guides.rs",
+        "anjyo",
+        "guides and followers are the Anjyo kind's; the study times its passes one by one",
+    ),
+    (
+        "src/bench/lod.rs",
+        "anjyo",
+        "strand LOD measures the Anjyo kind's strands (the only kind drawn as thin strands)",
+    ),
+    (
+        "src/bench/scale.rs",
+        "anjyo",
+        "strands at scale grooms the Anjyo kind up to a million strands",
+    ),
+    (
+        "src/bench/splat.rs",
+        "anjyo",
+        "the splat study draws the Anjyo kind's strands both ways",
+    ),
+    (
+        "src/bench/look.rs",
+        "fur",
+        "the look study compares kinds against a reference; fur's mesh setup is built directly",
+    ),
+];
+
+#[test]
+fn the_parser_sees_what_text_matching_missed() {
+    // The walker itself, on code the old line matcher passed: a multi-line `use` group, a
+    // `super::super::` chain, an inline path in a macro and a path through an alias.
+    let src = r#"
+        use crate::{
+            stage::Stage,
+            app,
+        };
+        fn f() {
+            let _ = super::super::stage::x();
+            assert!(crate::bench::ok());
+            app::run();
+        }
+    "#;
+    let ast = syn::parse_file(src).unwrap();
+    let modules: BTreeSet<ModPath> = [
+        vec!["systems".to_string()],
+        vec!["systems".into(), "wisps".into()],
+        vec!["systems".into(), "wisps".into(), "march".into()],
+    ]
+    .into();
+    let mut w = Walker {
+        file: "x.rs".into(),
+        binary: false,
+        modules: &modules,
+        scope: vec![vec!["systems".into(), "wisps".into(), "march".into()]],
+        aliases: vec![BTreeMap::new()],
+        out: Vec::new(),
+    };
+    for item in &ast.items {
+        if let syn::Item::Use(u) = item {
+            w.use_tree(&mut Vec::new(), &u.tree);
+        }
+    }
+    for item in &ast.items {
+        if !matches!(item, syn::Item::Use(_)) {
+            w.visit_item(item);
+        }
+    }
+    let to: BTreeSet<String> = w.out.iter().map(|a| a.to.join("::")).collect();
+    for want in [
+        "stage::Stage",
+        "app",
+        "systems::stage::x",
+        "bench::ok",
+        "app::run",
+    ] {
+        assert!(to.contains(want), "{want} not seen; saw {to:?}");
+    }
+}
+
+/// Every arrow of the diagram, over the whole crate: systems name neither the viewer nor
+/// the stage, forces no system, the scene no solver, force or GPU, `gpu` nothing of ours
+/// above it (not even the shader registry), and the stage, the viewer and the shared
+/// systems code no kind (the kinds are reached through `KINDS` and `HairSystem`).
 #[test]
 fn layers_point_one_way() {
-    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
-    let mut bad = Vec::new();
-    let above_scene: &[&str] = &[
-        "crate::forces",
-        "crate::systems",
-        "crate::stage",
-        "crate::app",
-        "crate::bench",
-        "crate::gpu",
-        "wgpu::",
-    ];
-    let rules: [(&str, &[&str]); 5] = [
-        ("systems", &["crate::app", "crate::stage"]),
-        (
-            "forces",
-            &[
-                "crate::systems",
-                "crate::stage",
-                "crate::app",
-                "crate::bench",
-            ],
-        ),
-        ("scene", above_scene),
-        (
-            "gpu",
-            &[
-                "crate::systems",
-                "crate::stage",
-                "crate::app",
-                "crate::scene",
-                "crate::forces",
-                "crate::bench",
-            ],
-        ),
-        (
-            "shaders.rs",
-            &["crate::systems", "crate::stage", "crate::app"],
-        ),
-    ];
-    for (below, banned) in rules {
-        let mut files = Vec::new();
-        let at = src.join(below);
-        if at.is_dir() {
-            sources(&at, &mut files);
-        } else {
-            files.push(at);
+    let (arrows, _) = arrows();
+    let kinds = kinds();
+    assert!(
+        arrows.len() > 500,
+        "the walker saw only {} crate paths: it has stopped reading the sources",
+        arrows.len()
+    );
+    let mut bad = BTreeSet::new();
+    for a in &arrows {
+        let (from, to) = (layer(&a.from, &kinds), layer(&a.to, &kinds));
+        if from != to && !allowed(&from).contains(&to.as_str()) {
+            bad.insert(format!(
+                "{}:{}: {from} names {to} ({})",
+                a.file,
+                a.line,
+                a.to.join("::")
+            ));
         }
-        for f in files {
-            let text = std::fs::read_to_string(&f).unwrap();
-            // Code only: comments and string literals (these rules) may name a layer.
-            let code = text
-                .lines()
-                .filter(|l| !l.trim_start().starts_with("//") && !l.contains('"'));
-            for (n, line) in code.enumerate() {
-                for b in banned.iter().filter(|b| line.contains(**b)) {
-                    bad.push(format!("{}: {b} in {line:?} (code line {n})", f.display()));
-                }
+        // A kind is named only from inside its own folder (or an allowed place).
+        if to == "kind" {
+            let k = &a.to[1];
+            let inside = a.from.first().is_some_and(|s| s == "systems") && a.from.get(1) == Some(k);
+            let excused = NAMES_A_KIND
+                .iter()
+                .any(|(f, kk, _)| a.file.starts_with(f) && (*kk == "*" || kk == k));
+            if !inside && !excused {
+                bad.insert(format!(
+                    "{}:{}: names the kind `{k}` from outside src/systems/{k}/ ({})",
+                    a.file,
+                    a.line,
+                    a.to.join("::")
+                ));
             }
         }
     }
     assert!(
         bad.is_empty(),
-        "layers pointing back up:\n{}",
-        bad.join("\n")
+        "{} arrows point the wrong way:\n{}",
+        bad.len(),
+        bad.into_iter().collect::<Vec<_>>().join("\n")
     );
+}
+
+/// The longest a function outside tests may be, in lines: past this it is several steps that
+/// want names (issue 35: small commands, small functions).
+const MAX_FN_LINES: usize = 150;
+
+/// No function or method outside tests (`#[cfg(test)]` modules, `#[test]` functions) is
+/// longer than `MAX_FN_LINES`, read from the parsed sources.
+#[test]
+fn functions_stay_short() {
+    struct Long<'a>(&'a str, Vec<String>);
+    fn is_test(attrs: &[syn::Attribute]) -> bool {
+        attrs.iter().any(|a| {
+            a.path().is_ident("test")
+                || (a.path().is_ident("cfg")
+                    && a.parse_args::<syn::Ident>().is_ok_and(|i| i == "test"))
+        })
+    }
+    impl Long<'_> {
+        fn check(&mut self, name: &syn::Ident, block: &syn::Block) {
+            use syn::spanned::Spanned;
+            let (a, b) = (block.span().start().line, block.span().end().line);
+            if b - a + 1 > MAX_FN_LINES {
+                self.1
+                    .push(format!("{}:{a}: fn {name} is {} lines", self.0, b - a + 1));
+            }
+        }
+    }
+    impl<'ast> Visit<'ast> for Long<'_> {
+        fn visit_item_mod(&mut self, m: &'ast syn::ItemMod) {
+            if !is_test(&m.attrs) {
+                syn::visit::visit_item_mod(self, m);
+            }
+        }
+        fn visit_item_fn(&mut self, f: &'ast syn::ItemFn) {
+            if !is_test(&f.attrs) {
+                self.check(&f.sig.ident, &f.block);
+                syn::visit::visit_item_fn(self, f);
+            }
+        }
+        fn visit_impl_item_fn(&mut self, f: &'ast syn::ImplItemFn) {
+            if !is_test(&f.attrs) {
+                self.check(&f.sig.ident, &f.block);
+                syn::visit::visit_impl_item_fn(self, f);
+            }
+        }
+    }
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut files = Vec::new();
+    sources(&root.join("src"), &mut files);
+    let mut long = Vec::new();
+    for f in &files {
+        let text = std::fs::read_to_string(f).unwrap();
+        let ast = syn::parse_file(&text).unwrap();
+        let rel = f.strip_prefix(root).unwrap().display().to_string();
+        let mut v = Long(&rel, Vec::new());
+        v.visit_file(&ast);
+        long.extend(v.1);
+    }
+    assert!(
+        long.is_empty(),
+        "functions longer than {MAX_FN_LINES} lines:\n{}",
+        long.join("\n")
+    );
+}
+
+/// No binding number is typed by hand outside `src/gpu/bind.rs`: every layout and bind group
+/// in the crate and its tests is built there, from typed slots in order (issue 35 item 2).
+/// Read from the parsed sources: a `BindGroupEntry`/`BindGroupLayoutEntry` literal or a
+/// `create_bind_group(_layout)` call anywhere else fails, naming the file and line.
+#[test]
+fn bindings_are_declared_in_order_by_type() {
+    struct Hand<'a>(&'a str, Vec<String>);
+    impl<'ast> Visit<'ast> for Hand<'_> {
+        fn visit_expr_struct(&mut self, e: &'ast syn::ExprStruct) {
+            let last = e.path.segments.last().map(|s| s.ident.to_string());
+            if let Some(n) = last.filter(|n| n == "BindGroupEntry" || n == "BindGroupLayoutEntry")
+            {
+                let line = e.path.segments[0].ident.span().start().line;
+                self.1.push(format!("{}:{line}: a {n} written by hand", self.0));
+            }
+            syn::visit::visit_expr_struct(self, e);
+        }
+        fn visit_expr_method_call(&mut self, c: &'ast syn::ExprMethodCall) {
+            let m = c.method.to_string();
+            if m == "create_bind_group" || m == "create_bind_group_layout" {
+                let line = c.method.span().start().line;
+                self.1.push(format!("{}:{line}: {m} called directly", self.0));
+            }
+            syn::visit::visit_expr_method_call(self, c);
+        }
+    }
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut files = Vec::new();
+    sources(&root.join("src"), &mut files);
+    sources(&root.join("tests"), &mut files);
+    sources(&root.join("examples"), &mut files);
+    let mut hand = Vec::new();
+    for f in &files {
+        let rel = f.strip_prefix(root).unwrap().display().to_string();
+        if rel == "src/gpu/bind.rs" {
+            continue;
+        }
+        let ast = syn::parse_file(&std::fs::read_to_string(f).unwrap()).unwrap();
+        let mut v = Hand(&rel, Vec::new());
+        v.visit_file(&ast);
+        hand.extend(v.1);
+    }
+    assert!(hand.is_empty(), "bindings numbered by hand:\n{}", hand.join("\n"));
 }

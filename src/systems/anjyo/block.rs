@@ -1001,28 +1001,7 @@ fn validate_group(p: &str, g: &HairGroup) -> Result<()> {
         }
     }
     if let Some(line) = &g.roots.hairline {
-        let hp = format!("{p}.roots.hairline");
-        if line.len() < 2 || line.len() > 64 {
-            return Err(bad(&hp, line.len(), "needs 2 to 64 (phi, theta) points"));
-        }
-        for (i, (phi, theta)) in line.iter().enumerate() {
-            within(&format!("{hp}[{i}].0"), *phi, -720.0, 720.0)?;
-            within(&format!("{hp}[{i}].1"), *theta, 0.0, 180.0)?;
-            if i > 0 && *phi <= line[i - 1].0 {
-                return Err(bad(
-                    &format!("{hp}[{i}].0"),
-                    phi,
-                    "phi must increase along the hairline",
-                ));
-            }
-        }
-        if line[line.len() - 1].0 - line[0].0 >= 360.0 {
-            return Err(bad(
-                &hp,
-                format!("{:?}..{:?}", line[0].0, line[line.len() - 1].0),
-                "must span less than 360 degrees of phi",
-            ));
-        }
+        hairline(&format!("{p}.roots.hairline"), line)?;
     }
     if let Direction::Blend { dir, weight } = &g.direction {
         nonzero(&format!("{p}.direction.dir"), *dir)?;
@@ -1042,6 +1021,39 @@ fn validate_group(p: &str, g: &HairGroup) -> Result<()> {
         }
         within(&format!("{p}.bending.tolerance"), *tolerance, 1e-12, 0.1)?;
     }
+    validate_loads(p, g)?;
+    validate_cuts(p, g)?;
+    material(&format!("{p}.material"), &g.material)
+}
+
+/// A hairline: 2 to 64 (phi, theta) points in range, phi increasing over less than a turn.
+fn hairline(hp: &str, line: &[(f64, f64)]) -> Result<()> {
+    if line.len() < 2 || line.len() > 64 {
+        return Err(bad(hp, line.len(), "needs 2 to 64 (phi, theta) points"));
+    }
+    for (i, (phi, theta)) in line.iter().enumerate() {
+        within(&format!("{hp}[{i}].0"), *phi, -720.0, 720.0)?;
+        within(&format!("{hp}[{i}].1"), *theta, 0.0, 180.0)?;
+        if i > 0 && *phi <= line[i - 1].0 {
+            return Err(bad(
+                &format!("{hp}[{i}].0"),
+                phi,
+                "phi must increase along the hairline",
+            ));
+        }
+    }
+    if line[line.len() - 1].0 - line[0].0 >= 360.0 {
+        return Err(bad(
+            hp,
+            format!("{:?}..{:?}", line[0].0, line[line.len() - 1].0),
+            "must span less than 360 degrees of phi",
+        ));
+    }
+    Ok(())
+}
+
+/// A group's loads: at most 8, each with finite parameters and at most 4 half-spaces.
+fn validate_loads(p: &str, g: &HairGroup) -> Result<()> {
     if g.loads.len() > 8 {
         return Err(bad(
             &format!("{p}.loads"),
@@ -1078,6 +1090,11 @@ fn validate_group(p: &str, g: &HairGroup) -> Result<()> {
             }
         }
     }
+    Ok(())
+}
+
+/// A group's cuts: at most 16, each with its ranges and rule in bounds.
+fn validate_cuts(p: &str, g: &HairGroup) -> Result<()> {
     if g.cuts.len() > 16 {
         return Err(bad(
             &format!("{p}.cuts"),
@@ -1121,7 +1138,7 @@ fn validate_group(p: &str, g: &HairGroup) -> Result<()> {
             }
         }
     }
-    material(&format!("{p}.material"), &g.material)
+    Ok(())
 }
 
 /// A hair group's look.

@@ -245,6 +245,60 @@ pub fn scene_of(path: &Path) -> Result<Scene> {
         });
     }
     let n = groom.counts.len();
+    let (roots, lengths, root_widths) = strand_roots(&groom);
+    let mean_len = lengths.iter().sum::<f64>() / n as f64;
+    let (center, radii) = head_under(&roots, mean_len);
+    let mut segs: Vec<u32> = groom.counts.iter().map(|&c| c - 1).collect();
+    segs.sort_unstable();
+    let segments = segs[segs.len() / 2].clamp(4, MAX_SEGMENTS.min(64));
+    let width = if root_widths.is_empty() {
+        0.004 * mean_len
+    } else {
+        root_widths.iter().sum::<f64>() / root_widths.len() as f64
+    };
+    let reach = roots
+        .iter()
+        .zip(&lengths)
+        .map(|(r, l)| (*r - glam::DVec3::from(center)).length() + l)
+        .fold(0.0, f64::max)
+        .max(1e-6);
+    let c = glam::DVec3::from(center);
+    let eye = c + glam::DVec3::new(2.6, 0.6, 1.9).normalize() * reach * 2.3;
+    let name = path
+        .file_name()
+        .map(|f| f.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let count = (n as u64).min(MAX_STRANDS) as u32;
+    let mut scene = Scene {
+        head: Head {
+            center,
+            radii,
+            ..Default::default()
+        },
+        groups: vec![file_group(name, &origin, count, segments, width)],
+        camera: CameraDesc {
+            eye: eye.to_array(),
+            target: [c.x, c.y, c.z],
+            ..Default::default()
+        },
+        ..Scene::default()
+    };
+    crate::systems::scene::validate(&scene).map_err(|e| crate::scene::in_file(e, &origin))?;
+    // The file is read again through the group, as a scene file naming it would.
+    resolve_strand_files(&mut scene, Path::new(""), &origin)?;
+    split_by_group_id(&mut scene, &origin)?;
+    // A cache plays its frames: not simulated.
+    for g in &mut scene.groups {
+        if g.file.as_ref().is_some_and(|f| f.frames.is_some()) {
+            g.dynamic = false;
+        }
+    }
+    Ok(scene)
+}
+
+/// Each strand's root, its length, and its root width where the groom has widths.
+fn strand_roots(groom: &crate::formats::Groom) -> (Vec<glam::DVec3>, Vec<f64>, Vec<f64>) {
+    let n = groom.counts.len();
     let mut roots = Vec::with_capacity(n);
     let mut lengths = Vec::with_capacity(n);
     let mut root_widths = Vec::new();
@@ -266,13 +320,17 @@ pub fn scene_of(path: &Path) -> Result<Scene> {
         }
         at += c as usize;
     }
-    let mean_len = lengths.iter().sum::<f64>() / n as f64;
+    (roots, lengths, root_widths)
+}
+
+/// The head ellipsoid's centre and radii under the roots. Roots cover the scalp: the crown
+/// at the top, the nape at the bottom. The ellipsoid has its centre at the lowest root's
+/// height and sits inside every root.
+fn head_under(roots: &[glam::DVec3], mean_len: f64) -> ([f64; 3], [f64; 3]) {
     let (lo, hi) = roots.iter().fold(
         (glam::DVec3::splat(f64::MAX), glam::DVec3::splat(f64::MIN)),
         |(lo, hi), r| (lo.min(*r), hi.max(*r)),
     );
-    // Roots cover the scalp: the crown at the top, the nape at the bottom. The ellipsoid
-    // has its centre at the lowest root's height and sits inside every root.
     let mid = 0.5 * (lo + hi);
     let half = (0.5 * (hi - lo)).max(glam::DVec3::splat(1e-3 * mean_len.max(1e-9)));
     let r0 = glam::DVec3::new(half.x, (hi.y - lo.y).max(half.y), half.z);
@@ -284,76 +342,47 @@ pub fn scene_of(path: &Path) -> Result<Scene> {
         .map(|r| ((*r - c0) / r0).length())
         .fold(f64::MAX, f64::min)
         .clamp(1e-3, 1.0);
-    let radii = (r0 * 0.98 * k).to_array();
-    let mut segs: Vec<u32> = groom.counts.iter().map(|&c| c - 1).collect();
-    segs.sort_unstable();
-    let segments = segs[segs.len() / 2].clamp(4, MAX_SEGMENTS.min(64));
-    let width = if root_widths.is_empty() {
-        0.004 * mean_len
-    } else {
-        root_widths.iter().sum::<f64>() / root_widths.len() as f64
-    };
-    let reach = roots
-        .iter()
-        .zip(&lengths)
-        .map(|(r, l)| (*r - glam::DVec3::from(center)).length() + l)
-        .fold(0.0, f64::max)
-        .max(1e-6);
-    let c = glam::DVec3::from(center);
-    let eye = c + glam::DVec3::new(2.6, 0.6, 1.9).normalize() * reach * 2.3;
-    let name = path
-        .file_name()
-        .map(|f| f.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let mut scene = Scene {
-        head: Head {
-            center,
-            radii,
+    (center, (r0 * 0.98 * k).to_array())
+}
+
+/// The one hair group reading the whole file `origin`.
+fn file_group(name: String, origin: &str, count: u32, segments: u32, width: f64) -> HairGroup {
+    HairGroup {
+        name,
+        file: Some(StrandFile {
+            path: origin.to_string(),
+            scale: 1.0,
+            rotate: [0.0; 3],
+            translate: [0.0; 3],
+            colors: true,
+            widths: true,
+            time: None,
+            play: true,
+            group_id: None,
+            groom: None,
+            frames: None,
+        }),
+        roots: Roots::default(),
+        count,
+        segments,
+        length: 0.0,
+        length_jitter: 0.0,
+        direction: Direction::default(),
+        direction_jitter: 0.0,
+        rigidity: 0.0,
+        bending: Bending::default(),
+        loads: vec![],
+        cuts: vec![],
+        material: Material {
+            width,
             ..Default::default()
         },
-        groups: vec![HairGroup {
-            name,
-            file: Some(StrandFile {
-                path: origin.clone(),
-                scale: 1.0,
-                rotate: [0.0; 3],
-                translate: [0.0; 3],
-                colors: true,
-                widths: true,
-                time: None,
-                play: true,
-                group_id: None,
-                groom: None,
-                frames: None,
-            }),
-            roots: Roots::default(),
-            count: (n as u64).min(MAX_STRANDS) as u32,
-            segments,
-            length: 0.0,
-            length_jitter: 0.0,
-            direction: Direction::default(),
-            direction_jitter: 0.0,
-            rigidity: 0.0,
-            bending: Bending::default(),
-            loads: vec![],
-            cuts: vec![],
-            material: Material {
-                width,
-                ..Default::default()
-            },
-            dynamic: true,
-        }],
-        camera: CameraDesc {
-            eye: eye.to_array(),
-            target: [c.x, c.y, c.z],
-            ..Default::default()
-        },
-        ..Scene::default()
-    };
-    crate::systems::scene::validate(&scene).map_err(|e| crate::scene::in_file(e, &origin))?;
-    // The file is read again through the group, as a scene file naming it would.
-    resolve_strand_files(&mut scene, Path::new(""), &origin)?;
-    // Unreal's groups (groom_group_id): one hair group per id, each reading its strands.
+        dynamic: true,
+    }
+}
+
+/// Unreal's groups (groom_group_id): one hair group per id, each reading its strands.
+fn split_by_group_id(scene: &mut Scene, origin: &str) -> Result<()> {
     let ids: std::collections::BTreeMap<i64, u32> = scene.groups[0]
         .file
         .as_ref()
@@ -377,15 +406,9 @@ pub fn scene_of(path: &Path) -> Result<Scene> {
             }
             scene.groups.push(g);
         }
-        resolve_strand_files(&mut scene, Path::new(""), &origin)?;
+        resolve_strand_files(scene, Path::new(""), origin)?;
     }
-    // A cache plays its frames: not simulated.
-    for g in &mut scene.groups {
-        if g.file.as_ref().is_some_and(|f| f.frames.is_some()) {
-            g.dynamic = false;
-        }
-    }
-    Ok(scene)
+    Ok(())
 }
 
 #[cfg(test)]

@@ -929,74 +929,44 @@ pub fn march_tiled(
         exact: 0,
     };
     let widest = lines.widest();
-    let (mut kept, mut t_drop) = keep_nearest(cands, f64::NEG_INFINITY, slots);
-    let mut over = f64::INFINITY;
-    type PiecesOf = ([DVec3; curve::PIECES + 1], [f64; curve::PIECES]);
-    let active = |kept: &[Candidate], t: f64| -> Vec<(Candidate, usize)> {
-        kept.iter()
-            .enumerate()
-            .filter(|(_, c)| c.t_in <= t && t <= c.t_out)
-            .map(|(i, c)| (*c, i))
-            .collect()
+    let (kept, t_drop) = keep_nearest(cands, f64::NEG_INFINITY, slots);
+    let pieced = piece_all(wisps, &kept);
+    let mut w = Window {
+        wisps,
+        cands,
+        threshold,
+        m,
+        ray,
+        lines,
+        slots,
+        kept,
+        pieced,
+        t_drop,
+        over: f64::INFINITY,
     };
-    let piece_all = |kept: &[Candidate]| -> Vec<_> {
-        kept.iter()
-            .map(|c| curve::pieces(&wisps[c.wisp][c.seg]))
-            .collect()
-    };
-    let mut pieced = piece_all(&kept);
-    // The exact field (f, Lipschitz step, outline scale) or the clear step at t.
-    let sample = |kept: &[Candidate], pieced: &[PiecesOf], t: f64, exact: bool| {
-        let act = active(kept, t);
-        let segs: Vec<Pieced> = act
-            .iter()
-            .map(|(c, i)| Pieced {
-                wisp: c.wisp,
-                index: c.seg,
-                seg: &wisps[c.wisp][c.seg],
-                pts: &pieced[*i].0,
-                dev: &pieced[*i].1,
-                outline: lines.of(c.wisp, c.seg),
-            })
-            .collect();
-        if exact {
-            let (f, s, o) = exact_sample(&segs, threshold, ray.at(t), m.distance, lines.taper);
-            (f, s, o, 0.0)
-        } else {
-            let clear = clear_step(&segs, threshold, ray.at(t));
-            (Density::default(), 0.0, 0.0, clear)
-        }
-    };
-    let first = kept.iter().map(|c| c.s_in).fold(f64::INFINITY, f64::min);
+    let first = w.kept.iter().map(|c| c.s_in).fold(f64::INFINITY, f64::min);
     // A dropped candidate's shell may begin before the kept ones' first shell.
-    let mut t = first.min(t_drop).max(ray.t0);
+    let mut t = first.min(w.t_drop).max(ray.t0);
     let mut t_prev: Option<f64> = None;
     let mut entry: Option<f64> = None;
     let mut result = None;
     while count.steps < m.max_steps && t <= ray.t1 {
-        if t_drop.is_finite() && t >= t_drop {
-            // The window's end: gather again from the last sample (bisection may go back).
-            let (k, nd) = keep_nearest(cands, t_prev.unwrap_or(t), slots);
-            kept = k;
-            pieced = piece_all(&kept);
-            if nd <= t {
-                over = over.min(nd);
-                t_drop = f64::INFINITY;
-            } else {
-                t_drop = nd;
-            }
+        if w.t_drop.is_finite() && t >= w.t_drop {
+            w.regather(t_prev.unwrap_or(t), t);
         }
-        let inside = kept.iter().any(|c| c.s_in <= t && t <= c.s_out);
-        let next_shell = kept
+        let inside = w.kept.iter().any(|c| c.s_in <= t && t <= c.s_out);
+        let next_shell = w
+            .kept
             .iter()
             .map(|c| c.s_in)
             .filter(|&s| s > t)
-            .fold(t_drop, f64::min);
-        let next_in = kept
+            .fold(w.t_drop, f64::min);
+        let next_in = w
+            .kept
             .iter()
             .map(|c| c.t_in)
             .filter(|&s| s > t)
-            .fold(t_drop, f64::min);
+            .fold(w.t_drop, f64::min);
         if !inside {
             // Between shell intervals: nothing here is inside or in the outline.
             if entry.is_some() {
@@ -1007,7 +977,7 @@ pub fn march_tiled(
             continue;
         }
         count.steps += 1;
-        let clear = sample(&kept, &pieced, t, false).3;
+        let clear = w.sample(t, false).3;
         // Off every outline: the widest any wisp may draw.
         let eps = eps_per_t * t * widest;
         if clear > 2.0 * eps {
@@ -1022,33 +992,17 @@ pub fn march_tiled(
             continue;
         }
         count.exact += 1;
-        let (f, s_lip, o, _) = sample(&kept, &pieced, t, true);
+        let (f, s_lip, o, _) = w.sample(t, true);
         let eps = eps_per_t * t * o;
         let in_shell = f.rho + f.grad.length() * eps >= 0.0;
         if f.rho >= 0.0 {
-            let Some(mut a) = t_prev else {
-                result = Some(Hit::Surface {
+            result = Some(match t_prev {
+                None => Hit::Surface {
                     t,
                     pos: ray.at(t),
                     normal: normal(f.grad, -ray.dir),
-                });
-                break;
-            };
-            let mut b = t;
-            for _ in 0..m.refine {
-                let mid = 0.5 * (a + b);
-                if sample(&kept, &pieced, mid, true).0.rho >= 0.0 {
-                    b = mid;
-                } else {
-                    a = mid;
-                }
-            }
-            let t_hit = 0.5 * (a + b);
-            let g = sample(&kept, &pieced, t_hit, true).0.grad;
-            result = Some(Hit::Surface {
-                t: t_hit,
-                pos: ray.at(t_hit),
-                normal: normal(g, -ray.dir),
+                },
+                Some(a) => w.refine(a, t),
             });
             break;
         }
@@ -1076,8 +1030,109 @@ pub fn march_tiled(
         Hit::Outline { t } if eps_per_t > 0.0 => t,
         _ => f64::INFINITY,
     };
-    if over <= ray.t1 && decided >= over {
+    if w.over <= ray.t1 && decided >= w.over {
         count.overflow = 1;
     }
     (hit, count)
+}
+
+/// A segment's pieces (`curve::pieces`): their points and deviations.
+type PiecesOf = ([DVec3; curve::PIECES + 1], [f64; curve::PIECES]);
+
+/// The pieces of each kept candidate's segment, in `kept`'s order.
+fn piece_all(wisps: &[Vec<Segment>], kept: &[Candidate]) -> Vec<PiecesOf> {
+    kept.iter()
+        .map(|c| curve::pieces(&wisps[c.wisp][c.seg]))
+        .collect()
+}
+
+/// The tiled march's window on one ray: the candidates kept (`keep_nearest`) with their
+/// pieces, where the window ends and where a candidate was dropped for good.
+struct Window<'a> {
+    wisps: &'a [Vec<Segment>],
+    cands: &'a [Candidate],
+    threshold: f64,
+    m: &'a March,
+    ray: &'a Ray,
+    lines: &'a Outlines<'a>,
+    slots: usize,
+    kept: Vec<Candidate>,
+    pieced: Vec<PiecesOf>,
+    /// Where the first dropped candidate begins (+∞: none dropped).
+    t_drop: f64,
+    /// The nearest entry of a candidate dropped for good (+∞: none).
+    over: f64,
+}
+
+impl Window<'_> {
+    /// The window's end at `t`: gather again from the last sample `from` (bisection may go
+    /// back). A candidate that begins no later than `t` is dropped for good.
+    fn regather(&mut self, from: f64, t: f64) {
+        let (k, nd) = keep_nearest(self.cands, from, self.slots);
+        self.kept = k;
+        self.pieced = piece_all(self.wisps, &self.kept);
+        if nd <= t {
+            self.over = self.over.min(nd);
+            self.t_drop = f64::INFINITY;
+        } else {
+            self.t_drop = nd;
+        }
+    }
+
+    /// The exact field (f, Lipschitz step, outline scale) or the clear step at t, over the
+    /// kept candidates whose influence interval holds t.
+    fn sample(&self, t: f64, exact: bool) -> (Density, f64, f64, f64) {
+        let (wisps, lines, ray) = (self.wisps, self.lines, self.ray);
+        let act: Vec<(Candidate, usize)> = self
+            .kept
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| c.t_in <= t && t <= c.t_out)
+            .map(|(i, c)| (*c, i))
+            .collect();
+        let segs: Vec<Pieced> = act
+            .iter()
+            .map(|(c, i)| Pieced {
+                wisp: c.wisp,
+                index: c.seg,
+                seg: &wisps[c.wisp][c.seg],
+                pts: &self.pieced[*i].0,
+                dev: &self.pieced[*i].1,
+                outline: lines.of(c.wisp, c.seg),
+            })
+            .collect();
+        if exact {
+            let (f, s, o) = exact_sample(
+                &segs,
+                self.threshold,
+                ray.at(t),
+                self.m.distance,
+                lines.taper,
+            );
+            (f, s, o, 0.0)
+        } else {
+            let clear = clear_step(&segs, self.threshold, ray.at(t));
+            (Density::default(), 0.0, 0.0, clear)
+        }
+    }
+
+    /// A hit between the samples `a` (outside) and `b` (inside), refined by bisection as in
+    /// `march`.
+    fn refine(&self, mut a: f64, mut b: f64) -> Hit {
+        for _ in 0..self.m.refine {
+            let mid = 0.5 * (a + b);
+            if self.sample(mid, true).0.rho >= 0.0 {
+                b = mid;
+            } else {
+                a = mid;
+            }
+        }
+        let t_hit = 0.5 * (a + b);
+        let g = self.sample(t_hit, true).0.grad;
+        Hit::Surface {
+            t: t_hit,
+            pos: self.ray.at(t_hit),
+            normal: normal(g, -self.ray.dir),
+        }
+    }
 }
