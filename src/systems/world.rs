@@ -80,6 +80,10 @@ pub struct WorldGpu {
     sdf_head: bool,
     has_eff: bool,
     group: wgpu::BindGroup,
+    /// The EFF and the head field on the GPU now: `write` uploads a grid again only when it
+    /// changed (the viewer applies every edit, most of which touch neither).
+    eff_now: Option<std::sync::Arc<Eff>>,
+    sdf_now: Option<std::sync::Arc<crate::scene::sdf::Sdf>>,
 }
 
 impl WorldGpu {
@@ -118,6 +122,8 @@ impl WorldGpu {
             sdf_head: hull.sdf().is_some(),
             has_eff: forces.eff.is_some(),
             group,
+            eff_now: forces.eff.clone(),
+            sdf_now: hull_sdf(hull),
         })
     }
 
@@ -180,12 +186,13 @@ impl WorldGpu {
         forces.eff.is_some() == self.has_eff
             && cells == self.eff.count
             && hull.sdf().is_some() == self.sdf_head
-            && hull.gpu_sdf().len() == self.sdf_words
+            && (self.sdf_now == hull_sdf(hull) || hull.gpu_sdf().len() == self.sdf_words)
     }
 
     /// Rewrite the world in place (an edit of the forces or the head, or the EFF brush):
-    /// refused, before writing anything, when it does not `fit`.
-    pub fn write(&self, gpu: &Gpu, forces: &Forces, hull: &HeadHull) -> Result<()> {
+    /// refused, before writing anything, when it does not `fit`. The grids are written only
+    /// when they changed.
+    pub fn write(&mut self, gpu: &Gpu, forces: &Forces, hull: &HeadHull) -> Result<()> {
         if !self.fits(forces, hull) {
             return Err(KamiError::Gpu(
                 "the world's grids changed size: make a new WorldGpu".into(),
@@ -196,13 +203,18 @@ impl WorldGpu {
             0,
             bytemuck::bytes_of(&GpuWorld::new(forces, hull)),
         );
-        self.eff.write(gpu, forces.eff.as_deref(), 1.0);
-        if let Some(e) = forces.eff.as_deref() {
-            self.eff.write_cells(gpu, e)?;
+        if self.eff_now != forces.eff {
+            self.eff.write(gpu, forces.eff.as_deref(), 1.0);
+            if let Some(e) = forces.eff.as_deref() {
+                self.eff.write_cells(gpu, e)?;
+            }
+            self.eff_now = forces.eff.clone();
         }
-        if hull.sdf().is_some() {
+        let sdf = hull_sdf(hull);
+        if self.sdf_now != sdf {
             gpu.queue
                 .write_buffer(&self.sdf, 0, bytemuck::cast_slice(&hull.gpu_sdf()));
+            self.sdf_now = sdf;
         }
         Ok(())
     }
@@ -240,6 +252,13 @@ impl WorldGpu {
                 cache: None,
             })
         })
+    }
+}
+
+fn hull_sdf(hull: &HeadHull) -> Option<std::sync::Arc<crate::scene::sdf::Sdf>> {
+    match hull {
+        HeadHull::Sdf(s) => Some(s.clone()),
+        HeadHull::Ellipsoid(_) => None,
     }
 }
 
