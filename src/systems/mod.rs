@@ -286,8 +286,8 @@ pub struct Kind {
     /// The rate of the first file cache the kind's block plays (frames per second), if any
     /// (`Scene::cache_fps`).
     pub cache_fps: fn(&Scene) -> Option<f64>,
-    /// Opens a strand file (`.hair`, OBJ, USD, Alembic) as a scene of this kind's hair, not
-    /// yet validated (`Scene::from_strand_file`); `None`: the kind shows no strand files.
+    /// Opens a strand file (`.hair`, OBJ, USD, Alembic) as a scene of this kind's hair,
+    /// validated (`Scene::from_strand_file`); `None`: the kind shows no strand files.
     pub opens: Option<fn(&Path) -> Result<Scene>>,
     /// A reload's merge of the kind's block finer than the whole block (`merge_edits`):
     /// `(base, ours, theirs, out)`, with `out` already holding the block-wise pick.

@@ -67,6 +67,30 @@ macro_rules! kinds {
         }
 
         impl Scene {
+            /// The shared blocks, by value: every field but the kinds', so that a new
+            /// shared field fails to compile here and in `merge_edits` until it is merged.
+            fn into_shared(
+                self,
+            ) -> (
+                u64,
+                $crate::scene::Head,
+                $crate::scene::ForcesDesc,
+                $crate::scene::CameraDesc,
+                $crate::scene::Light,
+                $crate::scene::RenderSettings,
+            ) {
+                let Scene {
+                    seed,
+                    head,
+                    forces,
+                    camera,
+                    light,
+                    render,
+                    $($( $field: _, )*)*
+                } = self;
+                (seed, head, forces, camera, light, render)
+            }
+
             /// Each kind field of `self` (the file's new version) picked block-wise against
             /// `base` and `ours` (`scene::merge_edits`).
             fn pick_kind_fields(&mut self, base: &Scene, ours: &Scene) {
@@ -199,21 +223,23 @@ impl Scene {
 pub fn merge_edits(base: &Scene, ours: &Scene, theirs: Scene) -> Scene {
     let (b, o) = (base, ours);
     let mut out = theirs.clone();
-    // Destructured, so a new shared field fails to compile until it is merged here too (the
-    // kinds' fields are picked by `kinds!`, finer by each kind's `merge`).
+    // Destructured (`into_shared` names every field but the kinds'), so a new shared field
+    // fails to compile until it is merged here too; the kinds' fields are picked by
+    // `kinds!`, finer by each kind's `merge`.
+    let (seed, head, forces, camera, light, render) = theirs.clone().into_shared();
     let Head {
         center,
         radii,
         color,
         visible,
         mesh,
-    } = theirs.head.clone();
+    } = head;
     let Light {
         direction,
         intensity,
         ambient,
         color: light_color,
-    } = theirs.light.clone();
+    } = light;
     let RenderSettings {
         size,
         background,
@@ -224,8 +250,8 @@ pub fn merge_edits(base: &Scene, ours: &Scene, theirs: Scene) -> Scene {
         strands,
         shading,
         shadows,
-    } = theirs.render.clone();
-    out.seed = pick(&b.seed, &o.seed, theirs.seed);
+    } = render;
+    out.seed = pick(&b.seed, &o.seed, seed);
     out.head = Head {
         center: pick(&b.head.center, &o.head.center, center),
         radii: pick(&b.head.radii, &o.head.radii, radii),
@@ -233,8 +259,8 @@ pub fn merge_edits(base: &Scene, ours: &Scene, theirs: Scene) -> Scene {
         visible: pick(&b.head.visible, &o.head.visible, visible),
         mesh: pick(&b.head.mesh, &o.head.mesh, mesh),
     };
-    out.forces = pick(&b.forces, &o.forces, theirs.forces.clone());
-    out.camera = pick(&b.camera, &o.camera, theirs.camera.clone());
+    out.forces = pick(&b.forces, &o.forces, forces);
+    out.camera = pick(&b.camera, &o.camera, camera);
     out.light = Light {
         direction: pick(&b.light.direction, &o.light.direction, direction),
         intensity: pick(&b.light.intensity, &o.light.intensity, intensity),

@@ -226,15 +226,62 @@ impl<'ast> Visit<'ast> for Walker<'_> {
 
     fn visit_macro(&mut self, m: &'ast syn::Macro) {
         // Paths inside macro calls (`format!`, `matches!`, `assert!`) are tokens, not syntax:
-        // parse them as expressions where they are, so `crate::x::y` there is seen too.
+        // parse them as expressions where they are, so `crate::x::y` there is seen too. A
+        // body that is not a list of expressions (`vec![x; n]`, `wgsl!(world; ..)`, a
+        // pattern with a guard) is scanned as tokens for `a::b` paths instead.
         if let Ok(args) = m.parse_body_with(
             syn::punctuated::Punctuated::<syn::Expr, syn::Token![,]>::parse_terminated,
         ) {
             for e in &args {
                 self.visit_expr(e);
             }
+        } else {
+            self.scan_tokens(m.tokens.clone());
         }
         syn::visit::visit_macro(self, m);
+    }
+}
+
+impl Walker<'_> {
+    /// Every `a::b::…` run of identifiers in `tokens` (recursively into groups), resolved as
+    /// a path.
+    fn scan_tokens(&mut self, tokens: proc_macro2::TokenStream) {
+        use proc_macro2::TokenTree;
+        let trees: Vec<TokenTree> = tokens.into_iter().collect();
+        let mut i = 0;
+        while i < trees.len() {
+            match &trees[i] {
+                TokenTree::Group(g) => {
+                    self.scan_tokens(g.stream());
+                    i += 1;
+                }
+                TokenTree::Ident(first) => {
+                    let mut segs = vec![first.to_string()];
+                    let line = first.span().start().line;
+                    let mut j = i + 1;
+                    // `::` is two `:` puncts, then an identifier.
+                    while let (
+                        Some(TokenTree::Punct(a)),
+                        Some(TokenTree::Punct(b)),
+                        Some(TokenTree::Ident(n)),
+                    ) = (trees.get(j), trees.get(j + 1), trees.get(j + 2))
+                    {
+                        if a.as_char() != ':' || b.as_char() != ':' {
+                            break;
+                        }
+                        segs.push(n.to_string());
+                        j += 3;
+                    }
+                    if segs.len() > 1 {
+                        if let Some(to) = self.resolve(&segs) {
+                            self.push(to, line);
+                        }
+                    }
+                    i = j;
+                }
+                _ => i += 1,
+            }
+        }
     }
 }
 
@@ -273,13 +320,24 @@ fn arrows() -> (Vec<Arrow>, BTreeSet<ModPath>) {
         let m = module_of(f.strip_prefix(&src).unwrap());
         Inline(&mut modules, m).visit_file(ast);
     }
+    // The binary's modules: `main` and what `main.rs` declares (`cli`, `anim`, `output`).
+    let mut binary_mods: BTreeSet<String> = ["main".to_string()].into();
+    for (f, ast) in &parsed {
+        if f.ends_with("src/main.rs") {
+            for item in &ast.items {
+                if let syn::Item::Mod(m) = item {
+                    binary_mods.insert(m.ident.to_string());
+                }
+            }
+        }
+    }
     let mut out = Vec::new();
     for (f, ast) in &parsed {
         let rel = f.strip_prefix(&src).unwrap();
         let module = module_of(rel);
         let mut w = Walker {
             file: f.strip_prefix(root).unwrap().display().to_string(),
-            binary: module.first().is_some_and(|m| m == "main" || m == "cli"),
+            binary: module.first().is_some_and(|m| binary_mods.contains(m)),
             modules: &modules,
             scope: vec![module],
             aliases: vec![BTreeMap::new()],
@@ -334,45 +392,41 @@ fn layer(m: &ModPath, kinds: &[String]) -> String {
     match m.first().map(String::as_str) {
         None => "lib".into(),
         Some("systems") if m.get(1).is_some_and(|k| kinds.contains(k)) => "kind".into(),
-        Some("cli") => "main".into(),
+        Some("cli" | "anim" | "output") => "main".into(),
         Some(top) => top.into(),
     }
 }
 
 /// What each layer may name (besides itself), from the diagram in ../shared/DESIGN.md.
 /// Modules the diagram leaves out sit where their imports put them: `formats` (strand files)
-/// and `anim` beside `scene`, `output` (image files) beside `error`, `shaders` (the registry
-/// the kinds feed) above `gpu`, `fuzz` (the harness over every reader) beside `bench`.
+/// beside `scene`, `shaders` (the registry the kinds feed) above `gpu`, `fuzz` (the harness
+/// over every reader) beside `bench`; the binary's own modules (`cli`, `anim`, `output`)
+/// are the CLI's layer.
 fn allowed(layer: &str) -> &'static [&'static str] {
-    const LEAF: &[&str] = &["error", "rng"];
     match layer {
-        "error" | "rng" => &[],
-        "output" => &["error"],
-        "gpu" => &["error", "rng", "output"],
+        "gpu" => &["error", "rng"],
         "shaders" => &["error", "gpu"],
-        "scene" | "formats" | "anim" => &["error", "rng", "output", "scene", "formats", "anim"],
-        "forces" => &["error", "rng", "output", "scene", "formats", "anim"],
+        "scene" | "formats" => &["error", "rng", "scene", "formats"],
+        "forces" => &["error", "rng", "scene", "formats"],
         "kind" | "systems" => &[
-            "error", "rng", "output", "scene", "formats", "anim", "forces", "gpu", "shaders",
-            "systems", "kind",
+            "error", "rng", "scene", "formats", "forces", "gpu", "shaders", "systems", "kind",
         ],
         "stage" => &[
-            "error", "rng", "output", "scene", "formats", "anim", "forces", "gpu", "shaders",
-            "systems",
+            "error", "rng", "scene", "formats", "forces", "gpu", "shaders", "systems",
         ],
         "app" => &[
-            "error", "rng", "output", "scene", "formats", "anim", "forces", "gpu", "shaders",
-            "systems", "stage",
+            "error", "rng", "scene", "formats", "forces", "gpu", "shaders", "systems", "stage",
         ],
         "bench" | "fuzz" => &[
-            "error", "rng", "output", "scene", "formats", "anim", "forces", "gpu", "shaders",
-            "systems", "kind", "stage", "bench", "fuzz",
+            "error", "rng", "scene", "formats", "forces", "gpu", "shaders", "systems", "kind",
+            "stage", "bench", "fuzz",
         ],
         "main" | "lib" => &[
-            "error", "rng", "output", "scene", "formats", "anim", "forces", "gpu", "shaders",
-            "systems", "stage", "bench", "fuzz", "app", "main",
+            "error", "rng", "scene", "formats", "forces", "gpu", "shaders", "systems", "stage",
+            "bench", "fuzz", "app", "main",
         ],
-        _ => LEAF,
+        // error, rng: the leaves.
+        _ => &[],
     }
 }
 
@@ -433,6 +487,7 @@ fn the_parser_sees_what_text_matching_missed() {
         fn f() {
             let _ = super::super::stage::x();
             assert!(crate::bench::ok());
+            let _ = vec![crate::stage::Clock::new(); 3];
             app::run();
         }
     "#;
@@ -467,6 +522,7 @@ fn the_parser_sees_what_text_matching_missed() {
         "app",
         "systems::stage::x",
         "bench::ok",
+        "stage::Clock::new",
         "app::run",
     ] {
         assert!(to.contains(want), "{want} not seen; saw {to:?}");
@@ -560,6 +616,12 @@ fn functions_stay_short() {
                 syn::visit::visit_item_fn(self, f);
             }
         }
+        fn visit_trait_item_fn(&mut self, f: &'ast syn::TraitItemFn) {
+            if let Some(block) = f.default.as_ref().filter(|_| !is_test(&f.attrs)) {
+                self.check(&f.sig.ident, block);
+            }
+            syn::visit::visit_trait_item_fn(self, f);
+        }
         fn visit_impl_item_fn(&mut self, f: &'ast syn::ImplItemFn) {
             if !is_test(&f.attrs) {
                 self.check(&f.sig.ident, &f.block);
@@ -596,10 +658,10 @@ fn bindings_are_declared_in_order_by_type() {
     impl<'ast> Visit<'ast> for Hand<'_> {
         fn visit_expr_struct(&mut self, e: &'ast syn::ExprStruct) {
             let last = e.path.segments.last().map(|s| s.ident.to_string());
-            if let Some(n) = last.filter(|n| n == "BindGroupEntry" || n == "BindGroupLayoutEntry")
-            {
+            if let Some(n) = last.filter(|n| n == "BindGroupEntry" || n == "BindGroupLayoutEntry") {
                 let line = e.path.segments[0].ident.span().start().line;
-                self.1.push(format!("{}:{line}: a {n} written by hand", self.0));
+                self.1
+                    .push(format!("{}:{line}: a {n} written by hand", self.0));
             }
             syn::visit::visit_expr_struct(self, e);
         }
@@ -607,7 +669,8 @@ fn bindings_are_declared_in_order_by_type() {
             let m = c.method.to_string();
             if m == "create_bind_group" || m == "create_bind_group_layout" {
                 let line = c.method.span().start().line;
-                self.1.push(format!("{}:{line}: {m} called directly", self.0));
+                self.1
+                    .push(format!("{}:{line}: {m} called directly", self.0));
             }
             syn::visit::visit_expr_method_call(self, c);
         }
@@ -628,5 +691,9 @@ fn bindings_are_declared_in_order_by_type() {
         v.visit_file(&ast);
         hand.extend(v.1);
     }
-    assert!(hand.is_empty(), "bindings numbered by hand:\n{}", hand.join("\n"));
+    assert!(
+        hand.is_empty(),
+        "bindings numbered by hand:\n{}",
+        hand.join("\n")
+    );
 }
