@@ -337,9 +337,6 @@ impl EffGpu {
     }
 }
 
-/// The EFF's WGSL, to concatenate before a kernel that samples it.
-pub const EFF_WGSL: &str = crate::shaders::wgsl!("forces/eff.wgsl");
-
 /// `forces/eff.wgsl` with a kernel that samples it at given points (`sample_on_gpu`); also
 /// the module that validates the file on its own (register it as `forces/eff`).
 pub const EFF_MODULE: &str = concat!(
