@@ -40,9 +40,9 @@ fn resolve(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 }
 
-// The probe's own group 1 (no entry point reads both it and the resolve's).
-@group(1) @binding(0) var<storage, read> probe_points: array<vec4<f32>>;
-@group(1) @binding(1) var<storage, read_write> probe_out: array<vec4<f32>>;
+// The probe's own group 2 (group 1 is the resolve's: no two globals share a binding).
+@group(2) @binding(0) var<storage, read> probe_points: array<vec4<f32>>;
+@group(2) @binding(1) var<storage, read_write> probe_out: array<vec4<f32>>;
 
 @compute @workgroup_size(64)
 fn probe(@builtin(global_invocation_id) id: vec3<u32>) {

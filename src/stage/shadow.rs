@@ -366,7 +366,14 @@ impl ShadowPass {
             wgpu::ShaderStages::COMPUTE,
             &[bind::storage::<[f32; 4]>(), bind::storage_rw::<[f32; 4]>()],
         );
-        let pl = gpu::pipeline::pipeline_layout(device, "shadow probe", &[frame_layout, &layout]);
+        // Group 2, group 1 left empty: the resolve's globals hold group 1 of the same module,
+        // and no two globals of a module share a binding (backends that emit the whole
+        // module, such as HLSL, would overlap their registers).
+        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("shadow probe"),
+            bind_group_layouts: &[Some(frame_layout), None, Some(&layout)],
+            immediate_size: 0,
+        });
         let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
             label: Some("shadow probe"),
             layout: Some(&pl),
@@ -406,7 +413,7 @@ impl ShadowPass {
             });
             pass.set_pipeline(&pipeline);
             pass.set_bind_group(0, frame, &[]);
-            pass.set_bind_group(1, &group, &[]);
+            pass.set_bind_group(2, &group, &[]);
             pass.dispatch_workgroups((points.len() as u32).div_ceil(64), 1, 1);
         }
         gpu.queue.submit([enc.finish()]);
