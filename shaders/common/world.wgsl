@@ -7,7 +7,8 @@
 
 // Twin of GpuWorld (tests/it/gpu_twins.rs checks it) in src/systems/world.rs.
 struct World {
-    // xyz gravity (`Forces::gravity`, world units/s²), w 0.
+    // xyz gravity (`Forces::gravity`, world units/s²), w 0; not read yet (each kind carries
+    // it in its own substep force).
     gravity: vec4<f32>,
     // xyz the head ellipsoid's centre, w 1 when the hull is the SDF in sdf_data
     // (`HeadHull::gpu_params`).

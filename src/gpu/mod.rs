@@ -23,9 +23,10 @@ pub const WORKGROUP: u32 = 64;
 
 /// The most storage buffers one shader stage of Kami's binds, over all its bind groups
 /// (Anjyo's cantilever: seven of its own and the world's EFF cells and head field, see
-/// `systems::world`). WebGPU guarantees 8; `Gpu::new` refuses an adapter offering fewer than
-/// this, with a message, rather than failing at the first pipeline
-/// (`tests/it/shader_validation.rs` keeps the number true).
+/// `systems::world`). WebGPU guarantees 8: a kind whose kernels bind more asks the adapter
+/// in its `check_limits` (`Gpu::check_storage_buffers`), before anything is built, so only
+/// scenes with that kind need the larger limit (`tests/it/shader_validation.rs` keeps the
+/// number true).
 pub const STORAGE_BUFFERS_PER_STAGE: u32 = 9;
 
 /// Which kind of adapter to look for first.
@@ -162,14 +163,6 @@ impl Gpu {
                 needed - downlevel.flags
             )));
         }
-        let storage = adapter.limits().max_storage_buffers_per_shader_stage;
-        if storage < STORAGE_BUFFERS_PER_STAGE {
-            return Err(KamiError::Device(format!(
-                "adapter {} ({:?}) offers {storage} storage buffers per shader stage; Kami's \
-                 kernels bind up to {STORAGE_BUFFERS_PER_STAGE}; try KAMI_BACKEND=vulkan",
-                info.name, info.backend
-            )));
-        }
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("kami device"),
             // Timestamp queries where the adapter has them: per-pass GPU times
@@ -243,6 +236,20 @@ impl Gpu {
             e.clear();
             Err(KamiError::Gpu(first))
         }
+    }
+
+    /// Check that this adapter lets one shader stage bind `needed` storage buffers (`what`
+    /// names the kernel); WebGPU guarantees 8.
+    pub fn check_storage_buffers(&self, what: &str, needed: u32) -> Result<()> {
+        let offered = self.device.limits().max_storage_buffers_per_shader_stage;
+        if offered < needed {
+            return Err(KamiError::Device(format!(
+                "adapter {} ({:?}) offers {offered} storage buffers per shader stage; {what} \
+                 binds {needed}; try KAMI_BACKEND=vulkan",
+                self.info.name, self.info.backend
+            )));
+        }
+        Ok(())
     }
 
     /// Check that a storage buffer of `bytes` fits this adapter.

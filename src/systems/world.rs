@@ -1,7 +1,8 @@
 //! The world every kind's kernels read, on the GPU. The stage owns one [`WorldGpu`] per scene
-//! and uploads into it, once, what every simulation kernel reads of the world: gravity, the
-//! head's hull (ellipsoid, or a mesh head's signed distance field) and the External Force
-//! Field's grid and cells. Every simulation kernel (Anjyo's cantilever, projective and
+//! and uploads into it, once, what the simulation kernels read of the world that holds for
+//! the whole scene: the head's hull (ellipsoid, or a mesh head's signed distance field) and
+//! the External Force Field's grid and cells, and gravity (uploaded, but no kernel reads it
+//! from here yet: each kind still sums it into its own per-substep force, see below). Every simulation kernel (Anjyo's cantilever, projective and
 //! follower passes, the wisps' springs, the strips' motion) binds its bind group at
 //! [`WORLD_GROUP`] and reads it through `shaders/common/world.wgsl`; no kind uploads a copy
 //! of its own. A kind gets the world through `DrawSetup::world` when it is built.
@@ -28,7 +29,8 @@ pub const WORLD_GROUP: u32 = 3;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuWorld {
-    /// xyz `Forces::gravity`, w 0.
+    /// xyz `Forces::gravity`, w 0 (not yet read: the kinds carry it in their own substep
+    /// forces until the per-substep world samples land).
     pub gravity: [f32; 4],
     /// `HeadHull::gpu_params().0`: xyz the ellipsoid's centre, w 1 when the hull is the SDF.
     pub hull_center: [f32; 4],
@@ -204,7 +206,13 @@ impl WorldGpu {
             bytemuck::bytes_of(&GpuWorld::new(forces, hull)),
         );
         if self.eff_now != forces.eff {
-            self.eff.write(gpu, forces.eff.as_deref(), 1.0);
+            // The grid at gust scale 1, as `new` made it: kernels scale by their own
+            // substep's gust (`EffGpu::write` takes a frame, not a scale).
+            gpu.queue.write_buffer(
+                &self.eff.grid,
+                0,
+                bytemuck::bytes_of(&GpuEffGrid::new(forces.eff.as_deref(), 1.0)),
+            );
             if let Some(e) = forces.eff.as_deref() {
                 self.eff.write_cells(gpu, e)?;
             }

@@ -1059,3 +1059,43 @@ fn gpu_sampling_matches_the_reference() {
     let want = painted.sample_at(glam::Vec3::from(c).as_dvec3(), frame, Sampling::Nearest);
     assert!((glam::Vec3::from(out[0]).as_dvec3() - want).length() < 1e-3 * want.length());
 }
+
+/// The world's EFF grid stays at gust scale 1 when an edit that fits rewrites it in place:
+/// every kernel scales by its own substep's gust, so the world must not scale too (the
+/// rewrite once passed a frame where the grid's writer takes a scale). Read through
+/// `eff_force`, which multiplies by the grid's scale, far outside the grid.
+#[test]
+fn the_world_keeps_the_eff_unscaled_after_an_edit() {
+    let gpu = common::gpu();
+    let mut d = desc([5, 4, 6], 30.0);
+    d.strength = 80.0;
+    d.gust = vec![GustKey {
+        frame: 0.0,
+        scale: 0.5,
+        interp: Interp::Step,
+    }];
+    let e = Eff::build(&d).unwrap();
+    let head = kami::scene::Head::default();
+    let mut forces = Forces::new(&Default::default(), &head);
+    forces.eff = Some(std::sync::Arc::new(e.clone()));
+    let hull = kami::scene::hull::head_hull(&head).unwrap();
+    let mut w = kami::systems::world::WorldGpu::new(gpu, &forces, &hull).unwrap();
+    let far = [[1e4f32, 2e3, -3e3]];
+    let want = e.outside();
+    let read = |w: &kami::systems::world::WorldGpu| {
+        let v = world::sample_on_gpu(gpu, w.eff(), &far, Sampling::Nearest).unwrap()[0];
+        glam::Vec3::from(v).as_dvec3()
+    };
+    assert!((read(&w) - want).length() < 1e-4 * want.length(), "new");
+    // An edit that fits: painted cells, the same grid.
+    let mut painted = e.clone();
+    painted.paint(DVec3::from(d.center), 8.0, DVec3::new(0.0, 50.0, 0.0), 1.0);
+    forces.eff = Some(std::sync::Arc::new(painted));
+    assert!(w.fits(&forces, &hull));
+    w.write(gpu, &forces, &hull).unwrap();
+    let got = read(&w);
+    assert!(
+        (got - want).length() < 1e-4 * want.length(),
+        "after an edit the world's grid reads {got}, not the unscaled {want}"
+    );
+}

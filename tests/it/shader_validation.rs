@@ -65,7 +65,8 @@ fn registry_lists_every_shader_file() {
     }
 }
 
-/// `gpu::STORAGE_BUFFERS_PER_STAGE`, which `Gpu::new` asks of the adapter, is the most storage
+/// `gpu::STORAGE_BUFFERS_PER_STAGE`, which Anjyo's `check_limits` asks of the adapter, is the
+/// most storage
 /// buffers any registered module declares (over all its groups: a kernel's own and the
 /// world's at `WORLD_GROUP`), so an adapter that passes the check can build every pipeline.
 #[test]

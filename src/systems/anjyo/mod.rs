@@ -210,6 +210,8 @@ pub struct AnjyoSystem {
 
 /// Check the hair buffers against the storage-binding limit before allocating them.
 fn check_limits(gpu: &Gpu, scene: &Scene) -> Result<()> {
+    // The cantilever binds the most storage buffers of any kernel (seven and the world's).
+    gpu.check_storage_buffers("Anjyo's cantilever", crate::gpu::STORAGE_BUFFERS_PER_STAGE)?;
     let (strands, segments) = counts(scene);
     gpu.check_storage_size("the hair vertex buffer", (segments + strands) * NODE)?;
     gpu.check_storage_size("the hair strand table", strands * RECORD)?;
