@@ -47,13 +47,14 @@ fn run_share(gpu: &Gpu, scene: &Scene, share: f64) -> Result<ShareRun> {
     let input = prepare(&scene)?;
     let world = crate::systems::world::WorldGpu::of_scene(gpu, &scene)?;
     let hair = cantilever_gpu::groom_gpu(gpu, &world, &input)?;
-    let mut sim =
-        Simulation::new(gpu, &world, &scene, &input, &hair)?.ok_or_else(|| crate::KamiError::Invalid {
+    let mut sim = Simulation::new(gpu, &world, &scene, &input, &hair)?.ok_or_else(|| {
+        crate::KamiError::Invalid {
             file: String::new(),
             field: "dynamics".into(),
             value: "None".into(),
             allowed: "the guides bench needs a scene with dynamics and a dynamic group".into(),
-        })?;
+        }
+    })?;
     gpu.wait()?;
     let mut frame_seconds = Vec::new();
     let mut substeps = 0u64;

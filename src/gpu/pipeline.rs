@@ -144,4 +144,3 @@ pub fn pipeline_layout(
         immediate_size: 0,
     })
 }
-

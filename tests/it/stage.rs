@@ -289,12 +289,8 @@ fn wait_outlasts_one_fence_timeout() {
             multiview_mask: None,
             cache: None,
         });
-    let bind = kami::gpu::bind::buffers(
-        &gpu.device,
-        "busy",
-        &pipe.get_bind_group_layout(0),
-        &[&uni],
-    );
+    let bind =
+        kami::gpu::bind::buffers(&gpu.device, "busy", &pipe.get_bind_group_layout(0), &[&uni]);
     let out = gpu.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("busy readback"),
         size: (side * side * 4) as u64,
@@ -425,7 +421,11 @@ fn the_world_is_uploaded_once_per_scene() {
         e.gust.truncate(1);
     }
     s.apply(gpu, &gusty).unwrap();
-    assert_eq!(uploads(), (eff, sdf), "an edit that fits rewrites the world");
+    assert_eq!(
+        uploads(),
+        (eff, sdf),
+        "an edit that fits rewrites the world"
+    );
 
     let mut still = gusty.clone();
     still.forces.eff = None;

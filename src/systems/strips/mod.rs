@@ -224,8 +224,7 @@ impl StripsSystem {
         let rest = hom::build(&strips, &head)?;
         let solved = keyframe::solve(&rest, &strips.motion, &forces, &head, &strips.edits)?;
         let rig = dynamics::Rig::posed(&rest, &strips.motion, &head, forces.gravity)?;
-        let mut dynamics =
-            dynamics_gpu::DynamicsGpu::new(gpu, setup.world, &rig, &strips.motion)?;
+        let mut dynamics = dynamics_gpu::DynamicsGpu::new(gpu, setup.world, &rig, &strips.motion)?;
         dynamics.set_extra(gpu, &solved.iter().map(|s| s.extra).collect::<Vec<_>>())?;
         let mut ribbon = RibbonPass::new(
             gpu,
