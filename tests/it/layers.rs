@@ -285,6 +285,36 @@ impl Walker<'_> {
     }
 }
 
+/// The arrows of one file's `items` (module `module`): its `use` items first, since they
+/// bind for the whole file wherever they sit, then everything else.
+fn walk(
+    file: String,
+    binary: bool,
+    modules: &BTreeSet<ModPath>,
+    module: ModPath,
+    items: &[syn::Item],
+) -> Vec<Arrow> {
+    let mut w = Walker {
+        file,
+        binary,
+        modules,
+        scope: vec![module],
+        aliases: vec![BTreeMap::new()],
+        out: Vec::new(),
+    };
+    for item in items {
+        if let syn::Item::Use(u) = item {
+            w.use_tree(&mut Vec::new(), &u.tree);
+        }
+    }
+    for item in items {
+        if !matches!(item, syn::Item::Use(_)) {
+            w.visit_item(item);
+        }
+    }
+    w.out
+}
+
 /// Every arrow in `src/`, and every module the crate has.
 fn arrows() -> (Vec<Arrow>, BTreeSet<ModPath>) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -335,26 +365,9 @@ fn arrows() -> (Vec<Arrow>, BTreeSet<ModPath>) {
     for (f, ast) in &parsed {
         let rel = f.strip_prefix(&src).unwrap();
         let module = module_of(rel);
-        let mut w = Walker {
-            file: f.strip_prefix(root).unwrap().display().to_string(),
-            binary: module.first().is_some_and(|m| binary_mods.contains(m)),
-            modules: &modules,
-            scope: vec![module],
-            aliases: vec![BTreeMap::new()],
-            out: Vec::new(),
-        };
-        // File-level `use` items bind for the whole file: read them first.
-        for item in &ast.items {
-            if let syn::Item::Use(u) = item {
-                w.use_tree(&mut Vec::new(), &u.tree);
-            }
-        }
-        for item in &ast.items {
-            if !matches!(item, syn::Item::Use(_)) {
-                w.visit_item(item);
-            }
-        }
-        out.extend(w.out);
+        let file = f.strip_prefix(root).unwrap().display().to_string();
+        let binary = module.first().is_some_and(|m| binary_mods.contains(m));
+        out.extend(walk(file, binary, &modules, module, &ast.items));
     }
     // The crate root's re-exports (`kami::Scene`, `crate::Result`) lead to their modules.
     let root_names: BTreeMap<String, ModPath> = out
@@ -498,25 +511,9 @@ fn the_parser_sees_what_text_matching_missed() {
         vec!["systems".into(), "wisps".into(), "march".into()],
     ]
     .into();
-    let mut w = Walker {
-        file: "x.rs".into(),
-        binary: false,
-        modules: &modules,
-        scope: vec![vec!["systems".into(), "wisps".into(), "march".into()]],
-        aliases: vec![BTreeMap::new()],
-        out: Vec::new(),
-    };
-    for item in &ast.items {
-        if let syn::Item::Use(u) = item {
-            w.use_tree(&mut Vec::new(), &u.tree);
-        }
-    }
-    for item in &ast.items {
-        if !matches!(item, syn::Item::Use(_)) {
-            w.visit_item(item);
-        }
-    }
-    let to: BTreeSet<String> = w.out.iter().map(|a| a.to.join("::")).collect();
+    let here = vec!["systems".into(), "wisps".into(), "march".into()];
+    let arrows = walk("x.rs".into(), false, &modules, here, &ast.items);
+    let to: BTreeSet<String> = arrows.iter().map(|a| a.to.join("::")).collect();
     for want in [
         "stage::Stage",
         "app",
