@@ -15,10 +15,8 @@ struct FollowParams {
     follower_count: u32,
     row_stride: u32,
     collision: u32,
-    _p: u32,
-    // The head pose at the end of the frame, and its inverse.
-    head: mat4x4<f32>,
-    head_inv: mat4x4<f32>,
+    // The world sample (world_steps) of the head's pose at the end of the frame.
+    sample: u32,
 }
 
 // Twin of GpuFollower (tests/it/gpu_twins.rs checks it) in src/systems/anjyo/follow_gpu.rs.
@@ -77,18 +75,19 @@ fn follow(@builtin(global_invocation_id) id: vec3<u32>) {
     let n = f.ids.z;
     let d = f.root.w;
     let hl = world_hull();
-    let root = xform_point(params.head, f.root.xyz);
+    let pose = world_steps[params.sample];
+    let root = xform_point(pose.head, f.root.xyz);
     verts[base] = vec4<f32>(root, 1.0);
     var prev_p = root;
-    var prev_dir = normalize(xform_vector(params.head, head_gradient(hl, f.root.xyz)));
+    var prev_dir = normalize(xform_vector(pose.head, head_gradient(hl, f.root.xyz)));
     for (var i = 1u; i <= k; i++) {
         let v = base + i;
-        let own = unit_or_zero(xform_vector(params.head, rest[v].xyz - rest[v - 1u].xyz));
+        let own = unit_or_zero(xform_vector(pose.head, rest[v].xyz - rest[v - 1u].xyz));
         var blend = vec3<f32>(0.0);
         for (var j = 0u; j < n; j++) {
             // Segment i of the guide, its last simulated one past its end.
             let g = f.guide_first[j] + min(i, f.guide_segs[j]);
-            let a = unit_or_zero(xform_vector(params.head, rest[g].xyz - rest[g - 1u].xyz));
+            let a = unit_or_zero(xform_vector(pose.head, rest[g].xyz - rest[g - 1u].xyz));
             let b = unit_or_zero(verts[g].xyz - verts[g - 1u].xyz);
             blend += f.weight[j] * rotate_arc(a, b, own);
         }
@@ -99,12 +98,12 @@ fn follow(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         var pn = prev_p + dir * d;
         if params.collision != 0u {
-            let local = xform_point(params.head_inv, pn);
+            let local = xform_point(pose.head_inv, pn);
             if head_eval(hl, local) < 0.0 {
-                let lp = xform_point(params.head_inv, prev_p);
-                let la = normalize(xform_vector(params.head_inv, prev_dir));
+                let lp = xform_point(pose.head_inv, prev_p);
+                let la = normalize(xform_vector(pose.head_inv, prev_dir));
                 let q = head_push_out(hl, lp, la, local, d);
-                dir = normalize(xform_point(params.head, q) - prev_p);
+                dir = normalize(xform_point(pose.head, q) - prev_p);
                 pn = prev_p + dir * d;
             }
         }

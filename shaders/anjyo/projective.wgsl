@@ -54,16 +54,17 @@ struct DynParams {
     _p2: f32,
 }
 
-// Twin of GpuStep (tests/it/gpu_twins.rs checks it) in src/gpu/gpu_data.rs (one 256-byte slot per substep).
+// Twin of GpuStep (tests/it/gpu_twins.rs checks it) in src/systems/anjyo/gpu_data.rs (one
+// 256-byte slot per substep).
 struct Step {
-    // xyz gravity + wind, w substep length h
-    force: vec4<f32>,
-    head: mat4x4<f32>,
-    head_inv: mat4x4<f32>,
+    // x substep length h
+    h: vec4<f32>,
     accel: mat4x4<f32>,
-    // x: 1 when this substep kicks, y: kick bucket, z: 1 for the first step from rest,
-    // w: the EFF's gust scale (f32 bits; 0 without an EFF)
+    // x: 1 when this substep kicks, y: kick bucket, z: 1 for the first step from rest
     kick: vec4<u32>,
+    // the world's samples (world_steps): x at the substep's start (gravity + wind, the gust
+    // scale), y at its end (the head's pose)
+    samples: vec4<u32>,
 }
 
 // Twin of GpuDynStrand (tests/it/gpu_twins.rs checks it) in src/systems/anjyo/gpu_data.rs (stored as three columns).
@@ -195,18 +196,20 @@ fn advance(@builtin(global_invocation_id) id: vec3<u32>) {
     let base = s.ids.y;
     let off = s.ids.z;
     let d = s.root.w;
-    let h = substep.force.w;
+    let h = substep.h.x;
+    let w0 = world_steps[substep.samples.x];
+    let w1 = world_steps[substep.samples.y];
     let hl = hull();
-    let root = xform_point(substep.head, s.root.xyz);
+    let root = xform_point(w1.head, s.root.xyz);
     let a_root = xform_point(substep.accel, s.root.xyz);
-    let f_seg = substep.force.xyz - params.density * d * a_root;
+    let f_seg = w0.force.xyz - params.density * d * a_root;
     let g = 0.5 * params.damping * h;
     let keep = max((1.0 - g) / (1.0 + g), 0.0);
     // Half the acceleration in the very first step from rest (kick.z), as in the reference.
     let push = select(1.0, 0.5, substep.kick.z != 0u) / (1.0 + g);
     verts[base] = vec4<f32>(root, 1.0);
     var prev_p = root;
-    var prev_dir = normalize(xform_vector(substep.head, head_gradient(hl, s.root.xyz)));
+    var prev_dir = normalize(xform_vector(w1.head, head_gradient(hl, s.root.xyz)));
     for (var i = 1u; i <= k; i++) {
         let a = state[state_at(off, i)];
         var th = a.x;
@@ -215,16 +218,16 @@ fn advance(@builtin(global_invocation_id) id: vec3<u32>) {
         var php = a.w;
         let p_old = verts[base + i].xyz;
         var force = f_seg;
-        if EFF_FIELD && substep.kick.w != 0u {
-            // Trilinear (projective::EFF_SAMPLING).
-            force += eff_field(p_old, 1u) * bitcast<f32>(substep.kick.w);
+        if EFF_FIELD && w0.force.w != 0.0 {
+            // Trilinear (projective::EFF_SAMPLING), at the gust scale of the substep's start.
+            force += eff_field(p_old, 1u) * w0.force.w;
         }
         var marked = 1.0;
         if params.pseudo != 0u {
-            let local = xform_point(substep.head_inv, p_old);
+            let local = xform_point(w1.head_inv, p_old);
             let g = head_gradient(hl, local);
             let dist = head_eval(hl, local) / max(length(g), 1e-30);
-            let dd = xform_vector(substep.head, g);
+            let dd = xform_vector(w1.head, g);
             if dist < params.near && dot(dd, force) < params.pseudo_alpha * length(dd) * length(force) {
                 force *= params.eps_pore + (params.eps_tip - params.eps_pore) * along(s, i);
                 marked = 2.0;
@@ -301,17 +304,17 @@ fn advance(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         var pn = prev_p + dir * d;
         if params.collision != 0u {
-            let local = xform_point(substep.head_inv, pn);
+            let local = xform_point(w1.head_inv, pn);
             if head_eval(hl, local) < 0.0 {
-                let lp = xform_point(substep.head_inv, prev_p);
-                let la = normalize(xform_vector(substep.head_inv, prev_dir));
+                let lp = xform_point(w1.head_inv, prev_p);
+                let la = normalize(xform_vector(w1.head_inv, prev_dir));
                 var q: vec3<f32>;
                 if hl.sdf {
                     q = head_push_out(hl, lp, la, local, d);
                 } else {
                     q = hull_push_out(hl.e, lp, la, local, d);
                 }
-                dir = normalize(xform_point(substep.head, q) - prev_p);
+                dir = normalize(xform_point(w1.head, q) - prev_p);
                 pn = prev_p + dir * d;
                 moved = true;
             }

@@ -21,7 +21,7 @@ struct Params {
     stride: u32,
     row_stride: u32,
     extras: u32,
-    // xyz gravity, w spring k
+    // xyz 0 (gravity is in the world's samples), w spring k
     gravity: vec4<f32>,
     // x collision kappa, y Psi at the surface for kappa = 1 (the hull is the world's)
     collision: vec4<f32>,
@@ -40,16 +40,13 @@ struct Slot {
 
 // Twin of GpuStep (tests/it/gpu_twins.rs checks it).
 struct Step {
-    // Head pose and the map from a world point to the head frame's acceleration there, at
-    // the step's start (0) and middle (1); the pose at its end (2).
-    m0: mat4x4<f32>,
+    // The map from a world point to the head frame's acceleration there, at the step's
+    // start (0) and middle (1).
     k0: mat4x4<f32>,
-    m1: mat4x4<f32>,
     k1: mat4x4<f32>,
-    m2: mat4x4<f32>,
-    // Uniform keyed wind at the start and the middle.
-    wind0: vec4<f32>,
-    wind1: vec4<f32>,
+    // x: the world's sample (world_steps) at the step's start, x + 1 its middle, x + 2 its
+    // end: the head's pose, gravity plus the keyed wind, the EFF's gust scale.
+    samples: vec4<u32>,
     // r(frame) of every extra force at the start and the middle.
     ramp0: array<vec4<f32>, 4>,
     ramp1: array<vec4<f32>, 4>,
@@ -172,17 +169,15 @@ fn ramp(st: u32, e: u32, mid: bool) -> f32 {
 
 // Eq 2 at world x: gravity, wind (keyed + EFF), head motion, spring to `goal`, Psi, extras.
 fn accel(x: vec3<f32>, goal: vec3<f32>, band: f32, st: u32, mid: bool) -> vec3<f32> {
-    var m = steps[st].m0;
     var k = steps[st].k0;
-    var wind = steps[st].wind0;
     if mid {
-        m = steps[st].m1;
         k = steps[st].k1;
-        wind = steps[st].wind1;
     }
-    // wind.w: the EFF's gust scale at this step's time (several frames may be recorded in
-    // one submission, so the scale travels with the step, not in the EFF's uniform).
-    var a = params.gravity.xyz + wind.xyz + eff_field(x, params.flags.x) * wind.w;
+    let w = world_steps[steps[st].samples.x + u32(mid)];
+    let m = w.head;
+    // force.w: the EFF's gust scale at this step's time (several frames may be recorded in
+    // one submission, so the scale travels with the sample, not in the EFF's uniform).
+    var a = w.force.xyz + eff_field(x, params.flags.x) * w.force.w;
     a -= (k * vec4<f32>(x, 1.0)).xyz;
     let spring = params.gravity.w;
     if spring > 0.0 {
@@ -344,9 +339,10 @@ fn step(@builtin(global_invocation_id) id: vec3<u32>) {
     let base = s * params.stride;
     let root = strip.root.xyz;
     let band = strip.root.w;
-    chain(first, n, base, root, steps[st].m0, false);
+    let w = steps[st].samples.x;
+    chain(first, n, base, root, world_steps[w].head, false);
     forces_and_step(first, n, base, band, st, false);
-    chain(first, n, base, root, steps[st].m1, true);
+    chain(first, n, base, root, world_steps[w + 1u].head, true);
     forces_and_step(first, n, base, band, st, true);
-    constrain(first, n, base, root, steps[st].m2);
+    constrain(first, n, base, root, world_steps[w + 2u].head);
 }

@@ -23,13 +23,13 @@ struct Params {
     step: vec4<f32>,
 }
 
-// One 256-byte slot per substep (the twin of GpuSubstep): index.x is the substep's
-// index in this recording; its head poses are heads[2x] (start), heads[2x + 1] (middle) and
-// heads[2x + 2] (end). field[k] is gravity plus the keyed wind at the start (k = 0), middle
-// (1) and end (2), w the EFF's gust scale there.
+// One substep's slot (twin of GpuSubstep): indices into the world's samples (world_steps,
+// common/world.wgsl). The head's pose at the substep's start, middle and end is
+// world_steps[x + k].head (k = 0, 1, 2; the half-substep poses of the recording, so
+// neighbouring substeps share an entry); gravity plus the keyed wind at the start, middle and
+// end is world_steps[y + k].force.xyz, w the EFF's gust scale there.
 struct Substep {
-    index: vec4<u32>,
-    field: array<vec4<f32>, 3>,
+    sample: vec4<u32>,
 }
 
 // Twin of GpuMassPoint (tests/it/gpu_twins.rs checks it).
@@ -51,13 +51,12 @@ struct Edge {
 @group(0) @binding(1) var<uniform> substep: Substep;
 @group(0) @binding(2) var<storage, read> points: array<MassPoint>;
 @group(0) @binding(3) var<storage, read> edges: array<Edge>;
-@group(0) @binding(4) var<storage, read> heads: array<mat4x4<f32>>;
 // xyz world position; primaries first (the renderer reads them).
-@group(0) @binding(5) var<storage, read_write> pos: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read_write> pos: array<vec4<f32>>;
 // Regions of `count` entries: 0 velocity, 1 A.x, 2 A.v, 3 B.x, 4 B.v, 5 sum of k_x,
 // 6 sum of k_v.
-@group(0) @binding(6) var<storage, read_write> scratch: array<vec4<f32>>;
-// The scene's EFF and the head's field: the world at group 3 (common/world.wgsl).
+@group(0) @binding(5) var<storage, read_write> scratch: array<vec4<f32>>;
+// The scene's EFF, the head's field and the samples of the world: group 3 (common/world.wgsl).
 
 const VEL: u32 = 0u;
 const AX: u32 = 1u;
@@ -72,7 +71,7 @@ fn at(region: u32, p: u32) -> u32 {
 }
 
 fn head(k: u32) -> mat4x4<f32> {
-    return heads[2u * substep.index.x + k];
+    return world_steps[substep.sample.x + k].head;
 }
 
 fn point_index(id: vec3<u32>) -> u32 {
@@ -94,7 +93,7 @@ fn neighbour(src: u32, o: u32) -> vec3<f32> {
 // The shared fields at world x at stage time k (0 start, 1 middle, 2 end): gravity, the
 // keyed wind and the EFF (springs::field_accel).
 fn field_accel(x: vec3<f32>, k: u32) -> vec3<f32> {
-    let f = substep.field[k];
+    let f = world_steps[substep.sample.y + k].force;
     return f.xyz + eff_field(x, 1u) * f.w;
 }
 

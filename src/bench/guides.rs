@@ -79,7 +79,7 @@ fn run_share(gpu: &Gpu, scene: &Scene, share: f64) -> Result<ShareRun> {
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("bench guides"),
             });
-        substeps += sim.record_frame(gpu, &mut enc, &hair).substeps as u64;
+        substeps += sim.record_frame(gpu, &mut enc, &hair)?.substeps as u64;
         gpu.queue.submit([enc.finish()]);
         gpu.wait()?;
         frame_seconds.push(t.elapsed().as_secs_f64());
@@ -102,7 +102,7 @@ fn run_share(gpu: &Gpu, scene: &Scene, share: f64) -> Result<ShareRun> {
                 .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                     label: Some("bench followers"),
                 });
-            sim.record_followers(gpu, &mut enc);
+            sim.record_followers(gpu, &mut enc)?;
             gpu.queue.submit([enc.finish()]);
             gpu.wait()?;
             follow_times.push(t.elapsed().as_secs_f64());

@@ -81,22 +81,6 @@ pub struct GpuHead {
 }
 assert_size!(GpuHead, 160);
 
-/// One substep's forces, in a 256-byte slot of a dynamic-offset uniform buffer. Twin of
-/// `struct Step` in `shaders/anjyo/projective.wgsl`.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct GpuStep {
-    /// xyz: gravity + wind; w: substep length h.
-    pub force: [f32; 4],
-    pub head: [[f32; 4]; 4],
-    pub head_inv: [[f32; 4]; 4],
-    pub accel: [[f32; 4]; 4],
-    /// x: 1 when this substep kicks; y: kick bucket; z: 1 for the first step from rest.
-    pub kick: [u32; 4],
-    pub _pad: [u32; 8],
-}
-assert_size!(GpuStep, 256);
-
 /// sRGB component (0..1) to linear.
 pub fn srgb_to_linear(c: f32) -> f32 {
     if c <= 0.04045 {

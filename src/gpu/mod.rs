@@ -22,12 +22,12 @@ use std::sync::{Arc, Mutex};
 pub const WORKGROUP: u32 = 64;
 
 /// The most storage buffers one shader stage of Kami's binds, over all its bind groups
-/// (Anjyo's cantilever: seven of its own and the world's EFF cells and head field, see
-/// `systems::world`). WebGPU guarantees 8: a kind whose kernels bind more asks the adapter
-/// in its `check_limits` (`Gpu::check_storage_buffers`), before anything is built, so only
-/// scenes with that kind need the larger limit (`tests/it/shader_validation.rs` keeps the
-/// number true).
-pub const STORAGE_BUFFERS_PER_STAGE: u32 = 9;
+/// (Anjyo's cantilever: seven of its own and the world's EFF cells, head field and
+/// per-submission samples, see `systems::world`). WebGPU guarantees 8: a kind whose kernels
+/// bind more asks the adapter in its `check_limits` (`Gpu::check_storage_buffers`), before
+/// anything is built, so only scenes with that kind need the larger limit
+/// (`tests/it/shader_validation.rs` keeps the number true).
+pub const STORAGE_BUFFERS_PER_STAGE: u32 = 10;
 
 /// Which kind of adapter to look for first.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

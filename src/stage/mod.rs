@@ -349,6 +349,11 @@ impl Stage {
         clock(self.frame, &self.forces)
     }
 
+    /// The scene's world on the GPU (what every simulation kernel binds at `WORLD_GROUP`).
+    pub fn world(&self) -> &WorldGpu {
+        &self.world
+    }
+
     pub fn systems(&self) -> &[Box<dyn HairSystem>] {
         &self.systems
     }
@@ -420,6 +425,8 @@ impl Stage {
             return Ok(info);
         }
         self.mark(enc, Phase::Simulation, true);
+        // A new submission: the world's samples are written from its first entry again.
+        self.world.begin();
         let ctx = clock(self.frame, &self.forces);
         for s in &mut self.systems {
             info = info.merge(s.step(gpu, enc, &ctx, frames)?);

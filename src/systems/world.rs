@@ -1,16 +1,19 @@
 //! The world every kind's kernels read, on the GPU. The stage owns one [`WorldGpu`] per scene
 //! and uploads into it, once, what the simulation kernels read of the world that holds for
 //! the whole scene: the head's hull (ellipsoid, or a mesh head's signed distance field) and
-//! the External Force Field's grid and cells, and gravity (uploaded, but no kernel reads it
-//! from here yet: each kind still sums it into its own per-substep force, see below). Every simulation kernel (Anjyo's cantilever, projective and
-//! follower passes, the wisps' springs, the strips' motion) binds its bind group at
-//! [`WORLD_GROUP`] and reads it through `shaders/common/world.wgsl`; no kind uploads a copy
-//! of its own. A kind gets the world through `DrawSetup::world` when it is built.
+//! the External Force Field's grid and cells, and gravity. Every simulation kernel (Anjyo's
+//! cantilever, projective and follower passes, the wisps' springs, the strips' motion) binds
+//! its bind group at [`WORLD_GROUP`] and reads it through `shaders/common/world.wgsl`; no
+//! kind uploads a copy of its own. A kind gets the world through `DrawSetup::world` when it
+//! is built.
 //!
-//! What changes per substep (keyed wind, the gust scale, the head's pose) is still evaluated
-//! by each kind from the stage's `Forces` at its own substep times and carried in its own
-//! substep slots. The f64 side (`forces::eff::Eff`, `forces::Forces`) stays in `forces`,
-//! which knows no GPU.
+//! What changes within a frame (keyed wind, the gust scale, the head's pose) is the world's
+//! too: a kind asks [`WorldGpu::sample`] (through the handle [`WorldSteps`] it keeps) for the
+//! stage's `Forces` at the times its integrator needs (its own substep times, in f64, as its
+//! f64 reference evaluates them), the world evaluates them once into `world_steps`
+//! ([`GpuWorldStep`]) and the kind's per-dispatch slot carries the sample indices only.
+//! [`WorldGpu::begin`] starts a submission (`Stage::advance` calls it). The f64 side
+//! (`forces::eff::Eff`, `forces::Forces`) stays in `forces`, which knows no GPU.
 
 use crate::error::{KamiError, Result};
 use crate::forces::eff::{Eff, GpuEffGrid};
@@ -20,6 +23,7 @@ use crate::scene::hull::HeadHull;
 use crate::scene::Sampling;
 use bytemuck::{Pod, Zeroable};
 use std::cell::Cell;
+use std::sync::{Arc, Mutex};
 
 /// The bind group index of the world in every simulation kernel's pipeline layout (groups
 /// 0 to 2 are the kernel's own, or the frame, kind and splat/cast groups of draw passes).
@@ -29,8 +33,8 @@ pub const WORLD_GROUP: u32 = 3;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuWorld {
-    /// xyz `Forces::gravity`, w 0 (not yet read: the kinds carry it in their own substep
-    /// forces until the per-substep world samples land).
+    /// xyz `Forces::gravity`, w 0 (kernels read gravity plus wind from the samples,
+    /// `GpuWorldStep::force`; this is the scene's, for kernels that need gravity alone).
     pub gravity: [f32; 4],
     /// `HeadHull::gpu_params().0`: xyz the ellipsoid's centre, w 1 when the hull is the SDF.
     pub hull_center: [f32; 4],
@@ -48,6 +52,160 @@ impl GpuWorld {
             hull_center,
             hull_radii,
         }
+    }
+}
+
+/// One sample of the world at a time (fractional frames): what a kernel reads per substep,
+/// picked by index from its own slot. Twin of `struct WorldStep` in
+/// `shaders/common/world.wgsl` (`tests/it/gpu_twins.rs` checks it).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuWorldStep {
+    /// xyz `Forces::uniform_at(t)` (gravity plus keyed wind, summed in f64), w
+    /// `Forces::eff_scale(t)` (the EFF's gust scale, 0 without one).
+    pub force: [f32; 4],
+    /// `Forces::head_at(t)`.
+    pub head: [[f32; 4]; 4],
+    /// Its inverse, inverted in f64.
+    pub head_inv: [[f32; 4]; 4],
+}
+const _: () = assert!(std::mem::size_of::<GpuWorldStep>() == 144);
+
+impl GpuWorldStep {
+    /// The world of `forces` at `t` (frames).
+    pub fn at(forces: &Forces, t: f64) -> GpuWorldStep {
+        let force = forces.uniform_at(t);
+        let head = forces.head_at(t);
+        let m = |m: glam::DMat4| m.as_mat4().to_cols_array_2d();
+        GpuWorldStep {
+            force: [
+                force.x as f32,
+                force.y as f32,
+                force.z as f32,
+                forces.eff_scale(t) as f32,
+            ],
+            head: m(head),
+            head_inv: m(head.inverse()),
+        }
+    }
+}
+
+/// Samples `world_steps` holds when a world is made (it doubles when a submission needs more).
+const FIRST_CAPACITY: u32 = 1024;
+
+/// The per-submission samples of a world: `world_steps` and the bind group over it. Kinds
+/// keep a handle (a clone of one `Arc`) from `WorldGpu::steps` when they are built.
+#[derive(Clone)]
+pub struct WorldSteps(Arc<Mutex<Steps>>);
+
+struct Steps {
+    layout: wgpu::BindGroupLayout,
+    /// The world's fixed bindings (0 to 3), to bind again over a new `world_steps`.
+    fixed: [wgpu::Buffer; 4],
+    buffer: wgpu::Buffer,
+    group: wgpu::BindGroup,
+    capacity: u32,
+    /// The times of entries `0..times.len()` written since the last `begin` (or growth).
+    times: Vec<f64>,
+    /// Whether `begin` was called since the buffer was last replaced: only then does a full
+    /// buffer mean one submission needs more, and the new one doubles (a driver that never
+    /// calls `begin` gets a fresh buffer of the same size each time one fills).
+    begun: bool,
+}
+
+impl Steps {
+    fn make(device: &wgpu::Device, capacity: u32) -> wgpu::Buffer {
+        device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("world steps"),
+            size: capacity as u64 * std::mem::size_of::<GpuWorldStep>() as u64,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    }
+
+    fn bind(&self, device: &wgpu::Device, buffer: &wgpu::Buffer) -> wgpu::BindGroup {
+        let [a, b, c, d] = &self.fixed;
+        bind::buffers(device, "world", &self.layout, &[a, b, c, d, buffer])
+    }
+}
+
+impl WorldSteps {
+    /// Start a submission: entries are written from the first again. Call only when every
+    /// pass recorded since the last `begin` has been submitted (the queue's writes land
+    /// before the next submission, and a pass recorded earlier in it would read them).
+    pub fn begin(&self) {
+        let mut s = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        s.times.clear();
+        s.begun = true;
+    }
+
+    /// Evaluate `forces` at `times` (frames, f64: the kind's own substep times) into the next
+    /// free entries of `world_steps`, in one queue write. Returns the first entry's index and
+    /// the bind group to bind at [`WORLD_GROUP`] for the dispatches that read them: when the
+    /// buffer is full a new one (of double the capacity when `begin` was called since the
+    /// last, else the same, or more for a larger request) takes the samples and gets its own
+    /// group, while passes already recorded keep the old group and its buffer: kinds bind the
+    /// group they are given, never one they kept.
+    pub fn sample(
+        &self,
+        gpu: &Gpu,
+        forces: &Forces,
+        times: &[f64],
+    ) -> Result<(u32, wgpu::BindGroup)> {
+        let mut s = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        let need = s.times.len() + times.len();
+        if need > s.capacity as usize {
+            let grown = s.capacity as usize * if s.begun { 2 } else { 1 };
+            let capacity = times.len().max(grown).next_power_of_two();
+            let capacity = u32::try_from(capacity).map_err(|_| KamiError::TooLarge {
+                what: "world samples in one submission".into(),
+                needed: capacity as u64,
+                limit: u32::MAX as u64,
+                hint: "record fewer frames at once".into(),
+            })?;
+            let bytes = capacity as u64 * std::mem::size_of::<GpuWorldStep>() as u64;
+            gpu.check_storage_size("the world's samples", bytes)?;
+            s.buffer = Steps::make(&gpu.device, capacity);
+            s.group = s.bind(&gpu.device, &s.buffer);
+            s.capacity = capacity;
+            s.times.clear();
+            s.begun = false;
+        }
+        let first = s.times.len() as u32;
+        if times.is_empty() {
+            return Ok((first, s.group.clone()));
+        }
+        let records: Vec<GpuWorldStep> =
+            times.iter().map(|&t| GpuWorldStep::at(forces, t)).collect();
+        gpu.queue.write_buffer(
+            &s.buffer,
+            first as u64 * std::mem::size_of::<GpuWorldStep>() as u64,
+            bytemuck::cast_slice(&records),
+        );
+        s.times.extend_from_slice(times);
+        Ok((first, s.group.clone()))
+    }
+
+    /// Write the samples taken since the last `begin` again from other `forces`, at the same
+    /// times and entries (tests: what a kernel reads of the world is these entries).
+    pub fn rewrite(&self, gpu: &Gpu, forces: &Forces) {
+        let s = self.0.lock().unwrap_or_else(|e| e.into_inner());
+        let records: Vec<GpuWorldStep> = s
+            .times
+            .iter()
+            .map(|&t| GpuWorldStep::at(forces, t))
+            .collect();
+        gpu.queue
+            .write_buffer(&s.buffer, 0, bytemuck::cast_slice(&records));
+    }
+
+    /// The times sampled since the last `begin` (or the last growth), in entry order.
+    pub fn times(&self) -> Vec<f64> {
+        self.0
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .times
+            .clone()
     }
 }
 
@@ -82,6 +240,7 @@ pub struct WorldGpu {
     sdf_head: bool,
     has_eff: bool,
     group: wgpu::BindGroup,
+    steps: WorldSteps,
     /// The EFF and the head field on the GPU now: `write` uploads a grid again only when it
     /// changed (the viewer applies every edit, most of which touch neither).
     eff_now: Option<std::sync::Arc<Eff>>,
@@ -109,12 +268,27 @@ impl WorldGpu {
             wgpu::BufferUsages::UNIFORM,
         );
         let layout = Self::make_layout(device);
+        let buffer = Steps::make(device, FIRST_CAPACITY);
         let group = bind::buffers(
             device,
             "world",
             &layout,
-            &[&world, &eff.grid, &eff.cells, &sdf],
+            &[&world, &eff.grid, &eff.cells, &sdf, &buffer],
         );
+        let steps = WorldSteps(Arc::new(Mutex::new(Steps {
+            layout: layout.clone(),
+            fixed: [
+                world.clone(),
+                eff.grid.clone(),
+                eff.cells.clone(),
+                sdf.clone(),
+            ],
+            buffer,
+            group: group.clone(),
+            capacity: FIRST_CAPACITY,
+            times: Vec::new(),
+            begun: false,
+        })));
         Ok(WorldGpu {
             layout,
             world,
@@ -124,6 +298,7 @@ impl WorldGpu {
             sdf_head: hull.sdf().is_some(),
             has_eff: forces.eff.is_some(),
             group,
+            steps,
             eff_now: forces.eff.clone(),
             sdf_now: hull_sdf(hull),
         })
@@ -150,6 +325,7 @@ impl WorldGpu {
                 bind::uniform::<GpuEffGrid>(),
                 bind::storage::<[f32; 4]>(),
                 bind::storage::<f32>(),
+                bind::storage::<GpuWorldStep>(),
             ],
         )
     }
@@ -159,9 +335,30 @@ impl WorldGpu {
         &self.layout
     }
 
-    /// The bind group to bind at [`WORLD_GROUP`].
+    /// The bind group to bind at [`WORLD_GROUP`] for kernels that read no samples (those
+    /// that do bind the group `sample` returns).
     pub fn group(&self) -> &wgpu::BindGroup {
         &self.group
+    }
+
+    /// The handle to this world's per-submission samples, which a kind keeps.
+    pub fn steps(&self) -> WorldSteps {
+        self.steps.clone()
+    }
+
+    /// Start a submission (see `WorldSteps::begin`).
+    pub fn begin(&self) {
+        self.steps.begin();
+    }
+
+    /// `WorldSteps::sample` of this world.
+    pub fn sample(
+        &self,
+        gpu: &Gpu,
+        forces: &Forces,
+        times: &[f64],
+    ) -> Result<(u32, wgpu::BindGroup)> {
+        self.steps.sample(gpu, forces, times)
     }
 
     /// Whether the head is a mesh's SDF (kernels compile the SDF path in: `SDF_HEAD`).

@@ -225,7 +225,7 @@ fn projective_against_reference(
     );
     for _ in 0..frames {
         let mut enc = gpu.device.create_command_encoder(&Default::default());
-        sim.record_frame(gpu, &mut enc, &hair);
+        sim.record_frame(gpu, &mut enc, &hair).unwrap();
         gpu.queue.submit([enc.finish()]);
         cpu.frame();
     }
@@ -312,7 +312,7 @@ fn several_frames_per_submission_match_one_by_one() {
         .unwrap();
         for _ in 0..18 / per_submit {
             let mut enc = gpu.device.create_command_encoder(&Default::default());
-            sim.record_frames(gpu, &mut enc, &hair, per_submit);
+            sim.record_frames(gpu, &mut enc, &hair, per_submit).unwrap();
             gpu.queue.submit([enc.finish()]);
         }
         assert_eq!(sim.steps, 18);

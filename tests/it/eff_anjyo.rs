@@ -96,7 +96,7 @@ fn run_gpu(gpu: &kami::gpu::Gpu, scene: &Scene, input: &GroomInput, frames: u32)
         .unwrap();
     for _ in 0..frames {
         let mut enc = gpu.device.create_command_encoder(&Default::default());
-        sim.record_frame(gpu, &mut enc, &hair);
+        sim.record_frame(gpu, &mut enc, &hair).unwrap();
         gpu.queue.submit([enc.finish()]);
     }
     hair.read_vertices(gpu)
@@ -260,7 +260,7 @@ fn gpu_matches_the_reference_with_a_field() {
     );
     for _ in 0..20 {
         let mut enc = gpu.device.create_command_encoder(&Default::default());
-        sim.record_frame(gpu, &mut enc, &hair);
+        sim.record_frame(gpu, &mut enc, &hair).unwrap();
         gpu.queue.submit([enc.finish()]);
         cpu.frame();
         without.frame();
@@ -307,7 +307,7 @@ fn several_frames_per_submission_see_their_own_gust() {
             .unwrap();
         for _ in 0..18 / per_submit {
             let mut enc = gpu.device.create_command_encoder(&Default::default());
-            sim.record_frames(gpu, &mut enc, &hair, per_submit);
+            sim.record_frames(gpu, &mut enc, &hair, per_submit).unwrap();
             gpu.queue.submit([enc.finish()]);
         }
         runs.push(hair.read_vertices(gpu).unwrap());

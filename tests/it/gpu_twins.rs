@@ -43,7 +43,7 @@ macro_rules! twin {
 
 fn twins() -> Vec<Twin> {
     use kami::forces::eff::GpuEffGrid;
-    use kami::gpu::gpu_data::{GpuFrame, GpuHead, GpuStep, GpuStrand};
+    use kami::gpu::gpu_data::{GpuFrame, GpuHead, GpuStrand};
     use kami::gpu::shadow::GpuShadow;
     use kami::systems::anjyo::follow_gpu::{GpuFollowParams, GpuFollower};
     use kami::systems::anjyo::gpu_data::*;
@@ -56,7 +56,7 @@ fn twins() -> Vec<Twin> {
     use kami::systems::wisps::march::{GpuCapsule, GpuSegment, GpuWispDraw, GpuWispParams};
     use kami::systems::wisps::springs_gpu::{GpuEdge, GpuMassPoint, GpuSpringParams, GpuSubstep};
     use kami::systems::wisps::tiles::GpuMarchView;
-    use kami::systems::world::GpuWorld;
+    use kami::systems::world::{GpuWorld, GpuWorldStep};
     vec![
         twin!(
             GpuEffGrid,
@@ -68,6 +68,12 @@ fn twins() -> Vec<Twin> {
             GpuWorld,
             [gravity, hull_center, hull_radii],
             "World",
+            ["common/world.wgsl"]
+        ),
+        twin!(
+            GpuWorldStep,
+            [force, head, head_inv],
+            "WorldStep",
             ["common/world.wgsl"]
         ),
         twin!(
@@ -108,7 +114,7 @@ fn twins() -> Vec<Twin> {
         ),
         twin!(
             GpuStep,
-            [force, head, head_inv, accel, kick, _pad],
+            [h, accel, kick, samples, _pad],
             "Step",
             ["anjyo/projective.wgsl"]
         ),
@@ -120,7 +126,7 @@ fn twins() -> Vec<Twin> {
         ),
         twin!(
             GpuFollowParams,
-            [follower_count, row_stride, collision, _pad, head, head_inv],
+            [follower_count, row_stride, collision, sample],
             "FollowParams",
             ["anjyo/follow.wgsl"]
         ),
@@ -277,7 +283,7 @@ fn twins() -> Vec<Twin> {
         ),
         twin!(
             sd::GpuStep,
-            [m0, k0, m1, k1, m2, wind0, wind1, ramp0, ramp1],
+            [k0, k1, samples, ramp0, ramp1],
             "Step",
             ["strips/dynamics.wgsl"]
         ),
@@ -351,12 +357,7 @@ fn twins() -> Vec<Twin> {
             "Params",
             ["wisps/springs.wgsl"]
         ),
-        twin!(
-            GpuSubstep,
-            [index, field],
-            "Substep",
-            ["wisps/springs.wgsl"]
-        ),
+        twin!(GpuSubstep, [sample], "Substep", ["wisps/springs.wgsl"]),
         twin!(
             GpuMassPoint,
             [rest, edges],

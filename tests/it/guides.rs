@@ -43,7 +43,7 @@ fn run_rest(scene: &Scene, frames: u32) -> (GroomInput, Simulation, Vec<DVec3>, 
         .unwrap();
     for _ in 0..frames {
         let mut enc = gpu.device.create_command_encoder(&Default::default());
-        sim.record_frame(gpu, &mut enc, &hair);
+        sim.record_frame(gpu, &mut enc, &hair).unwrap();
         gpu.queue.submit([enc.finish()]);
     }
     let nodes = read(gpu, &hair);
@@ -118,7 +118,7 @@ fn follower_kernel_matches_reference_on_a_mesh_head() {
 fn follower_contract(scene: &Scene) {
     let (input, sim, gpu_nodes, rest) = run_rest(scene, 12);
     let setup = sim.follow.as_ref().expect("share 0.25 has followers");
-    let cpu = reference(setup, &rest, sim.follow_head, &gpu_nodes);
+    let cpu = reference(setup, &rest, sim.follow_head(), &gpu_nodes);
     let mut worst = 0.0f64;
     let mut sum = 0.0;
     let mut n = 0usize;
@@ -178,7 +178,7 @@ fn followers_move_stay_outside_and_keep_lengths() {
     let rest = cantilever::bend_all(&input).nodes;
     let (input, sim, nodes) = run(&scene, 20);
     let setup = sim.follow.as_ref().unwrap();
-    let head = sim.follow_head;
+    let head = sim.follow_head();
     let head_inv = head.inverse();
     let hull = &input.head;
     let mut moved = 0usize;
@@ -367,7 +367,7 @@ fn followers_ride_a_turning_head() {
     kami::systems::scene::validate(&scene).unwrap();
     let (input, sim, gpu_nodes, rest) = run_rest(&scene, 8);
     let setup = sim.follow.as_ref().expect("share 0.25 has followers");
-    let head = sim.follow_head;
+    let head = sim.follow_head();
     assert!(
         head.transform_vector3(DVec3::X).distance(DVec3::X) > 0.1,
         "the head should have turned by frame 8"

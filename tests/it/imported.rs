@@ -142,7 +142,7 @@ fn imported_strands_move_under_the_gust_as_the_reference_does() {
     );
     for _ in 0..20 {
         let mut enc = gpu.device.create_command_encoder(&Default::default());
-        sim.record_frame(gpu, &mut enc, &hair);
+        sim.record_frame(gpu, &mut enc, &hair).unwrap();
         gpu.queue.submit([enc.finish()]);
         cpu.frame();
     }
@@ -266,7 +266,7 @@ fn imported_roots_ride_a_captured_head() {
     let mut turned = 0.0f64;
     for frame in 1..=24u64 {
         let mut enc = gpu.device.create_command_encoder(&Default::default());
-        sim.record_frame(gpu, &mut enc, &hair);
+        sim.record_frame(gpu, &mut enc, &hair).unwrap();
         gpu.queue.submit([enc.finish()]);
         if frame % 8 != 0 {
             continue;

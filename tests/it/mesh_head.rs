@@ -389,7 +389,7 @@ fn projective_on_mesh_head_matches_reference_and_stays_outside() {
         |v: &[[f32; 4]], cpu: &CpuSim| -> Vec<f64> { common::strand_errors(&input, v, &cpu.nodes) };
     for f in 0..20 {
         let mut enc = gpu.device.create_command_encoder(&Default::default());
-        sim.record_frame(gpu, &mut enc, &hair);
+        sim.record_frame(gpu, &mut enc, &hair).unwrap();
         gpu.queue.submit([enc.finish()]);
         cpu.frame();
         cpu_depth = cpu_depth.max(deepest(&m, &cpu.nodes, &offsets, DMat4::IDENTITY));

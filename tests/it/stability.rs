@@ -188,7 +188,7 @@ fn run_gpu(
     .unwrap();
     for _ in 0..frames {
         let mut enc = gpu.device.create_command_encoder(&Default::default());
-        sim.record_frame(gpu, &mut enc, &hair);
+        sim.record_frame(gpu, &mut enc, &hair).unwrap();
         gpu.queue.submit([enc.finish()]);
     }
     hair.read_vertices(gpu).unwrap()

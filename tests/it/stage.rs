@@ -436,3 +436,84 @@ fn the_world_is_uploaded_once_per_scene() {
     advance(gpu, &mut s, 1);
     gpu.take_error().unwrap();
 }
+
+/// What every kind reads per substep of the world (the keyed wind here) is the stage's
+/// samples (`systems::world::WorldSteps`), not a copy of its own: a calm stage whose samples
+/// are rewritten from a windy scene's forces after it records a frame, before the frame is
+/// submitted, moves every kind (Anjyo's projective kernel, the wisps' springs, the strips)
+/// exactly as the windy stage does.
+#[test]
+fn every_kind_reads_the_worlds_samples() {
+    use kami::forces::Forces;
+    use kami::scene::forces::WindKey;
+    use kami::systems::strips::StripsSystem;
+    use kami::systems::wisps::WispsSystem;
+    let gpu = common::gpu();
+    let mut calm = common::scene("strips_mesh_head");
+    let anjyo = common::thinned("mesh_head", 16);
+    (calm.groups, calm.dynamics) = (anjyo.groups, anjyo.dynamics);
+    calm.wisps = common::scene("toon_mesh_head").wisps;
+    calm.forces.wind.clear();
+    let mut windy = calm.clone();
+    windy.forces.wind = vec![WindKey {
+        frame: 0.0,
+        force: [400.0, 0.0, 250.0],
+        interp: Default::default(),
+    }];
+    let windy_forces = Forces::new(&windy.forces, &windy.head);
+    let motion = |s: &Stage| {
+        let a = s.system::<AnjyoSystem>().unwrap().hair.read_vertices(gpu);
+        let w = s
+            .system::<WispsSystem>()
+            .unwrap()
+            .springs()
+            .unwrap()
+            .read_positions(gpu);
+        let st = s
+            .system::<StripsSystem>()
+            .unwrap()
+            .dynamics
+            .read_points(gpu);
+        [
+            ("anjyo", a.unwrap()),
+            ("wisps", w.unwrap()),
+            ("strips", st.unwrap()),
+        ]
+    };
+    let frames = 2;
+    let mut wind = stage(gpu, &windy);
+    advance(gpu, &mut wind, 1);
+    wind.reset(gpu).unwrap();
+    let mut still = stage(gpu, &calm);
+    let mut blown = stage(gpu, &calm);
+    // A frame first, so the samples' buffer has grown to a frame's need (a growth while
+    // recording would move later samples to a new buffer).
+    advance(gpu, &mut blown, 1);
+    blown.reset(gpu).unwrap();
+    for _ in 0..frames {
+        advance(gpu, &mut wind, 1);
+        advance(gpu, &mut still, 1);
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        blown.advance(gpu, &mut enc, 1).unwrap();
+        assert!(!blown.world().steps().times().is_empty());
+        blown.world().steps().rewrite(gpu, &windy_forces);
+        gpu.queue.submit([enc.finish()]);
+    }
+    let (want, calm_motion, got) = (motion(&wind), motion(&still), motion(&blown));
+    let mut wrong = Vec::new();
+    for (((kind, w), (_, c)), (_, g)) in want.iter().zip(&calm_motion).zip(&got) {
+        let moved = w
+            .iter()
+            .zip(c)
+            .any(|(a, b)| (0..3).any(|k| (a[k] - b[k]).abs() > 1e-3));
+        assert!(moved, "{kind}: the wind should move it");
+        if w != g {
+            wrong.push(*kind);
+        }
+    }
+    assert!(
+        wrong.is_empty(),
+        "these kinds did not move with the world's samples: {wrong:?}"
+    );
+    gpu.take_error().unwrap();
+}

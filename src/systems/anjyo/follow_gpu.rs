@@ -9,11 +9,11 @@
 
 use super::follow::{FollowSetup, MAX_GUIDES};
 use crate::error::Result;
+use crate::forces::Forces;
 use crate::gpu::strands::StrandBuffers;
 use crate::gpu::{self, bind, Gpu, WORKGROUP};
-use crate::systems::world::{WorldGpu, WORLD_GROUP};
+use crate::systems::world::{WorldGpu, WorldSteps, WORLD_GROUP};
 use bytemuck::{Pod, Zeroable};
-use glam::DMat4;
 use wgpu::util::DeviceExt;
 
 /// Twin of `struct FollowParams` (`tests/it/gpu_twins.rs` checks it) in `shaders/anjyo/follow.wgsl`.
@@ -23,12 +23,10 @@ pub struct GpuFollowParams {
     pub follower_count: u32,
     pub row_stride: u32,
     pub collision: u32,
-    pub _pad: u32,
-    /// Head pose at the end of the frame and its inverse.
-    pub head: [[f32; 4]; 4],
-    pub head_inv: [[f32; 4]; 4],
+    /// The world sample (`world_steps`) of the head's pose at the end of the frame.
+    pub sample: u32,
 }
-const _: () = assert!(std::mem::size_of::<GpuFollowParams>() == 144);
+const _: () = assert!(std::mem::size_of::<GpuFollowParams>() == 16);
 
 /// Twin of `struct Follower` (`tests/it/gpu_twins.rs` checks it) in `shaders/anjyo/follow.wgsl`.
 #[repr(C)]
@@ -58,8 +56,8 @@ pub struct FollowPass {
 pub struct FollowJob {
     params: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
-    /// The world's group (the head's hull and field), bound at `WORLD_GROUP`.
-    world: wgpu::BindGroup,
+    /// The world's samples: `record` binds the group `sample` returns at `WORLD_GROUP`.
+    steps: WorldSteps,
     /// Whether the world's head is a mesh's SDF (the pipeline with the SDF path).
     sdf_head: bool,
     dims: (u32, u32),
@@ -179,21 +177,25 @@ impl FollowPass {
         Ok(FollowJob {
             params,
             bind_group,
-            world: world.group().clone(),
+            steps: world.steps(),
             sdf_head: world.sdf_head(),
             dims,
             base,
         })
     }
 
-    /// Upload the head pose and record the follower dispatch (once per submission, after
-    /// the substeps: the pose is written when the queue is submitted).
-    pub fn record(&self, gpu: &Gpu, enc: &mut wgpu::CommandEncoder, job: &FollowJob, head: DMat4) {
-        let p = GpuFollowParams {
-            head: head.as_mat4().to_cols_array_2d(),
-            head_inv: head.inverse().as_mat4().to_cols_array_2d(),
-            ..job.base
-        };
+    /// Sample the world's head pose at `t` (frames) and record the follower dispatch (once
+    /// per submission, after the substeps: the pose is written when the queue is submitted).
+    pub fn record(
+        &self,
+        gpu: &Gpu,
+        enc: &mut wgpu::CommandEncoder,
+        job: &FollowJob,
+        forces: &Forces,
+        t: f64,
+    ) -> Result<()> {
+        let (sample, world) = job.steps.sample(gpu, forces, &[t])?;
+        let p = GpuFollowParams { sample, ..job.base };
         gpu.queue
             .write_buffer(&job.params, 0, bytemuck::bytes_of(&p));
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -206,8 +208,9 @@ impl FollowPass {
             &self.ellipsoid
         });
         pass.set_bind_group(0, &job.bind_group, &[]);
-        pass.set_bind_group(WORLD_GROUP, &job.world, &[]);
+        pass.set_bind_group(WORLD_GROUP, &world, &[]);
         pass.dispatch_workgroups(job.dims.0, job.dims.1, 1);
+        Ok(())
     }
 
     /// The collision switch changed (tuning from the viewer).

@@ -166,3 +166,22 @@ pub struct GpuDynStrand {
     pub extra: [f32; 4],
 }
 assert_size!(GpuDynStrand, 48);
+
+/// One substep of the projective kernel, in a 256-byte slot of a dynamic-offset uniform
+/// buffer. Twin of `struct Step` in `shaders/anjyo/projective.wgsl`. What the world gives
+/// (gravity and wind, the gust scale, the head's pose) is read from `world_steps` at the
+/// indices in `samples`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuStep {
+    /// x: substep length h.
+    pub h: [f32; 4],
+    /// Root acceleration operator (from three head poses, in f64).
+    pub accel: [[f32; 4]; 4],
+    /// x: 1 when this substep kicks; y: kick bucket; z: 1 for the first step from rest.
+    pub kick: [u32; 4],
+    /// x: the world sample at the substep's start (force, gust), y: at its end (head pose).
+    pub samples: [u32; 4],
+    pub _pad: [[u32; 4]; 9],
+}
+assert_size!(GpuStep, 256);

@@ -210,7 +210,8 @@ pub struct AnjyoSystem {
 
 /// Check the hair buffers against the storage-binding limit before allocating them.
 fn check_limits(gpu: &Gpu, scene: &Scene) -> Result<()> {
-    // The cantilever binds the most storage buffers of any kernel (seven and the world's).
+    // The cantilever binds the most storage buffers of any kernel (seven and the world's
+    // three).
     gpu.check_storage_buffers("Anjyo's cantilever", crate::gpu::STORAGE_BUFFERS_PER_STAGE)?;
     let (strands, segments) = counts(scene);
     gpu.check_storage_size("the hair vertex buffer", (segments + strands) * NODE)?;
@@ -567,7 +568,7 @@ impl HairSystem for AnjyoSystem {
             sim.setup.forces = ctx.forces.clone();
         }
         sim.steps = ctx.frame * sim.setup.params.steps_per_frame as u64;
-        Ok(sim.record_frames(gpu, enc, &self.hair, frames))
+        sim.record_frames(gpu, enc, &self.hair, frames)
     }
 
     fn prepare(

@@ -79,6 +79,11 @@ pub struct StepForces {
     /// The EFF's gust scale at the substep's start (0 without an EFF): each segment adds the
     /// field at its node times this.
     pub eff_scale: f64,
+    /// The substep's start in frames: where `force` and `eff_scale` are taken (the GPU pass
+    /// samples the world there).
+    pub t: f64,
+    /// Its end in frames: where `head` is taken.
+    pub t_end: f64,
 }
 
 /// How segments read the EFF.
@@ -116,6 +121,8 @@ pub fn step_forces(forces: &Forces, dyn_: &Dynamics, n: u64, substeps: u32, s: u
         kick,
         first: n == 0 && s == 0,
         eff_scale: forces.eff_scale(frame),
+        t: frame,
+        t_end: frame + df,
     }
 }
 

@@ -15,13 +15,14 @@
 //! the groom and the other systems read them so: each segment's node read and write is
 //! `(segments + 1) * 16` bytes from its neighbour's, the one uncoalesced access left.
 
+use super::gpu_data::GpuStep;
 use super::gpu_data::{GpuDynParams, GpuDynStrand};
 use super::projective::{DynSetup, StepForces, MAX_TURN, POLE_SIN};
 use crate::error::Result;
-use crate::gpu::gpu_data::GpuStep;
+use crate::forces::Forces;
 use crate::gpu::strands::StrandBuffers;
 use crate::gpu::{self, bind, Gpu, WORKGROUP};
-use crate::systems::world::{WorldGpu, WORLD_GROUP};
+use crate::systems::world::{WorldGpu, WorldSteps, WORLD_GROUP};
 use glam::DMat4;
 use std::sync::OnceLock;
 use wgpu::util::DeviceExt;
@@ -119,6 +120,8 @@ pub struct ProjectiveJob {
     bind_group: wgpu::BindGroup,
     /// The world's group (the EFF, the head's hull and field), bound at `WORLD_GROUP`.
     world: wgpu::BindGroup,
+    /// The world's per-submission samples (`advance` binds the group they return).
+    steps_world: WorldSteps,
     dims: (u32, u32),
     pub layout: StateLayout,
 }
@@ -127,26 +130,21 @@ fn mat(m: DMat4) -> [[f32; 4]; 4] {
     m.as_mat4().to_cols_array_2d()
 }
 
-/// Pack one substep for the GPU.
-pub fn gpu_step(f: &StepForces) -> GpuStep {
+/// Pack one substep for the GPU: its world samples are entries `start` (the substep's start
+/// `f.t`: gravity + wind, the gust scale) and `start + 1` (its end `f.t_end`: the head pose)
+/// of `world_steps`.
+pub fn gpu_step(f: &StepForces, start: u32) -> GpuStep {
     GpuStep {
-        force: [
-            f.force.x as f32,
-            f.force.y as f32,
-            f.force.z as f32,
-            f.h as f32,
-        ],
-        head: mat(f.head),
-        head_inv: mat(f.head.inverse()),
+        h: [f.h as f32, 0.0, 0.0, 0.0],
         accel: mat(f.accel),
         kick: [
             u32::from(f.kick.is_some()),
             f.kick.unwrap_or(0),
             u32::from(f.first),
-            // The EFF's gust scale, as f32 bits (the slot's last free word).
-            (f.eff_scale as f32).to_bits(),
+            0,
         ],
-        _pad: [0; 8],
+        samples: [start, start + 1, 0, 0],
+        _pad: [[0; 4]; 9],
     }
 }
 
@@ -292,6 +290,7 @@ impl ProjectivePass {
             advance,
             bind_group,
             world: world.group().clone(),
+            steps_world: world.steps(),
             dims,
             layout,
         })
@@ -353,19 +352,23 @@ impl ProjectivePass {
         pass.dispatch_workgroups(job.dims.0, job.dims.1, 1);
     }
 
-    /// Upload `substeps` and record one dispatch for each. Call once per submission: the
-    /// uniforms are written when the queue is submitted.
+    /// Upload `substeps` and record one dispatch for each, the world sampled from `forces`
+    /// at each substep's start and end. Call once per submission: the uniforms are written
+    /// when the queue is submitted.
     pub fn advance(
         &self,
         gpu: &Gpu,
         enc: &mut wgpu::CommandEncoder,
         job: &mut ProjectiveJob,
         hair: &StrandBuffers,
+        forces: &Forces,
         substeps: &[StepForces],
-    ) {
+    ) -> Result<()> {
         if substeps.is_empty() {
-            return;
+            return Ok(());
         }
+        let times: Vec<f64> = substeps.iter().flat_map(|f| [f.t, f.t_end]).collect();
+        let (first, world) = job.steps_world.sample(gpu, forces, &times)?;
         if substeps.len() as u32 > job.capacity {
             job.capacity = (substeps.len() as u32).next_power_of_two();
             job.steps = Self::step_ring(&gpu.device, job.capacity);
@@ -377,8 +380,8 @@ impl ProjectivePass {
             );
         }
         let mut bytes = Vec::with_capacity(substeps.len() * SLOT as usize);
-        for f in substeps {
-            bytes.extend_from_slice(bytemuck::bytes_of(&gpu_step(f)));
+        for (i, f) in substeps.iter().enumerate() {
+            bytes.extend_from_slice(bytemuck::bytes_of(&gpu_step(f, first + 2 * i as u32)));
         }
         gpu.queue.write_buffer(&job.steps, 0, &bytes);
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -386,11 +389,12 @@ impl ProjectivePass {
             timestamp_writes: None,
         });
         pass.set_pipeline(&job.advance);
-        pass.set_bind_group(WORLD_GROUP, &job.world, &[]);
+        pass.set_bind_group(WORLD_GROUP, &world, &[]);
         for i in 0..substeps.len() as u32 {
             pass.set_bind_group(0, &job.bind_group, &[i * SLOT as u32]);
             pass.dispatch_workgroups(job.dims.0, job.dims.1, 1);
         }
+        Ok(())
     }
 }
 

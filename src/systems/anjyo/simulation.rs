@@ -28,8 +28,9 @@ pub struct Simulation {
     /// The followers, when only a share of the strands is simulated.
     pub follow: Option<FollowSetup>,
     follow_gpu: Option<(FollowPass, FollowJob)>,
-    /// Head pose the followers were last rebuilt at (the end of the last recorded step).
-    pub follow_head: glam::DMat4,
+    /// The time (frames) the followers were last rebuilt at: the end of the last recorded
+    /// substep, where they read the head's pose from the world.
+    pub follow_time: f64,
 }
 
 impl Simulation {
@@ -74,7 +75,7 @@ impl Simulation {
             capped_steps: 0,
             follow,
             follow_gpu,
-            follow_head: glam::DMat4::IDENTITY,
+            follow_time: 0.0,
         };
         let mut enc = gpu
             .device
@@ -106,7 +107,7 @@ impl Simulation {
         gpu: &Gpu,
         enc: &mut wgpu::CommandEncoder,
         hair: &StrandBuffers,
-    ) -> StepInfo {
+    ) -> Result<StepInfo> {
         self.record_frames(gpu, enc, hair, 1)
     }
 
@@ -118,7 +119,7 @@ impl Simulation {
         enc: &mut wgpu::CommandEncoder,
         hair: &StrandBuffers,
         frames: u32,
-    ) -> StepInfo {
+    ) -> Result<StepInfo> {
         let mut all = Vec::new();
         let mut info = StepInfo::default();
         for _ in 0..self.setup.params.steps_per_frame * frames {
@@ -131,20 +132,28 @@ impl Simulation {
             all.extend(subs);
             self.steps += 1;
         }
-        self.pass.advance(gpu, enc, &mut self.job, hair, &all);
+        let forces = &self.setup.forces;
+        self.pass
+            .advance(gpu, enc, &mut self.job, hair, forces, &all)?;
         if let (Some((fp, fj)), Some(last)) = (&self.follow_gpu, all.last()) {
-            fp.record(gpu, enc, fj, last.head);
-            self.follow_head = last.head;
+            fp.record(gpu, enc, fj, forces, last.t_end)?;
+            self.follow_time = last.t_end;
         }
-        info
+        Ok(info)
+    }
+
+    /// The head's pose the followers were last rebuilt at (`follow_time`).
+    pub fn follow_head(&self) -> glam::DMat4 {
+        self.setup.forces.head_at(self.follow_time)
     }
 
     /// Record the follower kernel alone, at the last pose (benchmarks: its own cost).
     /// Nothing without followers.
-    pub fn record_followers(&self, gpu: &Gpu, enc: &mut wgpu::CommandEncoder) {
+    pub fn record_followers(&self, gpu: &Gpu, enc: &mut wgpu::CommandEncoder) -> Result<()> {
         if let Some((fp, fj)) = &self.follow_gpu {
-            fp.record(gpu, enc, fj, self.follow_head);
+            fp.record(gpu, enc, fj, &self.setup.forces, self.follow_time)?;
         }
+        Ok(())
     }
 
     /// Parameters changed without changing which strands are simulated.

@@ -5,10 +5,11 @@
 //! What the CPU prepares in f64 and uploads: per joint its reference frame, rest angles,
 //! outboard moment and the exact propagators of a full and a half step (they depend only on
 //! I1, I2, τ and dt, so the kernel needs no transcendental branches); per step of a
-//! recording the head poses and head-acceleration maps at the step's start and middle, its
-//! end pose, the uniform keyed wind with the EFF's gust scale and the extra forces' ramps.
-//! These are written with `queue.write_buffer` before the submission that runs them: record
-//! once per submission. At most `MAX_EXTRA` (16) extra forces (a uniform array):
+//! recording the head-acceleration maps at the step's start and middle, the extra forces'
+//! ramps, and the indices of the world's samples (`systems::world::WorldSteps`) at its start,
+//! middle and end: the head's pose, gravity plus the keyed wind and the EFF's gust scale
+//! there. These are written with `queue.write_buffer` before the submission that runs them:
+//! record once per submission. At most `MAX_EXTRA` (16) extra forces (a uniform array):
 //! `set_extra` refuses more.
 //!
 //! The EFF's grid and cells and the mesh head's signed distance field are the scene's world
@@ -26,7 +27,7 @@ use crate::scene::hull::SDF_EPS_OUT;
 use crate::scene::Sampling;
 use crate::shaders::wgsl;
 use crate::systems::strips::block::Motion;
-use crate::systems::world::{WorldGpu, WORLD_GROUP};
+use crate::systems::world::{WorldGpu, WorldSteps, WORLD_GROUP};
 use bytemuck::{Pod, Zeroable};
 
 /// The kernel's module: the world (`common/world.wgsl` with the EFF and the hulls, the same
@@ -49,7 +50,7 @@ pub struct GpuParams {
     pub stride: u32,
     pub row_stride: u32,
     pub extras: u32,
-    /// xyz gravity, w spring k.
+    /// xyz 0 (gravity is the world's samples'), w spring k.
     pub gravity: [f32; 4],
     /// x collision κ, y Ψ at the surface for κ = 1 (the hull is the world's).
     pub collision: [f32; 4],
@@ -64,21 +65,24 @@ const _: () = assert!(std::mem::size_of::<GpuParams>() == 64 + 2 * 16 * MAX_EXTR
 /// in `shaders/strips/dynamics.wgsl`; each slot is `SLOT` bytes apart).
 type GpuSlot = [u32; 4];
 
+/// Storage buffers the strips' kernel binds: six of its own and the world's three (WebGPU
+/// guarantees 8; `super::check_limits` asks the adapter).
+pub const STORAGE_BUFFERS: u32 = 9;
+
 /// Twin of `struct Step` (`tests/it/gpu_twins.rs` checks it).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct GpuStep {
-    pub m0: [f32; 16],
+    /// The head-acceleration maps at the step's start and middle.
     pub k0: [f32; 16],
-    pub m1: [f32; 16],
     pub k1: [f32; 16],
-    pub m2: [f32; 16],
-    pub wind0: [f32; 4],
-    pub wind1: [f32; 4],
+    /// x: the world sample (`world_steps`) at the step's start; `x + 1` its middle, `x + 2`
+    /// its end (the head's pose, gravity plus the keyed wind, the gust scale).
+    pub samples: [u32; 4],
     pub ramp0: [f32; MAX_EXTRA],
     pub ramp1: [f32; MAX_EXTRA],
 }
-const _: () = assert!(std::mem::size_of::<GpuStep>() == 480);
+const _: () = assert!(std::mem::size_of::<GpuStep>() == 272);
 
 /// Twin of `struct Strip` (`tests/it/gpu_twins.rs` checks it).
 #[repr(C)]
@@ -115,8 +119,8 @@ pub struct DynamicsGpu {
     state: wgpu::Buffer,
     scratch: wgpu::Buffer,
     points: wgpu::Buffer,
-    /// The world's group (the EFF, the head's field), bound at `WORLD_GROUP`.
-    world: wgpu::BindGroup,
+    /// The world's samples: `record` binds the group `sample` returns at `WORLD_GROUP`.
+    world: WorldSteps,
     steps: wgpu::Buffer,
     slots: wgpu::Buffer,
     /// Steps the `steps` and `slots` buffers hold.
@@ -129,9 +133,6 @@ pub struct DynamicsGpu {
     /// The rig (its joints for the propagators; `set_rig` swaps in new constants).
     rig: Rig,
     motion: Motion,
-    /// The scene's gravity (`Forces::gravity`) in the params uniform: taken from the forces
-    /// each `record`, rewritten only when it changes.
-    gravity: glam::DVec3,
     extra: Vec<ExtraForce>,
     rest_state: Vec<[f32; 4]>,
     rest_points: Vec<[f32; 4]>,
@@ -271,7 +272,7 @@ impl DynamicsGpu {
             state: state_buf,
             scratch,
             points: points_buf,
-            world: world.group().clone(),
+            world: world.steps(),
             steps,
             slots,
             capacity: 1,
@@ -282,7 +283,6 @@ impl DynamicsGpu {
             joint_count,
             rig: rig.clone(),
             motion: motion.clone(),
-            gravity: glam::DVec3::ZERO,
             extra: Vec::new(),
             rest_state,
             rest_points,
@@ -480,12 +480,7 @@ impl DynamicsGpu {
             stride: self.stride,
             row_stride: self.dims.0 * WORKGROUP,
             extras: self.extra.len() as u32,
-            gravity: [
-                self.gravity.x as f32,
-                self.gravity.y as f32,
-                self.gravity.z as f32,
-                m.spring as f32,
-            ],
+            gravity: [0.0, 0.0, 0.0, m.spring as f32],
             collision: [m.collision as f32, COLLISION_ACCEL as f32, 0.0, 0.0],
             flags: [u32::from(m.sampling == Sampling::Trilinear), 0, 0, 0],
             extra_center: [[0.0; 4]; MAX_EXTRA],
@@ -527,10 +522,6 @@ impl DynamicsGpu {
         if steps == 0 || self.count == 0 {
             return Ok(());
         }
-        if forces.gravity != self.gravity {
-            self.gravity = forces.gravity;
-            self.write_params(gpu);
-        }
         if steps > self.capacity {
             let capacity = steps.next_power_of_two();
             let (s, sl) = Self::per_step(gpu, capacity)?;
@@ -542,19 +533,20 @@ impl DynamicsGpu {
         let dt = self.motion.frame_time / spf as f64;
         let ft = self.motion.frame_time;
         let width = (dt / ft).max(1.0);
+        let start = |i: u64| frame as f64 + i as f64 / spf as f64;
+        let mid = |i: u64| start(i) + 0.5 / spf as f64;
+        // The world at each step's start, middle and end (the head's pose there, gravity
+        // plus the keyed wind and the EFF's gust scale at the start and middle).
+        let times: Vec<f64> = (0..steps as u64)
+            .flat_map(|i| [start(i), mid(i), start(i) + 1.0 / spf as f64])
+            .collect();
+        let (first, world) = self.world.sample(gpu, forces, &times)?;
         let m4 = |m: glam::DMat4| m.as_mat4().to_cols_array();
         let records: Vec<GpuStep> = (0..steps as u64)
             .map(|i| {
-                let f0 = frame as f64 + i as f64 / spf as f64;
-                let fm = f0 + 0.5 / spf as f64;
+                let (f0, fm) = (start(i), mid(i));
                 let h0 = HeadFrame::at(forces, &self.motion, f0, width);
                 let hm = HeadFrame::at(forces, &self.motion, fm, width);
-                let end = forces.head_at(f0 + 1.0 / spf as f64);
-                // w: the EFF's gust scale at `f` (the kernel scales the field per step).
-                let wind = |f: f64| {
-                    let scale = forces.eff.as_ref().map_or(0.0, |e| e.scale_at(f));
-                    f4(crate::forces::wind_at(&forces.wind, f), scale)
-                };
                 let mut ramp0 = [0.0f32; MAX_EXTRA];
                 let mut ramp1 = [0.0f32; MAX_EXTRA];
                 for (e, x) in self.extra.iter().enumerate() {
@@ -562,13 +554,9 @@ impl DynamicsGpu {
                     ramp1[e] = x.ramp(fm) as f32;
                 }
                 GpuStep {
-                    m0: m4(h0.pose),
                     k0: m4(h0.accel),
-                    m1: m4(hm.pose),
                     k1: m4(hm.accel),
-                    m2: m4(end),
-                    wind0: wind(f0),
-                    wind1: wind(fm),
+                    samples: [first + 3 * i as u32, 0, 0, 0],
                     ramp0,
                     ramp1,
                 }
@@ -581,7 +569,7 @@ impl DynamicsGpu {
             timestamp_writes: None,
         });
         pass.set_pipeline(&self.pipeline);
-        pass.set_bind_group(WORLD_GROUP, &self.world, &[]);
+        pass.set_bind_group(WORLD_GROUP, &world, &[]);
         let (x, y) = self.dims;
         for i in 0..steps {
             pass.set_bind_group(0, &self.bind_group, &[i * SLOT as u32]);

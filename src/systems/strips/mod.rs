@@ -148,6 +148,7 @@ fn check_limits(gpu: &Gpu, scene: &Scene) -> Result<()> {
     let Some(st) = &scene.strips else {
         return Ok(());
     };
+    gpu.check_storage_buffers("the strips' motion", dynamics_gpu::STORAGE_BUFFERS)?;
     let slots = point_slots(st);
     gpu.check_storage_size("the strips' control points", slots * 16)?;
     // Two ribbon vertices per control point (position, tangent, u/v, colour: 64 bytes).

@@ -4,12 +4,13 @@
 //!
 //! Buffers: `positions` holds every point as `vec4<f32>` (xyz world), all primaries first
 //! in (skeleton, node) order, so the renderer binds its first `primaries()` entries as the
-//! skeleton nodes. The head poses of a recording are uploaded per half substep (RK4 needs
-//! the middle of each step), and per substep its slot (`GpuSubstep`: gravity plus the keyed
-//! wind at the step's start, middle and end, each with the EFF's gust scale there), written
-//! with `queue.write_buffer` before the submission that runs them: record once per
-//! submission. The scene's forces are read from the `Forces` handed to `record` (the
-//! stage's, each frame): head motion, keyed wind and the gust scale act from the next
+//! skeleton nodes. A recording samples the world (`systems::world::WorldSteps`) at every
+//! half substep for the head's pose (RK4 needs the middle of each step) and at each
+//! substep's start, middle and end for gravity plus the keyed wind and the EFF's gust
+//! scale; each substep's slot (`GpuSubstep`) holds the indices of its samples, written with
+//! `queue.write_buffer` before the submission that runs them: record once per submission.
+//! The scene's forces are read from the `Forces` handed to `record` (the stage's, each
+//! frame): head motion, keyed wind and the gust scale act from the next
 //! recording. The EFF's grid and cells and the mesh head's SDF are the scene's world
 //! (`systems::world::WorldGpu`, bound at `WORLD_GROUP`, sampled with
 //! `shaders/forces/eff.wgsl` and `shaders/common/sdf.wgsl`; the `SDF_HEAD` constant compiles
@@ -18,13 +19,13 @@
 
 use super::springs::{Lattice, NEWTON};
 use crate::error::Result;
-use crate::forces::{wind_at, Forces};
+use crate::forces::Forces;
 use crate::gpu::{self, bind, Gpu, WORKGROUP};
 use crate::scene::head::EPS_OUT;
 use crate::scene::hull::SDF_EPS_OUT;
 use crate::shaders::wgsl;
 use crate::systems::wisps::block::{Integrator, Springs};
-use crate::systems::world::{WorldGpu, WORLD_GROUP};
+use crate::systems::world::{WorldGpu, WorldSteps, WORLD_GROUP};
 use bytemuck::{Pod, Zeroable};
 
 /// The kernel's module (the wisps kind lists it as `("wisps/springs", SPRINGS)`): the world
@@ -50,17 +51,16 @@ pub struct GpuSpringParams {
 }
 const _: () = assert!(std::mem::size_of::<GpuSpringParams>() == 32);
 
-/// One substep's slot of the dynamic uniform. Twin of `struct Substep` (`tests/it/gpu_twins.rs` checks it).
+/// One substep's slot of the dynamic uniform: indices into the world's samples. Twin of
+/// `struct Substep` (`tests/it/gpu_twins.rs` checks it).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuSubstep {
-    /// x: the substep's index in the recording (its head poses).
-    pub index: [u32; 4],
-    /// Gravity plus the keyed wind (xyz) and the EFF's gust scale (w) at the step's start,
-    /// middle and end.
-    pub field: [[f32; 4]; 3],
+    /// x: the sample of the head's pose at the substep's start (`x + 1` middle, `x + 2`
+    /// end); y: the sample of the field at its start (`y + 1` middle, `y + 2` end).
+    pub sample: [u32; 4],
 }
-const _: () = assert!(std::mem::size_of::<GpuSubstep>() == 64);
+const _: () = assert!(std::mem::size_of::<GpuSubstep>() == 16);
 const _: () = assert!(std::mem::size_of::<GpuSubstep>() as u64 <= SLOT);
 
 /// Twin of `struct MassPoint` (`tests/it/gpu_twins.rs` checks it).
@@ -96,11 +96,10 @@ pub struct SpringsGpu {
     edges: wgpu::Buffer,
     positions: wgpu::Buffer,
     scratch: wgpu::Buffer,
-    heads: wgpu::Buffer,
     steps: wgpu::Buffer,
-    /// The world's group (the EFF, the head's field), bound at `WORLD_GROUP`.
-    world: wgpu::BindGroup,
-    /// Substeps the `heads` and `steps` buffers hold.
+    /// The world's samples: `record` binds the group `sample` returns at `WORLD_GROUP`.
+    world: WorldSteps,
+    /// Substeps the `steps` buffer holds.
     capacity: u32,
     bind_group: wgpu::BindGroup,
     dims: (u32, u32),
@@ -128,7 +127,6 @@ impl SpringsGpu {
                 bind::dynamic_uniform::<GpuSubstep>(),
                 bind::storage::<GpuMassPoint>(),
                 bind::storage::<GpuEdge>(),
-                bind::storage::<[[f32; 4]; 4]>(),
                 bind::storage_rw::<[f32; 4]>(),
                 bind::storage_rw::<[f32; 4]>(),
             ],
@@ -214,13 +212,11 @@ impl SpringsGpu {
             usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let (heads, steps) = Self::per_substep(gpu, 1)?;
+        let steps = Self::per_substep(gpu, 1)?;
         let bind_group = Self::bind(
             device,
             &layout,
-            [
-                &params, &steps, &points, &edges, &heads, &positions, &scratch,
-            ],
+            [&params, &steps, &points, &edges, &positions, &scratch],
         );
         let mut me = SpringsGpu {
             pin,
@@ -233,9 +229,8 @@ impl SpringsGpu {
             edges,
             positions,
             scratch,
-            heads,
             steps,
-            world: world.group().clone(),
+            world: world.steps(),
             capacity: 1,
             bind_group,
             dims,
@@ -249,32 +244,24 @@ impl SpringsGpu {
         Ok(me)
     }
 
-    /// Head poses (2 per substep + 1) and the substep slots for `capacity` substeps.
-    fn per_substep(gpu: &Gpu, capacity: u32) -> Result<(wgpu::Buffer, wgpu::Buffer)> {
-        let head_bytes = (2 * capacity as u64 + 1) * 64;
-        gpu.check_storage_size("the wisp springs' head poses", head_bytes)?;
-        let heads = gpu.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("wisps head poses"),
-            size: head_bytes,
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+    /// The substep slots for `capacity` substeps.
+    fn per_substep(gpu: &Gpu, capacity: u32) -> Result<wgpu::Buffer> {
         let steps = gpu.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("wisps substeps"),
             size: capacity as u64 * SLOT,
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        Ok((heads, steps))
+        Ok(steps)
     }
 
-    /// `buffers`: params, substep slots, points, edges, head poses, positions, scratch.
+    /// `buffers`: params, substep slots, points, edges, positions, scratch.
     fn bind(
         device: &wgpu::Device,
         layout: &wgpu::BindGroupLayout,
-        buffers: [&wgpu::Buffer; 7],
+        buffers: [&wgpu::Buffer; 6],
     ) -> wgpu::BindGroup {
-        let [params, steps, points, edges, heads, positions, scratch] = buffers;
+        let [params, steps, points, edges, positions, scratch] = buffers;
         let substep = wgpu::BufferBinding {
             buffer: steps,
             offset: 0,
@@ -289,7 +276,6 @@ impl SpringsGpu {
                 wgpu::BindingResource::Buffer(substep),
                 points.as_entire_binding(),
                 edges.as_entire_binding(),
-                heads.as_entire_binding(),
                 positions.as_entire_binding(),
                 scratch.as_entire_binding(),
             ],
@@ -337,9 +323,7 @@ impl SpringsGpu {
         }
         if steps > self.capacity {
             let capacity = steps.next_power_of_two();
-            let (heads, slots) = Self::per_substep(gpu, capacity)?;
-            self.heads = heads;
-            self.steps = slots;
+            self.steps = Self::per_substep(gpu, capacity)?;
             self.capacity = capacity;
             self.bind_group = Self::bind(
                 &gpu.device,
@@ -349,22 +333,18 @@ impl SpringsGpu {
                     &self.steps,
                     &self.points,
                     &self.edges,
-                    &self.heads,
                     &self.positions,
                     &self.scratch,
                 ],
             );
         }
         let half = 2.0 * self.substeps as f64;
-        let poses: Vec<[f32; 16]> = (0..=2 * steps as u64)
-            .map(|j| {
-                let frame = from_frame as f64 + j as f64 / half;
-                forces.head_at(frame).as_mat4().to_cols_array()
-            })
+        let mut times: Vec<f64> = (0..=2 * steps as u64)
+            .map(|j| from_frame as f64 + j as f64 / half)
             .collect();
-        gpu.queue
-            .write_buffer(&self.heads, 0, bytemuck::cast_slice(&poses));
-        let slots = substep_slots(forces, from_frame, self.substeps, steps);
+        times.extend(field_times(from_frame, self.substeps, steps));
+        let (first, world) = self.world.sample(gpu, forces, &times)?;
+        let slots = substep_slots(first, first + 2 * steps + 1, steps);
         gpu.queue
             .write_buffer(&self.steps, 0, bytemuck::cast_slice(&slots));
         let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -373,7 +353,7 @@ impl SpringsGpu {
         });
         let (x, y) = self.dims;
         pass.set_bind_group(0, &self.bind_group, &[0]);
-        pass.set_bind_group(WORLD_GROUP, &self.world, &[]);
+        pass.set_bind_group(WORLD_GROUP, &world, &[]);
         pass.set_pipeline(&self.pin);
         pass.dispatch_workgroups(x, y, 1);
         for i in 0..steps {
@@ -425,36 +405,32 @@ impl SpringsGpu {
     }
 }
 
-/// The substep slots of a recording of `steps` substeps (`substeps` a frame) from frame
-/// `from_frame`, one `SLOT` of bytes each: the GPU's side of `springs::field_accel` (the
-/// EFF's cells are sampled in the kernel, scaled by `w`).
-pub fn substep_slots(forces: &Forces, from_frame: u64, substeps: u32, steps: u32) -> Vec<u8> {
-    let slot_bytes = SLOT as usize;
-    let mut out = vec![0u8; steps as usize * slot_bytes];
+/// The stage times (frames) of the field over a recording of `steps` substeps (`substeps` a
+/// frame) from frame `from_frame`: each substep's start, middle and end, the GPU's side of
+/// `springs::field_accel` (the EFF's cells are sampled in the kernel, scaled by the gust).
+pub fn field_times(from_frame: u64, substeps: u32, steps: u32) -> Vec<f64> {
     let s = substeps.max(1);
     let per = s as f64;
+    let mut out = Vec::with_capacity(3 * steps as usize);
     for i in 0..steps {
         // The stage times exactly as `springs::run_frames` and `springs::step` compute them,
         // so that a step key (an abrupt gust) falls on the same side of a stage time.
         let start = (from_frame + (i / s) as u64) as f64 + (i % s) as f64 / per;
-        let mut slot = GpuSubstep {
-            index: [i, 0, 0, 0],
-            ..Default::default()
+        out.extend([start, start + 0.5 * (1.0 / per), start + 1.0 / per]);
+    }
+    out
+}
+
+/// The substep slots of a recording of `steps` substeps, one `SLOT` of bytes each: the
+/// head's poses from world sample `poses` (two a substep, shared at the ends), the field
+/// from `field` (three a substep).
+pub fn substep_slots(poses: u32, field: u32, steps: u32) -> Vec<u8> {
+    let slot_bytes = SLOT as usize;
+    let mut out = vec![0u8; steps as usize * slot_bytes];
+    for i in 0..steps {
+        let slot = GpuSubstep {
+            sample: [poses + 2 * i, field + 3 * i, 0, 0],
         };
-        for (k, f) in slot.field.iter_mut().enumerate() {
-            let t = match k {
-                0 => start,
-                1 => start + 0.5 * (1.0 / per),
-                _ => start + 1.0 / per,
-            };
-            let g = forces.gravity + wind_at(&forces.wind, t);
-            *f = [
-                g.x as f32,
-                g.y as f32,
-                g.z as f32,
-                forces.eff_scale(t) as f32,
-            ];
-        }
         let at = i as usize * slot_bytes;
         out[at..at + std::mem::size_of::<GpuSubstep>()].copy_from_slice(bytemuck::bytes_of(&slot));
     }
