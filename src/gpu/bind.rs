@@ -170,6 +170,16 @@ pub fn group(
     })
 }
 
+/// One `bytes`-long record of `buffer` at a dynamic offset: the resource of a
+/// `dynamic_uniform` slot (the offset is given when the group is bound).
+pub fn record(buffer: &wgpu::Buffer, bytes: u64) -> wgpu::BindingResource<'_> {
+    wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+        buffer,
+        offset: 0,
+        size: wgpu::BufferSize::new(bytes),
+    })
+}
+
 /// A bind group over `layout` binding whole `buffers` in order.
 pub fn buffers(
     device: &wgpu::Device,

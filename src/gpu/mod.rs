@@ -346,9 +346,22 @@ pub fn compute_pipelines<const N: usize>(
     entries: [&str; N],
     constants: &[(&str, f64)],
 ) -> [wgpu::ComputePipeline; N] {
+    compute_pipelines_over(device, label, &[Some(layout)], module, entries, constants)
+}
+
+/// `compute_pipelines` over several bind group layouts, one per group index (`None` for a
+/// group the pipelines do not bind): a kernel's own group and a shared one further up.
+pub fn compute_pipelines_over<const N: usize>(
+    device: &wgpu::Device,
+    label: &str,
+    layouts: &[Option<&wgpu::BindGroupLayout>],
+    module: &wgpu::ShaderModule,
+    entries: [&str; N],
+    constants: &[(&str, f64)],
+) -> [wgpu::ComputePipeline; N] {
     let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some(label),
-        bind_group_layouts: &[Some(layout)],
+        bind_group_layouts: layouts,
         immediate_size: 0,
     });
     entries.map(|entry| {

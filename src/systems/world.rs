@@ -439,24 +439,7 @@ impl WorldGpu {
         let mut groups = [None; WORLD_GROUP as usize + 1];
         groups[0] = Some(layout);
         groups[WORLD_GROUP as usize] = Some(&self.layout);
-        let pl = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some(label),
-            bind_group_layouts: &groups,
-            immediate_size: 0,
-        });
-        entries.map(|entry| {
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(entry),
-                layout: Some(&pl),
-                module,
-                entry_point: Some(entry),
-                compilation_options: wgpu::PipelineCompilationOptions {
-                    constants,
-                    ..Default::default()
-                },
-                cache: None,
-            })
-        })
+        crate::gpu::compute_pipelines_over(device, label, &groups, module, entries, constants)
     }
 }
 

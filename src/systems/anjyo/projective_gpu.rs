@@ -319,11 +319,7 @@ impl ProjectivePass {
             &self.layout,
             &[
                 params.as_entire_binding(),
-                wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                    buffer: steps,
-                    offset: 0,
-                    size: wgpu::BufferSize::new(SLOT),
-                }),
+                bind::record(steps, SLOT),
                 strands.as_entire_binding(),
                 state.as_entire_binding(),
                 hair.vertices.as_entire_binding(),

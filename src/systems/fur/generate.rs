@@ -200,17 +200,12 @@ impl FurGpu {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let coat = wgpu::BufferBinding {
-            buffer: &coats,
-            offset: 0,
-            size: wgpu::BufferSize::new(SLOT),
-        };
         let bind_group = bind::group(
             device,
             "fur_gen",
             &layout,
             &[
-                wgpu::BindingResource::Buffer(coat),
+                bind::record(&coats, SLOT),
                 mesh.as_entire_binding(),
                 tris_buf.as_entire_binding(),
                 first.as_entire_binding(),

@@ -364,14 +364,9 @@ impl DynamicsGpu {
         layout: &wgpu::BindGroupLayout,
         b: [&wgpu::Buffer; 8],
     ) -> wgpu::BindGroup {
-        let slot = wgpu::BufferBinding {
-            buffer: b[1],
-            offset: 0,
-            size: wgpu::BufferSize::new(SLOT),
-        };
         let mut resources: Vec<wgpu::BindingResource> =
             b.iter().map(|buf| buf.as_entire_binding()).collect();
-        resources[1] = wgpu::BindingResource::Buffer(slot);
+        resources[1] = bind::record(b[1], SLOT);
         bind::group(device, "strips dynamics", layout, &resources)
     }
 

@@ -262,18 +262,13 @@ impl SpringsGpu {
         buffers: [&wgpu::Buffer; 6],
     ) -> wgpu::BindGroup {
         let [params, steps, points, edges, positions, scratch] = buffers;
-        let substep = wgpu::BufferBinding {
-            buffer: steps,
-            offset: 0,
-            size: wgpu::BufferSize::new(SLOT),
-        };
         bind::group(
             device,
             "wisps springs",
             layout,
             &[
                 params.as_entire_binding(),
-                wgpu::BindingResource::Buffer(substep),
+                bind::record(steps, SLOT),
                 points.as_entire_binding(),
                 edges.as_entire_binding(),
                 positions.as_entire_binding(),
