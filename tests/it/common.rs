@@ -219,6 +219,31 @@ pub fn groom_world(
     kami::systems::world::WorldGpu::new(gpu, &forces, &input.head).unwrap()
 }
 
+/// `input` groomed on the GPU (in a world with no forces) and the dynamics of `scene` over
+/// it, in the scene's world: what a stage builds for Anjyo's hair in motion, without a stage.
+pub fn gpu_simulation(
+    gpu: &Gpu,
+    scene: &kami::Scene,
+    input: &kami::systems::anjyo::groom::GroomInput,
+) -> (
+    kami::gpu::strands::StrandBuffers,
+    kami::systems::anjyo::simulation::Simulation,
+) {
+    let hair =
+        kami::systems::anjyo::cantilever_gpu::groom_gpu(gpu, &groom_world(gpu, input), input)
+            .unwrap();
+    let sim = kami::systems::anjyo::simulation::Simulation::new(
+        gpu,
+        &world(gpu, scene),
+        scene,
+        input,
+        &hair,
+    )
+    .unwrap()
+    .expect("the scene has dynamics");
+    (hair, sim)
+}
+
 /// Shipped scene `name` with each strand group's count divided by `divisor` (quicker tests).
 pub fn thinned(name: &str, divisor: u32) -> kami::Scene {
     let mut s = scene(name);

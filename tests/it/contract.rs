@@ -209,16 +209,7 @@ fn projective_against_reference(
     }
     let input = prepare(&scene).unwrap();
     let groomed = cantilever::bend_all(&input);
-    let hair = cantilever_gpu::groom_gpu(gpu, &common::groom_world(gpu, &input), &input).unwrap();
-    let mut sim = kami::systems::anjyo::simulation::Simulation::new(
-        gpu,
-        &common::world(gpu, &scene),
-        &scene,
-        &input,
-        &hair,
-    )
-    .unwrap()
-    .unwrap();
+    let (hair, mut sim) = common::gpu_simulation(gpu, &scene, &input);
     let mut cpu = CpuSim::new(
         DynSetup::new(&scene, &input, &groomed.visible).unwrap(),
         groomed.nodes.clone(),
@@ -299,17 +290,7 @@ fn several_frames_per_submission_match_one_by_one() {
     let input = prepare(&scene).unwrap();
     let mut runs = Vec::new();
     for per_submit in [1, 3] {
-        let hair =
-            cantilever_gpu::groom_gpu(gpu, &common::groom_world(gpu, &input), &input).unwrap();
-        let mut sim = kami::systems::anjyo::simulation::Simulation::new(
-            gpu,
-            &common::world(gpu, &scene),
-            &scene,
-            &input,
-            &hair,
-        )
-        .unwrap()
-        .unwrap();
+        let (hair, mut sim) = common::gpu_simulation(gpu, &scene, &input);
         for _ in 0..18 / per_submit {
             let mut enc = gpu.device.create_command_encoder(&Default::default());
             sim.record_frames(gpu, &mut enc, &hair, per_submit).unwrap();

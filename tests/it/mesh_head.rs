@@ -369,16 +369,7 @@ fn projective_on_mesh_head_matches_reference_and_stays_outside() {
     let m = data(&scene);
     let input = prepare(&scene).unwrap();
     let groomed = cantilever::bend_all(&input);
-    let hair = cantilever_gpu::groom_gpu(gpu, &common::groom_world(gpu, &input), &input).unwrap();
-    let mut sim = kami::systems::anjyo::simulation::Simulation::new(
-        gpu,
-        &common::world(gpu, &scene),
-        &scene,
-        &input,
-        &hair,
-    )
-    .unwrap()
-    .unwrap();
+    let (hair, mut sim) = common::gpu_simulation(gpu, &scene, &input);
     let mut cpu = CpuSim::new(
         DynSetup::new(&scene, &input, &groomed.visible).unwrap(),
         groomed.nodes.clone(),

@@ -176,16 +176,7 @@ fn run_gpu(
     input: &kami::systems::anjyo::groom::GroomInput,
     frames: u32,
 ) -> Vec<[f32; 4]> {
-    let hair = cantilever_gpu::groom_gpu(gpu, &common::groom_world(gpu, input), input).unwrap();
-    let mut sim = kami::systems::anjyo::simulation::Simulation::new(
-        gpu,
-        &common::world(gpu, scene),
-        scene,
-        input,
-        &hair,
-    )
-    .unwrap()
-    .unwrap();
+    let (hair, mut sim) = common::gpu_simulation(gpu, scene, input);
     for _ in 0..frames {
         let mut enc = gpu.device.create_command_encoder(&Default::default());
         sim.record_frame(gpu, &mut enc, &hair).unwrap();
