@@ -14,7 +14,7 @@ fn main() -> Result<()> {
     let out = args.next().unwrap_or_else(|| "fur_on_a_mesh.png".into());
     let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut scene = kami::Scene::load(root.join("assets/scenes/fur_fig9.ron"))?;
-    let fur = scene.fur.as_mut().expect("fur_fig9 has fur");
+    let fur = scene.fur_mut().as_mut().expect("fur_fig9 has fur");
     fur.mesh = match mesh {
         Some(path) => MeshSource::File(path),
         None => MeshSource::CgalDemo("lion-head.off".into()),
@@ -26,7 +26,7 @@ fn main() -> Result<()> {
     for c in &mut fur.coats {
         c.material.width *= 0.7;
     }
-    kami::systems::scene::validate(&scene)?;
+    kami::systems::validate(&scene)?;
     // Frame the fitted mesh and its fur.
     let radius = 1.6 + 0.12;
     let fov = scene.camera.fov_y.to_radians();

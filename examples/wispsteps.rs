@@ -25,7 +25,7 @@ fn main() -> Result<()> {
     let size = (side, side);
     let frame = kami::stage::frame_uniform(&scene, &look, stage.bounds(), size, 1);
     let vp = DMat4::from_cols_array_2d(&frame.view_proj.map(|c| c.map(|v| v as f64)));
-    let w = scene.wisps.as_ref().unwrap();
+    let w = scene.wisps().as_ref().unwrap();
     let segs = curve::drawn_segments(w);
     let t = std::time::Instant::now();
     let (c, _, n) = field::render_reference_tiled(

@@ -469,7 +469,7 @@ pub fn check_groom(g: &crate::formats::Groom) -> Result<(), Finding> {
 /// What an accepted scene promises: every number finite (validate checks them all), and
 /// saving it gives a file that loads as the same scene.
 pub fn check_scene(s: &Scene) -> Result<(), Finding> {
-    if let Err(e) = crate::systems::scene::validate(s) {
+    if let Err(e) = crate::systems::validate(s) {
         return Err(Finding::new(
             "accepted scene fails validate",
             format!("accepted scene fails validate: {e}"),

@@ -607,7 +607,7 @@ fn apply(g: &mut Gfx, state: &mut ViewerState) -> Result<()> {
     if state.scene == *g.stage.scene() || g.refused.as_ref() == Some(&state.scene) {
         return Ok(());
     }
-    if let Err(e) = crate::systems::scene::validate(&state.scene) {
+    if let Err(e) = crate::systems::validate(&state.scene) {
         // Keep what is drawn; say what is wrong.
         state.host.error = Some(e.to_string());
         return Ok(());
@@ -759,7 +759,7 @@ fn handle_requests(g: &mut Gfx, state: &mut ViewerState, shots: &mut Vec<PathBuf
 }
 
 /// Live reload: the watched files `changed` were saved. The scene file is read again and
-/// merged with the viewer's edits (`systems::scene::merge_edits`: what the file did not
+/// merged with the viewer's edits (`systems::merge_edits`: what the file did not
 /// change keeps the viewer's edit); when that merge does not build, the file as written is
 /// tried. A change of the scene file alone goes to the stage as an edit would (a new look
 /// keeps the motion as it is; what must be rebuilt is simulated again to the frame shown);
@@ -782,7 +782,7 @@ fn reload(g: &mut Gfx, state: &mut ViewerState, changed: &[PathBuf]) {
         .map(|s| watch::Seen::now(s.files(&path)))
         .unwrap_or_default();
     let loaded = Scene::load(&path).and_then(|theirs| {
-        let merged = crate::systems::scene::merge_edits(&g.watched.base, &state.scene, theirs.clone());
+        let merged = crate::systems::merge_edits(&g.watched.base, &state.scene, theirs.clone());
         let in_place = changed.iter().all(|p| *p == path);
         match rebuild(g, state, &merged, in_place, frame) {
             Ok(()) => Ok((theirs, merged)),
@@ -869,7 +869,7 @@ fn rebuild(
     in_place: bool,
     frame: u64,
 ) -> Result<()> {
-    crate::systems::scene::validate(scene)?;
+    crate::systems::validate(scene)?;
     let t = Instant::now();
     let quality = state.view.quality(scene);
     if in_place {

@@ -436,7 +436,7 @@ impl ViewerState {
                 _ => return Err(bad(format!("unknown key {key:?}"))),
             },
         }
-        crate::systems::scene::validate(&next).map_err(|e| bad(e.to_string()))?;
+        crate::systems::validate(&next).map_err(|e| bad(e.to_string()))?;
         self.scene = next;
         Ok(())
     }
@@ -614,7 +614,7 @@ mod tests {
         s.apply_set("color=0.8,0.6,0.2").unwrap();
         assert!(s
             .scene
-            .groups
+            .groups()
             .iter()
             .all(|g| g.material.color == [0.8, 0.6, 0.2]));
         s.apply_set("wind=0,0,-300").unwrap();
@@ -680,7 +680,7 @@ mod tests {
             s.apply_set("shading=anjyo").unwrap();
             assert_eq!(s.scene.render.shading, Shading::Anjyo);
             let mut bad = vec!["shading=pbr", "shading"];
-            if !s.scene.groups.is_empty() {
+            if !s.scene.groups().is_empty() {
                 bad.extend(["melanin=2", "redness=-1"]);
             }
             for bad in bad {
@@ -695,10 +695,10 @@ mod tests {
     fn a_force_set_on_still_groups_sets_them_moving() {
         for key in ["wind=0,0,-300", "gravity=0,-980,0"] {
             let mut still = gust();
-            still.dynamics = None;
+            *still.dynamics_mut() = None;
             let mut s = ViewerState::new(still, String::new());
             s.apply_set(key).unwrap();
-            assert!(s.scene.dynamics.is_some(), "{key}");
+            assert!(s.scene.dynamics().is_some(), "{key}");
         }
     }
 
@@ -718,12 +718,12 @@ mod tests {
         .collect();
         let (first, later) = scripted(gust(), &sets).unwrap();
         assert!(first
-            .groups
+            .groups()
             .iter()
             .all(|g| g.material.color == [1.0, 0.0, 0.0]));
-        assert!(first.groups.iter().all(|g| g.material.width != 0.1));
+        assert!(first.groups().iter().all(|g| g.material.width != 0.1));
         assert_eq!(later.iter().map(|(f, _)| *f).collect::<Vec<_>>(), [2, 5]);
-        assert!(later[0].1.groups.iter().all(|g| g.material.width == 0.1));
+        assert!(later[0].1.groups().iter().all(|g| g.material.width == 0.1));
         assert!(
             later[0].1.forces.wind.is_empty() || later[0].1.forces.wind != later[1].1.forces.wind
         );
@@ -731,7 +731,7 @@ mod tests {
         assert_eq!(later[1].1.forces.gravity, [0.0, -980.0, 0.0]);
         assert!(later[1]
             .1
-            .groups
+            .groups()
             .iter()
             .all(|g| g.material.color == [1.0, 0.0, 0.0]));
         for key in ["play=off", "lod=0.5", "mouse.release", "3:seek=1"] {

@@ -92,7 +92,7 @@ fn groom_mode(
     let (hairs, segs) = scene.counts();
     let mut s = scene.clone();
     if converged {
-        for g in &mut s.groups {
+        for g in s.groups_mut() {
             g.bending = Bending::Converged {
                 max_iterations: 400,
                 tolerance: 1e-5,
@@ -386,7 +386,7 @@ const SWEEP_SPF: [u32; 6] = [1, 2, 4, 8, 16, 32];
 /// keep their simulated time.
 fn retime(scene: &Scene, spf: u32, frame_time: f64) -> Scene {
     let mut s = scene.clone();
-    let d = s.dynamics.as_mut().expect("a dynamic scene");
+    let d = s.dynamics().as_ref().expect("a dynamic scene");
     let old = d.dt * d.steps_per_frame as f64;
     let k = old / frame_time;
     for w in &mut s.forces.wind {
@@ -395,6 +395,7 @@ fn retime(scene: &Scene, spf: u32, frame_time: f64) -> Scene {
     for h in &mut s.forces.head_motion {
         h.frame *= k;
     }
+    let d = s.dynamics_mut().as_mut().expect("a dynamic scene");
     d.steps_per_frame = spf;
     d.dt = frame_time / spf as f64;
     s
@@ -403,24 +404,24 @@ fn retime(scene: &Scene, spf: u32, frame_time: f64) -> Scene {
 /// The benchmark's configurations: the gust at four segment counts and the hard cases.
 fn dynamic_cases(gust: &Scene) -> Vec<(String, Scene)> {
     let mut base = gust.clone();
-    for g in &mut base.groups {
+    for g in base.groups_mut() {
         g.count = (g.count / 50).max(8);
     }
-    let d = base.dynamics.as_mut().unwrap();
+    let d = base.dynamics_mut().as_mut().unwrap();
     d.fluctuation = None;
     d.damping = 0.5;
     let mut cases = Vec::new();
     for k in [9u32, 18, 36, 72] {
         let mut s = base.clone();
-        for g in &mut s.groups {
+        for g in s.groups_mut() {
             g.segments = (k * g.segments / 18).max(2);
         }
         cases.push((format!("GUST K={k}"), s));
     }
     let single = |theta: (f64, f64), wind: Vec<WindKey>, gravity: [f64; 3]| {
         let mut s = base.clone();
-        s.groups.truncate(1);
-        let g = &mut s.groups[0];
+        s.groups_mut().truncate(1);
+        let g = &mut s.groups_mut()[0];
         g.roots = Roots {
             theta,
             phi: (0.0, 360.0),
@@ -449,17 +450,17 @@ fn dynamic_cases(gust: &Scene) -> Vec<(String, Scene)> {
         [0.0, -100.0, 0.0],
     );
     {
-        let d = free.dynamics.as_mut().unwrap();
+        let d = free.dynamics_mut().as_mut().unwrap();
         d.collision = false;
         d.pseudo_force = None;
-        free.groups[0].roots.on = Some(crate::systems::anjyo::block::EllipsoidDesc {
+        free.groups_mut()[0].roots.on = Some(crate::systems::anjyo::block::EllipsoidDesc {
             center: [0.0, 40.0, 0.0],
             radii: [2.0, 2.0, 2.0],
         });
         // Stiff groom: straight radial hair on the side the force leans to (azimuth 146
         // degrees), so no hair swings over a pole of the angle chart on its way.
-        free.groups[0].rigidity = 1e6;
-        free.groups[0].roots.phi = (121.0, 171.0);
+        free.groups_mut()[0].rigidity = 1e6;
+        free.groups_mut()[0].roots.phi = (121.0, 171.0);
     }
     cases.insert(0, ("FREE (NO CONTACT)".into(), free));
     cases.push((
@@ -689,7 +690,7 @@ fn largest_stable_dt(scene: &Scene, reference: &DynRun) -> Result<Option<f64>> {
     let mut largest = None;
     for dt in [0.025, 0.05, 0.1, 0.2, 0.4, 0.8, 1.6] {
         let mut s = retime(scene, 1, dt);
-        s.dynamics.as_mut().unwrap().max_substeps = 1;
+        s.dynamics_mut().as_mut().unwrap().max_substeps = 1;
         let run = run_cpu(&s, (T_END / dt).round() as u32)?;
         let (err, _) = errors(&run, reference);
         if run.clamped == 0 && err.is_finite() && err < 0.5 {
@@ -830,7 +831,7 @@ fn no_dynamics(path: &Path) -> crate::KamiError {
 
 /// Refuse a scene the dynamics benchmark cannot run (no dynamics, no hair).
 fn require_dynamics(scene: &Scene, path: &Path) -> Result<()> {
-    if scene.dynamics.is_none() || !scene.groups.iter().any(|g| g.dynamic) {
+    if scene.dynamics().is_none() || !scene.groups().iter().any(|g| g.dynamic) {
         return Err(no_dynamics(path));
     }
     Ok(())

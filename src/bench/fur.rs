@@ -173,7 +173,7 @@ fn fur_styles(
     for (style, name, paper) in PAPER_HAIRS_PER_SECOND {
         let scene = Scene::load(scenes.join(format!("fur_{name}.ron")))?;
         debug_assert!(scene
-            .fur
+            .fur()
             .as_ref()
             .is_some_and(|f| f.coats.iter().all(|c| c.style == style)));
         for (label, quality) in qualities(&scene) {
@@ -214,7 +214,7 @@ fn fur_fig9(
     csv: &mut String,
 ) -> Result<()> {
     let mut fig9 = Scene::load(scenes.join("fur_fig9.ron"))?;
-    if let Some(f) = fig9.fur.as_mut() {
+    if let Some(f) = fig9.fur_mut().as_mut() {
         f.hairs = PAPER_FIG9_HAIRS;
     }
     let _ = writeln!(md, "\n**Figure 9** (`fur_fig9.ron` at {PAPER_FIG9_HAIRS} hairs, polyline overcoat and undercoat, whole image; paper: {PAPER_FIG9_SECONDS} CPU s):\n");
@@ -257,7 +257,7 @@ fn fur_culling(
     let base = Scene::load(scenes.join("fur_fig9.ron"))?;
     let quality = Quality::new(base.render.msaa, base.render.supersample);
     let _ = writeln!(md, "\n**Distance-based culling** (`fur_fig9.ron`, {} hairs, MSAA {} x supersample {}): the camera backs away along its line of sight to k times the distance at which the model fills the view. Error against the full-density render at the same distance, in levels of 255: *tile* = mean over the model of the difference of 8x8-pixel block means (the look), *pixel* = mean per-pixel difference over the model (dominated by which hairs land where). The floor is the full-density render with another seed (the same look, other hairs).\n",
-        base.fur.as_ref().map_or(0, |f| f.hairs), quality.msaa, quality.supersample);
+        base.fur().as_ref().map_or(0, |f| f.hairs), quality.msaa, quality.supersample);
     let _ = writeln!(
         md,
         "| k | variant | hairs drawn | share | ms/frame | tile error | pixel error |"
@@ -266,9 +266,10 @@ fn fur_culling(
     let mut strip: Vec<Vec<RgbaImage>> = vec![Vec::new(); 3];
     for k in DISTANCES {
         let at = |mut s: Scene, culling: bool, seed: u64| -> Result<Scene> {
-            let fur = s.fur.as_mut().expect("a fur scene");
+            let own_seed = s.seed;
+            let fur = s.fur_mut().as_mut().expect("a fur scene");
             fur.culling.enabled = culling;
-            let setup = crate::systems::fur::setup::FurSetup::new(fur, s.seed)?;
+            let setup = crate::systems::fur::setup::FurSetup::new(fur, own_seed)?;
             let (centre, r) = setup.bounds();
             let full = r / (0.5 * s.camera.fov_y.to_radians()).sin();
             let eye = DVec3::from(s.camera.eye);

@@ -41,7 +41,7 @@ struct ShareRun {
 
 fn run_share(gpu: &Gpu, scene: &Scene, share: f64) -> Result<ShareRun> {
     let mut scene = scene.clone();
-    if let Some(d) = scene.dynamics.as_mut() {
+    if let Some(d) = scene.dynamics_mut().as_mut() {
         d.guides = (share < 1.0).then_some(share);
     }
     let input = prepare(&scene)?;
@@ -185,7 +185,7 @@ pub fn run(gpu: &Gpu, scene_path: &Path, out: &Path) -> Result<Report> {
         .collect();
     let strands = input.roots.len();
     let mut fine = scene.clone();
-    if let Some(d) = fine.dynamics.as_mut() {
+    if let Some(d) = fine.dynamics_mut().as_mut() {
         d.dt /= FINE_SPF as f64;
         d.steps_per_frame *= FINE_SPF;
     }
@@ -223,7 +223,7 @@ pub fn run(gpu: &Gpu, scene_path: &Path, out: &Path) -> Result<Report> {
         series.push(Series {
             name: format!(
                 "{} STEP{} PER FRAME",
-                scene.dynamics.as_ref().map_or(1, |d| d.steps_per_frame),
+                scene.dynamics().as_ref().map_or(1, |d| d.steps_per_frame),
                 if ci == 0 { "" } else { "S" }
             ),
             color: plot::palette(ci),

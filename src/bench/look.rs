@@ -67,15 +67,15 @@ pub fn look_row(scene: &mut Scene, shading: Shading, shadows: bool) -> bool {
         Shading::Anjyo => crate::scene::Shading::Anjyo,
         Shading::Physical => crate::scene::Shading::Physical,
     };
-    for g in &mut scene.groups {
+    for g in scene.groups_mut() {
         g.material.shading = None;
     }
-    if let Some(f) = scene.fur.as_mut() {
+    if let Some(f) = scene.fur_mut().as_mut() {
         for c in &mut f.coats {
             c.material.shading = None;
         }
     }
-    if let Some(s) = scene.strips.as_mut() {
+    if let Some(s) = scene.strips_mut().as_mut() {
         s.look.shading = None;
     }
     scene.render.shadows.on = shadows;
@@ -118,19 +118,19 @@ pub const MITSUBA_DEFAULT_HAIR: MitsubaHair = MitsubaHair {
 pub fn hair_params(scene: &Scene, rgb: [f32; 3]) -> MitsubaHair {
     let near = |c: [f32; 3]| c.iter().zip(rgb).all(|(a, b)| (a - b).abs() <= 1.0 / 255.0);
     let physical = scene
-        .groups
+        .groups()
         .iter()
         .map(|g| (g.material.color, &g.material.physical))
         .chain(
             scene
-                .fur
+                .fur()
                 .iter()
                 .flat_map(|f| &f.coats)
                 .map(|c| (c.material.diffuse, &c.material.physical)),
         )
         .chain(
             scene
-                .strips
+                .strips()
                 .iter()
                 .flat_map(|s| s.layers.iter().map(move |l| (l.color, &s.look.physical))),
         )
@@ -384,7 +384,7 @@ pub fn write_mitsuba(
         };
         mesh("head.obj", m, scene.head.color)?;
     }
-    if let Some(fur) = &scene.fur {
+    if let Some(fur) = scene.fur() {
         let setup = crate::systems::fur::setup::FurSetup::new(fur, scene.seed)?;
         let mats = setup.joint_matrices(0.0);
         let (p, n): (Vec<DVec3>, Vec<DVec3>) = (0..setup.mesh.positions.len())
@@ -607,7 +607,7 @@ pub fn run(gpu: &Gpu, o: &Options, out: &Path) -> Result<Report> {
             o.spp,
             &path.display().to_string(),
         )?;
-        if !base.groups.is_empty() {
+        if !base.groups().is_empty() {
             for method in [ShadowMethod::Volume, ShadowMethod::DeepOpacity] {
                 for shading in [Shading::Anjyo, Shading::Physical] {
                     for k in OFFSETS {

@@ -68,7 +68,7 @@ struct Point {
 /// segments each.
 pub fn scaled(base: &Scene, strands: u32, segments: u32) -> Result<Scene> {
     let mut s = base.clone();
-    let total: u64 = s.groups.iter().map(|g| g.count as u64).sum();
+    let total: u64 = s.groups().iter().map(|g| g.count as u64).sum();
     if total == 0 {
         return Err(KamiError::Invalid {
             file: String::new(),
@@ -77,7 +77,7 @@ pub fn scaled(base: &Scene, strands: u32, segments: u32) -> Result<Scene> {
             allowed: "a scene with strand hair groups (e.g. assets/scenes/gust.ron)".into(),
         });
     }
-    let n = s.groups.len() as u64;
+    let n = s.groups().len() as u64;
     if (strands as u64) < n {
         return Err(KamiError::Invalid {
             file: String::new(),
@@ -88,7 +88,7 @@ pub fn scaled(base: &Scene, strands: u32, segments: u32) -> Result<Scene> {
     }
     // Each group its share (at least one), the last group what is left.
     let mut left = strands as u64;
-    for (i, g) in s.groups.iter_mut().enumerate() {
+    for (i, g) in s.groups_mut().iter_mut().enumerate() {
         let after = n - i as u64 - 1;
         let c = if after == 0 {
             left
@@ -99,7 +99,7 @@ pub fn scaled(base: &Scene, strands: u32, segments: u32) -> Result<Scene> {
         left -= c;
         g.segments = segments;
     }
-    crate::systems::scene::validate(&s)?;
+    crate::systems::validate(&s)?;
     Ok(s)
 }
 
@@ -198,7 +198,7 @@ fn measure(gpu: &Gpu, scene: &Scene, sweep: &Sweep, timed: bool) -> Result<Point
     }
     Ok(Point {
         strands,
-        segments: scene.groups.first().map_or(0, |g| g.segments),
+        segments: scene.groups().first().map_or(0, |g| g.segments),
         total_segments,
         sim_strands,
         sim_segments,
@@ -456,8 +456,8 @@ fn load_base(base_path: &Path, sweep: &Sweep) -> Result<Scene> {
     if let Some(f) = sweep.supersample {
         base.render.supersample = f;
     }
-    crate::systems::scene::validate(&base)?;
-    if base.dynamics.is_none() || !base.groups.iter().any(|g| g.dynamic) {
+    crate::systems::validate(&base)?;
+    if base.dynamics().is_none() || !base.groups().iter().any(|g| g.dynamic) {
         return Err(KamiError::Invalid {
             file: base_path.display().to_string(),
             field: "dynamics".into(),

@@ -48,7 +48,7 @@ pub const PAPER: &str = "120 strips at 15–20 fps on a Quadro FX4500";
 /// least one strip per layer), the layers' shapes unchanged.
 pub fn scaled(scene: &Scene, n: u32) -> Scene {
     let mut s = scene.clone();
-    let Some(st) = s.strips.as_mut() else {
+    let Some(st) = s.strips_mut().as_mut() else {
         return s;
     };
     let total: u32 = st.layers.iter().map(|l| l.count).sum();
@@ -133,7 +133,7 @@ fn save(out: &Path, name: &str, img: image::RgbaImage) -> Result<()> {
 /// Run the whole bench on `scene_path` (the strips scene) and write the report into `out`.
 pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Report> {
     let scene = Scene::load(scene_path)?;
-    let Some(strips) = scene.strips.as_ref() else {
+    let Some(strips) = scene.strips().as_ref() else {
         return Err(crate::KamiError::Invalid {
             file: scene_path.display().to_string(),
             field: "strips".into(),
@@ -212,7 +212,7 @@ fn speed_section(
     for &n in &COUNTS {
         let s = scaled(scene, n);
         let count: u32 = s
-            .strips
+            .strips()
             .as_ref()
             .map(|st| st.layers.iter().map(|l| l.count).sum())
             .unwrap_or(0);
@@ -528,7 +528,7 @@ impl SamplingReport {
 /// under trilinear EFF sampling (the scene's forces, no key-frame edits) and compare the
 /// tips' motion and smoothness; also time both samplings.
 pub fn sampling_motion(scene: &Scene, frames: u32) -> Result<SamplingReport> {
-    let Some(st) = scene.strips.as_ref() else {
+    let Some(st) = scene.strips().as_ref() else {
         return Err(crate::KamiError::Invalid {
             file: String::new(),
             field: "strips".into(),
@@ -632,7 +632,7 @@ fn sampling_section(
 ) -> Result<(String, String, image::RgbaImage)> {
     let r = sampling_motion(scene, SAMPLING_FRAMES)?;
     let names: Vec<String> = scene
-        .strips
+        .strips()
         .as_ref()
         .map(|st| st.layers.iter().map(|l| l.name.clone()).collect())
         .unwrap_or_default();

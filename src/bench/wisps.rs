@@ -43,7 +43,7 @@ pub const COPIES: [usize; 3] = [1, 2, 4];
 /// thinned by 1/sqrt(copies), so the hairstyle keeps its volume with more, thinner wisps.
 pub fn multiplied(scene: &Scene, copies: usize) -> Scene {
     let mut s = scene.clone();
-    let Some(w) = s.wisps.as_mut() else {
+    let Some(w) = s.wisps_mut().as_mut() else {
         return s;
     };
     let base: Vec<Skeleton> = w.skeletons.clone();
@@ -67,9 +67,13 @@ pub fn multiplied(scene: &Scene, copies: usize) -> Scene {
 /// `count` wisps from the scene's own: `multiplied` by enough copies, then the first
 /// `count` of them (the sweeps' 200 wisps from `toon.ron`'s 22).
 pub fn with_count(scene: &Scene, count: usize) -> Scene {
-    let own = scene.wisps.as_ref().map_or(0, |w| w.skeletons.len()).max(1);
+    let own = scene
+        .wisps()
+        .as_ref()
+        .map_or(0, |w| w.skeletons.len())
+        .max(1);
     let mut s = multiplied(scene, count.div_ceil(own).max(1));
-    if let Some(w) = s.wisps.as_mut() {
+    if let Some(w) = s.wisps_mut().as_mut() {
         w.skeletons.truncate(count);
         w.bundles.clear();
     }
@@ -257,7 +261,7 @@ fn sweep(gpu: &Gpu, scene: &Scene, frames: u32, md: &mut String, csv: &mut Strin
                 .enumerate()
             {
                 let mut s = base.clone();
-                if let Some(w) = s.wisps.as_mut() {
+                if let Some(w) = s.wisps_mut().as_mut() {
                     w.march.on = on;
                 }
                 let f = march_frame(gpu, &s, size, frames)?;
@@ -336,7 +340,7 @@ fn truth_image(gpu: &Gpu, scene: &Scene, size: (u32, u32)) -> Result<RgbaImage> 
     let look = stage.look();
     let frame = stage::frame_uniform(scene, &look, stage.bounds(), size, 1);
     let vp = glam::DMat4::from_cols_array_2d(&frame.view_proj.map(|c| c.map(f64::from)));
-    let Some(w) = scene.wisps.as_ref() else {
+    let Some(w) = scene.wisps().as_ref() else {
         return Err(crate::KamiError::Gpu("no wisps in the scene".into()));
     };
     let bg = field::linear(scene.render.background);
@@ -371,7 +375,7 @@ fn truth_image(gpu: &Gpu, scene: &Scene, size: (u32, u32)) -> Result<RgbaImage> 
 /// Run the whole bench on `scene_path` (the toon scene) and write the report into `out`.
 pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Report> {
     let mut scene = Scene::load(scene_path)?;
-    if scene.wisps.is_none() {
+    if scene.wisps().is_none() {
         return Err(crate::KamiError::Invalid {
             file: scene_path.display().to_string(),
             field: "wisps".into(),
@@ -475,9 +479,9 @@ fn cost_rows(
     let mut cost_series = Vec::new();
     for (i, &copies) in COPIES.iter().enumerate() {
         let s = multiplied(scene, copies);
-        let w = s.wisps.as_ref().map(|w| w.skeletons.len()).unwrap_or(0);
+        let w = s.wisps().as_ref().map(|w| w.skeletons.len()).unwrap_or(0);
         let segs = s
-            .wisps
+            .wisps()
             .as_ref()
             .map(crate::systems::wisps::march::segment_count)
             .unwrap_or(0);
@@ -597,7 +601,7 @@ fn error_section(
     let mut poly_pts = Vec::new();
     for (name, distance, step, refine) in error_variants() {
         let mut s = scene.clone();
-        if let Some(w) = s.wisps.as_mut() {
+        if let Some(w) = s.wisps_mut().as_mut() {
             w.march.distance = distance;
             w.march.step_scale = step;
             w.march.refine = refine;
@@ -683,7 +687,7 @@ fn error_variants() -> Vec<(String, Distance, f64, u32)> {
 fn springs_section(scene_path: &Path, out: &Path, md: &mut String, csv: &mut String) -> Result<()> {
     let shake_path = scene_path.with_file_name("toon_shake.ron");
     let shake = Scene::load(&shake_path)?;
-    if let Some(w) = shake.wisps.as_ref() {
+    if let Some(w) = shake.wisps().as_ref() {
         // Three wisps (a bang, a side and a back wisp) keep the f64 runs short.
         let mut few = w.clone();
         let pick = [2usize, 8, 13];

@@ -124,7 +124,7 @@ fn edited_scene(a: &Args) -> Result<Edited> {
     if let Some(f) = a.supersample {
         s.render.supersample = f;
     }
-    kami::systems::scene::validate(&s)?;
+    kami::systems::validate(&s)?;
     let sets = a
         .set
         .iter()

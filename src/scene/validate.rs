@@ -2,7 +2,7 @@
 //! failure names the field (`groups[1].rigidity`), the value and what is allowed. Adapter
 //! limits (buffer and texture sizes) are checked later, where the adapter is known. This
 //! file checks the shared blocks (`shared`) and holds the small checks every kind's block
-//! uses (`systems/<kind>/block.rs`); `systems::scene::validate` runs them all.
+//! uses (`systems/<kind>/block.rs`); `systems::validate` runs them all.
 
 use super::*;
 use crate::error::{KamiError, Result};

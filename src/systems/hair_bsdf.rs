@@ -1044,24 +1044,28 @@ mod tests {
         let p: Physical = ron::from_str("Physical(melanin: Some(0.4), tilt: 3.0)").unwrap();
         assert_eq!((p.melanin, p.tilt, p.roughness), (Some(0.4), 3.0, 0.3));
         assert!(ron::from_str::<Physical>("Physical(melanine: Some(0.4))").is_err());
-        let load = |text: &str, name: &str| crate::systems::Scene::from_ron(text, name).unwrap();
+        let load =
+            |text: &str, name: &str| crate::systems::scene::Scene::from_ron(text, name).unwrap();
         let mut gust = load(include_str!("../../assets/scenes/gust.ron"), "gust.ron");
-        gust.groups[0].material.physical.melanin = Some(2.0);
-        let e = crate::systems::scene::validate(&gust)
-            .unwrap_err()
-            .to_string();
+        gust.groups_mut()[0].material.physical.melanin = Some(2.0);
+        let e = crate::systems::validate(&gust).unwrap_err().to_string();
         assert!(e.contains("groups[0].material.physical.melanin"), "{e}");
         let mut fur = load(include_str!("../../assets/scenes/fur.ron"), "fur.ron");
-        fur.fur.as_mut().unwrap().coats[0].material.physical.ior = 0.9;
-        let e = crate::systems::scene::validate(&fur)
-            .unwrap_err()
-            .to_string();
+        fur.fur_mut().as_mut().unwrap().coats[0]
+            .material
+            .physical
+            .ior = 0.9;
+        let e = crate::systems::validate(&fur).unwrap_err().to_string();
         assert!(e.contains("material.physical.ior"), "{e}");
         let mut strips = load(include_str!("../../assets/scenes/strips.ron"), "strips.ron");
-        strips.strips.as_mut().unwrap().look.physical.roughness = 0.0;
-        let e = crate::systems::scene::validate(&strips)
-            .unwrap_err()
-            .to_string();
+        strips
+            .strips_mut()
+            .as_mut()
+            .unwrap()
+            .look
+            .physical
+            .roughness = 0.0;
+        let e = crate::systems::validate(&strips).unwrap_err().to_string();
         assert!(e.contains("strips.look.physical.roughness"), "{e}");
     }
 

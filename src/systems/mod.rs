@@ -5,8 +5,14 @@
 //! (`FrameCtx`) each frame, and draws them all into one depth-tested pass. The viewer's panels,
 //! tools and `--set` keys, its Files list, the CLI's summary line, the shader registry, the
 //! fuzzer's words, the limits check, the scene bounds and the scene's checks and files iterate
-//! `KINDS` too, so adding a kind is a new folder and one entry in the `kinds!` list below, which writes
-//! `KINDS` and the kind's fields of `Scene` (docs/adding-a-kind.md).
+//! `KINDS` too, so adding a kind is a new folder and one entry in the `kinds!` list below,
+//! which writes `KINDS` and the kind's fields of the scene file (docs/adding-a-kind.md).
+//!
+//! This file is the registry: the list of kinds and what is composed from it (reading,
+//! validating and merging whole scenes). The layers below it: `scene` (the scene with each
+//! kind's block held by type), `system` (`HairSystem` and its clock), `ui` and `kind` (the
+//! `Kind` entry) name no kind; the kinds import those, never this file, so the kinds and the
+//! scene are not an import cycle (`tests/it/layers.rs` checks).
 //!
 //! A system owns everything of its kind: its scene block (`<kind>/block.rs`), CPU references,
 //! GPU passes, draw pipelines, its shaders (`shaders/<kind>/`), its egui panels and its viewer
@@ -15,330 +21,543 @@
 pub mod anjyo;
 pub mod fur;
 pub mod hair_bsdf;
+pub mod kind;
 pub mod lod;
+pub mod registry;
 pub mod scene;
 pub mod strips;
+pub mod system;
 pub mod ui;
 pub mod wisps;
 pub mod world;
 
+pub use kind::{Kind, KindCommand, Panel};
+pub use scene::Scene;
+pub use system::{Change, DrawSetup, FrameCtx, HairSystem, StepInfo, SystemStats, View};
+
 use crate::error::Result;
-use crate::forces::Forces;
-use crate::gpu::Gpu;
-use glam::{DMat4, DVec3};
-use std::path::Path;
+use crate::scene::{self as shared, Head, Light, RenderSettings, MAX_STRANDS};
+use registry::kinds;
+use scene::pick;
+use std::path::{Path, PathBuf};
 
-/// The one clock of a frame, handed to every system: frames since the rest pose, the shared
-/// force fields and the head pose at that frame.
-#[derive(Clone, Copy, Debug)]
-pub struct FrameCtx<'a> {
-    /// Frames since the rest pose: 0 is the groomed rest pose, f is after f frames of
-    /// simulation. Keyed forces, head motion and mesh motion are all read at this frame.
-    pub frame: u64,
-    pub forces: &'a Forces,
-    /// Head pose at `frame` (roots ride it; the head pass draws it).
-    pub head: DMat4,
-}
-
-impl FrameCtx<'_> {
-    /// The clock as a time in frames (for keyed and periodic motion).
-    pub fn time(&self) -> f64 {
-        self.frame as f64
-    }
-}
-
-/// How the frame is looked at: what a system needs to choose its level of detail.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct View {
-    pub eye: DVec3,
-    /// Vertical field of view, radians.
-    pub fov_y: f64,
-    /// Share of the hairs to draw (the viewer's level of detail); 1 for full quality.
-    pub lod: f64,
-    /// Height of the target in pixels (the screen-space level of detail, `lod`).
-    pub height_px: f64,
-    /// Chord error allowed by the screen-space level of detail, pixels; 0 is full detail.
-    pub lod_tolerance_px: f64,
-    /// Show the system's diagnostic overlay (Anjyo: segments the pseudo-force acted on).
-    pub overlay: bool,
-    /// The frame's view-projection, the f32 values the shaders see (screen-space work such
-    /// as the wisps' tile lists projects with exactly these).
-    pub view_proj: DMat4,
-    /// Size of the scene target in samples (supersampled).
-    pub samples: (u32, u32),
-    /// Samples per output pixel (widths given in pixels).
-    pub samples_per_px: f64,
-    /// Focal length in samples.
-    pub focal_samples: f64,
-}
-
-/// What a system's pipelines are built for: the shared frame bind group (group 0,
-/// `shaders/common/frame.wgsl`), the scene target format, its MSAA sample count and the
-/// shadow lookup the shading compiles; and the world its simulation kernels bind.
-pub struct DrawSetup<'a> {
-    /// The scene's world on the GPU (gravity, hull, EFF, head field), the stage's: every
-    /// simulation kernel binds its group at `world::WORLD_GROUP`. A system keeps its group,
-    /// which the stage rewrites in place on edits that fit it; an edit that needs a new
-    /// world builds every system again (`Stage::apply`).
-    pub world: &'a world::WorldGpu,
-    pub frame_layout: &'a wgpu::BindGroupLayout,
-    /// Group 2 of a compute rasteriser for thin strands (`gpu::splat`).
-    pub splat_layouts: &'a crate::gpu::splat::SplatLayouts,
-    /// Group 2 of a cast pipeline (`gpu::shadow`, `shaders/common/shadow_cast.wgsl`).
-    pub shadow_cast_layout: &'a wgpu::BindGroupLayout,
-    pub format: wgpu::TextureFormat,
-    pub variant: crate::gpu::pipeline::Variant,
-}
-
-/// What an edit of the scene asks of one system, least to most work.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord)]
-pub enum Change {
-    /// Nothing of this system changed.
-    #[default]
-    None,
-    /// Only how it looks: new uniforms, same shape and motion.
-    Redraw,
-    /// Motion parameters: they act from the next step, the current pose stays.
-    Resimulate,
-    /// Its shape or its set-up: build the system again (a new rest pose).
-    Rebuild,
-}
-
-/// What one frame of stepping did.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct StepInfo {
-    pub substeps: u32,
-    /// Some step needed more substeps than allowed (the solver clamped and warned).
-    pub capped: bool,
-}
-
-impl StepInfo {
-    pub fn merge(self, other: StepInfo) -> StepInfo {
-        StepInfo {
-            substeps: self.substeps + other.substeps,
-            capped: self.capped || other.capped,
-        }
-    }
-}
-
-/// Counts for the Stats panel and the CLI.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct SystemStats {
-    pub strands: u64,
-    pub segments: u64,
-    /// Strands the solver moves (0 for a still groom).
-    pub simulated: u64,
-    /// Strands drawn in the last frame (after level of detail and culling).
-    pub drawn: u64,
-}
-
-/// One hair system, built for one scene.
-pub trait HairSystem {
-    /// The kind's name (as in `KINDS`).
-    fn kind(&self) -> &'static str;
-    /// A sphere holding everything the system may draw.
-    fn bounds(&self) -> (DVec3, f64);
-    /// Record `frames` frames of motion from `ctx.frame` on (compute work only; positions
-    /// stay on the GPU). Systems without dynamics do nothing.
-    fn step(
-        &mut self,
-        gpu: &Gpu,
-        enc: &mut wgpu::CommandEncoder,
-        ctx: &FrameCtx,
-        frames: u32,
-    ) -> Result<StepInfo>;
-    /// Before drawing `ctx.frame` for `view`: write per-frame uniforms and record any
-    /// view-dependent compute work (regeneration, culling).
-    fn prepare(
-        &mut self,
-        gpu: &Gpu,
-        enc: &mut wgpu::CommandEncoder,
-        ctx: &FrameCtx,
-        view: &View,
-    ) -> Result<()>;
-    /// Opaque geometry (a skin), drawn before any hair of any system.
-    fn draw_opaque(&self, _pass: &mut wgpu::RenderPass<'_>) {}
-    /// The hair, with per-sample coverage; group 0 (the frame) is bound.
-    fn draw(&self, pass: &mut wgpu::RenderPass<'_>, view: &View);
-    /// Whether `draw` composites per-pixel work recorded by `draw_compute`.
-    fn draws_in_compute(&self) -> bool {
-        false
-    }
-    /// Per-pixel work of `draw` done in compute (the wisps' march), after the shadows and
-    /// before the scene pass; group 0 (the frame) is bound.
-    fn draw_compute(&self, _pass: &mut wgpu::ComputePass<'_>) {}
-    /// Whether this frame's hair is drawn by a compute rasteriser (`splat`) instead of
-    /// `draw`: the stage then keeps the scene depth and composites the accumulation.
-    fn splats(&self) -> bool {
-        false
-    }
-    /// Record the compute rasteriser after the scene pass; groups 0 (the frame) and 2 (the
-    /// accumulation and the scene depth, `stage::splat`) are bound.
-    fn splat(&self, _pass: &mut wgpu::ComputePass<'_>) {}
-    /// Whether the system casts hair shadows (`cast_shadow` records something).
-    fn casts(&self) -> bool {
-        false
-    }
-    /// Deposit this frame's strands into the shadow structure (`stage::shadow`); groups 0
-    /// (the frame) and 2 (the structure, `shaders/common/shadow_cast.wgsl`) are bound. Runs
-    /// once per casting phase.
-    fn cast_shadow(&self, _pass: &mut wgpu::ComputePass<'_>) {}
-    /// Back to the rest pose.
-    fn reset(&mut self, gpu: &Gpu) -> Result<()>;
-    /// Rebuild the draw pipelines for another MSAA sample count or shadow lookup (every
-    /// pipeline whose module includes `shaders/common/shadow.wgsl` and shades takes
-    /// `variant.shadow`'s constants).
-    fn set_variant(&mut self, gpu: &Gpu, variant: crate::gpu::pipeline::Variant);
-    /// Take an edit classified as `Redraw` or `Resimulate` by the kind's `classify`.
-    fn update(&mut self, gpu: &Gpu, scene: &Scene, change: Change) -> Result<()>;
-    fn stats(&self) -> SystemStats;
-    /// Frames per second of a file's frames this system plays (a cache); None when its
-    /// motion is simulated, one frame per clock frame.
-    fn playback_fps(&self) -> Option<f64> {
-        None
-    }
-    /// What the last drawn frame dropped that its image hides (a list that overflowed), read
-    /// back from the GPU: callers ask at their own pace (the CLI after each frame, the viewer
-    /// once a second). Empty when nothing was dropped.
-    fn warnings(&self, _gpu: &Gpu) -> Result<Vec<String>> {
-        Ok(Vec::new())
-    }
-    /// The hair as it is now, as polylines with widths and colours, for strand files
-    /// (`kami convert scene.ron out.hair`, the viewer's Files panel); `None` for kinds that
-    /// have no strands to write.
-    fn export(&self, _gpu: &Gpu, _ctx: &FrameCtx) -> Result<Option<crate::formats::Groom>> {
-        Ok(None)
-    }
-    /// For tests and benches that look inside one kind.
-    fn as_any(&self) -> &dyn std::any::Any;
-    fn as_any_mut(&mut self) -> &mut dyn std::any::Any;
-}
-
-/// An egui panel a kind brings to the viewer.
-pub struct Panel {
-    pub title: &'static str,
-    /// Open when the viewer starts with this scene.
-    pub open: fn(&Scene) -> bool,
-    /// Shown on scenes without this kind too, because it offers to add the kind (the Fur
-    /// panel's example); other panels show only while the scene has the kind.
-    pub adds: bool,
-    pub show: fn(&mut egui::Ui, &mut ui::PanelCx),
-}
-
-/// A kind of hair: its whole contract with the rest of Kami. The stage builds it and
-/// classifies edits of it; the viewer hosts its panels, tools and `--set` keys (`ui`); the
-/// CLI prints its summary and asks whether it moves; the fuzzer adds its words; the shader
-/// registry (`stage::shaders`) adds its modules.
-pub struct Kind {
-    pub name: &'static str,
-    /// The scene field holding the kind's block (`groups`, `fur`...), for messages.
-    pub block: &'static str,
-    /// What one says a scene needs at least one of ("hair group", "fur"...).
-    pub called: &'static str,
-    /// Whether the scene names hair of this kind (only those systems are built, and only
-    /// those kinds' panels show).
-    pub in_scene: fn(&Scene) -> bool,
-    /// Check every field of the kind's block (`systems/<kind>/block.rs`), before anything is
-    /// built; errors name the field, the loader adds the file.
-    pub validate: fn(&Scene) -> Result<()>,
-    /// Read or resolve the files the kind's block names, relative to the scene file's
-    /// folder (the path) when relative; the `&str` names the scene in errors.
-    pub read_files: fn(&mut Scene, &Path, &str) -> Result<()>,
-    /// The files `read_files` read or resolved for the block, on a loaded scene (the
-    /// viewer watches them and reloads when one is saved); the path is the scene file's
-    /// folder, as for `read_files`.
-    pub files: fn(&Scene, &Path) -> Vec<std::path::PathBuf>,
-    /// Strands and segments the kind grows (the CLI's counts and the scene's strand limit);
-    /// (0, 0) for kinds that grow no strands.
-    pub counts: fn(&Scene) -> (u64, u64),
-    /// The field the strand limit names when this kind's strands count towards it
-    /// (`groups[..].count`); `None` when the kind grows no counted strands.
-    pub counted: Option<&'static str>,
-    /// Check, before anything is allocated, that the scene's hair of this kind fits the
-    /// adapter's limits.
-    pub check_limits: fn(&Gpu, &Scene) -> Result<()>,
-    pub build: fn(&Gpu, &Scene, &DrawSetup) -> Result<Box<dyn HairSystem>>,
-    /// What an edit from the first scene to the second asks of this kind.
-    pub classify: fn(&Scene, &Scene) -> Change,
-    pub panels: &'static [Panel],
-    /// The kind's state in the viewer: mouse tools, overlays, `--set` keys.
-    pub ui: fn() -> Box<dyn ui::KindUi>,
-    /// What the CLI's summary line says of this kind beyond the scene's hair and segment
-    /// counts (`kami render`), when the scene has it.
-    pub summary: fn(&Scene) -> Option<String>,
-    /// Whether the scene's hair of this kind moves over frames (`kami render --frames`
-    /// warns when nothing does).
-    pub moves: fn(&Scene) -> bool,
-    /// Shipped scenes (stems under `assets/scenes/`) offered by the viewer's Files panel.
-    pub scenes: &'static [&'static str],
-    /// (path under `shaders/` without `.wgsl`, composed source) of every WGSL module.
-    pub shaders: &'static [(&'static str, &'static str)],
-    /// What must hold of the kind's block in any scene validation accepted, beyond finite
-    /// numbers (the fuzzer checks it on every accepted scene): `Err((signature, detail))`
-    /// when it does not.
-    pub invariants: fn(&Scene) -> std::result::Result<(), (&'static str, String)>,
-    /// Tokens of the kind's scene block for the scene fuzzer's dictionary (`fuzz`).
-    pub fuzz_words: &'static [&'static str],
-    /// Whether the kind's hair reads the shadow as toon steps rather than a smooth fraction:
-    /// the stage compiles the shading pipelines' shadow lookup that way when the scene has
-    /// this kind (a property of the kind, known before any system is built).
-    pub shadow_steps: bool,
-    /// The rate of the first file cache the kind's block plays (frames per second), if any
-    /// (`Scene::cache_fps`).
-    pub cache_fps: fn(&Scene) -> Option<f64>,
-    /// Opens a strand file (`.hair`, OBJ, USD, Alembic) as a scene of this kind's hair,
-    /// validated (`Scene::from_strand_file`); `None`: the kind shows no strand files.
-    pub opens: Option<fn(&Path) -> Result<Scene>>,
-    /// A reload's merge of the kind's block finer than the whole block (`merge_edits`):
-    /// `(base, ours, theirs, out)`, with `out` already holding the block-wise pick.
-    pub merge: fn(&Scene, &Scene, &Scene, &mut Scene),
-    /// Commands the kind adds to `kami` (`kami fingers`), listed after `bench`.
-    pub commands: &'static [KindCommand],
-}
-
-/// A command a kind adds to `kami`, defined in the kind's folder.
-pub struct KindCommand {
-    /// Its options and help: a clap command named as the command.
-    pub command: fn() -> clap::Command,
-    /// Run it on what the command line gave.
-    pub run: fn(&clap::ArgMatches) -> Result<()>,
-}
-
-scene::kinds! {
-    // Every kind of hair Kami knows, in drawing order, with the fields its block adds to the
-    // scene file (`Scene`): adding a kind is its folder and one entry here.
-    anjyo {
-        /// The load Anjyo's groom is styled under: the hair's weight per unit length, in the
-        /// units of `rigidity` (a setting of the groom, not a force of the world: hair in
-        /// motion falls under `forces.gravity`).
-        #[serde(default = "anjyo::block::default_groom_load")]
-        groom_load: [f64; 3] = anjyo::block::default_groom_load(),
-        /// Anjyo's hair groups; empty when the scene shows only other kinds.
-        #[serde(default)]
-        groups: Vec<anjyo::block::HairGroup> = Vec::new(),
-        /// Hair in motion (Anjyo section 3). Absent: the groom is static and no simulation
-        /// buffers or passes are built.
-        #[serde(default)]
-        dynamics: Option<anjyo::block::Dynamics> = None,
+kinds! {
+    // Every kind of hair Kami knows, in drawing order: its folder, its block's type (in the
+    // kind's `block.rs`, with the fields' docs, defaults and checks) and the block's fields
+    // in the file. Adding a kind is its folder and one entry here.
+    anjyo: AnjyoBlock {
+        groom_load: [f64; 3],
+        groups: Vec<anjyo::block::HairGroup>,
+        dynamics: Option<anjyo::block::Dynamics>,
     },
-    fur {
-        /// Fur on a triangle mesh (Van Gelder & Wilhelms).
-        #[serde(default)]
-        fur: Option<fur::block::Fur> = None,
-    },
-    wisps {
-        /// Toon wisps (Sakai): skeletons drawn as a ray-marched blobby surface.
-        #[serde(default)]
-        wisps: Option<wisps::block::Wisps> = None,
-    },
-    strips {
-        /// Directable strips (Kazama et al.): layered reed strips on damped angular springs.
-        #[serde(default)]
-        strips: Option<strips::block::Strips> = None,
-    },
+    fur: FurBlock { fur: Option<fur::block::Fur> },
+    wisps: WispsBlock { wisps: Option<wisps::block::Wisps> },
+    strips: StripsBlock { strips: Option<strips::block::Strips> },
 }
 
 /// The kind called `name`.
 pub fn kind(name: &str) -> Option<&'static Kind> {
     KINDS.iter().copied().find(|k| k.name == name)
+}
+
+impl Scene {
+    /// Parse and validate a scene from RON text; `origin` names it in errors.
+    pub fn from_ron(text: &str, origin: &str) -> Result<Scene> {
+        let scene: Scene = shared::parse_str(text, origin)?;
+        validate(&scene).map_err(|e| shared::in_file(e, origin))?;
+        Ok(scene)
+    }
+
+    /// `from_ron` on raw bytes: text that is not UTF-8 is refused with the place of the first
+    /// bad byte.
+    pub fn from_bytes(bytes: &[u8], origin: &str) -> Result<Scene> {
+        let scene: Scene = shared::parse(bytes, origin)?;
+        validate(&scene).map_err(|e| shared::in_file(e, origin))?;
+        Ok(scene)
+    }
+
+    /// The rate of the first file cache a hair group plays (frames per second): what
+    /// `kami render --gif/--apng` plays at when no `--fps` is given.
+    pub fn cache_fps(&self) -> Option<f64> {
+        KINDS.iter().find_map(|k| (k.cache_fps)(self))
+    }
+
+    /// A scene showing one strand file (`.hair`, `.obj` polylines, USD in any encoding,
+    /// `.abc`), as the hair of the first kind that opens strand files (`Kind::opens`, which
+    /// validates what it makes). What `kami view groom.hair` and the Files panel open; a
+    /// cache plays its frames.
+    pub fn from_strand_file(path: &Path) -> Result<Scene> {
+        let open = KINDS
+            .iter()
+            .find_map(|k| k.opens)
+            .expect("a kind opens strand files");
+        let scene = open(path)?;
+        validate(&scene).map_err(|e| shared::in_file(e, &path.display().to_string()))?;
+        Ok(scene)
+    }
+
+    /// Read, parse and validate a scene file, then read the files it names (relative to its
+    /// folder) so that their errors name them; a strand file (`.hair`, `.obj`, USD, `.abc`)
+    /// opens as a scene of its own ([`Scene::from_strand_file`]).
+    pub fn load(path: impl AsRef<Path>) -> Result<Scene> {
+        let path = path.as_ref();
+        if crate::formats::Format::of(path).is_some() {
+            return Scene::from_strand_file(path);
+        }
+        let bytes = shared::read_bytes(path)?;
+        let origin = path.display().to_string();
+        let mut scene = Scene::from_bytes(&bytes, &origin)?;
+        let dir = path.parent().unwrap_or(Path::new(""));
+        shared::read_shared_files(&mut scene.head, &mut scene.forces, dir, &origin)?;
+        for k in KINDS {
+            (k.read_files)(&mut scene, dir, &origin)?;
+        }
+        Ok(scene)
+    }
+
+    /// Every file this scene, loaded from `path` by [`Scene::load`], was read from: `path`
+    /// itself, then the files the shared blocks and each kind's block name (each kind's
+    /// `Kind::files`), without repeats. The viewer watches them and reloads on a save.
+    pub fn files(&self, path: &Path) -> Vec<PathBuf> {
+        let dir = path.parent().unwrap_or(Path::new(""));
+        let mut all = vec![path.to_path_buf()];
+        all.extend(shared::shared_files(&self.head, &self.forces, dir));
+        for k in KINDS {
+            all.extend((k.files)(self, dir));
+        }
+        let mut seen = Vec::new();
+        all.retain(|p| {
+            // One file named two ways (a strand file opened as a scene names itself) is
+            // watched once.
+            let key = std::fs::canonicalize(p).unwrap_or_else(|_| p.clone());
+            let new = !seen.contains(&key);
+            seen.push(key);
+            new
+        });
+        all
+    }
+
+    /// Total hairs and segments the kinds grow (Anjyo's groups, the fur at full density:
+    /// its count is rounded per triangle when groomed, so it is approximate; wisps and strips
+    /// are surfaces and ribbons, not counted strands).
+    pub fn counts(&self) -> (u64, u64) {
+        KINDS.iter().fold((0, 0), |(h, s), k| {
+            let (kh, ks) = (k.counts)(self);
+            (h + kh, s + ks)
+        })
+    }
+}
+
+/// The scene a reload shows: the file's new version `theirs`, except where the viewer's
+/// scene `ours` was edited (it differs from `base`, the file as last loaded) and the file
+/// left that part as it was (`theirs` equals `base` there): the viewer's edit stays. Parts
+/// are the scene's blocks, and inside the head, light and render blocks each field (the
+/// skin colour, light and background the Look panel sets survive an edit of the head's
+/// shape in the file), and, while the number of hair groups stays, each group with its
+/// material apart (a colour set in the Hair look panel survives an edit of the group's
+/// count). Where both changed, the file wins: it was saved last.
+pub fn merge_edits(base: &Scene, ours: &Scene, theirs: Scene) -> Scene {
+    let (b, o) = (base, ours);
+    let mut out = theirs.clone();
+    // Destructured, so a new shared field fails to compile until it is merged here too; the
+    // kinds' blocks are picked whole, then finer by each kind's `merge`.
+    let Scene {
+        seed,
+        head,
+        forces,
+        camera,
+        light,
+        render,
+        blocks: _,
+    } = theirs.clone();
+    let Head {
+        center,
+        radii,
+        color,
+        visible,
+        mesh,
+    } = head;
+    let Light {
+        direction,
+        intensity,
+        ambient,
+        color: light_color,
+    } = light;
+    let RenderSettings {
+        size,
+        background,
+        msaa,
+        supersample,
+        min_width,
+        lod_tolerance_px,
+        strands,
+        shading,
+        shadows,
+    } = render;
+    out.seed = pick(&b.seed, &o.seed, seed);
+    out.head = Head {
+        center: pick(&b.head.center, &o.head.center, center),
+        radii: pick(&b.head.radii, &o.head.radii, radii),
+        color: pick(&b.head.color, &o.head.color, color),
+        visible: pick(&b.head.visible, &o.head.visible, visible),
+        mesh: pick(&b.head.mesh, &o.head.mesh, mesh),
+    };
+    out.forces = pick(&b.forces, &o.forces, forces);
+    out.camera = pick(&b.camera, &o.camera, camera);
+    out.light = Light {
+        direction: pick(&b.light.direction, &o.light.direction, direction),
+        intensity: pick(&b.light.intensity, &o.light.intensity, intensity),
+        ambient: pick(&b.light.ambient, &o.light.ambient, ambient),
+        color: pick(&b.light.color, &o.light.color, light_color),
+    };
+    out.render = RenderSettings {
+        size: pick(&b.render.size, &o.render.size, size),
+        background: pick(&b.render.background, &o.render.background, background),
+        msaa: pick(&b.render.msaa, &o.render.msaa, msaa),
+        supersample: pick(&b.render.supersample, &o.render.supersample, supersample),
+        min_width: pick(&b.render.min_width, &o.render.min_width, min_width),
+        lod_tolerance_px: pick(
+            &b.render.lod_tolerance_px,
+            &o.render.lod_tolerance_px,
+            lod_tolerance_px,
+        ),
+        strands: pick(&b.render.strands, &o.render.strands, strands),
+        shading: pick(&b.render.shading, &o.render.shading, shading),
+        shadows: pick(&b.render.shadows, &o.render.shadows, shadows),
+    };
+    out.blocks.pick(&b.blocks, &o.blocks);
+    for k in KINDS {
+        (k.merge)(b, o, &theirs, &mut out);
+    }
+    out
+}
+
+/// Check every field of a parsed scene: the shared blocks, that it shows some hair, each
+/// kind's block, then the total strand count. Errors name the field; the loader adds the
+/// file.
+pub fn validate(s: &Scene) -> Result<()> {
+    shared::validate::shared(&s.head, &s.forces, &s.camera, &s.light, &s.render)?;
+    if !KINDS.iter().any(|k| (k.in_scene)(s)) {
+        let names: Vec<&str> = KINDS.iter().map(|k| k.called).collect();
+        let (last, rest) = names.split_last().expect("KINDS is not empty");
+        return Err(shared::validate::bad(
+            KINDS[0].block,
+            "[]",
+            &format!("a scene needs at least one {} or {last}", rest.join(", ")),
+        ));
+    }
+    for k in KINDS {
+        (k.validate)(s)?;
+    }
+    // The total last: each kind's own count check names its field first.
+    let (strands, _) = s.counts();
+    if strands > MAX_STRANDS {
+        let counted: Vec<&str> = KINDS
+            .iter()
+            .filter(|k| (k.in_scene)(s))
+            .filter_map(|k| k.counted)
+            .collect();
+        return Err(shared::validate::bad(
+            &counted.join(" + "),
+            strands,
+            &format!("the total must be at most {MAX_STRANDS} hairs"),
+        ));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Scene;
+    use crate::error::KamiError;
+    use crate::scene::forces::EARTH_GRAVITY;
+
+    /// A small valid scene in the old form: `field` spliced in where it used to sit.
+    fn old(top: &str, dynamics: &str, motion: &str) -> String {
+        format!(
+            "Scene(\n    head: Head(radii: (9.6, 11.5, 7.8)),\n{top}    strips: Some(Strips(\n        \
+             layers: [Layer(count: 2, polar: 60.0, azimuth: (0.0, 90.0), length: 10.0, sticks: 4)],\n        \
+             motion: Motion({motion}),\n    )),\n    dynamics: Some(Dynamics({dynamics})),\n)\n"
+        )
+    }
+
+    /// Every field of the old format that held a force fails with a parse error that names
+    /// the file and the line, the old field and where it is now.
+    #[test]
+    fn old_forms_name_the_moved_field_and_where_it_goes() {
+        let cases = [
+            (
+                old("", "gravity: (0.0, -150.0, 0.0)", ""),
+                7,
+                "`dynamics.gravity` moved",
+                "forces: ForcesDesc(gravity:",
+            ),
+            (
+                old(
+                    "",
+                    "wind: [WindKey(frame: 0.0, force: (1.0, 0.0, 0.0))]",
+                    "",
+                ),
+                7,
+                "`dynamics.wind` moved",
+                "forces: ForcesDesc(wind:",
+            ),
+            (
+                old("", "head_motion: [HeadKey(frame: 0.0)]", ""),
+                7,
+                "`dynamics.head_motion` moved",
+                "forces: ForcesDesc(head_motion:",
+            ),
+            (
+                old("    eff: Some(EffDesc()),\n", "", ""),
+                3,
+                "the top-level `eff` moved",
+                "forces: ForcesDesc(eff: Some(EffDesc(",
+            ),
+            (
+                old(
+                    "    head_capture: Some(HeadCapture(file: \"x.bvh\")),\n",
+                    "",
+                    "",
+                ),
+                3,
+                "the top-level `head_capture` moved",
+                "ForcesDesc(head_capture:",
+            ),
+            (
+                old("    gravity: (0.0, -1.0, 0.0),\n", "", ""),
+                3,
+                "is now `groom_load`",
+                "forces: ForcesDesc(gravity:",
+            ),
+            (
+                old("", "", "gravity: (0.0, -980.0, 0.0)"),
+                5,
+                "`strips.motion.gravity` moved",
+                "forces: ForcesDesc(gravity: (x, y, z))",
+            ),
+        ];
+        for (text, want_line, what, where_now) in cases {
+            match Scene::from_ron(&text, "old.ron") {
+                Err(KamiError::Parse {
+                    path,
+                    line,
+                    message,
+                    ..
+                }) => {
+                    assert_eq!((path.as_str(), line), ("old.ron", want_line), "{message}");
+                    assert!(
+                        message.contains(what) && message.contains(where_now),
+                        "expected {what:?} and {where_now:?} in: {message}\n{text}"
+                    );
+                }
+                other => panic!("expected a parse error for\n{text}\ngot {other:?}"),
+            }
+        }
+        // The same scene in the new form loads.
+        let new = old(
+            "    forces: ForcesDesc(gravity: (0.0, -980.0, 0.0)),\n",
+            "",
+            "",
+        );
+        let scene = Scene::from_ron(&new, "new.ron").unwrap();
+        assert_eq!(scene.forces.gravity, EARTH_GRAVITY);
+    }
+
+    /// Every shipped scene is in the new form and loads (its files read, every value
+    /// checked); the ones that move under the world's forces say so in their `forces` block.
+    #[test]
+    fn every_shipped_scene_loads() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes");
+        let mut names: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .filter(|p| p.extension().is_some_and(|e| e == "ron"))
+            .collect();
+        names.sort();
+        assert!(
+            names.len() >= 26,
+            "{} scenes in {}",
+            names.len(),
+            dir.display()
+        );
+        for p in &names {
+            let scene = Scene::load(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+            let f = &scene.forces;
+            // Strips and wisps on springs fall under Earth's gravity in every shipped scene.
+            let falls = scene.strips().is_some()
+                || scene.wisps().as_ref().is_some_and(|w| w.springs.is_some());
+            if falls {
+                assert_eq!(f.gravity, EARTH_GRAVITY, "{}", p.display());
+            }
+            if let Some(hc) = &f.head_capture {
+                assert!(!hc.keys.is_empty(), "{}: the capture was read", p.display());
+            }
+            if let Some(e) = &f.eff {
+                assert_eq!(e.file.is_some(), e.loaded.is_some(), "{}", p.display());
+            }
+        }
+    }
+
+    /// The file format is every shared field, then each kind's, flat, as `kinds!` lists
+    /// them: a shipped scene written and read back is the same scene, and a default scene
+    /// writes every field once, in that order.
+    #[test]
+    fn scenes_write_flat_and_read_back_the_same() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes");
+        for e in std::fs::read_dir(&dir).unwrap() {
+            let p = e.unwrap().path();
+            if p.extension().is_none_or(|x| x != "ron") {
+                continue;
+            }
+            let text = std::fs::read_to_string(&p).unwrap();
+            let scene = Scene::from_ron(&text, "a.ron").unwrap();
+            let back = Scene::from_ron(&scene.to_ron(), "b.ron").unwrap();
+            assert!(back == scene, "{}", p.display());
+        }
+        let text = Scene::default().to_ron();
+        let fields = [
+            "seed",
+            "head",
+            "forces",
+            "camera",
+            "light",
+            "render",
+            "groom_load",
+            "groups",
+            "dynamics",
+            "fur",
+            "wisps",
+            "strips",
+        ];
+        let at: Vec<usize> = fields
+            .iter()
+            .map(|f| {
+                let key = format!("\n    {f}: ");
+                assert_eq!(text.matches(&key).count(), 1, "{f} in\n{text}");
+                text.find(&key).unwrap()
+            })
+            .collect();
+        assert!(at.windows(2).all(|w| w[0] < w[1]), "{text}");
+        assert!(text.starts_with("Scene("), "{text}");
+    }
+
+    /// The field and text of a check's error.
+    fn invalid(text: &str) -> (String, String) {
+        match Scene::from_ron(text, "t.ron") {
+            Err(KamiError::Invalid { field, allowed, .. }) => (field, allowed),
+            other => panic!("expected an invalid field for\n{text}\ngot {other:?}"),
+        }
+    }
+
+    /// A scene with no hair names every kind it could have held, from `KINDS`.
+    #[test]
+    fn a_scene_without_hair_names_every_kind() {
+        let (field, allowed) = invalid("Scene()");
+        assert_eq!(field, "groups");
+        assert_eq!(
+            allowed,
+            "a scene needs at least one hair group, fur, wisps or strips"
+        );
+    }
+
+    /// Each kind's own count check comes before the scene's total, so a fur block over the
+    /// limit is refused by the fur's rule, naming its field, with hair groups beside it too.
+    #[test]
+    fn a_kind_over_the_strand_limit_is_named_by_its_own_check() {
+        let fur = "fur: Some(Fur(mesh: Critter, hairs: 4000001, length: 0.3, \
+                   coats: [Coat(share: 1.0, stiffness: 0.5)]))";
+        let group = "groups: [HairGroup(count: 10, segments: 4, length: 10.0, rigidity: 1000.0)]";
+        for text in [format!("Scene({fur})"), format!("Scene({group}, {fur})")] {
+            let (field, allowed) = invalid(&text);
+            assert_eq!(field, "fur.hairs", "{text}");
+            assert!(!allowed.contains("total"), "{text}: {allowed}");
+        }
+        // Within each kind's limit but over the scene's total: the total names both.
+        let both = format!(
+            "Scene(groups: [HairGroup(count: 3000000, segments: 4, length: 10.0, rigidity: 1000.0)], {})",
+            fur.replace("4000001", "2000000")
+        );
+        let (field, allowed) = invalid(&both);
+        assert_eq!(field, "groups[..].count + fur.hairs");
+        assert!(
+            allowed.contains("the total must be at most 4000000"),
+            "{allowed}"
+        );
+    }
+
+    fn shipped(stem: &str) -> (std::path::PathBuf, Scene) {
+        let path = crate::scene::shipped(&format!("assets/scenes/{stem}.ron"));
+        let scene = Scene::load(&path).unwrap();
+        (path, scene)
+    }
+
+    /// What live reload watches: the scene file, then each file it names, as found on disk;
+    /// a system mesh (`CgalDemo`) is not the user's and is left out.
+    #[test]
+    fn files_are_the_scene_and_the_files_it_names() {
+        let names = |stem: &str| -> Vec<String> {
+            let (path, scene) = shipped(stem);
+            let files = scene.files(&path);
+            assert_eq!(files[0], path, "{stem}: the scene file first");
+            for f in &files {
+                assert!(f.is_file(), "{stem}: {} is not a file", f.display());
+            }
+            files[1..]
+                .iter()
+                .map(|f| f.file_name().unwrap().to_string_lossy().into_owned())
+                .collect()
+        };
+        assert_eq!(names("imported_groom"), ["wavy.hair"]);
+        assert_eq!(names("eff_capture"), ["capture.eff"]);
+        assert_eq!(names("fur_creature"), ["creature.gltf"]);
+        assert!(names("gust").is_empty());
+        assert!(names("mesh_head").is_empty());
+        // A strand file opened as a scene names itself: watched once.
+        let hair = crate::scene::shipped("assets/grooms/wavy.hair");
+        let scene = Scene::load(&hair).unwrap();
+        assert_eq!(scene.files(&hair), [hair]);
+    }
+
+    /// A reload keeps what the viewer edited where the file did not change that part, takes
+    /// the file's edits everywhere else, and lets the file win where both changed.
+    #[test]
+    fn a_reload_keeps_the_viewers_edits_the_file_left_alone() {
+        use super::merge_edits;
+        let (_, base) = shipped("gust");
+        let mut ours = base.clone();
+        ours.light.intensity = 2.5;
+        ours.head.color = [0.1, 0.2, 0.3];
+        ours.groups_mut()[0].material.color = [0.9, 0.1, 0.1];
+        let mut theirs = base.clone();
+        theirs.groups_mut()[0].count += 10;
+        theirs.render.background = [0.0, 0.0, 0.0];
+        theirs.head.radii[0] += 1.0;
+        let m = merge_edits(&base, &ours, theirs.clone());
+        assert_eq!(m.light.intensity, 2.5, "the viewer's light stays");
+        assert_eq!(m.head.color, [0.1, 0.2, 0.3], "the viewer's skin stays");
+        assert_eq!(
+            m.groups()[0].material.color,
+            [0.9, 0.1, 0.1],
+            "the viewer's colour stays"
+        );
+        assert_eq!(
+            m.groups()[0].count,
+            theirs.groups()[0].count,
+            "the file's count"
+        );
+        assert_eq!(m.render.background, [0.0; 3], "the file's background");
+        assert_eq!(m.head.radii, theirs.head.radii, "the file's head");
+        // Both changed the colour: the file, saved last, wins.
+        theirs.groups_mut()[0].material.color = [0.2, 0.9, 0.2];
+        let m = merge_edits(&base, &ours, theirs.clone());
+        assert_eq!(m.groups()[0].material.color, [0.2, 0.9, 0.2]);
+        // A group added in the file: the groups come from the file as a whole.
+        let first = theirs.groups()[0].clone();
+        theirs.groups_mut().push(first);
+        let m = merge_edits(&base, &ours, theirs.clone());
+        assert_eq!(m.groups(), theirs.groups());
+        // No viewer edits: the file as written.
+        assert_eq!(merge_edits(&base, &base, theirs.clone()), theirs);
+    }
 }

@@ -1,108 +1,102 @@
-//! The scene file as a whole: the blocks every scene shares (`crate::scene`: head, forces,
-//! camera, light, render settings) and each kind's block, whose type, checks and file
-//! reading live in the kind's folder (`systems/<kind>/block.rs`). It sits beside `KINDS`
-//! because it composes the kinds: `scene` below it knows none of them, and the stage and
-//! viewer above take it whole. `load` reads a file (or a strand file as a scene of its
-//! own), `validate` runs the shared checks and every kind's, and a failure names the file,
-//! the field, the value and what is allowed.
+//! The scene file as a whole, as the kinds see it: the blocks every scene shares
+//! (`crate::scene`: head, forces, camera, light, render settings) and each kind's block,
+//! held by type (`Block`) so that this module names no kind. Each kind defines its block's
+//! type, checks and accessors in its own folder (`systems/<kind>/block.rs`:
+//! `scene.groups()`, `scene.fur_mut()`); the registry (`systems/mod.rs`) writes the
+//! file format from `KINDS`, builds a default scene with every kind's block, and reads,
+//! validates and merges scenes. Kinds import this module and the contract
+//! (`systems::kind`, `systems::system`), never the registry: no import cycle.
 
-use super::{Scene, KINDS};
-use crate::error::Result;
-use crate::scene::{self, Ellipsoid, Head, Light, RenderSettings, MAX_STRANDS};
-use std::path::{Path, PathBuf};
+use crate::scene::{CameraDesc, Ellipsoid, ForcesDesc, Head, Light, RenderSettings};
+use std::any::Any;
+use std::fmt::Debug;
 
-/// Writes, from the one list of kinds in `systems/mod.rs`, `KINDS` and the scene file's type
-/// `Scene`: the blocks every scene shares (`crate::scene`), then each kind's fields (their
-/// types, checks and file reading in `systems/<kind>/block.rs`), with its `Default` and the
-/// block-wise pick of a reload's merge. The file format is `Scene`'s fields. A macro, not
-/// `#[serde(flatten)]`: RON writes flattened structs as maps with quoted keys, and
-/// `deny_unknown_fields` (the old-format messages rely on it) does not work with flatten.
-macro_rules! kinds {
-    ($(
-        $kind:ident {
-            $( $(#[$m:meta])* $field:ident : $ty:ty = $default:expr ),* $(,)?
-        }
-    ),* $(,)?) => {
-        /// Every kind of hair Kami knows, in drawing order.
-        pub const KINDS: &[&Kind] = &[$(&$kind::KIND),*];
-
-        /// A whole scene: the shared blocks (`crate::scene`) and each kind's fields (their
-        /// types and checks in `systems/<kind>/block.rs`). The file format is this struct's
-        /// fields.
-        #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-        #[serde(deny_unknown_fields)]
-        pub struct Scene {
-            /// Seed of every random draw (pores, lengths, per-strand ambient).
-            #[serde(default)]
-            pub seed: u64,
-            /// The head hull (a default head when absent: fur scenes need none).
-            #[serde(default)]
-            pub head: $crate::scene::Head,
-            /// The world's forces, shared by every kind (`scene::forces`).
-            #[serde(default)]
-            pub forces: $crate::scene::ForcesDesc,
-            #[serde(default)]
-            pub camera: $crate::scene::CameraDesc,
-            #[serde(default)]
-            pub light: $crate::scene::Light,
-            #[serde(default)]
-            pub render: $crate::scene::RenderSettings,
-            $($( $(#[$m])* pub $field: $ty, )*)*
-        }
-
-        impl Default for Scene {
-            /// The file `Scene()`: the default head, camera, light and render settings and no
-            /// hair (not a valid scene by itself: `validate` asks for some hair).
-            fn default() -> Self {
-                Scene {
-                    seed: 0,
-                    head: Default::default(),
-                    forces: Default::default(),
-                    camera: Default::default(),
-                    light: Default::default(),
-                    render: Default::default(),
-                    $($( $field: $default, )*)*
-                }
-            }
-        }
-
-        impl Scene {
-            /// The shared blocks, by value: every field but the kinds', so that a new
-            /// shared field fails to compile here and in `merge_edits` until it is merged.
-            fn into_shared(
-                self,
-            ) -> (
-                u64,
-                $crate::scene::Head,
-                $crate::scene::ForcesDesc,
-                $crate::scene::CameraDesc,
-                $crate::scene::Light,
-                $crate::scene::RenderSettings,
-            ) {
-                let Scene {
-                    seed,
-                    head,
-                    forces,
-                    camera,
-                    light,
-                    render,
-                    $($( $field: _, )*)*
-                } = self;
-                (seed, head, forces, camera, light, render)
-            }
-
-            /// Each kind field of `self` (the file's new version) picked block-wise against
-            /// `base` and `ours` (`scene::merge_edits`).
-            fn pick_kind_fields(&mut self, base: &Scene, ours: &Scene) {
-                $($(
-                    self.$field =
-                        $crate::systems::scene::pick(&base.$field, &ours.$field, self.$field.clone());
-                )*)*
-            }
-        }
-    };
+/// A whole scene: the shared blocks and each kind's block. The file format (`Scene(...)`
+/// with every field flat) is written by the registry from `KINDS`; a default scene (the file
+/// `Scene()`) has every kind's default block and no hair.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    /// Seed of every random draw (pores, lengths, per-strand ambient).
+    pub seed: u64,
+    /// The head hull (a default head when absent: fur scenes need none).
+    pub head: Head,
+    /// The world's forces, shared by every kind (`scene::forces`).
+    pub forces: ForcesDesc,
+    pub camera: CameraDesc,
+    pub light: Light,
+    pub render: RenderSettings,
+    /// Each kind's block, in `KINDS` order; read through the accessors each kind defines.
+    pub blocks: Blocks,
 }
-pub(crate) use kinds;
+
+/// A kind's block of the scene: plain data a scene can clone, compare and print.
+pub trait Block: Any + Debug + Send + Sync {
+    fn clone_block(&self) -> Box<dyn Block>;
+    /// Equal to `other` (a block of the same type).
+    fn same(&self, other: &dyn Block) -> bool;
+}
+
+impl<T: Any + Clone + PartialEq + Debug + Send + Sync> Block for T {
+    fn clone_block(&self) -> Box<dyn Block> {
+        Box::new(self.clone())
+    }
+
+    fn same(&self, other: &dyn Block) -> bool {
+        (other as &dyn Any).downcast_ref::<T>() == Some(self)
+    }
+}
+
+/// Every kind's block of one scene, one per kind in `KINDS` order (the registry builds the
+/// list; nothing else can, so a block a kind asks for is always there).
+#[derive(Debug)]
+pub struct Blocks(Vec<Box<dyn Block>>);
+
+impl Blocks {
+    /// The registry's list: one block per kind, in `KINDS` order.
+    pub(crate) fn new(blocks: Vec<Box<dyn Block>>) -> Blocks {
+        Blocks(blocks)
+    }
+
+    /// The kind block of type `T` (each kind's accessors on `Scene` call this; a kind's
+    /// panel borrows it beside the shared blocks through `Scene { render, blocks, .. }`).
+    pub fn get<T: Block>(&self) -> &T {
+        self.0
+            .iter()
+            .find_map(|b| (b.as_ref() as &dyn Any).downcast_ref::<T>())
+            .expect("the registry builds every kind's block")
+    }
+
+    /// The kind block of type `T`, to edit.
+    pub fn get_mut<T: Block>(&mut self) -> &mut T {
+        self.0
+            .iter_mut()
+            .find_map(|b| (b.as_mut() as &mut dyn Any).downcast_mut::<T>())
+            .expect("the registry builds every kind's block")
+    }
+
+    /// Each block of `self` (the file's new version) picked against `base` and `ours` as
+    /// [`pick`] does (`merge_edits`).
+    pub(crate) fn pick(&mut self, base: &Blocks, ours: &Blocks) {
+        for ((t, b), o) in self.0.iter_mut().zip(&base.0).zip(&ours.0) {
+            if t.same(b.as_ref()) && !o.same(b.as_ref()) {
+                *t = o.clone_block();
+            }
+        }
+    }
+}
+
+impl Clone for Blocks {
+    fn clone(&self) -> Blocks {
+        Blocks(self.0.iter().map(|b| b.clone_block()).collect())
+    }
+}
+
+impl PartialEq for Blocks {
+    fn eq(&self, other: &Blocks) -> bool {
+        self.0.len() == other.0.len()
+            && self.0.iter().zip(&other.0).all(|(a, b)| a.same(b.as_ref()))
+    }
+}
 
 /// `theirs` unless it equals `base` and `ours` was edited: then `ours` (`merge_edits`).
 pub fn pick<T: PartialEq + Clone>(base: &T, ours: &T, theirs: T) -> T {
@@ -114,78 +108,14 @@ pub fn pick<T: PartialEq + Clone>(base: &T, ours: &T, theirs: T) -> T {
 }
 
 impl Scene {
-    /// Parse and validate a scene from RON text; `origin` names it in errors.
-    pub fn from_ron(text: &str, origin: &str) -> Result<Scene> {
-        let scene: Scene = scene::parse_str(text, origin)?;
-        validate(&scene).map_err(|e| scene::in_file(e, origin))?;
-        Ok(scene)
+    /// The kind block of type `T` (each kind's accessors call this).
+    pub fn block<T: Block>(&self) -> &T {
+        self.blocks.get()
     }
 
-    /// `from_ron` on raw bytes: text that is not UTF-8 is refused with the place of the first
-    /// bad byte.
-    pub fn from_bytes(bytes: &[u8], origin: &str) -> Result<Scene> {
-        let scene: Scene = scene::parse(bytes, origin)?;
-        validate(&scene).map_err(|e| scene::in_file(e, origin))?;
-        Ok(scene)
-    }
-
-    /// The rate of the first file cache a hair group plays (frames per second): what
-    /// `kami render --gif/--apng` plays at when no `--fps` is given.
-    pub fn cache_fps(&self) -> Option<f64> {
-        KINDS.iter().find_map(|k| (k.cache_fps)(self))
-    }
-
-    /// A scene showing one strand file (`.hair`, `.obj` polylines, USD in any encoding,
-    /// `.abc`), as the hair of the first kind that opens strand files (`Kind::opens`, which
-    /// validates what it makes). What `kami view groom.hair` and the Files panel open; a
-    /// cache plays its frames.
-    pub fn from_strand_file(path: &Path) -> Result<Scene> {
-        let open = KINDS
-            .iter()
-            .find_map(|k| k.opens)
-            .expect("a kind opens strand files");
-        open(path)
-    }
-
-    /// Read, parse and validate a scene file, then read the files it names (relative to its
-    /// folder) so that their errors name them; a strand file (`.hair`, `.obj`, USD, `.abc`)
-    /// opens as a scene of its own ([`Scene::from_strand_file`]).
-    pub fn load(path: impl AsRef<Path>) -> Result<Scene> {
-        let path = path.as_ref();
-        if crate::formats::Format::of(path).is_some() {
-            return Scene::from_strand_file(path);
-        }
-        let bytes = scene::read_bytes(path)?;
-        let origin = path.display().to_string();
-        let mut scene = Scene::from_bytes(&bytes, &origin)?;
-        let dir = path.parent().unwrap_or(Path::new(""));
-        scene::read_shared_files(&mut scene.head, &mut scene.forces, dir, &origin)?;
-        for k in KINDS {
-            (k.read_files)(&mut scene, dir, &origin)?;
-        }
-        Ok(scene)
-    }
-
-    /// Every file this scene, loaded from `path` by [`Scene::load`], was read from: `path`
-    /// itself, then the files the shared blocks and each kind's block name (each kind's
-    /// `Kind::files`), without repeats. The viewer watches them and reloads on a save.
-    pub fn files(&self, path: &Path) -> Vec<PathBuf> {
-        let dir = path.parent().unwrap_or(Path::new(""));
-        let mut all = vec![path.to_path_buf()];
-        all.extend(scene::shared_files(&self.head, &self.forces, dir));
-        for k in KINDS {
-            all.extend((k.files)(self, dir));
-        }
-        let mut seen = Vec::new();
-        all.retain(|p| {
-            // One file named two ways (a strand file opened as a scene names itself) is
-            // watched once.
-            let key = std::fs::canonicalize(p).unwrap_or_else(|_| p.clone());
-            let new = !seen.contains(&key);
-            seen.push(key);
-            new
-        });
-        all
+    /// The kind block of type `T`, to edit.
+    pub fn block_mut<T: Block>(&mut self) -> &mut T {
+        self.blocks.get_mut()
     }
 
     /// Pretty RON, for saving a tuned scene.
@@ -199,377 +129,5 @@ impl Scene {
     /// The head hull as an ellipsoid.
     pub fn head_ellipsoid(&self) -> Ellipsoid {
         Ellipsoid::new(self.head.center, self.head.radii)
-    }
-
-    /// Total hairs and segments the kinds grow (Anjyo's groups, the fur at full density:
-    /// its count is rounded per triangle when groomed, so it is approximate; wisps and strips
-    /// are surfaces and ribbons, not counted strands).
-    pub fn counts(&self) -> (u64, u64) {
-        KINDS.iter().fold((0, 0), |(h, s), k| {
-            let (kh, ks) = (k.counts)(self);
-            (h + kh, s + ks)
-        })
-    }
-}
-
-/// The scene a reload shows: the file's new version `theirs`, except where the viewer's
-/// scene `ours` was edited (it differs from `base`, the file as last loaded) and the file
-/// left that part as it was (`theirs` equals `base` there): the viewer's edit stays. Parts
-/// are the scene's blocks, and inside the head, light and render blocks each field (the
-/// skin colour, light and background the Look panel sets survive an edit of the head's
-/// shape in the file), and, while the number of hair groups stays, each group with its
-/// material apart (a colour set in the Hair look panel survives an edit of the group's
-/// count). Where both changed, the file wins: it was saved last.
-pub fn merge_edits(base: &Scene, ours: &Scene, theirs: Scene) -> Scene {
-    let (b, o) = (base, ours);
-    let mut out = theirs.clone();
-    // Destructured (`into_shared` names every field but the kinds'), so a new shared field
-    // fails to compile until it is merged here too; the kinds' fields are picked by
-    // `kinds!`, finer by each kind's `merge`.
-    let (seed, head, forces, camera, light, render) = theirs.clone().into_shared();
-    let Head {
-        center,
-        radii,
-        color,
-        visible,
-        mesh,
-    } = head;
-    let Light {
-        direction,
-        intensity,
-        ambient,
-        color: light_color,
-    } = light;
-    let RenderSettings {
-        size,
-        background,
-        msaa,
-        supersample,
-        min_width,
-        lod_tolerance_px,
-        strands,
-        shading,
-        shadows,
-    } = render;
-    out.seed = pick(&b.seed, &o.seed, seed);
-    out.head = Head {
-        center: pick(&b.head.center, &o.head.center, center),
-        radii: pick(&b.head.radii, &o.head.radii, radii),
-        color: pick(&b.head.color, &o.head.color, color),
-        visible: pick(&b.head.visible, &o.head.visible, visible),
-        mesh: pick(&b.head.mesh, &o.head.mesh, mesh),
-    };
-    out.forces = pick(&b.forces, &o.forces, forces);
-    out.camera = pick(&b.camera, &o.camera, camera);
-    out.light = Light {
-        direction: pick(&b.light.direction, &o.light.direction, direction),
-        intensity: pick(&b.light.intensity, &o.light.intensity, intensity),
-        ambient: pick(&b.light.ambient, &o.light.ambient, ambient),
-        color: pick(&b.light.color, &o.light.color, light_color),
-    };
-    out.render = RenderSettings {
-        size: pick(&b.render.size, &o.render.size, size),
-        background: pick(&b.render.background, &o.render.background, background),
-        msaa: pick(&b.render.msaa, &o.render.msaa, msaa),
-        supersample: pick(&b.render.supersample, &o.render.supersample, supersample),
-        min_width: pick(&b.render.min_width, &o.render.min_width, min_width),
-        lod_tolerance_px: pick(
-            &b.render.lod_tolerance_px,
-            &o.render.lod_tolerance_px,
-            lod_tolerance_px,
-        ),
-        strands: pick(&b.render.strands, &o.render.strands, strands),
-        shading: pick(&b.render.shading, &o.render.shading, shading),
-        shadows: pick(&b.render.shadows, &o.render.shadows, shadows),
-    };
-    out.pick_kind_fields(b, o);
-    for k in KINDS {
-        (k.merge)(b, o, &theirs, &mut out);
-    }
-    out
-}
-
-/// Check every field of a parsed scene: the shared blocks, that it shows some hair, each
-/// kind's block, then the total strand count. Errors name the field; the loader adds the
-/// file.
-pub fn validate(s: &Scene) -> Result<()> {
-    scene::validate::shared(&s.head, &s.forces, &s.camera, &s.light, &s.render)?;
-    if !KINDS.iter().any(|k| (k.in_scene)(s)) {
-        let names: Vec<&str> = KINDS.iter().map(|k| k.called).collect();
-        let (last, rest) = names.split_last().expect("KINDS is not empty");
-        return Err(scene::validate::bad(
-            KINDS[0].block,
-            "[]",
-            &format!("a scene needs at least one {} or {last}", rest.join(", ")),
-        ));
-    }
-    for k in KINDS {
-        (k.validate)(s)?;
-    }
-    // The total last: each kind's own count check names its field first.
-    let (strands, _) = s.counts();
-    if strands > MAX_STRANDS {
-        let counted: Vec<&str> = KINDS
-            .iter()
-            .filter(|k| (k.in_scene)(s))
-            .filter_map(|k| k.counted)
-            .collect();
-        return Err(scene::validate::bad(
-            &counted.join(" + "),
-            strands,
-            &format!("the total must be at most {MAX_STRANDS} hairs"),
-        ));
-    }
-    Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::Scene;
-    use crate::error::KamiError;
-    use crate::scene::forces::EARTH_GRAVITY;
-
-    /// A small valid scene in the old form: `field` spliced in where it used to sit.
-    fn old(top: &str, dynamics: &str, motion: &str) -> String {
-        format!(
-            "Scene(\n    head: Head(radii: (9.6, 11.5, 7.8)),\n{top}    strips: Some(Strips(\n        \
-             layers: [Layer(count: 2, polar: 60.0, azimuth: (0.0, 90.0), length: 10.0, sticks: 4)],\n        \
-             motion: Motion({motion}),\n    )),\n    dynamics: Some(Dynamics({dynamics})),\n)\n"
-        )
-    }
-
-    /// Every field of the old format that held a force fails with a parse error that names
-    /// the file and the line, the old field and where it is now.
-    #[test]
-    fn old_forms_name_the_moved_field_and_where_it_goes() {
-        let cases = [
-            (
-                old("", "gravity: (0.0, -150.0, 0.0)", ""),
-                7,
-                "`dynamics.gravity` moved",
-                "forces: ForcesDesc(gravity:",
-            ),
-            (
-                old(
-                    "",
-                    "wind: [WindKey(frame: 0.0, force: (1.0, 0.0, 0.0))]",
-                    "",
-                ),
-                7,
-                "`dynamics.wind` moved",
-                "forces: ForcesDesc(wind:",
-            ),
-            (
-                old("", "head_motion: [HeadKey(frame: 0.0)]", ""),
-                7,
-                "`dynamics.head_motion` moved",
-                "forces: ForcesDesc(head_motion:",
-            ),
-            (
-                old("    eff: Some(EffDesc()),\n", "", ""),
-                3,
-                "the top-level `eff` moved",
-                "forces: ForcesDesc(eff: Some(EffDesc(",
-            ),
-            (
-                old(
-                    "    head_capture: Some(HeadCapture(file: \"x.bvh\")),\n",
-                    "",
-                    "",
-                ),
-                3,
-                "the top-level `head_capture` moved",
-                "ForcesDesc(head_capture:",
-            ),
-            (
-                old("    gravity: (0.0, -1.0, 0.0),\n", "", ""),
-                3,
-                "is now `groom_load`",
-                "forces: ForcesDesc(gravity:",
-            ),
-            (
-                old("", "", "gravity: (0.0, -980.0, 0.0)"),
-                5,
-                "`strips.motion.gravity` moved",
-                "forces: ForcesDesc(gravity: (x, y, z))",
-            ),
-        ];
-        for (text, want_line, what, where_now) in cases {
-            match Scene::from_ron(&text, "old.ron") {
-                Err(KamiError::Parse {
-                    path,
-                    line,
-                    message,
-                    ..
-                }) => {
-                    assert_eq!((path.as_str(), line), ("old.ron", want_line), "{message}");
-                    assert!(
-                        message.contains(what) && message.contains(where_now),
-                        "expected {what:?} and {where_now:?} in: {message}\n{text}"
-                    );
-                }
-                other => panic!("expected a parse error for\n{text}\ngot {other:?}"),
-            }
-        }
-        // The same scene in the new form loads.
-        let new = old(
-            "    forces: ForcesDesc(gravity: (0.0, -980.0, 0.0)),\n",
-            "",
-            "",
-        );
-        let scene = Scene::from_ron(&new, "new.ron").unwrap();
-        assert_eq!(scene.forces.gravity, EARTH_GRAVITY);
-    }
-
-    /// Every shipped scene is in the new form and loads (its files read, every value
-    /// checked); the ones that move under the world's forces say so in their `forces` block.
-    #[test]
-    fn every_shipped_scene_loads() {
-        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/scenes");
-        let mut names: Vec<_> = std::fs::read_dir(&dir)
-            .unwrap()
-            .map(|e| e.unwrap().path())
-            .filter(|p| p.extension().is_some_and(|e| e == "ron"))
-            .collect();
-        names.sort();
-        assert!(
-            names.len() >= 26,
-            "{} scenes in {}",
-            names.len(),
-            dir.display()
-        );
-        for p in &names {
-            let scene = Scene::load(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
-            let f = &scene.forces;
-            // Strips and wisps on springs fall under Earth's gravity in every shipped scene.
-            let falls =
-                scene.strips.is_some() || scene.wisps.as_ref().is_some_and(|w| w.springs.is_some());
-            if falls {
-                assert_eq!(f.gravity, EARTH_GRAVITY, "{}", p.display());
-            }
-            if let Some(hc) = &f.head_capture {
-                assert!(!hc.keys.is_empty(), "{}: the capture was read", p.display());
-            }
-            if let Some(e) = &f.eff {
-                assert_eq!(e.file.is_some(), e.loaded.is_some(), "{}", p.display());
-            }
-        }
-    }
-
-    /// The field and text of a check's error.
-    fn invalid(text: &str) -> (String, String) {
-        match Scene::from_ron(text, "t.ron") {
-            Err(KamiError::Invalid { field, allowed, .. }) => (field, allowed),
-            other => panic!("expected an invalid field for\n{text}\ngot {other:?}"),
-        }
-    }
-
-    /// A scene with no hair names every kind it could have held, from `KINDS`.
-    #[test]
-    fn a_scene_without_hair_names_every_kind() {
-        let (field, allowed) = invalid("Scene()");
-        assert_eq!(field, "groups");
-        assert_eq!(
-            allowed,
-            "a scene needs at least one hair group, fur, wisps or strips"
-        );
-    }
-
-    /// Each kind's own count check comes before the scene's total, so a fur block over the
-    /// limit is refused by the fur's rule, naming its field, with hair groups beside it too.
-    #[test]
-    fn a_kind_over_the_strand_limit_is_named_by_its_own_check() {
-        let fur = "fur: Some(Fur(mesh: Critter, hairs: 4000001, length: 0.3, \
-                   coats: [Coat(share: 1.0, stiffness: 0.5)]))";
-        let group = "groups: [HairGroup(count: 10, segments: 4, length: 10.0, rigidity: 1000.0)]";
-        for text in [format!("Scene({fur})"), format!("Scene({group}, {fur})")] {
-            let (field, allowed) = invalid(&text);
-            assert_eq!(field, "fur.hairs", "{text}");
-            assert!(!allowed.contains("total"), "{text}: {allowed}");
-        }
-        // Within each kind's limit but over the scene's total: the total names both.
-        let both = format!(
-            "Scene(groups: [HairGroup(count: 3000000, segments: 4, length: 10.0, rigidity: 1000.0)], {})",
-            fur.replace("4000001", "2000000")
-        );
-        let (field, allowed) = invalid(&both);
-        assert_eq!(field, "groups[..].count + fur.hairs");
-        assert!(
-            allowed.contains("the total must be at most 4000000"),
-            "{allowed}"
-        );
-    }
-
-    fn shipped(stem: &str) -> (std::path::PathBuf, Scene) {
-        let path = crate::scene::shipped(&format!("assets/scenes/{stem}.ron"));
-        let scene = Scene::load(&path).unwrap();
-        (path, scene)
-    }
-
-    /// What live reload watches: the scene file, then each file it names, as found on disk;
-    /// a system mesh (`CgalDemo`) is not the user's and is left out.
-    #[test]
-    fn files_are_the_scene_and_the_files_it_names() {
-        let names = |stem: &str| -> Vec<String> {
-            let (path, scene) = shipped(stem);
-            let files = scene.files(&path);
-            assert_eq!(files[0], path, "{stem}: the scene file first");
-            for f in &files {
-                assert!(f.is_file(), "{stem}: {} is not a file", f.display());
-            }
-            files[1..]
-                .iter()
-                .map(|f| f.file_name().unwrap().to_string_lossy().into_owned())
-                .collect()
-        };
-        assert_eq!(names("imported_groom"), ["wavy.hair"]);
-        assert_eq!(names("eff_capture"), ["capture.eff"]);
-        assert_eq!(names("fur_creature"), ["creature.gltf"]);
-        assert!(names("gust").is_empty());
-        assert!(names("mesh_head").is_empty());
-        // A strand file opened as a scene names itself: watched once.
-        let hair = crate::scene::shipped("assets/grooms/wavy.hair");
-        let scene = Scene::load(&hair).unwrap();
-        assert_eq!(scene.files(&hair), [hair]);
-    }
-
-    /// A reload keeps what the viewer edited where the file did not change that part, takes
-    /// the file's edits everywhere else, and lets the file win where both changed.
-    #[test]
-    fn a_reload_keeps_the_viewers_edits_the_file_left_alone() {
-        use super::merge_edits;
-        let (_, base) = shipped("gust");
-        let mut ours = base.clone();
-        ours.light.intensity = 2.5;
-        ours.head.color = [0.1, 0.2, 0.3];
-        ours.groups[0].material.color = [0.9, 0.1, 0.1];
-        let mut theirs = base.clone();
-        theirs.groups[0].count += 10;
-        theirs.render.background = [0.0, 0.0, 0.0];
-        theirs.head.radii[0] += 1.0;
-        let m = merge_edits(&base, &ours, theirs.clone());
-        assert_eq!(m.light.intensity, 2.5, "the viewer's light stays");
-        assert_eq!(m.head.color, [0.1, 0.2, 0.3], "the viewer's skin stays");
-        assert_eq!(
-            m.groups[0].material.color,
-            [0.9, 0.1, 0.1],
-            "the viewer's colour stays"
-        );
-        assert_eq!(
-            m.groups[0].count, theirs.groups[0].count,
-            "the file's count"
-        );
-        assert_eq!(m.render.background, [0.0; 3], "the file's background");
-        assert_eq!(m.head.radii, theirs.head.radii, "the file's head");
-        // Both changed the colour: the file, saved last, wins.
-        theirs.groups[0].material.color = [0.2, 0.9, 0.2];
-        let m = merge_edits(&base, &ours, theirs.clone());
-        assert_eq!(m.groups[0].material.color, [0.2, 0.9, 0.2]);
-        // A group added in the file: the groups come from the file as a whole.
-        theirs.groups.push(theirs.groups[0].clone());
-        let m = merge_edits(&base, &ours, theirs.clone());
-        assert_eq!(m.groups, theirs.groups);
-        // No viewer edits: the file as written.
-        assert_eq!(merge_edits(&base, &base, theirs.clone()), theirs);
     }
 }

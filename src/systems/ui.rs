@@ -5,11 +5,11 @@
 //! data); the viewer then hands the edited scene to the stage, which classifies the edit per
 //! system (`Change`) and applies it.
 
-use super::{FrameCtx, HairSystem};
 use crate::error::Result;
 use crate::gpu::view::ScreenView;
 use crate::gpu::Gpu;
-use crate::systems::Scene;
+use crate::systems::scene::Scene;
+use crate::systems::system::{FrameCtx, HairSystem};
 use glam::DVec2;
 use std::any::Any;
 

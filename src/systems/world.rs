@@ -311,7 +311,7 @@ impl WorldGpu {
 
     /// The world of `scene` as the stage makes it (tests and benches that build one kind's
     /// passes without a stage).
-    pub fn of_scene(gpu: &Gpu, scene: &crate::systems::Scene) -> Result<WorldGpu> {
+    pub fn of_scene(gpu: &Gpu, scene: &crate::systems::scene::Scene) -> Result<WorldGpu> {
         Self::of(gpu, &Forces::new(&scene.forces, &scene.head), &scene.head)
     }
 

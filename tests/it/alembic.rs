@@ -89,7 +89,7 @@ fn linear_curves_with_vertex_widths_and_colours() {
     );
     // `kami view groom.abc` and the Files panel open it as a scene of its own.
     let scene = kami::Scene::load(&path).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(scene.groups.len(), 1);
+    assert_eq!(scene.groups().len(), 1);
     // `kami convert` reads Alembic and refuses to write it.
     let usda = dir.join("out.usda");
     let out = kami(&["convert", path.to_str().unwrap(), usda.to_str().unwrap()]);
@@ -449,11 +449,11 @@ fn a_time_is_chosen_from_the_command_line_and_the_scene() {
     );
     // In a scene: the group's rest pose is that sample.
     let mut s = kami::Scene::load(&path).unwrap();
-    s.groups[0].file.as_mut().unwrap().time = Some(1.1 / 24.0);
+    s.groups_mut()[0].file.as_mut().unwrap().time = Some(1.1 / 24.0);
     let scene = dir.join("timed.ron");
     std::fs::write(&scene, s.to_ron()).unwrap();
     let s = kami::Scene::load(&scene).unwrap();
-    let f = s.groups[0].file.as_ref().unwrap();
+    let f = s.groups()[0].file.as_ref().unwrap();
     assert_eq!(f.time, Some(1.1 / 24.0));
     assert_eq!(f.groom.as_ref().unwrap().points, sample1);
     let hair = dir.join("one.hair");
@@ -528,14 +528,14 @@ fn unreal_groups_and_guides_become_kamis() {
     let (path, _) = write(&dir, "unreal", 0);
     let mut scene = kami::Scene::from_strand_file(&path).unwrap();
     let names: Vec<(&str, u32)> = scene
-        .groups
+        .groups()
         .iter()
         .map(|g| (g.name.as_str(), g.count))
         .collect();
     assert_eq!(names.len(), 2, "{names:?}");
     assert!(names[0].0.ends_with("(group 3)") && names[1].0.ends_with("(group 7)"));
     assert_eq!((names[0].1, names[1].1), (4, 4));
-    scene.dynamics = Some(Default::default());
+    *scene.dynamics_mut() = Some(Default::default());
     let input = groom::prepare(&scene).unwrap();
     let mask = follow::guide_mask(&scene, &input);
     // Group 3: strands 0, 1, 5 and its guide; group 7: strands 2, 3, 4 and its guide.

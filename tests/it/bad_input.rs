@@ -176,8 +176,8 @@ fn sizes_beyond_the_adapter_are_refused_before_allocating() {
     let gpu = common::gpu();
     let mut scene = Scene::from_ron(GOOD, "test.ron").unwrap();
     // 4 million hairs of 256 segments: gigabytes of vertices.
-    scene.groups[0].count = 4_000_000;
-    scene.groups[0].segments = 256;
+    scene.groups_mut()[0].count = 4_000_000;
+    scene.groups_mut()[0].segments = 256;
     refused_as_too_large(gpu, &scene, "vertex");
     let mut scene = Scene::from_ron(GOOD, "test.ron").unwrap();
     scene.render.supersample = 4;
@@ -281,8 +281,8 @@ fn bench_dynamics_on_a_still_scene_is_a_clear_error() {
 fn fur_beyond_the_adapter_is_refused_before_allocating() {
     let gpu = common::gpu();
     let mut scene = common::scene("fur");
-    scene.fur.as_mut().unwrap().hairs = 4_000_000;
-    kami::systems::scene::validate(&scene).unwrap();
+    scene.fur_mut().as_mut().unwrap().hairs = 4_000_000;
+    kami::systems::validate(&scene).unwrap();
     refused_as_too_large(gpu, &scene, "fur");
 }
 

@@ -20,7 +20,7 @@ fn default_scenes_resolve_from_any_working_directory() {
     let found = shipped_from(&elsewhere, STRIPS);
     assert!(found.is_absolute(), "{}", found.display());
     let scene = kami::Scene::load(&found).unwrap_or_else(|e| panic!("{e}"));
-    assert!(scene.strips.is_some());
+    assert!(scene.strips().is_some());
     // The folder defaults of `bench backends` and `bench fur` too.
     assert!(shipped_from(&elsewhere, "assets/scenes")
         .join("gust.ron")

@@ -151,7 +151,7 @@ fn a_cache_plays_on_the_stage_and_loops() {
     let path = dir.join("cache.usdc");
     let (_, want) = usd_animated(&path);
     let scene = kami::Scene::from_strand_file(&path).unwrap();
-    let g = &scene.groups[0];
+    let g = &scene.groups()[0];
     assert!(!g.dynamic, "a playing cache is not simulated");
     // Its rate is what `kami render --gif` plays at and the viewer paces its clock by.
     assert_eq!(scene.cache_fps(), Some(30.0));
@@ -187,12 +187,12 @@ fn simulate_from_here_makes_the_shown_frame_the_rest_pose() {
     let path = dir.join("cache.usda");
     let (_, want) = usd_animated(&path);
     let mut scene = kami::Scene::from_strand_file(&path).unwrap();
-    assert!(scene.dynamics.is_none());
+    assert!(scene.dynamics().is_none());
     // Kami's frame 15 shows the file's frame 3.
     kami::systems::anjyo::panel::simulate_from_here(&mut scene, 15).unwrap();
-    let g = &scene.groups[0];
+    let g = &scene.groups()[0];
     let f = g.file.as_ref().unwrap();
-    assert!(g.dynamic && scene.dynamics.is_some());
+    assert!(g.dynamic && scene.dynamics().is_some());
     assert!(f.frames.is_none() && !f.play);
     assert_eq!(f.time, Some(4.0 / 30.0));
     assert!(worst(&f.groom.as_ref().unwrap().points, &want[3]) < 2e-6);
@@ -200,7 +200,7 @@ fn simulate_from_here_makes_the_shown_frame_the_rest_pose() {
     let saved = dir.join("from_here.ron");
     std::fs::write(&saved, scene.to_ron()).unwrap();
     let back = kami::Scene::load(&saved).unwrap();
-    let bf = back.groups[0].file.as_ref().unwrap();
+    let bf = back.groups()[0].file.as_ref().unwrap();
     assert!(bf.frames.is_none());
     assert!(worst(&bf.groom.as_ref().unwrap().points, &want[3]) < 2e-6);
     // The dynamics move it from there: a sideways pull swings the strands off the file's

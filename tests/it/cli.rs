@@ -258,7 +258,7 @@ fn render_set_matches_the_scene_edited_by_hand() {
     let bob = common::root().join("assets/scenes/bob.ron");
     let dir = scratch("render-set");
     let mut edited = kami::Scene::load(&bob).unwrap();
-    for g in &mut edited.groups {
+    for g in edited.groups_mut() {
         g.material.color = [0.9, 0.2, 0.1];
     }
     let by_hand = dir.join("by_hand.ron");

@@ -121,9 +121,9 @@ pub fn grown_scenes() -> Vec<(String, kami::Scene)> {
             (n, s)
         })
         .filter(|(_, s)| {
-            !s.groups.is_empty()
+            !s.groups().is_empty()
                 && s.head.mesh.is_none()
-                && s.groups.iter().all(|g| g.file.is_none())
+                && s.groups().iter().all(|g| g.file.is_none())
         })
         .collect();
     assert!(grown.len() >= 4, "only {} grown scenes", grown.len());
@@ -247,7 +247,7 @@ pub fn gpu_simulation(
 /// Shipped scene `name` with each strand group's count divided by `divisor` (quicker tests).
 pub fn thinned(name: &str, divisor: u32) -> kami::Scene {
     let mut s = scene(name);
-    for g in &mut s.groups {
+    for g in s.groups_mut() {
         g.count /= divisor;
     }
     s

@@ -82,7 +82,7 @@ use common::{assert_projective_agrees, quantile};
 #[test]
 fn cantilever_paper_mode_matches_reference() {
     let mut scene = common::scene("bob");
-    for g in &mut scene.groups {
+    for g in scene.groups_mut() {
         g.count /= 6;
     }
     let c = compare(&prepare(&scene).unwrap());
@@ -110,7 +110,7 @@ fn cantilever_paper_mode_matches_reference() {
 fn cantilever_converged_mode_matches_reference() {
     for name in ["short_cut", "ponytail"] {
         let mut scene = common::scene(name);
-        for g in &mut scene.groups {
+        for g in scene.groups_mut() {
             g.count /= 20;
             g.bending = Bending::Converged {
                 max_iterations: 300,
@@ -156,7 +156,7 @@ fn cantilever_converged_mode_matches_reference() {
 fn cantilever_converged_free_beam_matches_reference() {
     let mut scene = common::scene("bob");
     // One group of horizontal hairs far from the head: pores on a small ellipsoid in front.
-    let mut g = scene.groups[0].clone();
+    let mut g = scene.groups()[0].clone();
     g.roots = kami::systems::anjyo::block::Roots {
         theta: (80.0, 100.0),
         phi: (-10.0, 10.0),
@@ -175,9 +175,9 @@ fn cantilever_converged_free_beam_matches_reference() {
         max_iterations: 2000,
         tolerance: 1e-5,
     };
-    scene.groups = vec![g];
+    *scene.groups_mut() = vec![g];
     for rigidity in [1000.0 / 0.1, 1000.0 / 10.0, 1000.0 / 100.0] {
-        scene.groups[0].rigidity = rigidity;
+        scene.groups_mut()[0].rigidity = rigidity;
         let c = compare(&prepare(&scene).unwrap());
         let (errs, gpu_fb, cpu_fb) = (&c.errs, c.gpu_fallbacks, c.cpu_fallbacks);
         assert_eq!(
@@ -204,7 +204,7 @@ fn projective_against_reference(
     use kami::systems::anjyo::projective::{CpuSim, DynSetup};
     let gpu = common::gpu();
     let mut scene = scene.clone();
-    for g in &mut scene.groups {
+    for g in scene.groups_mut() {
         g.count /= 20;
     }
     let input = prepare(&scene).unwrap();
@@ -284,7 +284,7 @@ fn projective_joint_limits_match_reference() {
 fn several_frames_per_submission_match_one_by_one() {
     let gpu = common::gpu();
     let mut scene = common::scene("gust");
-    for g in &mut scene.groups {
+    for g in scene.groups_mut() {
         g.count /= 50;
     }
     let input = prepare(&scene).unwrap();

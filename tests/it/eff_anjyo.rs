@@ -18,7 +18,7 @@ use kami::systems::Scene;
 /// The gust scene, `1/thin` of its strands, still air: only the EFF can move the hair.
 fn still_scene(thin: u32) -> Scene {
     let mut scene = common::scene("gust");
-    for g in &mut scene.groups {
+    for g in scene.groups_mut() {
         g.count /= thin;
     }
     scene.forces.wind.clear();
@@ -231,7 +231,7 @@ fn busy_field(scene: &Scene) -> EffDesc {
 fn gpu_matches_the_reference_with_a_field() {
     let gpu = common::gpu();
     let mut scene = common::scene("gust");
-    for g in &mut scene.groups {
+    for g in scene.groups_mut() {
         g.count /= 20;
     }
     scene.forces.eff = Some(busy_field(&scene));
@@ -293,7 +293,7 @@ fn gpu_matches_the_reference_with_a_field() {
 fn several_frames_per_submission_see_their_own_gust() {
     let gpu = common::gpu();
     let mut scene = common::scene("gust");
-    for g in &mut scene.groups {
+    for g in scene.groups_mut() {
         g.count /= 50;
     }
     scene.forces.eff = Some(busy_field(&scene));

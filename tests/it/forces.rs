@@ -61,7 +61,7 @@ fn anjyo(scene: &Scene, frames: u32) -> DVec3 {
 /// The strips' angular springs (f64 reference).
 fn strips(scene: &Scene, frames: u32) -> DVec3 {
     use kami::systems::strips::{dynamics, hom};
-    let st = scene.strips.as_ref().unwrap();
+    let st = scene.strips().as_ref().unwrap();
     let rest = hom::build(st, &scene.head).unwrap();
     let forces = Forces::new(&scene.forces, &scene.head);
     let clip = dynamics::simulate(&rest, &st.motion, &forces, &scene.head, &[], frames).unwrap();
@@ -76,7 +76,7 @@ fn strips(scene: &Scene, frames: u32) -> DVec3 {
 /// lattice built weightless), so that gravity shows as a sag.
 fn wisps(scene: &Scene, frames: u32) -> DVec3 {
     use kami::systems::wisps::springs::{self, Lattice, Motion, State};
-    let w = scene.wisps.as_ref().unwrap();
+    let w = scene.wisps().as_ref().unwrap();
     let sp = w.springs.as_ref().unwrap();
     let still = still(scene);
     let lattice =
@@ -115,7 +115,7 @@ fn check(kind: &str, run: impl Fn(&Scene) -> DVec3, scene: &Scene, calm: f64, le
 #[test]
 fn gravity_and_wind_of_the_forces_block_reach_every_kind() {
     let mut gust = common::scene("gust");
-    for g in &mut gust.groups {
+    for g in gust.groups_mut() {
         g.count = (g.count / 100).max(8);
     }
     check("anjyo", |s| anjyo(s, 6), &gust, 1e-3, 0.1);

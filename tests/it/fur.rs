@@ -19,7 +19,7 @@ use kami::systems::fur::setup::{culling_factor, deform, hair_points, slot_hair, 
 const SIGMAS: f64 = 4.5;
 
 fn fur(name: &str) -> Fur {
-    common::scene(name).fur.expect("a fur scene")
+    common::scene(name).fur().clone().expect("a fur scene")
 }
 
 /// Expected count and variance of a sum of random roundings of `xs`.
@@ -459,8 +459,8 @@ fn tile_difference(a: &image::RgbaImage, b: &image::RgbaImage, tile: u32) -> (f6
 fn culling_keeps_the_look_as_the_camera_backs_away() {
     let gpu = common::gpu();
     let mut scene = common::scene("fur");
-    scene.fur.as_mut().unwrap().motion = None;
-    let s = FurSetup::new(scene.fur.as_ref().unwrap(), scene.seed).unwrap();
+    scene.fur_mut().as_mut().unwrap().motion = None;
+    let s = FurSetup::new(scene.fur().as_ref().unwrap(), scene.seed).unwrap();
     let (centre, r) = s.bounds();
     let fov = scene.camera.fov_y.to_radians();
     let full = r / (0.5 * fov).sin();
@@ -470,8 +470,8 @@ fn culling_keeps_the_look_as_the_camera_backs_away() {
     scene.camera.target = centre.to_array();
     let size = (480, 480);
     let (culled, drawn_culled) = render_counting(gpu, &scene, size);
-    let c = culling_factor(scene.fur.as_ref().unwrap(), (centre, r), fov, 3.0 * full);
-    scene.fur.as_mut().unwrap().culling.enabled = false;
+    let c = culling_factor(scene.fur().as_ref().unwrap(), (centre, r), fov, 3.0 * full);
+    scene.fur_mut().as_mut().unwrap().culling.enabled = false;
     let (every, drawn_every) = render_counting(gpu, &scene, size);
     // Culling really dropped hairs: about two thirds of them (random rounding per triangle).
     let share = drawn_culled as f64 / drawn_every as f64;

@@ -26,7 +26,10 @@ fn simple_skin() -> &'static Path {
 }
 
 fn creature_fur(hairs: u32) -> Fur {
-    let mut f = common::scene("fur_creature").fur.expect("a fur scene");
+    let mut f = common::scene("fur_creature")
+        .fur()
+        .clone()
+        .expect("a fur scene");
     f.hairs = hairs;
     f
 }
@@ -305,7 +308,7 @@ fn malformed_gltf_is_refused_with_the_file_named() {
 fn fur_creature_frame_12() {
     let gpu = common::gpu();
     let mut scene = common::scene("fur_creature");
-    if let Some(f) = scene.fur.as_mut() {
+    if let Some(f) = scene.fur_mut().as_mut() {
         f.hairs /= 2;
     }
     let tol = Tolerance {

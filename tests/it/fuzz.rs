@@ -192,7 +192,7 @@ fn the_harness_reports_panics_allocations_and_broken_promises() {
     // A scene holding a NaN where validate should have refused it.
     let mut scene = kami::Scene::load(root().join("tests/fuzz_corpus/scene/minimal.ron")).unwrap();
     fuzz::check_scene(&scene).unwrap();
-    scene.groups[0].length_jitter = f64::NAN;
+    scene.groups_mut()[0].length_jitter = f64::NAN;
     assert!(fuzz::check_scene(&scene).is_err());
 }
 
@@ -202,14 +202,14 @@ fn the_harness_reports_panics_allocations_and_broken_promises() {
 #[test]
 fn kind_invariants_catch_what_validation_must_refuse() {
     let mut s = crate::common::scene("bob");
-    s.groups[0].roots.hairline = Some(vec![(0.0, f64::NAN), (180.0, 60.0)]);
+    s.groups_mut()[0].roots.hairline = Some(vec![(0.0, f64::NAN), (180.0, 60.0)]);
     let broken: Vec<_> = kami::systems::KINDS
         .iter()
         .filter_map(|k| (k.invariants)(&s).err())
         .collect();
     assert_eq!(broken.len(), 1, "{broken:?}");
     assert_eq!(broken[0].0, "hairline gives a non-finite theta");
-    assert!(kami::systems::scene::validate(&s).is_err());
+    assert!(kami::systems::validate(&s).is_err());
     let bob = crate::common::scene("bob");
     assert!(kami::systems::KINDS
         .iter()

@@ -13,11 +13,11 @@ use kami::Scene;
 /// The gust at a twentieth of its hairs with guide share `share`.
 fn gust(share: Option<f64>) -> Scene {
     let mut scene = common::scene("gust");
-    for g in &mut scene.groups {
+    for g in scene.groups_mut() {
         g.count /= 20;
     }
-    scene.dynamics.as_mut().unwrap().guides = share;
-    kami::systems::scene::validate(&scene).unwrap();
+    scene.dynamics_mut().as_mut().unwrap().guides = share;
+    kami::systems::validate(&scene).unwrap();
     scene
 }
 
@@ -107,11 +107,11 @@ fn follower_kernel_matches_reference() {
 #[test]
 fn follower_kernel_matches_reference_on_a_mesh_head() {
     let mut scene = common::scene("mesh_head");
-    for g in &mut scene.groups {
+    for g in scene.groups_mut() {
         g.count /= 20;
     }
-    scene.dynamics.as_mut().unwrap().guides = Some(0.25);
-    kami::systems::scene::validate(&scene).unwrap();
+    scene.dynamics_mut().as_mut().unwrap().guides = Some(0.25);
+    kami::systems::validate(&scene).unwrap();
     follower_contract(&scene);
 }
 
@@ -327,10 +327,10 @@ fn followers_at_rest_are_their_groom() {
 fn the_share_is_validated_and_rebuilds() {
     let text = std::fs::read_to_string(common::root().join("assets/scenes/gust.ron")).unwrap();
     let old = Scene::from_ron(&text, "gust.ron").unwrap();
-    assert_eq!(old.dynamics.as_ref().unwrap().guides, None);
+    assert_eq!(old.dynamics().as_ref().unwrap().guides, None);
     let with = text.replace("damping: 0.2,", "damping: 0.2, guides: Some(0.25),");
     let new = Scene::from_ron(&with, "gust.ron").unwrap();
-    assert_eq!(new.dynamics.as_ref().unwrap().guides, Some(0.25));
+    assert_eq!(new.dynamics().as_ref().unwrap().guides, Some(0.25));
     for bad in ["0.0", "-0.5", "1.5", "NaN", "inf"] {
         let t = text.replace(
             "damping: 0.2,",
@@ -349,7 +349,7 @@ fn the_share_is_validated_and_rebuilds() {
         kami::systems::Change::Rebuild
     );
     let mut other = new.clone();
-    other.dynamics.as_mut().unwrap().guides = Some(0.5);
+    other.dynamics_mut().as_mut().unwrap().guides = Some(0.5);
     assert_eq!(
         kami::systems::anjyo::classify(&new, &other),
         kami::systems::Change::Rebuild
@@ -363,8 +363,8 @@ fn the_share_is_validated_and_rebuilds() {
 #[test]
 fn followers_ride_a_turning_head() {
     let mut scene = common::scene("imported_groom");
-    scene.dynamics.as_mut().unwrap().guides = Some(0.25);
-    kami::systems::scene::validate(&scene).unwrap();
+    scene.dynamics_mut().as_mut().unwrap().guides = Some(0.25);
+    kami::systems::validate(&scene).unwrap();
     let (input, sim, gpu_nodes, rest) = run_rest(&scene, 8);
     let setup = sim.follow.as_ref().expect("share 0.25 has followers");
     let head = sim.follow_head();

@@ -16,8 +16,8 @@ use std::sync::Arc;
 /// The gust's long hair, smaller and uncut: the groom we write out and read back.
 fn source_scene() -> kami::Scene {
     let mut scene = common::scene("gust");
-    scene.groups.remove(0);
-    let g = &mut scene.groups[0];
+    scene.groups_mut().remove(0);
+    let g = &mut scene.groups_mut()[0];
     g.count = 240;
     g.cuts.clear();
     scene
@@ -25,8 +25,8 @@ fn source_scene() -> kami::Scene {
 
 /// `scene` with its one group replaced by `groom` read as a file group of `segments`.
 fn imported_scene(mut scene: kami::Scene, groom: Groom, segments: u32) -> kami::Scene {
-    let material = scene.groups[0].material.clone();
-    scene.groups = vec![HairGroup {
+    let material = scene.groups()[0].material.clone();
+    *scene.groups_mut() = vec![HairGroup {
         name: "imported".into(),
         file: Some(StrandFile {
             path: "in-memory.hair".into(),
@@ -55,7 +55,7 @@ fn imported_scene(mut scene: kami::Scene, groom: Groom, segments: u32) -> kami::
         material,
         dynamic: true,
     }];
-    kami::systems::scene::validate(&scene).unwrap();
+    kami::systems::validate(&scene).unwrap();
     scene
 }
 
@@ -197,7 +197,7 @@ fn bad_imports_are_refused_with_the_place() {
     );
 
     let mut unread = bad.clone();
-    unread.groups[0].file.as_mut().unwrap().groom = None;
+    unread.groups_mut()[0].file.as_mut().unwrap().groom = None;
     let e = prepare(&unread).unwrap_err().to_string();
     assert!(
         e.contains("groups[0].file") && e.contains("not read"),
@@ -205,10 +205,8 @@ fn bad_imports_are_refused_with_the_place() {
     );
 
     let mut cut = bad.clone();
-    cut.groups[0].cuts = source_scene_cut();
-    let e = kami::systems::scene::validate(&cut)
-        .unwrap_err()
-        .to_string();
+    cut.groups_mut()[0].cuts = source_scene_cut();
+    let e = kami::systems::validate(&cut).unwrap_err().to_string();
     assert!(e.contains("groups[0].cuts"), "{e}");
 
     let text = r#"Scene(groups: [HairGroup(file: Some(StrandFile(path: "nowhere.hair")), count: 10, segments: 8)])"#;
@@ -230,7 +228,7 @@ fn bad_imports_are_refused_with_the_place() {
 
 fn source_scene_cut() -> Vec<kami::systems::anjyo::block::Cut> {
     common::scene("bob")
-        .groups
+        .groups()
         .iter()
         .find(|g| !g.cuts.is_empty())
         .expect("bob has cuts")
@@ -301,7 +299,7 @@ fn scenes_export_their_hair_at_the_frame() {
     let format = wgpu::TextureFormat::Rgba8UnormSrgb;
 
     let mut fur = common::scene("fur_creature");
-    fur.fur.as_mut().unwrap().hairs = 3000;
+    fur.fur_mut().as_mut().unwrap().hairs = 3000;
     let at0 = kami::stage::export_scene(gpu, &fur, 0).unwrap();
     let mut stage = Stage::new(gpu, &fur, format, Quality::of(&fur)).unwrap();
     stage.seek(gpu, 6).unwrap();
@@ -340,7 +338,7 @@ fn scenes_export_their_hair_at_the_frame() {
     assert_eq!(out.points, flat);
 
     let mut bob = common::scene("bob");
-    for g in &mut bob.groups {
+    for g in bob.groups_mut() {
         g.count /= 20;
     }
     let mut stage = Stage::new(gpu, &bob, format, Quality::of(&bob)).unwrap();
@@ -378,8 +376,8 @@ fn scenes_export_their_hair_at_the_frame() {
 fn a_strand_file_opens_as_a_scene() {
     let path = common::root().join("assets/grooms/wavy.hair");
     let scene = kami::Scene::load(&path).unwrap();
-    assert_eq!(scene.groups.len(), 1);
-    let g = &scene.groups[0];
+    assert_eq!(scene.groups().len(), 1);
+    let g = &scene.groups()[0];
     let groom = g.file.as_ref().unwrap().groom.as_ref().unwrap();
     assert_eq!(g.count as usize, groom.counts.len());
     assert_eq!(g.count, 1100);
@@ -433,7 +431,7 @@ fn pointless_strands_are_left_out_and_paths_kept_absolute() {
     let text = r#"Scene(groups: [HairGroup(file: Some(StrandFile(path: "grooms/g.hair")), count: 10, segments: 4)])"#;
     std::fs::write(dir.join("scene.ron"), text).unwrap();
     let scene = kami::Scene::load(dir.join("scene.ron")).unwrap();
-    let f = scene.groups[0].file.as_ref().unwrap();
+    let f = scene.groups()[0].file.as_ref().unwrap();
     let groom = f.groom.as_ref().unwrap();
     assert_eq!(
         groom.counts,
@@ -444,13 +442,13 @@ fn pointless_strands_are_left_out_and_paths_kept_absolute() {
         groom.widths.as_ref().unwrap(),
         &vec![0.1, 0.1, 0.1, 0.3, 0.3]
     );
-    assert_eq!(scene.groups[0].count, 2);
+    assert_eq!(scene.groups()[0].count, 2);
     assert!(std::path::Path::new(&f.path).is_absolute(), "{}", f.path);
     // Saved elsewhere and loaded again: the same groom.
     std::fs::create_dir_all(dir.join("elsewhere")).unwrap();
     std::fs::write(dir.join("elsewhere/saved.ron"), scene.to_ron()).unwrap();
     let again = kami::Scene::load(dir.join("elsewhere/saved.ron")).unwrap();
-    assert_eq!(again.groups[0].file.as_ref().unwrap().groom, f.groom);
+    assert_eq!(again.groups()[0].file.as_ref().unwrap().groom, f.groom);
     prepare(&again).unwrap();
     std::fs::remove_dir_all(&dir).ok();
 }
@@ -463,7 +461,7 @@ fn file_look_switches_are_look_changes() {
     use kami::systems::{anjyo, Change};
     let path = common::root().join("assets/grooms/wavy.hair");
     let a = kami::Scene::load(&path).unwrap();
-    let f = a.groups[0].file.as_ref().unwrap();
+    let f = a.groups()[0].file.as_ref().unwrap();
     assert!(
         f.colors && f.widths,
         "a file's look is drawn unless the scene says otherwise"
@@ -473,17 +471,17 @@ fn file_look_switches_are_look_changes() {
     let groom = f.groom.as_ref().unwrap();
     assert!(groom.widths.is_some() && groom.colors.is_none());
     let mut b = a.clone();
-    b.groups[0].file.as_mut().unwrap().widths = false;
+    b.groups_mut()[0].file.as_mut().unwrap().widths = false;
     assert_eq!(anjyo::classify(&a, &b), Change::Redraw);
     let mut b = a.clone();
-    b.groups[0].file.as_mut().unwrap().colors = false;
+    b.groups_mut()[0].file.as_mut().unwrap().colors = false;
     assert_eq!(anjyo::classify(&a, &b), Change::None);
     let sets = [
         (0, "file_widths=off".to_string()),
         (0, "file_colors=off".to_string()),
     ];
     let (c, _) = kami::app::params::scripted(a.clone(), &sets).unwrap();
-    let f = c.groups[0].file.as_ref().unwrap();
+    let f = c.groups()[0].file.as_ref().unwrap();
     assert!(!f.colors && !f.widths);
     assert_eq!(anjyo::classify(&a, &c), Change::Redraw);
 }
@@ -520,7 +518,7 @@ fn an_export_writes_the_files_own_look() {
     kami::formats::write(&path, &g).unwrap();
     let gpu = common::gpu();
     let mut scene = kami::Scene::load(&path).unwrap();
-    scene.groups[0].count = 50;
+    scene.groups_mut()[0].count = 50;
     let out = kami::stage::export_scene(gpu, &scene, 0).unwrap();
     assert_eq!(out.counts.len(), 50);
     let (w, c, o) = (
@@ -549,9 +547,9 @@ fn an_export_writes_the_files_own_look() {
         at += cnt as usize;
     }
     // The file's look switched off: the material's.
-    let f = scene.groups[0].file.as_mut().unwrap();
+    let f = scene.groups_mut()[0].file.as_mut().unwrap();
     (f.colors, f.widths) = (false, false);
-    let m = scene.groups[0].material.clone();
+    let m = scene.groups()[0].material.clone();
     let out = kami::stage::export_scene(gpu, &scene, 0).unwrap();
     assert!(out.colors.unwrap().iter().all(|c| *c == m.color));
     assert_eq!(out.opacities, None);

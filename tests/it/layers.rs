@@ -27,6 +27,8 @@ struct Arrow {
     from: ModPath,
     /// The crate path it resolves to (module and item segments).
     to: ModPath,
+    /// Named from code under `#[cfg(test)]` (a leaf user: it imports anything).
+    test: bool,
 }
 
 /// The `.rs` files under `dir`, recursively, sorted.
@@ -120,6 +122,7 @@ impl Walker<'_> {
             line,
             from,
             to,
+            test: false,
         });
     }
 
@@ -334,21 +337,34 @@ fn arrows() -> (Vec<Arrow>, BTreeSet<ModPath>) {
             (f.clone(), ast)
         })
         .collect();
-    // Inline `mod x { … }` blocks are modules too (tests, small helpers).
-    struct Inline<'m>(&'m mut BTreeSet<ModPath>, ModPath);
+    // Inline `mod x { … }` blocks are modules too (tests, small helpers); those under
+    // `#[cfg(test)]` are tests.
+    struct Inline<'m>(
+        &'m mut BTreeSet<ModPath>,
+        &'m mut BTreeSet<ModPath>,
+        ModPath,
+    );
     impl<'ast> Visit<'ast> for Inline<'_> {
         fn visit_item_mod(&mut self, m: &'ast syn::ItemMod) {
             if m.content.is_some() {
-                self.1.push(m.ident.to_string());
-                self.0.insert(self.1.clone());
+                self.2.push(m.ident.to_string());
+                self.0.insert(self.2.clone());
+                let cfg_test = m.attrs.iter().any(|a| {
+                    a.path().is_ident("cfg")
+                        && a.parse_args::<syn::Ident>().is_ok_and(|i| i == "test")
+                });
+                if cfg_test {
+                    self.1.insert(self.2.clone());
+                }
                 syn::visit::visit_item_mod(self, m);
-                self.1.pop();
+                self.2.pop();
             }
         }
     }
+    let mut tests = BTreeSet::new();
     for (f, ast) in &parsed {
         let m = module_of(f.strip_prefix(&src).unwrap());
-        Inline(&mut modules, m).visit_file(ast);
+        Inline(&mut modules, &mut tests, m).visit_file(ast);
     }
     // The binary's modules: `main` and what `main.rs` declares (`cli`, `anim`, `output`).
     let mut binary_mods: BTreeSet<String> = ["main".to_string()].into();
@@ -368,6 +384,9 @@ fn arrows() -> (Vec<Arrow>, BTreeSet<ModPath>) {
         let file = f.strip_prefix(root).unwrap().display().to_string();
         let binary = module.first().is_some_and(|m| binary_mods.contains(m));
         out.extend(walk(file, binary, &modules, module, &ast.items));
+    }
+    for a in &mut out {
+        a.test = tests.iter().any(|t| a.from.starts_with(t));
     }
     // The crate root's re-exports (`kami::Scene`, `crate::Result`) lead to their modules.
     let root_names: BTreeMap<String, ModPath> = out
@@ -450,7 +469,7 @@ const NAMES_A_KIND: &[(&str, &str, &str)] = &[
     (
         "src/systems/mod.rs",
         "*",
-        "the `KINDS` registry: the one line that lists every kind",
+        "the `KINDS` registry: the one list of every kind and its fields of the scene file",
     ),
     ("src/bench/anjyo", "anjyo", "the kind's own bench file"),
     ("src/bench/fur.rs", "fur", "the kind's own bench file"),
@@ -572,6 +591,167 @@ fn layers_point_one_way() {
         "{} arrows point the wrong way:\n{}",
         bad.len(),
         bad.into_iter().collect::<Vec<_>>().join("\n")
+    );
+}
+
+/// The parts of `systems` an import cycle would join: each kind's folder as one part (its
+/// files may name each other), every other file of `systems` a part of its own; `None` for
+/// a module outside `systems`.
+fn systems_part(m: &ModPath, kinds: &[String]) -> Option<String> {
+    if m.first().map(String::as_str) != Some("systems") {
+        return None;
+    }
+    Some(match m.get(1) {
+        None => "systems (mod.rs)".into(),
+        Some(k) if kinds.contains(k) => format!("systems::{k}/"),
+        Some(f) => format!("systems::{f}"),
+    })
+}
+
+/// The strongly connected groups of more than one node of `graph` (Tarjan), sorted.
+fn cycles(graph: &BTreeMap<String, BTreeSet<String>>) -> Vec<Vec<String>> {
+    struct T<'g> {
+        graph: &'g BTreeMap<String, BTreeSet<String>>,
+        index: BTreeMap<&'g str, usize>,
+        low: BTreeMap<&'g str, usize>,
+        stack: Vec<&'g str>,
+        on: BTreeSet<&'g str>,
+        out: Vec<Vec<String>>,
+    }
+    impl<'g> T<'g> {
+        fn visit(&mut self, v: &'g str) {
+            let i = self.index.len();
+            self.index.insert(v, i);
+            self.low.insert(v, i);
+            self.stack.push(v);
+            self.on.insert(v);
+            for w in self.graph.get(v).into_iter().flatten() {
+                let w = w.as_str();
+                if !self.index.contains_key(w) {
+                    self.visit(w);
+                    let lw = self.low[w];
+                    let lv = self.low.get_mut(v).unwrap();
+                    *lv = (*lv).min(lw);
+                } else if self.on.contains(w) {
+                    let iw = self.index[w];
+                    let lv = self.low.get_mut(v).unwrap();
+                    *lv = (*lv).min(iw);
+                }
+            }
+            if self.low[v] == self.index[v] {
+                let mut group = Vec::new();
+                loop {
+                    let w = self.stack.pop().unwrap();
+                    self.on.remove(w);
+                    group.push(w.to_string());
+                    if w == v {
+                        break;
+                    }
+                }
+                if group.len() > 1 {
+                    group.sort();
+                    self.out.push(group);
+                }
+            }
+        }
+    }
+    let mut t = T {
+        graph,
+        index: BTreeMap::new(),
+        low: BTreeMap::new(),
+        stack: Vec::new(),
+        on: BTreeSet::new(),
+        out: Vec::new(),
+    };
+    for v in graph.keys() {
+        if !t.index.contains_key(v.as_str()) {
+            t.visit(v);
+        }
+    }
+    t.out.sort();
+    t.out
+}
+
+/// The imports inside `systems` form no cycle (issue 35): the kinds name the scene
+/// (`systems::scene`) and the contract (`systems::kind`, `systems::system`, `systems::ui`),
+/// which name no kind; only the registry (`systems/mod.rs`, with `KINDS`) names the kinds,
+/// and nothing inside `systems` names it. Code under `#[cfg(test)]` is a
+/// leaf user and is left out. A cycle fails here with every part it joins and one import
+/// along each of its arrows.
+#[test]
+fn systems_import_no_cycle() {
+    let (arrows, modules) = arrows();
+    let kinds = kinds();
+    // The module an arrow reaches: the longest prefix of its path that is a module.
+    let module = |p: &ModPath| -> ModPath {
+        (0..=p.len())
+            .rev()
+            .map(|n| p[..n].to_vec())
+            .find(|m| modules.contains(m))
+            .unwrap_or_default()
+    };
+    let mut graph: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+    let mut why: BTreeMap<(String, String), String> = BTreeMap::new();
+    for a in arrows.iter().filter(|a| !a.test) {
+        let (Some(from), Some(to)) = (
+            systems_part(&a.from, &kinds),
+            systems_part(&module(&a.to), &kinds),
+        ) else {
+            continue;
+        };
+        if from != to {
+            graph.entry(from.clone()).or_default().insert(to.clone());
+            why.entry((from, to))
+                .or_insert_with(|| format!("{}:{} ({})", a.file, a.line, a.to.join("::")));
+        }
+    }
+    assert!(
+        graph.keys().filter(|k| k.ends_with('/')).count() >= 4,
+        "the kinds' imports were not seen: {:?}",
+        graph.keys()
+    );
+    let found = cycles(&graph);
+    let report: Vec<String> = found
+        .iter()
+        .map(|c| {
+            let arrows: Vec<&String> = why
+                .iter()
+                .filter(|((f, t), _)| c.contains(f) && c.contains(t))
+                .map(|(_, w)| w)
+                .collect();
+            format!(
+                "cycle through {c:?}, by:\n  {}",
+                arrows
+                    .iter()
+                    .map(|s| s.as_str())
+                    .collect::<Vec<_>>()
+                    .join("\n  ")
+            )
+        })
+        .collect();
+    assert!(report.is_empty(), "{}", report.join("\n"));
+}
+
+#[test]
+fn the_cycle_finder_finds_cycles() {
+    let g = |edges: &[(&str, &str)]| {
+        let mut g: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
+        for (a, b) in edges {
+            g.entry(a.to_string()).or_default().insert(b.to_string());
+        }
+        g
+    };
+    assert!(cycles(&g(&[("a", "b"), ("b", "c"), ("a", "c")])).is_empty());
+    assert_eq!(
+        cycles(&g(&[
+            ("a", "b"),
+            ("b", "c"),
+            ("c", "a"),
+            ("c", "d"),
+            ("d", "e"),
+            ("e", "d")
+        ])),
+        vec![vec!["a", "b", "c"], vec!["d", "e"]]
     );
 }
 

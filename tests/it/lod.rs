@@ -81,7 +81,7 @@ fn generations(stage: &Stage) -> u64 {
 fn still_fur_is_not_regenerated() {
     let gpu = common::gpu();
     let scene = common::scene("fur_line");
-    assert!(scene.fur.as_ref().unwrap().motion.is_none());
+    assert!(scene.fur().as_ref().unwrap().motion.is_none());
     let mut stage = Stage::new(gpu, &scene, target::OUTPUT_FORMAT, Quality::of(&scene)).unwrap();
     let out = target::Offscreen::new(gpu, SIZE).unwrap();
     let mut look = stage.look();
@@ -104,7 +104,7 @@ fn still_fur_is_not_regenerated() {
 fn moving_fur_is_regenerated_each_frame() {
     let gpu = common::gpu();
     let scene = common::scene("fur");
-    assert!(scene.fur.as_ref().unwrap().motion.is_some());
+    assert!(scene.fur().as_ref().unwrap().motion.is_some());
     let mut stage = Stage::new(gpu, &scene, target::OUTPUT_FORMAT, Quality::of(&scene)).unwrap();
     let out = target::Offscreen::new(gpu, SIZE).unwrap();
     let look = stage.look();
@@ -142,8 +142,8 @@ fn anjyo_uses_the_shared_share() {
 fn small_fur_draws_fewer_hairs_and_nodes_with_a_small_error() {
     let gpu = common::gpu();
     let mut scene = common::scene("fur_fig9");
-    let setup =
-        kami::systems::fur::setup::FurSetup::new(scene.fur.as_ref().unwrap(), scene.seed).unwrap();
+    let setup = kami::systems::fur::setup::FurSetup::new(scene.fur().as_ref().unwrap(), scene.seed)
+        .unwrap();
     let (centre, r) = setup.bounds();
     let full = r / (0.5 * scene.camera.fov_y.to_radians()).sin();
     let dir = (glam::DVec3::from(scene.camera.eye) - centre).normalize();

@@ -431,12 +431,12 @@ fn a_scene_names_its_mesh_relative_to_itself() {
                  hairs: 500, length: 0.1, coats: [Coat(share: 1.0, stiffness: 0.5)])))";
     std::fs::write(dir.join("s.ron"), scene).unwrap();
     let s = kami::Scene::load(dir.join("s.ron")).unwrap();
-    let setup = kami::systems::fur::setup::FurSetup::new(s.fur.as_ref().unwrap(), 1).unwrap();
+    let setup = kami::systems::fur::setup::FurSetup::new(s.fur().as_ref().unwrap(), 1).unwrap();
     check_cube(&setup.mesh);
     // A missing mesh names the file.
     std::fs::write(dir.join("t.ron"), scene.replace("cube.obj", "gone.obj")).unwrap();
     let s = kami::Scene::load(dir.join("t.ron")).unwrap();
-    let e = kami::systems::fur::setup::FurSetup::new(s.fur.as_ref().unwrap(), 1)
+    let e = kami::systems::fur::setup::FurSetup::new(s.fur().as_ref().unwrap(), 1)
         .unwrap_err()
         .to_string();
     assert!(e.contains("gone.obj"), "{e}");

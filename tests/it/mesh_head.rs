@@ -217,7 +217,7 @@ fn sdf_matches_exact_distance() {
 #[test]
 fn pores_lie_on_the_scalp() {
     let mut scene = mesh_scene();
-    for g in &mut scene.groups {
+    for g in scene.groups_mut() {
         g.roots.theta = (0.0, 180.0);
         g.roots.phi = (-180.0, 180.0);
         g.roots.hairline = None;
@@ -264,7 +264,7 @@ fn pores_lie_on_the_scalp() {
 }
 
 fn few(mut scene: kami::Scene, div: u32) -> kami::Scene {
-    for g in &mut scene.groups {
+    for g in scene.groups_mut() {
         g.count = (g.count / div).max(1);
     }
     scene
@@ -480,9 +480,7 @@ fn bad_mesh_head_input_is_a_clear_error() {
     ] {
         let mut scene = mesh_scene();
         edit(scene.head.mesh.as_mut().unwrap());
-        let e = kami::systems::scene::validate(&scene)
-            .unwrap_err()
-            .to_string();
+        let e = kami::systems::validate(&scene).unwrap_err().to_string();
         assert!(e.contains(field), "{field}: {e}");
     }
 }

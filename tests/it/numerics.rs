@@ -342,7 +342,7 @@ fn extreme_valid_parameters_stay_finite() {
 fn pores_follow_region_and_hairline() {
     let scene = common::scene("bob");
     let input = prepare(&scene).unwrap();
-    for (gi, g) in scene.groups.iter().enumerate() {
+    for (gi, g) in scene.groups().iter().enumerate() {
         let grp = &input.groups[gi];
         for r in
             &input.roots[grp.first_strand as usize..(grp.first_strand + grp.strand_count) as usize]

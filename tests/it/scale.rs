@@ -41,7 +41,7 @@ fn every_phase_of_a_frame_is_timed_on_the_gpu() {
     // adapter, fur beside it so the generation phase has work too, one sample per pixel
     // so the draw stays quick.
     let mut scene = scaled(&common::scene("gust"), 4000, 16).unwrap();
-    scene.fur = common::scene("hair_and_fur").fur;
+    *scene.fur_mut() = common::scene("hair_and_fur").fur().clone();
     scene.render.msaa = 1;
     scene.render.supersample = 1;
     let mut stage = Stage::new(gpu, &scene, target::OUTPUT_FORMAT, Quality::of(&scene)).unwrap();
@@ -147,17 +147,17 @@ fn scaled_scenes_have_the_counts_asked_for() {
     let base = common::scene("gust");
     for (n, k) in [(1000, 8), (12_345, 32), (2, 64)] {
         let s = scaled(&base, n, k).unwrap();
-        let total: u64 = s.groups.iter().map(|g| g.count as u64).sum();
+        let total: u64 = s.groups().iter().map(|g| g.count as u64).sum();
         assert_eq!(total, n as u64, "{n} x {k}");
-        assert!(s.groups.iter().all(|g| g.segments == k));
-        for (a, b) in s.groups.iter().zip(&base.groups) {
+        assert!(s.groups().iter().all(|g| g.segments == k));
+        for (a, b) in s.groups().iter().zip(base.groups()) {
             assert_eq!(a.length, b.length);
         }
     }
     // Proportions kept: gust is 1,800 bangs to 8,200 long hairs.
     let s = scaled(&base, 100_000, 16).unwrap();
-    assert_eq!(s.groups[0].count, 18_000);
-    assert_eq!(s.groups[1].count, 82_000);
+    assert_eq!(s.groups()[0].count, 18_000);
+    assert_eq!(s.groups()[1].count, 82_000);
     let err = scaled(&base, 5_000_000, 8).unwrap_err().to_string();
     assert!(err.contains("groups[..].count"), "{err}");
     let err = scaled(&base, 1, 8).unwrap_err().to_string();

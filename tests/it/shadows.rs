@@ -102,14 +102,14 @@ fn each_method_matches_the_f64_reference_on_the_bob() {
 #[test]
 fn hard_cases_match_the_f64_reference() {
     let mut clump = common::scene("bob");
-    clump.groups.truncate(1);
+    clump.groups_mut().truncate(1);
     check(&clump, 53, "a dense clump");
     let mut grazing = small_bob(ShadowMethod::Volume);
     grazing.light.direction = [0.0, 0.03, 1.0];
     check(&grazing, 97, "a grazing light");
     let mut single = common::scene("bob");
-    single.groups.truncate(1);
-    single.groups[0].count = 1;
+    single.groups_mut().truncate(1);
+    single.groups_mut()[0].count = 1;
     // A point on the strand sees nothing; points behind it (away from the light) see it.
     let gpu = common::gpu();
     for method in METHODS {
@@ -296,7 +296,7 @@ fn the_head_shadows_like_its_f64_reference() {
 #[test]
 fn the_head_is_darker_under_the_bangs() {
     let mut scene = common::scene("bob");
-    for g in &mut scene.groups {
+    for g in scene.groups_mut() {
         g.count /= 2;
     }
     let mut off = scene.clone();

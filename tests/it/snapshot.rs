@@ -75,7 +75,7 @@ fn bob_blended_no_msaa() {
 fn gust_frames_10_15_20() {
     let gpu = common::gpu();
     let mut scene = common::scene("gust");
-    for g in &mut scene.groups {
+    for g in scene.groups_mut() {
         g.count /= 2;
     }
     kami::stage::render_animation(gpu, &scene, SIZE, 10..=20, |f, img| {
@@ -91,7 +91,7 @@ fn gust_frames_10_15_20() {
 fn animated(name: &str, frame: u32, out: &str) {
     let gpu = common::gpu();
     let mut scene = common::scene(name);
-    for g in &mut scene.groups {
+    for g in scene.groups_mut() {
         g.count /= 2;
     }
     kami::stage::render_animation(gpu, &scene, SIZE, frame..=frame, |_, img| {
@@ -181,7 +181,7 @@ fn hair_and_fur_frame_6() {
 fn imported_groom_frames_0_and_12() {
     let gpu = common::gpu();
     let mut scene = common::scene("imported_groom");
-    scene.groups[0].count /= 2;
+    scene.groups_mut()[0].count /= 2;
     kami::stage::render_animation(gpu, &scene, SIZE, 0..=12, |f, img| {
         if f % 12 == 0 {
             check_snapshot(&format!("imported_groom_{f:02}"), &img, TOL);

@@ -15,9 +15,9 @@ use kami::systems::Scene;
 /// A small gust: few hairs, a small image, no dynamics (frame 0 is the groom).
 fn small(head: bool, msaa: u32) -> Scene {
     let mut s = common::scene("gust");
-    s.dynamics = None;
-    s.groups[0].count = 150;
-    s.groups[1].count = 400;
+    *s.dynamics_mut() = None;
+    s.groups_mut()[0].count = 150;
+    s.groups_mut()[1].count = 400;
     s.head.visible = head;
     s.render.msaa = msaa;
     s.render.supersample = 1;
@@ -366,11 +366,11 @@ fn file_colours_opacities_and_widths_are_drawn() {
     kami::formats::write(&path, &g).unwrap();
     let scene = |colors: bool, widths: bool, msaa: u32| {
         let mut s = kami::Scene::load(&path).unwrap();
-        s.groups[0].count = 300;
-        s.groups[0].material.width = w as f64;
-        s.groups[0].material.tip_width = 1.0;
-        s.groups[0].material.color = [0.3, 0.3, 0.3];
-        let f = s.groups[0].file.as_mut().unwrap();
+        s.groups_mut()[0].count = 300;
+        s.groups_mut()[0].material.width = w as f64;
+        s.groups_mut()[0].material.tip_width = 1.0;
+        s.groups_mut()[0].material.color = [0.3, 0.3, 0.3];
+        let f = s.groups_mut()[0].file.as_mut().unwrap();
         (f.colors, f.widths) = (colors, widths);
         s.render.msaa = msaa;
         s.render.supersample = 1;

@@ -25,8 +25,8 @@ fn scene(
     dynamics: Dyn,
 ) -> Scene {
     let mut s = common::scene("gust");
-    s.groups.truncate(1);
-    let g = &mut s.groups[0];
+    s.groups_mut().truncate(1);
+    let g = &mut s.groups_mut()[0];
     g.roots = Roots {
         theta,
         phi,
@@ -41,9 +41,9 @@ fn scene(
     g.direction_jitter = 0.0;
     g.loads.clear();
     g.cuts.clear();
-    s.dynamics = Some(dynamics.d);
+    *s.dynamics_mut() = Some(dynamics.d);
     s.forces = dynamics.f;
-    kami::systems::scene::validate(&s).unwrap();
+    kami::systems::validate(&s).unwrap();
     s
 }
 
@@ -71,7 +71,7 @@ impl std::ops::DerefMut for Dyn {
 fn dynamics(force: [f64; 3]) -> Dyn {
     let gust = common::scene("gust");
     let mut d = Dyn {
-        d: gust.dynamics.unwrap(),
+        d: gust.dynamics().clone().unwrap(),
         f: gust.forces,
     };
     d.f.wind = vec![WindKey {
@@ -450,7 +450,7 @@ fn pseudo_force_keeps_hair_out_of_the_head() {
     let mut depth = Vec::new();
     for name in ["pseudo_force", "pseudo_force_off"] {
         let mut s = common::scene(name);
-        for g in &mut s.groups {
+        for g in s.groups_mut() {
             g.count /= 10;
         }
         let r = run(&s, 10);
@@ -492,7 +492,8 @@ fn pseudo_force_keeps_hair_out_of_the_head() {
 fn joint_angle_stiffness_holds_under_kicks() {
     let gpu = common::gpu();
     let smooth = common::scene("stiffness_smooth")
-        .dynamics
+        .dynamics()
+        .clone()
         .unwrap()
         .stiffness;
     assert!(smooth.sigma_at(0.5) <= 12.0, "the Fig. 12b profile");
@@ -519,8 +520,8 @@ fn joint_angle_stiffness_holds_under_kicks() {
     let mut results = Vec::new();
     for name in ["stiffness_smooth", "stiffness_free"] {
         let mut s = common::scene(name);
-        s.groups[0].count = 400;
-        s.dynamics.as_mut().unwrap().collision = false;
+        s.groups_mut()[0].count = 400;
+        s.dynamics_mut().as_mut().unwrap().collision = false;
         let input = prepare(&s).unwrap();
         let groomed = cantilever::bend_all(&input);
         let setup = DynSetup::new(&s, &input, &groomed.visible).unwrap();
@@ -680,7 +681,7 @@ fn static_groups_allocate_nothing() {
     .unwrap()
     .is_none());
     let mut frozen = common::scene("gust");
-    for g in &mut frozen.groups {
+    for g in frozen.groups_mut() {
         g.count = 50;
         g.dynamic = false;
     }
@@ -695,7 +696,7 @@ fn static_groups_allocate_nothing() {
     )
     .unwrap()
     .is_none());
-    frozen.groups[1].dynamic = true;
+    frozen.groups_mut()[1].dynamic = true;
     let input = prepare(&frozen).unwrap();
     let groomed = cantilever::bend_all(&input);
     let setup = DynSetup::new(&frozen, &input, &groomed.visible).unwrap();

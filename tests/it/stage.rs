@@ -16,7 +16,7 @@ fn kinds(s: &Stage) -> Vec<&'static str> {
 /// The gust with a tenth of its hairs (the test is about bookkeeping, not looks).
 fn small_gust() -> kami::Scene {
     let mut s = common::scene("gust");
-    for g in &mut s.groups {
+    for g in s.groups_mut() {
         g.count /= 10;
     }
     s
@@ -99,20 +99,20 @@ fn edits_rebuild_resimulate_or_redraw_one_system() {
     advance(gpu, &mut s, 3);
 
     let mut look = scene.clone();
-    look.groups[0].material.color = [0.9, 0.5, 0.1];
+    look.groups_mut()[0].material.color = [0.9, 0.5, 0.1];
     let a = s.apply(gpu, &look).unwrap();
     assert_eq!(a.changes, [("anjyo", Change::Redraw)]);
     assert!(!a.restarted);
     assert_eq!(s.frame(), 3, "a look change keeps the pose");
 
     let mut damp = look.clone();
-    damp.dynamics.as_mut().unwrap().damping = 2.0;
+    damp.dynamics_mut().as_mut().unwrap().damping = 2.0;
     let a = s.apply(gpu, &damp).unwrap();
     assert_eq!(a.changes, [("anjyo", Change::Resimulate)]);
     assert_eq!(s.frame(), 3);
 
     let mut stiff = damp.clone();
-    stiff.groups[1].rigidity *= 2.0;
+    stiff.groups_mut()[1].rigidity *= 2.0;
     let a = s.apply(gpu, &stiff).unwrap();
     assert_eq!(a.changes, [("anjyo", Change::Rebuild)]);
     assert!(a.restarted);
@@ -120,7 +120,7 @@ fn edits_rebuild_resimulate_or_redraw_one_system() {
 
     // Adding fur builds the fur system beside the hair; taking the hair away frees it.
     let mut with_fur = stiff.clone();
-    with_fur.fur = common::scene("fur").fur;
+    *with_fur.fur_mut() = common::scene("fur").fur().clone();
     let a = s.apply(gpu, &with_fur).unwrap();
     assert_eq!(
         a.changes,
@@ -128,7 +128,7 @@ fn edits_rebuild_resimulate_or_redraw_one_system() {
     );
     assert_eq!(kinds(&s), ["anjyo", "fur"]);
     let mut fur_only = with_fur.clone();
-    fur_only.groups.clear();
+    fur_only.groups_mut().clear();
     s.apply(gpu, &fur_only).unwrap();
     assert_eq!(kinds(&s), ["fur"]);
     assert!(s.system::<FurSystem>().is_some());
@@ -140,17 +140,17 @@ fn each_kind_classifies_its_own_edits() {
     let a = common::scene("gust");
     let same = |b: &kami::Scene| (anjyo::classify(&a, b), fur::classify(&a, b));
     let mut b = a.clone();
-    b.groups[0].material.width = 0.2;
+    b.groups_mut()[0].material.width = 0.2;
     assert_eq!(same(&b), (Change::Redraw, Change::None));
     let mut b = a.clone();
-    b.groups[0].material.ka_spread = 0.5;
+    b.groups_mut()[0].material.ka_spread = 0.5;
     assert_eq!(
         same(&b).0,
         Change::Rebuild,
         "k_a is drawn per strand at groom"
     );
     let mut b = a.clone();
-    b.dynamics = None;
+    *b.dynamics_mut() = None;
     assert_eq!(same(&b).0, Change::Rebuild);
     let mut b = a.clone();
     b.render.msaa = 1;
@@ -159,12 +159,12 @@ fn each_kind_classifies_its_own_edits() {
 
     let f = common::scene("fur");
     let mut g = f.clone();
-    g.fur.as_mut().unwrap().coats[0].material.shininess = 5.0;
+    g.fur_mut().as_mut().unwrap().coats[0].material.shininess = 5.0;
     assert_eq!(fur::classify(&f, &g), Change::Redraw);
-    g.fur.as_mut().unwrap().hairs += 1;
+    g.fur_mut().as_mut().unwrap().hairs += 1;
     assert_eq!(fur::classify(&f, &g), Change::Rebuild);
     let mut g = f.clone();
-    g.fur.as_mut().unwrap().coats[1].stiffness = 0.1;
+    g.fur_mut().as_mut().unwrap().coats[1].stiffness = 0.1;
     assert_eq!(fur::classify(&f, &g), Change::Rebuild, "shape, not look");
     let mut g = f.clone();
     g.seed += 1;
@@ -183,14 +183,14 @@ fn each_kind_classifies_its_own_edits() {
 fn a_refused_edit_keeps_what_was_drawn() {
     let gpu = common::gpu();
     let mut scene = small_gust();
-    scene.fur = common::scene("fur").fur;
+    *scene.fur_mut() = common::scene("fur").fur().clone();
     let mut s = stage(gpu, &scene);
     advance(gpu, &mut s, 2);
     let before = vertices(gpu, &s);
     let mut bad = scene.clone();
-    bad.groups[1].rigidity *= 2.0;
-    bad.fur.as_mut().unwrap().hairs = 3_900_000;
-    kami::systems::scene::validate(&bad).unwrap();
+    bad.groups_mut()[1].rigidity *= 2.0;
+    bad.fur_mut().as_mut().unwrap().hairs = 3_900_000;
+    kami::systems::validate(&bad).unwrap();
     assert!(
         s.apply(gpu, &bad).is_err(),
         "3.9 M fur hairs should be refused"
@@ -201,7 +201,7 @@ fn a_refused_edit_keeps_what_was_drawn() {
     assert_eq!(vertices(gpu, &s), before, "the hair kept its pose");
     // And the stage still takes a good edit afterwards.
     let mut good = scene.clone();
-    good.groups[1].rigidity *= 2.0;
+    good.groups_mut()[1].rigidity *= 2.0;
     assert!(s.apply(gpu, &good).unwrap().restarted);
     assert_eq!(kinds(&s), ["anjyo", "fur"]);
 }
@@ -401,8 +401,9 @@ fn the_world_is_uploaded_once_per_scene() {
     let gpu = common::gpu();
     let mut scene = common::scene("strips_mesh_head");
     let anjyo = common::thinned("mesh_head", 16);
-    (scene.groups, scene.dynamics) = (anjyo.groups, anjyo.dynamics);
-    scene.wisps = common::scene("toon_mesh_head").wisps;
+    *scene.groups_mut() = anjyo.groups().clone();
+    *scene.dynamics_mut() = anjyo.dynamics().clone();
+    *scene.wisps_mut() = common::scene("toon_mesh_head").wisps().clone();
     scene.forces.eff = common::scene("strips").forces.eff;
     let before = uploads();
     let mut s = stage(gpu, &scene);
@@ -451,8 +452,9 @@ fn every_kind_reads_the_worlds_samples() {
     let gpu = common::gpu();
     let mut calm = common::scene("strips_mesh_head");
     let anjyo = common::thinned("mesh_head", 16);
-    (calm.groups, calm.dynamics) = (anjyo.groups, anjyo.dynamics);
-    calm.wisps = common::scene("toon_mesh_head").wisps;
+    *calm.groups_mut() = anjyo.groups().clone();
+    *calm.dynamics_mut() = anjyo.dynamics().clone();
+    *calm.wisps_mut() = common::scene("toon_mesh_head").wisps().clone();
     calm.forces.wind.clear();
     let mut windy = calm.clone();
     windy.forces.wind = vec![WindKey {

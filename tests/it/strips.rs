@@ -82,7 +82,7 @@ fn gpu_points(gpu: &kami::gpu::Gpu, scene: &Scene, frames: u32) -> (Vec<DVec3>, 
 fn shipped_scene_on_the_gpu_matches_the_f64_reference() {
     let gpu = common::gpu();
     let scene = common::scene("strips");
-    let st = scene.strips.as_ref().unwrap();
+    let st = scene.strips().as_ref().unwrap();
     let frames = 30;
     let (gp, stride) = gpu_points(gpu, &scene, frames);
     let forces = Forces::new(&scene.forces, &scene.head);
@@ -141,7 +141,7 @@ const EDIT_JUMP: f64 = 1.0;
 #[test]
 fn key_frame_edit_reaches_its_target_without_a_jump() {
     let mut scene = common::scene("strips");
-    let st = scene.strips.as_ref().unwrap().clone();
+    let st = scene.strips().as_ref().unwrap().clone();
     let forces = Forces::new(&scene.forces, &scene.head);
     let rest = hom::build(&st, &scene.head).unwrap();
     // The middle strip of the nape layer: it hangs down the back of the head.
@@ -211,7 +211,7 @@ fn key_frame_edit_reaches_its_target_without_a_jump() {
          of its force {force} (edited {jump}, unedited {free_jump})"
     );
     // The same edit in the scene, on the GPU.
-    scene.strips.as_mut().unwrap().edits = vec![edit];
+    scene.strips_mut().as_mut().unwrap().edits = vec![edit];
     let gpu = common::gpu();
     let (gp, gstride) = gpu_points(gpu, &scene, to);
     let gtip = gp[s * gstride + stride - 1];
@@ -232,7 +232,7 @@ fn edits_are_classified_by_what_they_touch() {
     };
     assert_eq!(classify(&old, &old), Change::None);
     assert_eq!(
-        with(&|s| s.strips.as_mut().unwrap().look.specular[0] = 0.9),
+        with(&|s| s.strips_mut().as_mut().unwrap().look.specular[0] = 0.9),
         Change::Redraw
     );
     assert_eq!(with(&|s| s.forces.gravity[1] = -500.0), Change::Resimulate);
@@ -242,32 +242,29 @@ fn edits_are_classified_by_what_they_touch() {
     );
     // A key-frame edit re-solves its extra force; the viewer then replays the clip.
     assert_eq!(
-        with(&|s| s
-            .strips
-            .as_mut()
-            .unwrap()
-            .edits
-            .push(kami::systems::strips::block::Edit {
+        with(&|s| s.strips_mut().as_mut().unwrap().edits.push(
+            kami::systems::strips::block::Edit {
                 strip: 3,
                 from: 2,
                 to: 12,
                 target: [0.0, -20.0, 5.0],
                 radius: 6.0,
-            })),
+            }
+        )),
         Change::Resimulate
     );
     // τ, I1, I2: new joint constants from the next step, the pose kept (an artist tunes
     // them while the clip plays).
     assert_eq!(
-        with(&|s| s.strips.as_mut().unwrap().motion.stiffness = 300.0),
+        with(&|s| s.strips_mut().as_mut().unwrap().motion.stiffness = 300.0),
         Change::Resimulate
     );
     assert_eq!(
-        with(&|s| s.strips.as_mut().unwrap().motion.inertia = 2.0),
+        with(&|s| s.strips_mut().as_mut().unwrap().motion.inertia = 2.0),
         Change::Resimulate
     );
     assert_eq!(
-        with(&|s| s.strips.as_mut().unwrap().layers[0].count = 5),
+        with(&|s| s.strips_mut().as_mut().unwrap().layers[0].count = 5),
         Change::Rebuild
     );
 }
@@ -385,9 +382,9 @@ fn one_set_of_bounds_on_every_path() {
     ];
     for (field, change, ok) in layers {
         let mut s = base.clone();
-        change(&mut s.strips.as_mut().unwrap().layers[0]);
+        change(&mut s.strips_mut().as_mut().unwrap().layers[0]);
         let file = from_file(&s);
-        let built = hom::build(s.strips.as_ref().unwrap(), &s.head)
+        let built = hom::build(s.strips().as_ref().unwrap(), &s.head)
             .map(|_| ())
             .map_err(parts);
         if ok {
@@ -408,7 +405,7 @@ fn one_set_of_bounds_on_every_path() {
     }
     // The message a user reads names the file and the field.
     let mut s = base.clone();
-    s.strips.as_mut().unwrap().layers[0].curl = 120.0;
+    s.strips_mut().as_mut().unwrap().layers[0].curl = 120.0;
     let e = Scene::from_ron(&s.to_ron(), "strips.ron")
         .unwrap_err()
         .to_string();
@@ -420,7 +417,7 @@ fn one_set_of_bounds_on_every_path() {
     );
 
     // The motion: `Rig::new` (and the GPU pass, through the same `check_motion`).
-    let rest = hom::build(base.strips.as_ref().unwrap(), &base.head).unwrap();
+    let rest = hom::build(base.strips().as_ref().unwrap(), &base.head).unwrap();
     type Move = fn(&mut Motion);
     let motions: [(&str, Move, bool); 6] = [
         ("stiffness", |m| m.stiffness = 2e9, false),
@@ -439,8 +436,8 @@ fn one_set_of_bounds_on_every_path() {
     ];
     for (field, change, ok) in motions {
         let mut s = base.clone();
-        change(&mut s.strips.as_mut().unwrap().motion);
-        let m = &s.strips.as_ref().unwrap().motion;
+        change(&mut s.strips_mut().as_mut().unwrap().motion);
+        let m = &s.strips().as_ref().unwrap().motion;
         let file = from_file(&s);
         let rig = dynamics::Rig::new(&rest, m).map(|_| ()).map_err(parts);
         if ok {
@@ -463,7 +460,7 @@ fn one_set_of_bounds_on_every_path() {
     let mut stiff = rest[..1].to_vec();
     stiff[0].stiffness = 2e6;
     let mut s = base.clone();
-    s.strips.as_mut().unwrap().layers[0].stiffness = 2e6;
+    s.strips_mut().as_mut().unwrap().layers[0].stiffness = 2e6;
     let (.., layer_allowed) = from_file(&s).unwrap_err();
     let (_, _, _, rig_allowed) = parts(dynamics::Rig::new(&stiff, &Motion::default()).unwrap_err());
     assert_eq!(rig_allowed, layer_allowed);
@@ -495,8 +492,8 @@ fn one_set_of_bounds_on_every_path() {
     ];
     for (edit, field) in bad_edits {
         let mut s = base.clone();
-        s.strips.as_mut().unwrap().edits = vec![edit];
-        let st = s.strips.as_ref().unwrap();
+        s.strips_mut().as_mut().unwrap().edits = vec![edit];
+        let st = s.strips().as_ref().unwrap();
         let file = from_file(&s).unwrap_err();
         assert_eq!(file.1, format!("strips.edits[0].{field}"));
         let solved = keyframe::solve(&rest, &st.motion, &forces, &s.head, &st.edits)
@@ -515,7 +512,7 @@ fn panel_adds_an_edit_that_solves() {
     let mut scene = common::scene("strips");
     let e = kami::systems::strips::panel::new_edit(&scene, 11, 4, 16).unwrap();
     assert_eq!((e.strip, e.from, e.to), (11, 4, 20));
-    let st = scene.strips.as_ref().unwrap();
+    let st = scene.strips().as_ref().unwrap();
     let forces = Forces::new(&scene.forces, &scene.head);
     let rest = hom::build(st, &scene.head).unwrap();
     let clip = dynamics::simulate(
@@ -530,9 +527,9 @@ fn panel_adds_an_edit_that_solves() {
     let tip = *clip[20].last().unwrap();
     let d = (DVec3::from(e.target) - tip).length();
     assert!((d - 5.0).abs() < 1e-9, "target {d} cm from the tip");
-    scene.strips.as_mut().unwrap().edits.push(e);
-    kami::systems::scene::validate(&scene).unwrap();
-    let st = scene.strips.as_ref().unwrap();
+    scene.strips_mut().as_mut().unwrap().edits.push(e);
+    kami::systems::validate(&scene).unwrap();
+    let st = scene.strips().as_ref().unwrap();
     let solved = keyframe::solve(&rest, &st.motion, &forces, &scene.head, &st.edits).unwrap();
     // Not every target is exactly reachable by a force field (the strip bends rather than
     // swings): within 0.1 cm, 2 % of the 5 cm the panel asks for.

@@ -958,7 +958,7 @@ fn report_is_written() {
 #[test]
 fn capture_scene_loads_the_fitted_field() {
     let scene = kami::systems::Scene::load(root().join("assets/scenes/eff_capture.ron")).unwrap();
-    assert!(scene.strips.is_some());
+    assert!(scene.strips().is_some());
     let forces = kami::forces::Forces::new(&scene.forces, &scene.head);
     let e = forces.eff.expect("the scene's EFF");
     let shipped = Eff::load(root().join("assets/eff/capture.eff")).unwrap();
@@ -998,7 +998,7 @@ fn strips_turn_scene_swings_the_hair() {
     assert!(deg(8.0) < 9.0, "{}", deg(8.0));
     assert!(deg(18.0) > 40.0, "{}", deg(18.0));
     assert!(deg(80.0) > 150.0, "the head turns round: {}", deg(80.0));
-    let st = scene.strips.as_ref().unwrap();
+    let st = scene.strips().as_ref().unwrap();
     let rest = hom::build(st, &scene.head).unwrap();
     let frames = 40;
     let still = Forces {

@@ -898,7 +898,7 @@ fn precision_rates_give_distinct_rows() {
 #[test]
 fn preload_holds_the_groomed_shape_under_gravity() {
     let scene = common::scene("strips");
-    let st = scene.strips.as_ref().unwrap();
+    let st = scene.strips().as_ref().unwrap();
     let rest = kami::systems::strips::hom::build(st, &scene.head).unwrap();
     let forces = still(&scene.head);
     let frames = 60;

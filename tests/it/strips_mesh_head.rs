@@ -23,7 +23,7 @@ const SCENE: &str = "strips_mesh_head";
 const FRAMES: u64 = 90;
 
 fn rest(scene: &Scene) -> Vec<RestStrip> {
-    hom::build(scene.strips.as_ref().unwrap(), &scene.head).unwrap()
+    hom::build(scene.strips().as_ref().unwrap(), &scene.head).unwrap()
 }
 
 /// Lowest field value of any control point but the roots, and the largest |field| at a
@@ -69,7 +69,7 @@ fn roots_lie_on_the_scalp() {
     // one every triangle in order finds, from each ring's point on the ellipsoid.
     let hull = Ellipsoid::new(head.center, head.radii);
     let mut s = 0;
-    for layer in &scene.strips.as_ref().unwrap().layers {
+    for layer in &scene.strips().as_ref().unwrap().layers {
         for az in hom::azimuths(layer) {
             let drawn = hull.point(layer.polar.to_radians(), az.to_radians());
             let placed = mesh.place_on_scalp(drawn, f64::INFINITY).unwrap();
@@ -124,7 +124,7 @@ fn strips_stay_out_of_the_sdf_and_gpu_matches_the_reference() {
     let gpu = common::gpu();
     let scene = common::scene(SCENE);
     let head = &scene.head;
-    let st = scene.strips.as_ref().unwrap();
+    let st = scene.strips().as_ref().unwrap();
     let motion = &st.motion;
     let forces = Forces::new(&scene.forces, head);
     let hull = head_hull(head).unwrap();

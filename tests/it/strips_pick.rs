@@ -220,12 +220,12 @@ fn worst(a: &[[f32; 4]], b: &[[f32; 4]]) -> f32 {
 fn an_edit_and_a_seek_replay_the_clip_with_the_edit() {
     let gpu = common::gpu();
     let mut scene = common::scene("strips");
-    for l in &mut scene.strips.as_mut().unwrap().layers {
+    for l in &mut scene.strips_mut().as_mut().unwrap().layers {
         l.count = l.count.div_ceil(4);
     }
     let mut edited = scene.clone();
     let e = panel::new_edit(&scene, 5, 4, 20).unwrap();
-    edited.strips.as_mut().unwrap().edits.push(e);
+    edited.strips_mut().as_mut().unwrap().edits.push(e);
     assert_eq!(
         kami::systems::strips::classify(&scene, &edited),
         Change::Resimulate
@@ -278,12 +278,12 @@ fn an_edit_and_a_seek_replay_the_clip_with_the_edit() {
 fn new_joint_constants_act_without_a_rebuild() {
     let gpu = common::gpu();
     let mut scene = common::scene("strips");
-    for l in &mut scene.strips.as_mut().unwrap().layers {
+    for l in &mut scene.strips_mut().as_mut().unwrap().layers {
         l.count = l.count.div_ceil(4);
     }
     let mut stiff = scene.clone();
     {
-        let m = &mut stiff.strips.as_mut().unwrap().motion;
+        let m = &mut stiff.strips_mut().as_mut().unwrap().motion;
         m.stiffness *= 4.0;
         m.inertia *= 0.5;
         m.damping *= 2.0;
@@ -323,14 +323,14 @@ fn new_joint_constants_act_without_a_rebuild() {
 fn a_refused_edit_keeps_the_stage_as_it_was() {
     let gpu = common::gpu();
     let mut scene = common::scene("strips");
-    for l in &mut scene.strips.as_mut().unwrap().layers {
+    for l in &mut scene.strips_mut().as_mut().unwrap().layers {
         l.count = l.count.div_ceil(4);
     }
     let mut live = common::stage_one_sample(gpu, &scene);
     live.seek(gpu, 5).unwrap();
     let before = points(gpu, &live);
     let mut bad = scene.clone();
-    bad.strips
+    bad.strips_mut()
         .as_mut()
         .unwrap()
         .edits

@@ -482,7 +482,7 @@ fn viewer_draws_the_skeleton_overlay_over_the_nodes() {
             })
         })
     };
-    let wisps = scene.wisps.as_ref().unwrap();
+    let wisps = scene.wisps().as_ref().unwrap();
     let nodes: Vec<DVec2> = wisps
         .skeletons
         .iter()
@@ -549,7 +549,7 @@ fn viewer_picks_a_strip_and_drags_its_target() {
         DVec2::new(f64::from(w), f64::from(h)),
         (DVec3::from(scene.head.center), 60.0),
     );
-    let st = scene.strips.as_ref().unwrap();
+    let st = scene.strips().as_ref().unwrap();
     let forces = kami::forces::Forces::new(&scene.forces, &scene.head);
     let head0 = forces.head_at(0.0);
     let rest: Vec<Vec<DVec3>> = hom::build(st, &scene.head)
@@ -631,7 +631,7 @@ fn viewer_picks_a_strip_and_drags_its_target() {
         .replace("\"../eff/", &format!("\"{}/assets/eff/", root.display()));
     std::fs::write(&saved, text).unwrap();
     let got = kami::systems::Scene::load(&saved).unwrap();
-    let edits = &got.strips.as_ref().unwrap().edits;
+    let edits = &got.strips().as_ref().unwrap().edits;
     assert_eq!(edits.len(), 1, "{edits:?}");
     let e = &edits[0];
     assert_eq!((e.strip, e.from, e.to), (strip as u32, 0, 20), "{e:?}");

@@ -77,7 +77,7 @@ fn a_sphere_wound_inside_out_grows_the_same_fur() {
             let mut scene = common::scene("fur");
             scene.camera.target = [0.0; 3];
             scene.render.supersample = 1;
-            let fur = scene.fur.as_mut().unwrap();
+            let fur = scene.fur_mut().as_mut().unwrap();
             fur.mesh = MeshSource::File(path.display().to_string());
             fur.size = Some(1.5);
             fur.hairs = 20_000;

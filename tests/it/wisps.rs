@@ -61,7 +61,7 @@ fn march_in_compute_draws_the_fragment_image() {
     use kami::systems::wisps::block::MarchOn;
     let on = |on: MarchOn| {
         let mut s = one_sample("toon");
-        s.wisps.as_mut().unwrap().march.on = on;
+        s.wisps_mut().as_mut().unwrap().march.on = on;
         render(&s, (160, 160))
     };
     let (compute, fragment) = (on(MarchOn::Compute), on(MarchOn::Fragment));
@@ -365,7 +365,7 @@ fn with(from: &str, to: &str) -> String {
 #[test]
 fn good_wisps_load() {
     let s = Scene::from_ron(GOOD, "toon.ron").unwrap();
-    assert_eq!(s.wisps.unwrap().skeletons[0].nodes.len(), 3);
+    assert_eq!(s.wisps().as_ref().unwrap().skeletons[0].nodes.len(), 3);
 }
 
 #[test]
@@ -474,7 +474,7 @@ fn drawn_with_slots(
 fn spline_kernel_matches_the_f64_reference() {
     use kami::systems::wisps::WispsSystem;
     let scene = one_sample("toon");
-    let w = scene.wisps.clone().unwrap();
+    let w = scene.wisps().clone().unwrap();
     let (gpu, stage) = drawn(&scene, (32, 32), false);
     let sys = stage.system::<WispsSystem>().unwrap();
     let (segs, caps, counts) = sys.curves.read(gpu).unwrap();
@@ -556,7 +556,7 @@ fn ray_march_matches_the_f64_reference_image() {
     let look = stage.look();
     let frame = kami::stage::frame_uniform(&scene, &look, stage.bounds(), size, 1);
     let vp = DMat4::from_cols_array_2d(&frame.view_proj.map(|c| c.map(|v| v as f64)));
-    let w = scene.wisps.as_ref().unwrap();
+    let w = scene.wisps().as_ref().unwrap();
     let bg = kami::systems::wisps::field::linear(scene.render.background);
     let (colours, _) = kami::systems::wisps::field::render_reference(
         &reference_segments(w),
@@ -667,7 +667,7 @@ fn tile_lists_hold_every_segment_a_pixel_ray_crosses() {
     let frame = kami::stage::frame_uniform(&scene, &look, stage.bounds(), size, 1);
     let vp = DMat4::from_cols_array_2d(&frame.view_proj.map(|c| c.map(|v| v as f64)));
     let inv = vp.inverse();
-    let w = scene.wisps.as_ref().unwrap();
+    let w = scene.wisps().as_ref().unwrap();
     let segs = reference_segments(w);
     let caps: Vec<curve::Capsule> = curve::capsules(&segs, w.threshold)
         .into_iter()
@@ -754,7 +754,7 @@ fn axis_march(
     usize,
 ) {
     use kami::systems::wisps::field;
-    let w = scene.wisps.as_ref().unwrap();
+    let w = scene.wisps().as_ref().unwrap();
     let segs = reference_segments(w);
     let caps = kami::systems::wisps::curve::capsules(&segs, w.threshold);
     let shells: Vec<Vec<f64>> = caps
@@ -864,7 +864,7 @@ fn overflowing_ray_lists_are_counted_and_reported() {
 #[test]
 fn two_hundred_wisps_overflow_nothing() {
     let scene = kami::bench::wisps::with_count(&one_sample("toon"), 200);
-    assert_eq!(scene.wisps.as_ref().unwrap().skeletons.len(), 200);
+    assert_eq!(scene.wisps().as_ref().unwrap().skeletons.len(), 200);
     let stats = march_stats(&scene, (320, 180));
     println!("{stats:?}");
     assert!(stats.covered > 5_000, "{stats:?}");

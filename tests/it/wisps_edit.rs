@@ -50,7 +50,7 @@ fn skel(ps: &[[f64; 3]]) -> Skeleton {
 }
 
 fn wisps(skeletons: Vec<Skeleton>) -> Wisps {
-    let mut w = toon().wisps.unwrap();
+    let mut w = toon().wisps().clone().unwrap();
     w.skeletons = skeletons;
     w.bundles.clear();
     w
@@ -62,8 +62,8 @@ fn px(view: &View, p: [f64; 3]) -> DVec2 {
 
 fn valid(scene: &Scene, w: &Wisps) -> Result<(), String> {
     let mut s = scene.clone();
-    s.wisps = Some(w.clone());
-    kami::systems::scene::validate(&s).map_err(|e| e.to_string())
+    *s.wisps_mut() = Some(w.clone());
+    kami::systems::validate(&s).map_err(|e| e.to_string())
 }
 
 #[test]
@@ -145,7 +145,7 @@ fn dragging_keeps_the_node_under_the_cursor_in_a_plane_parallel_to_the_screen() 
     let head = DMat4::from_translation(DVec3::new(0.5, -1.0, 0.3))
         * DMat4::from_rotation_y(20f64.to_radians());
     let fwd = (cam.target - cam.eye).normalize();
-    let mut w = scene.wisps.clone().unwrap();
+    let mut w = scene.wisps().clone().unwrap();
     let mut ed = Editor::new();
     for (s, n) in [(0, 2), (5, 3), (16, 1)] {
         let p0 = DVec3::from(w.skeletons[s].nodes[n].p);
@@ -179,7 +179,7 @@ fn dragging_keeps_the_node_under_the_cursor_in_a_plane_parallel_to_the_screen() 
 fn one_drag_or_one_slider_drag_is_one_undo_step() {
     let scene = toon();
     let v = toon_view(&scene);
-    let original = scene.wisps.clone().unwrap();
+    let original = scene.wisps().clone().unwrap();
     let mut w = original.clone();
     let mut ed = Editor::new();
     let p = w.skeletons[3].nodes[3].p;
@@ -225,7 +225,7 @@ type Step = Box<dyn Fn(&mut Editor, &mut Wisps) -> edit::Outcome>;
 fn undo_and_redo_restore_the_exact_skeleton_lists() {
     let scene = toon();
     let v = toon_view(&scene);
-    let mut w = scene.wisps.clone().unwrap();
+    let mut w = scene.wisps().clone().unwrap();
     w.bundles = vec![Bundle {
         wisps: vec![1, 2, 3],
         release_from: 4,
@@ -315,7 +315,7 @@ fn undo_and_redo_restore_the_exact_skeleton_lists() {
     assert_eq!(ed.redo_len(), 0);
     // The history is bounded: the oldest entries go.
     let mut ed = Editor::new();
-    let mut w = scene.wisps.clone().unwrap();
+    let mut w = scene.wisps().clone().unwrap();
     ed.select(&w, sel(0, 0)).unwrap();
     let mut after = Vec::new();
     for k in 0..HISTORY + 50 {
@@ -378,7 +378,7 @@ fn deleting_is_refused_below_two_nodes_and_for_the_last_skeleton() {
 fn adding_nodes_extrapolates_along_the_chain_and_tapers() {
     let scene = toon();
     let v = toon_view(&scene);
-    let mut w = scene.wisps.clone().unwrap();
+    let mut w = scene.wisps().clone().unwrap();
     let mut ed = Editor::new();
     let tip = w.skeletons[0].nodes.len() - 1;
     ed.select(
@@ -497,7 +497,7 @@ impl Rng {
 fn two_thousand_random_operations_always_leave_a_valid_scene() {
     let scene = toon();
     let views = [toon_view(&scene), front_view()];
-    let mut w = scene.wisps.clone().unwrap();
+    let mut w = scene.wisps().clone().unwrap();
     w.bundles = vec![
         Bundle {
             wisps: vec![0, 1, 2],

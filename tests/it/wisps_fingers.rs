@@ -225,7 +225,7 @@ fn skeleton_ron_pastes_into_a_scene() {
         "pasted.ron",
     )
     .unwrap();
-    let pasted = &scene.wisps.unwrap().skeletons[0];
+    let pasted = &scene.wisps().as_ref().unwrap().skeletons[0];
     assert_eq!(pasted.nodes.len(), sk.nodes.len());
     for (a, b) in pasted.nodes.iter().zip(&sk.nodes) {
         for k in 0..3 {

@@ -390,7 +390,7 @@ fn mesh_head_roots_lie_on_the_scalp() {
     let scene = common::scene("toon_mesh_head");
     let head = &scene.head;
     let mesh = head_mesh(head).unwrap().unwrap();
-    let drawn = scene.wisps.as_ref().unwrap();
+    let drawn = scene.wisps().as_ref().unwrap();
     let placed = kami::systems::wisps::block::on_mesh_head(drawn, head).unwrap();
     let regions = &head.mesh.as_ref().unwrap().scalp;
     let center = DVec3::from(head.center);
@@ -476,7 +476,7 @@ fn mesh_head_springs_stay_out_of_the_sdf() {
     let hull = kami::scene::hull::head_hull(head).unwrap();
     let forces = Forces::new(&scene.forces, &scene.head);
     let placed =
-        kami::systems::wisps::block::on_mesh_head(scene.wisps.as_ref().unwrap(), head).unwrap();
+        kami::systems::wisps::block::on_mesh_head(scene.wisps().as_ref().unwrap(), head).unwrap();
     let frames = 48u32;
     let tolerance = -kami::scene::hull::SDF_EPS_OUT;
     let mut deep = [f64::INFINITY; 3];
@@ -615,7 +615,7 @@ fn bad_wisps_forces_and_roots_are_refused() {
 
     let mesh = common::scene("toon_mesh_head");
     let mut far = mesh.clone();
-    far.wisps.as_mut().unwrap().skeletons[3].nodes[0].p = [0.0, 22.0, 0.0];
+    far.wisps_mut().as_mut().unwrap().skeletons[3].nodes[0].p = [0.0, 22.0, 0.0];
     refused(
         &far,
         "far.ron",
@@ -632,7 +632,7 @@ fn bad_wisps_forces_and_roots_are_refused() {
         .max_by(|a, b| a.x.total_cmp(&b.x))
         .unwrap();
     let mut face = mesh.clone();
-    face.wisps.as_mut().unwrap().skeletons[0].nodes[0].p = nose.to_array();
+    face.wisps_mut().as_mut().unwrap().skeletons[0].nodes[0].p = nose.to_array();
     refused(
         &face,
         "face.ron",

@@ -69,7 +69,7 @@ fn at_lat(lat: f64, light: DVec3) -> DVec3 {
 
 #[test]
 fn defaults_shade_bit_for_bit_as_the_hard_steps() {
-    let shipped = common::scene("toon").wisps.unwrap().toon;
+    let shipped = common::scene("toon").wisps().clone().unwrap().toon;
     let toons = [
         Toon::default(),
         Toon {
@@ -362,7 +362,7 @@ fn rim_lights_the_silhouette_on_the_side_away_from_the_light() {
 
 #[test]
 fn outline_data_thins_each_wisp_toward_its_tip() {
-    let mut w = common::scene("toon").wisps.unwrap();
+    let mut w = common::scene("toon").wisps().clone().unwrap();
     // Defaults: every segment at scale 1 whatever the taper point.
     let segs = toon::segment_outlines(&w);
     assert_eq!(segs.len() as u32, march::segment_count(&w));
@@ -440,7 +440,7 @@ const SMALL: &str = r#"Scene(
 #[test]
 fn scenes_without_the_controls_load_todays_look() {
     let s = Scene::from_ron(SMALL, "small.ron").unwrap();
-    let w = s.wisps.unwrap();
+    let w = s.wisps().clone().unwrap();
     let d = Toon::default();
     let t = &w.toon;
     assert_eq!(
@@ -548,7 +548,7 @@ fn set_keys_edit_every_toon_control_or_refuse() {
         s.apply_set(key).unwrap();
         assert_eq!(classify(&before, &s.scene), Change::Redraw, "{key}");
     }
-    let t = &s.scene.wisps.as_ref().unwrap().toon;
+    let t = &s.scene.wisps().as_ref().unwrap().toon;
     assert_eq!(
         (
             t.diffuse_feather,
@@ -571,7 +571,7 @@ fn set_keys_edit_every_toon_control_or_refuse() {
         (0.6, 0.95, Tones::Two)
     );
     s.apply_set("wisps.toon.halo_shadow=none").unwrap();
-    assert_eq!(s.scene.wisps.as_ref().unwrap().toon.halo_shadow, None);
+    assert_eq!(s.scene.wisps().as_ref().unwrap().toon.halo_shadow, None);
     // Outline scales: every skeleton, then one (a rebuild: the march's per-segment data).
     let before = s.scene.clone();
     s.apply_set("wisps.outline=0.5").unwrap();
@@ -579,7 +579,7 @@ fn set_keys_edit_every_toon_control_or_refuse() {
     s.apply_set("wisps.outline.1=2").unwrap();
     let outlines: Vec<f64> = s
         .scene
-        .wisps
+        .wisps()
         .as_ref()
         .unwrap()
         .skeletons
@@ -613,7 +613,11 @@ fn set_keys_edit_every_toon_control_or_refuse() {
 #[test]
 fn editor_sets_a_wisps_outline_scale_with_undo() {
     use kami::systems::wisps::edit::{Editor, Sel};
-    let mut w = Scene::from_ron(SMALL, "small.ron").unwrap().wisps.unwrap();
+    let mut w = Scene::from_ron(SMALL, "small.ron")
+        .unwrap()
+        .wisps()
+        .clone()
+        .unwrap();
     let mut ed = Editor::new();
     assert!(ed.set_outline(&mut w, 2.0).is_err(), "needs a selection");
     ed.select(
@@ -735,7 +739,11 @@ impl Probe {
         frame.view_proj = setup.view_proj.as_mat4().to_cols_array_2d();
         let l = setup.light.normalize();
         frame.light_dir = [l.x as f32, l.y as f32, l.z as f32, 1.0];
-        let mut wisps = Scene::from_ron(SMALL, "small.ron").unwrap().wisps.unwrap();
+        let mut wisps = Scene::from_ron(SMALL, "small.ron")
+            .unwrap()
+            .wisps()
+            .clone()
+            .unwrap();
         wisps.toon = toon.clone();
         let draw = march::draw_uniform(&wisps, DMat4::from_mat3(setup.head), 4);
         let uniform = |label, bytes: &[u8]| {
@@ -969,7 +977,7 @@ fn gpu_toon_without_a_ray_sees_along_the_camera_axis() {
 #[test]
 fn gpu_toon_defaults_are_the_old_hard_steps_bit_for_bit() {
     let probe = Probe::new();
-    let shipped = common::scene("toon").wisps.unwrap().toon;
+    let shipped = common::scene("toon").wisps().clone().unwrap().toon;
     let mut items = Vec::new();
     for n in sphere(4000) {
         items.push((n, DVec3::ZERO, 1));
@@ -1030,7 +1038,7 @@ fn reference_hits(scene: &Scene) -> ReferenceHits {
     let frame = kami::stage::frame_uniform(scene, &look, stage.bounds(), SIZE, 1);
     let vp = DMat4::from_cols_array_2d(&frame.view_proj.map(|c| c.map(|v| v as f64)));
     let inv = vp.inverse();
-    let w = scene.wisps.as_ref().unwrap();
+    let w = scene.wisps().as_ref().unwrap();
     let segs = curve::drawn_segments(w);
     let eye = look.camera.eye;
     let eps_per_t = w.toon.outline_width / frame.raster[0] as f64;
@@ -1122,7 +1130,7 @@ fn render(scene: &Scene) -> image::RgbaImage {
 
 fn with_toon(scene: &Scene, t: &Toon) -> Scene {
     let mut s = scene.clone();
-    s.wisps.as_mut().unwrap().toon = t.clone();
+    s.wisps_mut().as_mut().unwrap().toon = t.clone();
     s
 }
 
@@ -1189,7 +1197,7 @@ fn check_changes(
 fn each_control_changes_the_image_where_the_reference_says() {
     let scene = Scene::from_ron(SMALL, "small.ron").unwrap();
     let r = reference_hits(&scene);
-    let d = scene.wisps.as_ref().unwrap().toon.clone();
+    let d = scene.wisps().as_ref().unwrap().toon.clone();
     let base_img = render(&scene);
     let variants: Vec<(&str, Toon)> = vec![
         (
@@ -1349,7 +1357,7 @@ fn ray_march_with_toon_controls_matches_the_f64_reference_image() {
         t_diffuse: 0.75,
         ..Toon::default()
     };
-    scene.wisps.as_mut().unwrap().toon = t;
+    scene.wisps_mut().as_mut().unwrap().toon = t;
     let img = render(&scene);
     let gpu = common::gpu();
     let stage = kami::stage::Stage::new(
@@ -1362,7 +1370,7 @@ fn ray_march_with_toon_controls_matches_the_f64_reference_image() {
     let look = stage.look();
     let frame = kami::stage::frame_uniform(&scene, &look, stage.bounds(), SIZE, 1);
     let vp = DMat4::from_cols_array_2d(&frame.view_proj.map(|c| c.map(|v| v as f64)));
-    let w = scene.wisps.as_ref().unwrap();
+    let w = scene.wisps().as_ref().unwrap();
     let segs = curve::drawn_segments(w);
     let bg = field::linear(scene.render.background);
     let (colours, _) = field::render_reference(

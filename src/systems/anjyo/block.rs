@@ -7,9 +7,65 @@
 use crate::error::{KamiError, Result};
 use crate::scene::placement;
 use crate::scene::validate::*;
-use crate::systems::Scene;
+use crate::systems::scene::Scene;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
+
+/// Anjyo's block of the scene: the three fields it adds to the scene file's top level
+/// (listed in the registry's `kinds!`), read through `Scene::groups` and its siblings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AnjyoBlock {
+    /// The load the groom is styled under: the hair's weight per unit length, in the units
+    /// of `rigidity` (a setting of the groom, not a force of the world: hair in motion falls
+    /// under `forces.gravity`).
+    pub groom_load: [f64; 3],
+    /// The hair groups; empty when the scene shows only other kinds.
+    pub groups: Vec<HairGroup>,
+    /// Hair in motion (Anjyo section 3). Absent: the groom is static and no simulation
+    /// buffers or passes are built.
+    pub dynamics: Option<Dynamics>,
+}
+
+impl Default for AnjyoBlock {
+    fn default() -> Self {
+        AnjyoBlock {
+            groom_load: default_groom_load(),
+            groups: Vec::new(),
+            dynamics: None,
+        }
+    }
+}
+
+impl Scene {
+    /// Anjyo's block.
+    pub fn anjyo(&self) -> &AnjyoBlock {
+        self.block()
+    }
+    pub fn anjyo_mut(&mut self) -> &mut AnjyoBlock {
+        self.block_mut()
+    }
+    /// Anjyo's hair groups.
+    pub fn groups(&self) -> &Vec<HairGroup> {
+        &self.anjyo().groups
+    }
+    pub fn groups_mut(&mut self) -> &mut Vec<HairGroup> {
+        &mut self.anjyo_mut().groups
+    }
+    /// Anjyo's dynamics (`None`: a static groom).
+    pub fn dynamics(&self) -> &Option<Dynamics> {
+        &self.anjyo().dynamics
+    }
+    pub fn dynamics_mut(&mut self) -> &mut Option<Dynamics> {
+        &mut self.anjyo_mut().dynamics
+    }
+    /// The load Anjyo's groom is styled under.
+    pub fn groom_load(&self) -> &[f64; 3] {
+        &self.anjyo().groom_load
+    }
+    pub fn groom_load_mut(&mut self) -> &mut [f64; 3] {
+        &mut self.anjyo_mut().groom_load
+    }
+}
 
 /// The default `groom_load`: unit weight straight down.
 pub fn default_groom_load() -> [f64; 3] {
@@ -161,7 +217,7 @@ impl StrandFile {
 /// them and keep at most `count` strands of each, spread evenly; `count` becomes the number
 /// taken. `origin` names the scene in errors.
 pub fn resolve_strand_files(scene: &mut Scene, dir: &Path, origin: &str) -> Result<()> {
-    for (gi, g) in scene.groups.iter_mut().enumerate() {
+    for (gi, g) in scene.groups_mut().iter_mut().enumerate() {
         let Some(f) = g.file.as_mut() else { continue };
         let path = if Path::new(&f.path).is_relative() && !dir.as_os_str().is_empty() {
             dir.join(&f.path)
@@ -816,7 +872,7 @@ pub fn read_files(s: &mut Scene, dir: &Path, origin: &str) -> Result<()> {
 /// The strand files the hair groups read, as `resolve_strand_files` left their paths
 /// (absolute when the file was found; else taken from `dir` when relative).
 pub fn files(s: &Scene, dir: &Path) -> Vec<std::path::PathBuf> {
-    s.groups
+    s.groups()
         .iter()
         .filter_map(|g| g.file.as_ref())
         .map(|f| crate::scene::from_dir(dir, &f.path))
@@ -826,7 +882,7 @@ pub fn files(s: &Scene, dir: &Path) -> Vec<std::path::PathBuf> {
 /// What validation promises of accepted hair groups beyond finite numbers: a hairline gives
 /// a finite zenith at every azimuth (the fuzzer checks it, `Kind::invariants`).
 pub fn invariants(s: &Scene) -> std::result::Result<(), (&'static str, String)> {
-    for g in &s.groups {
+    for g in s.groups() {
         for phi in (-360..=360).step_by(30) {
             if let Some(t) = g.roots.hairline_theta(phi as f64) {
                 if !t.is_finite() {
@@ -843,11 +899,11 @@ pub fn invariants(s: &Scene) -> std::result::Result<(), (&'static str, String)> 
 
 /// Check Anjyo's blocks: the groom load, every hair group, the dynamics.
 pub fn validate(s: &Scene) -> Result<()> {
-    vec3("groom_load", s.groom_load, 1e9)?;
-    for (gi, g) in s.groups.iter().enumerate() {
+    vec3("groom_load", *s.groom_load(), 1e9)?;
+    for (gi, g) in s.groups().iter().enumerate() {
         validate_group(&format!("groups[{gi}]"), g)?;
     }
-    if let Some(d) = &s.dynamics {
+    if let Some(d) = s.dynamics() {
         validate_dynamics(d)?;
     }
     Ok(())
@@ -1160,11 +1216,11 @@ fn material(mp: &str, m: &Material) -> Result<()> {
 /// of the group's count in the file); otherwise the block-wise pick already in `out`.
 pub fn merge_groups(base: &Scene, ours: &Scene, theirs: &Scene, out: &mut Scene) {
     use crate::systems::scene::pick;
-    let (b, o, t) = (&base.groups, &ours.groups, &theirs.groups);
+    let (b, o, t) = (base.groups(), ours.groups(), theirs.groups());
     if b.len() != o.len() || b.len() != t.len() {
         return;
     }
-    out.groups = b
+    *out.groups_mut() = b
         .iter()
         .zip(o)
         .zip(t)

@@ -43,7 +43,7 @@
 use super::groom::GroomInput;
 use super::projective::DynSetup;
 use crate::scene::hull::HeadHull;
-use crate::systems::Scene;
+use crate::systems::scene::Scene;
 use glam::{DMat4, DVec3};
 
 /// Guides per follower.
@@ -87,7 +87,7 @@ pub struct FollowSetup {
 /// The share of simulated strands a scene asks for: `None` (or 1) means every strand.
 fn share(scene: &Scene) -> Option<f64> {
     scene
-        .dynamics
+        .dynamics()
         .as_ref()
         .and_then(|d| d.guides)
         .filter(|&s| s < 1.0)
@@ -133,7 +133,7 @@ pub fn farthest_points(points: &[DVec3], m: usize) -> Vec<usize> {
 /// picks of each dynamic group; in a group whose strand file flags guides (Unreal's
 /// `groom_guide`), those. Strands of static groups are `false`.
 pub fn guide_mask(scene: &Scene, input: &GroomInput) -> Vec<bool> {
-    let dynamic = |g: u32| scene.groups[g as usize].dynamic;
+    let dynamic = |g: u32| scene.groups()[g as usize].dynamic;
     let mut mask: Vec<bool> = input.roots.iter().map(|r| dynamic(r.group)).collect();
     // A file's own guides (Unreal's groom_guide) are its group's guides, share or not.
     for (g, p) in input.groups.iter().enumerate() {
@@ -204,7 +204,7 @@ impl FollowSetup {
         let offsets = input.vertex_offsets();
         let mut followers = Vec::new();
         for g in 0..input.groups.len() as u32 {
-            if !scene.groups[g as usize].dynamic {
+            if !scene.groups()[g as usize].dynamic {
                 continue;
             }
             let guides: Vec<_> = setup
@@ -245,7 +245,7 @@ impl FollowSetup {
         Some(FollowSetup {
             followers,
             head: input.head.clone(),
-            collision: scene.dynamics.as_ref().is_some_and(|d| d.collision),
+            collision: scene.dynamics().as_ref().is_some_and(|d| d.collision),
         })
     }
 

@@ -14,7 +14,7 @@ use crate::scene::{head::phi_in_range, Ellipsoid};
 use crate::systems::anjyo::block::{Bending, CutRule, Direction, Load};
 use crate::systems::anjyo::gpu_data::GpuLook;
 use crate::systems::anjyo::imported::NodeLook;
-use crate::systems::Scene;
+use crate::systems::scene::Scene;
 use glam::DVec3;
 
 /// One hair's root, as drawn from the scene's seed.
@@ -205,12 +205,12 @@ pub fn prepare(scene: &Scene) -> Result<GroomInput> {
     let head = scene.head_ellipsoid();
     let head_mesh = crate::scene::hull::head_mesh(&scene.head)?;
     let gravity = ResolvedLoad {
-        field: LoadField::Uniform(DVec3::from(scene.groom_load)),
+        field: LoadField::Uniform(DVec3::from(*scene.groom_load())),
         planes: vec![],
     };
     let mut roots = Vec::new();
     let mut groups = Vec::new();
-    for (gi, g) in scene.groups.iter().enumerate() {
+    for (gi, g) in scene.groups().iter().enumerate() {
         if g.file.is_some() {
             let first = roots.len() as u32;
             let (r, nodes, looks) = super::imported::group_roots(scene.seed, gi, g)?;
@@ -359,7 +359,7 @@ fn mesh_pore(
     gi: usize,
     rng: &mut Rng,
 ) -> Result<(DVec3, DVec3, f64, f64)> {
-    let g = &scene.groups[gi];
+    let g = &scene.groups()[gi];
     let center = DVec3::from(scene.head.center);
     for _ in 0..1_000_000u32 {
         let (ut, u, v) = (rng.uniform(), rng.uniform(), rng.uniform());

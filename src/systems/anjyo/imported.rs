@@ -12,7 +12,7 @@ use super::groom::StrandRoot;
 use crate::error::{KamiError, Result};
 use crate::rng::Rng;
 use crate::scene::{CameraDesc, Head, MAX_SEGMENTS, MAX_STRANDS};
-use crate::systems::Scene;
+use crate::systems::scene::Scene;
 use glam::DVec3;
 use std::path::Path;
 
@@ -275,7 +275,6 @@ pub fn scene_of(path: &Path) -> Result<Scene> {
             radii,
             ..Default::default()
         },
-        groups: vec![file_group(name, &origin, count, segments, width)],
         camera: CameraDesc {
             eye: eye.to_array(),
             target: [c.x, c.y, c.z],
@@ -283,12 +282,14 @@ pub fn scene_of(path: &Path) -> Result<Scene> {
         },
         ..Scene::default()
     };
-    crate::systems::scene::validate(&scene).map_err(|e| crate::scene::in_file(e, &origin))?;
+    *scene.groups_mut() = vec![file_group(name, &origin, count, segments, width)];
+    // The scene's own checks first (the registry checks the whole scene after `opens`).
+    super::block::validate(&scene).map_err(|e| crate::scene::in_file(e, &origin))?;
     // The file is read again through the group, as a scene file naming it would.
     resolve_strand_files(&mut scene, Path::new(""), &origin)?;
     split_by_group_id(&mut scene, &origin)?;
     // A cache plays its frames: not simulated.
-    for g in &mut scene.groups {
+    for g in scene.groups_mut() {
         if g.file.as_ref().is_some_and(|f| f.frames.is_some()) {
             g.dynamic = false;
         }
@@ -383,7 +384,7 @@ fn file_group(name: String, origin: &str, count: u32, segments: u32, width: f64)
 
 /// Unreal's groups (groom_group_id): one hair group per id, each reading its strands.
 fn split_by_group_id(scene: &mut Scene, origin: &str) -> Result<()> {
-    let ids: std::collections::BTreeMap<i64, u32> = scene.groups[0]
+    let ids: std::collections::BTreeMap<i64, u32> = scene.groups()[0]
         .file
         .as_ref()
         .and_then(|f| f.groom.as_ref()?.group_ids.clone())
@@ -394,7 +395,7 @@ fn split_by_group_id(scene: &mut Scene, origin: &str) -> Result<()> {
             m
         });
     if ids.len() > 1 {
-        let one = scene.groups.remove(0);
+        let one = scene.groups_mut().remove(0);
         for (&id, &n) in &ids {
             let mut g = one.clone();
             g.name = format!("{} (group {id})", one.name);
@@ -404,7 +405,7 @@ fn split_by_group_id(scene: &mut Scene, origin: &str) -> Result<()> {
                 f.groom = None;
                 f.frames = None;
             }
-            scene.groups.push(g);
+            scene.groups_mut().push(g);
         }
         resolve_strand_files(scene, Path::new(""), origin)?;
     }

@@ -27,13 +27,16 @@ pub mod simulation;
 pub mod splat;
 
 use super::lod::{screen_lod, ScreenLod, Seen};
-use super::{Change, DrawSetup, FrameCtx, HairSystem, Kind, StepInfo, SystemStats, View};
 use crate::error::Result;
 use crate::gpu::strands::{StrandBuffers, NODE, RECORD};
 use crate::gpu::Gpu;
 use crate::scene::StrandRaster;
 use crate::shaders::wgsl;
-use crate::systems::Scene;
+use crate::systems::kind::Kind;
+use crate::systems::scene::Scene;
+use crate::systems::system::{
+    Change, DrawSetup, FrameCtx, HairSystem, StepInfo, SystemStats, View,
+};
 use glam::DVec3;
 use gpu_data::GpuMaterial;
 use groom::GroomInput;
@@ -111,7 +114,7 @@ pub const KIND: Kind = Kind {
     name: "anjyo",
     block: "groups",
     called: "hair group",
-    in_scene: |s| !s.groups.is_empty(),
+    in_scene: |s| !s.groups().is_empty(),
     validate: block::validate,
     read_files: block::read_files,
     files: block::files,
@@ -126,8 +129,8 @@ pub const KIND: Kind = Kind {
     summary: |_| None,
     // Simulated, or playing a file's frames.
     moves: |s| {
-        s.dynamics.is_some()
-            || s.groups
+        s.dynamics().is_some()
+            || s.groups()
                 .iter()
                 .any(|g| g.file.as_ref().is_some_and(|f| f.frames.is_some()))
     },
@@ -156,7 +159,7 @@ pub const KIND: Kind = Kind {
     shadow_steps: false,
     // The first hair group playing a file cache sets the rate.
     cache_fps: |s| {
-        s.groups
+        s.groups()
             .iter()
             .find_map(|g| g.file.as_ref()?.frames.as_ref().map(|f| f.fps))
     },
@@ -228,7 +231,7 @@ pub fn scene_bounds(scene: &Scene) -> (DVec3, f64) {
     let c = DVec3::from(scene.head.center);
     let head_r = scene.head.radii.iter().cloned().fold(0.0, f64::max);
     let mut r = head_r;
-    for g in &scene.groups {
+    for g in scene.groups() {
         if let Some(f) = &g.file {
             // A file's strands reach as far as their farthest point, in any frame.
             let reach = |pts: &[[f32; 3]]| {
@@ -261,7 +264,7 @@ pub fn scene_bounds(scene: &Scene) -> (DVec3, f64) {
 pub fn longest_segment(scene: &Scene) -> f64 {
     let (_, r) = scene_bounds(scene);
     scene
-        .groups
+        .groups()
         .iter()
         .map(|g| {
             let len = if g.file.is_some() {
@@ -277,7 +280,7 @@ pub fn longest_segment(scene: &Scene) -> f64 {
 /// Strands and segments of the scene's hair groups (not its fur).
 pub fn counts(scene: &Scene) -> (u64, u64) {
     // Saturating: this runs before the groups' counts are checked.
-    scene.groups.iter().fold((0u64, 0u64), |(h, s), g| {
+    scene.groups().iter().fold((0u64, 0u64), |(h, s), g| {
         let n = g.count as u64;
         (
             h.saturating_add(n),
@@ -291,7 +294,7 @@ pub fn counts(scene: &Scene) -> (u64, u64) {
 /// (`StrandFile::colors`, `widths`).
 pub fn materials(scene: &Scene) -> Vec<GpuMaterial> {
     scene
-        .groups
+        .groups()
         .iter()
         .map(|g| {
             let mut m = GpuMaterial::from_material(&g.material, scene.render.shading);
@@ -322,7 +325,7 @@ pub fn file_look(g: &block::HairGroup) -> [bool; 4] {
 pub fn classify(old: &Scene, new: &Scene) -> Change {
     // Groups with their look-only fields made equal: what is left is the groom.
     let groom_view = |s: &Scene| {
-        let mut groups = s.groups.clone();
+        let mut groups = s.groups().clone();
         for g in &mut groups {
             let (ka, spread) = (g.material.ka, g.material.ka_spread);
             g.material = Default::default();
@@ -333,16 +336,16 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
                 (f.colors, f.widths) = (true, true);
             }
         }
-        (s.seed, s.head.center, s.head.radii, s.groom_load, groups)
+        (s.seed, s.head.center, s.head.radii, *s.groom_load(), groups)
     };
     let looks = |s: &Scene| -> Vec<_> {
-        s.groups
+        s.groups()
             .iter()
             .map(|g| (g.material.clone(), file_look(g)))
             .collect()
     };
     // The guide share decides which strands are simulated: a new set-up.
-    let guides = |s: &Scene| s.dynamics.as_ref().map(|d| d.guides);
+    let guides = |s: &Scene| s.dynamics().as_ref().map(|d| d.guides);
     // The world's forces the dynamics read each step (the EFF and a capture: the stage's).
     let world = |s: &Scene| {
         (
@@ -352,11 +355,13 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
         )
     };
     if groom_view(old) != groom_view(new)
-        || old.dynamics.is_some() != new.dynamics.is_some()
+        || old.dynamics().is_some() != new.dynamics().is_some()
         || guides(old) != guides(new)
     {
         Change::Rebuild
-    } else if old.dynamics != new.dynamics || (new.dynamics.is_some() && world(old) != world(new)) {
+    } else if old.dynamics() != new.dynamics()
+        || (new.dynamics().is_some() && world(old) != world(new))
+    {
         Change::Resimulate
     } else if looks(old) != looks(new)
         || old.render.strands != new.render.strands
@@ -485,7 +490,7 @@ impl AnjyoSystem {
             sim,
             rest,
             draw,
-            groups: scene.groups.clone(),
+            groups: scene.groups().clone(),
             bounds: scene_bounds(scene),
             counts: counts(scene),
             lod: 1.0,
@@ -503,11 +508,11 @@ fn playback_of(scene: &Scene, input: &GroomInput) -> Result<Option<playback::Pla
     let offsets = input.vertex_offsets();
     let mut groups = Vec::new();
     let mut fps = None;
-    for (gi, g) in scene.groups.iter().enumerate() {
+    for (gi, g) in scene.groups().iter().enumerate() {
         let Some(frames) = playback::group_frames(g)? else {
             continue;
         };
-        if g.dynamic && scene.dynamics.is_some() {
+        if g.dynamic && scene.dynamics().is_some() {
             return Err(crate::error::KamiError::Invalid {
                 file: String::new(),
                 field: format!("groups[{gi}].dynamic"),
@@ -648,12 +653,12 @@ impl HairSystem for AnjyoSystem {
         self.raster = scene.render.strands;
         match change {
             Change::Redraw => {
-                self.groups = scene.groups.clone();
+                self.groups = scene.groups().clone();
                 self.draw.update_materials(gpu, &materials(scene))
             }
             Change::Resimulate => {
-                self.groups = scene.groups.clone();
-                if let (Some(sim), Some(d)) = (self.sim.as_mut(), &scene.dynamics) {
+                self.groups = scene.groups().clone();
+                if let (Some(sim), Some(d)) = (self.sim.as_mut(), scene.dynamics()) {
                     sim.update_params(gpu, d.clone());
                 }
                 self.draw.update_materials(gpu, &materials(scene));

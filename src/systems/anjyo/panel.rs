@@ -3,16 +3,16 @@
 //! keys. They edit the scene and `AnjyoUi` (the group the panels edit); the stage
 //! classifies the edit with `super::classify` and applies it.
 
-use crate::systems::anjyo::block::{Bending, Dynamics, Fluctuation, PseudoForce};
+use crate::systems::anjyo::block::{AnjyoBlock, Bending, Dynamics, Fluctuation, PseudoForce};
+use crate::systems::kind::Panel;
+use crate::systems::scene::Scene;
 use crate::systems::ui::{self, Host, KindUi, PanelCx};
-use crate::systems::Panel;
-use crate::systems::Scene;
 use egui::{Color32, Slider, Ui};
 
 pub const PANELS: &[Panel] = &[
     Panel {
         title: "Stiffness",
-        open: |s| !s.groups.is_empty(),
+        open: |s| !s.groups().is_empty(),
         adds: false,
         show: stiffness,
     },
@@ -30,13 +30,13 @@ pub const PANELS: &[Panel] = &[
     },
     Panel {
         title: "Cache",
-        open: |s| s.groups.iter().any(plays),
+        open: |s| s.groups().iter().any(plays),
         adds: false,
         show: cache,
     },
     Panel {
         title: "Dynamics",
-        open: |s| s.dynamics.is_some() && !s.groups.is_empty(),
+        open: |s| s.dynamics().is_some() && !s.groups().is_empty(),
         adds: false,
         show: dynamics,
     },
@@ -60,7 +60,7 @@ impl KindUi for AnjyoUi {
     /// Still hair groups start moving under a force set from the command line, as they did
     /// when the forces sat in their dynamics block.
     fn force_set(&mut self, scene: &mut Scene) {
-        if !scene.groups.is_empty() {
+        if !scene.groups().is_empty() {
             dynamics_of(scene);
         }
     }
@@ -81,12 +81,12 @@ impl KindUi for AnjyoUi {
                       scene: &mut Scene|
          -> Result<(), String> {
             let v = ui::nums(value, 1)?[0];
-            scene.groups.iter_mut().for_each(|g| f(g, v));
+            scene.groups_mut().iter_mut().for_each(|g| f(g, v));
             Ok(())
         };
         Some(match key {
             "color" => ui::nums(value, 3).map(|c| {
-                for g in &mut scene.groups {
+                for g in scene.groups_mut() {
                     g.material.color = [c[0] as f32, c[1] as f32, c[2] as f32];
                 }
             }),
@@ -97,7 +97,11 @@ impl KindUi for AnjyoUi {
             "redness" => groups(&|g, v| g.material.physical.redness = v, scene),
             "rigidity" => groups(&|g, v| g.rigidity = v, scene),
             "file_colors" | "file_widths" => ui::on(value).map(|on| {
-                for f in scene.groups.iter_mut().filter_map(|g| g.file.as_mut()) {
+                for f in scene
+                    .groups_mut()
+                    .iter_mut()
+                    .filter_map(|g| g.file.as_mut())
+                {
                     if key == "file_colors" {
                         f.colors = on;
                     } else {
@@ -128,7 +132,7 @@ fn plays(g: &crate::systems::anjyo::block::HairGroup) -> bool {
 /// The most frames of any playing group (the loop's length).
 fn longest_cache(scene: &Scene) -> usize {
     scene
-        .groups
+        .groups()
         .iter()
         .filter_map(|g| g.file.as_ref()?.frames.as_ref())
         .map(|f| f.points.len())
@@ -149,7 +153,7 @@ fn shown(frame: u64, longest: usize, n: usize) -> usize {
 pub fn simulate_from_here(scene: &mut Scene, frame: u64) -> Result<(), String> {
     let mut any = false;
     let longest = longest_cache(scene);
-    for g in scene.groups.iter_mut().filter(|g| plays(g)) {
+    for g in scene.groups_mut().iter_mut().filter(|g| plays(g)) {
         let Some(f) = g.file.as_mut() else { continue };
         let (Some(frames), Some(groom)) = (f.frames.take(), f.groom.as_ref()) else {
             continue;
@@ -175,7 +179,7 @@ pub fn simulate_from_here(scene: &mut Scene, frame: u64) -> Result<(), String> {
 fn cache(ui: &mut Ui, cx: &mut PanelCx) {
     let frame = cx.host.frame;
     let longest = longest_cache(cx.scene);
-    for g in cx.scene.groups.iter().filter(|g| plays(g)) {
+    for g in cx.scene.groups().iter().filter(|g| plays(g)) {
         let Some(fr) = g.file.as_ref().and_then(|f| f.frames.as_ref()) else {
             continue;
         };
@@ -215,7 +219,7 @@ fn cache(ui: &mut Ui, cx: &mut PanelCx) {
 
 /// The scene's dynamics, created with defaults if absent.
 fn dynamics_of(scene: &mut Scene) -> &mut Dynamics {
-    scene.dynamics.get_or_insert_with(Dynamics::default)
+    scene.dynamics_mut().get_or_insert_with(Dynamics::default)
 }
 
 /// The pseudo-force field as switched on by the panel and `--set pseudo=on`.
@@ -230,10 +234,10 @@ fn default_pseudo_force() -> PseudoForce {
 
 /// Anjyo's motion needs the scene's dynamics: without them, say so and offer to add them.
 fn need_dynamics(ui: &mut Ui, scene: &mut Scene) -> bool {
-    if scene.dynamics.is_none() {
+    if scene.dynamics().is_none() {
         ui.label("this scene is static");
         if ui.button("Enable dynamics").clicked() {
-            scene.dynamics = Some(Dynamics {
+            *scene.dynamics_mut() = Some(Dynamics {
                 damping: 0.5,
                 ..Default::default()
             });
@@ -250,7 +254,7 @@ fn need_dynamics(ui: &mut Ui, scene: &mut Scene) -> bool {
 /// Pick the group the per-group panels edit; returns it (None without groups).
 fn group_picker(ui: &mut Ui, cx: &mut PanelCx) -> Option<usize> {
     let st = ui::state::<AnjyoUi>(cx.state)?;
-    let groups = &cx.scene.groups;
+    let groups = cx.scene.groups();
     if groups.is_empty() {
         return None;
     }
@@ -274,7 +278,7 @@ fn group_picker(ui: &mut Ui, cx: &mut PanelCx) -> Option<usize> {
 }
 
 fn stiffness(ui: &mut Ui, cx: &mut PanelCx) {
-    if cx.scene.groups.is_empty() {
+    if cx.scene.groups().is_empty() {
         ui.label("no hair groups (fur stiffness: see Fur)");
         return;
     }
@@ -282,7 +286,7 @@ fn stiffness(ui: &mut Ui, cx: &mut PanelCx) {
         return;
     };
     let s = &mut *cx.scene;
-    let g = &mut s.groups[group];
+    let g = &mut s.groups_mut()[group];
     if let Some(f) = &g.file {
         // Imported strands are not bent: their rest pose is the file's.
         ui.label(format!(
@@ -292,7 +296,7 @@ fn stiffness(ui: &mut Ui, cx: &mut PanelCx) {
     } else {
         bending(ui, s, group);
     }
-    let Some(d) = s.dynamics.as_mut() else {
+    let Some(d) = s.dynamics_mut().as_mut() else {
         ui.label("joint-angle stiffness and inertia act in dynamics (Dynamics panel)");
         return;
     };
@@ -341,7 +345,7 @@ fn stiffness(ui: &mut Ui, cx: &mut PanelCx) {
 /// A small plot of `f(t)` in [0, 1] for t in [0, 1].
 /// The cantilever's rigidity and bending mode of the picked (grown) group.
 fn bending(ui: &mut Ui, s: &mut Scene, group: usize) {
-    let g = &mut s.groups[group];
+    let g = &mut s.groups_mut()[group];
     ui.add(
         Slider::new(&mut g.rigidity, 1.0..=5000.0)
             .logarithmic(true)
@@ -365,7 +369,7 @@ fn bending(ui: &mut Ui, s: &mut Scene, group: usize) {
     }
     if ui.small_button("use this EI for every group").clicked() {
         let e = g.rigidity;
-        s.groups
+        s.groups_mut()
             .iter_mut()
             .filter(|g| g.file.is_none())
             .for_each(|g| g.rigidity = e);
@@ -406,7 +410,7 @@ fn pseudo(ui: &mut Ui, cx: &mut PanelCx) {
     if !need_dynamics(ui, cx.scene) {
         return;
     }
-    let Some(d) = cx.scene.dynamics.as_mut() else {
+    let Some(d) = cx.scene.dynamics_mut().as_mut() else {
         return;
     };
     let mut on = d.pseudo_force.is_some();
@@ -429,9 +433,10 @@ fn look(ui: &mut Ui, cx: &mut PanelCx) {
     let Some(group) = group_picker(ui, cx) else {
         return;
     };
-    let s = &mut *cx.scene;
-    file_look(ui, &mut s.groups[group]);
-    let m = &mut s.groups[group].material;
+    let Scene { render, blocks, .. } = &mut *cx.scene;
+    let g = &mut blocks.get_mut::<AnjyoBlock>().groups[group];
+    file_look(ui, g);
+    let m = &mut g.material;
     ui.horizontal(|ui| {
         ui.label("hair colour");
         ui.color_edit_button_rgb(&mut m.color);
@@ -451,10 +456,13 @@ fn look(ui: &mut Ui, cx: &mut PanelCx) {
     ui.add(Slider::new(&mut m.kd, 0.0..=1.0).text("k_d (diffuse)"));
     ui.add(Slider::new(&mut m.ka, 0.0..=3.0).text("k_a mean"));
     ui.add(Slider::new(&mut m.ka_spread, 0.0..=1.0).text("k_a spread (per strand)"));
-    crate::systems::hair_bsdf::panel(ui, &mut s.render.shading, &mut m.shading, &mut m.physical);
+    crate::systems::hair_bsdf::panel(ui, &mut render.shading, &mut m.shading, &mut m.physical);
     if ui.small_button("use this look for every group").clicked() {
         let m = m.clone();
-        s.groups.iter_mut().for_each(|g| g.material = m.clone());
+        cx.scene
+            .groups_mut()
+            .iter_mut()
+            .for_each(|g| g.material = m.clone());
     }
 }
 
@@ -497,7 +505,7 @@ fn dynamics(ui: &mut Ui, cx: &mut PanelCx) {
         return;
     }
     let s = &mut *cx.scene;
-    let Some(d) = s.dynamics.as_mut() else {
+    let Some(d) = s.dynamics_mut().as_mut() else {
         return;
     };
     ui.add(
@@ -553,6 +561,6 @@ fn dynamics(ui: &mut Ui, cx: &mut PanelCx) {
         );
     }
     if ui.small_button("Disable dynamics").clicked() {
-        s.dynamics = None;
+        *s.dynamics_mut() = None;
     }
 }

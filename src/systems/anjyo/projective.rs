@@ -49,7 +49,7 @@ use crate::forces::Forces;
 use crate::rng::pcg_hash;
 use crate::scene::hull::HeadHull;
 use crate::systems::anjyo::block::Dynamics;
-use crate::systems::Scene;
+use crate::systems::scene::Scene;
 use glam::{DMat4, DVec3};
 use std::f64::consts::{PI, TAU};
 
@@ -168,7 +168,7 @@ impl DynSetup {
     /// per strand from the groom): every strand, or only the guides when the scene sets
     /// `dynamics.guides` (`follow`). `None` when the scene has no dynamics or no dynamic group.
     pub fn new(scene: &Scene, input: &GroomInput, visible: &[f64]) -> Option<DynSetup> {
-        let params = scene.dynamics.clone()?;
+        let params = scene.dynamics().clone()?;
         let offsets = input.vertex_offsets();
         let mut strands = Vec::new();
         let mut state_len = 0u32;

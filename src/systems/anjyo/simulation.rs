@@ -12,9 +12,9 @@ use super::projective_gpu::{ProjectiveJob, ProjectivePass};
 use crate::error::Result;
 use crate::gpu::strands::StrandBuffers;
 use crate::gpu::Gpu;
+use crate::systems::scene::Scene;
+use crate::systems::system::StepInfo;
 use crate::systems::world::WorldGpu;
-use crate::systems::Scene;
-use crate::systems::StepInfo;
 
 /// The GPU simulation of a groomed scene.
 pub struct Simulation {
@@ -45,7 +45,7 @@ impl Simulation {
         input: &GroomInput,
         hair: &StrandBuffers,
     ) -> Result<Option<Simulation>> {
-        if scene.dynamics.is_none() {
+        if scene.dynamics().is_none() {
             return Ok(None);
         }
         let visible: Vec<f64> = hair

@@ -7,9 +7,27 @@
 use crate::error::Result;
 use crate::scene::validate::*;
 use crate::scene::MeshSource;
-use crate::systems::Scene;
+use crate::systems::scene::Scene;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
+
+/// The fur kind's block of the scene: its one field of the scene file (listed in the
+/// registry's `kinds!`), read through `Scene::fur`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FurBlock {
+    /// Fur on a triangle mesh (Van Gelder & Wilhelms); absent in scenes without it.
+    pub fur: Option<Fur>,
+}
+
+impl Scene {
+    /// The fur block (`None` in scenes without it).
+    pub fn fur(&self) -> &Option<Fur> {
+        &self.block::<FurBlock>().fur
+    }
+    pub fn fur_mut(&mut self) -> &mut Option<Fur> {
+        &mut self.block_mut::<FurBlock>().fur
+    }
+}
 
 /// Fur of one mesh.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -230,7 +248,7 @@ fn x_axis() -> [f64; 3] {
 /// Hairs and segments of the fur at full density (its count is rounded per triangle when
 /// groomed, so this is approximate).
 pub fn counts(s: &Scene) -> (u64, u64) {
-    let Some(f) = &s.fur else { return (0, 0) };
+    let Some(f) = s.fur() else { return (0, 0) };
     let share: f64 = f.coats.iter().map(|c| c.share).sum();
     let segs: f64 = f
         .coats
@@ -242,7 +260,7 @@ pub fn counts(s: &Scene) -> (u64, u64) {
 
 /// Check the fur block, if the scene has one.
 pub fn validate(s: &Scene) -> Result<()> {
-    match &s.fur {
+    match s.fur() {
         Some(f) => validate_fur(f),
         None => Ok(()),
     }
@@ -250,7 +268,7 @@ pub fn validate(s: &Scene) -> Result<()> {
 
 /// The fur mesh's file, taken from the scene file's folder `dir` when relative.
 pub fn read_files(s: &mut Scene, dir: &Path, _origin: &str) -> Result<()> {
-    if let Some(m) = s.fur.as_mut().and_then(|f| f.mesh.file_mut()) {
+    if let Some(m) = s.fur_mut().as_mut().and_then(|f| f.mesh.file_mut()) {
         crate::scene::relative_to(dir, m);
     }
     Ok(())
@@ -258,7 +276,7 @@ pub fn read_files(s: &mut Scene, dir: &Path, _origin: &str) -> Result<()> {
 
 /// The fur mesh's file, as `read_files` resolved it.
 pub fn files(s: &Scene, _dir: &Path) -> Vec<std::path::PathBuf> {
-    s.fur
+    s.fur()
         .iter()
         .filter_map(|f| f.mesh.file())
         .map(std::path::PathBuf::from)

@@ -21,12 +21,15 @@ pub mod gpu_data;
 pub mod panel;
 pub mod setup;
 
-use super::{Change, DrawSetup, FrameCtx, HairSystem, Kind, StepInfo, SystemStats, View};
 use crate::error::Result;
 use crate::gpu::strands::{NODE, RECORD};
 use crate::gpu::Gpu;
 use crate::shaders::wgsl;
-use crate::systems::Scene;
+use crate::systems::kind::Kind;
+use crate::systems::scene::Scene;
+use crate::systems::system::{
+    Change, DrawSetup, FrameCtx, HairSystem, StepInfo, SystemStats, View,
+};
 use glam::DVec3;
 use setup::{culling_factor, FurSetup};
 
@@ -70,7 +73,7 @@ pub const KIND: Kind = Kind {
     name: "fur",
     block: "fur",
     called: "fur",
-    in_scene: |s| s.fur.is_some(),
+    in_scene: |s| s.fur().is_some(),
     validate: block::validate,
     read_files: block::read_files,
     files: block::files,
@@ -83,7 +86,7 @@ pub const KIND: Kind = Kind {
     ui: || Box::new(panel::FurUi),
     // The hair and segment counts (`Scene::counts`) hold the fur's.
     summary: |_| None,
-    moves: |s| s.fur.as_ref().is_some_and(|f| f.moves()),
+    moves: |s| s.fur().as_ref().is_some_and(|f| f.moves()),
     scenes: &[
         "fur",
         "fur_fig9",
@@ -144,7 +147,7 @@ pub const KIND: Kind = Kind {
 /// read. Random rounding adds at most one hair per triangle and coat, which only the mesh
 /// knows: `StrandBuffers::from_runs` checks the exact sizes again when they are allocated.
 fn check_limits(gpu: &Gpu, scene: &Scene) -> Result<()> {
-    let Some(f) = &scene.fur else { return Ok(()) };
+    let Some(f) = scene.fur() else { return Ok(()) };
     let shares: f64 = f.coats.iter().map(|c| c.share).sum();
     let (mut strands, mut nodes) = (0u64, 0u64);
     for c in &f.coats {
@@ -166,7 +169,7 @@ fn build(gpu: &Gpu, scene: &Scene, setup: &DrawSetup) -> Result<Box<dyn HairSyst
 /// the roots again (fast) and regenerates.
 pub fn classify(old: &Scene, new: &Scene) -> Change {
     let shape = |s: &Scene| {
-        s.fur.clone().map(|mut f| {
+        s.fur().clone().map(|mut f| {
             f.skin = [0.0; 3];
             for c in &mut f.coats {
                 c.material = Default::default();
@@ -176,7 +179,7 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
     };
     if shape(old) != shape(new) {
         Change::Rebuild
-    } else if old.fur != new.fur || old.render.shading != new.render.shading {
+    } else if old.fur() != new.fur() || old.render.shading != new.render.shading {
         Change::Redraw
     } else {
         Change::None
@@ -241,7 +244,7 @@ pub fn export_fur(setup: &FurSetup, frame: f64) -> crate::formats::Groom {
 impl FurSystem {
     pub fn new(gpu: &Gpu, scene: &Scene, draw_setup: &DrawSetup) -> Result<FurSystem> {
         let fur = scene
-            .fur
+            .fur()
             .as_ref()
             .ok_or_else(|| crate::KamiError::Invalid {
                 file: String::new(),
@@ -411,7 +414,7 @@ impl HairSystem for FurSystem {
     fn update(&mut self, _gpu: &Gpu, scene: &Scene, change: Change) -> Result<()> {
         // An edit: generate again on the next prepare, whatever it changed.
         self.last_gen = None;
-        if let (Change::Redraw, Some(f)) = (change, &scene.fur) {
+        if let (Change::Redraw, Some(f)) = (change, scene.fur()) {
             for (mine, new) in self.setup.fur.coats.iter_mut().zip(&f.coats) {
                 mine.material = new.material.clone();
             }

@@ -2,14 +2,15 @@
 //! style and material, with Figure 2's two looks, and fur's `--set` keys. It only edits
 //! the scene; the stage classifies the edit with `super::classify` and applies it.
 
+use crate::systems::fur::block::FurBlock;
+use crate::systems::kind::Panel;
+use crate::systems::scene::Scene;
 use crate::systems::ui::{self, Host, KindUi, PanelCx};
-use crate::systems::Panel;
-use crate::systems::Scene;
 use egui::{Slider, Ui};
 
 pub const PANELS: &[Panel] = &[Panel {
     title: "Fur",
-    open: |s| s.fur.is_some(),
+    open: |s| s.fur().is_some(),
     // On a scene without fur it offers the critter's.
     adds: true,
     show: fur,
@@ -35,7 +36,7 @@ impl KindUi for FurUi {
         if !matches!(key, "fur.hairs" | "fur.stiffness" | "fur.culling") {
             return None;
         }
-        let Some(f) = scene.fur.as_mut() else {
+        let Some(f) = scene.fur_mut().as_mut() else {
             return Some(Err("the scene has no fur".into()));
         };
         Some(match key {
@@ -114,8 +115,9 @@ fn fur_regions(ui: &mut Ui, f: &mut crate::systems::fur::block::Fur) {
 
 fn fur(ui: &mut Ui, cx: &mut PanelCx) {
     use crate::systems::fur::block::{Coat, FurMaterial, FurStyle};
-    let scene_shading = &mut cx.scene.render.shading;
-    let Some(f) = cx.scene.fur.as_mut() else {
+    let Scene { render, blocks, .. } = &mut *cx.scene;
+    let scene_shading = &mut render.shading;
+    let Some(f) = blocks.get_mut::<FurBlock>().fur.as_mut() else {
         ui.label("this scene has no fur");
         if ui.button("Add fur on the critter").clicked() {
             cx.host.open = Some("assets/scenes/fur.ron".into());

@@ -16,7 +16,25 @@ use serde::{Deserialize, Serialize};
 use crate::error::Result;
 use crate::scene::eff::Sampling;
 use crate::scene::validate::*;
-use crate::systems::Scene;
+use crate::systems::scene::Scene;
+
+/// The strips kind's block of the scene: its one field of the scene file (listed in the
+/// registry's `kinds!`), read through `Scene::strips`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct StripsBlock {
+    /// Directable strips (Kazama et al.): layered reed strips on damped angular springs; absent in scenes without it.
+    pub strips: Option<Strips>,
+}
+
+impl Scene {
+    /// The strips block (`None` in scenes without it).
+    pub fn strips(&self) -> &Option<Strips> {
+        &self.block::<StripsBlock>().strips
+    }
+    pub fn strips_mut(&mut self) -> &mut Option<Strips> {
+        &mut self.block_mut::<StripsBlock>().strips
+    }
+}
 
 /// Strips of a scene.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -255,7 +273,7 @@ fn default_radius() -> f64 {
 
 /// Check the strips block, if the scene has one, with the head it lives on.
 pub fn validate(s: &Scene) -> Result<()> {
-    let Some(st) = &s.strips else {
+    let Some(st) = s.strips() else {
         return Ok(());
     };
     check(st)?;

@@ -16,13 +16,16 @@ pub mod ribbon;
 pub mod texture;
 pub mod tools;
 
-use super::{Change, DrawSetup, FrameCtx, HairSystem, Kind, Panel, StepInfo, SystemStats, View};
 use crate::error::{KamiError, Result};
 use crate::forces::Forces;
 use crate::gpu::Gpu;
 use crate::scene::Head;
+use crate::systems::kind::{Kind, Panel};
+use crate::systems::scene::Scene;
 use crate::systems::strips::block::Strips;
-use crate::systems::Scene;
+use crate::systems::system::{
+    Change, DrawSetup, FrameCtx, HairSystem, StepInfo, SystemStats, View,
+};
 use glam::DVec3;
 use ribbon::RibbonPass;
 
@@ -47,7 +50,7 @@ pub const KIND: Kind = Kind {
     name: "strips",
     block: "strips",
     called: "strips",
-    in_scene: |s| s.strips.is_some(),
+    in_scene: |s| s.strips().is_some(),
     validate: block::validate,
     read_files: |_, _, _| Ok(()),
     files: |_, _| Vec::new(),
@@ -60,7 +63,7 @@ pub const KIND: Kind = Kind {
     ui: || Box::<tools::StripsUi>::default(),
     // Strips are ribbons on chains of sticks: named on their own.
     summary: |s| {
-        s.strips.as_ref().map(|st| {
+        s.strips().as_ref().map(|st| {
             let n: u64 = st.layers.iter().map(|l| u64::from(l.count)).sum();
             let sticks: u64 = st
                 .layers
@@ -70,7 +73,7 @@ pub const KIND: Kind = Kind {
             format!("{n} strips ({sticks} sticks)")
         })
     },
-    moves: |s| s.strips.is_some(),
+    moves: |s| s.strips().is_some(),
     scenes: &["strips", "eff_capture", "strips_turn", "strips_mesh_head"],
     shaders: &[
         ("strips/dynamics", dynamics_gpu::DYNAMICS),
@@ -118,19 +121,19 @@ pub const KIND: Kind = Kind {
 pub const PANELS: &[Panel] = &[
     Panel {
         title: "Strips",
-        open: |s| s.strips.is_some(),
+        open: |s| s.strips().is_some(),
         adds: false,
         show: panel::strips,
     },
     Panel {
         title: "EFF",
-        open: |s| s.strips.is_some() && s.forces.eff.is_some(),
+        open: |s| s.strips().is_some() && s.forces.eff.is_some(),
         adds: false,
         show: panel::eff,
     },
     Panel {
         title: "Key frames",
-        open: |s| s.strips.is_some(),
+        open: |s| s.strips().is_some(),
         adds: false,
         show: panel::keyframes,
     },
@@ -145,7 +148,7 @@ fn point_slots(st: &Strips) -> u64 {
 }
 
 fn check_limits(gpu: &Gpu, scene: &Scene) -> Result<()> {
-    let Some(st) = &scene.strips else {
+    let Some(st) = scene.strips() else {
         return Ok(());
     };
     gpu.check_storage_buffers("the strips' motion", dynamics_gpu::STORAGE_BUFFERS)?;
@@ -167,8 +170,8 @@ fn build(gpu: &Gpu, scene: &Scene, setup: &DrawSetup) -> Result<Box<dyn HairSyst
 /// after a key-frame edit, the others act from the frame shown). The layers, the head and the EFF's grid size build the strips again,
 /// and the clip restarts at frame 0.
 pub fn classify(old: &Scene, new: &Scene) -> Change {
-    let (Some(a), Some(b)) = (&old.strips, &new.strips) else {
-        return if old.strips == new.strips {
+    let (Some(a), Some(b)) = (old.strips(), new.strips()) else {
+        return if old.strips() == new.strips() {
             Change::None
         } else {
             Change::Rebuild
@@ -212,7 +215,7 @@ pub struct StripsSystem {
 
 impl StripsSystem {
     pub fn new(gpu: &Gpu, scene: &Scene, setup: &DrawSetup) -> Result<StripsSystem> {
-        let strips = scene.strips.clone().ok_or_else(|| KamiError::Invalid {
+        let strips = scene.strips().clone().ok_or_else(|| KamiError::Invalid {
             file: String::new(),
             field: "strips".into(),
             value: "None".into(),
@@ -329,7 +332,7 @@ impl HairSystem for StripsSystem {
     }
 
     fn update(&mut self, gpu: &Gpu, scene: &Scene, change: Change) -> Result<()> {
-        let Some(st) = &scene.strips else {
+        let Some(st) = scene.strips() else {
             return Ok(());
         };
         match change {

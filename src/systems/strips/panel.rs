@@ -9,17 +9,18 @@ use crate::forces::eff::{Eff, EffDesc, EffSample, GustKey};
 use crate::forces::Forces;
 use crate::scene::Interp;
 use crate::scene::Sampling;
+use crate::systems::scene::Scene;
 use crate::systems::strips::block::{
-    Edit, Layer, Strips, MAX_CURL, MAX_LAYER_STIFFNESS, MAX_STRIP_STICKS,
+    Edit, Layer, Strips, StripsBlock, MAX_CURL, MAX_LAYER_STIFFNESS, MAX_STRIP_STICKS,
 };
 use crate::systems::ui::{self, PanelCx};
-use crate::systems::Scene;
 use egui::{Color32, ComboBox, DragValue, Slider, SliderClamping, Ui};
 use glam::DVec3;
 
 pub fn strips(ui: &mut Ui, cx: &mut PanelCx) {
-    let shading = &mut cx.scene.render.shading;
-    let Some(st) = cx.scene.strips.as_mut() else {
+    let Scene { render, blocks, .. } = &mut *cx.scene;
+    let shading = &mut render.shading;
+    let Some(st) = blocks.get_mut::<StripsBlock>().strips.as_mut() else {
         ui.label("this scene has no strips");
         return;
     };
@@ -449,7 +450,7 @@ pub fn keyframes(ui: &mut Ui, cx: &mut PanelCx) {
     };
     let (scene, host) = (&mut *cx.scene, &mut *cx.host);
     let frame = host.frame;
-    let Some(st) = scene.strips.as_ref() else {
+    let Some(st) = scene.strips().as_ref() else {
         ui.label("this scene has no strips");
         return;
     };
@@ -483,7 +484,7 @@ pub fn keyframes(ui: &mut Ui, cx: &mut PanelCx) {
         }
     }
     ui.checkbox(&mut s.eff_arrows, "show targets and the field in the view");
-    let Some(st) = scene.strips.as_mut() else {
+    let Some(st) = scene.strips_mut().as_mut() else {
         return;
     };
     let mut remove = None;
@@ -526,7 +527,7 @@ pub fn keyframes(ui: &mut Ui, cx: &mut PanelCx) {
 fn timeline(ui: &mut Ui, scene: &mut Scene, host: &mut crate::systems::ui::Host, s: &mut StripsUi) {
     use super::pick::{move_key, Timeline, TimelineGrab};
     use egui::{pos2, vec2, Align2, FontId, Rect, Sense, Stroke};
-    let Some(st) = scene.strips.as_ref() else {
+    let Some(st) = scene.strips().as_ref() else {
         return;
     };
     const RULER: f32 = 18.0;
@@ -647,7 +648,11 @@ fn timeline(ui: &mut Ui, scene: &mut Scene, host: &mut crate::systems::ui::Host,
     }
     match s.timeline_grab.map(|(g, _)| g) {
         Some(g @ (TimelineGrab::From(i) | TimelineGrab::To(i))) => {
-            if let Some(e) = scene.strips.as_mut().and_then(|st| st.edits.get_mut(i)) {
+            if let Some(e) = scene
+                .strips_mut()
+                .as_mut()
+                .and_then(|st| st.edits.get_mut(i))
+            {
                 move_key(e, g, at);
                 s.key_strip = e.strip;
                 let shown = if matches!(g, TimelineGrab::To(_)) {
@@ -675,7 +680,7 @@ fn timeline(ui: &mut Ui, scene: &mut Scene, host: &mut crate::systems::ui::Host,
 /// frame).
 pub fn new_edit(scene: &Scene, strip: u32, from: u32, span: u32) -> crate::Result<Edit> {
     let st = scene
-        .strips
+        .strips()
         .as_ref()
         .ok_or_else(|| crate::KamiError::Option("the scene has no strips".into()))?;
     let rest = super::hom::build(st, &scene.head)?;
@@ -786,7 +791,7 @@ pub fn overlay(
             }
         }
     }
-    if let Some(st) = scene.strips.as_ref().filter(|_| show.targets) {
+    if let Some(st) = scene.strips().as_ref().filter(|_| show.targets) {
         let own;
         let forces = match show.forces {
             Some(f) => f,

@@ -9,9 +9,9 @@ use super::pick::{self, TimelineGrab};
 use super::StripsSystem;
 use crate::error::{KamiError, Result};
 use crate::gpu::Gpu;
+use crate::systems::scene::Scene;
+use crate::systems::system::{FrameCtx, HairSystem};
 use crate::systems::ui::{self, Host, Key, KindUi, Mods, Tool};
-use crate::systems::Scene;
-use crate::systems::{FrameCtx, HairSystem};
 use glam::{DVec2, DVec3};
 
 /// Pixels the cursor moves between two dabs of a paint stroke (the stroke's direction is
@@ -84,7 +84,7 @@ impl StripsUi {
     /// paused, so its target can be dragged at once.
     pub fn add_edit(&mut self, scene: &mut Scene, host: &mut Host) -> Result<()> {
         use crate::systems::strips::block::MAX_STRIP_EDITS;
-        let count = scene.strips.as_ref().map_or(0, |st| st.edits.len());
+        let count = scene.strips().as_ref().map_or(0, |st| st.edits.len());
         if count >= MAX_STRIP_EDITS {
             return Err(KamiError::Option(format!(
                 "a scene holds at most {MAX_STRIP_EDITS} key-frame edits"
@@ -94,7 +94,7 @@ impl StripsUi {
         let e = panel::new_edit(scene, self.key_strip, frame, self.key_span)?;
         host.seek = Some(u64::from(e.to));
         host.playing = false;
-        if let Some(st) = scene.strips.as_mut() {
+        if let Some(st) = scene.strips_mut().as_mut() {
             st.edits.push(e);
         }
         Ok(())
@@ -135,7 +135,7 @@ impl KindUi for StripsUi {
     ) -> Option<std::result::Result<(), String>> {
         Some(match key {
             "strips.edit" | "eff.paint" => ui::on(value).and_then(|on| {
-                if on && scene.strips.is_none() {
+                if on && scene.strips().is_none() {
                     return Err("the scene has no strips".into());
                 }
                 if on && key == "eff.paint" && scene.forces.eff.is_none() {
@@ -156,7 +156,9 @@ impl KindUi for StripsUi {
     }
 
     fn mouse_mode(&self, scene: &Scene, host: &Host) -> bool {
-        (self.edit_strips || self.paint_eff) && scene.strips.is_some() && host.world_view.is_some()
+        (self.edit_strips || self.paint_eff)
+            && scene.strips().is_some()
+            && host.world_view.is_some()
     }
 
     fn press(
@@ -181,7 +183,7 @@ impl KindUi for StripsUi {
         }
         let forces = tool.ctx.forces;
         let head_at = |f: u32| forces.head_at(f64::from(f));
-        let edits = scene.strips.as_ref().map_or(&[][..], |st| &st.edits[..]);
+        let edits = scene.strips().as_ref().map_or(&[][..], |st| &st.edits[..]);
         if let Some(i) = pick::pick_target(edits, &head_at, &view, cursor, pick::PICK_PX) {
             let e = &edits[i];
             let depth = view
@@ -221,7 +223,11 @@ impl KindUi for StripsUi {
             return;
         };
         if let Some((i, depth)) = self.gesture.target {
-            let Some(e) = scene.strips.as_mut().and_then(|st| st.edits.get_mut(i)) else {
+            let Some(e) = scene
+                .strips_mut()
+                .as_mut()
+                .and_then(|st| st.edits.get_mut(i))
+            else {
                 self.gesture.target = None;
                 return;
             };
@@ -277,7 +283,7 @@ impl KindUi for StripsUi {
     /// The picked strip's outline follows it (one read-back a frame, in the mouse mode
     /// only).
     fn frame(&mut self, scene: &Scene, tool: &Tool) -> Result<()> {
-        if self.edit_strips && scene.strips.is_some() {
+        if self.edit_strips && scene.strips().is_some() {
             self.pose(tool.gpu, tool.system, tool.ctx.frame)?;
         }
         Ok(())
@@ -289,7 +295,7 @@ impl KindUi for StripsUi {
 
     /// A key-frame edit changes the clip from its first key on.
     fn replays(&self, old: &Scene, new: &Scene) -> bool {
-        let edits = |sc: &Scene| sc.strips.as_ref().map(|st| st.edits.clone());
+        let edits = |sc: &Scene| sc.strips().as_ref().map(|st| st.edits.clone());
         edits(old) != edits(new)
     }
 
@@ -305,7 +311,7 @@ impl KindUi for StripsUi {
             return;
         };
         let strips_mode = self.edit_strips || self.paint_eff;
-        if self.eff_arrows || (strips_mode && scene.strips.is_some()) {
+        if self.eff_arrows || (strips_mode && scene.strips().is_some()) {
             let picked = self
                 .pose
                 .as_ref()

@@ -20,9 +20,27 @@ use crate::error::{KamiError, Result};
 use crate::scene::hull::{HeadMeshData, OffScalp};
 use crate::scene::validate::*;
 use crate::scene::Head;
-use crate::systems::Scene;
+use crate::systems::scene::Scene;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
+
+/// The wisps kind's block of the scene: its one field of the scene file (listed in the
+/// registry's `kinds!`), read through `Scene::wisps`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct WispsBlock {
+    /// Toon wisps (Sakai): skeletons drawn as a ray-marched blobby surface; absent in scenes without it.
+    pub wisps: Option<Wisps>,
+}
+
+impl Scene {
+    /// The wisps block (`None` in scenes without it).
+    pub fn wisps(&self) -> &Option<Wisps> {
+        &self.block::<WispsBlock>().wisps
+    }
+    pub fn wisps_mut(&mut self) -> &mut Option<Wisps> {
+        &mut self.block_mut::<WispsBlock>().wisps
+    }
+}
 
 /// Toon wisps of a scene.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -335,7 +353,7 @@ pub struct Springs {
     /// (`forces.gravity`, read by `forces::Forces`) like Anjyo's strands. Kept so
     /// that old scene files get a clear word: equal to the shared gravity it is accepted with
     /// a warning, anything else is refused naming the file and the field
-    /// (`systems::scene::validate`). Never written back.
+    /// (`systems::validate`). Never written back.
     #[serde(default, deserialize_with = "old_gravity", skip_serializing)]
     pub gravity: Option<[f64; 3]>,
     /// Seconds per rendered frame.
@@ -495,7 +513,7 @@ pub fn on_mesh_head(wisps: &Wisps, head: &Head) -> Result<Wisps> {
 
 /// Check the wisps block, if the scene has one, with the shared forces and head it lives in.
 pub fn validate(s: &Scene) -> Result<()> {
-    if let Some(w) = &s.wisps {
+    if let Some(w) = s.wisps() {
         validate_wisps(w)?;
         wisps_on_shared_forces(s, w)?;
     }

@@ -4,7 +4,7 @@
 //! Skeletons panel and its mouse mode call it, and `tests/it/wisps_edit.rs` drives it directly.
 //!
 //! Every operation returns `Ok(message)` or `Err(reason)` and never panics. An edit is first
-//! made on a copy, then checked by the scene validator (`crate::systems::scene::validate`, through
+//! made on a copy, then checked by the wisps' validator (`block::validate`, through
 //! `check`); a refused edit leaves the wisps and the history as they were. So whatever the
 //! sequence of operations, the skeletons stay valid: 2 to 64 nodes, finite positions,
 //! radius and weight in (0, 1e6], neighbouring nodes distinct.
@@ -15,6 +15,7 @@
 //! clicks of a mouse wheel — merge into one entry until `end_gesture` (or `end_drag`, or
 //! any other action) closes it.
 
+use crate::systems::scene::Scene;
 use crate::systems::wisps::block::{Node, Skeleton, Wisps};
 use glam::{DVec2, DVec3};
 use std::collections::VecDeque;
@@ -86,13 +87,11 @@ pub fn pick(skeletons: &[Skeleton], view: &View, cursor: DVec2, radius_px: f64) 
         .map(|h| h.2)
 }
 
-/// The scene validator's verdict on `w` (in an otherwise default scene).
+/// The wisps' validator's verdict on `w` (in an otherwise default scene).
 pub fn check(w: &Wisps) -> std::result::Result<(), String> {
-    let probe = crate::systems::Scene {
-        wisps: Some(w.clone()),
-        ..Default::default()
-    };
-    crate::systems::scene::validate(&probe).map_err(|e| e.to_string())
+    let mut probe = Scene::default();
+    *probe.wisps_mut() = Some(w.clone());
+    super::block::validate(&probe).map_err(|e| e.to_string())
 }
 
 /// Why node `i` of `sk` cannot stay as it is: not finite, out of range, or on a neighbour

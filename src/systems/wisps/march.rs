@@ -725,7 +725,7 @@ impl MarchPass {
         gpu: &Gpu,
         enc: &mut wgpu::CommandEncoder,
         curves: &CurvePass,
-        view: &crate::systems::View,
+        view: &crate::systems::system::View,
         outline_px: f64,
     ) -> Result<()> {
         if self

@@ -28,11 +28,14 @@ pub mod tiles;
 pub mod tools;
 pub mod toon;
 
-use super::{Change, DrawSetup, FrameCtx, HairSystem, Kind, StepInfo, SystemStats, View};
 use crate::error::{KamiError, Result};
 use crate::gpu::Gpu;
+use crate::systems::kind::Kind;
+use crate::systems::scene::Scene;
+use crate::systems::system::{
+    Change, DrawSetup, FrameCtx, HairSystem, StepInfo, SystemStats, View,
+};
 use crate::systems::wisps::block::Wisps;
-use crate::systems::Scene;
 use glam::{DMat4, DVec3};
 use march::{CurvePass, MarchPass};
 
@@ -40,13 +43,13 @@ pub const KIND: Kind = Kind {
     name: "wisps",
     block: "wisps",
     called: "wisps",
-    in_scene: |s| s.wisps.is_some(),
+    in_scene: |s| s.wisps().is_some(),
     validate: block::validate,
     read_files: |_, _, _| Ok(()),
     files: |_, _| Vec::new(),
     counts: |_| (0, 0),
     counted: None,
-    check_limits: |gpu, scene| match &scene.wisps {
+    check_limits: |gpu, scene| match scene.wisps() {
         Some(w) => march::check_limits(gpu, w),
         None => Ok(()),
     },
@@ -56,7 +59,7 @@ pub const KIND: Kind = Kind {
     ui: || Box::<tools::WispsUi>::default(),
     // Toon wisps are skeletons, not strands: named on their own.
     summary: |s| {
-        s.wisps.as_ref().map(|w| {
+        s.wisps().as_ref().map(|w| {
             format!(
                 "{} toon wisps ({} spline segments)",
                 w.skeletons.len(),
@@ -64,7 +67,7 @@ pub const KIND: Kind = Kind {
             )
         })
     },
-    moves: |s| s.wisps.as_ref().is_some_and(|w| w.springs.is_some()),
+    moves: |s| s.wisps().as_ref().is_some_and(|w| w.springs.is_some()),
     scenes: &[
         "toon",
         "toon_divide",
@@ -150,7 +153,7 @@ pub const KIND: Kind = Kind {
     opens: None,
     merge: |_, _, _, _| {},
     // Tracks finger skeletons from photographs (Sakai section 6).
-    commands: &[super::KindCommand {
+    commands: &[crate::systems::kind::KindCommand {
         command: fingers::command,
         run: fingers::run_command,
     }],
@@ -174,7 +177,7 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
             .map(|e| (e.dims(), e.origin(), e.cell_size()))
     };
     let shape = |s: &Scene| {
-        s.wisps.clone().map(|mut w| {
+        s.wisps().clone().map(|mut w| {
             w.toon = Default::default();
             w.march = Default::default();
             w.threshold = 0.0;
@@ -189,12 +192,12 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
             )
         })
     };
-    let moving = new.wisps.as_ref().is_some_and(|w| w.springs.is_some());
+    let moving = new.wisps().as_ref().is_some_and(|w| w.springs.is_some());
     if shape(old) != shape(new) {
         Change::Rebuild
     } else if moving && old.forces.eff != new.forces.eff {
         Change::Resimulate
-    } else if old.wisps != new.wisps {
+    } else if old.wisps() != new.wisps() {
         Change::Redraw
     } else {
         Change::None
@@ -221,7 +224,7 @@ pub struct WispsSystem {
 
 impl WispsSystem {
     pub fn new(gpu: &Gpu, scene: &Scene, setup: &DrawSetup) -> Result<WispsSystem> {
-        let wisps = scene.wisps.clone().ok_or_else(|| KamiError::Invalid {
+        let wisps = scene.wisps().clone().ok_or_else(|| KamiError::Invalid {
             file: String::new(),
             field: "wisps".into(),
             value: "None".into(),
@@ -381,7 +384,7 @@ impl HairSystem for WispsSystem {
     /// A `Redraw`: toon colours, thresholds and march settings; a `Resimulate`: those (the
     /// EFF's new cells are the world's, which the stage rewrites).
     fn update(&mut self, gpu: &Gpu, scene: &Scene, change: Change) -> Result<()> {
-        if let (Change::Redraw | Change::Resimulate, Some(w)) = (change, &scene.wisps) {
+        if let (Change::Redraw | Change::Resimulate, Some(w)) = (change, scene.wisps()) {
             self.wisps.toon = w.toon.clone();
             self.draw.set_on(gpu, w.march.on);
             self.wisps.march = w.march;

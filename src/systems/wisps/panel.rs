@@ -9,22 +9,22 @@
 
 use super::edit::{Editor, Sel};
 use super::tools::WispsUi;
+use crate::systems::kind::Panel;
 use crate::systems::ui::{self, Host, PanelCx};
 use crate::systems::wisps::block::{Distance, Tones, Wisps};
-use crate::systems::Panel;
 use egui::{Button, Color32, DragValue, Slider, SliderClamping, Ui};
 use glam::{DVec2, DVec3};
 
 pub const PANELS: &[Panel] = &[
     Panel {
         title: "Toon",
-        open: |s| s.wisps.is_some(),
+        open: |s| s.wisps().is_some(),
         adds: false,
         show: toon,
     },
     Panel {
         title: "Skeletons",
-        open: |s| s.wisps.is_some(),
+        open: |s| s.wisps().is_some(),
         adds: false,
         show: skeletons,
     },
@@ -65,7 +65,7 @@ fn skeletons(ui: &mut Ui, cx: &mut PanelCx) {
     let Some(st) = ui::state::<WispsUi>(cx.state) else {
         return;
     };
-    let Some(w) = cx.scene.wisps.as_ref() else {
+    let Some(w) = cx.scene.wisps().as_ref() else {
         ui.label("this scene has no toon wisps");
         return;
     };
@@ -86,7 +86,7 @@ fn skeletons(ui: &mut Ui, cx: &mut PanelCx) {
     if st.edit {
         ui.small(MOUSE_HELP);
     }
-    let Some(w) = cx.scene.wisps.as_mut() else {
+    let Some(w) = cx.scene.wisps_mut().as_mut() else {
         return;
     };
     let ed = &mut st.editor;
@@ -282,7 +282,7 @@ fn colour(ui: &mut Ui, label: &str, c: &mut [f32; 3]) {
 }
 
 fn toon(ui: &mut Ui, cx: &mut PanelCx) {
-    let Some(w) = cx.scene.wisps.as_mut() else {
+    let Some(w) = cx.scene.wisps_mut().as_mut() else {
         ui.label("this scene has no toon wisps");
         return;
     };

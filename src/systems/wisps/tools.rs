@@ -7,9 +7,9 @@ use super::block::MarchOn;
 use super::edit::{self, Editor};
 use super::panel;
 use crate::error::Result;
+use crate::systems::scene::Scene;
+use crate::systems::system::FrameCtx;
 use crate::systems::ui::{self, Host, Key, KindUi, Mods, Tool};
-use crate::systems::FrameCtx;
-use crate::systems::Scene;
 use glam::{DVec2, DVec3};
 use std::time::Instant;
 
@@ -51,7 +51,7 @@ impl KindUi for WispsUi {
         let none = || "the scene has no wisps".to_string();
         Some(match key {
             "wisps.max_steps" => ui::int(value).and_then(|n| {
-                scene.wisps.as_mut().ok_or_else(none)?.march.max_steps = n;
+                scene.wisps_mut().as_mut().ok_or_else(none)?.march.max_steps = n;
                 Ok(())
             }),
             "wisps.march_on" => {
@@ -62,16 +62,16 @@ impl KindUi for WispsUi {
                     v => Err(format!("expected auto, compute or fragment, not {v:?}")),
                 };
                 on.and_then(|on| {
-                    scene.wisps.as_mut().ok_or_else(none)?.march.on = on;
+                    scene.wisps_mut().as_mut().ok_or_else(none)?.march.on = on;
                     Ok(())
                 })
             }
             k if k.starts_with("wisps.toon.") || k.starts_with("wisps.outline") => {
-                let w = scene.wisps.as_mut().ok_or_else(none);
+                let w = scene.wisps_mut().as_mut().ok_or_else(none);
                 w.and_then(|w| panel::set_key(w, key, value.ok_or("expected KEY=VALUE")?))
             }
             "wisps.edit" => ui::on(value).and_then(|edit| {
-                if edit && scene.wisps.is_none() {
+                if edit && scene.wisps().is_none() {
                     return Err(none());
                 }
                 self.edit = edit;
@@ -86,7 +86,7 @@ impl KindUi for WispsUi {
     }
 
     fn mouse_mode(&self, scene: &Scene, host: &Host) -> bool {
-        self.edit && scene.wisps.is_some() && host.head_view.is_some()
+        self.edit && scene.wisps().is_some() && host.head_view.is_some()
     }
 
     /// A double click away from the nodes adds a node at the cursor after the selected
@@ -104,7 +104,7 @@ impl KindUi for WispsUi {
         if cursor.x > view.size.x || cursor.y > view.size.y {
             return Ok(false);
         }
-        let Some(w) = scene.wisps.as_mut() else {
+        let Some(w) = scene.wisps_mut().as_mut() else {
             return Ok(false);
         };
         let now = Instant::now();
@@ -131,9 +131,11 @@ impl KindUi for WispsUi {
 
     fn drag(&mut self, scene: &mut Scene, host: &mut Host, _tool: &Tool, cursor: DVec2) {
         // (An undo during the drag ends it: then the cursor moves nothing.)
-        if let (true, Some(view), Some(w)) =
-            (self.editor.dragging(), host.head_view, scene.wisps.as_mut())
-        {
+        if let (true, Some(view), Some(w)) = (
+            self.editor.dragging(),
+            host.head_view,
+            scene.wisps_mut().as_mut(),
+        ) {
             let _ = self.editor.drag_to(w, &view, cursor);
         }
     }
@@ -163,7 +165,7 @@ impl KindUi for WispsUi {
         if !self.mouse_mode(scene, host) {
             return false;
         }
-        let (Some(view), Some(w)) = (host.head_view, scene.wisps.as_mut()) else {
+        let (Some(view), Some(w)) = (host.head_view, scene.wisps_mut().as_mut()) else {
             return false;
         };
         let Some(sel) = self.editor.selected(w) else {
@@ -189,7 +191,7 @@ impl KindUi for WispsUi {
     /// Undo and redo whenever the scene has wisps; Delete and Escape in the mouse mode.
     fn key(&mut self, scene: &mut Scene, host: &mut Host, key: Key, mods: Mods) -> bool {
         let editing = self.mouse_mode(scene, host);
-        let Some(w) = scene.wisps.as_mut() else {
+        let Some(w) = scene.wisps_mut().as_mut() else {
             return false;
         };
         match key {
@@ -222,7 +224,7 @@ impl KindUi for WispsUi {
         _frame: &FrameCtx,
         ppp: f32,
     ) {
-        if let (true, Some(w), Some(view)) = (self.edit, &scene.wisps, host.head_view) {
+        if let (true, Some(w), Some(view)) = (self.edit, scene.wisps(), host.head_view) {
             panel::overlay(ctx, w, &self.editor, &view, ppp);
         }
     }
