@@ -1,5 +1,5 @@
 // The world every simulation kernel binds at group 3: one bind group per scene, owned by the
-// stage (`systems::world::WorldGpu`), uploaded once: gravity and the head's hull, the
+// stage (`systems::world::WorldGpu`), uploaded once: the head's hull, the
 // External Force Field's grid and cells, the mesh head's signed distance field; and per
 // submission the samples of what changes within a frame (`world_steps`: gravity plus keyed
 // wind, the gust scale, the head's pose), indexed from each kernel's own slot. A kernel's
@@ -9,8 +9,6 @@
 
 // Twin of GpuWorld (tests/it/gpu_twins.rs checks it) in src/systems/world.rs.
 struct World {
-    // xyz gravity (`Forces::gravity`, world units/s²), w 0.
-    gravity: vec4<f32>,
     // xyz the head ellipsoid's centre, w 1 when the hull is the SDF in sdf_data
     // (`HeadHull::gpu_params`).
     hull_center: vec4<f32>,

@@ -33,22 +33,19 @@ pub const WORLD_GROUP: u32 = 3;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuWorld {
-    /// xyz `Forces::gravity`, w 0 (kernels read gravity plus wind from the samples,
-    /// `GpuWorldStep::force`; this is the scene's, for kernels that need gravity alone).
-    pub gravity: [f32; 4],
     /// `HeadHull::gpu_params().0`: xyz the ellipsoid's centre, w 1 when the hull is the SDF.
     pub hull_center: [f32; 4],
     /// `HeadHull::gpu_params().1`: xyz the ellipsoid's radii, w 0.
     pub hull_radii: [f32; 4],
 }
-const _: () = assert!(std::mem::size_of::<GpuWorld>() == 48);
+const _: () = assert!(std::mem::size_of::<GpuWorld>() == 32);
 
 impl GpuWorld {
-    pub fn new(forces: &Forces, hull: &HeadHull) -> GpuWorld {
-        let g = forces.gravity;
+    /// Gravity and wind are not here: kernels read them per substep from the samples
+    /// (`GpuWorldStep::force`).
+    pub fn new(hull: &HeadHull) -> GpuWorld {
         let (hull_center, hull_radii) = hull.gpu_params();
         GpuWorld {
-            gravity: [g.x as f32, g.y as f32, g.z as f32, 0.0],
             hull_center,
             hull_radii,
         }
@@ -264,7 +261,7 @@ impl WorldGpu {
         let world = crate::gpu::storage_buffer(
             device,
             "world",
-            bytemuck::bytes_of(&GpuWorld::new(forces, hull)),
+            bytemuck::bytes_of(&GpuWorld::new(hull)),
             wgpu::BufferUsages::UNIFORM,
         );
         let layout = Self::make_layout(device);
@@ -400,7 +397,7 @@ impl WorldGpu {
         gpu.queue.write_buffer(
             &self.world,
             0,
-            bytemuck::bytes_of(&GpuWorld::new(forces, hull)),
+            bytemuck::bytes_of(&GpuWorld::new(hull)),
         );
         if self.eff_now != forces.eff {
             // The grid at gust scale 1, as `new` made it: kernels scale by their own

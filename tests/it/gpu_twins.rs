@@ -66,7 +66,7 @@ fn twins() -> Vec<Twin> {
         ),
         twin!(
             GpuWorld,
-            [gravity, hull_center, hull_radii],
+            [hull_center, hull_radii],
             "World",
             ["common/world.wgsl"]
         ),
