@@ -394,11 +394,8 @@ impl WorldGpu {
                 "the world's grids changed size: make a new WorldGpu".into(),
             ));
         }
-        gpu.queue.write_buffer(
-            &self.world,
-            0,
-            bytemuck::bytes_of(&GpuWorld::new(hull)),
-        );
+        gpu.queue
+            .write_buffer(&self.world, 0, bytemuck::bytes_of(&GpuWorld::new(hull)));
         if self.eff_now != forces.eff {
             // The grid at gust scale 1, as `new` made it: kernels scale by their own
             // substep's gust (`EffGpu::write` takes a frame, not a scale).
