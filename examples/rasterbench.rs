@@ -35,6 +35,7 @@ fn main() -> Result<()> {
         strands,
         msaa,
         supersample,
+        binned: false,
     };
     let d = draw_share(&gpu, &scene, config, size, 15, runs, lod)?;
     println!("{}: {:.1} ms per frame", config.name(), d.ms);

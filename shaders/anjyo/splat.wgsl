@@ -18,10 +18,25 @@
 //   hair = (sum rgb a wt / sum a wt) * (1 - T) + scene * T,  T = exp(-sum -ln(1 - a)) = prod(1 - a),
 // the exact transmittance of independent coverages, as the ribbons' hashed sample masks
 // estimate it with MSAA.
+//
+// Binned (issue 33, item 3): the words are sums of integers, so any order of adding them
+// gives the same accumulation. `bin_count` (one invocation per drawn segment) counts, per
+// screen tile of TILE x TILE samples, the segments whose sample rectangle reaches it;
+// `bin_scan` turns the counts into offsets in one list; `bin_scatter` writes each segment's
+// reference under every tile it reaches; `bin_raster` (one workgroup per tile) walks its
+// tile's segments clipped to the tile, adding into workgroup memory, and adds each sample's
+// five words to the accumulation once. A tile whose list does not fit the list buffer is
+// drawn by `bin_scatter` directly (global atomics, as `splat`), so nothing is ever dropped.
 
 
 @group(2) @binding(0) var<storage, read_write> accum: array<atomic<u32>>;
 @group(2) @binding(1) var scene_depth: SceneDepth;
+// Per tile (T tiles): [0, T) segment counts, [T, 2T) offsets in `bin_refs` (NONE: the tile
+// does not fit and is drawn directly), [2T, 3T) write cursors. `bin_raster` leaves the
+// counts at 0 for the next binning.
+@group(2) @binding(2) var<storage, read_write> bins: array<atomic<u32>>;
+// Per (segment, tile) pair: the segment's reference, strand * 256 + segment.
+@group(2) @binding(3) var<storage, read_write> bin_refs: array<u32>;
 
 // Fixed-point scales of the accumulation, as in stage/downsample.wgsl and
 // src/gpu/splat.rs (tests/it/gpu_twins.rs checks them).
@@ -33,6 +48,12 @@ const MAX_COVERAGE: f32 = 0.999;
 const DEPTH_BIAS: f32 = 1e-5;
 // At most this many samples across a segment: wider strands belong to the ribbons.
 const MAX_ACROSS: i32 = 16;
+// Tile side in samples (src/gpu/splat.rs `TILE`; tests/it/gpu_twins.rs checks it).
+const TILE: i32 = 16;
+const NONE: u32 = 0xffffffffu;
+// The tile's samples in workgroup memory, five words each (`bin_raster`).
+const TILE_WORDS: u32 = 5u * u32(TILE * TILE);
+var<workgroup> tile_accum: array<atomic<u32>, TILE_WORDS>;
 
 // A node on screen: x, y in samples, z NDC depth, w 1 when in front of the camera.
 struct ScreenNode {
@@ -68,54 +89,138 @@ fn depth_weight(z: f32) -> f32 {
     return d * d * d;
 }
 
-fn add_sample(x: i32, y: i32, a: f32, z: f32, rgb: vec3<f32>) {
-    let size = vec2<i32>(frame.viewport.xy);
-    if x < 0 || y < 0 || x >= size.x || y >= size.y || a <= 0.0 {
-        return;
-    }
-    if z > textureLoad(scene_depth, vec2<i32>(x, y), 0).x + DEPTH_BIAS {
-        return;
-    }
-    let aw = a * depth_weight(z);
-    let i = 5u * (u32(y) * u32(size.x) + u32(x));
-    let c = rgb * aw * COLOR_SCALE + 0.5;
-    atomicAdd(&accum[i], u32(c.r));
-    atomicAdd(&accum[i + 1u], u32(c.g));
-    atomicAdd(&accum[i + 2u], u32(c.b));
-    atomicAdd(&accum[i + 3u], u32(aw * COLOR_SCALE + 0.5));
-    atomicAdd(&accum[i + 4u], u32(-log(1.0 - min(a, MAX_COVERAGE)) * DEPTH_SCALE + 0.5));
+// The five words hair of coverage a at depth z adds to sample (x, y), in fixed point; w 0
+// of `.rest` when it adds nothing (off screen, no coverage, behind the opaque scene).
+struct Words {
+    rgbw: vec4<u32>,
+    // x optical depth, y 1 when the sample gets the words.
+    rest: vec2<u32>,
 }
 
-// One segment from a to b: step along its major axis one sample column at a time.
-fn splat_segment(a_in: ScreenNode, b_in: ScreenNode) {
-    if a_in.p.w < 0.5 || b_in.p.w < 0.5 {
+fn sample_words(x: i32, y: i32, a: f32, z: f32, rgb: vec3<f32>) -> Words {
+    var out: Words;
+    let size = vec2<i32>(frame.viewport.xy);
+    if x < 0 || y < 0 || x >= size.x || y >= size.y || a <= 0.0 {
+        return out;
+    }
+    if z > textureLoad(scene_depth, vec2<i32>(x, y), 0).x + DEPTH_BIAS {
+        return out;
+    }
+    let aw = a * depth_weight(z);
+    let c = rgb * aw * COLOR_SCALE + 0.5;
+    out.rgbw = vec4<u32>(u32(c.r), u32(c.g), u32(c.b), u32(aw * COLOR_SCALE + 0.5));
+    out.rest = vec2<u32>(u32(-log(1.0 - min(a, MAX_COVERAGE)) * DEPTH_SCALE + 0.5), 1u);
+    return out;
+}
+
+// Add to the accumulation (tile = false) or to the tile's workgroup copy, whose top-left
+// sample is clip.xy (tile = true).
+fn add_sample(x: i32, y: i32, a: f32, z: f32, rgb: vec3<f32>, clip: vec4<i32>, tile: bool) {
+    let w = sample_words(x, y, a, z, rgb);
+    if w.rest.y == 0u {
+        return;
+    }
+    if tile {
+        let i = 5u * u32((y - clip.y) * TILE + (x - clip.x));
+        atomicAdd(&tile_accum[i], w.rgbw.x);
+        atomicAdd(&tile_accum[i + 1u], w.rgbw.y);
+        atomicAdd(&tile_accum[i + 2u], w.rgbw.z);
+        atomicAdd(&tile_accum[i + 3u], w.rgbw.w);
+        atomicAdd(&tile_accum[i + 4u], w.rest.x);
+        return;
+    }
+    let i = 5u * (u32(y) * u32(frame.viewport.x) + u32(x));
+    atomicAdd(&accum[i], w.rgbw.x);
+    atomicAdd(&accum[i + 1u], w.rgbw.y);
+    atomicAdd(&accum[i + 2u], w.rgbw.z);
+    atomicAdd(&accum[i + 3u], w.rgbw.w);
+    atomicAdd(&accum[i + 4u], w.rest.x);
+}
+
+// The segment from a to b in (major, minor) sample coordinates, its major axis the one it
+// runs further along, ordered along it: x the start, y the end, z 1 when x is the screen's x;
+// w 0 when it draws nothing (a node behind the camera, or no run).
+struct Run {
+    pa: vec2<f32>,
+    pb: vec2<f32>,
+    // a and b swapped (b first), x-major, drawn.
+    flags: vec3<bool>,
+}
+
+fn segment_run(a: ScreenNode, b: ScreenNode) -> Run {
+    var r: Run;
+    if a.p.w < 0.5 || b.p.w < 0.5 {
+        return r;
+    }
+    let d = b.p.xy - a.p.xy;
+    let x_major = abs(d.x) >= abs(d.y);
+    r.pa = select(a.p.yx, a.p.xy, x_major);
+    r.pb = select(b.p.yx, b.p.xy, x_major);
+    let swap = r.pa.x > r.pb.x;
+    if swap {
+        let q = r.pa;
+        r.pa = r.pb;
+        r.pb = q;
+    }
+    r.flags = vec3<bool>(swap, x_major, r.pb.x - r.pa.x > 1e-6);
+    return r;
+}
+
+// The samples (x0, y0, x1, y1, inclusive) the segment may add to, on screen; x0 > x1 for
+// none. Every column it crosses, and in the minor direction from the lowest start of a
+// column's rows (centre line minus half-width, linear along the run, so lowest at an end)
+// to the highest row `splat_segment` may reach (at most MAX_ACROSS rows past a start, and
+// not past the band's top), with one sample of slack for rounding.
+fn segment_rect(a_in: ScreenNode, b_in: ScreenNode) -> vec4<i32> {
+    let r = segment_run(a_in, b_in);
+    if !r.flags.z {
+        return vec4<i32>(1, 1, 0, 0);
+    }
+    var wa = a_in.width;
+    var wb = b_in.width;
+    if r.flags.x {
+        wa = b_in.width;
+        wb = a_in.width;
+    }
+    let slope = (r.pb.y - r.pa.y) / (r.pb.x - r.pa.x);
+    let sec = sqrt(1.0 + slope * slope);
+    let start = vec2<f32>(r.pa.y - 0.5 * wa * sec, r.pb.y - 0.5 * wb * sec);
+    let top = max(r.pa.y + 0.5 * wa * sec, r.pb.y + 0.5 * wb * sec);
+    let minor_lo = min(start.x, start.y) - 1.0;
+    let minor_hi = min(max(start.x, start.y) + f32(MAX_ACROSS), top) + 1.0;
+    let lo = vec2<i32>(floor(vec2<f32>(r.pa.x, minor_lo)));
+    let hi = vec2<i32>(floor(vec2<f32>(r.pb.x, minor_hi)));
+    let size = vec2<i32>(frame.viewport.xy) - vec2<i32>(1);
+    let x_lo = select(lo.yx, lo, r.flags.y);
+    let x_hi = select(hi.yx, hi, r.flags.y);
+    return vec4<i32>(max(x_lo, vec2<i32>(0)), min(x_hi, size));
+}
+
+// One segment from a to b: step along its major axis one sample column at a time, adding
+// only to the samples inside clip (x0, y0, x1, y1, inclusive); into the tile at clip.xy
+// when tile is true.
+fn splat_segment(a_in: ScreenNode, b_in: ScreenNode, clip: vec4<i32>, tile: bool) {
+    let r = segment_run(a_in, b_in);
+    if !r.flags.z {
         return;
     }
     var a = a_in;
     var b = b_in;
-    let d = b.p.xy - a.p.xy;
-    let x_major = abs(d.x) >= abs(d.y);
-    // (major, minor) coordinates.
-    var pa = select(a.p.yx, a.p.xy, x_major);
-    var pb = select(b.p.yx, b.p.xy, x_major);
-    if pa.x > pb.x {
-        let t = a;
-        a = b;
-        b = t;
-        let q = pa;
-        pa = pb;
-        pb = q;
+    if r.flags.x {
+        a = b_in;
+        b = a_in;
     }
+    let x_major = r.flags.y;
+    let pa = r.pa;
+    let pb = r.pb;
     let run = pb.x - pa.x;
-    if run <= 1e-6 {
-        return;
-    }
     let slope = (pb.y - pa.y) / run;
     let sec = sqrt(1.0 + slope * slope);
-    let size = vec2<i32>(frame.viewport.xy);
-    let extent = select(size.y, size.x, x_major);
-    let first = max(i32(floor(pa.x)), 0);
-    let last = min(i32(floor(pb.x)), extent - 1);
+    // The clip rectangle along (major, minor).
+    let c_lo = select(clip.yx, clip.xy, x_major);
+    let c_hi = select(clip.wz, clip.zw, x_major);
+    let first = max(i32(floor(pa.x)), c_lo.x);
+    let last = min(i32(floor(pb.x)), c_hi.x);
     for (var col = first; col <= last; col++) {
         let lo = max(pa.x, f32(col));
         let hi = min(pb.x, f32(col + 1));
@@ -132,16 +237,21 @@ fn splat_segment(a_in: ScreenNode, b_in: ScreenNode) {
         let y0 = yc - half_h;
         let y1 = yc + half_h;
         let r0 = i32(floor(y0));
-        let r1 = min(i32(floor(y1)), r0 + MAX_ACROSS - 1);
-        for (var row = r0; row <= r1; row++) {
+        let r1 = min(min(i32(floor(y1)), r0 + MAX_ACROSS - 1), c_hi.y);
+        for (var row = max(r0, c_lo.y); row <= r1; row++) {
             let cover = fx * (min(y1, f32(row + 1)) - max(y0, f32(row))) * alpha;
             if x_major {
-                add_sample(col, row, cover, z, rgb);
+                add_sample(col, row, cover, z, rgb, clip, tile);
             } else {
-                add_sample(row, col, cover, z, rgb);
+                add_sample(row, col, cover, z, rgb, clip, tile);
             }
         }
     }
+}
+
+// The whole screen, as a clip rectangle.
+fn screen_rect() -> vec4<i32> {
+    return vec4<i32>(0, 0, i32(frame.viewport.x) - 1, i32(frame.viewport.y) - 1);
 }
 
 @compute @workgroup_size(64)
@@ -162,7 +272,188 @@ fn splat(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         n = min(n + step, last);
         let b = to_screen(shade_node(s, n));
-        splat_segment(a, b);
+        splat_segment(a, b, screen_rect(), false);
         a = b;
+    }
+}
+
+// Tiles across and down the target.
+fn tile_grid() -> vec2<u32> {
+    return (vec2<u32>(frame.viewport.xy) + vec2<u32>(u32(TILE) - 1u)) / u32(TILE);
+}
+
+// The drawn segment invocation `id` bins (x, y its strand as `drawn_strand`, z its index
+// along the strand at the level of detail's step): its strand * 256 + index and its two
+// nodes on screen; NONE when there is no such segment.
+struct Seg {
+    id: u32,
+    a: ScreenNode,
+    b: ScreenNode,
+}
+
+fn binned_segment(si: i32, k: u32) -> Seg {
+    var out: Seg;
+    out.id = NONE;
+    if si < 0 {
+        return out;
+    }
+    let s = strands[si];
+    let step = lod_step();
+    let last = last_node(s);
+    let n0 = k * step;
+    if n0 >= last {
+        return out;
+    }
+    out.id = u32(si) * 256u + k;
+    out.a = placed(s, n0);
+    out.b = placed(s, min(n0 + step, last));
+    return out;
+}
+
+// Segment reference r (strand * 256 + index) with both nodes shaded, on screen.
+fn shaded_segment(r: u32) -> Seg {
+    var out: Seg;
+    out.id = r;
+    let s = strands[r / 256u];
+    let n0 = (r % 256u) * lod_step();
+    out.a = to_screen(shade_node(s, n0));
+    out.b = to_screen(shade_node(s, min(n0 + lod_step(), last_node(s))));
+    return out;
+}
+
+// Node n on screen, placed and sized as `to_screen(shade_node(s, n))` places it, unshaded:
+// what binning needs (`bin_raster` shades).
+fn placed(s: Strand, n: u32) -> ScreenNode {
+    var node: ShadedNode;
+    node.pos = node_pos(s, n);
+    let wa = node_width_alpha(s, n);
+    node.width = wa.x;
+    node.alpha = wa.y;
+    return to_screen(node);
+}
+
+// The tiles (x0, y0, x1, y1, inclusive) a sample rectangle reaches.
+fn rect_tiles(r: vec4<i32>) -> vec4<i32> {
+    return r / TILE;
+}
+
+@compute @workgroup_size(64)
+fn bin_count(@builtin(global_invocation_id) id: vec3<u32>) {
+    let seg = binned_segment(drawn_strand(id), id.z);
+    if seg.id == NONE {
+        return;
+    }
+    let rect = segment_rect(seg.a, seg.b);
+    if rect.x > rect.z || rect.y > rect.w {
+        return;
+    }
+    let t = rect_tiles(rect);
+    let across = i32(tile_grid().x);
+    for (var ty = t.y; ty <= t.w; ty++) {
+        for (var tx = t.x; tx <= t.z; tx++) {
+            atomicAdd(&bins[u32(ty * across + tx)], 1u);
+        }
+    }
+}
+
+// Partial sums of the scan, one per invocation.
+var<workgroup> scan_sums: array<u32, 256>;
+
+@compute @workgroup_size(256)
+fn bin_scan(@builtin(local_invocation_index) li: u32) {
+    let g = tile_grid();
+    let tiles = g.x * g.y;
+    let per = (tiles + 255u) / 256u;
+    let lo = min(li * per, tiles);
+    let hi = min(lo + per, tiles);
+    var sum = 0u;
+    for (var t = lo; t < hi; t++) {
+        sum += atomicLoad(&bins[t]);
+    }
+    scan_sums[li] = sum;
+    workgroupBarrier();
+    // Inclusive scan of the 256 partial sums (Hillis and Steele).
+    for (var d = 1u; d < 256u; d *= 2u) {
+        let v = select(0u, scan_sums[max(li, d) - d], li >= d);
+        workgroupBarrier();
+        scan_sums[li] += v;
+        workgroupBarrier();
+    }
+    var at = select(0u, scan_sums[max(li, 1u) - 1u], li > 0u);
+    let cap = arrayLength(&bin_refs);
+    for (var t = lo; t < hi; t++) {
+        let c = atomicLoad(&bins[t]);
+        // Sums past 2^32 refs cannot fit any list: compare without overflowing.
+        let fits = at <= cap && c <= cap - at;
+        atomicStore(&bins[tiles + t], select(NONE, at, fits));
+        atomicStore(&bins[2u * tiles + t], 0u);
+        at += c;
+    }
+}
+
+@compute @workgroup_size(64)
+fn bin_scatter(@builtin(global_invocation_id) id: vec3<u32>) {
+    let seg = binned_segment(drawn_strand(id), id.z);
+    if seg.id == NONE {
+        return;
+    }
+    let rect = segment_rect(seg.a, seg.b);
+    if rect.x > rect.z || rect.y > rect.w {
+        return;
+    }
+    let t = rect_tiles(rect);
+    let g = tile_grid();
+    let tiles = g.x * g.y;
+    for (var ty = t.y; ty <= t.w; ty++) {
+        for (var tx = t.x; tx <= t.z; tx++) {
+            let tile = u32(ty) * g.x + u32(tx);
+            let at = atomicLoad(&bins[tiles + tile]);
+            if at == NONE {
+                // The tile's list does not fit: draw the segment's part in it directly.
+                let o = vec2<i32>(tx, ty) * TILE;
+                let sh = shaded_segment(seg.id);
+                splat_segment(sh.a, sh.b, vec4<i32>(o, o + vec2<i32>(TILE - 1)), false);
+            } else {
+                let i = atomicAdd(&bins[2u * tiles + tile], 1u);
+                bin_refs[at + i] = seg.id;
+            }
+        }
+    }
+}
+
+@compute @workgroup_size(64)
+fn bin_raster(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(local_invocation_index) li: u32,
+) {
+    let g = tile_grid();
+    let tiles = g.x * g.y;
+    let tile = wg.y * g.x + wg.x;
+    for (var i = li; i < TILE_WORDS; i += 64u) {
+        atomicStore(&tile_accum[i], 0u);
+    }
+    workgroupBarrier();
+    let count = atomicLoad(&bins[tile]);
+    let at = atomicLoad(&bins[tiles + tile]);
+    let o = vec2<i32>(wg.xy) * TILE;
+    let clip = vec4<i32>(o, min(o + vec2<i32>(TILE - 1), vec2<i32>(frame.viewport.xy) - vec2<i32>(1)));
+    if at != NONE {
+        for (var i = li; i < count; i += 64u) {
+            let seg = shaded_segment(bin_refs[at + i]);
+            splat_segment(seg.a, seg.b, clip, true);
+        }
+    }
+    workgroupBarrier();
+    for (var i = li; i < TILE_WORDS; i += 64u) {
+        let v = atomicLoad(&tile_accum[i]);
+        let j = i / 5u;
+        let x = clip.x + i32(j % u32(TILE));
+        let y = clip.y + i32(j / u32(TILE));
+        if v != 0u && x <= clip.z && y <= clip.w {
+            atomicAdd(&accum[5u * (u32(y) * u32(frame.viewport.x) + u32(x)) + i % 5u], v);
+        }
+    }
+    if li == 0u {
+        atomicStore(&bins[tile], 0u);
     }
 }

@@ -64,6 +64,23 @@ fn last_node(s: Strand) -> u32 {
     return u32(ceil(s.visible));
 }
 
+// Node n's width (world units, tapered root to tip or the file's, times the level of
+// detail's factors) and opacity (the file's, or 1): what placing it on screen needs, without
+// shading it (the binned compute rasteriser's bins).
+fn node_width_alpha(s: Strand, n: u32) -> vec2<f32> {
+    let mat = materials[s.group];
+    let along = f32(n) / f32(max(s.segments, 1u));
+    var width = mat.params.z * mix(1.0, mat.params.w, along);
+    var alpha = 1.0;
+    if any(mat.file.xyz > vec3<f32>(0.5)) {
+        let look = looks[s.first_vertex + n];
+        width = select(width, bitcast<f32>(look.y), mat.file.y > 0.5);
+        alpha = select(1.0, unpack4x8unorm(look.x).a, mat.file.z > 0.5);
+    }
+    // raster.z widens hair when only a share of it is drawn (level of detail).
+    return vec2<f32>(width * frame.raster.z * lod.x, alpha);
+}
+
 // Node n (a multiple of the step, or the last) of strand s.
 fn shade_node(s: Strand, n: u32) -> ShadedNode {
     var out: ShadedNode;
@@ -84,19 +101,13 @@ fn shade_node(s: Strand, n: u32) -> ShadedNode {
     let tl = length(t);
     t = select(vec3<f32>(0.0, -1.0, 0.0), t / tl, tl > 1e-20);
 
-    let along = f32(n) / f32(max(s.segments, 1u));
-    var width = mat.params.z * mix(1.0, mat.params.w, along);
+    let wa = node_width_alpha(s, n);
+    out.width = wa.x;
+    out.alpha = wa.y;
     var base = mat.color_ks.rgb;
-    out.alpha = 1.0;
-    if any(mat.file.xyz > vec3<f32>(0.5)) {
-        let look = looks[s.first_vertex + n];
-        let c = unpack4x8unorm(look.x);
-        base = select(base, srgb_to_linear(c.rgb), mat.file.x > 0.5);
-        width = select(width, bitcast<f32>(look.y), mat.file.y > 0.5);
-        out.alpha = select(1.0, c.a, mat.file.z > 0.5);
+    if mat.file.x > 0.5 {
+        base = srgb_to_linear(unpack4x8unorm(looks[s.first_vertex + n].x).rgb);
     }
-    // raster.z widens hair when only a share of it is drawn (level of detail).
-    out.width = width * frame.raster.z * lod.x;
 
     // Anjyo eq 8: specular from the tangent alone; eq 9 with a per-strand ambient.
     let l = frame.light_dir.xyz;

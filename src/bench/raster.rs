@@ -12,6 +12,7 @@ use crate::error::Result;
 use crate::gpu::Gpu;
 use crate::scene::StrandRaster;
 use crate::stage::{self, target, Quality, Stage};
+use crate::systems::anjyo::AnjyoSystem;
 use crate::systems::Scene;
 use image::RgbaImage;
 use std::fmt::Write;
@@ -24,40 +25,61 @@ pub struct Config {
     pub strands: StrandRaster,
     pub msaa: u32,
     pub supersample: u32,
+    /// The compute rasteriser binned by tile rather than one walk per strand with global
+    /// atomics (the default; the same accumulation; `AnjyoSystem::set_binned`).
+    pub binned: bool,
 }
 
 impl Config {
     pub fn name(&self) -> String {
-        let r = match self.strands {
-            StrandRaster::Ribbons => "ribbons",
-            StrandRaster::Compute => "compute",
+        let r = match (self.strands, self.binned) {
+            (StrandRaster::Ribbons, _) => "ribbons",
+            (StrandRaster::Compute, true) => "compute (binned)",
+            (StrandRaster::Compute, false) => "compute (per strand)",
         };
         format!("{r}, MSAA {} x supersample {}", self.msaa, self.supersample)
     }
 }
 
 /// What the bench compares: the viewer's default (ribbons, MSAA 4), ribbons without MSAA,
-/// and the compute rasteriser over single-sampled and multisampled scene targets.
-pub const CONFIGS: [Config; 4] = [
+/// and the compute rasteriser over single-sampled and multisampled scene targets, walked one
+/// invocation per strand (the default) and binned by tile (the same image).
+pub const CONFIGS: [Config; 6] = [
     Config {
         strands: StrandRaster::Ribbons,
         msaa: 4,
         supersample: 1,
+        binned: false,
     },
     Config {
         strands: StrandRaster::Ribbons,
         msaa: 1,
         supersample: 1,
+        binned: false,
     },
     Config {
         strands: StrandRaster::Compute,
         msaa: 1,
         supersample: 1,
+        binned: false,
     },
     Config {
         strands: StrandRaster::Compute,
         msaa: 4,
         supersample: 1,
+        binned: false,
+    },
+    Config {
+        strands: StrandRaster::Compute,
+        msaa: 1,
+        supersample: 1,
+        binned: true,
+    },
+    Config {
+        strands: StrandRaster::Compute,
+        msaa: 4,
+        supersample: 1,
+        binned: true,
     },
 ];
 
@@ -66,6 +88,7 @@ pub const REFERENCE: Config = Config {
     strands: StrandRaster::Ribbons,
     msaa: 4,
     supersample: 4,
+    binned: false,
 };
 
 /// A drawn frame and the median CPU wall time of drawing it (record, submit, wait; the
@@ -105,6 +128,9 @@ pub fn draw_share(
     stage::check_limits(gpu, &scene, size)?;
     let quality = Quality::of(&scene);
     let mut stage = Stage::new(gpu, &scene, target::OUTPUT_FORMAT, quality)?;
+    if let Some(a) = stage.system_mut::<AnjyoSystem>() {
+        a.set_binned(config.binned);
+    }
     stage.seek(gpu, frame)?;
     let out = target::Offscreen::new(gpu, size)?;
     let mut look = stage.look();
@@ -131,8 +157,16 @@ pub fn draw_share(
 
 const CONCLUSION: &str = "
 **How the compute rasteriser draws** (`shaders/anjyo/splat.wgsl`, f64 reference in \
-`src/systems/anjyo/splat.rs`). One invocation per strand walks its segments one sample column \
-(or row) at a time; in each column a segment of width w samples covers the vertical band of \
+`src/systems/anjyo/splat.rs`). By default one invocation per strand walks its segments, \
+adding to the accumulation with global atomics. *Binned* (not the default until a hardware \
+GPU shows it faster): one invocation per drawn segment counts the 16x16-sample tiles its \
+sample rectangle reaches, a scan turns the counts into list offsets, the segments are listed \
+under their tiles, and one workgroup per tile walks its list clipped to the tile into \
+workgroup memory, then adds each sample's words to the accumulation once (a tile whose list \
+does not fit is drawn directly, never dropped). The words are integer sums, so the binned \
+image is the per-strand walk's word for word (`tests/it/splat.rs`); on a software adapter, \
+where atomics are cheap, binning costs more (each segment's nodes are shaded again in every \
+tile it reaches). A segment is walked one sample column (or row) at a time; in each column a segment of width w samples covers the vertical band of \
 thickness `w sqrt(1 + slope^2)` about its centre line, and each sample gets its exact share of \
 that band as coverage `a` (a strand's coverages add up to its length times its width). Nodes are \
 shaded and sized by the same WGSL as the ribbons (`shaders/common/strand_shade.wgsl`). A sample keeps, \
@@ -173,7 +207,7 @@ pub fn run(
         "| rasteriser | ms per frame | tile error | pixel error |"
     );
     let _ = writeln!(md, "|---|---:|---:|---:|");
-    let mut csv = String::from("strands,msaa,supersample,ms,tile_error,pixel_error\n");
+    let mut csv = String::from("strands,binned,msaa,supersample,ms,tile_error,pixel_error\n");
     let mut series = Vec::new();
     for (i, c) in CONFIGS.iter().enumerate() {
         let d = draw(gpu, &scene, *c, size, frame, runs)?;
@@ -188,8 +222,8 @@ pub fn run(
         );
         let _ = writeln!(
             csv,
-            "{:?},{},{},{:.3},{:.4},{:.4}",
-            c.strands, c.msaa, c.supersample, d.ms, tile, pixel
+            "{:?},{},{},{},{:.3},{:.4},{:.4}",
+            c.strands, c.binned, c.msaa, c.supersample, d.ms, tile, pixel
         );
         series.push(Series {
             name: c.name(),

@@ -58,6 +58,9 @@ struct Point {
     sim_cost: Option<f64>,
     /// Rendering alone (generation, ribbons, resolve) on the CPU clock.
     ribbons_ms: f64,
+    /// Rendering alone with the compute rasteriser, binned by tile and walked per strand
+    /// (NaN where the adapter cannot splat over these targets).
+    compute_ms: [f64; 2],
     /// The compute walk over every segment (`bench::splat`).
     probe: Option<super::splat::Probe>,
     frame_ms: f64,
@@ -191,6 +194,7 @@ fn measure(gpu: &Gpu, scene: &Scene, sweep: &Sweep, timed: bool) -> Result<Point
         })?);
     }
     let probe = super::splat::probe(gpu, &stage, sweep.size, 3)?;
+    let compute_ms = compute_rasteriser_ms(gpu, &mut stage, scene, &out.view, sweep.size, &look)?;
     gpu.take_error()?;
     let mut phases = [None; 5];
     for p in Phase::ALL {
@@ -207,6 +211,7 @@ fn measure(gpu: &Gpu, scene: &Scene, sweep: &Sweep, timed: bool) -> Result<Point
         sim_alone_ms: median(alone),
         sim_cost: None,
         ribbons_ms: median(ribbons).unwrap_or(f64::NAN),
+        compute_ms,
         probe,
         frame_ms: median(samples.iter().filter_map(|s| s.frame).collect()).unwrap_or(f64::NAN),
         cpu_ms: median(cpu).unwrap_or(f64::NAN),
@@ -555,22 +560,61 @@ fn sweep_notes(md: &mut String, beaten: &[String], suspect: bool, skipped: &[Str
     }
 }
 
+/// Rendering alone (CPU wall around a wait, median of 3) with the compute rasteriser,
+/// binned by tile and walked per strand: the stage switched to `render.strands: Compute`
+/// in place (a redraw: the groom and its motion stay), then back.
+fn compute_rasteriser_ms(
+    gpu: &Gpu,
+    stage: &mut Stage,
+    scene: &Scene,
+    view: &wgpu::TextureView,
+    size: (u32, u32),
+    look: &crate::stage::Look,
+) -> Result<[f64; 2]> {
+    let mut compute = scene.clone();
+    compute.render.strands = crate::scene::StrandRaster::Compute;
+    stage.apply(gpu, &compute)?;
+    let mut ms = [f64::NAN; 2];
+    if stage.systems().iter().any(|s| s.splats()) {
+        for (i, binned) in [true, false].into_iter().enumerate() {
+            if let Some(a) = stage.system_mut::<AnjyoSystem>() {
+                a.set_binned(binned);
+            }
+            let mut runs = Vec::new();
+            for _ in 0..4 {
+                runs.push(wall_ms(gpu, stage, |stage, enc| {
+                    stage.render(gpu, enc, view, size, look)
+                })?);
+            }
+            // The first run makes the pipelines and targets.
+            runs.remove(0);
+            ms[i] = median(runs).unwrap_or(f64::NAN);
+        }
+    }
+    stage.apply(gpu, scene)?;
+    Ok(ms)
+}
+
 /// How to draw thin strands: rendering alone beside the compute walk's lower bound.
 fn render_vs_walk(md: &mut String, points: &[Point]) {
     let _ = writeln!(md, "\n**How to draw thin strands** (issue 12, item 6: measure before choosing). Rendering alone (generation, the triangle-strip ribbons, resolve; CPU wall around a wait) beside `bench::splat`: a compute pass that only walks every segment across the pixels it crosses and counts them (no depth, shading or coverage), the lower bound of a compute rasteriser at this size.\n");
-    let _ = writeln!(md, "| strands | segments/strand | render alone ms | compute walk ms | pixel steps | render / walk |");
-    let _ = writeln!(md, "|---:|---:|---:|---:|---:|---:|");
+    let _ = writeln!(md, "Beside them, rendering alone with the compute rasteriser (`render.strands: Compute`), binned by screen tile and walked one invocation per strand (the same image word for word), and the binned one against the walk.\n");
+    let _ = writeln!(md, "| strands | segments/strand | render alone ms (ribbons) | compute binned ms | compute per strand ms | compute walk ms | pixel steps | ribbons / walk | binned / walk |");
+    let _ = writeln!(md, "|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for p in points {
         if let Some(pr) = &p.probe {
             let _ = writeln!(
                 md,
-                "| {} | {} | {:.2} | {:.2} | {} | {:.1} |",
+                "| {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {:.1} | {:.1} |",
                 p.strands,
                 p.segments,
                 p.ribbons_ms,
+                p.compute_ms[0],
+                p.compute_ms[1],
                 pr.ms,
                 pr.pixel_steps,
-                p.ribbons_ms / pr.ms
+                p.ribbons_ms / pr.ms,
+                p.compute_ms[0] / pr.ms
             );
         }
     }

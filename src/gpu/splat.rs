@@ -5,6 +5,8 @@
 //!
 //! Systems bind it as group 2 of their splat pipelines; the layout differs with and
 //! without MSAA (the depth texture is multisampled or not), so both are built up front.
+//! The binned rasteriser's tile lists live here too (`bins`, `refs`): one set per target,
+//! reused by every system that splats, one after the other.
 
 use crate::gpu::{bind, Gpu};
 
@@ -14,6 +16,11 @@ pub const WORDS: u64 = 5;
 /// `shaders/stage/downsample.wgsl`; `tests/it/gpu_twins.rs` checks them).
 pub const COLOR_SCALE: f64 = 16384.0;
 pub const DEPTH_SCALE: f64 = 4096.0;
+/// Tile side of the binned rasteriser, in samples (`TILE` in `shaders/anjyo/splat.wgsl`).
+pub const TILE: u32 = 16;
+/// (segment, tile) references the lists hold per sample of the target: past that, a tile's
+/// segments are drawn without binning (correct, slower), never dropped.
+const REFS_PER_SAMPLE: u64 = 4;
 
 /// The group 2 layouts: single-sampled and multisampled scene depth.
 #[derive(Clone)]
@@ -30,7 +37,12 @@ impl SplatLayouts {
                 device,
                 "splat target",
                 wgpu::ShaderStages::COMPUTE,
-                &[bind::storage_rw::<u32>(), depth],
+                &[
+                    bind::storage_rw::<u32>(),
+                    depth,
+                    bind::storage_rw::<u32>(),
+                    bind::storage_rw::<u32>(),
+                ],
             )
         };
         SplatLayouts {
@@ -51,7 +63,16 @@ impl SplatLayouts {
 /// The accumulation for one set of scene targets and its bind group.
 pub struct SplatTarget {
     pub accum: wgpu::Buffer,
+    /// Per tile: segment counts, list offsets, write cursors (`bins` in the shader).
+    pub bins: wgpu::Buffer,
+    /// The tiles' lists of segment references (`bin_refs`).
+    pub refs: wgpu::Buffer,
     pub bind_group: wgpu::BindGroup,
+}
+
+/// Tiles across and down a target of `size` samples.
+pub fn tile_grid(size: (u32, u32)) -> (u32, u32) {
+    (size.0.div_ceil(TILE), size.1.div_ceil(TILE))
 }
 
 impl SplatTarget {
@@ -73,6 +94,14 @@ impl SplatTarget {
                 | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
+        let (tx, ty) = tile_grid(size);
+        // Zeroed at creation: each binning leaves the counts at 0 for the next.
+        let bins = storage(gpu, "splat tile bins", 3 * tx as u64 * ty as u64 * 4);
+        let samples_total = size.0 as u64 * size.1 as u64;
+        let lim = gpu.device.limits();
+        let limit = lim.max_storage_buffer_binding_size.min(lim.max_buffer_size);
+        let refs_bytes = (REFS_PER_SAMPLE * samples_total * 4).clamp(4, limit / 4 * 4);
+        let refs = storage(gpu, "splat tile lists", refs_bytes);
         let bind_group = bind::group(
             &gpu.device,
             "splat target",
@@ -80,8 +109,25 @@ impl SplatTarget {
             &[
                 accum.as_entire_binding(),
                 wgpu::BindingResource::TextureView(depth),
+                bins.as_entire_binding(),
+                refs.as_entire_binding(),
             ],
         );
-        Ok(SplatTarget { accum, bind_group })
+        Ok(SplatTarget {
+            accum,
+            bins,
+            refs,
+            bind_group,
+        })
     }
+}
+
+/// A zeroed storage buffer of `bytes` only the GPU reads and writes.
+fn storage(gpu: &Gpu, label: &str, bytes: u64) -> wgpu::Buffer {
+    gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some(label),
+        size: bytes,
+        usage: wgpu::BufferUsages::STORAGE,
+        mapped_at_creation: false,
+    })
 }

@@ -587,6 +587,12 @@ fn twin_constants() -> Vec<(&'static str, &'static str, f64, &'static str)> {
             "gpu::splat::DEPTH_SCALE",
         ),
         (
+            "anjyo/splat.wgsl",
+            "TILE",
+            splat::TILE as f64,
+            "gpu::splat::TILE",
+        ),
+        (
             "stage/downsample.wgsl",
             "COLOR_SCALE",
             splat::COLOR_SCALE,

@@ -491,6 +491,11 @@ const NAMES_A_KIND: &[(&str, &str, &str)] = &[
         "strand LOD measures the Anjyo kind's strands (the only kind drawn as thin strands)",
     ),
     (
+        "src/bench/raster.rs",
+        "anjyo",
+        "the raster study times the Anjyo kind's compute rasteriser binned and walked per strand",
+    ),
+    (
         "src/bench/scale.rs",
         "anjyo",
         "strands at scale grooms the Anjyo kind up to a million strands",

@@ -38,7 +38,14 @@ pub struct StrandsPass {
     splat_layouts: SplatLayouts,
     /// The compute rasteriser for the current MSAA sample count (the depth it reads),
     /// made on the first frame that splats.
-    splat: std::cell::OnceCell<Option<wgpu::ComputePipeline>>,
+    splat: std::cell::OnceCell<Option<SplatPipelines>>,
+    /// Bin the segments by screen tile (`bin_*` kernels) rather than walk each strand with
+    /// global atomics (`splat`); the same accumulation either way. Off until a hardware GPU
+    /// shows binning faster: on lavapipe it is 2.2 times slower (`kami bench scale`,
+    /// docs/raster.md), where atomics are cheap and its repeated node shading is not.
+    binned: bool,
+    /// Tiles across and down the target (`prepare`).
+    tiles: (u32, u32),
     /// Group 2 of the shadow cast (`gpu::shadow`), and its pipeline once shadows are on.
     cast_layout: wgpu::BindGroupLayout,
     cast: std::cell::OnceCell<Option<wgpu::ComputePipeline>>,
@@ -53,6 +60,16 @@ pub struct StrandsPass {
     /// x: width factor of the screen-space level of detail, y: node step (`prepare`).
     lod: wgpu::Buffer,
     step: u32,
+}
+
+/// The compute rasteriser's kernels (`shaders/anjyo/splat.wgsl`): one invocation per strand
+/// (`splat`), or binned by tile in four passes.
+struct SplatPipelines {
+    direct: wgpu::ComputePipeline,
+    count: wgpu::ComputePipeline,
+    scan: wgpu::ComputePipeline,
+    scatter: wgpu::ComputePipeline,
+    raster: wgpu::ComputePipeline,
 }
 
 struct Bound {
@@ -130,6 +147,8 @@ impl StrandsPass {
             frame_layout: frame_layout.clone(),
             splat_layouts: splat_layouts.clone(),
             splat: Default::default(),
+            binned: false,
+            tiles: (0, 0),
             cast_layout: cast_layout.clone(),
             cast: Default::default(),
             variant,
@@ -144,7 +163,7 @@ impl StrandsPass {
 
     /// The compute rasteriser reading a scene depth of `variant.samples` samples, shading
     /// with `variant.shadow`'s lookup.
-    fn splat_pipeline(&self) -> Result<wgpu::ComputePipeline> {
+    fn splat_pipeline(&self) -> Result<SplatPipelines> {
         let (device, samples) = (&self.device, self.variant.samples);
         let source = if samples > 1 {
             super::SPLAT_MSAA
@@ -152,28 +171,31 @@ impl StrandsPass {
             super::SPLAT
         };
         let module = gpu::shader_module(device, "anjyo splat", source)?;
-        let pl = pipeline::pipeline_layout(
+        let [direct, count, scan, scatter, raster] = gpu::compute_pipelines_over(
             device,
             "strands splat",
             &[
-                &self.frame_layout,
-                &self.layout,
-                self.splat_layouts.for_samples(samples),
+                Some(&self.frame_layout),
+                Some(&self.layout),
+                Some(self.splat_layouts.for_samples(samples)),
             ],
+            &module,
+            [
+                "splat",
+                "bin_count",
+                "bin_scan",
+                "bin_scatter",
+                "bin_raster",
+            ],
+            &self.variant.constants(Some(self.physical)),
         );
-        Ok(
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("strands splat"),
-                layout: Some(&pl),
-                module: &module,
-                entry_point: Some("splat"),
-                compilation_options: wgpu::PipelineCompilationOptions {
-                    constants: &self.variant.constants(Some(self.physical)),
-                    ..Default::default()
-                },
-                cache: None,
-            }),
-        )
+        Ok(SplatPipelines {
+            direct,
+            count,
+            scan,
+            scatter,
+            raster,
+        })
     }
 
     /// The shadow cast (`anjyo/cast.wgsl`) over groups 0, 1 and the cast group 2.
@@ -340,8 +362,16 @@ impl StrandsPass {
 
     /// The screen-space level of detail's width factor and node step for the next draws,
     /// and the share `fraction` of each group the compute rasteriser draws.
-    pub fn prepare(&mut self, queue: &wgpu::Queue, width_scale: f64, step: u32, fraction: f64) {
+    pub fn prepare(
+        &mut self,
+        queue: &wgpu::Queue,
+        width_scale: f64,
+        step: u32,
+        fraction: f64,
+        samples: (u32, u32),
+    ) {
         self.step = step.max(1);
+        self.tiles = crate::gpu::splat::tile_grid(samples);
         let lod = [width_scale as f32, self.step as f32, 0.0, 0.0];
         queue.write_buffer(&self.lod, 0, bytemuck::bytes_of(&lod));
         if let Some(b) = self.bound.as_mut().filter(|b| b.drawn_fraction != fraction) {
@@ -366,6 +396,13 @@ impl StrandsPass {
         !(self.gl && self.variant.samples > 1)
     }
 
+    /// Bin the segments by screen tile or walk each strand with global atomics (the
+    /// default): the same accumulation (`tests/it/splat.rs`), timed side by side by
+    /// `kami bench raster` and `kami bench scale`.
+    pub fn set_binned(&mut self, binned: bool) {
+        self.binned = binned;
+    }
+
     /// Record the compute rasteriser over every strand (those past each group's drawn share
     /// return at once); groups 0 and 2 are bound by the stage.
     pub fn splat(&self, pass: &mut wgpu::ComputePass<'_>) {
@@ -374,17 +411,39 @@ impl StrandsPass {
         if groups == 0 {
             return;
         }
-        let pipeline = self.splat.get_or_init(|| match self.splat_pipeline() {
+        let pipelines = self.splat.get_or_init(|| match self.splat_pipeline() {
             Ok(p) => Some(p),
             Err(e) => {
                 log::error!("the compute rasteriser for thin strands: {e}");
                 None
             }
         });
-        let Some(pipeline) = pipeline else { return };
-        pass.set_pipeline(pipeline);
+        let Some(p) = pipelines else { return };
         pass.set_bind_group(1, &b.bind_group, &[]);
-        pass.dispatch_workgroups(groups.min(65535), groups.div_ceil(65535), 1);
+        let (gx, gy) = (groups.min(65535), groups.div_ceil(65535));
+        if !self.binned {
+            pass.set_pipeline(&p.direct);
+            pass.dispatch_workgroups(gx, gy, 1);
+            return;
+        }
+        // One invocation per drawn segment: z is the segment's index along its strand.
+        let segments = b
+            .ranges
+            .iter()
+            .map(|r| self.drawn_nodes(r.nodes_per_strand).saturating_sub(1))
+            .max()
+            .unwrap_or(0);
+        if segments == 0 {
+            return;
+        }
+        pass.set_pipeline(&p.count);
+        pass.dispatch_workgroups(gx, gy, segments);
+        pass.set_pipeline(&p.scan);
+        pass.dispatch_workgroups(1, 1, 1);
+        pass.set_pipeline(&p.scatter);
+        pass.dispatch_workgroups(gx, gy, segments);
+        pass.set_pipeline(&p.raster);
+        pass.dispatch_workgroups(self.tiles.0, self.tiles.1, 1);
     }
 
     /// Nodes drawn per strand of a group with `nodes_per_strand` nodes.

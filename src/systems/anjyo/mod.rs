@@ -450,6 +450,12 @@ impl AnjyoSystem {
         })
     }
 
+    /// The compute rasteriser binned by tile or one walk per strand with global atomics
+    /// (the default; `StrandsPass::set_binned`): the same image, for side-by-side timing.
+    pub fn set_binned(&mut self, binned: bool) {
+        self.draw.set_binned(binned);
+    }
+
     /// Groom the scene's hair on the GPU and set up its simulation and draw.
     pub fn new(gpu: &Gpu, scene: &Scene, setup: &DrawSetup) -> Result<AnjyoSystem> {
         let input = groom::prepare(scene)?;
@@ -598,6 +604,7 @@ impl HairSystem for AnjyoSystem {
             self.screen.width_scale,
             self.screen.step,
             self.lod,
+            view.samples,
         );
         Ok(())
     }
