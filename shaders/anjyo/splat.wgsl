@@ -89,8 +89,8 @@ fn depth_weight(z: f32) -> f32 {
     return d * d * d;
 }
 
-// The five words hair of coverage a at depth z adds to sample (x, y), in fixed point; w 0
-// of `.rest` when it adds nothing (off screen, no coverage, behind the opaque scene).
+// The five words hair of coverage a at depth z adds to sample (x, y), in fixed point;
+// `rest.y` is 0 when it adds nothing (off screen, no coverage, behind the opaque scene).
 struct Words {
     rgbw: vec4<u32>,
     // x optical depth, y 1 when the sample gets the words.
@@ -138,12 +138,12 @@ fn add_sample(x: i32, y: i32, a: f32, z: f32, rgb: vec3<f32>, clip: vec4<i32>, t
 }
 
 // The segment from a to b in (major, minor) sample coordinates, its major axis the one it
-// runs further along, ordered along it: x the start, y the end, z 1 when x is the screen's x;
-// w 0 when it draws nothing (a node behind the camera, or no run).
+// runs further along: pa its start and pb its end along that axis.
 struct Run {
     pa: vec2<f32>,
     pb: vec2<f32>,
-    // a and b swapped (b first), x-major, drawn.
+    // x: b comes first along the major axis (a and b swapped); y: the major axis is the
+    // screen's x; z: it draws something (no node behind the camera, a run past 1e-6).
     flags: vec3<bool>,
 }
 
