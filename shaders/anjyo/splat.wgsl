@@ -332,22 +332,30 @@ fn placed(s: Strand, n: u32) -> ScreenNode {
     return to_screen(node);
 }
 
-// The tiles (x0, y0, x1, y1, inclusive) a sample rectangle reaches.
-fn rect_tiles(r: vec4<i32>) -> vec4<i32> {
-    return r / TILE;
+// The segment invocation `id` bins (as `binned_segment`) and the tiles (x0, y0, x1, y1,
+// inclusive) its sample rectangle reaches: none (x0 > x1) without a segment or a rectangle.
+struct Binned {
+    seg: Seg,
+    tiles: vec4<i32>,
+}
+
+fn binned_tiles(id: vec3<u32>) -> Binned {
+    var out: Binned;
+    out.tiles = vec4<i32>(1, 1, 0, 0);
+    out.seg = binned_segment(drawn_strand(id), id.z);
+    if out.seg.id == NONE {
+        return out;
+    }
+    let rect = segment_rect(out.seg.a, out.seg.b);
+    if rect.x <= rect.z && rect.y <= rect.w {
+        out.tiles = rect / TILE;
+    }
+    return out;
 }
 
 @compute @workgroup_size(64)
 fn bin_count(@builtin(global_invocation_id) id: vec3<u32>) {
-    let seg = binned_segment(drawn_strand(id), id.z);
-    if seg.id == NONE {
-        return;
-    }
-    let rect = segment_rect(seg.a, seg.b);
-    if rect.x > rect.z || rect.y > rect.w {
-        return;
-    }
-    let t = rect_tiles(rect);
+    let t = binned_tiles(id).tiles;
     let across = i32(tile_grid().x);
     for (var ty = t.y; ty <= t.w; ty++) {
         for (var tx = t.x; tx <= t.z; tx++) {
@@ -393,15 +401,9 @@ fn bin_scan(@builtin(local_invocation_index) li: u32) {
 
 @compute @workgroup_size(64)
 fn bin_scatter(@builtin(global_invocation_id) id: vec3<u32>) {
-    let seg = binned_segment(drawn_strand(id), id.z);
-    if seg.id == NONE {
-        return;
-    }
-    let rect = segment_rect(seg.a, seg.b);
-    if rect.x > rect.z || rect.y > rect.w {
-        return;
-    }
-    let t = rect_tiles(rect);
+    let b = binned_tiles(id);
+    let seg = b.seg;
+    let t = b.tiles;
     let g = tile_grid();
     let tiles = g.x * g.y;
     for (var ty = t.y; ty <= t.w; ty++) {
