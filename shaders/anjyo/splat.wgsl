@@ -34,9 +34,9 @@
 // Per tile (T tiles): [0, T) segment counts, [T, 2T) offsets in `bin_refs` (NONE: the tile
 // does not fit and is drawn directly), [2T, 3T) write cursors. `bin_raster` leaves the
 // counts at 0 for the next binning.
-@group(2) @binding(2) var<storage, read_write> bins: array<atomic<u32>>;
+@group(3) @binding(0) var<storage, read_write> bins: array<atomic<u32>>;
 // Per (segment, tile) pair: the segment's reference, strand * 256 + segment.
-@group(2) @binding(3) var<storage, read_write> bin_refs: array<u32>;
+@group(3) @binding(1) var<storage, read_write> bin_refs: array<u32>;
 
 // Fixed-point scales of the accumulation, as in stage/downsample.wgsl and
 // src/gpu/splat.rs (tests/it/gpu_twins.rs checks them).

@@ -5,8 +5,8 @@
 //!
 //! Systems bind it as group 2 of their splat pipelines; the layout differs with and
 //! without MSAA (the depth texture is multisampled or not), so both are built up front.
-//! The binned rasteriser's tile lists live here too (`bins`, `refs`): one set per target,
-//! reused by every system that splats, one after the other.
+//! The binned rasteriser's tile lists (`TileBins`, group 3 of the `bin_*` kernels) are made
+//! by a pass only once it bins, sized by the target's tiles.
 
 use crate::gpu::{bind, Gpu};
 
@@ -37,12 +37,7 @@ impl SplatLayouts {
                 device,
                 "splat target",
                 wgpu::ShaderStages::COMPUTE,
-                &[
-                    bind::storage_rw::<u32>(),
-                    depth,
-                    bind::storage_rw::<u32>(),
-                    bind::storage_rw::<u32>(),
-                ],
+                &[bind::storage_rw::<u32>(), depth],
             )
         };
         SplatLayouts {
@@ -63,10 +58,6 @@ impl SplatLayouts {
 /// The accumulation for one set of scene targets and its bind group.
 pub struct SplatTarget {
     pub accum: wgpu::Buffer,
-    /// Per tile: segment counts, list offsets, write cursors (`bins` in the shader).
-    pub bins: wgpu::Buffer,
-    /// The tiles' lists of segment references (`bin_refs`).
-    pub refs: wgpu::Buffer,
     pub bind_group: wgpu::BindGroup,
 }
 
@@ -94,14 +85,6 @@ impl SplatTarget {
                 | wgpu::BufferUsages::COPY_SRC,
             mapped_at_creation: false,
         });
-        let (tx, ty) = tile_grid(size);
-        // Zeroed at creation: each binning leaves the counts at 0 for the next.
-        let bins = storage(gpu, "splat tile bins", 3 * tx as u64 * ty as u64 * 4);
-        let samples_total = size.0 as u64 * size.1 as u64;
-        let lim = gpu.device.limits();
-        let limit = lim.max_storage_buffer_binding_size.min(lim.max_buffer_size);
-        let refs_bytes = (REFS_PER_SAMPLE * samples_total * 4).clamp(4, limit / 4 * 4);
-        let refs = storage(gpu, "splat tile lists", refs_bytes);
         let bind_group = bind::group(
             &gpu.device,
             "splat target",
@@ -109,22 +92,58 @@ impl SplatTarget {
             &[
                 accum.as_entire_binding(),
                 wgpu::BindingResource::TextureView(depth),
-                bins.as_entire_binding(),
-                refs.as_entire_binding(),
             ],
         );
-        Ok(SplatTarget {
-            accum,
-            bins,
-            refs,
-            bind_group,
-        })
+        Ok(SplatTarget { accum, bind_group })
+    }
+}
+
+/// The binned rasteriser's tile lists for one target size (`bins` and `bin_refs` in
+/// `shaders/anjyo/splat.wgsl`, group 3 of its `bin_*` kernels): per tile the segment
+/// counts, list offsets and write cursors, and the lists themselves.
+pub struct TileBins {
+    /// Tiles across and down.
+    pub tiles: (u32, u32),
+    pub bind_group: wgpu::BindGroup,
+}
+
+impl TileBins {
+    /// The group 3 layout of the `bin_*` kernels.
+    pub fn layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+        bind::layout(
+            device,
+            "splat tile bins",
+            wgpu::ShaderStages::COMPUTE,
+            &[bind::storage_rw::<u32>(), bind::storage_rw::<u32>()],
+        )
+    }
+
+    /// For a target of `size` samples.
+    pub fn new(
+        device: &wgpu::Device,
+        layout: &wgpu::BindGroupLayout,
+        size: (u32, u32),
+    ) -> TileBins {
+        let tiles = tile_grid(size);
+        // Zeroed at creation: each binning leaves the counts at 0 for the next.
+        let bins = storage(
+            device,
+            "splat tile bins",
+            3 * tiles.0 as u64 * tiles.1 as u64 * 4,
+        );
+        let samples_total = size.0 as u64 * size.1 as u64;
+        let lim = device.limits();
+        let limit = lim.max_storage_buffer_binding_size.min(lim.max_buffer_size);
+        let refs_bytes = (REFS_PER_SAMPLE * samples_total * 4).clamp(4, limit / 4 * 4);
+        let refs = storage(device, "splat tile lists", refs_bytes);
+        let bind_group = bind::buffers(device, "splat tile bins", layout, &[&bins, &refs]);
+        TileBins { tiles, bind_group }
     }
 }
 
 /// A zeroed storage buffer of `bytes` only the GPU reads and writes.
-fn storage(gpu: &Gpu, label: &str, bytes: u64) -> wgpu::Buffer {
-    gpu.device.create_buffer(&wgpu::BufferDescriptor {
+fn storage(device: &wgpu::Device, label: &str, bytes: u64) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
         label: Some(label),
         size: bytes,
         usage: wgpu::BufferUsages::STORAGE,

@@ -16,7 +16,7 @@ use super::gpu_data::{GpuLook, GpuMaterial};
 use crate::error::Result;
 use crate::gpu::gpu_data::{linear_rgb, GpuStrand};
 use crate::gpu::pipeline::{self, DrawPipeline, Variant};
-use crate::gpu::splat::SplatLayouts;
+use crate::gpu::splat::{SplatLayouts, TileBins};
 use crate::gpu::strands::StrandBuffers;
 use crate::gpu::{self, bind, Gpu};
 use crate::systems::anjyo::block::Material;
@@ -44,8 +44,9 @@ pub struct StrandsPass {
     /// shows binning faster: on lavapipe it is 2.2 times slower (`kami bench scale`,
     /// docs/raster.md), where atomics are cheap and its repeated node shading is not.
     binned: bool,
-    /// Tiles across and down the target (`prepare`).
-    tiles: (u32, u32),
+    /// The tile lists while binning, for the target size of the last `prepare`.
+    bins: Option<TileBins>,
+    bins_layout: wgpu::BindGroupLayout,
     /// Group 2 of the shadow cast (`gpu::shadow`), and its pipeline once shadows are on.
     cast_layout: wgpu::BindGroupLayout,
     cast: std::cell::OnceCell<Option<wgpu::ComputePipeline>>,
@@ -148,7 +149,8 @@ impl StrandsPass {
             splat_layouts: splat_layouts.clone(),
             splat: Default::default(),
             binned: false,
-            tiles: (0, 0),
+            bins: None,
+            bins_layout: TileBins::layout(device),
             cast_layout: cast_layout.clone(),
             cast: Default::default(),
             variant,
@@ -171,23 +173,28 @@ impl StrandsPass {
             super::SPLAT
         };
         let module = gpu::shader_module(device, "anjyo splat", source)?;
-        let [direct, count, scan, scatter, raster] = gpu::compute_pipelines_over(
+        let constants = self.variant.constants(Some(self.physical));
+        let groups = [
+            Some(&self.frame_layout),
+            Some(&self.layout),
+            Some(self.splat_layouts.for_samples(samples)),
+            Some(&self.bins_layout),
+        ];
+        let [direct] = gpu::compute_pipelines_over(
             device,
             "strands splat",
-            &[
-                Some(&self.frame_layout),
-                Some(&self.layout),
-                Some(self.splat_layouts.for_samples(samples)),
-            ],
+            &groups[..3],
             &module,
-            [
-                "splat",
-                "bin_count",
-                "bin_scan",
-                "bin_scatter",
-                "bin_raster",
-            ],
-            &self.variant.constants(Some(self.physical)),
+            ["splat"],
+            &constants,
+        );
+        let [count, scan, scatter, raster] = gpu::compute_pipelines_over(
+            device,
+            "strands splat binned",
+            &groups,
+            &module,
+            ["bin_count", "bin_scan", "bin_scatter", "bin_raster"],
+            &constants,
         );
         Ok(SplatPipelines {
             direct,
@@ -371,7 +378,10 @@ impl StrandsPass {
         samples: (u32, u32),
     ) {
         self.step = step.max(1);
-        self.tiles = crate::gpu::splat::tile_grid(samples);
+        let tiles = crate::gpu::splat::tile_grid(samples);
+        if self.binned && self.bins.as_ref().is_none_or(|b| b.tiles != tiles) {
+            self.bins = Some(TileBins::new(&self.device, &self.bins_layout, samples));
+        }
         let lod = [width_scale as f32, self.step as f32, 0.0, 0.0];
         queue.write_buffer(&self.lod, 0, bytemuck::bytes_of(&lod));
         if let Some(b) = self.bound.as_mut().filter(|b| b.drawn_fraction != fraction) {
@@ -401,6 +411,9 @@ impl StrandsPass {
     /// `kami bench raster` and `kami bench scale`.
     pub fn set_binned(&mut self, binned: bool) {
         self.binned = binned;
+        if !binned {
+            self.bins = None;
+        }
     }
 
     /// Record the compute rasteriser over every strand (those past each group's drawn share
@@ -421,11 +434,12 @@ impl StrandsPass {
         let Some(p) = pipelines else { return };
         pass.set_bind_group(1, &b.bind_group, &[]);
         let (gx, gy) = (groups.min(65535), groups.div_ceil(65535));
-        if !self.binned {
+        // Binned from the first `prepare` after `set_binned(true)` on.
+        let Some(bins) = self.bins.as_ref().filter(|_| self.binned) else {
             pass.set_pipeline(&p.direct);
             pass.dispatch_workgroups(gx, gy, 1);
             return;
-        }
+        };
         // One invocation per drawn segment: z is the segment's index along its strand.
         let segments = b
             .ranges
@@ -436,6 +450,7 @@ impl StrandsPass {
         if segments == 0 {
             return;
         }
+        pass.set_bind_group(3, &bins.bind_group, &[]);
         pass.set_pipeline(&p.count);
         pass.dispatch_workgroups(gx, gy, segments);
         pass.set_pipeline(&p.scan);
@@ -443,7 +458,7 @@ impl StrandsPass {
         pass.set_pipeline(&p.scatter);
         pass.dispatch_workgroups(gx, gy, segments);
         pass.set_pipeline(&p.raster);
-        pass.dispatch_workgroups(self.tiles.0, self.tiles.1, 1);
+        pass.dispatch_workgroups(bins.tiles.0, bins.tiles.1, 1);
     }
 
     /// Nodes drawn per strand of a group with `nodes_per_strand` nodes.
