@@ -287,7 +287,8 @@ fn look_common(ui: &mut Ui, s: &mut ViewerState) {
     });
     ui.horizontal(|ui| {
         ui.label("strands")
-            .on_hover_text("ribbons: two triangles per segment; compute: the compute rasteriser for thin strands (analytic coverage; kami bench raster)");
+            .on_hover_text("auto: compute for thin strands, ribbons for close-ups, by the widest strand's width against the switch point kami bench raster measured (docs/raster_switch.ron); ribbons: two triangles per segment; compute: the compute rasteriser for thin strands (analytic coverage)");
+        ui.radio_value(&mut r.strands, crate::scene::StrandRaster::Auto, "auto");
         ui.radio_value(&mut r.strands, crate::scene::StrandRaster::Ribbons, "ribbons");
         ui.radio_value(&mut r.strands, crate::scene::StrandRaster::Compute, "compute");
     });
@@ -372,8 +373,9 @@ fn stats(ui: &mut Ui, s: &ViewerState) {
         ui.end_row();
         for (kind, c) in &st.systems {
             ui.label(*kind);
+            let raster = c.raster.map(|r| format!("; {r}")).unwrap_or_default();
             ui.label(format!(
-                "{} drawn of {} ({} simulated)",
+                "{} drawn of {} ({} simulated){raster}",
                 c.drawn, c.strands, c.simulated
             ));
             ui.end_row();

@@ -13,7 +13,7 @@ use crate::gpu::Gpu;
 use crate::scene::StrandRaster;
 use crate::stage::{self, target, Quality, Stage};
 use crate::systems::anjyo::AnjyoSystem;
-use crate::systems::Scene;
+use crate::systems::{HairSystem, Scene};
 use image::RgbaImage;
 use std::fmt::Write;
 use std::path::Path;
@@ -33,6 +33,7 @@ pub struct Config {
 impl Config {
     pub fn name(&self) -> String {
         let r = match (self.strands, self.binned) {
+            (StrandRaster::Auto, _) => "auto",
             (StrandRaster::Ribbons, _) => "ribbons",
             (StrandRaster::Compute, true) => "compute (binned)",
             (StrandRaster::Compute, false) => "compute (per strand)",
@@ -96,6 +97,10 @@ pub const REFERENCE: Config = Config {
 pub struct Drawn {
     pub image: RgbaImage,
     pub ms: f64,
+    /// The widest strand's width in samples as the hair saw it (`systems::raster`).
+    pub width_samples: f64,
+    /// Whether the hair was drawn by the compute rasteriser.
+    pub compute: bool,
 }
 
 /// Draw `scene` at `frame` (simulated first) with `config`, `runs` timed times.
@@ -149,9 +154,14 @@ pub fn draw_share(
     times.sort_by(f64::total_cmp);
     let image = out.read_rgba(gpu)?;
     gpu.take_error()?;
+    let (width_samples, compute) = stage
+        .system::<AnjyoSystem>()
+        .map_or((0.0, false), |a| (a.width_samples, a.splats()));
     Ok(Drawn {
         image,
         ms: times[times.len() / 2],
+        width_samples,
+        compute,
     })
 }
 
@@ -179,6 +189,170 @@ nearest hair dominates less than it would opaque. Strands wider than 16 samples 
 (ribbons suit close-ups). Only strand hair (Anjyo groups) has it; fur, strips and wisps draw as \
 before, and hair of another system in front of splatted hair is composited under it.
 ";
+
+/// A point of the width sweep: strands drawn `width` times their own width, through a
+/// camera zoomed `zoom` times (the field of view narrowed: a close-up).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SweepPoint {
+    pub width: f64,
+    pub zoom: f64,
+}
+
+/// Thin hair (the scene's strands made thinner) up to close-ups (the camera zoomed in).
+pub const SWEEP: [SweepPoint; 7] = [
+    SweepPoint {
+        width: 0.25,
+        zoom: 1.0,
+    },
+    SweepPoint {
+        width: 0.5,
+        zoom: 1.0,
+    },
+    SweepPoint {
+        width: 1.0,
+        zoom: 1.0,
+    },
+    SweepPoint {
+        width: 1.0,
+        zoom: 2.0,
+    },
+    SweepPoint {
+        width: 1.0,
+        zoom: 4.0,
+    },
+    SweepPoint {
+        width: 1.0,
+        zoom: 8.0,
+    },
+    SweepPoint {
+        width: 1.0,
+        zoom: 16.0,
+    },
+];
+
+impl SweepPoint {
+    /// `scene` with its strands widened and its camera zoomed.
+    pub fn apply(&self, scene: &Scene) -> Scene {
+        let mut s = scene.clone();
+        for g in s.groups_mut() {
+            g.material.width *= self.width;
+        }
+        let half = (0.5 * s.camera.fov_y).to_radians();
+        s.camera.fov_y = 2.0 * (half.tan() / self.zoom).atan().to_degrees();
+        s
+    }
+}
+
+/// One sweep point measured: the strands' width in samples (as `Auto` sees it), and each
+/// rasteriser's ms and (tile, pixel) error against the reference.
+#[derive(Clone, Copy, Debug)]
+pub struct Measured {
+    pub point: SweepPoint,
+    pub width_samples: f64,
+    pub ribbons: (f64, (f64, f64)),
+    pub compute: (f64, (f64, f64)),
+}
+
+impl Measured {
+    /// The compute rasteriser is faster and no less accurate (tile and pixel error) than the
+    /// ribbons.
+    pub fn compute_wins(&self) -> bool {
+        let (r, c) = (self.ribbons, self.compute);
+        c.0 < r.0 && c.1 .0 <= r.1 .0 && c.1 .1 <= r.1 .1
+    }
+}
+
+/// `Auto`'s switch point from a sweep: the widest width in samples up to which the compute
+/// rasteriser wins at every point measured (0 when it loses at the thinnest).
+pub fn switch_point(measured: &[Measured]) -> f64 {
+    let mut m: Vec<&Measured> = measured
+        .iter()
+        .filter(|m| m.width_samples.is_finite())
+        .collect();
+    m.sort_by(|a, b| a.width_samples.total_cmp(&b.width_samples));
+    let mut up_to = 0.0;
+    for p in m {
+        if !p.compute_wins() {
+            break;
+        }
+        up_to = p.width_samples;
+    }
+    up_to
+}
+
+/// `path`'s switch points with this adapter class's replaced by `point` (the other class's
+/// kept), as RON.
+pub fn switch_file(
+    path: &Path,
+    software: bool,
+    point: crate::systems::raster::SwitchPoint,
+) -> Result<String> {
+    use crate::systems::raster::Switches;
+    let mut s = match std::fs::read_to_string(path) {
+        Ok(text) => ron::from_str::<Switches>(&text).map_err(|e| crate::KamiError::Parse {
+            path: path.display().to_string(),
+            line: e.span.start.line,
+            col: e.span.start.col,
+            message: e.code.to_string(),
+        })?,
+        Err(_) => Switches {
+            software: None,
+            hardware: None,
+        },
+    };
+    if software {
+        s.software = Some(point);
+    } else {
+        s.hardware = Some(point);
+    }
+    let entry = |p: &Option<crate::systems::raster::SwitchPoint>| match p {
+        Some(p) => format!(
+            "Some((\n        adapter: {:?},\n        compute_up_to: {:.3},\n    ))",
+            p.adapter, p.compute_up_to
+        ),
+        None => "None".into(),
+    };
+    Ok(format!(
+        "// Written by `kami bench raster`: the widest strand, in samples, that `render.strands: Auto`\n\
+         // draws with the compute rasteriser, per adapter class (src/systems/raster.rs).\n\
+         (\n    software: {},\n    hardware: {},\n)\n",
+        entry(&s.software),
+        entry(&s.hardware)
+    ))
+}
+
+/// Measure every sweep point of `scene` at `size`: the reference, then the ribbons and the
+/// compute rasteriser at the scene's MSAA.
+pub fn sweep(
+    gpu: &Gpu,
+    scene: &Scene,
+    size: (u32, u32),
+    frame: u64,
+    runs: u32,
+) -> Result<Vec<Measured>> {
+    let msaa = scene.render.msaa;
+    let with = |strands| Config {
+        strands,
+        msaa,
+        supersample: 1,
+        binned: false,
+    };
+    SWEEP
+        .iter()
+        .map(|p| {
+            let s = p.apply(scene);
+            let reference = draw(gpu, &s, REFERENCE, size, frame, 1)?;
+            let r = draw(gpu, &s, with(StrandRaster::Ribbons), size, frame, runs)?;
+            let c = draw(gpu, &s, with(StrandRaster::Compute), size, frame, runs)?;
+            Ok(Measured {
+                point: *p,
+                width_samples: c.width_samples,
+                ribbons: (r.ms, model_error(&r.image, &reference.image)),
+                compute: (c.ms, model_error(&c.image, &reference.image)),
+            })
+        })
+        .collect()
+}
 
 pub fn run(
     gpu: &Gpu,
@@ -240,6 +414,102 @@ pub fn run(
             message: e.to_string(),
         })?;
     }
+    let software = gpu.info.device_type == wgpu::DeviceType::Cpu;
+    let measured = sweep(gpu, &scene, size, frame, runs)?;
+    let up_to = switch_point(&measured);
+    let _ = writeln!(
+        md,
+        "\n#### Ribbons or compute by strand width (`render.strands: Auto`)\n\nThe scene's strands made thinner (width factor) and its camera zoomed in (zoom: the field of view narrowed, a close-up), each drawn at MSAA {} x supersample 1 by both rasterisers and by the reference. *Width* is the widest strand's width in samples at the hair's nearest point, as `Auto` measures it (`src/systems/raster.rs`). The compute rasteriser *wins* a point when it is faster and neither error is larger than the ribbons'.\n",
+        scene.render.msaa
+    );
+    let _ = writeln!(
+        md,
+        "| width factor | zoom | width (samples) | ribbons ms | compute ms | ribbons tile / pixel error | compute tile / pixel error | compute wins |"
+    );
+    let _ = writeln!(md, "|---:|---:|---:|---:|---:|---:|---:|:---:|");
+    let mut widths = Vec::new();
+    for m in &measured {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {:.2} | {:.1} | {:.1} | {:.2} / {:.2} | {:.2} / {:.2} | {} |",
+            m.point.width,
+            m.point.zoom,
+            m.width_samples,
+            m.ribbons.0,
+            m.compute.0,
+            m.ribbons.1 .0,
+            m.ribbons.1 .1,
+            m.compute.1 .0,
+            m.compute.1 .1,
+            if m.compute_wins() { "yes" } else { "no" }
+        );
+        widths.push((
+            m.width_samples.max(0.01),
+            m.ribbons.0,
+            m.compute.0,
+            m.ribbons.1 .1,
+            m.compute.1 .1,
+        ));
+    }
+    let _ = writeln!(
+        md,
+        "\n**Switch point on this adapter class ({}): the compute rasteriser up to {:.3} samples wide**{}. Written to `raster_switch.ron` beside this report; `docs/raster_switch.ron` is compiled into Kami (`src/systems/raster.rs`), with 10 % hysteresis either side.\n",
+        if software { "software" } else { "hardware" },
+        up_to,
+        if up_to == 0.0 {
+            " (it wins at no width measured: `Auto` draws ribbons)"
+        } else {
+            ""
+        }
+    );
+    let switch = out.join("raster_switch.ron");
+    let text = switch_file(
+        &switch,
+        software,
+        crate::systems::raster::SwitchPoint {
+            adapter: gpu.describe(),
+            compute_up_to: up_to,
+        },
+    )?;
+    std::fs::write(&switch, text).map_err(|source| crate::KamiError::Io {
+        path: switch.clone(),
+        source,
+    })?;
+    let series = [
+        (
+            "ribbons ms",
+            0usize,
+            widths.iter().map(|w| (w.0, w.1)).collect::<Vec<_>>(),
+        ),
+        ("compute ms", 1, widths.iter().map(|w| (w.0, w.2)).collect()),
+        (
+            "ribbons pixel error",
+            2,
+            widths.iter().map(|w| (w.0, w.3.max(0.01))).collect(),
+        ),
+        (
+            "compute pixel error",
+            3,
+            widths.iter().map(|w| (w.0, w.4.max(0.01))).collect(),
+        ),
+    ]
+    .map(|(name, i, points)| Series {
+        name: name.into(),
+        color: plot::palette(i),
+        points,
+    });
+    let img = plot::loglog(
+        "Ribbons and compute by strand width",
+        "widest strand (samples)",
+        "ms per drawn frame; pixel error (levels of 255)",
+        &series,
+        None,
+    );
+    let p = out.join("raster_sweep.png");
+    img.save(&p).map_err(|e| crate::KamiError::Image {
+        path: p.clone(),
+        message: e.to_string(),
+    })?;
     md.push_str(CONCLUSION);
     write_report(out, "raster", &md, &csv)?;
     let img = plot::loglog(

@@ -46,7 +46,7 @@ struct Args {
     /// Supersampling factor per axis, 1 to 4 (default: the scene's render.supersample).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=4))]
     supersample: Option<u32>,
-    /// How strand hair is rasterised: ribbons or compute (default: the scene's
+    /// How thin strands are rasterised: auto, ribbons or compute (default: the scene's
     /// render.strands).
     #[arg(long, value_parser = parse_strands)]
     strands: Option<kami::scene::StrandRaster>,

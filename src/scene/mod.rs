@@ -229,7 +229,8 @@ pub struct RenderSettings {
     /// size.
     #[serde(default = "default_lod_tolerance_px")]
     pub lod_tolerance_px: f64,
-    /// How strand hair (the Anjyo groups) is rasterised.
+    /// How thin strands (Anjyo's groups, fur's line, polyline and curve coats) are
+    /// rasterised.
     #[serde(default)]
     pub strands: StrandRaster,
     /// How hair is shaded where a group does not choose (`docs/shading.md`).
@@ -330,8 +331,12 @@ impl ShadowMethod {
 /// How strand hair is rasterised.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub enum StrandRaster {
-    /// Camera-facing ribbons, two triangles per segment, coverage by MSAA sample masks.
+    /// Each kind picks every frame by its strands' width on screen: the compute rasteriser
+    /// up to the width `kami bench raster` measured it to be faster and no less accurate,
+    /// ribbons past it (`systems::raster`, `docs/raster_switch.ron`).
     #[default]
+    Auto,
+    /// Camera-facing ribbons, two triangles per segment, coverage by MSAA sample masks.
     Ribbons,
     /// The compute rasteriser for thin strands (`shaders/anjyo/splat.wgsl`): one step per
     /// sample a segment crosses, analytic coverage, order-independent compositing. Much
@@ -341,12 +346,15 @@ pub enum StrandRaster {
 }
 
 impl StrandRaster {
-    /// From its name on a command line (`ribbons` or `compute`).
+    /// From its name on a command line (`auto`, `ribbons` or `compute`).
     pub fn parse(s: &str) -> std::result::Result<StrandRaster, String> {
         match s {
+            "auto" => Ok(StrandRaster::Auto),
             "ribbons" => Ok(StrandRaster::Ribbons),
             "compute" => Ok(StrandRaster::Compute),
-            _ => Err(format!("strands must be ribbons or compute, not {s:?}")),
+            _ => Err(format!(
+                "strands must be auto, ribbons or compute, not {s:?}"
+            )),
         }
     }
 }

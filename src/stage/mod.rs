@@ -387,6 +387,7 @@ impl Stage {
                 segments: a.segments + b.segments,
                 simulated: a.simulated + b.simulated,
                 drawn: a.drawn + b.drawn,
+                raster: None,
             })
     }
 
@@ -603,7 +604,7 @@ impl Stage {
         self.set_shadow_variant(gpu, shadow_variant(&self.scene, casting));
         // Thin strands drawn by a compute rasteriser read the scene depth and need an
         // accumulation: targets are made for whether any system splats this frame.
-        let splatting = self.systems.iter().any(|s| s.splats());
+        let mut splatting = self.systems.iter().any(|s| s.splats());
         self.ensure_targets(gpu, size, splatting)?;
         // The frame uniform first: systems that work in screen space (the wisps' tiles)
         // prepare with the same view-projection the shaders see.
@@ -617,6 +618,12 @@ impl Stage {
         let head_pose = ctx.head;
         if let Some(t) = self.timer.as_mut() {
             t.end(enc, Phase::Generation);
+        }
+        // A system drawing `Auto` chooses its rasteriser in `prepare`, by its strands' width
+        // at this view: the targets follow (same size, so the view stays true).
+        if self.systems.iter().any(|s| s.splats()) != splatting {
+            splatting = !splatting;
+            self.ensure_targets(gpu, size, splatting)?;
         }
         self.bind_splat(gpu, splatting)?;
         self.cast_shadows(gpu, enc, bounds, casting, head_pose, &mut uniform)?;

@@ -23,6 +23,7 @@ pub mod fur;
 pub mod hair_bsdf;
 pub mod kind;
 pub mod lod;
+pub mod raster;
 pub mod registry;
 pub mod scene;
 pub mod strips;
@@ -33,7 +34,9 @@ pub mod world;
 
 pub use kind::{Kind, KindCommand, Panel};
 pub use scene::Scene;
-pub use system::{Change, DrawSetup, FrameCtx, HairSystem, StepInfo, SystemStats, View};
+pub use system::{
+    Change, DrawSetup, FrameCtx, HairSystem, RasterChoice, StepInfo, SystemStats, View,
+};
 
 use crate::error::Result;
 use crate::scene::{self as shared, Head, Light, RenderSettings, MAX_STRANDS};

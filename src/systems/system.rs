@@ -55,6 +55,14 @@ pub struct View {
     pub focal_samples: f64,
 }
 
+impl View {
+    /// How much wider the frame draws strands for the viewer's budget (`lod` below 1):
+    /// `1/sqrt(lod)`, as the frame uniform's `raster.z`.
+    pub fn budget_widening(&self) -> f64 {
+        1.0 / self.lod.clamp(1e-3, 1.0).sqrt()
+    }
+}
+
 /// What a system's pipelines are built for: the shared frame bind group (group 0,
 /// `shaders/common/frame.wgsl`), the scene target format, its MSAA sample count and the
 /// shadow lookup the shading compiles; and the world its simulation kernels bind.
@@ -105,7 +113,7 @@ impl StepInfo {
 }
 
 /// Counts for the Stats panel and the CLI.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SystemStats {
     pub strands: u64,
     pub segments: u64,
@@ -113,6 +121,33 @@ pub struct SystemStats {
     pub simulated: u64,
     /// Strands drawn in the last frame (after level of detail and culling).
     pub drawn: u64,
+    /// For a kind with thin strands: how the last frame rasterised them.
+    pub raster: Option<RasterChoice>,
+}
+
+/// Which rasteriser drew a kind's thin strands in the last frame, and why (`render.strands:
+/// Auto` chooses by width, `systems::raster`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RasterChoice {
+    /// The compute rasteriser rather than ribbons.
+    pub compute: bool,
+    /// The widest strand's width in samples.
+    pub width_samples: f64,
+}
+
+impl std::fmt::Display for RasterChoice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let how = if self.compute { "compute" } else { "ribbons" };
+        if self.width_samples.is_finite() {
+            write!(
+                f,
+                "{how}, strands up to {:.2} samples wide",
+                self.width_samples
+            )
+        } else {
+            write!(f, "{how}, close-up")
+        }
+    }
 }
 
 /// One hair system, built for one scene.
@@ -151,7 +186,9 @@ pub trait HairSystem {
     /// before the scene pass; group 0 (the frame) is bound.
     fn draw_compute(&self, _pass: &mut wgpu::ComputePass<'_>) {}
     /// Whether this frame's hair is drawn by a compute rasteriser (`splat`) instead of
-    /// `draw`: the stage then keeps the scene depth and composites the accumulation.
+    /// `draw`: the stage then keeps the scene depth and composites the accumulation. Under
+    /// `render.strands: Auto` the answer may change in `prepare` (`systems::raster`); the
+    /// stage asks again after it.
     fn splats(&self) -> bool {
         false
     }

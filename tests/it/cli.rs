@@ -47,7 +47,7 @@ fn bad_render_values_name_the_flag() {
         (vec!["--msaa", "3"], "use 1 or 4"),
         (
             vec!["--strands", "lines"],
-            "strands must be ribbons or compute",
+            "strands must be auto, ribbons or compute",
         ),
         (vec!["--supersample", "9"], "--supersample"),
         (vec!["--fps", "0", "--frames", "0..1"], "--fps"),
@@ -132,7 +132,7 @@ fn bad_viewer_options_are_refused_before_the_window_opens() {
         (vec!["--set", "msaa=4.5"], "is not a whole number"),
         (
             vec!["--set", "strands=lines"],
-            "strands must be ribbons or compute",
+            "strands must be auto, ribbons or compute",
         ),
         (vec!["--set", "10:lod"], "expected KEY=VALUE"),
         (

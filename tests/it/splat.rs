@@ -464,3 +464,72 @@ fn file_colours_opacities_and_widths_are_drawn() {
     };
     assert!(red(&ribbons.image) > 500, "the ribbons are not red");
 }
+
+/// `render.strands: Auto` (the default) draws thin hair with the compute rasteriser and a
+/// close-up of the same hair with ribbons, by the widest strand's width in samples against
+/// the switch point `kami bench raster` measured (`docs/raster_switch.ron`): each frame is
+/// the one the forced rasteriser draws, and one stage switches both ways as the camera
+/// zooms (its targets follow the choice).
+#[test]
+fn auto_picks_compute_for_thin_hair_and_ribbons_for_close_ups() {
+    use kami::systems::HairSystem;
+    let gpu = common::gpu();
+    let software = gpu.info.device_type == wgpu::DeviceType::Cpu;
+    let up_to = kami::systems::raster::compute_up_to(software);
+    assert!(
+        up_to > 0.0,
+        "docs/raster_switch.ron has no switch point for this adapter (run kami bench raster)"
+    );
+    let mut scene = small(true, 1);
+    scene.render.strands = StrandRaster::Auto;
+    assert_eq!(Scene::default().render.strands, StrandRaster::Auto);
+    // Measure the strands' width at the scene's camera, then thin them to a third of the
+    // switch point: ten times the zoom makes them over three times it.
+    let probe = draw(gpu, &scene);
+    let width = probe.stage.system::<AnjyoSystem>().unwrap().width_samples;
+    assert!(width.is_finite() && width > 0.0, "width {width}");
+    for g in scene.groups_mut() {
+        g.material.width *= up_to / 3.0 / width;
+    }
+    let zoomed = |look: &mut kami::stage::Look| {
+        let half = (0.5 * look.camera.fov_y).tan() / 10.0;
+        look.camera.fov_y = 2.0 * half.atan();
+    };
+    let frame = |stage: &mut Stage, zoom: bool| {
+        let out = target::Offscreen::new(gpu, SIZE).unwrap();
+        let mut look = stage.look();
+        if zoom {
+            zoomed(&mut look);
+        }
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        stage.render(gpu, &mut enc, &out.view, SIZE, &look).unwrap();
+        gpu.queue.submit([enc.finish()]);
+        let image = out.read_rgba(gpu).unwrap();
+        gpu.take_error().unwrap();
+        let a = stage.system::<AnjyoSystem>().unwrap();
+        (image, a.splats(), a.width_samples)
+    };
+    let fresh = |strands: StrandRaster, zoom: bool| {
+        let mut s = scene.clone();
+        s.render.strands = strands;
+        let mut stage = Stage::new(gpu, &s, target::OUTPUT_FORMAT, Quality::of(&s)).unwrap();
+        frame(&mut stage, zoom).0
+    };
+    let mut auto = Stage::new(gpu, &scene, target::OUTPUT_FORMAT, Quality::of(&scene)).unwrap();
+    for (zoom, compute) in [(false, true), (true, false), (false, true)] {
+        let (image, splats, w) = frame(&mut auto, zoom);
+        eprintln!(
+            "zoom {zoom}: widest strand {w:.3} samples (switch {up_to:.3}), compute {splats}"
+        );
+        assert_eq!(splats, compute, "zoom {zoom}: width {w} against {up_to}");
+        let forced = if compute {
+            StrandRaster::Compute
+        } else {
+            StrandRaster::Ribbons
+        };
+        assert!(
+            image == fresh(forced, zoom),
+            "zoom {zoom}: Auto's frame is not the one {forced:?} draws"
+        );
+    }
+}

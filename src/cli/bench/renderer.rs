@@ -163,7 +163,8 @@ impl Study for Lod {
 
 /// Strand rasterisers: ribbons (MSAA 4 and 1) and the compute rasteriser for thin
 /// strands, ms per drawn frame against the image error from a 64-samples-per-pixel
-/// reference; writes raster.md, raster.csv, raster.png and each image.
+/// reference, and the width sweep that sets `render.strands: Auto`'s switch point; writes
+/// raster.md, raster.csv, raster.png, raster_sweep.png, raster_switch.ron and each image.
 #[derive(Parser)]
 #[command(name = "raster")]
 struct Raster {
@@ -186,7 +187,13 @@ struct Raster {
 }
 
 impl Study for Raster {
-    const FILES: &'static [&'static str] = &["raster.md", "raster.csv", "raster.png"];
+    const FILES: &'static [&'static str] = &[
+        "raster.md",
+        "raster.csv",
+        "raster.png",
+        "raster_sweep.png",
+        "raster_switch.ron",
+    ];
     fn run(self) -> Result<(Report, PathBuf)> {
         let gpu = Gpu::headless(preference(self.software))?;
         let (scene, out) = (&self.scene, &self.out);

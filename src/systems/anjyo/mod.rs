@@ -27,6 +27,7 @@ pub mod simulation;
 pub mod splat;
 
 use super::lod::{screen_lod, ScreenLod, Seen};
+use super::raster;
 use crate::error::Result;
 use crate::gpu::strands::{StrandBuffers, NODE, RECORD};
 use crate::gpu::Gpu;
@@ -35,7 +36,7 @@ use crate::shaders::wgsl;
 use crate::systems::kind::Kind;
 use crate::systems::scene::Scene;
 use crate::systems::system::{
-    Change, DrawSetup, FrameCtx, HairSystem, StepInfo, SystemStats, View,
+    Change, DrawSetup, FrameCtx, HairSystem, RasterChoice, StepInfo, SystemStats, View,
 };
 use glam::DVec3;
 use gpu_data::GpuMaterial;
@@ -205,8 +206,16 @@ pub struct AnjyoSystem {
     seg_len: f64,
     /// This frame's screen-space level of detail (`systems::lod`).
     pub screen: ScreenLod,
-    /// Ribbons or the compute rasteriser (`render.strands`).
+    /// Ribbons, the compute rasteriser or the choice by width (`render.strands`).
     raster: StrandRaster,
+    /// The widest strand, world units (root or tip, material or file): `Auto`'s width.
+    widest: f64,
+    /// `Auto`'s switch point on this adapter (`systems::raster`), samples.
+    compute_up_to: f64,
+    /// This frame's choice (`prepare`): the compute rasteriser rather than ribbons.
+    in_compute: bool,
+    /// The widest strand's width in samples at the last `prepare`.
+    pub width_samples: f64,
     /// Groups that play their file's frames (`playback`).
     pub playback: Option<playback::Playback>,
 }
@@ -490,6 +499,7 @@ impl AnjyoSystem {
             setup.variant,
         )?;
         draw.set_hair(gpu, &hair, &materials(scene), input.looks().as_deref());
+        let widest = widest(scene, &input);
         Ok(AnjyoSystem {
             input,
             hair,
@@ -503,9 +513,32 @@ impl AnjyoSystem {
             seg_len: longest_segment(scene),
             screen: ScreenLod::FULL,
             raster: scene.render.strands,
+            widest,
+            compute_up_to: crate::systems::raster::compute_up_to(
+                gpu.info.device_type == wgpu::DeviceType::Cpu,
+            ),
+            in_compute: scene.render.strands == StrandRaster::Compute,
+            width_samples: 0.0,
             playback,
         })
     }
+}
+
+/// The widest strand of the scene's groups in world units: each material's root or tip
+/// width, or the widest width a group's file gives its nodes where the group draws them.
+fn widest(scene: &Scene, input: &GroomInput) -> f64 {
+    let materials = scene
+        .groups()
+        .iter()
+        .map(|g| g.material.width * g.material.tip_width.max(1.0));
+    let files = input
+        .groups
+        .iter()
+        .zip(scene.groups())
+        .filter(|(_, g)| file_look(g)[1])
+        .filter_map(|(i, _)| i.looks.as_ref())
+        .flat_map(|l| l.iter().map(|n| n.width as f64));
+    materials.chain(files).fold(0.0, f64::max)
 }
 
 /// The scene's playing groups, their frames resampled (`playback::group_frames`). A group
@@ -599,6 +632,20 @@ impl HairSystem for AnjyoSystem {
         self.screen = screen_lod(&seen, self.seg_len, view.lod_tolerance_px);
         // The viewer's budget multiplies on top (its widening, 1/sqrt, is the frame's).
         self.lod = self.screen.share * view.lod;
+        self.width_samples = raster::width_in_samples(
+            self.widest,
+            self.screen.width_scale * view.budget_widening(),
+            view.focal_samples,
+            view.eye,
+            self.bounds.0,
+            self.bounds.1,
+        );
+        self.in_compute = raster::draws_in_compute(
+            self.raster,
+            self.width_samples,
+            self.compute_up_to,
+            self.in_compute,
+        );
         self.draw.prepare(
             &gpu.queue,
             self.screen.width_scale,
@@ -616,7 +663,7 @@ impl HairSystem for AnjyoSystem {
     }
 
     fn splats(&self) -> bool {
-        self.raster == StrandRaster::Compute && self.draw.can_splat()
+        self.in_compute && self.draw.can_splat()
     }
 
     fn splat(&self, pass: &mut wgpu::ComputePass<'_>) {
@@ -657,7 +704,11 @@ impl HairSystem for AnjyoSystem {
     }
 
     fn update(&mut self, gpu: &Gpu, scene: &Scene, change: Change) -> Result<()> {
-        self.raster = scene.render.strands;
+        if self.raster != scene.render.strands {
+            self.raster = scene.render.strands;
+            self.in_compute = self.raster == StrandRaster::Compute;
+        }
+        self.widest = widest(scene, &self.input);
         match change {
             Change::Redraw => {
                 self.groups = scene.groups().clone();
@@ -694,6 +745,10 @@ impl HairSystem for AnjyoSystem {
                 .as_ref()
                 .map_or(0, |s| s.setup.strands.len() as u64),
             drawn,
+            raster: Some(RasterChoice {
+                compute: self.splats(),
+                width_samples: self.width_samples,
+            }),
         }
     }
 

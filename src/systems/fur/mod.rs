@@ -438,6 +438,7 @@ impl HairSystem for FurSystem {
             segments,
             simulated: 0,
             drawn: self.drawn.iter().map(|&d| d as u64).sum(),
+            raster: None,
         }
     }
 

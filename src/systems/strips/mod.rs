@@ -375,6 +375,7 @@ impl HairSystem for StripsSystem {
                 .sum(),
             simulated: n,
             drawn: n,
+            raster: None,
         }
     }
 

@@ -400,6 +400,7 @@ impl HairSystem for WispsSystem {
             segments: self.curves.segment_count as u64,
             simulated: if self.moving() { n } else { 0 },
             drawn: n,
+            raster: None,
         }
     }
 
