@@ -1,6 +1,6 @@
 //! `kami bench raster`: the two ways of drawing strand hair, ribbons (two triangles per
 //! segment, MSAA coverage) and the compute rasteriser for thin strands
-//! (`shaders/anjyo/splat.wgsl`), in time per drawn frame against the image error from a
+//! (`shaders/common/splat.wgsl`), in time per drawn frame against the image error from a
 //! reference drawn with 64 samples per pixel (ribbons, MSAA 4 x supersampling 4). Speed
 //! against error, as the issue asks: a cheaper rasteriser only counts if its image is as
 //! close to the reference as the one it replaces.
@@ -166,7 +166,7 @@ pub fn draw_share(
 }
 
 const CONCLUSION: &str = "
-**How the compute rasteriser draws** (`shaders/anjyo/splat.wgsl`, f64 reference in \
+**How the compute rasteriser draws** (`shaders/common/splat.wgsl`, f64 reference in \
 `src/systems/anjyo/splat.rs`). By default one invocation per strand walks its segments, \
 adding to the accumulation with global atomics. *Binned* (not the default until a hardware \
 GPU shows it faster): one invocation per drawn segment counts the 16x16-sample tiles its \

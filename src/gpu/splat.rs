@@ -1,4 +1,4 @@
-//! What the compute rasteriser for thin strands (`shaders/anjyo/splat.wgsl`) writes into:
+//! What the compute rasteriser for thin strands (`shaders/common/splat.wgsl`) writes into:
 //! one accumulation of five `u32` per scene sample, read by the resolve
 //! (`shaders/stage/downsample.wgsl`), and the scene pass's depth for occlusion. Made only
 //! once a system splats (a scene drawn with ribbons allocates nothing here).
@@ -12,11 +12,11 @@ use crate::gpu::{bind, Gpu};
 
 /// `u32` words per sample: r, g, b, weight, optical depth.
 pub const WORDS: u64 = 5;
-/// Fixed-point scales of the accumulation (the same consts in `shaders/anjyo/splat.wgsl` and
+/// Fixed-point scales of the accumulation (the same consts in `shaders/common/splat.wgsl` and
 /// `shaders/stage/downsample.wgsl`; `tests/it/gpu_twins.rs` checks them).
 pub const COLOR_SCALE: f64 = 16384.0;
 pub const DEPTH_SCALE: f64 = 4096.0;
-/// Tile side of the binned rasteriser, in samples (`TILE` in `shaders/anjyo/splat.wgsl`).
+/// Tile side of the binned rasteriser, in samples (`TILE` in `shaders/common/splat.wgsl`).
 pub const TILE: u32 = 16;
 /// (segment, tile) references the lists hold per sample of the target: past that, a tile's
 /// segments are drawn without binning (correct, slower), never dropped.
@@ -99,7 +99,7 @@ impl SplatTarget {
 }
 
 /// The binned rasteriser's tile lists for one target size (`bins` and `bin_refs` in
-/// `shaders/anjyo/splat.wgsl`, group 3 of its `bin_*` kernels): per tile the segment
+/// `shaders/common/splat.wgsl`, group 3 of its `bin_*` kernels): per tile the segment
 /// counts, list offsets and write cursors, and the lists themselves.
 pub struct TileBins {
     /// Tiles across and down.
@@ -138,6 +138,85 @@ impl TileBins {
         let refs = storage(device, "splat tile lists", refs_bytes);
         let bind_group = bind::buffers(device, "splat tile bins", layout, &[&bins, &refs]);
         TileBins { tiles, bind_group }
+    }
+}
+
+/// One kind's compute rasteriser: the kernels of `shaders/common/splat.wgsl` compiled in
+/// the kind's module (its strands, node shading and drawn ranges at group 1), recorded the
+/// same way for every kind. `splat` walks one strand per invocation with global atomics;
+/// the four `bin_*` kernels bin segments by tile first (made only for a kind that bins).
+pub struct SplatKernels {
+    direct: wgpu::ComputePipeline,
+    binned: Option<[wgpu::ComputePipeline; 4]>,
+}
+
+impl SplatKernels {
+    /// From `module` over `groups` (frame, the kind's group 1, the target's group 2), and
+    /// the binning kernels over the tile lists' group 3 when `bins` is given.
+    pub fn new(
+        device: &wgpu::Device,
+        label: &str,
+        module: &wgpu::ShaderModule,
+        groups: [&wgpu::BindGroupLayout; 3],
+        bins: Option<&wgpu::BindGroupLayout>,
+        constants: &[(&str, f64)],
+    ) -> SplatKernels {
+        let [frame, kind, target] = groups.map(Some);
+        let [direct] = super::compute_pipelines_over(
+            device,
+            label,
+            &[frame, kind, target],
+            module,
+            ["splat"],
+            constants,
+        );
+        let binned = bins.map(|bins| {
+            super::compute_pipelines_over(
+                device,
+                label,
+                &[frame, kind, target, Some(bins)],
+                module,
+                ["bin_count", "bin_scan", "bin_scatter", "bin_raster"],
+                constants,
+            )
+        });
+        SplatKernels { direct, binned }
+    }
+
+    /// Record over `strands` strands (group 1 bound by the kind; groups 0 and 2 by the
+    /// stage): binned into `bins` when given and these kernels bin, with at most `segments`
+    /// drawn segments per strand, else one walk per strand.
+    pub fn record(
+        &self,
+        pass: &mut wgpu::ComputePass<'_>,
+        strands: u32,
+        bins: Option<&TileBins>,
+        segments: u32,
+    ) {
+        let groups = strands.div_ceil(64);
+        if groups == 0 {
+            return;
+        }
+        let (gx, gy) = (groups.min(65535), groups.div_ceil(65535));
+        let (Some(bins), Some([count, scan, scatter, raster])) = (bins, self.binned.as_ref())
+        else {
+            pass.set_pipeline(&self.direct);
+            pass.dispatch_workgroups(gx, gy, 1);
+            return;
+        };
+        // One invocation per drawn segment: z is the segment's index along its strand.
+        if segments == 0 {
+            return;
+        }
+        pass.set_bind_group(3, &bins.bind_group, &[]);
+        pass.set_pipeline(count);
+        pass.dispatch_workgroups(gx, gy, segments);
+        pass.set_pipeline(scan);
+        pass.dispatch_workgroups(1, 1, 1);
+        pass.set_pipeline(scatter);
+        pass.dispatch_workgroups(gx, gy, segments);
+        pass.set_pipeline(raster);
+        pass.dispatch_workgroups(bins.tiles.0, bins.tiles.1, 1);
     }
 }
 

@@ -338,7 +338,7 @@ pub enum StrandRaster {
     Auto,
     /// Camera-facing ribbons, two triangles per segment, coverage by MSAA sample masks.
     Ribbons,
-    /// The compute rasteriser for thin strands (`shaders/anjyo/splat.wgsl`): one step per
+    /// The compute rasteriser for thin strands (`shaders/common/splat.wgsl`): one step per
     /// sample a segment crosses, analytic coverage, order-independent compositing. Much
     /// cheaper where triangle setup dominates (software adapters); meant for strands at
     /// most a few samples wide.

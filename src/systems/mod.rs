@@ -26,6 +26,7 @@ pub mod lod;
 pub mod raster;
 pub mod registry;
 pub mod scene;
+pub mod splat;
 pub mod strips;
 pub mod system;
 pub mod ui;

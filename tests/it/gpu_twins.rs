@@ -575,19 +575,19 @@ fn twin_constants() -> Vec<(&'static str, &'static str, f64, &'static str)> {
             "scene::skinned::MAX_JOINTS",
         ),
         (
-            "anjyo/splat.wgsl",
+            "common/splat.wgsl",
             "COLOR_SCALE",
             splat::COLOR_SCALE,
             "gpu::splat::COLOR_SCALE",
         ),
         (
-            "anjyo/splat.wgsl",
+            "common/splat.wgsl",
             "DEPTH_SCALE",
             splat::DEPTH_SCALE,
             "gpu::splat::DEPTH_SCALE",
         ),
         (
-            "anjyo/splat.wgsl",
+            "common/splat.wgsl",
             "TILE",
             splat::TILE as f64,
             "gpu::splat::TILE",

@@ -1,4 +1,4 @@
-//! The compute rasteriser for thin strands (`shaders/anjyo/splat.wgsl`): the GPU's
+//! The compute rasteriser for thin strands (`shaders/common/splat.wgsl`): the GPU's
 //! accumulation against the f64 reference (`kami::systems::anjyo::splat`), sample by
 //! sample, with and without MSAA targets; occlusion by the head; and the composited image
 //! against the ribbons'.
@@ -532,4 +532,113 @@ fn auto_picks_compute_for_thin_hair_and_ribbons_for_close_ups() {
             "zoom {zoom}: Auto's frame is not the one {forced:?} draws"
         );
     }
+}
+
+/// Fur's line, polyline and curve coats through the same compute rasteriser
+/// (`shaders/fur/splat.wgsl` over `common/splat.wgsl`): every word of the GPU's
+/// accumulation is the f64 reference's (`kami::systems::fur::splat`, which shades the nodes
+/// as `shaders/fur/shade.wgsl` does), within the bounds of the Anjyo contract above, with
+/// the fur's own skin hiding the hairs behind it (its depth read back) — in each style
+/// (polylines with randomized normals), and in the physical mode.
+#[test]
+fn fur_accumulation_matches_the_f64_reference() {
+    use kami::systems::fur::{self, draw::fur_materials, FurSystem};
+    let gpu = common::gpu();
+    for (name, shading) in [
+        ("fur_line", Shading::Anjyo),
+        ("fur_polyline", Shading::Anjyo),
+        ("fur_curve", Shading::Anjyo),
+        ("fur_polyline", Shading::Physical),
+    ] {
+        let mut scene = common::scene(name);
+        scene.render.msaa = 1;
+        scene.render.supersample = 1;
+        scene.render.strands = StrandRaster::Compute;
+        scene.render.shadows.on = false;
+        scene.render.shading = shading;
+        // A tenth of the hairs: few enough per sample for the Anjyo contract's rounding
+        // bound (each hair rounds every word once).
+        let fur = scene.fur_mut().as_mut().unwrap();
+        fur.hairs /= 10;
+        // Polylines' normals turned by a random angle about each segment (the paper's
+        // normal randomize; the scene leaves it 0).
+        fur.coats.iter_mut().for_each(|c| c.normal_randomize = 0.5);
+        let d = draw(gpu, &scene);
+        let f = d.stage.system::<FurSystem>().unwrap();
+        assert!(
+            d.stage.splat_accumulation().is_some(),
+            "{name}: fur did not splat"
+        );
+        let got = gpu_samples(gpu, &d.stage);
+        let depth = scene_depth(gpu, &d.stage);
+        let g = &f.generator;
+        let strands: Vec<GpuStrand> =
+            kami::gpu::read_buffer(gpu, &g.strands.strands, g.strands.strands.size()).unwrap();
+        let verts: Vec<[f32; 4]> =
+            kami::gpu::read_buffer(gpu, &g.strands.vertices, g.strands.vertices.size()).unwrap();
+        let info: Vec<[f32; 4]> = kami::gpu::read_buffer(gpu, &g.info, g.info.size()).unwrap();
+        let materials = fur_materials(&f.setup, f.width_scale, &f.steps, shading);
+        let drawn: Vec<[u32; 2]> = g
+            .strands
+            .ranges
+            .iter()
+            .zip(&f.drawn)
+            .map(|(r, &n)| [r.first_strand, r.first_strand + n])
+            .collect();
+        let frame = d.stage.last_frame_uniform();
+        const NEAR: f32 = 1e-4;
+        let reference = |dz: f32| {
+            let moved: Vec<f32> = depth.iter().map(|z| z + dz).collect();
+            fur::splat::splat(&fur::splat::Input {
+                frame: &frame,
+                strands: &strands[..g.strands.strand_count as usize],
+                verts: &verts,
+                info: &info,
+                materials: &materials,
+                drawn: &drawn,
+                depth: Some(&moved),
+            })
+        };
+        let covered = assert_accumulation_agrees(
+            &format!("{name} {shading:?}"),
+            &got,
+            &reference(-NEAR),
+            &reference(NEAR),
+        );
+        assert!(covered > 2000, "{name}: only {covered} samples covered");
+    }
+}
+
+/// Fur through the compute rasteriser looks like its ribbons (mean difference over the
+/// hair's tiles within a few levels of 255, as for Anjyo's strands above), and a coat of
+/// tubes stays triangles: with `strands: Compute` the fur system does not splat and draws
+/// exactly the image of `strands: Ribbons`.
+#[test]
+fn fur_compute_image_matches_the_ribbons_and_tubes_stay_triangles() {
+    use kami::systems::{fur::FurSystem, HairSystem};
+    let gpu = common::gpu();
+    let with = |name: &str, strands: StrandRaster, msaa: u32| {
+        let mut s = common::scene(name);
+        s.render.strands = strands;
+        s.render.msaa = msaa;
+        s.render.supersample = 1;
+        s
+    };
+    let compute = draw(gpu, &with("fur_polyline", StrandRaster::Compute, 1));
+    assert!(compute.stage.system::<FurSystem>().unwrap().splats());
+    let ribbons = draw(gpu, &with("fur_polyline", StrandRaster::Ribbons, 4));
+    let (tile, pixel) = kami::bench::fur::model_error(&compute.image, &ribbons.image);
+    eprintln!("fur compute against ribbons: tile {tile:.2}, pixel {pixel:.2} levels of 255");
+    assert!(
+        tile > 0.0,
+        "the images are identical: was the compute path drawn?"
+    );
+    assert!(tile < 6.0, "tile error {tile}");
+    let tubes = draw(gpu, &with("fur_tube", StrandRaster::Compute, 1));
+    assert!(!tubes.stage.system::<FurSystem>().unwrap().splats());
+    let tube_ribbons = draw(gpu, &with("fur_tube", StrandRaster::Ribbons, 1));
+    assert!(
+        tubes.image == tube_ribbons.image,
+        "tubes drew differently under strands: Compute"
+    );
 }

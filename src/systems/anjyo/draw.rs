@@ -9,14 +9,14 @@
 //! in a small uniform (`prepare`): the vertex shader draws every step-th node and the last.
 //!
 //! With `render.strands: Compute` the same strands go through the compute rasteriser for
-//! thin strands instead (`shaders/anjyo/splat.wgsl`, f64 reference in `splat.rs`), bound to
+//! thin strands instead (`shaders/common/splat.wgsl`, f64 reference in `splat.rs`), bound to
 //! the same buffers and shaded by the same code (`shaders/common/strand_shade.wgsl`).
 
 use super::gpu_data::{GpuLook, GpuMaterial};
 use crate::error::Result;
 use crate::gpu::gpu_data::{linear_rgb, GpuStrand};
 use crate::gpu::pipeline::{self, DrawPipeline, Variant};
-use crate::gpu::splat::{SplatLayouts, TileBins};
+use crate::gpu::splat::{SplatKernels, SplatLayouts, TileBins};
 use crate::gpu::strands::StrandBuffers;
 use crate::gpu::{self, bind, Gpu};
 use crate::systems::anjyo::block::Material;
@@ -38,7 +38,7 @@ pub struct StrandsPass {
     splat_layouts: SplatLayouts,
     /// The compute rasteriser for the current MSAA sample count (the depth it reads),
     /// made on the first frame that splats.
-    splat: std::cell::OnceCell<Option<SplatPipelines>>,
+    splat: std::cell::OnceCell<Option<SplatKernels>>,
     /// Bin the segments by screen tile (`bin_*` kernels) rather than walk each strand with
     /// global atomics (`splat`); the same accumulation either way. Off until a hardware GPU
     /// shows binning faster: on lavapipe it is 2.2 times slower (`kami bench scale`,
@@ -61,16 +61,6 @@ pub struct StrandsPass {
     /// x: width factor of the screen-space level of detail, y: node step (`prepare`).
     lod: wgpu::Buffer,
     step: u32,
-}
-
-/// The compute rasteriser's kernels (`shaders/anjyo/splat.wgsl`): one invocation per strand
-/// (`splat`), or binned by tile in four passes.
-struct SplatPipelines {
-    direct: wgpu::ComputePipeline,
-    count: wgpu::ComputePipeline,
-    scan: wgpu::ComputePipeline,
-    scatter: wgpu::ComputePipeline,
-    raster: wgpu::ComputePipeline,
 }
 
 struct Bound {
@@ -165,7 +155,7 @@ impl StrandsPass {
 
     /// The compute rasteriser reading a scene depth of `variant.samples` samples, shading
     /// with `variant.shadow`'s lookup.
-    fn splat_pipeline(&self) -> Result<SplatPipelines> {
+    fn splat_pipeline(&self) -> Result<SplatKernels> {
         let (device, samples) = (&self.device, self.variant.samples);
         let source = if samples > 1 {
             super::SPLAT_MSAA
@@ -173,36 +163,20 @@ impl StrandsPass {
             super::SPLAT
         };
         let module = gpu::shader_module(device, "anjyo splat", source)?;
-        let constants = self.variant.constants(Some(self.physical));
         let groups = [
-            Some(&self.frame_layout),
-            Some(&self.layout),
-            Some(self.splat_layouts.for_samples(samples)),
-            Some(&self.bins_layout),
+            &self.frame_layout,
+            &self.layout,
+            self.splat_layouts.for_samples(samples),
         ];
-        let [direct] = gpu::compute_pipelines_over(
+        let constants = self.variant.constants(Some(self.physical));
+        Ok(SplatKernels::new(
             device,
             "strands splat",
-            &groups[..3],
             &module,
-            ["splat"],
+            groups,
+            Some(&self.bins_layout),
             &constants,
-        );
-        let [count, scan, scatter, raster] = gpu::compute_pipelines_over(
-            device,
-            "strands splat binned",
-            &groups,
-            &module,
-            ["bin_count", "bin_scan", "bin_scatter", "bin_raster"],
-            &constants,
-        );
-        Ok(SplatPipelines {
-            direct,
-            count,
-            scan,
-            scatter,
-            raster,
-        })
+        ))
     }
 
     /// The shadow cast (`anjyo/cast.wgsl`) over groups 0, 1 and the cast group 2.
@@ -419,11 +393,9 @@ impl StrandsPass {
     /// Record the compute rasteriser over every strand (those past each group's drawn share
     /// return at once); groups 0 and 2 are bound by the stage.
     pub fn splat(&self, pass: &mut wgpu::ComputePass<'_>) {
-        let Some(b) = &self.bound else { return };
-        let groups = b.strand_count.div_ceil(64);
-        if groups == 0 {
+        let Some(b) = self.bound.as_ref().filter(|b| b.strand_count > 0) else {
             return;
-        }
+        };
         let pipelines = self.splat.get_or_init(|| match self.splat_pipeline() {
             Ok(p) => Some(p),
             Err(e) => {
@@ -431,34 +403,17 @@ impl StrandsPass {
                 None
             }
         });
-        let Some(p) = pipelines else { return };
+        let Some(kernels) = pipelines else { return };
         pass.set_bind_group(1, &b.bind_group, &[]);
-        let (gx, gy) = (groups.min(65535), groups.div_ceil(65535));
         // Binned from the first `prepare` after `set_binned(true)` on.
-        let Some(bins) = self.bins.as_ref().filter(|_| self.binned) else {
-            pass.set_pipeline(&p.direct);
-            pass.dispatch_workgroups(gx, gy, 1);
-            return;
-        };
-        // One invocation per drawn segment: z is the segment's index along its strand.
+        let bins = self.bins.as_ref().filter(|_| self.binned);
         let segments = b
             .ranges
             .iter()
             .map(|r| self.drawn_nodes(r.nodes_per_strand).saturating_sub(1))
             .max()
             .unwrap_or(0);
-        if segments == 0 {
-            return;
-        }
-        pass.set_bind_group(3, &bins.bind_group, &[]);
-        pass.set_pipeline(&p.count);
-        pass.dispatch_workgroups(gx, gy, segments);
-        pass.set_pipeline(&p.scan);
-        pass.dispatch_workgroups(1, 1, 1);
-        pass.set_pipeline(&p.scatter);
-        pass.dispatch_workgroups(gx, gy, segments);
-        pass.set_pipeline(&p.raster);
-        pass.dispatch_workgroups(bins.tiles.0, bins.tiles.1, 1);
+        kernels.record(pass, b.strand_count, bins, segments);
     }
 
     /// Nodes drawn per strand of a group with `nodes_per_strand` nodes.

@@ -97,6 +97,7 @@ pub const SPLAT: &str = wgsl!(
     "common/strand_shade.wgsl",
     "common/strand_drawn.wgsl",
     "anjyo/splat.wgsl",
+    "common/splat.wgsl",
 );
 
 /// The same over a multisampled scene depth.
@@ -109,6 +110,7 @@ pub const SPLAT_MSAA: &str = wgsl!(
     "common/strand_shade.wgsl",
     "common/strand_drawn.wgsl",
     "anjyo/splat.wgsl",
+    "common/splat.wgsl",
 );
 
 pub const KIND: Kind = Kind {

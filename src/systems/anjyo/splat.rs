@@ -1,16 +1,13 @@
-//! The f64 reference of the compute rasteriser for thin strands
-//! (`shaders/anjyo/splat.wgsl` with `shaders/common/strand_shade.wgsl`): the same node shading,
-//! the same column walk and coverage, the same accumulation, in f64 and without fixed
-//! point. The contract test (`tests/it/splat.rs`) bounds the GPU's worst sample against it.
+//! Anjyo's strands for the f64 reference of the compute rasteriser (`systems::splat`):
+//! nodes placed, sized and shaded as `shaders/anjyo/splat.wgsl` gives them
+//! (`shaders/common/strand_shade.wgsl`).
 
 use super::gpu_data::{GpuLook, GpuMaterial};
 use crate::gpu::gpu_data::{GpuFrame, GpuStrand};
 use crate::systems::hair_bsdf;
-use glam::{DMat4, DVec2, DVec3, DVec4};
-
-/// Per sample: sum rgb a wt (3), sum a wt, sum -ln(1 - a); the GPU's words divided by
-/// their fixed-point scales (`stage::splat`).
-pub type Sample = [f64; 5];
+pub use crate::systems::splat::{composite, Sample};
+use crate::systems::splat::{Node, Nodes};
+use glam::DVec3;
 
 /// Everything the kernel reads.
 pub struct Input<'a> {
@@ -28,23 +25,9 @@ pub struct Input<'a> {
     pub depth: Option<&'a [f32]>,
 }
 
-/// As in the kernel.
-const MAX_COVERAGE: f64 = 0.999;
-const DEPTH_BIAS: f64 = 1e-5;
-const MAX_ACROSS: i64 = 16;
-
-struct Node {
-    pos: DVec3,
-    rgb: DVec3,
-    width: f64,
-    alpha: f64,
-}
-
-struct ScreenNode {
-    p: DVec4,
-    rgb: DVec3,
-    width: f64,
-    alpha: f64,
+/// The accumulation the kernel writes for `input`, per sample, row-major.
+pub fn splat(input: &Input) -> Vec<Sample> {
+    crate::systems::splat::splat(input.frame, input.depth, input)
 }
 
 /// sRGB to linear, as the shader's `srgb_to_linear`.
@@ -61,7 +44,7 @@ fn v3(v: [f32; 4]) -> DVec3 {
 }
 
 impl Input<'_> {
-    fn step(&self) -> u32 {
+    fn lod_step(&self) -> u32 {
         (self.lod[1] as u32).max(1)
     }
 
@@ -75,14 +58,14 @@ impl Input<'_> {
         p
     }
 
-    fn last(s: &GpuStrand) -> u32 {
+    fn last_node(s: &GpuStrand) -> u32 {
         (s.visible as f64).ceil() as u32
     }
 
     fn shade(&self, s: &GpuStrand, n: u32) -> Node {
         let f = self.frame;
-        let step = self.step();
-        let last = Self::last(s);
+        let step = self.lod_step();
+        let last = Self::last_node(s);
         let mat = &self.materials[s.group as usize];
         let p = self.node_pos(s, n);
         let t = if last == 0 {
@@ -151,156 +134,35 @@ impl Input<'_> {
             alpha,
         }
     }
-
-    fn to_screen(&self, n: &Node) -> ScreenNode {
-        let f = self.frame;
-        let vp = DMat4::from_cols_array_2d(&f.view_proj.map(|c| c.map(|x| x as f64)));
-        let c = vp * n.pos.extend(1.0);
-        let ok = c.w > 1e-6;
-        let w = c.w.max(1e-6);
-        let ndc = c.truncate() / w;
-        ScreenNode {
-            p: DVec4::new(
-                (ndc.x * 0.5 + 0.5) * f.viewport[0] as f64,
-                (0.5 - ndc.y * 0.5) * f.viewport[1] as f64,
-                ndc.z,
-                if ok { 1.0 } else { 0.0 },
-            ),
-            rgb: n.rgb,
-            width: n.width * f.raster[0] as f64 / w,
-            alpha: n.alpha,
-        }
-    }
 }
 
-fn depth_weight(z: f64) -> f64 {
-    let d = (1.0 - z).clamp(1.0 / 64.0, 1.0);
-    d * d * d
-}
-
-struct Target<'a> {
-    size: (i64, i64),
-    depth: Option<&'a [f32]>,
-    out: Vec<Sample>,
-}
-
-impl Target<'_> {
-    fn add(&mut self, x: i64, y: i64, a: f64, z: f64, rgb: DVec3) {
-        if x < 0 || y < 0 || x >= self.size.0 || y >= self.size.1 || a <= 0.0 {
-            return;
-        }
-        let i = (y * self.size.0 + x) as usize;
-        if let Some(d) = self.depth {
-            if z > d[i] as f64 + DEPTH_BIAS {
-                return;
-            }
-        }
-        let aw = a * depth_weight(z);
-        let s = &mut self.out[i];
-        s[0] += rgb.x * aw;
-        s[1] += rgb.y * aw;
-        s[2] += rgb.z * aw;
-        s[3] += aw;
-        s[4] += -(1.0 - a.min(MAX_COVERAGE)).ln();
+impl Nodes for Input<'_> {
+    fn strands(&self) -> &[GpuStrand] {
+        self.strands
     }
 
-    fn segment(&mut self, a: &ScreenNode, b: &ScreenNode) {
-        if a.p.w < 0.5 || b.p.w < 0.5 {
-            return;
-        }
-        let d = b.p.truncate().truncate() - a.p.truncate().truncate();
-        let x_major = d.x.abs() >= d.y.abs();
-        let major = |p: &DVec4| {
-            if x_major {
-                DVec2::new(p.x, p.y)
-            } else {
-                DVec2::new(p.y, p.x)
-            }
-        };
-        let (mut a, mut b, mut pa, mut pb) = (a, b, major(&a.p), major(&b.p));
-        if pa.x > pb.x {
-            std::mem::swap(&mut a, &mut b);
-            std::mem::swap(&mut pa, &mut pb);
-        }
-        let run = pb.x - pa.x;
-        if run <= 1e-6 {
-            return;
-        }
-        let slope = (pb.y - pa.y) / run;
-        let sec = (1.0 + slope * slope).sqrt();
-        let extent = if x_major { self.size.0 } else { self.size.1 };
-        let first = (pa.x.floor() as i64).max(0);
-        let last = (pb.x.floor() as i64).min(extent - 1);
-        for col in first..=last {
-            let lo = pa.x.max(col as f64);
-            let hi = pb.x.min((col + 1) as f64);
-            let fx = hi - lo;
-            if fx <= 0.0 {
-                continue;
-            }
-            let t = (0.5 * (lo + hi) - pa.x) / run;
-            let yc = pa.y + (pb.y - pa.y) * t;
-            let half_h = 0.5 * (a.width + (b.width - a.width) * t) * sec;
-            let z = a.p.z + (b.p.z - a.p.z) * t;
-            let rgb = a.rgb.lerp(b.rgb, t);
-            let alpha = a.alpha + (b.alpha - a.alpha) * t;
-            let (y0, y1) = (yc - half_h, yc + half_h);
-            let r0 = y0.floor() as i64;
-            let r1 = (y1.floor() as i64).min(r0 + MAX_ACROSS - 1);
-            for row in r0..=r1 {
-                let cover = fx * (y1.min((row + 1) as f64) - y0.max(row as f64)) * alpha;
-                if x_major {
-                    self.add(col, row, cover, z, rgb);
-                } else {
-                    self.add(row, col, cover, z, rgb);
-                }
-            }
-        }
+    fn drawn(&self) -> &[[u32; 2]] {
+        self.drawn
     }
-}
 
-/// The accumulation the kernel writes for `input`, per sample, row-major.
-pub fn splat(input: &Input) -> Vec<Sample> {
-    let size = (
-        input.frame.viewport[0] as i64,
-        input.frame.viewport[1] as i64,
-    );
-    let mut target = Target {
-        size,
-        depth: input.depth,
-        out: vec![[0.0; 5]; (size.0 * size.1).max(0) as usize],
-    };
-    let step = input.step();
-    for (si, s) in input.strands.iter().enumerate() {
-        let si = si as u32;
-        if !input.drawn.iter().any(|r| si >= r[0] && si < r[1]) {
-            continue;
-        }
-        let last = Input::last(s);
-        let mut a = input.to_screen(&input.shade(s, 0));
-        let mut n = 0;
-        while n < last {
-            n = (n + step).min(last);
-            let b = input.to_screen(&input.shade(s, n));
-            target.segment(&a, &b);
-            a = b;
-        }
+    fn step(&self, _s: &GpuStrand) -> u32 {
+        self.lod_step()
     }
-    target.out
-}
 
-/// The resolve's composite of one sample over the scene colour (linear rgb).
-pub fn composite(s: &Sample, scene: DVec3) -> DVec3 {
-    if s[3] <= 0.0 {
-        return scene;
+    fn last(&self, s: &GpuStrand) -> u32 {
+        Input::last_node(s)
     }
-    let t = (-s[4]).exp();
-    DVec3::new(s[0], s[1], s[2]) / s[3] * (1.0 - t) + scene * t
+
+    fn node(&self, _si: u32, s: &GpuStrand, n: u32) -> Node {
+        self.shade(s, n)
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::systems::splat::depth_weight;
+    use glam::DVec2;
 
     fn frame(size: (f32, f32)) -> GpuFrame {
         // An orthographic-like view: clip = (x / 10, y / 10, 0.5, 1) maps [-10, 10]^2 to

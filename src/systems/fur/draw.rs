@@ -1,6 +1,9 @@
 //! Fur drawing (`shaders/fur/draw.wgsl`) and the fur mesh's skin (`shaders/fur/skin.wgsl`):
 //! ribbons for line, polyline and curve hairs, 6-sided tubes for tube hairs, one instanced
-//! draw per coat over the hairs the generator wrote this frame.
+//! draw per coat over the hairs the generator wrote this frame. Under the compute
+//! rasteriser (`render.strands`) the line, polyline and curve coats go through
+//! `shaders/common/splat.wgsl` instead (`shaders/fur/splat.wgsl` shades their nodes as the
+//! ribbons do); tubes are always triangles.
 
 use super::generate::{motion_uniform, style_code, FurGpu, GpuJoints};
 use super::gpu_data::{GpuFurMaterial, GpuSkin};
@@ -8,6 +11,7 @@ use super::setup::FurSetup;
 use crate::error::Result;
 use crate::gpu::gpu_data::{linear_rgb, GpuStrand};
 use crate::gpu::pipeline::{self, DrawPipeline, Variant};
+use crate::gpu::splat::{SplatKernels, SplatLayouts};
 use crate::gpu::{self, bind, Gpu};
 use crate::systems::fur::block::FurStyle;
 
@@ -29,6 +33,17 @@ pub struct FurPass {
     cast_layout: wgpu::BindGroupLayout,
     cast: Option<wgpu::ComputePipeline>,
     bound: Option<Bound>,
+    /// The compute rasteriser's group 1 (the coats' strands, nodes, shading info,
+    /// materials and drawn ranges), group 0 and the target's group 2 layouts.
+    splat_layout: wgpu::BindGroupLayout,
+    frame_layout: wgpu::BindGroupLayout,
+    splat_layouts: SplatLayouts,
+    /// Made on the first frame that splats, for the current MSAA sample count.
+    splat: std::cell::OnceCell<Option<SplatKernels>>,
+    device: wgpu::Device,
+    /// On GL a multisampled depth that a shader reads leaves the scene pass black
+    /// (llvmpipe): there the compute rasteriser runs only without MSAA.
+    gl: bool,
 }
 
 struct Bound {
@@ -41,6 +56,9 @@ struct Bound {
     skin: wgpu::Buffer,
     /// Per coat: first strand, tube or not, vertices per instance.
     coats: Vec<(u32, bool, u32)>,
+    /// The compute rasteriser's group 1 and its per-coat drawn ranges (tube coats empty).
+    splat_group: wgpu::BindGroup,
+    splat_coats: wgpu::Buffer,
     mesh_vertices: u32,
     skin_base: u32,
 }
@@ -105,6 +123,7 @@ impl FurPass {
     pub fn new(
         gpu: &Gpu,
         frame_layout: &wgpu::BindGroupLayout,
+        splat_layouts: &SplatLayouts,
         shadow_cast_layout: &wgpu::BindGroupLayout,
         format: wgpu::TextureFormat,
         variant: Variant,
@@ -171,7 +190,26 @@ impl FurPass {
             compilation_options: Default::default(),
             cache: None,
         });
+        // Group 1 of `shaders/fur/splat.wgsl` (`strand_drawn.wgsl`'s ranges at 4).
+        let splat_layout = bind::layout(
+            device,
+            "fur splat",
+            wgpu::ShaderStages::COMPUTE,
+            &[
+                bind::storage::<GpuStrand>(),
+                bind::storage::<[f32; 4]>(),
+                bind::storage::<[f32; 4]>(),
+                bind::storage::<GpuFurMaterial>(),
+                bind::storage::<[u32; 2]>(),
+            ],
+        );
         Ok(FurPass {
+            splat_layout,
+            frame_layout: frame_layout.clone(),
+            splat_layouts: splat_layouts.clone(),
+            splat: Default::default(),
+            device: device.clone(),
+            gl: gpu.info.backend == wgpu::Backend::Gl,
             cast_layout,
             cast: Some(cast),
             module,
@@ -197,6 +235,7 @@ impl FurPass {
     }
 
     fn rebuild(&mut self, gpu: &Gpu) {
+        self.splat = Default::default();
         (self.ribbon, self.tube, self.skin) = Self::pipelines(
             gpu,
             (&self.module, &self.pipeline_layout),
@@ -319,7 +358,27 @@ impl FurPass {
                 &cast_coats,
             ],
         );
+        let splat_coats = gpu::storage_buffer(
+            device,
+            "fur splat coats",
+            bytemuck::cast_slice(&none),
+            wgpu::BufferUsages::empty(),
+        );
+        let splat_group = bind::buffers(
+            device,
+            "fur splat",
+            &self.splat_layout,
+            &[
+                &fur.strands.strands,
+                &fur.strands.vertices,
+                &fur.info,
+                &materials,
+                &splat_coats,
+            ],
+        );
         self.bound = Some(Bound {
+            splat_group,
+            splat_coats,
             bind_group,
             mesh_bind_group,
             cast_group,
@@ -373,6 +432,15 @@ impl FurPass {
             if r.len() == b.coats.len() && !r.is_empty() {
                 gpu.queue
                     .write_buffer(&b.cast_coats, 0, bytemuck::cast_slice(&r));
+                // The compute rasteriser draws the same hairs, tubes aside.
+                let thin: Vec<[u32; 2]> = b
+                    .coats
+                    .iter()
+                    .zip(r)
+                    .map(|(c, r)| if c.1 { [r[0], r[0]] } else { r })
+                    .collect();
+                gpu.queue
+                    .write_buffer(&b.splat_coats, 0, bytemuck::cast_slice(&thin));
             }
         }
     }
@@ -399,12 +467,19 @@ impl FurPass {
         pass.draw(0..b.mesh_vertices, 0..1);
     }
 
-    /// Draw `drawn[coat]` hairs of each coat, ribbons every `steps[coat]`-th node (tubes all).
-    pub fn draw_hairs(&self, pass: &mut wgpu::RenderPass<'_>, drawn: &[u32], steps: &[u32]) {
+    /// Draw `drawn[coat]` hairs of each coat, ribbons every `steps[coat]`-th node (tubes all);
+    /// with `ribbons` false only the tube coats (the others splat).
+    pub fn draw_hairs(
+        &self,
+        pass: &mut wgpu::RenderPass<'_>,
+        drawn: &[u32],
+        steps: &[u32],
+        ribbons: bool,
+    ) {
         let Some(b) = &self.bound else { return };
         pass.set_bind_group(1, &b.bind_group, &[]);
         for (ci, (&(first, tube, segments), &n)) in b.coats.iter().zip(drawn).enumerate() {
-            if n == 0 {
+            if n == 0 || !(tube || ribbons) {
                 continue;
             }
             let verts = if tube {
@@ -416,5 +491,55 @@ impl FurPass {
             pass.set_pipeline(if tube { &self.tube } else { &self.ribbon });
             pass.draw(0..verts, first..first + n);
         }
+    }
+
+    /// Whether some coat is thin (line, polyline or curve: ribbons or the compute
+    /// rasteriser) rather than tubes.
+    pub fn has_thin_coats(&self) -> bool {
+        self.bound
+            .as_ref()
+            .is_some_and(|b| b.coats.iter().any(|c| !c.1))
+    }
+
+    /// Whether the compute rasteriser can run at the current sample count (not over MSAA
+    /// targets on GL; the ribbons draw there).
+    pub fn can_splat(&self) -> bool {
+        !(self.gl && self.variant.samples > 1)
+    }
+
+    fn splat_kernels(&self) -> Result<SplatKernels> {
+        let (device, samples) = (&self.device, self.variant.samples);
+        let source = if samples > 1 {
+            super::SPLAT_MSAA
+        } else {
+            super::SPLAT
+        };
+        let module = gpu::shader_module(device, "fur splat", source)?;
+        let target = self.splat_layouts.for_samples(samples);
+        // No tile lists: fur walks one hair per invocation (binning is off by default).
+        Ok(SplatKernels::new(
+            device,
+            "fur splat",
+            &module,
+            [&self.frame_layout, &self.splat_layout, target],
+            None,
+            &self.variant.constants(Some(self.physical)),
+        ))
+    }
+
+    /// Record the compute rasteriser over the first `hairs` strands (each coat's drawn ones,
+    /// tubes aside); groups 0 and 2 are bound by the stage.
+    pub fn splat(&self, pass: &mut wgpu::ComputePass<'_>, hairs: u32) {
+        let Some(b) = &self.bound else { return };
+        let kernels = self.splat.get_or_init(|| match self.splat_kernels() {
+            Ok(k) => Some(k),
+            Err(e) => {
+                log::error!("fur's compute rasteriser: {e}");
+                None
+            }
+        });
+        let Some(kernels) = kernels else { return };
+        pass.set_bind_group(1, &b.splat_group, &[]);
+        kernels.record(pass, hairs, None, 0);
     }
 }

@@ -20,15 +20,18 @@ pub mod generate;
 pub mod gpu_data;
 pub mod panel;
 pub mod setup;
+pub mod splat;
 
 use crate::error::Result;
 use crate::gpu::strands::{NODE, RECORD};
 use crate::gpu::Gpu;
+use crate::scene::StrandRaster;
 use crate::shaders::wgsl;
 use crate::systems::kind::Kind;
+use crate::systems::raster;
 use crate::systems::scene::Scene;
 use crate::systems::system::{
-    Change, DrawSetup, FrameCtx, HairSystem, StepInfo, SystemStats, View,
+    Change, DrawSetup, FrameCtx, HairSystem, RasterChoice, StepInfo, SystemStats, View,
 };
 use glam::DVec3;
 use setup::{culling_factor, FurSetup};
@@ -49,7 +52,37 @@ pub const DRAW: &str = wgsl!(
     "common/random.wgsl",
     "common/coverage.wgsl",
     "common/hair_bsdf.wgsl",
+    "fur/shade.wgsl",
     "fur/draw.wgsl",
+);
+
+/// Fur's thin coats through the compute rasteriser (`shaders/common/splat.wgsl`), reading
+/// a single-sampled scene depth.
+pub const SPLAT: &str = wgsl!(
+    "common/depth_single.wgsl",
+    "common/strands.wgsl",
+    "common/frame.wgsl",
+    "common/shadow.wgsl",
+    "common/random.wgsl",
+    "common/hair_bsdf.wgsl",
+    "fur/shade.wgsl",
+    "common/strand_drawn.wgsl",
+    "fur/splat.wgsl",
+    "common/splat.wgsl",
+);
+
+/// The same over a multisampled scene depth.
+pub const SPLAT_MSAA: &str = wgsl!(
+    "common/depth_msaa.wgsl",
+    "common/strands.wgsl",
+    "common/frame.wgsl",
+    "common/shadow.wgsl",
+    "common/random.wgsl",
+    "common/hair_bsdf.wgsl",
+    "fur/shade.wgsl",
+    "common/strand_drawn.wgsl",
+    "fur/splat.wgsl",
+    "common/splat.wgsl",
 );
 
 /// Fur's shadow cast (`stage::shadow`).
@@ -101,6 +134,8 @@ pub const KIND: Kind = Kind {
     shaders: &[
         ("fur/generate", GENERATE),
         ("fur/draw", DRAW),
+        ("fur/splat", SPLAT),
+        ("fur/splat_msaa", SPLAT_MSAA),
         ("fur/skin", SKIN),
         ("fur/cast", CAST),
     ],
@@ -205,6 +240,27 @@ pub struct FurSystem {
     pub generations: u64,
     /// The scene's shading (a coat's own overrides it).
     pub shading: crate::scene::Shading,
+    /// Ribbons, the compute rasteriser or the choice by width (`render.strands`), for the
+    /// line, polyline and curve coats (tubes are always triangles).
+    raster: StrandRaster,
+    /// The widest thin coat's root width, world units: `Auto`'s width.
+    widest: f64,
+    /// `Auto`'s switch point on this adapter (`systems::raster`), samples.
+    compute_up_to: f64,
+    /// This frame's choice (`prepare`): the compute rasteriser rather than ribbons.
+    in_compute: bool,
+    /// The widest thin hair's width in samples at the last `prepare`.
+    pub width_samples: f64,
+}
+
+/// The widest root width of the coats drawn as ribbons or by the compute rasteriser (not
+/// tubes), world units.
+fn widest(coats: &[block::Coat]) -> f64 {
+    coats
+        .iter()
+        .filter(|c| c.style != block::FurStyle::Tube)
+        .map(|c| c.material.width)
+        .fold(0.0, f64::max)
 }
 
 /// The inputs of a generation: the frame (only when the mesh moves) and the culling factor
@@ -257,6 +313,7 @@ impl FurSystem {
         let mut draw = draw::FurPass::new(
             gpu,
             draw_setup.frame_layout,
+            draw_setup.splat_layouts,
             draw_setup.shadow_cast_layout,
             draw_setup.format,
             draw_setup.variant,
@@ -273,6 +330,13 @@ impl FurSystem {
             last_gen: None,
             generations: 0,
             shading: scene.render.shading,
+            widest: widest(&fur.coats),
+            raster: scene.render.strands,
+            compute_up_to: crate::systems::raster::compute_up_to(
+                gpu.info.device_type == wgpu::DeviceType::Cpu,
+            ),
+            in_compute: scene.render.strands == StrandRaster::Compute,
+            width_samples: 0.0,
         })
     }
 
@@ -382,6 +446,20 @@ impl HairSystem for FurSystem {
             self.shading,
         );
         self.draw.set_drawn(gpu, &self.drawn);
+        self.width_samples = raster::width_in_samples(
+            self.widest,
+            self.width_scale,
+            view.focal_samples,
+            view.eye,
+            bounds.0,
+            bounds.1,
+        );
+        self.in_compute = raster::draws_in_compute(
+            self.raster,
+            self.width_samples,
+            self.compute_up_to,
+            self.in_compute,
+        );
         Ok(())
     }
 
@@ -390,7 +468,19 @@ impl HairSystem for FurSystem {
     }
 
     fn draw(&self, pass: &mut wgpu::RenderPass<'_>, _view: &View) {
-        self.draw.draw_hairs(pass, &self.drawn, &self.steps);
+        self.draw
+            .draw_hairs(pass, &self.drawn, &self.steps, !self.splats());
+    }
+
+    fn splats(&self) -> bool {
+        self.in_compute && self.draw.can_splat() && self.draw.has_thin_coats()
+    }
+
+    fn splat(&self, pass: &mut wgpu::ComputePass<'_>) {
+        if self.splats() {
+            let hairs = self.setup.coats.iter().map(|c| c.total).sum::<u32>();
+            self.draw.splat(pass, hairs);
+        }
     }
 
     fn casts(&self) -> bool {
@@ -421,6 +511,13 @@ impl HairSystem for FurSystem {
             self.setup.fur.skin = f.skin;
         }
         self.shading = scene.render.shading;
+        if self.raster != scene.render.strands {
+            self.raster = scene.render.strands;
+            self.in_compute = self.raster == StrandRaster::Compute;
+        }
+        if let Some(f) = scene.fur() {
+            self.widest = widest(&f.coats);
+        }
         Ok(())
     }
 
@@ -438,7 +535,10 @@ impl HairSystem for FurSystem {
             segments,
             simulated: 0,
             drawn: self.drawn.iter().map(|&d| d as u64).sum(),
-            raster: None,
+            raster: self.draw.has_thin_coats().then(|| RasterChoice {
+                compute: self.splats(),
+                width_samples: self.width_samples,
+            }),
         }
     }
 
