@@ -373,12 +373,17 @@ fn stats(ui: &mut Ui, s: &ViewerState) {
         ui.end_row();
         for (kind, c) in &st.systems {
             ui.label(*kind);
-            let raster = c.raster.map(|r| format!("; {r}")).unwrap_or_default();
             ui.label(format!(
-                "{} drawn of {} ({} simulated){raster}",
+                "{} drawn of {} ({} simulated)",
                 c.drawn, c.strands, c.simulated
             ));
             ui.end_row();
+            // Which rasteriser drew its thin strands (`render.strands: Auto` picks by width).
+            if let Some(r) = c.raster {
+                ui.label("");
+                ui.label(r.to_string());
+                ui.end_row();
+            }
         }
         ui.label("image");
         ui.label(format!("{}x{}", st.size.0, st.size.1));

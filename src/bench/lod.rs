@@ -47,7 +47,9 @@ pub struct LodRender {
 }
 
 /// Render frame 0 of `scene` at `size` with the screen-space tolerance `tolerance_px`
-/// (0: full detail).
+/// (0: full detail), with ribbons: full detail's thinner strands would otherwise go to the
+/// compute rasteriser under `render.strands: Auto`, and the error would be the two
+/// rasterisers' difference, not the level of detail's (`kami bench raster` measures that).
 pub fn render(
     gpu: &crate::gpu::Gpu,
     scene: &Scene,
@@ -56,6 +58,7 @@ pub fn render(
 ) -> Result<LodRender> {
     let mut scene = scene.clone();
     scene.render.lod_tolerance_px = tolerance_px;
+    scene.render.strands = crate::scene::StrandRaster::Ribbons;
     stage::check_limits(gpu, &scene, size)?;
     let mut stage = Stage::new(gpu, &scene, target::OUTPUT_FORMAT, Quality::of(&scene))?;
     let out = target::Offscreen::new(gpu, size)?;
@@ -116,6 +119,9 @@ the width in pixels it had when the head filled the frame. Strand hair also skip
 k-th node is drawn, k the largest step whose chord error (the sagitta `k^2 l theta / 8` of k \
 segments of length l turning by theta per node, in pixels at the sphere's nearest point) stays \
 under `render.lod_tolerance_px` (0.5 px by default; 0 turns the whole level of detail off). \
+The bench and its tests draw both images with ribbons: full detail's thinner strands would \
+otherwise go to the compute rasteriser under `render.strands: Auto`, and the error would be the \
+two rasterisers' difference (`kami bench raster` measures that), not the level of detail's. \
 The viewer's frame-budget share multiplies on top. Where the head fills the frame (k = 1, and \
 the gust scene's own camera) nothing changes, bit for bit (`tests/it/lod.rs`); the snapshot tests of \
 the shipped scenes pass unchanged except `hair_and_fur_06`, where the critter is small on screen and \

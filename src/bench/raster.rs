@@ -13,7 +13,7 @@ use crate::gpu::Gpu;
 use crate::scene::StrandRaster;
 use crate::stage::{self, target, Quality, Stage};
 use crate::systems::anjyo::AnjyoSystem;
-use crate::systems::{HairSystem, Scene};
+use crate::systems::Scene;
 use image::RgbaImage;
 use std::fmt::Write;
 use std::path::Path;
@@ -154,9 +154,14 @@ pub fn draw_share(
     times.sort_by(f64::total_cmp);
     let image = out.read_rgba(gpu)?;
     gpu.take_error()?;
+    // The kinds with thin strands say how wide they were and what drew them.
     let (width_samples, compute) = stage
-        .system::<AnjyoSystem>()
-        .map_or((0.0, false), |a| (a.width_samples, a.splats()));
+        .systems()
+        .iter()
+        .filter_map(|s| s.stats().raster)
+        .fold((0.0f64, false), |(w, c), r| {
+            (w.max(r.width_samples), c || r.compute)
+        });
     Ok(Drawn {
         image,
         ms: times[times.len() / 2],
@@ -165,9 +170,119 @@ pub fn draw_share(
     })
 }
 
+/// Sweep each kind's scene (`SWEEP_SCENES`) over strand widths, write the table into `md`,
+/// the switch points into `raster_switch.ron` and the plot into `raster_sweep.png`.
+fn sweep_section(
+    gpu: &Gpu,
+    switches: crate::systems::raster::Switches,
+    out: &Path,
+    size: (u32, u32),
+    frame: u64,
+    runs: u32,
+    md: &mut String,
+) -> Result<()> {
+    let software = gpu.info.device_type == wgpu::DeviceType::Cpu;
+    let switch = out.join("raster_switch.ron");
+    let _ = writeln!(
+        md,
+        "\n#### Ribbons or compute by strand width (`render.strands: Auto`)\n\nOne scene of each kind with thin strands, its strands made thinner (width factor) and its camera zoomed in (zoom: the field of view narrowed, a close-up), each drawn at the scene's MSAA x supersample 1 by both rasterisers and by the reference. *Width* is the widest strand's width in samples at the hair's nearest point, as `Auto` measures it (`src/systems/raster.rs`). The compute rasteriser *wins* a point when it is faster and neither error is larger than the ribbons'.\n"
+    );
+    let _ = writeln!(
+        md,
+        "| kind (scene) | width factor | zoom | width (samples) | ribbons ms | compute ms | ribbons tile / pixel error | compute tile / pixel error | compute wins |"
+    );
+    let _ = writeln!(md, "|---|---:|---:|---:|---:|---:|---:|---:|:---:|");
+    let mut up_to = std::collections::BTreeMap::new();
+    let mut series = Vec::new();
+    for (k, (kind, path)) in SWEEP_SCENES.iter().enumerate() {
+        let scene = Scene::load(crate::scene::shipped(path))?;
+        let measured = sweep(gpu, &scene, size, frame, runs)?;
+        for m in &measured {
+            let _ = writeln!(
+                md,
+                "| {kind} ({path}) | {} | {} | {:.2} | {:.1} | {:.1} | {:.2} / {:.2} | {:.2} / {:.2} | {} |",
+                m.point.width,
+                m.point.zoom,
+                m.width_samples,
+                m.ribbons.0,
+                m.compute.0,
+                m.ribbons.1 .0,
+                m.ribbons.1 .1,
+                m.compute.1 .0,
+                m.compute.1 .1,
+                if m.compute_wins() { "yes" } else { "no" }
+            );
+        }
+        up_to.insert(kind.to_string(), switch_point(&measured));
+        let w = |m: &Measured| m.width_samples.max(0.01);
+        for (i, (what, pick)) in [
+            (
+                "ribbons ms",
+                (|m: &Measured| m.ribbons.0) as fn(&Measured) -> f64,
+            ),
+            ("compute ms", |m: &Measured| m.compute.0),
+            ("ribbons pixel error", |m: &Measured| {
+                m.ribbons.1 .1.max(0.01)
+            }),
+            ("compute pixel error", |m: &Measured| {
+                m.compute.1 .1.max(0.01)
+            }),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            series.push(Series {
+                name: format!("{kind}: {what}"),
+                color: plot::palette(4 * k + i),
+                points: measured.iter().map(|m| (w(m), pick(m))).collect(),
+            });
+        }
+    }
+    let class = if software { "software" } else { "hardware" };
+    let points: Vec<String> = up_to
+        .iter()
+        .map(|(k, w)| {
+            if *w == 0.0 {
+                format!("{k}: never (it wins at no width measured: ribbons)")
+            } else {
+                format!("{k}: up to {w:.3} samples wide")
+            }
+        })
+        .collect();
+    let _ = writeln!(
+        md,
+        "\n**Switch points on this adapter class ({class}), the compute rasteriser for** {}. Written to `raster_switch.ron` beside this report; `docs/raster_switch.ron` is compiled into Kami (`src/systems/raster.rs`), with 10 % hysteresis either side.\n",
+        points.join("; ")
+    );
+    let text = switch_file(
+        switches,
+        software,
+        crate::systems::raster::SwitchPoint {
+            adapter: gpu.describe(),
+            compute_up_to: up_to,
+        },
+    );
+    std::fs::write(&switch, text).map_err(|source| crate::KamiError::Io {
+        path: switch.clone(),
+        source,
+    })?;
+    let img = plot::loglog(
+        "Ribbons and compute by strand width",
+        "widest strand (samples)",
+        "ms per drawn frame; pixel error (levels of 255)",
+        &series,
+        None,
+    );
+    let p = out.join("raster_sweep.png");
+    img.save(&p).map_err(|e| crate::KamiError::Image {
+        path: p.clone(),
+        message: e.to_string(),
+    })
+}
+
 const CONCLUSION: &str = "
 **How the compute rasteriser draws** (`shaders/common/splat.wgsl`, f64 reference in \
-`src/systems/anjyo/splat.rs`). By default one invocation per strand walks its segments, \
+`src/systems/splat.rs` with each kind's node shading). By default one invocation per strand walks its segments, \
 adding to the accumulation with global atomics. *Binned* (not the default until a hardware \
 GPU shows it faster): one invocation per drawn segment counts the 16x16-sample tiles its \
 sample rectangle reaches, a scan turns the counts into list offsets, the segments are listed \
@@ -179,15 +294,16 @@ where atomics are cheap, binning costs more (each segment's nodes are shaded aga
 tile it reaches). A segment is walked one sample column (or row) at a time; in each column a segment of width w samples covers the vertical band of \
 thickness `w sqrt(1 + slope^2)` about its centre line, and each sample gets its exact share of \
 that band as coverage `a` (a strand's coverages add up to its length times its width). Nodes are \
-shaded and sized by the same WGSL as the ribbons (`shaders/common/strand_shade.wgsl`). A sample keeps, \
+shaded and sized by the same WGSL as the kind's ribbons. A sample keeps, \
 with u32 atomics in fixed point, the depth-weighted sums of colour and coverage and the sum of \
 `-ln(1 - a)`; the resolve composites the weighted mean colour with coverage `1 - prod(1 - a)` \
 over the scene. Occlusion by the head is a depth test against the scene pass's depth.
 
 **What it does not do.** Hairs of one sample are blended by a depth weight, not sorted: the \
 nearest hair dominates less than it would opaque. Strands wider than 16 samples are cut to 16 \
-(ribbons suit close-ups). Only strand hair (Anjyo groups) has it; fur, strips and wisps draw as \
-before, and hair of another system in front of splatted hair is composited under it.
+(ribbons suit close-ups). Anjyo's strands and fur's line, polyline and curve coats have it; \
+fur's tubes, the strips and the wisps draw as before, and hair drawn as triangles in front of \
+splatted hair is composited under it.
 ";
 
 /// A point of the width sweep: strands drawn `width` times their own width, through a
@@ -231,11 +347,16 @@ pub const SWEEP: [SweepPoint; 7] = [
 ];
 
 impl SweepPoint {
-    /// `scene` with its strands widened and its camera zoomed.
+    /// `scene` with its strands (Anjyo's groups, fur's coats) widened and its camera zoomed.
     pub fn apply(&self, scene: &Scene) -> Scene {
         let mut s = scene.clone();
         for g in s.groups_mut() {
             g.material.width *= self.width;
+        }
+        if let Some(f) = s.fur_mut().as_mut() {
+            f.coats
+                .iter_mut()
+                .for_each(|c| c.material.width *= self.width);
         }
         let half = (0.5 * s.camera.fov_y).to_radians();
         s.camera.fov_y = 2.0 * (half.tan() / self.zoom).atan().to_degrees();
@@ -280,45 +401,74 @@ pub fn switch_point(measured: &[Measured]) -> f64 {
     up_to
 }
 
-/// `path`'s switch points with this adapter class's replaced by `point` (the other class's
-/// kept), as RON.
-pub fn switch_file(
-    path: &Path,
-    software: bool,
-    point: crate::systems::raster::SwitchPoint,
-) -> Result<String> {
-    use crate::systems::raster::Switches;
-    let mut s = match std::fs::read_to_string(path) {
-        Ok(text) => ron::from_str::<Switches>(&text).map_err(|e| crate::KamiError::Parse {
+/// The kinds' sweep scenes: one of each kind with thin strands.
+pub const SWEEP_SCENES: [(&str, &str); 2] = [
+    ("anjyo", "assets/scenes/gust.ron"),
+    ("fur", "assets/scenes/fur.ron"),
+];
+
+/// The switch points at `path` (none when there is no file yet), read before a sweep so a
+/// file that does not parse fails before the work, not after.
+pub fn read_switches(path: &Path) -> Result<crate::systems::raster::Switches> {
+    match std::fs::read_to_string(path) {
+        Ok(text) => ron::from_str(&text).map_err(|e| crate::KamiError::Parse {
             path: path.display().to_string(),
             line: e.span.start.line,
             col: e.span.start.col,
-            message: e.code.to_string(),
-        })?,
-        Err(_) => Switches {
-            software: None,
-            hardware: None,
-        },
-    };
+            message: format!(
+                "{} (a switch-point file from `kami bench raster`; remove it to start afresh)",
+                e.code
+            ),
+        }),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            Ok(crate::systems::raster::Switches {
+                software: None,
+                hardware: None,
+            })
+        }
+        Err(source) => Err(crate::KamiError::Io {
+            path: path.to_path_buf(),
+            source,
+        }),
+    }
+}
+
+/// `s` with this adapter class's switch points replaced by `point` (the other class's
+/// kept), as RON.
+pub fn switch_file(
+    mut s: crate::systems::raster::Switches,
+    software: bool,
+    point: crate::systems::raster::SwitchPoint,
+) -> String {
+    use crate::systems::raster::SwitchPoint;
     if software {
         s.software = Some(point);
     } else {
         s.hardware = Some(point);
     }
-    let entry = |p: &Option<crate::systems::raster::SwitchPoint>| match p {
-        Some(p) => format!(
-            "Some((\n        adapter: {:?},\n        compute_up_to: {:.3},\n    ))",
-            p.adapter, p.compute_up_to
-        ),
+    let entry = |p: &Option<SwitchPoint>| match p {
+        Some(p) => {
+            let kinds: Vec<String> = p
+                .compute_up_to
+                .iter()
+                .map(|(k, w)| format!("{k:?}: {w:.3}"))
+                .collect();
+            format!(
+                "Some((\n        adapter: {:?},\n        compute_up_to: {{{}}},\n    ))",
+                p.adapter,
+                kinds.join(", ")
+            )
+        }
         None => "None".into(),
     };
-    Ok(format!(
-        "// Written by `kami bench raster`: the widest strand, in samples, that `render.strands: Auto`\n\
-         // draws with the compute rasteriser, per adapter class (src/systems/raster.rs).\n\
+    format!(
+        "// Written by `kami bench raster`: per adapter class and kind, the widest strand, in\n\
+         // samples, that `render.strands: Auto` draws with the compute rasteriser\n\
+         // (src/systems/raster.rs).\n\
          (\n    software: {},\n    hardware: {},\n)\n",
         entry(&s.software),
         entry(&s.hardware)
-    ))
+    )
 }
 
 /// Measure every sweep point of `scene` at `size`: the reference, then the ribbons and the
@@ -363,6 +513,8 @@ pub fn run(
     runs: u32,
 ) -> Result<Report> {
     let scene = Scene::load(scene_path)?;
+    // Before any work: a switch-point file that does not parse fails now.
+    let switches = read_switches(&out.join("raster_switch.ron"))?;
     let reference = draw(gpu, &scene, REFERENCE, size, frame, 1)?;
     let mut md = String::new();
     let _ = writeln!(
@@ -414,102 +566,7 @@ pub fn run(
             message: e.to_string(),
         })?;
     }
-    let software = gpu.info.device_type == wgpu::DeviceType::Cpu;
-    let measured = sweep(gpu, &scene, size, frame, runs)?;
-    let up_to = switch_point(&measured);
-    let _ = writeln!(
-        md,
-        "\n#### Ribbons or compute by strand width (`render.strands: Auto`)\n\nThe scene's strands made thinner (width factor) and its camera zoomed in (zoom: the field of view narrowed, a close-up), each drawn at MSAA {} x supersample 1 by both rasterisers and by the reference. *Width* is the widest strand's width in samples at the hair's nearest point, as `Auto` measures it (`src/systems/raster.rs`). The compute rasteriser *wins* a point when it is faster and neither error is larger than the ribbons'.\n",
-        scene.render.msaa
-    );
-    let _ = writeln!(
-        md,
-        "| width factor | zoom | width (samples) | ribbons ms | compute ms | ribbons tile / pixel error | compute tile / pixel error | compute wins |"
-    );
-    let _ = writeln!(md, "|---:|---:|---:|---:|---:|---:|---:|:---:|");
-    let mut widths = Vec::new();
-    for m in &measured {
-        let _ = writeln!(
-            md,
-            "| {} | {} | {:.2} | {:.1} | {:.1} | {:.2} / {:.2} | {:.2} / {:.2} | {} |",
-            m.point.width,
-            m.point.zoom,
-            m.width_samples,
-            m.ribbons.0,
-            m.compute.0,
-            m.ribbons.1 .0,
-            m.ribbons.1 .1,
-            m.compute.1 .0,
-            m.compute.1 .1,
-            if m.compute_wins() { "yes" } else { "no" }
-        );
-        widths.push((
-            m.width_samples.max(0.01),
-            m.ribbons.0,
-            m.compute.0,
-            m.ribbons.1 .1,
-            m.compute.1 .1,
-        ));
-    }
-    let _ = writeln!(
-        md,
-        "\n**Switch point on this adapter class ({}): the compute rasteriser up to {:.3} samples wide**{}. Written to `raster_switch.ron` beside this report; `docs/raster_switch.ron` is compiled into Kami (`src/systems/raster.rs`), with 10 % hysteresis either side.\n",
-        if software { "software" } else { "hardware" },
-        up_to,
-        if up_to == 0.0 {
-            " (it wins at no width measured: `Auto` draws ribbons)"
-        } else {
-            ""
-        }
-    );
-    let switch = out.join("raster_switch.ron");
-    let text = switch_file(
-        &switch,
-        software,
-        crate::systems::raster::SwitchPoint {
-            adapter: gpu.describe(),
-            compute_up_to: up_to,
-        },
-    )?;
-    std::fs::write(&switch, text).map_err(|source| crate::KamiError::Io {
-        path: switch.clone(),
-        source,
-    })?;
-    let series = [
-        (
-            "ribbons ms",
-            0usize,
-            widths.iter().map(|w| (w.0, w.1)).collect::<Vec<_>>(),
-        ),
-        ("compute ms", 1, widths.iter().map(|w| (w.0, w.2)).collect()),
-        (
-            "ribbons pixel error",
-            2,
-            widths.iter().map(|w| (w.0, w.3.max(0.01))).collect(),
-        ),
-        (
-            "compute pixel error",
-            3,
-            widths.iter().map(|w| (w.0, w.4.max(0.01))).collect(),
-        ),
-    ]
-    .map(|(name, i, points)| Series {
-        name: name.into(),
-        color: plot::palette(i),
-        points,
-    });
-    let img = plot::loglog(
-        "Ribbons and compute by strand width",
-        "widest strand (samples)",
-        "ms per drawn frame; pixel error (levels of 255)",
-        &series,
-        None,
-    );
-    let p = out.join("raster_sweep.png");
-    img.save(&p).map_err(|e| crate::KamiError::Image {
-        path: p.clone(),
-        message: e.to_string(),
-    })?;
+    sweep_section(gpu, switches, out, size, frame, runs, &mut md)?;
     md.push_str(CONCLUSION);
     write_report(out, "raster", &md, &csv)?;
     let img = plot::loglog(

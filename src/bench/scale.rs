@@ -58,9 +58,8 @@ struct Point {
     sim_cost: Option<f64>,
     /// Rendering alone (generation, ribbons, resolve) on the CPU clock.
     ribbons_ms: f64,
-    /// Rendering alone with the compute rasteriser, binned by tile and walked per strand
-    /// (NaN where the adapter cannot splat over these targets).
-    compute_ms: [f64; 2],
+    /// Rendering alone with the other rasterisers.
+    alt: Rasterisers,
     /// The compute walk over every segment (`bench::splat`).
     probe: Option<super::splat::Probe>,
     frame_ms: f64,
@@ -116,6 +115,10 @@ fn median(mut v: Vec<f64>) -> Option<f64> {
 
 /// Simulate and draw one point for the sweep's frames.
 fn measure(gpu: &Gpu, scene: &Scene, sweep: &Sweep, timed: bool) -> Result<Point> {
+    // The frame's phases with ribbons; the other rasterisers are timed after.
+    let mut ribbon_scene = scene.clone();
+    ribbon_scene.render.strands = crate::scene::StrandRaster::Ribbons;
+    let scene = &ribbon_scene;
     let mut stage = Stage::new(gpu, scene, target::OUTPUT_FORMAT, Quality::of(scene))?;
     if timed {
         stage.enable_timing(gpu);
@@ -194,7 +197,7 @@ fn measure(gpu: &Gpu, scene: &Scene, sweep: &Sweep, timed: bool) -> Result<Point
         })?);
     }
     let probe = super::splat::probe(gpu, &stage, sweep.size, 3)?;
-    let compute_ms = compute_rasteriser_ms(gpu, &mut stage, scene, &out.view, sweep.size, &look)?;
+    let alt = rasterisers_ms(gpu, &mut stage, scene, &out.view, sweep.size, &look)?;
     gpu.take_error()?;
     let mut phases = [None; 5];
     for p in Phase::ALL {
@@ -211,7 +214,7 @@ fn measure(gpu: &Gpu, scene: &Scene, sweep: &Sweep, timed: bool) -> Result<Point
         sim_alone_ms: median(alone),
         sim_cost: None,
         ribbons_ms: median(ribbons).unwrap_or(f64::NAN),
-        compute_ms,
+        alt,
         probe,
         frame_ms: median(samples.iter().filter_map(|s| s.frame).collect()).unwrap_or(f64::NAN),
         cpu_ms: median(cpu).unwrap_or(f64::NAN),
@@ -560,61 +563,99 @@ fn sweep_notes(md: &mut String, beaten: &[String], suspect: bool, skipped: &[Str
     }
 }
 
-/// Rendering alone (CPU wall around a wait, median of 3) with the compute rasteriser,
-/// binned by tile and walked per strand: the stage switched to `render.strands: Compute`
-/// in place (a redraw: the groom and its motion stay), then back.
-fn compute_rasteriser_ms(
+/// Rendering alone (CPU wall around a wait, median of 3 after one untimed) with the other
+/// rasterisers; NaN where one cannot run over these targets.
+struct Rasterisers {
+    /// Ribbons without MSAA.
+    ribbons_msaa1: f64,
+    /// The compute rasteriser binned by tile, and walked per strand.
+    compute: [f64; 2],
+    /// `render.strands: Auto`, and whether it chose the compute rasteriser.
+    auto: f64,
+    auto_compute: bool,
+}
+
+/// Time `render.strands` set to each rasteriser on `stage` in place (a redraw: the groom
+/// and its motion stay), then back to `scene`.
+fn rasterisers_ms(
     gpu: &Gpu,
     stage: &mut Stage,
     scene: &Scene,
     view: &wgpu::TextureView,
     size: (u32, u32),
     look: &crate::stage::Look,
-) -> Result<[f64; 2]> {
-    let mut compute = scene.clone();
-    compute.render.strands = crate::scene::StrandRaster::Compute;
-    stage.apply(gpu, &compute)?;
-    let mut ms = [f64::NAN; 2];
+) -> Result<Rasterisers> {
+    use crate::scene::StrandRaster;
+    let render_ms = |stage: &mut Stage| -> Result<f64> {
+        let mut runs = Vec::new();
+        for _ in 0..4 {
+            runs.push(wall_ms(gpu, stage, |stage, enc| {
+                stage.render(gpu, enc, view, size, look)
+            })?);
+        }
+        // The first run makes the pipelines and targets.
+        runs.remove(0);
+        Ok(median(runs).unwrap_or(f64::NAN))
+    };
+    let with = |strands| {
+        let mut s = scene.clone();
+        s.render.strands = strands;
+        s
+    };
+    let quality = stage.quality;
+    stage.set_quality(gpu, Quality { msaa: 1, ..quality });
+    let ribbons_msaa1 = render_ms(stage)?;
+    stage.set_quality(gpu, quality);
+    stage.apply(gpu, &with(StrandRaster::Compute))?;
+    let mut compute = [f64::NAN; 2];
     if stage.systems().iter().any(|s| s.splats()) {
         for (i, binned) in [true, false].into_iter().enumerate() {
             if let Some(a) = stage.system_mut::<AnjyoSystem>() {
                 a.set_binned(binned);
             }
-            let mut runs = Vec::new();
-            for _ in 0..4 {
-                runs.push(wall_ms(gpu, stage, |stage, enc| {
-                    stage.render(gpu, enc, view, size, look)
-                })?);
-            }
-            // The first run makes the pipelines and targets.
-            runs.remove(0);
-            ms[i] = median(runs).unwrap_or(f64::NAN);
+            compute[i] = render_ms(stage)?;
         }
     }
+    stage.apply(gpu, &with(StrandRaster::Auto))?;
+    let auto = render_ms(stage)?;
+    let auto_compute = stage.systems().iter().any(|s| s.splats());
     stage.apply(gpu, scene)?;
-    Ok(ms)
+    Ok(Rasterisers {
+        ribbons_msaa1,
+        compute,
+        auto,
+        auto_compute,
+    })
 }
 
 /// How to draw thin strands: rendering alone beside the compute walk's lower bound.
 fn render_vs_walk(md: &mut String, points: &[Point]) {
     let _ = writeln!(md, "\n**How to draw thin strands** (issue 12, item 6: measure before choosing). Rendering alone (generation, the triangle-strip ribbons, resolve; CPU wall around a wait) beside `bench::splat`: a compute pass that only walks every segment across the pixels it crosses and counts them (no depth, shading or coverage), the lower bound of a compute rasteriser at this size.\n");
-    let _ = writeln!(md, "Beside them, rendering alone with the compute rasteriser (`render.strands: Compute`), binned by screen tile and walked one invocation per strand (the same image word for word), and the binned one against the walk.\n");
-    let _ = writeln!(md, "| strands | segments/strand | render alone ms (ribbons) | compute binned ms | compute per strand ms | compute walk ms | pixel steps | ribbons / walk | binned / walk |");
-    let _ = writeln!(md, "|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    let _ = writeln!(md, "Beside them, rendering alone with the other rasterisers: ribbons without MSAA, the compute rasteriser (`render.strands: Compute`) binned by screen tile and walked one invocation per strand (the same image word for word), and `render.strands: Auto` (the default: compute up to the strand width `kami bench raster` measured it to win, ribbons past it; which one it chose in brackets). *× walk*: each against the walk.\n");
+    let _ = writeln!(md, "| strands | segments/strand | ribbons ms (scene MSAA) | ribbons MSAA 1 ms | compute binned ms | compute per strand ms | Auto ms | compute walk ms | pixel steps | ribbons × walk | per strand × walk | Auto × walk |");
+    let _ = writeln!(
+        md,
+        "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+    );
     for p in points {
         if let Some(pr) = &p.probe {
+            let a = &p.alt;
             let _ = writeln!(
                 md,
-                "| {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {:.1} | {:.1} |",
+                "| {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} ({}) | {:.2} | {} | {:.1} | {:.1} | {:.1} |",
                 p.strands,
                 p.segments,
                 p.ribbons_ms,
-                p.compute_ms[0],
-                p.compute_ms[1],
+                a.ribbons_msaa1,
+                a.compute[0],
+                a.compute[1],
+                a.auto,
+                if a.auto_compute { "compute" } else { "ribbons" },
                 pr.ms,
                 pr.pixel_steps,
                 p.ribbons_ms / pr.ms,
-                p.compute_ms[0] / pr.ms
+                a.compute[1] / pr.ms,
+                a.auto / pr.ms
             );
         }
     }

@@ -3,12 +3,13 @@
 //! (`shaders/common/splat.wgsl`) by how wide its widest strand is on screen, in samples.
 //! Ribbons for close-ups, compute for thin hair.
 //!
-//! The switch point is not chosen by hand: `kami bench raster` sweeps strand widths, times
-//! both rasterisers and measures their image error against 64 samples per pixel, and writes
-//! the widest width at which the compute rasteriser is both faster and no less accurate than
-//! the ribbons at the scene's MSAA (`docs/raster_switch.ron`, read here at compile time).
-//! The file has one point per adapter class it was measured on: a software adapter
-//! (lavapipe, llvmpipe) and a hardware GPU; a class not measured yet uses the other's.
+//! The switch point is not chosen by hand: `kami bench raster` sweeps strand widths on a
+//! scene of each kind, times both rasterisers and measures their image error against 64
+//! samples per pixel, and writes the widest width at which the compute rasteriser is both
+//! faster and no less accurate than the ribbons at the scene's MSAA
+//! (`docs/raster_switch.ron`, read here at compile time). The file has one entry per
+//! adapter class it was measured on (a software adapter such as lavapipe or llvmpipe, and a
+//! hardware GPU), each with a width per kind; a class not measured yet uses the other's.
 
 use crate::scene::StrandRaster;
 use serde::Deserialize;
@@ -17,13 +18,14 @@ use std::sync::OnceLock;
 /// What `kami bench raster` wrote.
 const MEASURED: &str = include_str!("../../docs/raster_switch.ron");
 
-/// A switch point and where it was measured.
+/// The switch points of one adapter class and where they were measured.
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 pub struct SwitchPoint {
     /// The adapter the bench ran on.
     pub adapter: String,
-    /// The compute rasteriser draws strands up to this wide, in samples (0: never).
-    pub compute_up_to: f64,
+    /// Per kind (`Kind::name`): the compute rasteriser draws its strands up to this wide,
+    /// in samples (0: never).
+    pub compute_up_to: std::collections::BTreeMap<String, f64>,
 }
 
 /// The switch points by adapter class (`docs/raster_switch.ron`).
@@ -45,8 +47,9 @@ pub fn switches() -> &'static Result<Switches, String> {
             .map_err(|e| format!("docs/raster_switch.ron: {e}"))
             .and_then(|s| {
                 let ok = |p: &Option<SwitchPoint>| {
-                    p.as_ref()
-                        .is_none_or(|p| p.compute_up_to.is_finite() && p.compute_up_to >= 0.0)
+                    p.as_ref().is_none_or(|p| {
+                        p.compute_up_to.values().all(|w| w.is_finite() && *w >= 0.0)
+                    })
                 };
                 if !ok(&s.software) || !ok(&s.hardware) {
                     return Err(
@@ -58,18 +61,21 @@ pub fn switches() -> &'static Result<Switches, String> {
     })
 }
 
-/// The widest strand, in samples, the compute rasteriser draws under `Auto` on this class
-/// of adapter: the class's measured point, else the other class's, else 0 (ribbons).
-pub fn compute_up_to(software: bool) -> f64 {
+/// The widest strand, in samples, the compute rasteriser draws of `kind` under `Auto` on
+/// this class of adapter: the class's measured point, else the other class's, else 0
+/// (ribbons).
+pub fn compute_up_to(kind: &str, software: bool) -> f64 {
     let Ok(s) = switches() else { return 0.0 };
     let (own, other) = if software {
         (&s.software, &s.hardware)
     } else {
         (&s.hardware, &s.software)
     };
-    own.as_ref()
-        .or(other.as_ref())
-        .map_or(0.0, |p| p.compute_up_to)
+    [own, other]
+        .into_iter()
+        .flatten()
+        .find_map(|p| p.compute_up_to.get(kind).copied())
+        .unwrap_or(0.0)
 }
 
 /// Whether strands `width` samples wide are drawn by the compute rasteriser under

@@ -139,11 +139,7 @@ impl std::fmt::Display for RasterChoice {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let how = if self.compute { "compute" } else { "ribbons" };
         if self.width_samples.is_finite() {
-            write!(
-                f,
-                "{how}, strands up to {:.2} samples wide",
-                self.width_samples
-            )
+            write!(f, "{how}, {:.2} samples wide", self.width_samples)
         } else {
             write!(f, "{how}, close-up")
         }

@@ -475,7 +475,7 @@ fn auto_picks_compute_for_thin_hair_and_ribbons_for_close_ups() {
     use kami::systems::HairSystem;
     let gpu = common::gpu();
     let software = gpu.info.device_type == wgpu::DeviceType::Cpu;
-    let up_to = kami::systems::raster::compute_up_to(software);
+    let up_to = kami::systems::raster::compute_up_to("anjyo", software);
     assert!(
         up_to > 0.0,
         "docs/raster_switch.ron has no switch point for this adapter (run kami bench raster)"

@@ -517,6 +517,7 @@ impl AnjyoSystem {
             raster: scene.render.strands,
             widest,
             compute_up_to: crate::systems::raster::compute_up_to(
+                KIND.name,
                 gpu.info.device_type == wgpu::DeviceType::Cpu,
             ),
             in_compute: scene.render.strands == StrandRaster::Compute,

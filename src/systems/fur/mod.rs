@@ -333,6 +333,7 @@ impl FurSystem {
             widest: widest(&fur.coats),
             raster: scene.render.strands,
             compute_up_to: crate::systems::raster::compute_up_to(
+                KIND.name,
                 gpu.info.device_type == wgpu::DeviceType::Cpu,
             ),
             in_compute: scene.render.strands == StrandRaster::Compute,
