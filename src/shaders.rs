@@ -19,6 +19,21 @@ macro_rules! wgsl {
             $($file),+
         )
     };
+    // A kind's compute rasteriser for thin strands over a scene depth (`depth`:
+    // "common/depth_single.wgsl" or "common/depth_msaa.wgsl"): the shared kernels
+    // (`common/splat.wgsl`) after the kind's files, which give it its strands and nodes.
+    (splat $depth:literal; $($file:literal),+ $(,)?) => {
+        $crate::shaders::wgsl!(
+            $depth,
+            "common/strands.wgsl",
+            "common/frame.wgsl",
+            "common/shadow.wgsl",
+            "common/hair_bsdf.wgsl",
+            "common/strand_drawn.wgsl",
+            $($file),+,
+            "common/splat.wgsl",
+        )
+    };
     ($($file:literal),+ $(,)?) => {
         concat!($(include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/shaders/", $file)), "\n"),+)
     };

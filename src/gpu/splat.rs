@@ -8,6 +8,7 @@
 //! The binned rasteriser's tile lists (`TileBins`, group 3 of the `bin_*` kernels) are made
 //! by a pass only once it bins, sized by the target's tiles.
 
+use crate::error::Result;
 use crate::gpu::{bind, Gpu};
 
 /// `u32` words per sample: r, g, b, weight, optical depth.
@@ -74,7 +75,7 @@ impl SplatTarget {
         size: (u32, u32),
         samples: u32,
         depth: &wgpu::TextureView,
-    ) -> crate::error::Result<SplatTarget> {
+    ) -> Result<SplatTarget> {
         let bytes = size.0 as u64 * size.1 as u64 * WORDS * 4;
         gpu.check_storage_size("the thin-strand accumulation", bytes)?;
         let accum = gpu.device.create_buffer(&wgpu::BufferDescriptor {
@@ -150,7 +151,64 @@ pub struct SplatKernels {
     binned: Option<[wgpu::ComputePipeline; 4]>,
 }
 
+/// Where a kind's kernels come from: its WGSL over a single-sampled and a multisampled
+/// scene depth, and its bind group layouts.
+pub struct KernelSource<'a> {
+    pub label: &'a str,
+    /// The kind's module reading a single-sampled, and a multisampled, scene depth.
+    pub modules: [&'a str; 2],
+    /// Group 0 (the frame) and the kind's group 1.
+    pub frame: &'a wgpu::BindGroupLayout,
+    pub kind: &'a wgpu::BindGroupLayout,
+    /// The tile lists' group 3, for a kind that bins.
+    pub bins: Option<&'a wgpu::BindGroupLayout>,
+}
+
+/// A kind's kernels made on the first frame that splats, for the current sample count; a
+/// build that fails is logged once and draws nothing. `reset` when the variant changes.
+#[derive(Default)]
+pub struct LazyKernels(std::cell::OnceCell<Option<SplatKernels>>);
+
+impl LazyKernels {
+    pub fn get(&self, build: impl FnOnce() -> Result<SplatKernels>) -> Option<&SplatKernels> {
+        self.0
+            .get_or_init(|| match build() {
+                Ok(k) => Some(k),
+                Err(e) => {
+                    log::error!("the compute rasteriser for thin strands: {e}");
+                    None
+                }
+            })
+            .as_ref()
+    }
+
+    pub fn reset(&mut self) {
+        self.0 = Default::default();
+    }
+}
+
 impl SplatKernels {
+    /// `source`'s kernels over a scene depth of `samples` samples (group 2 from `layouts`),
+    /// with the pipelines' overridable `constants`.
+    pub fn build(
+        device: &wgpu::Device,
+        source: &KernelSource,
+        layouts: &SplatLayouts,
+        samples: u32,
+        constants: &[(&str, f64)],
+    ) -> Result<SplatKernels> {
+        let wgsl = source.modules[usize::from(samples > 1)];
+        let module = super::shader_module(device, source.label, wgsl)?;
+        Ok(SplatKernels::new(
+            device,
+            source.label,
+            &module,
+            [source.frame, source.kind, layouts.for_samples(samples)],
+            source.bins,
+            constants,
+        ))
+    }
+
     /// From `module` over `groups` (frame, the kind's group 1, the target's group 2), and
     /// the binning kernels over the tile lists' group 3 when `bins` is given.
     pub fn new(

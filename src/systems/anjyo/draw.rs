@@ -16,7 +16,7 @@ use super::gpu_data::{GpuLook, GpuMaterial};
 use crate::error::Result;
 use crate::gpu::gpu_data::{linear_rgb, GpuStrand};
 use crate::gpu::pipeline::{self, DrawPipeline, Variant};
-use crate::gpu::splat::{SplatKernels, SplatLayouts, TileBins};
+use crate::gpu::splat::{KernelSource, LazyKernels, SplatKernels, SplatLayouts, TileBins};
 use crate::gpu::strands::StrandBuffers;
 use crate::gpu::{self, bind, Gpu};
 use crate::systems::anjyo::block::Material;
@@ -38,7 +38,7 @@ pub struct StrandsPass {
     splat_layouts: SplatLayouts,
     /// The compute rasteriser for the current MSAA sample count (the depth it reads),
     /// made on the first frame that splats.
-    splat: std::cell::OnceCell<Option<SplatKernels>>,
+    splat: LazyKernels,
     /// Bin the segments by screen tile (`bin_*` kernels) rather than walk each strand with
     /// global atomics (`splat`); the same accumulation either way. Off until a hardware GPU
     /// shows binning faster: on lavapipe it is 2.2 times slower (`kami bench scale`,
@@ -156,27 +156,20 @@ impl StrandsPass {
     /// The compute rasteriser reading a scene depth of `variant.samples` samples, shading
     /// with `variant.shadow`'s lookup.
     fn splat_pipeline(&self) -> Result<SplatKernels> {
-        let (device, samples) = (&self.device, self.variant.samples);
-        let source = if samples > 1 {
-            super::SPLAT_MSAA
-        } else {
-            super::SPLAT
+        let source = KernelSource {
+            label: "anjyo splat",
+            modules: [super::SPLAT, super::SPLAT_MSAA],
+            frame: &self.frame_layout,
+            kind: &self.layout,
+            bins: Some(&self.bins_layout),
         };
-        let module = gpu::shader_module(device, "anjyo splat", source)?;
-        let groups = [
-            &self.frame_layout,
-            &self.layout,
-            self.splat_layouts.for_samples(samples),
-        ];
-        let constants = self.variant.constants(Some(self.physical));
-        Ok(SplatKernels::new(
-            device,
-            "strands splat",
-            &module,
-            groups,
-            Some(&self.bins_layout),
-            &constants,
-        ))
+        SplatKernels::build(
+            &self.device,
+            &source,
+            &self.splat_layouts,
+            self.variant.samples,
+            &self.variant.constants(Some(self.physical)),
+        )
     }
 
     /// The shadow cast (`anjyo/cast.wgsl`) over groups 0, 1 and the cast group 2.
@@ -239,7 +232,7 @@ impl StrandsPass {
             self.variant,
             self.physical,
         );
-        self.splat = Default::default();
+        self.splat.reset();
     }
 
     fn pipeline(
@@ -396,14 +389,9 @@ impl StrandsPass {
         let Some(b) = self.bound.as_ref().filter(|b| b.strand_count > 0) else {
             return;
         };
-        let pipelines = self.splat.get_or_init(|| match self.splat_pipeline() {
-            Ok(p) => Some(p),
-            Err(e) => {
-                log::error!("the compute rasteriser for thin strands: {e}");
-                None
-            }
-        });
-        let Some(kernels) = pipelines else { return };
+        let Some(kernels) = self.splat.get(|| self.splat_pipeline()) else {
+            return;
+        };
         pass.set_bind_group(1, &b.bind_group, &[]);
         // Binned from the first `prepare` after `set_binned(true)` on.
         let bins = self.bins.as_ref().filter(|_| self.binned);

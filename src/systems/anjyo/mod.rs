@@ -88,30 +88,12 @@ pub const CAST: &str = wgsl!(
 );
 
 /// The compute rasteriser for thin strands, reading a single-sampled scene depth.
-pub const SPLAT: &str = wgsl!(
-    "common/depth_single.wgsl",
-    "common/strands.wgsl",
-    "common/frame.wgsl",
-    "common/shadow.wgsl",
-    "common/hair_bsdf.wgsl",
-    "common/strand_shade.wgsl",
-    "common/strand_drawn.wgsl",
-    "anjyo/splat.wgsl",
-    "common/splat.wgsl",
-);
+pub const SPLAT: &str = wgsl!(splat "common/depth_single.wgsl";
+    "common/strand_shade.wgsl", "anjyo/splat.wgsl");
 
 /// The same over a multisampled scene depth.
-pub const SPLAT_MSAA: &str = wgsl!(
-    "common/depth_msaa.wgsl",
-    "common/strands.wgsl",
-    "common/frame.wgsl",
-    "common/shadow.wgsl",
-    "common/hair_bsdf.wgsl",
-    "common/strand_shade.wgsl",
-    "common/strand_drawn.wgsl",
-    "anjyo/splat.wgsl",
-    "common/splat.wgsl",
-);
+pub const SPLAT_MSAA: &str = wgsl!(splat "common/depth_msaa.wgsl";
+    "common/strand_shade.wgsl", "anjyo/splat.wgsl");
 
 pub const KIND: Kind = Kind {
     name: "anjyo",

@@ -11,7 +11,7 @@ use super::setup::FurSetup;
 use crate::error::Result;
 use crate::gpu::gpu_data::{linear_rgb, GpuStrand};
 use crate::gpu::pipeline::{self, DrawPipeline, Variant};
-use crate::gpu::splat::{SplatKernels, SplatLayouts};
+use crate::gpu::splat::{KernelSource, LazyKernels, SplatKernels, SplatLayouts};
 use crate::gpu::{self, bind, Gpu};
 use crate::systems::fur::block::FurStyle;
 
@@ -39,7 +39,7 @@ pub struct FurPass {
     frame_layout: wgpu::BindGroupLayout,
     splat_layouts: SplatLayouts,
     /// Made on the first frame that splats, for the current MSAA sample count.
-    splat: std::cell::OnceCell<Option<SplatKernels>>,
+    splat: LazyKernels,
     device: wgpu::Device,
     /// On GL a multisampled depth that a shader reads leaves the scene pass black
     /// (llvmpipe): there the compute rasteriser runs only without MSAA.
@@ -235,7 +235,7 @@ impl FurPass {
     }
 
     fn rebuild(&mut self, gpu: &Gpu) {
-        self.splat = Default::default();
+        self.splat.reset();
         (self.ribbon, self.tube, self.skin) = Self::pipelines(
             gpu,
             (&self.module, &self.pipeline_layout),
@@ -507,38 +507,31 @@ impl FurPass {
         !(self.gl && self.variant.samples > 1)
     }
 
+    /// No tile lists: fur walks one hair per invocation (binning is off by default).
     fn splat_kernels(&self) -> Result<SplatKernels> {
-        let (device, samples) = (&self.device, self.variant.samples);
-        let source = if samples > 1 {
-            super::SPLAT_MSAA
-        } else {
-            super::SPLAT
+        let source = KernelSource {
+            label: "fur splat",
+            modules: [super::SPLAT, super::SPLAT_MSAA],
+            frame: &self.frame_layout,
+            kind: &self.splat_layout,
+            bins: None,
         };
-        let module = gpu::shader_module(device, "fur splat", source)?;
-        let target = self.splat_layouts.for_samples(samples);
-        // No tile lists: fur walks one hair per invocation (binning is off by default).
-        Ok(SplatKernels::new(
-            device,
-            "fur splat",
-            &module,
-            [&self.frame_layout, &self.splat_layout, target],
-            None,
+        SplatKernels::build(
+            &self.device,
+            &source,
+            &self.splat_layouts,
+            self.variant.samples,
             &self.variant.constants(Some(self.physical)),
-        ))
+        )
     }
 
     /// Record the compute rasteriser over the first `hairs` strands (each coat's drawn ones,
     /// tubes aside); groups 0 and 2 are bound by the stage.
     pub fn splat(&self, pass: &mut wgpu::ComputePass<'_>, hairs: u32) {
         let Some(b) = &self.bound else { return };
-        let kernels = self.splat.get_or_init(|| match self.splat_kernels() {
-            Ok(k) => Some(k),
-            Err(e) => {
-                log::error!("fur's compute rasteriser: {e}");
-                None
-            }
-        });
-        let Some(kernels) = kernels else { return };
+        let Some(kernels) = self.splat.get(|| self.splat_kernels()) else {
+            return;
+        };
         pass.set_bind_group(1, &b.splat_group, &[]);
         kernels.record(pass, hairs, None, 0);
     }

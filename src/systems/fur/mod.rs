@@ -58,32 +58,12 @@ pub const DRAW: &str = wgsl!(
 
 /// Fur's thin coats through the compute rasteriser (`shaders/common/splat.wgsl`), reading
 /// a single-sampled scene depth.
-pub const SPLAT: &str = wgsl!(
-    "common/depth_single.wgsl",
-    "common/strands.wgsl",
-    "common/frame.wgsl",
-    "common/shadow.wgsl",
-    "common/random.wgsl",
-    "common/hair_bsdf.wgsl",
-    "fur/shade.wgsl",
-    "common/strand_drawn.wgsl",
-    "fur/splat.wgsl",
-    "common/splat.wgsl",
-);
+pub const SPLAT: &str = wgsl!(splat "common/depth_single.wgsl";
+    "common/random.wgsl", "fur/shade.wgsl", "fur/splat.wgsl");
 
 /// The same over a multisampled scene depth.
-pub const SPLAT_MSAA: &str = wgsl!(
-    "common/depth_msaa.wgsl",
-    "common/strands.wgsl",
-    "common/frame.wgsl",
-    "common/shadow.wgsl",
-    "common/random.wgsl",
-    "common/hair_bsdf.wgsl",
-    "fur/shade.wgsl",
-    "common/strand_drawn.wgsl",
-    "fur/splat.wgsl",
-    "common/splat.wgsl",
-);
+pub const SPLAT_MSAA: &str = wgsl!(splat "common/depth_msaa.wgsl";
+    "common/random.wgsl", "fur/shade.wgsl", "fur/splat.wgsl");
 
 /// Fur's shadow cast (`stage::shadow`).
 pub const CAST: &str = wgsl!(
