@@ -221,18 +221,14 @@ fn sweep_section(
                 (|m: &Measured| m.ribbons.0) as fn(&Measured) -> f64,
             ),
             ("compute ms", |m: &Measured| m.compute.0),
-            ("ribbons pixel error", |m: &Measured| {
-                m.ribbons.1 .1.max(0.01)
-            }),
-            ("compute pixel error", |m: &Measured| {
-                m.compute.1 .1.max(0.01)
-            }),
+            ("ribbons error", |m: &Measured| m.ribbons.1 .1.max(0.01)),
+            ("compute error", |m: &Measured| m.compute.1 .1.max(0.01)),
         ]
         .into_iter()
         .enumerate()
         {
             series.push(Series {
-                name: format!("{kind}: {what}"),
+                name: format!("{kind} {what}"),
                 color: plot::palette(4 * k + i),
                 points: measured.iter().map(|m| (w(m), pick(m))).collect(),
             });

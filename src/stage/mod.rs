@@ -602,10 +602,6 @@ impl Stage {
         // The shading pipelines compile the lookup of this frame's structure, or none.
         let casting = self.casting();
         self.set_shadow_variant(gpu, shadow_variant(&self.scene, casting));
-        // Thin strands drawn by a compute rasteriser read the scene depth and need an
-        // accumulation: targets are made for whether any system splats this frame.
-        let mut splatting = self.systems.iter().any(|s| s.splats());
-        self.ensure_targets(gpu, size, splatting)?;
         // The frame uniform first: systems that work in screen space (the wisps' tiles)
         // prepare with the same view-projection the shaders see.
         let bounds = self.bounds();
@@ -619,12 +615,12 @@ impl Stage {
         if let Some(t) = self.timer.as_mut() {
             t.end(enc, Phase::Generation);
         }
-        // A system drawing `Auto` chooses its rasteriser in `prepare`, by its strands' width
-        // at this view: the targets follow (same size, so the view stays true).
-        if self.systems.iter().any(|s| s.splats()) != splatting {
-            splatting = !splatting;
-            self.ensure_targets(gpu, size, splatting)?;
-        }
+        // Thin strands drawn by a compute rasteriser read the scene depth and need an
+        // accumulation: targets are made for whether any system splats this frame, which a
+        // system under `render.strands: Auto` decides in `prepare` (by its strands' width at
+        // this view, whose sample size does not depend on the targets).
+        let splatting = self.systems.iter().any(|s| s.splats());
+        self.ensure_targets(gpu, size, splatting)?;
         self.bind_splat(gpu, splatting)?;
         self.cast_shadows(gpu, enc, bounds, casting, head_pose, &mut uniform)?;
         if let Some(t) = self.timer.as_mut() {
@@ -681,7 +677,8 @@ impl Stage {
     /// This frame's uniform (before its shadow parameters) and the view the systems
     /// prepare with, for a region of `size` output pixels.
     fn frame_view(&self, look: &Look, bounds: (DVec3, f64), size: (u32, u32)) -> (GpuFrame, View) {
-        let samples = self.targets.as_ref().map_or(size, |t| t.scene.size);
+        let q = &self.quality;
+        let samples = target::scaled_size(size, q.supersample, q.scale_pct);
         let mut uniform = frame_uniform(&self.scene, look, bounds, samples, self.quality.msaa);
         // Samples per output pixel (widths given in pixels, such as the wisps' outline).
         uniform.flags[1] = samples.1 as f32 / size.1 as f32;

@@ -22,6 +22,17 @@ pub struct SceneTargets {
     pub depth: wgpu::TextureView,
 }
 
+/// The scene targets' size in samples for `output_size` pixels, supersampled `factor`
+/// times per axis at `scale_pct` percent of the resolution.
+pub fn scaled_size(output_size: (u32, u32), factor: u32, scale_pct: u32) -> (u32, u32) {
+    let scaled = |n: u32| {
+        (u64::from(n * factor) * u64::from(scale_pct))
+            .div_ceil(100)
+            .max(1) as u32
+    };
+    (scaled(output_size.0), scaled(output_size.1))
+}
+
 impl SceneTargets {
     pub fn new(
         gpu: &Gpu,
@@ -43,12 +54,7 @@ impl SceneTargets {
         scale_pct: u32,
         sampled_depth: bool,
     ) -> Result<SceneTargets> {
-        let scaled = |n: u32| {
-            (u64::from(n * factor) * u64::from(scale_pct))
-                .div_ceil(100)
-                .max(1) as u32
-        };
-        let size = (scaled(output_size.0), scaled(output_size.1));
+        let size = scaled_size(output_size, factor, scale_pct);
         gpu.check_texture_size("the supersampled scene width", size.0)?;
         gpu.check_texture_size("the supersampled scene height", size.1)?;
         let extent = wgpu::Extent3d {

@@ -78,6 +78,26 @@ pub fn compute_up_to(kind: &str, software: bool) -> f64 {
         .unwrap_or(0.0)
 }
 
+/// Why `Auto` never picks the compute rasteriser on this adapter, if it does not: lavapipe
+/// (Mesa's Vulkan software adapter; measured on Mesa 22.3.6) grows the process by about
+/// 1 MiB for every frame that dispatches the compute rasteriser (320x240, one kind; the
+/// same kernels on llvmpipe's GL stay flat), which a viewer left running cannot afford.
+/// `render.strands: Compute` still draws with it there.
+pub fn auto_refused(info: &wgpu::AdapterInfo) -> Option<&'static str> {
+    (info.device_type == wgpu::DeviceType::Cpu && info.backend == wgpu::Backend::Vulkan).then_some(
+        "lavapipe leaks about 1 MiB per frame that dispatches the compute rasteriser: Auto draws ribbons there",
+    )
+}
+
+/// `Auto`'s switch point for `kind` on this adapter: the measured one for its class, or 0
+/// (ribbons) where `auto_refused` says so.
+pub fn switch_for(kind: &str, info: &wgpu::AdapterInfo) -> f64 {
+    if auto_refused(info).is_some() {
+        return 0.0;
+    }
+    compute_up_to(kind, info.device_type == wgpu::DeviceType::Cpu)
+}
+
 /// Whether strands `width` samples wide are drawn by the compute rasteriser under
 /// `setting`; `was` is the last frame's choice (kept within the hysteresis band).
 pub fn draws_in_compute(setting: StrandRaster, width: f64, up_to: f64, was: bool) -> bool {

@@ -469,7 +469,8 @@ fn file_colours_opacities_and_widths_are_drawn() {
 /// close-up of the same hair with ribbons, by the widest strand's width in samples against
 /// the switch point `kami bench raster` measured (`docs/raster_switch.ron`): each frame is
 /// the one the forced rasteriser draws, and one stage switches both ways as the camera
-/// zooms (its targets follow the choice).
+/// zooms (its targets follow the choice). On lavapipe, where the compute rasteriser's
+/// dispatches leak (`systems::raster::auto_refused`), Auto draws ribbons at both widths.
 #[test]
 fn auto_picks_compute_for_thin_hair_and_ribbons_for_close_ups() {
     use kami::systems::HairSystem;
@@ -480,6 +481,11 @@ fn auto_picks_compute_for_thin_hair_and_ribbons_for_close_ups() {
         up_to > 0.0,
         "docs/raster_switch.ron has no switch point for this adapter (run kami bench raster)"
     );
+    // A named limitation of the adapter: there Auto must draw ribbons at every width.
+    let refused = kami::systems::raster::auto_refused(&gpu.info);
+    if let Some(why) = refused {
+        eprintln!("{}: {why}", gpu.describe());
+    }
     let mut scene = small(true, 1);
     scene.render.strands = StrandRaster::Auto;
     assert_eq!(Scene::default().render.strands, StrandRaster::Auto);
@@ -516,7 +522,8 @@ fn auto_picks_compute_for_thin_hair_and_ribbons_for_close_ups() {
         frame(&mut stage, zoom).0
     };
     let mut auto = Stage::new(gpu, &scene, target::OUTPUT_FORMAT, Quality::of(&scene)).unwrap();
-    for (zoom, compute) in [(false, true), (true, false), (false, true)] {
+    for (zoom, thin) in [(false, true), (true, false), (false, true)] {
+        let compute = thin && refused.is_none();
         let (image, splats, w) = frame(&mut auto, zoom);
         eprintln!(
             "zoom {zoom}: widest strand {w:.3} samples (switch {up_to:.3}), compute {splats}"

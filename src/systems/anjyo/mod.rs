@@ -498,10 +498,7 @@ impl AnjyoSystem {
             screen: ScreenLod::FULL,
             raster: scene.render.strands,
             widest,
-            compute_up_to: crate::systems::raster::compute_up_to(
-                KIND.name,
-                gpu.info.device_type == wgpu::DeviceType::Cpu,
-            ),
+            compute_up_to: crate::systems::raster::switch_for(KIND.name, &gpu.info),
             in_compute: scene.render.strands == StrandRaster::Compute,
             width_samples: 0.0,
             playback,

@@ -312,10 +312,7 @@ impl FurSystem {
             shading: scene.render.shading,
             widest: widest(&fur.coats),
             raster: scene.render.strands,
-            compute_up_to: crate::systems::raster::compute_up_to(
-                KIND.name,
-                gpu.info.device_type == wgpu::DeviceType::Cpu,
-            ),
+            compute_up_to: crate::systems::raster::switch_for(KIND.name, &gpu.info),
             in_compute: scene.render.strands == StrandRaster::Compute,
             width_samples: 0.0,
         })
