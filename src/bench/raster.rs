@@ -192,7 +192,18 @@ fn sweep_section(
         "| kind (scene) | width factor | zoom | width (samples) | ribbons ms | compute ms | ribbons tile / pixel error | compute tile / pixel error | compute wins |"
     );
     let _ = writeln!(md, "|---|---:|---:|---:|---:|---:|---:|---:|:---:|");
-    let mut up_to = std::collections::BTreeMap::new();
+    // This class's points so far: a kind whose compute rasteriser could not run here keeps
+    // its previous point rather than being reset to "never".
+    let previous = if software {
+        &switches.software
+    } else {
+        &switches.hardware
+    };
+    let mut up_to = previous
+        .as_ref()
+        .map(|p| p.compute_up_to.clone())
+        .unwrap_or_default();
+    let mut unmeasured = Vec::new();
     let mut series = Vec::new();
     for (k, (kind, path)) in SWEEP_SCENES.iter().enumerate() {
         let scene = Scene::load(crate::scene::shipped(path))?;
@@ -213,7 +224,11 @@ fn sweep_section(
                 if m.compute_wins() { "yes" } else { "no" }
             );
         }
-        up_to.insert(kind.to_string(), switch_point(&measured));
+        if measured.iter().any(|m| m.compute.0.is_finite()) {
+            up_to.insert(kind.to_string(), switch_point(&measured));
+        } else {
+            unmeasured.push(*kind);
+        }
         let w = |m: &Measured| m.width_samples.max(0.01);
         for (i, (what, pick)) in [
             (
@@ -250,11 +265,23 @@ fn sweep_section(
         "\n**Switch points on this adapter class ({class}), the compute rasteriser for** {}. Written to `raster_switch.ron` beside this report; `docs/raster_switch.ron` is compiled into Kami (`src/systems/raster.rs`), with 10 % hysteresis either side.\n",
         points.join("; ")
     );
+    if !unmeasured.is_empty() {
+        let _ = writeln!(
+            md,
+            "The compute rasteriser could not draw over these targets for {} (GL with MSAA): their points are kept from the file, not measured here.\n",
+            unmeasured.join(", ")
+        );
+    }
+    // Nothing measured here: the points still name the adapter that measured them.
+    let adapter = match previous.as_ref() {
+        Some(p) if unmeasured.len() == SWEEP_SCENES.len() => p.adapter.clone(),
+        _ => gpu.describe(),
+    };
     let text = switch_file(
         switches,
         software,
         crate::systems::raster::SwitchPoint {
-            adapter: gpu.describe(),
+            adapter,
             compute_up_to: up_to,
         },
     );
@@ -494,7 +521,13 @@ pub fn sweep(
                 point: *p,
                 width_samples: c.width_samples,
                 ribbons: (r.ms, model_error(&r.image, &reference.image)),
-                compute: (c.ms, model_error(&c.image, &reference.image)),
+                // Where the adapter cannot splat over these targets (GL with MSAA) the
+                // ribbons drew: no compute figures, and compute wins nowhere.
+                compute: if c.compute {
+                    (c.ms, model_error(&c.image, &reference.image))
+                } else {
+                    (f64::NAN, (f64::NAN, f64::NAN))
+                },
             })
         })
         .collect()

@@ -211,7 +211,7 @@ impl SplatKernels {
 
     /// From `module` over `groups` (frame, the kind's group 1, the target's group 2), and
     /// the binning kernels over the tile lists' group 3 when `bins` is given.
-    pub fn new(
+    fn new(
         device: &wgpu::Device,
         label: &str,
         module: &wgpu::ShaderModule,
