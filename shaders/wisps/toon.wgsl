@@ -1,7 +1,8 @@
 // Toon shading of the wisps' surface (Sakai eqs 14-22) in the head frame, with the angel
 // halo (the specular band) and the toon controls: a feather on every step, the halo's
 // latitude offset, strength and colour over the shadow tones, and the rim light. Included
-// after `wisps/march.wgsl`, whose `draw` uniform holds the colours, thresholds and controls.
+// after `wisps/march.wgsl` or `wisps/mesh.wgsl`, whose `draw` uniform (`wisps/draw.wgsl`)
+// holds the colours, thresholds and controls.
 // f64 reference: `src/systems/wisps/toon.rs` (same steps, same order; `shade_at` is
 // `toon_at`).
 

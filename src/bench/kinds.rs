@@ -96,9 +96,10 @@ pub const KIND_BENCHES: &[KindBench] = &[
     KindBench {
         name: "wisps",
         about: "Sakai's toon wisps: ray-march ms per frame against wisp count and image size, \
-                image error against step size and distance method, and the mass springs' \
-                work-precision table; writes wisps.md, wisps.csv and three plots (cost, \
-                error, springs).",
+                image error against step size and distance method, the march and the mesh \
+                side by side (error against the f64 truth, ms per frame, what Auto draws), \
+                and the mass springs' work-precision table; writes wisps.md, wisps.csv, \
+                three plots (cost, error, springs) and wisps_draw.ron.",
         input: ("scene", "SCENE", "assets/scenes/toon.ron", None),
         frames: Some(("3", "Frames to time per figure.")),
         out: OUT,
@@ -109,6 +110,7 @@ pub const KIND_BENCHES: &[KindBench] = &[
             "wisps_cost.png",
             "wisps_error.png",
             "wisps_springs.png",
+            "wisps_draw.ron",
         ],
     },
     KindBench {

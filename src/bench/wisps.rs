@@ -14,7 +14,7 @@ use crate::error::Result;
 use crate::gpu::timing::{PassTimes, Phase};
 use crate::gpu::Gpu;
 use crate::stage::{self, target, Quality, Stage};
-use crate::systems::wisps::block::{Distance, Skeleton};
+use crate::systems::wisps::block::{Distance, Skeleton, WispDraw};
 use crate::systems::wisps::tiles::MarchStats;
 use crate::systems::wisps::WispsSystem;
 use crate::systems::Scene;
@@ -81,6 +81,8 @@ pub fn with_count(scene: &Scene, count: usize) -> Scene {
 }
 
 struct Timed {
+    /// Each frame steps the motion first (moving wisps).
+    moving: bool,
     stage: Stage,
     out: target::Offscreen,
     size: (u32, u32),
@@ -96,6 +98,7 @@ impl Timed {
         let mut stage = Stage::new(gpu, scene, target::OUTPUT_FORMAT, quality)?;
         stage.enable_timing(gpu);
         Ok(Timed {
+            moving: false,
             stage,
             out: target::Offscreen::new(gpu, size)?,
             size,
@@ -110,6 +113,9 @@ impl Timed {
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("bench wisps frame"),
             });
+        if self.moving {
+            self.stage.advance(gpu, &mut enc, 1)?;
+        }
         self.stage
             .render(gpu, &mut enc, &self.out.view, self.size, &look)?;
         let Some(timer) = self.stage.timer() else {
@@ -334,7 +340,7 @@ fn before_costs(out: &Path) -> Vec<(usize, u32, f64)> {
 
 /// The f64 truth (`field::render_reference`: every segment, every ray from the eye) of a
 /// still scene at `size`, as an sRGB image.
-fn truth_image(gpu: &Gpu, scene: &Scene, size: (u32, u32)) -> Result<RgbaImage> {
+pub fn truth_image(gpu: &Gpu, scene: &Scene, size: (u32, u32)) -> Result<RgbaImage> {
     use crate::systems::wisps::field;
     let stage = Stage::new(gpu, scene, target::OUTPUT_FORMAT, Quality::of(scene))?;
     let look = stage.look();
@@ -400,8 +406,27 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
     )
     .ok();
 
+    // `Auto`'s file is read before any work: one that does not parse fails now, not after
+    // the sweeps.
+    let draw_path = out.join(DRAW_FILE);
+    let mut choices = match std::fs::read_to_string(&draw_path) {
+        Ok(text) => crate::systems::wisps::mesh_pass::parse_choices(&text).map_err(|e| {
+            crate::KamiError::Invalid {
+                file: draw_path.display().to_string(),
+                field: "the measured choices".into(),
+                value: e,
+                allowed: "the file `kami bench wisps` writes (or none)".into(),
+            }
+        })?,
+        Err(_) => Default::default(),
+    };
+    let shake_path = scene_path.with_file_name("toon_shake.ron");
+    let mut shake = Scene::load(&shake_path)?;
+    shake.head.visible = false;
+
     let cost_plot = cost_section(gpu, &scene, frames, out, &mut md, &mut csv)?;
     let error_plot = error_section(gpu, &scene, frames, &mut md, &mut csv)?;
+    let measured = paths_section(gpu, &scene, &shake, frames, &mut md, &mut csv)?;
     springs_section(scene_path, out, &mut md, &mut csv)?;
 
     // The hand-written sections after the measured tables are kept from the report this
@@ -413,6 +438,7 @@ pub fn run(gpu: &Gpu, scene_path: &Path, frames: u32, out: &Path) -> Result<Repo
         }
     }
     write_report(out, "wisps", &md, &csv)?;
+    write_choices(&draw_path, &mut choices, &measured, gpu)?;
     for (name, img) in [
         ("wisps_cost.png", cost_plot),
         ("wisps_error.png", error_plot),
@@ -763,4 +789,284 @@ fn springs_section(scene_path: &Path, out: &Path, md: &mut String, csv: &mut Str
         })?;
     }
     Ok(())
+}
+
+/// The file `Auto` reads (`mesh_pass::choices`), written beside the report.
+pub const DRAW_FILE: &str = "wisps_draw.ron";
+
+/// Steps per ray of the converged f64 truth (the march's own budget runs out on some rays).
+pub const CONVERGED_STEPS: u32 = 4096;
+
+/// One path's image at `size` (one sample per pixel, no head).
+fn path_image(gpu: &Gpu, scene: &Scene, draw: WispDraw, size: (u32, u32)) -> Result<RgbaImage> {
+    let mut t = Timed::new(gpu, &with_draw(scene, draw), size)?;
+    t.image(gpu)
+}
+
+fn with_draw(scene: &Scene, draw: WispDraw) -> Scene {
+    let mut s = scene.clone();
+    if let Some(w) = s.wisps_mut().as_mut() {
+        w.draw = draw;
+    }
+    s
+}
+
+/// A path's frame: CPU wall ms per frame after a warm-up (which meshes a still scene), for
+/// the mesh the last meshing (ms, cell, triangles), and the last frame's image.
+fn path_frame(
+    gpu: &Gpu,
+    scene: &Scene,
+    draw: WispDraw,
+    size: (u32, u32),
+    frames: u32,
+    moving: bool,
+) -> Result<(f64, Option<crate::systems::wisps::MeshInfo>, RgbaImage)> {
+    let mut t = Timed::new(gpu, &with_draw(scene, draw), size)?;
+    t.moving = moving;
+    t.frame(gpu)?;
+    let secs = time_mean(frames, || t.frame(gpu))?;
+    let info = t.wisps()?.mesh.as_ref().map(|m| m.last);
+    let img = t.out.read_rgba(gpu)?;
+    Ok((secs * 1e3, info, img))
+}
+
+/// What one measured adapter class says `Auto` draws (`docs/wisps_draw.ron`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Measured {
+    pub adapter: String,
+    /// Still wisps: the mesh was cheaper than the march at every count and size swept and
+    /// within the error bound at every count.
+    pub still_mesh: bool,
+    /// Moving wisps (`toon_shake.ron`, meshed every frame): the same at the viewer's size.
+    pub moving_mesh: bool,
+}
+
+/// Table 4: the two ways to draw the surface (`block::WispDraw`) side by side: image error
+/// against the f64 truth at `ERROR_SIDE`² for each wisp count, ms per frame at each count
+/// and sweep size, and moving wisps (`toon_shake.ron`, meshed every frame). Returns what
+/// `Auto` should draw on this adapter.
+pub fn paths_section(
+    gpu: &Gpu,
+    scene: &Scene,
+    shake: &Scene,
+    frames: u32,
+    md: &mut String,
+    csv: &mut String,
+) -> Result<Measured> {
+    use crate::systems::wisps::mesh_pass::MESH_ERROR_BOUND;
+    let software = gpu.info.device_type == wgpu::DeviceType::Cpu;
+    let frames = if software {
+        frames.clamp(1, 2)
+    } else {
+        frames.min(3)
+    };
+    let (bound_mean, bound_share) = MESH_ERROR_BOUND;
+    writeln!(
+        md,
+        "\n## March and mesh\n\nThe two ways to draw the surface (`wisps.draw`): the ray \
+         march (where `wisps.march.on` says, on this adapter) and the mesh (surface nets over \
+         the bricks the wisps reach, each vertex moved onto the exact surface, rasterised with \
+         the same toon shading and an inverted hull for the outline; `wisps.mesh.cell` 0, the \
+         automatic cell). Error at {ERROR_SIDE}², mean of 255 and pixels off by more than \
+         24, against two f64 truths: the scene's march settings (`field::render_reference`, \
+         as the table above: its {} steps per ray run out on some rays that graze the crown \
+         or pass between the bangs, which then show nothing) and the converged surface (the \
+         same with {CONVERGED_STEPS} steps). The bound `Auto` holds the mesh to, against the \
+         converged truth: {bound_mean} and {:.1} %, the march's own error before the mesh.\n",
+        scene.wisps().as_ref().map_or(0, |w| w.march.max_steps),
+        bound_share * 100.0
+    )
+    .ok();
+    writeln!(
+        md,
+        "| wisps | truth | march: mean error | > 24 | mesh: mean error | > 24 | mesh cell | mesh within the bound |"
+    )
+    .ok();
+    writeln!(md, "|---|---|---|---|---|---|---|---|").ok();
+    let size = (ERROR_SIDE, ERROR_SIDE);
+    let mut within = true;
+    for &count in &COUNTS {
+        let s = with_count(scene, count);
+        let march_img = path_image(gpu, &s, WispDraw::March, size)?;
+        let mut t = Timed::new(gpu, &with_draw(&s, WispDraw::Mesh), size)?;
+        let mesh_img = t.image(gpu)?;
+        let cell = t.wisps()?.mesh.as_ref().map_or(0.0, |m| m.last.cell);
+        let mut converged = s.clone();
+        if let Some(w) = converged.wisps_mut().as_mut() {
+            w.march.max_steps = CONVERGED_STEPS;
+        }
+        for (name, truth_scene) in [("scene's steps", &s), ("converged", &converged)] {
+            let truth = truth_image(gpu, truth_scene, size)?;
+            let (m_mean, m_over, _) = super::backends::difference(&truth, &march_img);
+            let (x_mean, x_over, _) = super::backends::difference(&truth, &mesh_img);
+            let judged = name == "converged";
+            let ok = x_mean <= bound_mean && x_over <= bound_share;
+            if judged {
+                within &= ok;
+            }
+            writeln!(
+                md,
+                "| {count} | {name} | {m_mean:.3} | {:.3} % | {x_mean:.3} | {:.3} % | {cell:.3} | {} |",
+                m_over * 100.0,
+                x_over * 100.0,
+                match (judged, ok) {
+                    (false, _) => "-",
+                    (true, true) => "yes",
+                    (true, false) => "no",
+                }
+            )
+            .ok();
+            for (path, mean, over) in [("march", m_mean, m_over), ("mesh", x_mean, x_over)] {
+                writeln!(
+                    csv,
+                    "paths_error,{count},,{ERROR_SIDE},{path} ({name}),,{mean:.5},{over:.6},,,,,"
+                )
+                .ok();
+            }
+        }
+    }
+    writeln!(
+        md,
+        "\nStill wisps, mean of {frames} frame(s) after a warm-up (the warm-up meshes: a still \
+         hairstyle is meshed once, and a frame is the raster). Mesh against march: the two \
+         images at that size.\n"
+    )
+    .ok();
+    writeln!(
+        md,
+        "| wisps | size | march ms | fps | mesh ms | fps | mesh / march | meshing ms (once) | cell | triangles | mesh against march: mean / > 24 |"
+    )
+    .ok();
+    writeln!(md, "|---|---|---|---|---|---|---|---|---|---|---|").ok();
+    let mut still_cheaper = true;
+    for &count in &COUNTS {
+        let s = with_count(scene, count);
+        for &size in sweep_sizes(software) {
+            let (march_ms, _, march_img) =
+                path_frame(gpu, &s, WispDraw::March, size, frames, false)?;
+            let (mesh_ms, info, mesh_img) =
+                path_frame(gpu, &s, WispDraw::Mesh, size, frames, false)?;
+            let info = info.unwrap_or_default();
+            let (d_mean, d_over, _) = super::backends::difference(&march_img, &mesh_img);
+            still_cheaper &= mesh_ms < march_ms;
+            writeln!(
+                md,
+                "| {count} | {}x{} | {march_ms:.1} | {:.1} | {mesh_ms:.1} | {:.1} | {:.3} | {:.1} | {:.3} | {} | {d_mean:.2} / {:.2} % |",
+                size.0,
+                size.1,
+                1e3 / march_ms,
+                1e3 / mesh_ms,
+                mesh_ms / march_ms,
+                info.ms,
+                info.cell,
+                info.triangles,
+                d_over * 100.0
+            )
+            .ok();
+            writeln!(
+                csv,
+                "paths,{count},,{}x{},march,{march_ms:.3},,,,,,,",
+                size.0, size.1
+            )
+            .ok();
+            writeln!(
+                csv,
+                "paths,{count},,{}x{},mesh,{mesh_ms:.3},{d_mean:.5},{d_over:.6},,,,{},",
+                size.0, size.1, info.triangles
+            )
+            .ok();
+        }
+    }
+    // Moving wisps: each frame steps the springs and meshes them again.
+    let (march_ms, _, _) = path_frame(gpu, shake, WispDraw::March, VIEWER, frames, true)?;
+    let (mesh_ms, info, _) = path_frame(gpu, shake, WispDraw::Mesh, VIEWER, frames, true)?;
+    let info = info.unwrap_or_default();
+    let moving_cheaper = mesh_ms < march_ms;
+    writeln!(
+        md,
+        "\nMoving wisps (`toon_shake.ron`, {}x{}, each frame a step of the springs; the mesh is \
+         made again every frame from the nodes read back): march {march_ms:.1} ms ({:.1} fps), \
+         mesh {mesh_ms:.1} ms ({:.1} fps), of which meshing {:.1} ms (cell {:.3}, {} \
+         triangles).\n",
+        VIEWER.0,
+        VIEWER.1,
+        1e3 / march_ms,
+        1e3 / mesh_ms,
+        info.ms,
+        info.cell,
+        info.triangles
+    )
+    .ok();
+    writeln!(
+        csv,
+        "paths_moving,{},,{}x{},march,{march_ms:.3},,,,,,,",
+        shake.wisps().as_ref().map_or(0, |w| w.skeletons.len()),
+        VIEWER.0,
+        VIEWER.1
+    )
+    .ok();
+    writeln!(
+        csv,
+        "paths_moving,{},,{}x{},mesh,{mesh_ms:.3},,,,,,{},",
+        shake.wisps().as_ref().map_or(0, |w| w.skeletons.len()),
+        VIEWER.0,
+        VIEWER.1,
+        info.triangles
+    )
+    .ok();
+    let measured = Measured {
+        adapter: gpu.describe(),
+        still_mesh: within && still_cheaper,
+        moving_mesh: within && moving_cheaper,
+    };
+    writeln!(
+        md,
+        "So `Auto` draws, on this kind of adapter: still wisps with the {}, moving wisps with \
+         the {} (`{DRAW_FILE}`).\n",
+        if measured.still_mesh { "mesh" } else { "march" },
+        if measured.moving_mesh {
+            "mesh"
+        } else {
+            "march"
+        },
+    )
+    .ok();
+    Ok(measured)
+}
+
+/// `Auto`'s file with this adapter class's entry replaced by `measured`.
+fn write_choices(
+    path: &Path,
+    choices: &mut crate::systems::wisps::mesh_pass::DrawChoices,
+    measured: &Measured,
+    gpu: &Gpu,
+) -> Result<()> {
+    use crate::systems::wisps::mesh_pass::DrawChoice;
+    let pick = |mesh: bool| {
+        if mesh {
+            WispDraw::Mesh
+        } else {
+            WispDraw::March
+        }
+    };
+    let entry = Some(DrawChoice {
+        adapter: measured.adapter.clone(),
+        still: pick(measured.still_mesh),
+        moving: pick(measured.moving_mesh),
+    });
+    if gpu.info.device_type == wgpu::DeviceType::Cpu {
+        choices.software = entry;
+    } else {
+        choices.hardware = entry;
+    }
+    let body = ron::ser::to_string_pretty(choices, ron::ser::PrettyConfig::default())
+        .map_err(|e| crate::KamiError::Gpu(format!("{DRAW_FILE}: {e}")))?;
+    let text = format!(
+        "// What `wisps.draw: Auto` draws on each kind of adapter: written by `kami bench wisps`\n\
+         // (its \"March and mesh\" table in docs/wisps.md), compiled into Kami.\n{body}\n"
+    );
+    std::fs::write(path, text).map_err(|e| crate::KamiError::Io {
+        path: path.to_path_buf(),
+        source: e,
+    })
 }

@@ -349,7 +349,7 @@ fn twins() -> Vec<Twin> {
                 taper
             ],
             "Draw",
-            ["wisps/march.wgsl"]
+            ["wisps/draw.wgsl"]
         ),
         twin!(
             GpuSpringParams,

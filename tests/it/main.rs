@@ -51,6 +51,7 @@ mod wisps_edit;
 mod wisps_field;
 mod wisps_fingers;
 mod wisps_forces;
+mod wisps_mesh;
 mod wisps_springs;
 mod wisps_toon;
 

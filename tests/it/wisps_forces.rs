@@ -37,6 +37,8 @@ fn wisps(skeletons: Vec<Skeleton>, springs: Springs) -> Wisps {
         march: Default::default(),
         springs: Some(springs),
         bundles: vec![],
+        draw: Default::default(),
+        mesh: Default::default(),
     }
 }
 

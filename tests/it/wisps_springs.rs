@@ -19,6 +19,8 @@ fn wisps(skeletons: Vec<Skeleton>, springs: Springs, bundles: Vec<Bundle>) -> Wi
         march: Default::default(),
         springs: Some(springs),
         bundles,
+        draw: Default::default(),
+        mesh: Default::default(),
     }
 }
 

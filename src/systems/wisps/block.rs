@@ -62,6 +62,36 @@ pub struct Wisps {
     /// connections are released (Fig. 10 bottom; Fig. 12).
     #[serde(default)]
     pub bundles: Vec<Bundle>,
+    /// How the surface is drawn: ray marched, or meshed and rasterised (`WispDraw`).
+    #[serde(default)]
+    pub draw: WispDraw,
+    /// The meshed path's grid (`mesh::polygonise`).
+    #[serde(default)]
+    pub mesh: MeshGrid,
+}
+
+/// How the wisps' surface is drawn (`kami bench wisps` measures both against the f64 truth).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum WispDraw {
+    /// The mesh where `kami bench wisps` measured it cheaper than the march on this kind of
+    /// adapter with its image error within the bound (`mesh_pass::auto_draws_mesh`), else
+    /// the march.
+    #[default]
+    Auto,
+    /// Every pixel ray marched (`march`): the surface exactly, at a cost per pixel.
+    March,
+    /// The surface polygonised by surface nets and rasterised (`mesh`, `mesh_pass`): meshed
+    /// once while the wisps stand still, so a frame costs a raster pass.
+    Mesh,
+}
+
+/// The meshed path's grid.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshGrid {
+    /// Cell size in scene units; 0 (the default): `mesh::auto_cell` of the wisps' radii.
+    #[serde(default)]
+    pub cell: f64,
 }
 
 fn default_threshold() -> f64 {
@@ -660,6 +690,7 @@ fn validate_wisps(w: &Wisps) -> Result<()> {
         return Err(bad("wisps.march.refine", m.refine, "must be in [0, 32]"));
     }
     within("wisps.march.step_scale", m.step_scale, 0.05, 8.0)?;
+    within("wisps.mesh.cell", w.mesh.cell, 0.0, BIG)?;
     if let Distance::Polyline { pieces } = m.distance {
         if pieces == 0 || pieces > 64 {
             return Err(bad(

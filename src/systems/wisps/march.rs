@@ -29,6 +29,7 @@ pub const MARCH: &str = wgsl!(
     "common/chord.wgsl",
     "wisps/view.wgsl",
     "wisps/segments.wgsl",
+    "wisps/draw.wgsl",
     "wisps/march.wgsl",
     "wisps/tile_quad.wgsl",
     "wisps/toon.wgsl"

@@ -21,6 +21,8 @@ pub mod edit;
 pub mod field;
 pub mod fingers;
 pub mod march;
+pub mod mesh;
+pub mod mesh_pass;
 pub mod panel;
 pub mod springs;
 pub mod springs_gpu;
@@ -163,7 +165,8 @@ fn build(gpu: &Gpu, scene: &Scene, setup: &DrawSetup) -> Result<Box<dyn HairSyst
     Ok(Box::new(WispsSystem::new(gpu, scene, setup)?))
 }
 
-/// Toon colours, thresholds and march settings are uniforms: a `Redraw`. Skeletons, springs
+/// Toon colours, thresholds, march settings and the drawing path are a `Redraw` (the
+/// meshed path meshes again where they change the surface or its outline scales). Skeletons, springs
 /// and the head (collision, rest lengths, a mesh head's scalp and SDF) build the system
 /// again, and so do the shared gravity (the natural lengths hold the drawn shape under it)
 /// and the EFF's grid; the EFF's cells (the brush) act from the next step (`Resimulate`:
@@ -181,6 +184,8 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
             w.toon = Default::default();
             w.march = Default::default();
             w.threshold = 0.0;
+            w.draw = Default::default();
+            w.mesh = Default::default();
             let gravity = s.forces.gravity;
             let moving = w.springs.is_some();
             (
@@ -220,6 +225,32 @@ pub struct WispsSystem {
     pub curves: CurvePass,
     pub draw: MarchPass,
     cast: march::WispCast,
+    /// The meshed path, built when the scene first draws with it.
+    pub mesh: Option<Meshed>,
+    frame_layout: wgpu::BindGroupLayout,
+    format: wgpu::TextureFormat,
+    variant: crate::gpu::pipeline::Variant,
+}
+
+/// The meshed path's state.
+pub struct Meshed {
+    pub pass: mesh_pass::MeshPass,
+    /// Mesh again before the next frame (the surface or its outline scales changed).
+    dirty: bool,
+    /// The last meshing.
+    pub last: MeshInfo,
+}
+
+/// What the last meshing cost and made.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MeshInfo {
+    /// Wall time of `mesh::polygonise` (and, for moving wisps, reading their nodes back).
+    pub ms: f64,
+    pub cell: f64,
+    pub points: u64,
+    pub triangles: usize,
+    /// Meshings since the system was built.
+    pub count: u64,
 }
 
 impl WispsSystem {
@@ -275,17 +306,131 @@ impl WispsSystem {
         )?;
         let cast =
             march::WispCast::new(gpu, &curves, setup.frame_layout, setup.shadow_cast_layout)?;
-        Ok(WispsSystem {
+        let mut system = WispsSystem {
             wisps,
             nodes,
             curves,
             draw,
             cast,
-        })
+            mesh: None,
+            frame_layout: setup.frame_layout.clone(),
+            format: setup.format,
+            variant: setup.variant,
+        };
+        system.follow_draw(gpu)?;
+        Ok(system)
     }
 
     fn moving(&self) -> bool {
         self.wisps.springs.is_some()
+    }
+
+    /// Whether this frame draws the mesh (`mesh_pass::auto_draws_mesh`).
+    pub fn meshed(&self) -> bool {
+        self.mesh.is_some()
+    }
+
+    /// Build or drop the meshed path as `wisps.draw` says on this adapter.
+    fn follow_draw(&mut self, gpu: &Gpu) -> Result<()> {
+        let want = mesh_pass::auto_draws_mesh(self.wisps.draw, gpu.info.device_type, self.moving());
+        if want && self.mesh.is_none() {
+            self.mesh = Some(Meshed {
+                pass: mesh_pass::MeshPass::new(gpu, &self.frame_layout, self.format, self.variant)?,
+                dirty: true,
+                last: MeshInfo::default(),
+            });
+        } else if !want {
+            self.mesh = None;
+        }
+        Ok(())
+    }
+
+    /// The cell the meshed path uses in `view`: `wisps.mesh.cell`, or where that is 0
+    /// `mesh::auto_cell` of the wisps' radii, but no finer than `mesh::AUTO_CELL_PX` output
+    /// pixels at the nearest point of the wisps' bounds (finer cells change no pixel there).
+    pub fn mesh_cell(&self, view: &View) -> f64 {
+        if self.wisps.mesh.cell > 0.0 {
+            return self.wisps.mesh.cell;
+        }
+        let (centre, radius) = self.bounds();
+        let near = (view.eye - centre).length() - radius;
+        let px = if near > 0.0 && view.focal_samples > 0.0 {
+            near * view.samples_per_px.max(1.0) / view.focal_samples
+        } else {
+            0.0
+        };
+        mesh::auto_cell(&self.wisps).max(mesh::AUTO_CELL_PX * px)
+    }
+
+    /// Mesh the wisps again where they moved or changed: a still hairstyle once, in the
+    /// head's frame; moving wisps every frame, in world space, from the node positions the
+    /// springs reached by the last frame (read back: the mesh trails the springs by a frame).
+    fn remesh(&mut self, gpu: &Gpu, view: &View) -> Result<()> {
+        let moving = self.moving();
+        let mut cell = self.mesh_cell(view);
+        let Some(m) = &mut self.mesh else {
+            return Ok(());
+        };
+        // The view's cell moves the mesh only past a factor (zooming about it re-meshes
+        // once, not every frame).
+        let kept = m.last.cell > 0.0
+            && self.wisps.mesh.cell == 0.0
+            && (cell / m.last.cell).ln().abs() < mesh::CELL_HYSTERESIS.ln()
+            || m.last.cell > 0.0 && cell == m.last.cell;
+        if kept {
+            cell = m.last.cell;
+        }
+        if !m.dirty && !moving && kept {
+            return Ok(());
+        }
+        let start = std::time::Instant::now();
+        let segs = match &self.nodes {
+            Nodes::Still(_) => curve::drawn_segments(&self.wisps),
+            Nodes::Springs(s) => {
+                let n = march::node_count(&self.wisps) as u64;
+                let p: Vec<[f32; 4]> = crate::gpu::read_buffer(gpu, s.positions(), n * 16)?;
+                let mut k = 0;
+                self.wisps
+                    .skeletons
+                    .iter()
+                    .map(|sk| {
+                        let nodes: Vec<(DVec3, f64, f64)> = sk
+                            .nodes
+                            .iter()
+                            .map(|nd| {
+                                let q = p[k];
+                                k += 1;
+                                (
+                                    DVec3::new(q[0] as f64, q[1] as f64, q[2] as f64),
+                                    nd.r,
+                                    nd.w,
+                                )
+                            })
+                            .collect();
+                        curve::segments(&nodes)
+                    })
+                    .collect()
+            }
+        };
+        let outlines = mesh::wisp_outlines(&self.wisps, &segs);
+        let polygon = mesh::polygonise(&mesh::Input {
+            wisps: &segs,
+            outlines: &outlines,
+            taper: self.wisps.toon.outline_taper,
+            threshold: self.wisps.threshold,
+            method: self.wisps.march.distance,
+            cell,
+        })?;
+        m.pass.upload(gpu, &polygon)?;
+        m.dirty = false;
+        m.last = MeshInfo {
+            ms: start.elapsed().as_secs_f64() * 1e3,
+            cell,
+            points: polygon.points,
+            triangles: polygon.triangles(),
+            count: m.last.count + 1,
+        };
+        Ok(())
     }
 
     /// The mass springs on the GPU, when the wisps move (tests and tools read them back).
@@ -337,28 +482,41 @@ impl HairSystem for WispsSystem {
             Nodes::Springs(_) => WORLD,
         };
         self.curves.set_threshold(self.wisps.threshold);
+        // The segments feed the shadow cast whichever way the surface is drawn.
         self.curves.record(gpu, enc, model, self.moving());
+        let uniform = march::draw_uniform(&self.wisps, ctx.head, self.curves.segment_count);
+        if self.meshed() {
+            self.remesh(gpu, view)?;
+            let outline_px = self.wisps.toon.outline_width;
+            let eps_per_t = outline_px * view.samples_per_px.max(1.0) / view.focal_samples;
+            if let Some(m) = &mut self.mesh {
+                m.pass.write(gpu, &uniform, model, eps_per_t);
+            }
+            return Ok(());
+        }
         self.draw
             .prepare(gpu, enc, &self.curves, view, self.wisps.toon.outline_width)?;
-        self.draw.write(
-            gpu,
-            &march::draw_uniform(&self.wisps, ctx.head, self.curves.segment_count),
-        );
+        self.draw.write(gpu, &uniform);
         Ok(())
     }
 
     fn draw_opaque(&self, pass: &mut wgpu::RenderPass<'_>) {
-        self.draw.draw(pass);
+        match &self.mesh {
+            Some(m) => m.pass.draw(pass),
+            None => self.draw.draw(pass),
+        }
     }
 
     fn draw(&self, _pass: &mut wgpu::RenderPass<'_>, _view: &View) {}
 
     fn draws_in_compute(&self) -> bool {
-        self.draw.in_compute()
+        !self.meshed() && self.draw.in_compute()
     }
 
     fn draw_compute(&self, pass: &mut wgpu::ComputePass<'_>) {
-        self.draw.march(pass);
+        if !self.meshed() {
+            self.draw.march(pass);
+        }
     }
 
     fn casts(&self) -> bool {
@@ -378,17 +536,30 @@ impl HairSystem for WispsSystem {
     }
 
     fn set_variant(&mut self, gpu: &Gpu, variant: crate::gpu::pipeline::Variant) {
+        self.variant = variant;
         self.draw.set_variant(gpu, variant);
+        if let Some(m) = &mut self.mesh {
+            m.pass.set_variant(gpu, variant);
+        }
     }
 
-    /// A `Redraw`: toon colours, thresholds and march settings; a `Resimulate`: those (the
-    /// EFF's new cells are the world's, which the stage rewrites).
+    /// A `Redraw`: toon colours, thresholds, march settings and the drawing path; a
+    /// `Resimulate`: those (the EFF's new cells are the world's, which the stage rewrites).
+    /// The mesh is made again where the surface or its outline scales change.
     fn update(&mut self, gpu: &Gpu, scene: &Scene, change: Change) -> Result<()> {
         if let (Change::Redraw | Change::Resimulate, Some(w)) = (change, scene.wisps()) {
+            let surface = |x: &Wisps| (x.threshold, x.toon.outline_taper, x.march.distance, x.mesh);
+            let remesh = surface(&self.wisps) != surface(w);
             self.wisps.toon = w.toon.clone();
             self.draw.set_on(gpu, w.march.on);
             self.wisps.march = w.march;
             self.wisps.threshold = w.threshold;
+            self.wisps.draw = w.draw;
+            self.wisps.mesh = w.mesh;
+            self.follow_draw(gpu)?;
+            if let Some(m) = &mut self.mesh {
+                m.dirty |= remesh;
+            }
         }
         Ok(())
     }
@@ -406,6 +577,9 @@ impl HairSystem for WispsSystem {
 
     /// Tile lists or ray lists that overflowed in the last frame (counted by the march).
     fn warnings(&self, gpu: &Gpu) -> Result<Vec<String>> {
+        if self.meshed() {
+            return Ok(Vec::new());
+        }
         Ok(self
             .draw
             .read_stats(gpu)?

@@ -1,6 +1,7 @@
 //! The Toon panel (thresholds and colours of eqs 20-22, tones, the toon controls: feathers,
 //! the halo's width, offset, strength and shadow colour, the rim light, the outline and its
-//! taper; the ray march), its `--set` keys (`set_key`), and
+//! taper; how the surface is drawn, march or mesh, and the mesh cell; the ray march), its
+//! `--set` keys (`set_key`), and
 //! the Skeletons panel (the skeleton editor of Fig. 9: the skeletons and their nodes, the
 //! selected node's radius, weight and position, adding and deleting nodes and skeletons,
 //! undo and redo, and the mouse mode of the 3D view). They edit the scene and the wisps'
@@ -11,7 +12,7 @@ use super::edit::{Editor, Sel};
 use super::tools::WispsUi;
 use crate::systems::kind::Panel;
 use crate::systems::ui::{self, Host, PanelCx};
-use crate::systems::wisps::block::{Distance, Tones, Wisps};
+use crate::systems::wisps::block::{Distance, Tones, WispDraw, Wisps};
 use egui::{Button, Color32, DragValue, Slider, SliderClamping, Ui};
 use glam::{DVec2, DVec3};
 
@@ -334,6 +335,24 @@ fn toon(ui: &mut Ui, cx: &mut PanelCx) {
             .logarithmic(true)
             .text("threshold (eq 8)"),
     );
+    ui.horizontal(|ui| {
+        ui.label("draw");
+        ui.selectable_value(&mut w.draw, WispDraw::Auto, "auto")
+            .on_hover_text("what kami bench wisps measured best on this kind of adapter");
+        ui.selectable_value(&mut w.draw, WispDraw::March, "march")
+            .on_hover_text("every pixel ray marched: the exact surface");
+        ui.selectable_value(&mut w.draw, WispDraw::Mesh, "mesh")
+            .on_hover_text("meshed once while still, then rasterised: far cheaper");
+    });
+    if w.draw != WispDraw::March {
+        ui.add(
+            DragValue::new(&mut w.mesh.cell)
+                .range(0.0..=10.0)
+                .speed(0.01)
+                .prefix("mesh cell "),
+        )
+        .on_hover_text("the mesh's grid cell, scene units; 0: automatic");
+    }
     let m = &mut w.march;
     let mut polyline = matches!(m.distance, Distance::Polyline { .. });
     ui.horizontal(|ui| {

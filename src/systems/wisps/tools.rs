@@ -3,7 +3,7 @@
 //! 3D view and the keys, the skeleton overlay, and the wisps' `--set` keys. The viewer
 //! hosts it as a `KindUi` and knows none of it.
 
-use super::block::MarchOn;
+use super::block::{MarchOn, WispDraw};
 use super::edit::{self, Editor};
 use super::panel;
 use crate::error::Result;
@@ -38,7 +38,8 @@ impl KindUi for WispsUi {
 
     /// `wisps.edit=on|off` (the mouse mode and overlay), `wisps.max_steps=N` (the ray
     /// march's step budget: cheap previews), `wisps.march_on=auto|compute|fragment` (where
-    /// the march runs, `block::MarchOn`), the Toon panel's controls
+    /// the march runs, `block::MarchOn`), `wisps.draw=auto|march|mesh` (`block::WispDraw`),
+    /// `wisps.mesh.cell=C` (the meshed path's cell, 0 automatic), the Toon panel's controls
     /// `wisps.toon.NAME=VALUE` and the outline scales `wisps.outline[.N]=S`
     /// (`panel::set_key`).
     fn set(
@@ -66,6 +67,18 @@ impl KindUi for WispsUi {
                     Ok(())
                 })
             }
+            "wisps.draw" => parse_draw(value).and_then(|d| {
+                scene.wisps_mut().as_mut().ok_or_else(none)?.draw = d;
+                Ok(())
+            }),
+            "wisps.mesh.cell" => ui::nums(value, 1).and_then(|c| {
+                let c = c[0];
+                if !(c.is_finite() && c >= 0.0) {
+                    return Err(format!("expected a cell size >= 0 (0: automatic), not {c}"));
+                }
+                scene.wisps_mut().as_mut().ok_or_else(none)?.mesh.cell = c;
+                Ok(())
+            }),
             k if k.starts_with("wisps.toon.") || k.starts_with("wisps.outline") => {
                 let w = scene.wisps_mut().as_mut().ok_or_else(none);
                 w.and_then(|w| panel::set_key(w, key, value.ok_or("expected KEY=VALUE")?))
@@ -227,5 +240,15 @@ impl KindUi for WispsUi {
         if let (true, Some(w), Some(view)) = (self.edit, scene.wisps(), host.head_view) {
             panel::overlay(ctx, w, &self.editor, &view, ppp);
         }
+    }
+}
+
+/// `auto`, `march` or `mesh` (`block::WispDraw`).
+pub fn parse_draw(value: Option<&str>) -> std::result::Result<WispDraw, String> {
+    match value.map(str::trim) {
+        Some("auto") => Ok(WispDraw::Auto),
+        Some("march") => Ok(WispDraw::March),
+        Some("mesh") => Ok(WispDraw::Mesh),
+        v => Err(format!("expected auto, march or mesh, not {v:?}")),
     }
 }

@@ -1,0 +1,344 @@
+//! The wisps' meshed path (`wisps.draw: Mesh`): the f64 mesher against the field it
+//! polygonises (`systems::wisps::mesh`), the mesh drawn on the GPU against the f64 truth,
+//! `Auto`'s choice, re-meshing only where the surface changes, and bad input.
+
+use crate::common;
+use glam::DVec3;
+use kami::systems::wisps::block::WispDraw;
+use kami::systems::wisps::{curve, field, mesh, WispsSystem};
+use kami::Scene;
+
+/// A lone straight wisp of constant radius and weight along x.
+fn straight(r: f64, w: f64) -> Vec<Vec<curve::Segment>> {
+    let nodes: Vec<(DVec3, f64, f64)> = (0..4)
+        .map(|i| (DVec3::new(4.0 * i as f64, 0.0, 0.0), r, w))
+        .collect();
+    vec![curve::segments(&nodes)]
+}
+
+fn polygonise(segs: &[Vec<curve::Segment>], threshold: f64, cell: f64) -> mesh::WispMesh {
+    mesh::polygonise(&mesh::Input {
+        wisps: segs,
+        outlines: &[],
+        taper: 0.0,
+        threshold,
+        method: Default::default(),
+        cell,
+    })
+    .unwrap()
+}
+
+/// A lone straight tube meshes to a closed surface, wound outward, its vertices on the
+/// analytic radius (`mesh::surface_radius`) and its normals radial, away from the ends.
+/// Breaks: winding every quad the other way fails the orientation check; no Newton steps
+/// (`NEWTON = 0`) leaves vertices a fifth of a cell off the radius.
+#[test]
+fn a_lone_straight_wisp_meshes_to_its_tube() {
+    let (r, w, threshold) = (2.0, 2.5, 0.5);
+    let segs = straight(r, w);
+    let m = polygonise(&segs, threshold, 0.3);
+    let want = mesh::surface_radius(r, w, threshold);
+    assert!(m.triangles() > 500, "{} triangles", m.triangles());
+    let (mut worst_r, mut worst_n, mut body) = (0.0f64, 1.0f64, 0);
+    for (p, n) in m.positions.iter().zip(&m.normals) {
+        let p = DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
+        if p.x < 2.0 || p.x > 10.0 {
+            continue;
+        }
+        body += 1;
+        let radial = DVec3::new(0.0, p.y, p.z);
+        worst_r = worst_r.max((radial.length() - want).abs());
+        let n = DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64);
+        worst_n = worst_n.min(n.dot(radial.normalize()));
+    }
+    eprintln!(
+        "{body} body vertices: radius off by {worst_r:.2e} (cell 0.3), normal dot {worst_n:.6}"
+    );
+    assert!(body > 200);
+    assert!(
+        worst_r < 1e-3 * r,
+        "a vertex is {worst_r} off the radius {want}"
+    );
+    assert!(worst_n > 0.9999, "a normal is {worst_n} from radial");
+    // Closed: every edge is shared by exactly two triangles, once each way.
+    let mut edges = std::collections::HashMap::new();
+    for t in m.indices.chunks(3) {
+        for k in 0..3 {
+            *edges.entry((t[k], t[(k + 1) % 3])).or_insert(0) += 1;
+        }
+    }
+    let open = edges
+        .iter()
+        .filter(|(&(a, b), &n)| n != 1 || edges.get(&(b, a)) != Some(&1))
+        .count();
+    assert_eq!(
+        open, 0,
+        "{open} edges are not shared by two triangles, once each way"
+    );
+    // Wound outward: each triangle's face normal along its vertices' normals.
+    let v = |i: u32| {
+        let p = m.positions[i as usize];
+        DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
+    };
+    let inward = m
+        .indices
+        .chunks(3)
+        .filter(|t| {
+            let face = (v(t[1]) - v(t[0])).cross(v(t[2]) - v(t[0]));
+            let n = m.normals[t[0] as usize];
+            face.dot(DVec3::new(n[0] as f64, n[1] as f64, n[2] as f64)) <= 0.0
+        })
+        .count();
+    assert_eq!(inward, 0, "{inward} triangles face inward");
+}
+
+/// The hull's offset (`mesh::shell_depth`, from the curvature stored per vertex) is where the
+/// march's outline shell ends (f + |∇f| eps = 0 along the normal, solved here by bisection
+/// on the f64 field) on a lone wisp, for outlines up to half its radius. Break: a shell depth
+/// of eps (no curvature) is 27 % too deep at eps = r/2 and fails.
+#[test]
+fn the_outline_hull_ends_where_the_marchs_shell_does() {
+    let (r, w, threshold) = (2.0, 2.5, 0.5);
+    let segs = straight(r, w);
+    let m = polygonise(&segs, threshold, 0.25);
+    // A body vertex and its stored curvature.
+    let k = m
+        .positions
+        .iter()
+        .position(|p| (p[0] - 6.0).abs() < 0.5)
+        .unwrap();
+    let p = DVec3::new(
+        m.positions[k][0] as f64,
+        m.positions[k][1] as f64,
+        m.positions[k][2] as f64,
+    );
+    let n = DVec3::new(
+        m.normals[k][0] as f64,
+        m.normals[k][1] as f64,
+        m.normals[k][2] as f64,
+    );
+    let kappa = m.normals[k][3] as f64;
+    let f = |s: f64| field::field(&segs, threshold, p + n * s, Default::default());
+    for eps in [0.05, 0.2, 0.5, 1.0] {
+        // The shell's edge: the last s where f + |∇f| eps ≥ 0.
+        let (mut a, mut b) = (0.0, 4.0 * eps);
+        for _ in 0..60 {
+            let s = 0.5 * (a + b);
+            let d = f(s);
+            if d.rho + d.grad.length() * eps >= 0.0 {
+                a = s;
+            } else {
+                b = s;
+            }
+        }
+        let got = mesh::shell_depth(eps, kappa);
+        eprintln!("eps {eps}: shell {a:.5}, hull {got:.5}");
+        assert!(
+            (got - a).abs() < 0.02 * eps + 1e-4,
+            "eps {eps}: the shell ends at {a}, the hull at {got}"
+        );
+    }
+}
+
+/// A grid finer than the limits is refused before anything is allocated, naming the numbers;
+/// a cell that is not positive is refused too.
+#[test]
+fn a_mesh_cell_past_the_limits_is_refused_with_the_numbers() {
+    let segs = straight(2.0, 2.5);
+    for cell in [1e-7, 0.0, -1.0, f64::NAN] {
+        let e = mesh::polygonise(&mesh::Input {
+            wisps: &segs,
+            outlines: &[],
+            taper: 0.0,
+            threshold: 0.5,
+            method: Default::default(),
+            cell,
+        })
+        .unwrap_err()
+        .to_string();
+        eprintln!("cell {cell}: {e}");
+        assert!(e.contains("wisps.mesh.cell"), "{e}");
+        if cell > 0.0 {
+            assert!(e.contains("points"), "{e}");
+        }
+    }
+    // In a scene: a negative cell is refused when it loads, naming the field.
+    let mut s = common::scene("toon");
+    s.wisps_mut().as_mut().unwrap().mesh.cell = -1.0;
+    let (field, _, _) = common::invalid(&s.to_ron());
+    assert_eq!(field, "wisps.mesh.cell");
+}
+
+/// A `draw` that is not a path is refused with the file and place, and `--set` names the
+/// choices.
+#[test]
+fn a_draw_that_is_not_a_path_is_refused() {
+    let text = common::scene("toon")
+        .to_ron()
+        .replacen("draw: Auto", "draw: Raster", 1);
+    assert!(text.contains("draw: Raster"), "the scene writes its draw");
+    let e = Scene::from_ron(&text, "bad.ron").unwrap_err().to_string();
+    eprintln!("{e}");
+    assert!(e.contains("bad.ron") && e.contains("Raster"), "{e}");
+    let e = kami::systems::wisps::tools::parse_draw(Some("raster")).unwrap_err();
+    assert!(e.contains("auto, march or mesh"), "{e}");
+}
+
+fn one_sample(name: &str, draw: WispDraw) -> Scene {
+    let mut s = common::scene(name);
+    s.render.supersample = 1;
+    s.render.msaa = 1;
+    s.head.visible = false;
+    s.wisps_mut().as_mut().unwrap().draw = draw;
+    s
+}
+
+/// The mesh on the GPU against the converged f64 truth (`field::render_reference` with
+/// 4096 steps a ray, no head) on toon.ron at 128², outline and toon shadows included: within
+/// `mesh_pass::MESH_ERROR_BOUND`, the bound `Auto` holds it to. Breaks: an outline hull
+/// pushed out by the full eps (no curvature) gives mean 4.6 (no shadows: `docs/wisps.md`);
+/// the rim's view along the camera axis instead of the pixel's ray is also caught.
+#[test]
+fn the_mesh_draws_the_truth_within_the_bound() {
+    let gpu = common::gpu();
+    let size = (128, 128);
+    let scene = one_sample("toon", WispDraw::Mesh);
+    let mut converged = scene.clone();
+    converged.wisps_mut().as_mut().unwrap().march.max_steps = 4096;
+    let truth = kami::bench::wisps::truth_image(gpu, &converged, size).unwrap();
+    let img = kami::stage::render_scene(gpu, &scene, size).unwrap();
+    let (mean, share, _) = kami::bench::backends::difference(&truth, &img);
+    let (bound_mean, bound_share) = kami::systems::wisps::mesh_pass::MESH_ERROR_BOUND;
+    eprintln!(
+        "mesh against the converged truth: mean {mean:.3}, {:.3} % over 24",
+        share * 100.0
+    );
+    let hair = img
+        .pixels()
+        .filter(|p| p[2] as i32 - p[0] as i32 > 25)
+        .count();
+    assert!(hair > 3000, "{hair} hair pixels");
+    assert!(
+        mean <= bound_mean && share <= bound_share,
+        "the mesh is off the truth by mean {mean:.3}, {:.3} % of pixels over 24",
+        share * 100.0
+    );
+}
+
+/// One stage draws the march, then the mesh (a `Redraw` from the Toon panel), then the march
+/// again: each frame equals a fresh stage's with that path. The still hairstyle is meshed
+/// once and not again while the camera orbits; a new threshold meshes it again.
+#[test]
+fn the_path_switches_live_and_a_still_hairstyle_is_meshed_once() {
+    let gpu = common::gpu();
+    let size = (96, 96);
+    let march = one_sample("toon", WispDraw::March);
+    let meshed = one_sample("toon", WispDraw::Mesh);
+    let fresh = |s: &Scene| kami::stage::render_scene(gpu, s, size).unwrap();
+    let mut stage = common::stage(gpu, &march);
+    let frame = |stage: &mut kami::stage::Stage| common::draw(stage, size);
+    assert!(
+        frame(&mut stage) == fresh(&march),
+        "the march's first frame"
+    );
+    stage.apply(gpu, &meshed).unwrap();
+    assert!(
+        frame(&mut stage) == fresh(&meshed),
+        "after switching to the mesh, the frame is not a fresh stage's mesh"
+    );
+    let count = |stage: &kami::stage::Stage| {
+        stage
+            .system::<WispsSystem>()
+            .unwrap()
+            .mesh
+            .as_ref()
+            .map(|m| m.last.count)
+    };
+    assert_eq!(count(&stage), Some(1));
+    // Orbit: the camera moves about the hair at the same distance.
+    let mut orbit = meshed.clone();
+    for k in 1..=3 {
+        let a = 0.3 * k as f64;
+        let c = &mut orbit.camera;
+        let (t, e) = (DVec3::from(c.target), DVec3::from(c.eye));
+        let q = glam::DQuat::from_rotation_y(a);
+        c.eye = (t + q * (e - t)).to_array();
+        stage.apply(gpu, &orbit).unwrap();
+        frame(&mut stage);
+    }
+    assert_eq!(
+        count(&stage),
+        Some(1),
+        "orbiting a still hairstyle meshed it again"
+    );
+    let mut thicker = orbit.clone();
+    thicker.wisps_mut().as_mut().unwrap().threshold = 0.4;
+    stage.apply(gpu, &thicker).unwrap();
+    frame(&mut stage);
+    assert_eq!(count(&stage), Some(2), "a new threshold did not mesh again");
+    stage.apply(gpu, &march).unwrap();
+    assert!(frame(&mut stage) == fresh(&march), "back to the march");
+    assert_eq!(count(&stage), None, "the march keeps no mesh");
+}
+
+/// Moving wisps are meshed again every frame (from the springs' nodes of the frame before).
+#[test]
+fn moving_wisps_are_meshed_every_frame() {
+    let gpu = common::gpu();
+    let scene = one_sample("toon_shake", WispDraw::Mesh);
+    let mut stage = common::stage(gpu, &scene);
+    let out = kami::stage::target::Offscreen::new(gpu, (64, 64)).unwrap();
+    for _ in 0..3 {
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        stage.advance(gpu, &mut enc, 1).unwrap();
+        let look = stage.look();
+        stage
+            .render(gpu, &mut enc, &out.view, (64, 64), &look)
+            .unwrap();
+        gpu.queue.submit([enc.finish()]);
+    }
+    let m = stage
+        .system::<WispsSystem>()
+        .unwrap()
+        .mesh
+        .as_ref()
+        .unwrap();
+    assert_eq!(m.last.count, 3);
+    assert!(m.last.triangles > 1000, "{:?}", m.last);
+}
+
+/// `Auto` follows the measured file (`docs/wisps_draw.ron`) per adapter class, still or
+/// moving, and a class not measured falls back as documented.
+#[test]
+fn auto_follows_the_measured_choices() {
+    use kami::systems::wisps::mesh_pass::{auto_draws_mesh, choices, parse_choices};
+    let cpu = wgpu::DeviceType::Cpu;
+    let gpu_kind = wgpu::DeviceType::DiscreteGpu;
+    assert!(auto_draws_mesh(WispDraw::Mesh, cpu, true));
+    assert!(!auto_draws_mesh(WispDraw::March, gpu_kind, false));
+    let c = choices().as_ref().expect("docs/wisps_draw.ron reads");
+    let own = |still: bool| {
+        c.software
+            .as_ref()
+            .map(|s| (if still { s.still } else { s.moving }) == WispDraw::Mesh)
+    };
+    if let Some(still) = own(true) {
+        assert_eq!(auto_draws_mesh(WispDraw::Auto, cpu, false), still);
+        assert_eq!(
+            auto_draws_mesh(WispDraw::Auto, cpu, true),
+            own(false).unwrap()
+        );
+    }
+    if c.hardware.is_none() {
+        assert!(
+            !auto_draws_mesh(WispDraw::Auto, gpu_kind, true),
+            "moving wisps on an unmeasured hardware GPU draw with the march"
+        );
+    }
+    assert!(parse_choices("(software: None, hardware: None)").is_ok());
+    let e = parse_choices(
+        "(software: Some((adapter: \"x\", still: Auto, moving: Mesh)), hardware: None)",
+    )
+    .unwrap_err();
+    assert!(e.contains("March or Mesh"), "{e}");
+}
