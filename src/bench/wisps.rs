@@ -830,53 +830,11 @@ fn path_frame(
     Ok((secs * 1e3, info, img))
 }
 
-/// What one measured adapter class says `Auto` draws (`docs/wisps_draw.ron`).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Measured {
-    pub adapter: String,
-    /// Still wisps: the mesh was cheaper than the march at every count and size swept and
-    /// within the error bound at every count.
-    pub still_mesh: bool,
-    /// Moving wisps (`toon_shake.ron`, meshed every frame): the same at the viewer's size.
-    pub moving_mesh: bool,
-}
-
-/// Table 4: the two ways to draw the surface (`block::WispDraw`) side by side: image error
-/// against the f64 truth at `ERROR_SIDE`² for each wisp count, ms per frame at each count
-/// and sweep size, and moving wisps (`toon_shake.ron`, meshed every frame). Returns what
-/// `Auto` should draw on this adapter.
-pub fn paths_section(
-    gpu: &Gpu,
-    scene: &Scene,
-    shake: &Scene,
-    frames: u32,
-    md: &mut String,
-    csv: &mut String,
-) -> Result<Measured> {
+/// The "March and mesh" error table: both paths against both f64 truths at `ERROR_SIDE`²
+/// for each wisp count. Returns whether the mesh was within the bound at every count.
+fn paths_errors(gpu: &Gpu, scene: &Scene, md: &mut String, csv: &mut String) -> Result<bool> {
     use crate::systems::wisps::mesh_pass::MESH_ERROR_BOUND;
-    let software = gpu.info.device_type == wgpu::DeviceType::Cpu;
-    let frames = if software {
-        frames.clamp(1, 2)
-    } else {
-        frames.min(3)
-    };
     let (bound_mean, bound_share) = MESH_ERROR_BOUND;
-    writeln!(
-        md,
-        "\n## March and mesh\n\nThe two ways to draw the surface (`wisps.draw`): the ray \
-         march (where `wisps.march.on` says, on this adapter) and the mesh (surface nets over \
-         the bricks the wisps reach, each vertex moved onto the exact surface, rasterised with \
-         the same toon shading and an inverted hull for the outline; `wisps.mesh.cell` 0, the \
-         automatic cell). Error at {ERROR_SIDE}², mean of 255 and pixels off by more than \
-         24, against two f64 truths: the scene's march settings (`field::render_reference`, \
-         as the table above: its {} steps per ray run out on some rays that graze the crown \
-         or pass between the bangs, which then show nothing) and the converged surface (the \
-         same with {CONVERGED_STEPS} steps). The bound `Auto` holds the mesh to, against the \
-         converged truth: {bound_mean} and {:.1} %, the march's own error before the mesh.\n",
-        scene.wisps().as_ref().map_or(0, |w| w.march.max_steps),
-        bound_share * 100.0
-    )
-    .ok();
     writeln!(
         md,
         "| wisps | truth | march: mean error | > 24 | mesh: mean error | > 24 | mesh cell | mesh within the bound |"
@@ -925,6 +883,57 @@ pub fn paths_section(
             }
         }
     }
+    Ok(within)
+}
+
+/// What one measured adapter class says `Auto` draws (`docs/wisps_draw.ron`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Measured {
+    pub adapter: String,
+    /// Still wisps: the mesh was cheaper than the march at every count and size swept and
+    /// within the error bound at every count.
+    pub still_mesh: bool,
+    /// Moving wisps (`toon_shake.ron`, meshed every frame): the same at the viewer's size.
+    pub moving_mesh: bool,
+}
+
+/// Table 4: the two ways to draw the surface (`block::WispDraw`) side by side: image error
+/// against the f64 truth at `ERROR_SIDE`² for each wisp count, ms per frame at each count
+/// and sweep size, and moving wisps (`toon_shake.ron`, meshed every frame). Returns what
+/// `Auto` should draw on this adapter.
+pub fn paths_section(
+    gpu: &Gpu,
+    scene: &Scene,
+    shake: &Scene,
+    frames: u32,
+    md: &mut String,
+    csv: &mut String,
+) -> Result<Measured> {
+    use crate::systems::wisps::mesh_pass::MESH_ERROR_BOUND;
+    let software = gpu.info.device_type == wgpu::DeviceType::Cpu;
+    let frames = if software {
+        frames.clamp(1, 2)
+    } else {
+        frames.min(3)
+    };
+    let (bound_mean, bound_share) = MESH_ERROR_BOUND;
+    writeln!(
+        md,
+        "\n## March and mesh\n\nThe two ways to draw the surface (`wisps.draw`): the ray \
+         march (where `wisps.march.on` says, on this adapter) and the mesh (surface nets over \
+         the bricks the wisps reach, each vertex moved onto the exact surface, rasterised with \
+         the same toon shading and an inverted hull for the outline; `wisps.mesh.cell` 0, the \
+         automatic cell). Error at {ERROR_SIDE}², mean of 255 and pixels off by more than \
+         24, against two f64 truths: the scene's march settings (`field::render_reference`, \
+         as the table above: its {} steps per ray run out on some rays that graze the crown \
+         or pass between the bangs, which then show nothing) and the converged surface (the \
+         same with {CONVERGED_STEPS} steps). The bound `Auto` holds the mesh to, against the \
+         converged truth: {bound_mean} and {:.1} %, the march's own error before the mesh.\n",
+        scene.wisps().as_ref().map_or(0, |w| w.march.max_steps),
+        bound_share * 100.0
+    )
+    .ok();
+    let within = paths_errors(gpu, scene, md, csv)?;
     writeln!(
         md,
         "\nStill wisps, mean of {frames} frame(s) after a warm-up (the warm-up meshes: a still \

@@ -18,11 +18,21 @@ const TOL: Tolerance = Tolerance {
 
 fn render(scene: &Scene, size: (u32, u32)) -> image::RgbaImage {
     let gpu = common::gpu();
-    kami::stage::render_scene(gpu, scene, size).unwrap()
+    kami::stage::render_scene(gpu, &marched(scene), size).unwrap()
+}
+
+/// The tests here are the ray march's: they draw with it whatever `Auto` picks on the
+/// adapter (the meshed path's tests are in `wisps_mesh.rs`).
+pub fn marched(scene: &Scene) -> Scene {
+    let mut s = scene.clone();
+    if let Some(w) = s.wisps_mut().as_mut() {
+        w.draw = kami::systems::wisps::block::WispDraw::March;
+    }
+    s
 }
 
 fn one_sample(name: &str) -> Scene {
-    let mut s = common::scene(name);
+    let mut s = marched(&common::scene(name));
     s.render.supersample = 1;
     s.render.msaa = 1;
     s
@@ -446,6 +456,7 @@ fn drawn_with_slots(
 ) -> (&'static kami::gpu::Gpu, kami::stage::Stage) {
     use kami::systems::wisps::WispsSystem;
     let gpu = common::gpu();
+    let scene = &marched(scene);
     let mut stage = kami::stage::Stage::new(
         gpu,
         scene,
@@ -737,7 +748,7 @@ fn stack_scene(skeletons: &str, front: bool) -> Scene {
     }
     let text = format!(
         "Scene(head: Head(radii: (1.0, 1.0, 1.0), visible: false), \
-         wisps: Some(Wisps(threshold: 0.5, toon: Toon(outline_width: 0.0), march: March(max_steps: 4096), skeletons: [{skeletons}])), \
+         wisps: Some(Wisps(threshold: 0.5, toon: Toon(outline_width: 0.0), march: March(max_steps: 4096), draw: March, skeletons: [{skeletons}])), \
          camera: CameraDesc(eye: (0.0, 0.0, 40.0), target: (0.0, 0.0, 0.0), fov_y: 20.0), \
          render: RenderSettings(supersample: 1, msaa: 1))"
     );

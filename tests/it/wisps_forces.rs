@@ -258,7 +258,8 @@ fn gpu_springs_match_f64_under_wind_and_eff() {
 }
 
 fn one_sample(name: &str) -> Scene {
-    let mut s = common::scene(name);
+    // The snapshots here are the ray march's (the mesh's: `wisps_mesh.rs`).
+    let mut s = crate::wisps::marched(&common::scene(name));
     s.render.supersample = 1;
     s.render.msaa = 1;
     s

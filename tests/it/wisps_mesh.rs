@@ -225,6 +225,24 @@ fn the_mesh_draws_the_truth_within_the_bound() {
     );
 }
 
+/// The mesh's look: `toon.ron` at 192², one sample per pixel, with the head (the march's
+/// snapshot of the same view is `toon`).
+#[test]
+fn toon_mesh_snapshot() {
+    let mut scene = one_sample("toon", WispDraw::Mesh);
+    scene.head.visible = true;
+    let img = kami::stage::render_scene(common::gpu(), &scene, (192, 192)).unwrap();
+    common::check_snapshot(
+        "toon_mesh",
+        &img,
+        common::Tolerance {
+            mean: 0.25,
+            threshold: 24,
+            share: 0.002,
+        },
+    );
+}
+
 /// One stage draws the march, then the mesh (a `Redraw` from the Toon panel), then the march
 /// again: each frame equals a fresh stage's with that path. The still hairstyle is meshed
 /// once and not again while the camera orbits; a new threshold meshes it again.

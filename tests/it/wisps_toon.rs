@@ -1125,7 +1125,8 @@ fn image_change(a: &image::RgbaImage, b: &image::RgbaImage) -> Vec<bool> {
 }
 
 fn render(scene: &Scene) -> image::RgbaImage {
-    kami::stage::render_scene(common::gpu(), scene, SIZE).unwrap()
+    // Compared with the march's f64 reference: drawn by the march.
+    kami::stage::render_scene(common::gpu(), &crate::wisps::marched(scene), SIZE).unwrap()
 }
 
 fn with_toon(scene: &Scene, t: &Toon) -> Scene {

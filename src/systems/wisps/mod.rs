@@ -86,6 +86,7 @@ pub const KIND: Kind = Kind {
         ("wisps/toon", march::MARCH),
         ("wisps/springs", springs_gpu::SPRINGS),
         ("wisps/tiles", tiles::TILES),
+        ("wisps/mesh", mesh_pass::MESH),
     ],
     invariants: |_| Ok(()),
     fuzz_words: &[
@@ -347,7 +348,8 @@ impl WispsSystem {
 
     /// The cell the meshed path uses in `view`: `wisps.mesh.cell`, or where that is 0
     /// `mesh::auto_cell` of the wisps' radii, but no finer than `mesh::AUTO_CELL_PX` output
-    /// pixels at the nearest point of the wisps' bounds (finer cells change no pixel there).
+    /// pixels at the nearest point of the wisps' bounds (finer cells change no pixel there),
+    /// and for moving wisps coarser under the viewer's budget.
     pub fn mesh_cell(&self, view: &View) -> f64 {
         if self.wisps.mesh.cell > 0.0 {
             return self.wisps.mesh.cell;
@@ -359,7 +361,16 @@ impl WispsSystem {
         } else {
             0.0
         };
-        mesh::auto_cell(&self.wisps).max(mesh::AUTO_CELL_PX * px)
+        let cell = mesh::auto_cell(&self.wisps).max(mesh::AUTO_CELL_PX * px);
+        if self.moving() {
+            // Moving wisps are meshed every frame: under the viewer's budget (`lod` below 1)
+            // the cell grows as the strands widen, 1/sqrt(lod), up to `mesh::MOVING_COARSEST`
+            // times (the image error stays near the bound there). Headless renders draw at
+            // lod 1.
+            cell * view.budget_widening().min(mesh::MOVING_COARSEST)
+        } else {
+            cell
+        }
     }
 
     /// Mesh the wisps again where they moved or changed: a still hairstyle once, in the
