@@ -287,12 +287,27 @@ pub fn distance_newton(seg: &Segment, v: DVec3) -> (f64, f64) {
 /// The segment as `pieces` chords between B(k/pieces); closed-form point-to-chord distance;
 /// t interpolated linearly along the best chord (the first on ties).
 pub fn distance_polyline(seg: &Segment, v: DVec3, pieces: u32) -> (f64, f64) {
-    let n = pieces.max(1);
+    let n = pieces.max(1) as usize;
+    let point = |k: usize| seg.point(k as f64 / n as f64);
+    if n <= 64 {
+        let mut points = [DVec3::ZERO; 65];
+        for (k, p) in points.iter_mut().enumerate().take(n + 1) {
+            *p = point(k);
+        }
+        polyline_distance(&points[..=n], v)
+    } else {
+        polyline_distance(&(0..=n).map(point).collect::<Vec<_>>(), v)
+    }
+}
+
+/// Distance from `v` to the polyline through `points` (at least two), closed form per
+/// chord, and t in [0, 1] over the whole polyline, interpolated linearly along the best
+/// chord (the first on ties).
+pub fn polyline_distance(points: &[DVec3], v: DVec3) -> (f64, f64) {
+    let n = points.len().saturating_sub(1).max(1) as f64;
     let mut best = (f64::INFINITY, 0.0);
-    let mut p0 = seg.point(0.0);
-    for k in 0..n {
-        let p1 = seg.point((k + 1) as f64 / n as f64);
-        let e = p1 - p0;
+    for (k, w) in points.windows(2).enumerate() {
+        let (p0, e) = (w[0], w[1] - w[0]);
         let len2 = e.length_squared();
         let u = if len2 > 0.0 {
             ((v - p0).dot(e) / len2).clamp(0.0, 1.0)
@@ -301,9 +316,8 @@ pub fn distance_polyline(seg: &Segment, v: DVec3, pieces: u32) -> (f64, f64) {
         };
         let d2 = (v - (p0 + e * u)).length_squared();
         if d2 < best.0 {
-            best = (d2, (k as f64 + u) / n as f64);
+            best = (d2, (k as f64 + u) / n);
         }
-        p0 = p1;
     }
     (best.0.sqrt(), best.1)
 }

@@ -44,25 +44,6 @@ fn chords(seg: &Segment) -> Chords {
     std::array::from_fn(|k| seg.point(k as f64 / GRID_PIECES as f64))
 }
 
-/// `curve::distance_polyline` over precomputed chords.
-fn chord_distance(c: &Chords, v: DVec3) -> (f64, f64) {
-    let mut best = (f64::INFINITY, 0.0);
-    for k in 0..GRID_PIECES {
-        let (p0, e) = (c[k], c[k + 1] - c[k]);
-        let len2 = e.length_squared();
-        let u = if len2 > 0.0 {
-            ((v - p0).dot(e) / len2).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        let d2 = (v - (p0 + e * u)).length_squared();
-        if d2 < best.0 {
-            best = (d2, (k as f64 + u) / GRID_PIECES as f64);
-        }
-    }
-    (best.0.sqrt(), best.1)
-}
-
 /// Σ_wisps ρ at `v` over `list` by the chords (the grid's values; no gradient).
 fn grid_rho(input: &Input, chords: &[Vec<Chords>], list: &[(u32, u32)], v: DVec3) -> f64 {
     let mut sum = 0.0;
@@ -78,7 +59,7 @@ fn grid_rho(input: &Input, chords: &[Vec<Chords>], list: &[(u32, u32)], v: DVec3
         if s.box_distance(v) >= rm {
             continue;
         }
-        let (d, t) = chord_distance(&chords[wi as usize][si as usize], v);
+        let (d, t) = curve::polyline_distance(&chords[wi as usize][si as usize], v);
         if d >= rm {
             continue;
         }
