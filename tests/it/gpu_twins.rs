@@ -332,6 +332,12 @@ fn twins() -> Vec<Twin> {
         twin!(GpuSegment, [c, lo, hi], "Segment", ["wisps/segments.wgsl"]),
         twin!(GpuCapsule, [a, b], "Capsule", ["wisps/segments.wgsl"]),
         twin!(
+            kami::systems::wisps::mesh_gpu::GpuMesher,
+            [origin, dims, bricks, caps, offs, shape, method],
+            "Mesher",
+            ["wisps/mesher.wgsl"]
+        ),
+        twin!(
             GpuWispDraw,
             [
                 head,
@@ -562,6 +568,12 @@ fn twin_constants() -> Vec<(&'static str, &'static str, f64, &'static str)> {
     use kami::gpu::{shadow, splat};
     let joints = kami::scene::skinned::MAX_JOINTS as f64;
     vec![
+        (
+            "wisps/mesher.wgsl",
+            "BRICK",
+            kami::systems::wisps::mesh::BRICK as f64,
+            "systems::wisps::mesh::BRICK",
+        ),
         (
             "fur/generate.wgsl",
             "MAX_JOINTS",

@@ -24,6 +24,7 @@ fn polygonise(segs: &[Vec<curve::Segment>], threshold: f64, cell: f64) -> mesh::
         threshold,
         method: Default::default(),
         cell,
+        frame: None,
     })
     .unwrap()
 }
@@ -153,6 +154,7 @@ fn a_mesh_cell_past_the_limits_is_refused_with_the_numbers() {
             threshold: 0.5,
             method: Default::default(),
             cell,
+            frame: None,
         })
         .unwrap_err()
         .to_string();
@@ -349,14 +351,312 @@ fn auto_follows_the_measured_choices() {
     }
     if c.hardware.is_none() {
         assert!(
-            !auto_draws_mesh(WispDraw::Auto, gpu_kind, true),
-            "moving wisps on an unmeasured hardware GPU draw with the march"
+            auto_draws_mesh(WispDraw::Auto, gpu_kind, true),
+            "moving wisps on an unmeasured hardware GPU draw the mesh (meshed on the GPU)"
         );
     }
+    use kami::systems::wisps::mesh_pass::auto_meshes_on_gpu;
+    assert!(auto_meshes_on_gpu(gpu_kind, true));
+    assert!(
+        !auto_meshes_on_gpu(gpu_kind, false),
+        "still wisps mesh once on the CPU"
+    );
+    assert!(
+        !auto_meshes_on_gpu(cpu, true),
+        "a software adapter meshes on the CPU"
+    );
     assert!(parse_choices("(software: None, hardware: None)").is_ok());
     let e = parse_choices(
         "(software: Some((adapter: \"x\", still: Auto, moving: Mesh)), hardware: None)",
     )
     .unwrap_err();
     assert!(e.contains("March or Mesh"), "{e}");
+}
+
+/// The GPU mesher (`shaders/wisps/mesher.wgsl`) over toon.ron's drawn wisps against its f64
+/// reference, `mesh::polygonise` on the same grid from the same nodes: the same vertices
+/// (matched by position) and triangles, each vertex where the reference puts it with its
+/// normal, outline scale and shell curvature, the triangles wound outward, nothing dropped.
+fn gpu_mesher_against_the_reference(name: &str, cell_scale: f64) -> (f64, f64) {
+    use kami::systems::wisps::{march, mesh_gpu};
+    let gpu = common::gpu();
+    let scene = common::scene(name);
+    let wisps = scene.wisps().clone().unwrap();
+    let nodes = kami::gpu::storage_buffer(
+        &gpu.device,
+        "test nodes",
+        bytemuck::cast_slice(&march::drawn_positions(&wisps)),
+        wgpu::BufferUsages::empty(),
+    );
+    let mut curves = march::CurvePass::new(gpu, &wisps, &nodes).unwrap();
+    let mut mesher = mesh_gpu::Mesher::new(gpu, &wisps).unwrap();
+    let (centre, radius) = march::bounds(&wisps, false);
+    let cell = mesh::auto_cell(&wisps) * cell_scale;
+    let plan = mesh_gpu::plan(&wisps, centre, radius, cell, 1 << 30).unwrap();
+    let mut enc = gpu.device.create_command_encoder(&Default::default());
+    curves.record(gpu, &mut enc, glam::DMat4::IDENTITY, true);
+    mesher.record(gpu, &mut enc, &curves, &wisps, plan);
+    gpu.queue.submit([enc.finish()]);
+    let (g, counters) = mesher.read(gpu).unwrap();
+    assert!(!counters.overflowed(), "{counters:?}");
+    let segs = curve::drawn_segments(&wisps);
+    let outlines = mesh::wisp_outlines(&wisps, &segs);
+    let r = mesh::polygonise(&mesh::Input {
+        wisps: &segs,
+        outlines: &outlines,
+        taper: wisps.toon.outline_taper,
+        threshold: wisps.threshold,
+        method: wisps.march.distance,
+        cell: plan.cell,
+        frame: Some(plan.frame()),
+    })
+    .unwrap();
+    let (nv, nr) = (g.positions.len(), r.positions.len());
+    eprintln!(
+        "{name} at cell {:.4}: GPU {nv} vertices, {} triangles; f64 {nr}, {} ({counters:?})",
+        plan.cell,
+        g.triangles(),
+        r.triangles()
+    );
+    assert!(nr > 1000, "{nr} reference vertices");
+    // Nearest GPU vertex of each reference vertex, by a hash of cells.
+    let h = plan.cell;
+    let key = |p: [f32; 4]| {
+        [
+            (p[0] as f64 / h).floor() as i64,
+            (p[1] as f64 / h).floor() as i64,
+            (p[2] as f64 / h).floor() as i64,
+        ]
+    };
+    let mut table: std::collections::HashMap<[i64; 3], Vec<usize>> = Default::default();
+    for (k, &p) in g.positions.iter().enumerate() {
+        table.entry(key(p)).or_default().push(k);
+    }
+    let (mut matched, mut worst_p, mut worst_n, mut worst_o, mut worst_k) =
+        (0, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    for (k, &p) in r.positions.iter().enumerate() {
+        let c = key(p);
+        let mut best = (f64::INFINITY, usize::MAX);
+        for dz in -1..=1 {
+            for dy in -1..=1 {
+                for dx in -1..=1 {
+                    for &j in table
+                        .get(&[c[0] + dx, c[1] + dy, c[2] + dz])
+                        .into_iter()
+                        .flatten()
+                    {
+                        let q = g.positions[j];
+                        let d = (0..3)
+                            .map(|a| (p[a] as f64 - q[a] as f64).powi(2))
+                            .sum::<f64>()
+                            .sqrt();
+                        if d < best.0 {
+                            best = (d, j);
+                        }
+                    }
+                }
+            }
+        }
+        if best.0 > 1e-2 * h {
+            continue;
+        }
+        matched += 1;
+        let j = best.1;
+        worst_p = worst_p.max(best.0 / h);
+        let (a, b) = (r.normals[k], g.normals[j]);
+        let dot = (0..3).map(|i| a[i] as f64 * b[i] as f64).sum::<f64>();
+        worst_n = worst_n.max(dot.clamp(-1.0, 1.0).acos().to_degrees());
+        worst_o = worst_o.max((p[3] - g.positions[j][3]).abs() as f64);
+        worst_k = worst_k.max((a[3] - b[3]).abs() as f64 / (a[3].abs() as f64).max(1.0 / h));
+    }
+    let unmatched = (nr - matched) as f64 / nr as f64;
+    eprintln!(
+        "matched {matched} of {nr} ({:.4} % not), worst offset {worst_p:.2e} cells, normal \
+         {worst_n:.3}°, outline scale {worst_o:.2e}, κ {worst_k:.2e} (relative)",
+        unmatched * 100.0
+    );
+    // Outward: each triangle's face normal along its vertices' normals.
+    let inward = g
+        .indices
+        .chunks(3)
+        .filter(|t| {
+            let p = |i: u32| glam::Vec3::from_slice(&g.positions[i as usize][..3]);
+            let n = |i: u32| glam::Vec3::from_slice(&g.normals[i as usize][..3]);
+            let f = (p(t[1]) - p(t[0])).cross(p(t[2]) - p(t[0]));
+            f.dot(n(t[0]) + n(t[1]) + n(t[2])) < 0.0
+        })
+        .count();
+    assert!(g.indices.iter().all(|&i| (i as usize) < nv));
+    let tri_off = (g.triangles() as f64 - r.triangles() as f64).abs() / r.triangles() as f64;
+    assert!(
+        unmatched <= 2e-3 && (nv as f64 - nr as f64).abs() / (nr as f64) <= 2e-3 && tri_off <= 2e-3,
+        "{unmatched} of the reference's vertices unmatched; {nv} against {nr} vertices, \
+         triangles {tri_off} off"
+    );
+    assert!(
+        worst_p <= 1e-3,
+        "a vertex {worst_p} cells from the reference's"
+    );
+    assert!(worst_n <= 0.5, "a normal {worst_n}° off");
+    assert!(worst_o <= 1e-3, "an outline scale {worst_o} off");
+    assert!(worst_k <= 1e-2, "a shell curvature {worst_k} off");
+    assert!(
+        (inward as f64) <= 1e-3 * g.triangles() as f64,
+        "{inward} of {} triangles face inward",
+        g.triangles()
+    );
+    (unmatched, worst_p)
+}
+
+#[test]
+fn the_gpu_mesher_matches_the_f64_mesher() {
+    gpu_mesher_against_the_reference("toon", 1.0);
+    gpu_mesher_against_the_reference("toon_shake", 0.7);
+}
+
+/// Frames of `scene` drawn on one stage at `size`, the last one read back.
+fn after_frames(
+    scene: &Scene,
+    frames: u32,
+    size: (u32, u32),
+) -> (image::RgbaImage, kami::stage::Stage) {
+    let gpu = common::gpu();
+    let mut stage = common::stage(gpu, scene);
+    let out = kami::stage::target::Offscreen::new(gpu, size).unwrap();
+    for _ in 0..frames {
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        stage.advance(gpu, &mut enc, 1).unwrap();
+        let look = stage.look();
+        stage.render(gpu, &mut enc, &out.view, size, &look).unwrap();
+        gpu.queue.submit([enc.finish()]);
+    }
+    (out.read_rgba(gpu).unwrap(), stage)
+}
+
+/// Moving wisps meshed on the GPU (`wisps.mesh.on: Gpu`) each frame from the segments of
+/// that frame, nothing read back: after 6 frames of toon_shake.ron the image is the march's
+/// of the same frame within `MESH_ERROR_BOUND`, the mesher ran every frame and dropped
+/// nothing. Break: the mesher not recorded (nothing drawn) fails on the difference.
+#[test]
+fn moving_wisps_meshed_on_the_gpu_draw_what_the_march_draws() {
+    use kami::systems::wisps::block::MeshOn;
+    let gpu = common::gpu();
+    let size = (128, 128);
+    let mut meshed = one_sample("toon_shake", WispDraw::Mesh);
+    meshed.wisps_mut().as_mut().unwrap().mesh.on = MeshOn::Gpu;
+    let march = one_sample("toon_shake", WispDraw::March);
+    let (img, stage) = after_frames(&meshed, 6, size);
+    let (truth, _) = after_frames(&march, 6, size);
+    let (mean, share, _) = kami::bench::backends::difference(&truth, &img);
+    eprintln!(
+        "GPU mesh against the march after 6 frames: mean {mean:.3}, {:.3} % over 24",
+        share * 100.0
+    );
+    let m = stage
+        .system::<WispsSystem>()
+        .unwrap()
+        .mesh
+        .as_ref()
+        .unwrap();
+    assert_eq!(m.last.count, 6, "meshed every frame");
+    let g = m.gpu.as_ref().expect("meshed on the GPU");
+    let c = g.counters(gpu).unwrap();
+    assert!(!c.overflowed() && c.drawn > 6000, "{c:?}");
+    let (bound_mean, bound_share) = kami::systems::wisps::mesh_pass::MESH_ERROR_BOUND;
+    assert!(
+        mean <= bound_mean && share <= bound_share,
+        "the GPU mesh is off the march by mean {mean:.3}, {:.3} % over 24",
+        share * 100.0
+    );
+}
+
+/// The coarsest cell moving wisps take under the viewer's budget (`mesh::MOVING_COARSEST`
+/// times the automatic cell) still draws toon.ron within `MESH_ERROR_BOUND` of the
+/// converged truth at 128². Break: 1.5 (the value before) fails with 2.87 % over 24.
+#[test]
+fn the_coarsest_moving_cell_is_within_the_bound() {
+    let gpu = common::gpu();
+    let size = (128, 128);
+    let mut scene = one_sample("toon", WispDraw::Mesh);
+    let mut converged = scene.clone();
+    converged.wisps_mut().as_mut().unwrap().march.max_steps = 4096;
+    let truth = kami::bench::wisps::truth_image(gpu, &converged, size).unwrap();
+    let w = scene.wisps_mut().as_mut().unwrap();
+    w.mesh.cell = mesh::auto_cell(w) * mesh::MOVING_COARSEST;
+    let img = kami::stage::render_scene(gpu, &scene, size).unwrap();
+    let (mean, share, _) = kami::bench::backends::difference(&truth, &img);
+    eprintln!(
+        "coarsest moving cell: mean {mean:.3}, {:.3} % over 24",
+        share * 100.0
+    );
+    let (bound_mean, bound_share) = kami::systems::wisps::mesh_pass::MESH_ERROR_BOUND;
+    assert!(mean <= bound_mean && share <= bound_share);
+}
+
+/// The GPU mesher's grid is refused before anything is allocated, naming `wisps.mesh.cell`
+/// and the numbers, where it passes the limits or the adapter's buffers; a `mesh.on` that is
+/// not a place is refused with the choices.
+#[test]
+fn a_gpu_mesh_past_the_limits_is_refused_with_the_numbers() {
+    use kami::systems::wisps::{march, mesh_gpu};
+    let scene = common::scene("toon_shake");
+    let w = scene.wisps().clone().unwrap();
+    let (c, r) = march::bounds(&w, true);
+    for (cell, limit) in [
+        (1e-6, 1u64 << 40),
+        (0.0, 1 << 40),
+        (f64::NAN, 1 << 40),
+        (0.3, 1 << 16),
+    ] {
+        let e = mesh_gpu::plan(&w, c, r, cell, limit)
+            .unwrap_err()
+            .to_string();
+        eprintln!("cell {cell}, limit {limit}: {e}");
+        assert!(e.contains("wisps.mesh.cell"), "{e}");
+        if limit < 1 << 30 {
+            assert!(e.contains("bytes"), "{e}");
+        }
+    }
+    let p = mesh_gpu::plan(&w, c, r, 0.3, 1 << 30).unwrap();
+    assert!(p.bytes().iter().all(|&b| b <= 1 << 30));
+    let e = kami::systems::wisps::tools::parse_mesh_on(Some("tpu")).unwrap_err();
+    assert!(e.contains("auto, cpu or gpu"), "{e}");
+}
+
+/// Past its capacities the GPU mesher writes nothing out of bounds and counts what it
+/// dropped (`warnings` reports it): toon.ron with room for 40 bricks, 1000 vertices and 600
+/// indices. Break: `finish` drawing every index asked for, not the capacity's, fails on
+/// `drawn`.
+#[test]
+fn the_gpu_mesher_counts_what_passes_its_capacities() {
+    use kami::systems::wisps::{march, mesh_gpu};
+    let gpu = common::gpu();
+    let scene = common::scene("toon");
+    let wisps = scene.wisps().clone().unwrap();
+    let nodes = kami::gpu::storage_buffer(
+        &gpu.device,
+        "test nodes",
+        bytemuck::cast_slice(&march::drawn_positions(&wisps)),
+        wgpu::BufferUsages::empty(),
+    );
+    let mut curves = march::CurvePass::new(gpu, &wisps, &nodes).unwrap();
+    let mut mesher = mesh_gpu::Mesher::new(gpu, &wisps).unwrap();
+    let (centre, radius) = march::bounds(&wisps, false);
+    let mut plan = mesh_gpu::plan(&wisps, centre, radius, 0.3, 1 << 30).unwrap();
+    plan.slot_cap = 40;
+    plan.vertex_cap = 1000;
+    plan.index_cap = 600;
+    let mut enc = gpu.device.create_command_encoder(&Default::default());
+    curves.record(gpu, &mut enc, glam::DMat4::IDENTITY, true);
+    mesher.record(gpu, &mut enc, &curves, &wisps, plan);
+    gpu.queue.submit([enc.finish()]);
+    let (m, c) = mesher.read(gpu).unwrap();
+    eprintln!("{c:?}");
+    assert!(
+        c.overflowed() && c.slots_over > 0 && c.vertices_over > 0,
+        "{c:?}"
+    );
+    assert!(c.drawn <= 600 && c.drawn % 6 == 0, "{c:?}");
+    assert!(m.positions.len() <= 1000);
+    assert!(m.indices.iter().all(|&i| i < 1000));
 }

@@ -92,6 +92,24 @@ pub struct MeshGrid {
     /// Cell size in scene units; 0 (the default): `mesh::auto_cell` of the wisps' radii.
     #[serde(default)]
     pub cell: f64,
+    /// Where the surface is polygonised (`MeshOn`).
+    #[serde(default)]
+    pub on: MeshOn,
+}
+
+/// Where the meshed path polygonises the surface.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum MeshOn {
+    /// Still wisps on the CPU (meshed once, in f64); moving wisps where `kami bench wisps`
+    /// measured them cheaper on this class of adapter (`mesh_pass::auto_meshes_on_gpu`).
+    #[default]
+    Auto,
+    /// `mesh::polygonise` on the CPU's threads, in f64 (moving wisps' nodes read back each
+    /// frame).
+    Cpu,
+    /// `shaders/wisps/mesher.wgsl` every frame, from the segments on the GPU: nothing read
+    /// back, drawn indirectly.
+    Gpu,
 }
 
 fn default_threshold() -> f64 {

@@ -30,6 +30,7 @@ pub const MARCH: &str = wgsl!(
     "wisps/view.wgsl",
     "wisps/segments.wgsl",
     "wisps/draw.wgsl",
+    "wisps/field.wgsl",
     "wisps/march.wgsl",
     "wisps/tile_quad.wgsl",
     "wisps/toon.wgsl"

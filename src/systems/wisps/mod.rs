@@ -22,6 +22,7 @@ pub mod field;
 pub mod fingers;
 pub mod march;
 pub mod mesh;
+pub mod mesh_gpu;
 pub mod mesh_pass;
 pub mod panel;
 pub mod springs;
@@ -37,7 +38,7 @@ use crate::systems::scene::Scene;
 use crate::systems::system::{
     Change, DrawSetup, FrameCtx, HairSystem, StepInfo, SystemStats, View,
 };
-use crate::systems::wisps::block::Wisps;
+use crate::systems::wisps::block::{MeshOn, Wisps};
 use glam::{DMat4, DVec3};
 use march::{CurvePass, MarchPass};
 
@@ -87,6 +88,7 @@ pub const KIND: Kind = Kind {
         ("wisps/springs", springs_gpu::SPRINGS),
         ("wisps/tiles", tiles::TILES),
         ("wisps/mesh", mesh_pass::MESH),
+        ("wisps/mesher", mesh_gpu::MESHER),
     ],
     invariants: |_| Ok(()),
     fuzz_words: &[
@@ -240,12 +242,17 @@ pub struct Meshed {
     dirty: bool,
     /// The last meshing.
     pub last: MeshInfo,
+    /// The GPU mesher, where the surface is polygonised on the GPU (`block::MeshOn`), and
+    /// its plan with what it was made for (cell, threshold, reach).
+    pub gpu: Option<mesh_gpu::Mesher>,
+    plan: Option<((f64, f64, f64), mesh_gpu::Plan)>,
 }
 
 /// What the last meshing cost and made.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct MeshInfo {
-    /// Wall time of `mesh::polygonise` (and, for moving wisps, reading their nodes back).
+    /// Wall time of `mesh::polygonise` (and, for moving wisps, reading their nodes back);
+    /// on the GPU, of planning and recording the kernels.
     pub ms: f64,
     pub cell: f64,
     pub points: u64,
@@ -331,17 +338,40 @@ impl WispsSystem {
         self.mesh.is_some()
     }
 
-    /// Build or drop the meshed path as `wisps.draw` says on this adapter.
+    /// Whether the meshed path polygonises on the GPU on this adapter (`block::MeshOn`).
+    pub fn meshes_on_gpu(&self, device_type: wgpu::DeviceType) -> bool {
+        match self.wisps.mesh.on {
+            MeshOn::Gpu => true,
+            MeshOn::Cpu => false,
+            MeshOn::Auto => mesh_pass::auto_meshes_on_gpu(device_type, self.moving()),
+        }
+    }
+
+    /// Build or drop the meshed path, and its GPU mesher, as `wisps.draw` and
+    /// `wisps.mesh.on` say on this adapter.
     fn follow_draw(&mut self, gpu: &Gpu) -> Result<()> {
         let want = mesh_pass::auto_draws_mesh(self.wisps.draw, gpu.info.device_type, self.moving());
+        let on_gpu = self.meshes_on_gpu(gpu.info.device_type);
         if want && self.mesh.is_none() {
             self.mesh = Some(Meshed {
                 pass: mesh_pass::MeshPass::new(gpu, &self.frame_layout, self.format, self.variant)?,
                 dirty: true,
                 last: MeshInfo::default(),
+                gpu: None,
+                plan: None,
             });
         } else if !want {
             self.mesh = None;
+        }
+        if let Some(m) = &mut self.mesh {
+            if on_gpu && m.gpu.is_none() {
+                m.gpu = Some(mesh_gpu::Mesher::new(gpu, &self.wisps)?);
+                m.pass.clear();
+            } else if !on_gpu && m.gpu.is_some() {
+                m.gpu = None;
+                m.plan = None;
+                m.dirty = true;
+            }
         }
         Ok(())
     }
@@ -378,19 +408,10 @@ impl WispsSystem {
     /// springs reached by the last frame (read back: the mesh trails the springs by a frame).
     fn remesh(&mut self, gpu: &Gpu, view: &View) -> Result<()> {
         let moving = self.moving();
-        let mut cell = self.mesh_cell(view);
+        let (cell, kept) = self.kept_cell(view);
         let Some(m) = &mut self.mesh else {
             return Ok(());
         };
-        // The view's cell moves the mesh only past a factor (zooming about it re-meshes
-        // once, not every frame).
-        let kept = m.last.cell > 0.0
-            && self.wisps.mesh.cell == 0.0
-            && (cell / m.last.cell).ln().abs() < mesh::CELL_HYSTERESIS.ln()
-            || m.last.cell > 0.0 && cell == m.last.cell;
-        if kept {
-            cell = m.last.cell;
-        }
         if !m.dirty && !moving && kept {
             return Ok(());
         }
@@ -431,6 +452,7 @@ impl WispsSystem {
             threshold: self.wisps.threshold,
             method: self.wisps.march.distance,
             cell,
+            frame: None,
         })?;
         m.pass.upload(gpu, &polygon)?;
         m.dirty = false;
@@ -439,6 +461,60 @@ impl WispsSystem {
             cell,
             points: polygon.points,
             triangles: polygon.triangles(),
+            count: m.last.count + 1,
+        };
+        Ok(())
+    }
+
+    /// The cell for `view` and whether it is the last meshing's: the view's cell moves the
+    /// mesh only past a factor (zooming about it re-meshes once, not every frame).
+    fn kept_cell(&self, view: &View) -> (f64, bool) {
+        let cell = self.mesh_cell(view);
+        let last = self.mesh.as_ref().map_or(0.0, |m| m.last.cell);
+        let kept = last > 0.0
+            && self.wisps.mesh.cell == 0.0
+            && (cell / last).ln().abs() < mesh::CELL_HYSTERESIS.ln()
+            || last > 0.0 && cell == last;
+        (if kept { last } else { cell }, kept)
+    }
+
+    /// Record the GPU mesher over this frame's segments (posed by `head`: the mesh is drawn
+    /// as it is, in world space). Its plan is made again when the cell, threshold or reach
+    /// change.
+    fn remesh_gpu(
+        &mut self,
+        gpu: &Gpu,
+        enc: &mut wgpu::CommandEncoder,
+        view: &View,
+        head: DMat4,
+    ) -> Result<()> {
+        let start = std::time::Instant::now();
+        let (cell, _) = self.kept_cell(view);
+        let (centre, radius) = self.bounds();
+        let centre = head.transform_point3(centre);
+        let key = (cell, self.wisps.threshold, radius);
+        let Some(m) = &mut self.mesh else {
+            return Ok(());
+        };
+        let plan = match m.plan {
+            Some((k, p)) if k == key => p.moved_to(centre, radius),
+            _ => {
+                let lim = gpu.device.limits();
+                let limit = lim.max_storage_buffer_binding_size.min(lim.max_buffer_size);
+                mesh_gpu::plan(&self.wisps, centre, radius, cell, limit)?
+            }
+        };
+        m.plan = Some((key, plan));
+        let Some(g) = &mut m.gpu else {
+            return Ok(());
+        };
+        g.record(gpu, enc, &self.curves, &self.wisps, plan);
+        m.dirty = false;
+        m.last = MeshInfo {
+            ms: start.elapsed().as_secs_f64() * 1e3,
+            cell,
+            points: 0,
+            triangles: 0,
             count: m.last.count + 1,
         };
         Ok(())
@@ -497,11 +573,18 @@ impl HairSystem for WispsSystem {
         self.curves.record(gpu, enc, model, self.moving());
         let uniform = march::draw_uniform(&self.wisps, ctx.head, self.curves.segment_count);
         if self.meshed() {
-            self.remesh(gpu, view)?;
+            let on_gpu = self.mesh.as_ref().is_some_and(|m| m.gpu.is_some());
+            let drawn_model = if on_gpu {
+                self.remesh_gpu(gpu, enc, view, ctx.head)?;
+                WORLD
+            } else {
+                self.remesh(gpu, view)?;
+                model
+            };
             let outline_px = self.wisps.toon.outline_width;
             let eps_per_t = outline_px * view.samples_per_px.max(1.0) / view.focal_samples;
             if let Some(m) = &mut self.mesh {
-                m.pass.write(gpu, &uniform, model, eps_per_t);
+                m.pass.write(gpu, &uniform, drawn_model, eps_per_t);
             }
             return Ok(());
         }
@@ -513,7 +596,10 @@ impl HairSystem for WispsSystem {
 
     fn draw_opaque(&self, pass: &mut wgpu::RenderPass<'_>) {
         match &self.mesh {
-            Some(m) => m.pass.draw(pass),
+            Some(m) => match m.gpu.as_ref().and_then(|g| g.buffers()) {
+                Some(b) => m.pass.draw_gpu(pass, b),
+                None => m.pass.draw(pass),
+            },
             None => self.draw.draw(pass),
         }
     }
@@ -588,8 +674,23 @@ impl HairSystem for WispsSystem {
 
     /// Tile lists or ray lists that overflowed in the last frame (counted by the march).
     fn warnings(&self, gpu: &Gpu) -> Result<Vec<String>> {
-        if self.meshed() {
-            return Ok(Vec::new());
+        if let Some(m) = &self.mesh {
+            let Some(g) = &m.gpu else {
+                return Ok(Vec::new());
+            };
+            let c = g.counters(gpu)?;
+            return Ok(c
+                .overflowed()
+                .then(|| {
+                    format!(
+                        "the GPU mesher dropped {} bricks, {} vertices and {} quads past its \
+                         capacities ({} brick lists cut): raise wisps.mesh.cell or mesh on the \
+                         CPU (wisps.mesh.on=cpu)",
+                        c.slots_over, c.vertices_over, c.quads_over, c.lists_cut
+                    )
+                })
+                .into_iter()
+                .collect());
         }
         Ok(self
             .draw

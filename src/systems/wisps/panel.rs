@@ -12,7 +12,7 @@ use super::edit::{Editor, Sel};
 use super::tools::WispsUi;
 use crate::systems::kind::Panel;
 use crate::systems::ui::{self, Host, PanelCx};
-use crate::systems::wisps::block::{Distance, Tones, WispDraw, Wisps};
+use crate::systems::wisps::block::{Distance, MeshOn, Tones, WispDraw, Wisps};
 use egui::{Button, Color32, DragValue, Slider, SliderClamping, Ui};
 use glam::{DVec2, DVec3};
 
@@ -352,6 +352,15 @@ fn toon(ui: &mut Ui, cx: &mut PanelCx) {
                 .prefix("mesh cell "),
         )
         .on_hover_text("the mesh's grid cell, scene units; 0: automatic");
+        ui.horizontal(|ui| {
+            ui.label("mesh on");
+            ui.selectable_value(&mut w.mesh.on, MeshOn::Auto, "auto")
+                .on_hover_text("still wisps on the CPU once; moving ones where measured cheaper");
+            ui.selectable_value(&mut w.mesh.on, MeshOn::Cpu, "cpu")
+                .on_hover_text("f64 surface nets on the CPU's threads");
+            ui.selectable_value(&mut w.mesh.on, MeshOn::Gpu, "gpu")
+                .on_hover_text("the same surface nets in compute, every frame, nothing read back");
+        });
     }
     let m = &mut w.march;
     let mut polyline = matches!(m.distance, Distance::Polyline { .. });

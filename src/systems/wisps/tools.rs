@@ -3,7 +3,7 @@
 //! 3D view and the keys, the skeleton overlay, and the wisps' `--set` keys. The viewer
 //! hosts it as a `KindUi` and knows none of it.
 
-use super::block::{MarchOn, WispDraw};
+use super::block::{MarchOn, MeshOn, WispDraw};
 use super::edit::{self, Editor};
 use super::panel;
 use crate::error::Result;
@@ -39,7 +39,8 @@ impl KindUi for WispsUi {
     /// `wisps.edit=on|off` (the mouse mode and overlay), `wisps.max_steps=N` (the ray
     /// march's step budget: cheap previews), `wisps.march_on=auto|compute|fragment` (where
     /// the march runs, `block::MarchOn`), `wisps.draw=auto|march|mesh` (`block::WispDraw`),
-    /// `wisps.mesh.cell=C` (the meshed path's cell, 0 automatic), the Toon panel's controls
+    /// `wisps.mesh.cell=C` (the meshed path's cell, 0 automatic), `wisps.mesh.on=auto|cpu|gpu`
+    /// (where it polygonises, `block::MeshOn`), the Toon panel's controls
     /// `wisps.toon.NAME=VALUE` and the outline scales `wisps.outline[.N]=S`
     /// (`panel::set_key`).
     fn set(
@@ -77,6 +78,10 @@ impl KindUi for WispsUi {
                     return Err(format!("expected a cell size >= 0 (0: automatic), not {c}"));
                 }
                 scene.wisps_mut().as_mut().ok_or_else(none)?.mesh.cell = c;
+                Ok(())
+            }),
+            "wisps.mesh.on" => parse_mesh_on(value).and_then(|on| {
+                scene.wisps_mut().as_mut().ok_or_else(none)?.mesh.on = on;
                 Ok(())
             }),
             k if k.starts_with("wisps.toon.") || k.starts_with("wisps.outline") => {
@@ -240,6 +245,16 @@ impl KindUi for WispsUi {
         if let (true, Some(w), Some(view)) = (self.edit, scene.wisps(), host.head_view) {
             panel::overlay(ctx, w, &self.editor, &view, ppp);
         }
+    }
+}
+
+/// `auto`, `cpu` or `gpu` (`block::MeshOn`).
+pub fn parse_mesh_on(value: Option<&str>) -> std::result::Result<MeshOn, String> {
+    match value.map(str::trim) {
+        Some("auto") => Ok(MeshOn::Auto),
+        Some("cpu") => Ok(MeshOn::Cpu),
+        Some("gpu") => Ok(MeshOn::Gpu),
+        v => Err(format!("expected auto, cpu or gpu, not {v:?}")),
     }
 }
 
