@@ -14,7 +14,7 @@ use crate::error::Result;
 use crate::gpu::timing::{PassTimes, Phase};
 use crate::gpu::Gpu;
 use crate::stage::{self, target, Quality, Stage};
-use crate::systems::wisps::block::{Distance, Skeleton, WispDraw};
+use crate::systems::wisps::block::{Distance, MeshOn, Skeleton, WispDraw};
 use crate::systems::wisps::tiles::MarchStats;
 use crate::systems::wisps::WispsSystem;
 use crate::systems::Scene;
@@ -813,6 +813,14 @@ fn with_draw(scene: &Scene, draw: WispDraw) -> Scene {
     s
 }
 
+fn meshed_on(scene: &Scene, on: MeshOn) -> Scene {
+    let mut s = scene.clone();
+    if let Some(w) = s.wisps_mut().as_mut() {
+        w.mesh.on = on;
+    }
+    s
+}
+
 /// A path's frame: CPU wall ms per frame after a warm-up (which meshes a still scene), for
 /// the mesh the last meshing (ms, cell, triangles), and the last frame's image.
 fn path_frame(
@@ -897,6 +905,8 @@ pub struct Measured {
     pub still_mesh: bool,
     /// Moving wisps (`toon_shake.ron`, meshed every frame): the same at the viewer's size.
     pub moving_mesh: bool,
+    /// Where moving wisps were meshed cheaper: on the CPU (nodes read back) or the GPU.
+    pub moving_on: MeshOn,
 }
 
 /// Table 4: the two ways to draw the surface (`block::WispDraw`) side by side: image error
@@ -988,57 +998,83 @@ pub fn paths_section(
             .ok();
         }
     }
-    // Moving wisps: each frame steps the springs and meshes them again.
-    let (march_ms, _, _) = path_frame(gpu, shake, WispDraw::March, VIEWER, frames, true)?;
-    let (mesh_ms, info, _) = path_frame(gpu, shake, WispDraw::Mesh, VIEWER, frames, true)?;
+    // Moving wisps: each frame steps the springs and meshes them again, on the CPU from
+    // the nodes read back or on the GPU.
+    let (march_ms, _, march_img) = path_frame(gpu, shake, WispDraw::March, VIEWER, frames, true)?;
+    let (cpu_ms, info, _) = path_frame(
+        gpu,
+        &meshed_on(shake, MeshOn::Cpu),
+        WispDraw::Mesh,
+        VIEWER,
+        frames,
+        true,
+    )?;
+    let (gpu_ms, _, gpu_img) = path_frame(
+        gpu,
+        &meshed_on(shake, MeshOn::Gpu),
+        WispDraw::Mesh,
+        VIEWER,
+        frames,
+        true,
+    )?;
+    let (g_mean, g_over, _) = super::backends::difference(&march_img, &gpu_img);
     let info = info.unwrap_or_default();
+    let mesh_ms = cpu_ms.min(gpu_ms);
+    let moving_on = if gpu_ms < cpu_ms {
+        MeshOn::Gpu
+    } else {
+        MeshOn::Cpu
+    };
     let moving_cheaper = mesh_ms < march_ms;
     writeln!(
         md,
-        "\nMoving wisps (`toon_shake.ron`, {}x{}, each frame a step of the springs; the mesh is \
-         made again every frame from the nodes read back): march {march_ms:.1} ms ({:.1} fps), \
-         mesh {mesh_ms:.1} ms ({:.1} fps), of which meshing {:.1} ms (cell {:.3}, {} \
-         triangles).\n",
+        "\nMoving wisps (`toon_shake.ron`, {}x{}, each frame a step of the springs and a new \
+         mesh; mean of {frames} frame(s) after a warm-up):\n\n\
+         | path | ms per frame | fps |\n|---|---|---|\n\
+         | march | {march_ms:.1} | {:.1} |\n\
+         | mesh, meshed on the CPU (nodes read back; meshing {:.1} ms, cell {:.3}, {} triangles) | {cpu_ms:.1} | {:.1} |\n\
+         | mesh, meshed on the GPU (`shaders/wisps/mesher.wgsl`, nothing read back) | {gpu_ms:.1} | {:.1} |\n\n\
+         The GPU-meshed frame against the march's of the same frame: mean {g_mean:.2}, \
+         {:.2} % of pixels over 24.\n",
         VIEWER.0,
         VIEWER.1,
         1e3 / march_ms,
-        1e3 / mesh_ms,
         info.ms,
         info.cell,
-        info.triangles
+        info.triangles,
+        1e3 / cpu_ms,
+        1e3 / gpu_ms,
+        g_over * 100.0
     )
     .ok();
-    writeln!(
-        csv,
-        "paths_moving,{},,{}x{},march,{march_ms:.3},,,,,,,",
-        shake.wisps().as_ref().map_or(0, |w| w.skeletons.len()),
-        VIEWER.0,
-        VIEWER.1
-    )
-    .ok();
-    writeln!(
-        csv,
-        "paths_moving,{},,{}x{},mesh,{mesh_ms:.3},,,,,,{},",
-        shake.wisps().as_ref().map_or(0, |w| w.skeletons.len()),
-        VIEWER.0,
-        VIEWER.1,
-        info.triangles
-    )
-    .ok();
+    let n_shake = shake.wisps().as_ref().map_or(0, |w| w.skeletons.len());
+    for (variant, ms) in [
+        ("march", march_ms),
+        ("mesh (CPU mesher)", cpu_ms),
+        ("mesh (GPU mesher)", gpu_ms),
+    ] {
+        writeln!(
+            csv,
+            "paths_moving,{n_shake},,{}x{},{variant},{ms:.3},,,,,,,",
+            VIEWER.0, VIEWER.1
+        )
+        .ok();
+    }
     let measured = Measured {
         adapter: gpu.describe(),
         still_mesh: within && still_cheaper,
         moving_mesh: within && moving_cheaper,
+        moving_on,
     };
     writeln!(
         md,
         "So `Auto` draws, on this kind of adapter: still wisps with the {}, moving wisps with \
          the {} (`{DRAW_FILE}`).\n",
         if measured.still_mesh { "mesh" } else { "march" },
-        if measured.moving_mesh {
-            "mesh"
-        } else {
-            "march"
+        match (measured.moving_mesh, measured.moving_on) {
+            (false, _) => "march",
+            (true, MeshOn::Gpu) => "mesh, meshed on the GPU",
+            (true, _) => "mesh, meshed on the CPU",
         },
     )
     .ok();
@@ -1064,6 +1100,7 @@ fn write_choices(
         adapter: measured.adapter.clone(),
         still: pick(measured.still_mesh),
         moving: pick(measured.moving_mesh),
+        moving_on: Some(measured.moving_on),
     });
     if gpu.info.device_type == wgpu::DeviceType::Cpu {
         choices.software = entry;

@@ -624,9 +624,9 @@ fn a_gpu_mesh_past_the_limits_is_refused_with_the_numbers() {
 }
 
 /// Past its capacities the GPU mesher writes nothing out of bounds and counts what it
-/// dropped (`warnings` reports it): toon.ron with room for 40 bricks, 1000 vertices and 600
-/// indices. Break: `finish` drawing every index asked for, not the capacity's, fails on
-/// `drawn`.
+/// dropped (`warnings` reports it): toon.ron with room for 1000 vertices and 600 indices,
+/// then for 40 bricks. Break: `finish` drawing every index asked for, not the capacity's,
+/// fails on `drawn`.
 #[test]
 fn the_gpu_mesher_counts_what_passes_its_capacities() {
     use kami::systems::wisps::{march, mesh_gpu};
@@ -642,21 +642,78 @@ fn the_gpu_mesher_counts_what_passes_its_capacities() {
     let mut curves = march::CurvePass::new(gpu, &wisps, &nodes).unwrap();
     let mut mesher = mesh_gpu::Mesher::new(gpu, &wisps).unwrap();
     let (centre, radius) = march::bounds(&wisps, false);
-    let mut plan = mesh_gpu::plan(&wisps, centre, radius, 0.3, 1 << 30).unwrap();
-    plan.slot_cap = 40;
-    plan.vertex_cap = 1000;
-    plan.index_cap = 600;
-    let mut enc = gpu.device.create_command_encoder(&Default::default());
-    curves.record(gpu, &mut enc, glam::DMat4::IDENTITY, true);
-    mesher.record(gpu, &mut enc, &curves, &wisps, plan);
-    gpu.queue.submit([enc.finish()]);
-    let (m, c) = mesher.read(gpu).unwrap();
-    eprintln!("{c:?}");
+    let planned = mesh_gpu::plan(&wisps, centre, radius, 0.3, 1 << 30).unwrap();
+    let mut run = |plan: mesh_gpu::Plan| {
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        curves.record(gpu, &mut enc, glam::DMat4::IDENTITY, true);
+        mesher.record(gpu, &mut enc, &curves, &wisps, plan);
+        gpu.queue.submit([enc.finish()]);
+        let (m, c) = mesher.read(gpu).unwrap();
+        eprintln!("{c:?}");
+        (m, c)
+    };
+    let (m, c) = run(mesh_gpu::Plan {
+        vertex_cap: 1000,
+        index_cap: 600,
+        ..planned
+    });
     assert!(
-        c.overflowed() && c.slots_over > 0 && c.vertices_over > 0,
+        c.overflowed() && c.vertices_over > 0 && c.quads_over > 0,
         "{c:?}"
     );
+    assert_eq!(c.vertices, 1000 + c.vertices_over, "{c:?}");
     assert!(c.drawn <= 600 && c.drawn % 6 == 0, "{c:?}");
     assert!(m.positions.len() <= 1000);
     assert!(m.indices.iter().all(|&i| i < 1000));
+    let (_, c) = run(mesh_gpu::Plan {
+        slot_cap: 40,
+        ..planned
+    });
+    assert!(c.overflowed() && c.slots_over == c.slots - 40, "{c:?}");
+}
+
+/// Springs whose nodes do not move (frames drawn without a step of the clock) are meshed on
+/// the CPU once and not again while no node moves `mesh::SETTLED` of a cell; stepping them
+/// meshes every frame again. Break: `SETTLED` 0 meshes every drawn frame (count 4).
+#[test]
+fn springs_at_rest_are_not_meshed_again() {
+    use kami::systems::wisps::block::MeshOn;
+    let gpu = common::gpu();
+    let mut scene = one_sample("toon_shake", WispDraw::Mesh);
+    scene.wisps_mut().as_mut().unwrap().mesh.on = MeshOn::Cpu;
+    let mut stage = common::stage(gpu, &scene);
+    let size = (64, 64);
+    let out = kami::stage::target::Offscreen::new(gpu, size).unwrap();
+    let frame = |stage: &mut kami::stage::Stage, step: bool| {
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        if step {
+            stage.advance(gpu, &mut enc, 1).unwrap();
+        }
+        let look = stage.look();
+        stage.render(gpu, &mut enc, &out.view, size, &look).unwrap();
+        gpu.queue.submit([enc.finish()]);
+    };
+    let count = |stage: &kami::stage::Stage| {
+        stage
+            .system::<WispsSystem>()
+            .unwrap()
+            .mesh
+            .as_ref()
+            .unwrap()
+            .last
+            .count
+    };
+    for _ in 0..4 {
+        frame(&mut stage, false);
+    }
+    assert_eq!(count(&stage), 1, "springs at rest were meshed again");
+    for _ in 0..3 {
+        frame(&mut stage, true);
+    }
+    // The mesh trails the springs by a frame: the first step is seen by the next frame.
+    assert!(
+        count(&stage) >= 3,
+        "stepped springs meshed {} times",
+        count(&stage)
+    );
 }

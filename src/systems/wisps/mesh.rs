@@ -795,5 +795,10 @@ pub const AUTO_CELL_PX: f64 = 0.5;
 /// `mesh_pass::MESH_ERROR_BOUND`).
 pub const MOVING_COARSEST: f64 = 1.3;
 
+/// Moving wisps meshed on the CPU are meshed again only once a node has moved this share of
+/// a cell since the last meshing (springs come to rest; the vertices then stand within it of
+/// where a new meshing would put them).
+pub const SETTLED: f64 = 0.01;
+
 /// The automatic cell follows the view only once it is off by this factor.
 pub const CELL_HYSTERESIS: f64 = 1.5;

@@ -8,7 +8,7 @@ use crate::error::{KamiError, Result};
 use crate::gpu::pipeline::{self, DrawPipeline, Variant};
 use crate::gpu::{self, bind, Gpu};
 use crate::shaders::wgsl;
-use crate::systems::wisps::block::WispDraw;
+use crate::systems::wisps::block::{MeshOn, WispDraw};
 use bytemuck::{Pod, Zeroable};
 use glam::DMat4;
 use serde::{Deserialize, Serialize};
@@ -43,6 +43,9 @@ pub struct DrawChoice {
     pub still: WispDraw,
     /// Moving wisps (meshed every frame).
     pub moving: WispDraw,
+    /// Where moving wisps were meshed cheaper (`Cpu` or `Gpu`; none: not measured).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub moving_on: Option<MeshOn>,
 }
 
 /// `docs/wisps_draw.ron`: per adapter class.
@@ -64,6 +67,9 @@ pub fn parse_choices(text: &str) -> std::result::Result<DrawChoices, String> {
     for d in [&c.software, &c.hardware].into_iter().flatten() {
         if d.still == WispDraw::Auto || d.moving == WispDraw::Auto {
             return Err("still and moving must be March or Mesh".into());
+        }
+        if d.moving_on == Some(MeshOn::Auto) {
+            return Err("moving_on must be Cpu or Gpu".into());
         }
     }
     Ok(c)
@@ -100,12 +106,27 @@ pub fn auto_draws_mesh(draw: WispDraw, device_type: wgpu::DeviceType, moving: bo
 }
 
 /// Whether `MeshOn::Auto` polygonises on the GPU: never for still wisps (meshed once on the
-/// CPU, in f64: orbiting costs only the raster); for moving wisps on a hardware GPU (their
-/// nodes stay there, and the kernels run on the whole chip), not on a software adapter (its
-/// compute runs on one thread: toon_shake.ron in the viewer at 1280x720 ran at 3.1 fps
-/// meshed on the GPU against 8.7 on the CPU, `docs/wisps.md`).
+/// CPU, in f64: orbiting costs only the raster); for moving wisps where `kami bench wisps`
+/// measured it cheaper on this class of adapter (`DrawChoice::moving_on`), and where it did
+/// not measure, on a hardware GPU (the nodes stay there, and the kernels run on the whole
+/// chip) but not on a software adapter (whose compute runs on one of its threads).
 pub fn auto_meshes_on_gpu(device_type: wgpu::DeviceType, moving: bool) -> bool {
-    moving && device_type != wgpu::DeviceType::Cpu
+    if !moving {
+        return false;
+    }
+    let software = device_type == wgpu::DeviceType::Cpu;
+    let measured = choices().as_ref().ok().and_then(|c| {
+        if software {
+            c.software.as_ref()
+        } else {
+            c.hardware.as_ref()
+        }
+        .and_then(|d| d.moving_on)
+    });
+    match measured {
+        Some(on) => on == MeshOn::Gpu,
+        None => !software,
+    }
 }
 
 /// The image error the mesh may have against the converged f64 truth at 128²

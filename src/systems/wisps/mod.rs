@@ -246,6 +246,8 @@ pub struct Meshed {
     /// its plan with what it was made for (cell, threshold, reach).
     pub gpu: Option<mesh_gpu::Mesher>,
     plan: Option<((f64, f64, f64), mesh_gpu::Plan)>,
+    /// Moving wisps' nodes at the last meshing on the CPU.
+    meshed_nodes: Vec<[f32; 4]>,
 }
 
 /// What the last meshing cost and made.
@@ -359,6 +361,7 @@ impl WispsSystem {
                 last: MeshInfo::default(),
                 gpu: None,
                 plan: None,
+                meshed_nodes: Vec::new(),
             });
         } else if !want {
             self.mesh = None;
@@ -404,8 +407,9 @@ impl WispsSystem {
     }
 
     /// Mesh the wisps again where they moved or changed: a still hairstyle once, in the
-    /// head's frame; moving wisps every frame, in world space, from the node positions the
-    /// springs reached by the last frame (read back: the mesh trails the springs by a frame).
+    /// head's frame; moving wisps every frame their nodes moved, in world space, from the
+    /// node positions the springs reached by the last frame (read back: the mesh trails the
+    /// springs by a frame).
     fn remesh(&mut self, gpu: &Gpu, view: &View) -> Result<()> {
         let moving = self.moving();
         let (cell, kept) = self.kept_cell(view);
@@ -421,8 +425,28 @@ impl WispsSystem {
             Nodes::Springs(s) => {
                 let n = march::node_count(&self.wisps) as u64;
                 let p: Vec<[f32; 4]> = crate::gpu::read_buffer(gpu, s.positions(), n * 16)?;
+                // Settled springs: no node has moved `mesh::SETTLED` of a cell since the last
+                // meshing, and nothing else changed, so the mesh stands.
+                let moved = m
+                    .meshed_nodes
+                    .iter()
+                    .zip(&p)
+                    .map(|(a, b)| {
+                        let d = [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+                        (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) as f64
+                    })
+                    .fold(0.0, f64::max)
+                    .sqrt();
+                if !m.dirty
+                    && kept
+                    && m.meshed_nodes.len() == p.len()
+                    && moved < mesh::SETTLED * cell
+                {
+                    return Ok(());
+                }
                 let mut k = 0;
-                self.wisps
+                let segs = self
+                    .wisps
                     .skeletons
                     .iter()
                     .map(|sk| {
@@ -441,7 +465,9 @@ impl WispsSystem {
                             .collect();
                         curve::segments(&nodes)
                     })
-                    .collect()
+                    .collect();
+                m.meshed_nodes = p;
+                segs
             }
         };
         let outlines = mesh::wisp_outlines(&self.wisps, &segs);
