@@ -3,7 +3,8 @@
 # goal, 10 fps): `scripts/wisps-viewer.sh [FRAMES]` writes docs/wisps_viewer.txt with each
 # run's exit line (fps, per-pass times): toon.ron and toon_shake.ron drawn with the mesh
 # under the viewer's adaptive quality (what an artist sees), with the mesh at full quality
-# (`--set lod=1`: every hair, full resolution, the mesh's own cell), and with the march.
+# (`--set lod=1`: every hair, full resolution, the mesh's own cell), and with the march;
+# toon_shake.ron also meshed on the GPU (`--set wisps.mesh.on=gpu`: lavapipe's compute).
 # FRAMES (default 60) is for the mesh; the march gets 4 (seconds a frame there).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -26,5 +27,6 @@ run() {
         run "$s" "$frames" --set wisps.draw=mesh --set lod=1
         run "$s" 4 --set wisps.draw=march
     done
+    run toon_shake "$frames" --set wisps.draw=mesh --set wisps.mesh.on=gpu
 } > "$out"
 cat "$out"

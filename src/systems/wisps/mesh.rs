@@ -527,7 +527,20 @@ fn sample_grid(input: &Input, g: &Grid) -> Vec<[f32; BRICK3]> {
         .collect();
     let indexed: Vec<(usize, usize)> = g.reached.iter().copied().enumerate().collect();
     parallel(&indexed, |&(k, b)| {
-        let list = &g.lists[k];
+        // Only the segments whose influence box reaches the brick's own points (its list
+        // holds those within three cells, for the vertices' Newton steps): the others add
+        // nothing at any of them, so the values are the same.
+        let lo = g.point(brick_point(g, b, 0));
+        let hi = g.point(brick_point(g, b, BRICK3 - 1));
+        let list: Vec<(u32, u32)> = g.lists[k]
+            .iter()
+            .copied()
+            .filter(|&(wi, si)| {
+                let (blo, bhi) = input.wisps[wi as usize][si as usize].influence_box();
+                blo.cmple(hi).all() && lo.cmple(bhi).all()
+            })
+            .collect();
+        let list = &list;
         let mut out = [0.0f32; BRICK3];
         for (l, o) in out.iter_mut().enumerate() {
             let i = brick_point(g, b, l);

@@ -492,12 +492,15 @@ impl WispsSystem {
         Ok(())
     }
 
-    /// The cell for `view` and whether it is the last meshing's: the view's cell moves the
-    /// mesh only past a factor (zooming about it re-meshes once, not every frame).
+    /// The cell for `view` and whether it is the last meshing's. For still wisps the view's
+    /// cell moves the mesh only past a factor (zooming about it re-meshes once, not every
+    /// frame); moving wisps, meshed every frame they move, take the view's cell as it is
+    /// (a factor would hold their budget's coarser cell off: 1.3 is inside 1.5).
     fn kept_cell(&self, view: &View) -> (f64, bool) {
         let cell = self.mesh_cell(view);
         let last = self.mesh.as_ref().map_or(0.0, |m| m.last.cell);
         let kept = last > 0.0
+            && !self.moving()
             && self.wisps.mesh.cell == 0.0
             && (cell / last).ln().abs() < mesh::CELL_HYSTERESIS.ln()
             || last > 0.0 && cell == last;
