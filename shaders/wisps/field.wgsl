@@ -182,3 +182,47 @@ fn wisp_push(m: ptr<function, WispMax>, j: u32, t: f32, rho: f32, grad: vec3<f32
     (*m).prev = j;
     (*m).prev_t = t;
 }
+
+// One segment's density at `v` (`field::segment_density`): its closest parameter t by the
+// scene's distance method (0 Newton, 1 `pieces` chords), ρ = w(t) fd(D / r(t)) and ∇ρ; or,
+// where `v` is as far as the segment's largest radius or farther (from its control-point box
+// or its curve), how much farther in `gap` (> 0: nothing near).
+struct SegmentDensity {
+    gap: f32,
+    t: f32,
+    rho: f32,
+    grad: vec3<f32>,
+}
+
+fn segment_density(s: Segment, v: vec3<f32>, method: u32, pieces: u32) -> SegmentDensity {
+    var out = SegmentDensity(0.0, 0.0, 0.0, vec3<f32>(0.0));
+    let r_max = max(s.c0.w, s.c1.w);
+    let a = length(max(max(s.lo.xyz - v, v - s.hi.xyz), vec3<f32>(0.0)));
+    if (a >= r_max) {
+        // Past the radius by a; at least a tiny gap when exactly on it.
+        out.gap = max(a - r_max, 1e-30);
+        return out;
+    }
+    var cp = vec3<f32>(0.0);
+    if (method == 0u) {
+        out.t = closest_newton(s, v);
+        cp = bez(s, out.t);
+    } else {
+        let c = closest_polyline(s, v, pieces);
+        out.t = c.w;
+        cp = c.xyz;
+    }
+    let off = v - cp;
+    let d = length(off);
+    if (d >= r_max) {
+        out.gap = max(d - r_max, 1e-30);
+        return out;
+    }
+    let r = mix(s.c0.w, s.c1.w, out.t);
+    let w = mix(s.c2.w, s.c3.w, out.t);
+    out.rho = w * fd(d / r);
+    if (d > 0.0) {
+        out.grad = w * fd_prime(d / r) / r * off / d;
+    }
+    return out;
+}

@@ -171,37 +171,13 @@ fn field(t: f32, v: vec3<f32>) -> Sample {
             acc = wisp_max_new();
             wisp_lip = 0.0;
         }
-        let r_max = max(s.c0.w, s.c1.w);
-        let a = length(max(max(s.lo.xyz - v, v - s.hi.xyz), vec3<f32>(0.0)));
-        if (a >= r_max) {
-            far_gap = min(far_gap, a - r_max);
-            continue;
-        }
-        var tc = 0.0;
-        var cp = vec3<f32>(0.0);
-        if (draw.method.x == 0u) {
-            tc = closest_newton(s, v);
-            cp = bez(s, tc);
-        } else {
-            let c = closest_polyline(s, v, draw.method.y);
-            tc = c.w;
-            cp = c.xyz;
-        }
-        let off = v - cp;
-        let d = length(off);
-        if (d >= r_max) {
-            far_gap = min(far_gap, d - r_max);
+        let c = segment_density(s, v, draw.method.x, draw.method.y);
+        if (c.gap > 0.0) {
+            far_gap = min(far_gap, c.gap);
             continue;
         }
         wisp_lip = max(wisp_lip, s.lo.w);
-        let r = mix(s.c0.w, s.c1.w, tc);
-        let w = mix(s.c2.w, s.c3.w, tc);
-        let rho = w * fd(d / r);
-        var g = vec3<f32>(0.0);
-        if (d > 0.0) {
-            g = w * fd_prime(d / r) / r * off / d;
-        }
-        wisp_push(&acc, j, tc, rho, g, outline_scale(outlines[j], tc));
+        wisp_push(&acc, j, c.t, c.rho, c.grad, outline_scale(outlines[j], c.t));
     }
     wisp_fold(&acc);
     sum += acc.best;

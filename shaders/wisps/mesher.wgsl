@@ -265,37 +265,11 @@ fn exact(slot: u32, v: vec3<f32>) -> Exact {
             wisp = s.hi.w;
             acc = wisp_max_new();
         }
-        let rm = max(s.c0.w, s.c1.w);
-        if (length(max(max(s.lo.xyz - v, v - s.hi.xyz), vec3<f32>(0.0))) >= rm) {
+        let c = segment_density(s, v, grid.method.x, grid.method.y);
+        if (c.gap > 0.0) {
             continue;
         }
-        var tc = 0.0;
-        var cp = vec3<f32>(0.0);
-        if (grid.method.x == 0u) {
-            tc = closest_newton(s, v);
-            cp = bez(s, tc);
-        } else {
-            let c = closest_polyline(s, v, grid.method.y);
-            tc = c.w;
-            cp = c.xyz;
-        }
-        let off = v - cp;
-        let d = length(off);
-        if (d >= rm) {
-            continue;
-        }
-        let r = mix(s.c0.w, s.c1.w, tc);
-        let w = mix(s.c2.w, s.c3.w, tc);
-        let x = d / r;
-        var rho = 0.0;
-        var g = vec3<f32>(0.0);
-        if (x <= 1.0) {
-            rho = w * fd(x);
-            if (d > 0.0) {
-                g = off * (w * fd_prime(x) / (r * d));
-            }
-        }
-        wisp_push(&acc, j, tc, rho, g, outline_scale(outlines[j], tc));
+        wisp_push(&acc, j, c.t, c.rho, c.grad, outline_scale(outlines[j], c.t));
     }
     wisp_fold(&acc);
     out.rho += acc.best;
