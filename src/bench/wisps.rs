@@ -998,6 +998,37 @@ pub fn paths_section(
             .ok();
         }
     }
+    let (moving_cheaper, moving_on) = paths_moving(gpu, shake, frames, md, csv)?;
+    let measured = Measured {
+        adapter: gpu.describe(),
+        still_mesh: within && still_cheaper,
+        moving_mesh: within && moving_cheaper,
+        moving_on,
+    };
+    writeln!(
+        md,
+        "So `Auto` draws, on this kind of adapter: still wisps with the {}, moving wisps with \
+         the {} (`{DRAW_FILE}`).\n",
+        if measured.still_mesh { "mesh" } else { "march" },
+        match (measured.moving_mesh, measured.moving_on) {
+            (false, _) => "march",
+            (true, MeshOn::Gpu) => "mesh, meshed on the GPU",
+            (true, _) => "mesh, meshed on the CPU",
+        },
+    )
+    .ok();
+    Ok(measured)
+}
+
+/// The moving wisps' table (`toon_shake.ron` at the viewer's size, meshed every frame):
+/// whether the mesh was cheaper than the march, and where it was meshed cheaper.
+fn paths_moving(
+    gpu: &Gpu,
+    shake: &Scene,
+    frames: u32,
+    md: &mut String,
+    csv: &mut String,
+) -> Result<(bool, MeshOn)> {
     // Moving wisps: each frame steps the springs and meshes them again, on the CPU from
     // the nodes read back or on the GPU.
     let (march_ms, _, march_img) = path_frame(gpu, shake, WispDraw::March, VIEWER, frames, true)?;
@@ -1060,25 +1091,7 @@ pub fn paths_section(
         )
         .ok();
     }
-    let measured = Measured {
-        adapter: gpu.describe(),
-        still_mesh: within && still_cheaper,
-        moving_mesh: within && moving_cheaper,
-        moving_on,
-    };
-    writeln!(
-        md,
-        "So `Auto` draws, on this kind of adapter: still wisps with the {}, moving wisps with \
-         the {} (`{DRAW_FILE}`).\n",
-        if measured.still_mesh { "mesh" } else { "march" },
-        match (measured.moving_mesh, measured.moving_on) {
-            (false, _) => "march",
-            (true, MeshOn::Gpu) => "mesh, meshed on the GPU",
-            (true, _) => "mesh, meshed on the CPU",
-        },
-    )
-    .ok();
-    Ok(measured)
+    Ok((moving_cheaper, moving_on))
 }
 
 /// `Auto`'s file with this adapter class's entry replaced by `measured`.
