@@ -717,3 +717,42 @@ fn springs_at_rest_are_not_meshed_again() {
         count(&stage)
     );
 }
+
+/// Moving wisps take the cell the viewer's budget asks for at once: a frame at full quality
+/// meshes at the automatic cell, the next under a budget of 1 % of hairs at
+/// `mesh::MOVING_COARSEST` times it. Break: the still wisps' zoom hysteresis (1.5) applied
+/// to moving wisps holds the cell at the automatic one.
+#[test]
+fn moving_wisps_take_the_budgets_cell_at_once() {
+    use kami::systems::wisps::block::MeshOn;
+    let gpu = common::gpu();
+    let mut scene = one_sample("toon_shake", WispDraw::Mesh);
+    scene.wisps_mut().as_mut().unwrap().mesh.on = MeshOn::Cpu;
+    let auto = mesh::auto_cell(scene.wisps().as_ref().unwrap());
+    let mut stage = common::stage(gpu, &scene);
+    let size = (256, 256);
+    let out = kami::stage::target::Offscreen::new(gpu, size).unwrap();
+    let mut cells = Vec::new();
+    for lod in [1.0, 0.01] {
+        let mut enc = gpu.device.create_command_encoder(&Default::default());
+        stage.advance(gpu, &mut enc, 1).unwrap();
+        let mut look = stage.look();
+        look.lod = lod;
+        stage.render(gpu, &mut enc, &out.view, size, &look).unwrap();
+        gpu.queue.submit([enc.finish()]);
+        let m = stage
+            .system::<WispsSystem>()
+            .unwrap()
+            .mesh
+            .as_ref()
+            .unwrap();
+        cells.push(m.last.cell);
+    }
+    eprintln!("automatic {auto:.4}, meshed at {cells:?}");
+    assert!((cells[0] - auto).abs() < 1e-9, "{cells:?}");
+    assert!(
+        (cells[1] - auto * mesh::MOVING_COARSEST).abs() < 1e-9,
+        "under the budget the cell stayed {} (automatic {auto})",
+        cells[1]
+    );
+}
