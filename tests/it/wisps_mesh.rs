@@ -205,9 +205,7 @@ fn the_mesh_draws_the_truth_within_the_bound() {
     let gpu = common::gpu();
     let size = (128, 128);
     let scene = one_sample("toon", WispDraw::Mesh);
-    let mut converged = scene.clone();
-    converged.wisps_mut().as_mut().unwrap().march.max_steps = 4096;
-    let truth = kami::bench::wisps::truth_image(gpu, &converged, size).unwrap();
+    let truth = converged_truth(&scene, size);
     let img = kami::stage::render_scene(gpu, &scene, size).unwrap();
     let (mean, share, _) = kami::bench::backends::difference(&truth, &img);
     let (bound_mean, bound_share) = kami::systems::wisps::mesh_pass::MESH_ERROR_BOUND;
@@ -382,14 +380,7 @@ fn gpu_mesher_against_the_reference(name: &str, cell_scale: f64) -> (f64, f64) {
     let gpu = common::gpu();
     let scene = common::scene(name);
     let wisps = scene.wisps().clone().unwrap();
-    let nodes = kami::gpu::storage_buffer(
-        &gpu.device,
-        "test nodes",
-        bytemuck::cast_slice(&march::drawn_positions(&wisps)),
-        wgpu::BufferUsages::empty(),
-    );
-    let mut curves = march::CurvePass::new(gpu, &wisps, &nodes).unwrap();
-    let mut mesher = mesh_gpu::Mesher::new(gpu, &wisps).unwrap();
+    let (mut curves, mut mesher) = curves_and_mesher(&wisps);
     let (centre, radius) = march::bounds(&wisps, false);
     let cell = mesh::auto_cell(&wisps) * cell_scale;
     let plan = mesh_gpu::plan(&wisps, centre, radius, cell, 1 << 30).unwrap();
@@ -578,9 +569,7 @@ fn the_coarsest_moving_cell_is_within_the_bound() {
     let gpu = common::gpu();
     let size = (128, 128);
     let mut scene = one_sample("toon", WispDraw::Mesh);
-    let mut converged = scene.clone();
-    converged.wisps_mut().as_mut().unwrap().march.max_steps = 4096;
-    let truth = kami::bench::wisps::truth_image(gpu, &converged, size).unwrap();
+    let truth = converged_truth(&scene, size);
     let w = scene.wisps_mut().as_mut().unwrap();
     w.mesh.cell = mesh::auto_cell(w) * mesh::MOVING_COARSEST;
     let img = kami::stage::render_scene(gpu, &scene, size).unwrap();
@@ -633,14 +622,7 @@ fn the_gpu_mesher_counts_what_passes_its_capacities() {
     let gpu = common::gpu();
     let scene = common::scene("toon");
     let wisps = scene.wisps().clone().unwrap();
-    let nodes = kami::gpu::storage_buffer(
-        &gpu.device,
-        "test nodes",
-        bytemuck::cast_slice(&march::drawn_positions(&wisps)),
-        wgpu::BufferUsages::empty(),
-    );
-    let mut curves = march::CurvePass::new(gpu, &wisps, &nodes).unwrap();
-    let mut mesher = mesh_gpu::Mesher::new(gpu, &wisps).unwrap();
+    let (mut curves, mut mesher) = curves_and_mesher(&wisps);
     let (centre, radius) = march::bounds(&wisps, false);
     let planned = mesh_gpu::plan(&wisps, centre, radius, 0.3, 1 << 30).unwrap();
     let mut run = |plan: mesh_gpu::Plan| {
@@ -755,4 +737,32 @@ fn moving_wisps_take_the_budgets_cell_at_once() {
         "under the budget the cell stayed {} (automatic {auto})",
         cells[1]
     );
+}
+
+/// The curve kernels over `wisps`' drawn nodes and a GPU mesher over their segments.
+fn curves_and_mesher(
+    wisps: &kami::systems::wisps::block::Wisps,
+) -> (
+    kami::systems::wisps::march::CurvePass,
+    kami::systems::wisps::mesh_gpu::Mesher,
+) {
+    use kami::systems::wisps::{march, mesh_gpu};
+    let gpu = common::gpu();
+    let nodes = kami::gpu::storage_buffer(
+        &gpu.device,
+        "test nodes",
+        bytemuck::cast_slice(&march::drawn_positions(wisps)),
+        wgpu::BufferUsages::empty(),
+    );
+    (
+        march::CurvePass::new(gpu, wisps, &nodes).unwrap(),
+        mesh_gpu::Mesher::new(gpu, wisps).unwrap(),
+    )
+}
+
+/// The converged f64 truth of `scene` at `size` (4096 steps a ray, `field::render_reference`).
+fn converged_truth(scene: &Scene, size: (u32, u32)) -> image::RgbaImage {
+    let mut converged = scene.clone();
+    converged.wisps_mut().as_mut().unwrap().march.max_steps = 4096;
+    kami::bench::wisps::truth_image(common::gpu(), &converged, size).unwrap()
 }
