@@ -6,7 +6,11 @@ and calls this script once per row with Kami's own image. The script renders the
 twice (seeds 0 and 1) with Mitsuba's `scalar_rgb` variant, composites it over the background
 and encodes it to 8-bit sRGB with the curve Kami's resolve uses, then prints the mean FLIP of
 Kami's image against seed 0, the mean FLIP of seed 1 against seed 0 (the reference's own
-noise), and writes the side-by-side image Kami | Mitsuba | FLIP map.
+noise), and writes the side-by-side image Kami | Mitsuba | FLIP map. Into --maps it writes
+what Kami's side needs for the figures over the hair's own pixels (src/bench/look/hair.rs):
+both seeds' 8-bit images (`reference0.png`, `reference1.png`) and the two FLIP maps, one
+value per pixel, as raw little-endian f32 rows (`flip.f32`: Kami against seed 0,
+`noise.f32`: seed 1 against seed 0).
 
 References are cached in --cache by a SHA-256 of everything they depend on (the XML, every
 file it names, spp, seed, Mitsuba's version): a rerun renders nothing again.
@@ -14,7 +18,7 @@ file it names, spp, seed, Mitsuba's version): a rerun renders nothing again.
 Needs `pip install mitsuba flip-evaluator numpy` (scripts/look-deps.sh).
 
 Usage: look_reference.py --xml SCENE.xml --background R,G,B --spp N --kami KAMI.png
-                         --pair OUT.png --cache DIR
+                         --pair OUT.png --cache DIR --maps DIR
 Prints: flip=F noise=N reference_s=S cached=0|1
 """
 import argparse
@@ -91,6 +95,7 @@ def main():
     p.add_argument("--kami", type=pathlib.Path, required=True)
     p.add_argument("--pair", type=pathlib.Path, required=True)
     p.add_argument("--cache", type=pathlib.Path, required=True)
+    p.add_argument("--maps", type=pathlib.Path, required=True)
     a = p.parse_args()
     bg = [float(x) for x in a.background.split(",")]
     if len(bg) != 3:
@@ -109,9 +114,16 @@ def main():
         sys.exit(f"{a.kami}: {kami.shape[1]}x{kami.shape[0]}, but the reference is "
                  f"{refs[0].shape[1]}x{refs[0].shape[0]}")
     f = lambda img: img.astype(np.float32) / 255.0
-    fmap, mean, _ = flip.evaluate(f(refs[0]), f(kami), "LDR")
-    _, noise, _ = flip.evaluate(f(refs[0]), f(refs[1]), "LDR")
-    fmap8 = np.round(np.clip(np.asarray(fmap), 0.0, 1.0) * 255.0).astype(np.uint8)
+    # The error maps themselves (one value per pixel) for the means; the magma picture apart.
+    fmap, mean, _ = flip.evaluate(f(refs[0]), f(kami), "LDR", applyMagma=False)
+    nmap, noise, _ = flip.evaluate(f(refs[0]), f(refs[1]), "LDR", applyMagma=False)
+    magma, _, _ = flip.evaluate(f(refs[0]), f(kami), "LDR", computeMeanError=False)
+    a.maps.mkdir(parents=True, exist_ok=True)
+    for k, r in enumerate(refs):
+        mi.Bitmap(r).write(str(a.maps / f"reference{k}.png"))
+    for name, m in (("flip.f32", fmap), ("noise.f32", nmap)):
+        np.asarray(m, dtype="<f4").reshape(kami.shape[:2]).tofile(a.maps / name)
+    fmap8 = np.round(np.clip(np.asarray(magma), 0.0, 1.0) * 255.0).astype(np.uint8)
     gap = np.full((kami.shape[0], 4, 3), 255, dtype=np.uint8)
     pair = np.concatenate([kami, gap, refs[0], gap, fmap8], axis=1)
     a.pair.parent.mkdir(parents=True, exist_ok=True)

@@ -950,6 +950,19 @@ impl Stage {
         }
         Ok(all)
     }
+
+    /// Every system's hair as the last drawn frame shows it (`HairSystem::export_drawn`),
+    /// one groom: the reference geometry of `kami bench look`.
+    pub fn export_drawn(&self, gpu: &Gpu) -> Result<crate::formats::Groom> {
+        let mut all = crate::formats::Groom::default();
+        let ctx = self.ctx();
+        for s in &self.systems {
+            if let Some(g) = s.export_drawn(gpu, &ctx)? {
+                all.append(g);
+            }
+        }
+        Ok(all)
+    }
 }
 
 /// The hair of a scene at `frame` (simulated from the rest pose), as one groom: what

@@ -225,6 +225,13 @@ pub trait HairSystem {
     fn export(&self, _gpu: &Gpu, _ctx: &FrameCtx) -> Result<Option<crate::formats::Groom>> {
         Ok(None)
     }
+    /// The hair as the last drawn frame shows it, as strands: what a path tracer needs to
+    /// draw the same picture (`kami bench look`). Where a kind draws something other than
+    /// its strands (fur's culled and widened hairs, a strip's texture of fine hairs), this
+    /// is that; by default the same as [`HairSystem::export`].
+    fn export_drawn(&self, gpu: &Gpu, ctx: &FrameCtx) -> Result<Option<crate::formats::Groom>> {
+        self.export(gpu, ctx)
+    }
     /// For tests and benches that look inside one kind.
     fn as_any(&self) -> &dyn std::any::Any;
     fn as_any_mut(&mut self) -> &mut dyn std::any::Any;

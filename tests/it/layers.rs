@@ -506,7 +506,7 @@ const NAMES_A_KIND: &[(&str, &str, &str)] = &[
         "the splat study draws the Anjyo kind's strands both ways",
     ),
     (
-        "src/bench/look.rs",
+        "src/bench/look/mitsuba.rs",
         "fur",
         "the look study compares kinds against a reference; fur's mesh setup is built directly",
     ),

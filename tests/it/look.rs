@@ -1,11 +1,15 @@
 //! The exporter `kami bench look` hands the path tracer (`bench::look::write_mitsuba`):
 //! the curve files hold every exported strand's points and radii (width / 2) in scene
 //! units, and the camera and key light written are Kami's (a point projects to the same
-//! pixel through Kami's view-projection and through the written Mitsuba camera). No
-//! Mitsuba needed.
+//! pixel through Kami's view-projection and through the written Mitsuba camera). The
+//! bench's other views and lights, the hair as drawn (fur's culled hairs, a strip's texture
+//! hairs) and the figures over the hair's pixels. No Mitsuba needed.
 
 use glam::{DVec2, DVec3};
-use kami::bench::look::{environment, irradiance, write_mitsuba};
+use kami::bench::look::{
+    close_up, draw, environment, hair, irradiance, lit, parse_compared, write_mitsuba, Lighting,
+    LIGHT_RISE,
+};
 use kami::formats::Groom;
 use kami::gpu::view::{Camera, ScreenView};
 
@@ -178,4 +182,269 @@ fn the_reference_scene_holds_kamis_strands_camera_and_light() {
     // The bob's head (an ellipsoid) is a mesh the reference can hold.
     assert!(dir.join("head.obj").is_file());
     assert!(xml.contains("value=\"head.obj\""));
+}
+
+fn shipped(name: &str) -> kami::Scene {
+    kami::Scene::load(kami::scene::shipped(&format!("assets/scenes/{name}"))).unwrap()
+}
+
+/// The close-up of each compared scene is filled with hair (or head): over 70 % of its
+/// pixels differ from the background, where the scene's own camera leaves half or more to
+/// it; it keeps the scene camera's eye and up and narrows its field of view.
+#[test]
+fn the_close_up_is_filled_with_hair() {
+    let gpu = crate::common::gpu();
+    for name in ["bob.ron", "fur_polyline.ron", "strips.ron"] {
+        let scene = shipped(name);
+        let rest = kami::stage::export_scene(gpu, &scene, 0).unwrap();
+        let cam = close_up(&scene, &rest, 1.0, name).unwrap();
+        assert_eq!(cam.eye, scene.camera.eye, "{name}");
+        assert_eq!(cam.up, scene.camera.up, "{name}");
+        assert!(
+            cam.fov_y < 0.8 * scene.camera.fov_y,
+            "{name}: {}",
+            cam.fov_y
+        );
+        let share = |camera: &kami::scene::CameraDesc| {
+            let mut s = scene.clone();
+            s.camera = camera.clone();
+            let img = kami::stage::render_scene(gpu, &s, (64, 64)).unwrap();
+            let bg = hair::background8(s.render.background);
+            let rgb = image::DynamicImage::ImageRgba8(img).to_rgb8();
+            let m = hair::mask(&rgb, bg);
+            m.iter().filter(|&&k| k).count() as f64 / m.len() as f64
+        };
+        let (own, close) = (share(&scene.camera), share(&cam));
+        assert!(
+            close > 0.7 && close > own,
+            "{name}: the close-up shows hair on {close:.2} of the frame, the scene's camera {own:.2}"
+        );
+    }
+}
+
+/// A camera that sees no strands cannot be aimed at them: the error names the scene.
+#[test]
+fn a_close_up_of_no_hair_is_refused_naming_the_scene() {
+    let gpu = crate::common::gpu();
+    let mut scene = shipped("bob.ron");
+    let rest = kami::stage::export_scene(gpu, &scene, 0).unwrap();
+    scene.camera.target = [0.0, 0.0, 400.0];
+    scene.camera.eye = [0.0, 0.0, 300.0];
+    let e = close_up(&scene, &rest, 1.0, "bob.ron")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("bob.ron") && e.contains("close-up") && e.contains("camera"),
+        "{e}"
+    );
+}
+
+/// The side light comes from the camera's right, square to the view; the back light from
+/// behind the hair (away from the camera); both a little above; the key light is the
+/// scene's own.
+#[test]
+fn the_side_and_back_lights_are_where_they_say() {
+    let scene = shipped("bob.ron");
+    let c = &scene.camera;
+    let fwd = (DVec3::from(c.target) - DVec3::from(c.eye)).normalize();
+    let right = fwd.cross(DVec3::from(c.up)).normalize();
+    let up = right.cross(fwd);
+    let dir = |l: Lighting| DVec3::from(lit(&scene, c, l).direction);
+    assert_eq!(lit(&scene, c, Lighting::Key), scene.light);
+    let side = dir(Lighting::Side);
+    assert!(
+        side.dot(fwd).abs() < 1e-9 && side.dot(right) > 0.9,
+        "{side}"
+    );
+    let back = dir(Lighting::Back);
+    assert!(
+        back.dot(fwd) > 0.9 && back.dot(right).abs() < 1e-9,
+        "{back}"
+    );
+    for (l, d) in [("side", side), ("back", back)] {
+        assert!((d.length() - 1.0).abs() < 1e-12, "{l}");
+        assert!((d.dot(up) - LIGHT_RISE / (1.0 + LIGHT_RISE * LIGHT_RISE).sqrt()).abs() < 1e-9);
+        assert_eq!(
+            lit(&scene, c, Lighting::Side).intensity,
+            scene.light.intensity
+        );
+    }
+}
+
+/// The strips the reference draws are the fine hairs of their texture: one strand per
+/// texture hair per strip, each point across its ribbon, and at mid-strip the hairs' widths
+/// cover the ribbon's width in the share the texture's alpha covers its row.
+#[test]
+fn strips_drawn_for_the_reference_are_the_texture_hairs() {
+    use kami::systems::strips::texture;
+    let gpu = crate::common::gpu();
+    let scene = shipped("strips.ron");
+    let look = &scene.strips().as_ref().unwrap().look;
+    let drawn = draw(gpu, &scene, (64, 64), 0, true).unwrap().groom.unwrap();
+    let lines = kami::stage::export_scene(gpu, &scene, 0).unwrap();
+    let hairs = texture::texture_hairs(look);
+    assert_eq!(drawn.counts.len(), lines.counts.len() * hairs.len());
+    // The texture's alpha at mid-strip.
+    let (w, h) = texture::texture_size(look);
+    let tex = texture::strand_texture(look, w, h);
+    let row = (h / 2) as usize;
+    let alpha: f64 = tex[row * w as usize..(row + 1) * w as usize]
+        .iter()
+        .map(|t| t[3] as f64 / 255.0)
+        .sum::<f64>()
+        / w as f64;
+    let widths = drawn.widths.as_ref().unwrap();
+    let lw = lines.widths.as_ref().unwrap();
+    let mut line_at = 0usize;
+    for (s, &n) in lines.counts.iter().enumerate() {
+        let n = n as usize;
+        // Mid-strip (v = 0.5): a control point, or halfway between two.
+        let (a, b) = (line_at + (n - 1) / 2, line_at + n / 2);
+        let pt = |i: usize| DVec3::from(lines.points[i].map(f64::from));
+        let centre = 0.5 * (pt(a) + pt(b));
+        let ribbon = 0.5 * (lw[a] + lw[b]) as f64;
+        let mut covered = 0.0;
+        // The strands of strip s are hairs.len() consecutive curves.
+        let first = s * hairs.len();
+        let mut p0 = drawn.counts[..first]
+            .iter()
+            .map(|&c| c as usize)
+            .sum::<usize>();
+        for k in 0..hairs.len() {
+            let c = drawn.counts[first + k] as usize;
+            // 4 samples per stick: mid-strip is sample 2 (n - 1).
+            let j = 2 * (n - 1);
+            assert!(j < c, "strip {s} hair {k}: ends before mid-strip");
+            let p = DVec3::from(drawn.points[p0 + j].map(f64::from));
+            assert!(
+                (p - centre).length() <= 0.5 * ribbon * (1.0 + 1e-4) + 1e-4,
+                "strip {s} hair {k}: {p} is off its ribbon (centre {centre}, width {ribbon})"
+            );
+            covered += widths[p0 + j] as f64;
+            p0 += c;
+        }
+        let share = covered / ribbon;
+        assert!(
+            (share - alpha).abs() < 0.05,
+            "strip {s}: the hairs cover {share:.3} of the ribbon, the texture {alpha:.3}"
+        );
+        line_at += n;
+    }
+}
+
+/// Fur seen from afar is drawn culled and widened: the reference gets the same hairs (each
+/// triangle's first ones, `culled_offsets`) at the same widened width, fewer than the full
+/// export's.
+#[test]
+fn fur_drawn_for_the_reference_is_the_culled_hairs_widened() {
+    use kami::systems::fur::setup::{culling_factor, FurSetup};
+    let gpu = crate::common::gpu();
+    let mut scene = shipped("fur_polyline.ron");
+    // Far enough that the culling keeps under half the hairs.
+    let eye = DVec3::from(scene.camera.eye);
+    let target = DVec3::from(scene.camera.target);
+    scene.camera.eye = (target + 6.0 * (eye - target)).to_array();
+    let fur = scene.fur().as_ref().unwrap();
+    let setup = FurSetup::new(fur, scene.seed).unwrap();
+    let bounds = setup.bounds();
+    let c = culling_factor(
+        fur,
+        bounds,
+        scene.camera.fov_y.to_radians(),
+        (DVec3::from(scene.camera.eye) - bounds.0).length(),
+    );
+    assert!(c < 0.5, "culling {c}");
+    let full = kami::stage::export_scene(gpu, &scene, 0).unwrap();
+    let drawn = draw(gpu, &scene, (64, 64), 0, true).unwrap().groom.unwrap();
+    let want: u32 = (0..setup.coats.len())
+        .map(|ci| *setup.culled_offsets(ci, c).last().unwrap())
+        .sum();
+    assert_eq!(drawn.counts.len() as u32, want);
+    assert!(drawn.counts.len() < full.counts.len());
+    let w = fur.coats[0].material.width;
+    let got = drawn.widths.as_ref().unwrap()[0] as f64;
+    assert!(
+        (got - w / c).abs() < 1e-4 * w / c,
+        "drawn width {got}, the coat's {w} widened by 1/{c}"
+    );
+}
+
+/// An image of `w` x `h` background pixels with the rectangle `r` (x0, y0, x1, y1) painted.
+fn painted(w: u32, h: u32, bg: [u8; 3], r: (u32, u32, u32, u32), ink: [u8; 3]) -> image::RgbImage {
+    image::RgbImage::from_fn(w, h, |x, y| {
+        if x >= r.0 && x < r.2 && y >= r.1 && y < r.3 {
+            image::Rgb(ink)
+        } else {
+            image::Rgb(bg)
+        }
+    })
+}
+
+/// The hair figures: FLIP averaged over the union of both masks (a pixel differing from the
+/// background by more than `MASK_LEVELS`), the noise over the reference seeds' union, the
+/// overlap as intersection over union, the share of the frame; a background-only pair and a
+/// size mismatch are errors, not a silent 0.
+#[test]
+fn the_hair_figures_are_taken_over_the_masks() {
+    let bg = [237, 237, 232];
+    let kami = painted(10, 10, bg, (0, 0, 4, 10), [60, 40, 20]); // 40 pixels
+    let r0 = painted(10, 10, bg, (2, 0, 6, 10), [70, 50, 30]); // 40, 20 shared
+                                                               // Within MASK_LEVELS of the background: not hair.
+    let mut r1 = painted(10, 10, bg, (2, 0, 7, 10), [70, 50, 30]);
+    r1.put_pixel(9, 9, image::Rgb([bg[0] - hair::MASK_LEVELS, bg[1], bg[2]]));
+    // FLIP 1 inside Kami's and the reference's union (x < 6), 0.5 on the background.
+    let flip: Vec<f32> = (0..100)
+        .map(|i| if i % 10 < 6 { 1.0 } else { 0.5 })
+        .collect();
+    let noise: Vec<f32> = (0..100)
+        .map(|i| if i % 10 < 2 { 0.0 } else { 0.2 })
+        .collect();
+    let s = hair::hair_stats(&kami, [&r0, &r1], &flip, &noise, bg).unwrap();
+    assert!((s.flip_hair - 1.0).abs() < 1e-12, "{s:?}");
+    assert!((s.overlap - 20.0 / 60.0).abs() < 1e-12, "{s:?}");
+    assert!((s.share - 0.6).abs() < 1e-12, "{s:?}");
+    // Seeds' union: x in 2..7, all 0.2.
+    assert!((s.noise_hair - 0.2).abs() < 1e-6, "{s:?}");
+    let empty = painted(10, 10, bg, (0, 0, 0, 0), bg);
+    let e = hair::hair_stats(&empty, [&empty, &empty], &flip, &noise, bg).unwrap_err();
+    assert!(e.contains("no hair pixels"), "{e}");
+    let small = painted(5, 10, bg, (0, 0, 1, 1), [0, 0, 0]);
+    let e = hair::hair_stats(&kami, [&small, &r1], &flip, &noise, bg).unwrap_err();
+    assert!(e.contains("5x10"), "{e}");
+    let e = hair::hair_stats(&kami, [&r0, &r1], &flip[..50], &noise, bg).unwrap_err();
+    assert!(e.contains("50"), "{e}");
+}
+
+/// The script's result line is read whole; a missing or broken number is an error naming
+/// the key.
+#[test]
+fn the_scripts_result_line_is_read_or_refused() {
+    let c =
+        parse_compared("rendering...\nflip=0.25 noise=0.03 reference_s=12.5 cached=1\n").unwrap();
+    assert_eq!(
+        (c.flip, c.noise, c.reference_s, c.cached),
+        (0.25, 0.03, 12.5, true)
+    );
+    let e = parse_compared("flip=0.25 noise=nan reference_s=1 cached=0").unwrap_err();
+    assert!(e.contains("noise="), "{e}");
+    assert!(parse_compared("Traceback")
+        .unwrap_err()
+        .contains("no result line"));
+}
+
+/// A view or light the bench does not have is refused on the command line, naming the
+/// ones it has.
+#[test]
+fn an_unknown_view_or_light_is_refused() {
+    for (arg, value, want) in [
+        ("--views", "scene,top", "scene or close"),
+        ("--lights", "key,rim", "key, side or back"),
+    ] {
+        let out = crate::common::kami(&["bench", "look", arg, value]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success() && err.contains(want),
+            "{arg} {value}: {err}"
+        );
+    }
 }

@@ -227,6 +227,12 @@ struct Look {
     /// Where reference renders are cached (by a hash of their inputs).
     #[arg(long, default_value = "bench_out/look-cache")]
     cache: PathBuf,
+    /// Cameras, comma separated: `scene` (the scene's own) and `close` (the close-up).
+    #[arg(long, value_delimiter = ',', value_parser = parse_view, default_value = "scene,close")]
+    views: Vec<kami::bench::look::View>,
+    /// Key lights, comma separated: `key` (the scene's), `side`, `back`.
+    #[arg(long, value_delimiter = ',', value_parser = parse_lighting, default_value = "key,side,back")]
+    lights: Vec<kami::bench::look::Lighting>,
     /// Directory for the report files.
     #[arg(long, default_value = "bench_out")]
     out: PathBuf,
@@ -257,9 +263,20 @@ impl Study for Look {
             frames: self.frames,
             python: self.python,
             cache: self.cache,
+            views: self.views,
+            lights: self.lights,
         };
         Ok((kami::bench::look::run(&gpu, &o, &self.out)?, self.out))
     }
+}
+
+fn parse_view(s: &str) -> std::result::Result<kami::bench::look::View, String> {
+    kami::bench::look::View::parse(s).ok_or_else(|| format!("{s:?}: a view is scene or close"))
+}
+
+fn parse_lighting(s: &str) -> std::result::Result<kami::bench::look::Lighting, String> {
+    kami::bench::look::Lighting::parse(s)
+        .ok_or_else(|| format!("{s:?}: a light is key, side or back"))
 }
 
 /// The mesh head's signed distance field: build time and error against the exact

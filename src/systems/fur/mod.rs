@@ -255,6 +255,18 @@ struct GenKey {
 /// reference the GPU generator matches: the polylines, the coat's width (constant along a
 /// hair, as drawn) and diffuse colour.
 pub fn export_fur(setup: &FurSetup, frame: f64) -> crate::formats::Groom {
+    export_fur_culled(setup, frame, 1.0, 1.0)
+}
+
+/// [`export_fur`] for the hairs drawn at culling factor `c` (each triangle's first hairs,
+/// `FurSetup::culled_offsets`), their widths times `width_scale` (the widening that keeps
+/// the coverage of the culled hairs).
+pub fn export_fur_culled(
+    setup: &FurSetup,
+    frame: f64,
+    c: f64,
+    width_scale: f64,
+) -> crate::formats::Groom {
     let mut g = crate::formats::Groom {
         widths: Some(Vec::new()),
         colors: Some(Vec::new()),
@@ -262,13 +274,17 @@ pub fn export_fur(setup: &FurSetup, frame: f64) -> crate::formats::Groom {
     };
     for (ci, coat) in setup.coats.iter().enumerate() {
         let m = &setup.fur.coats[ci].material;
+        let off = setup.culled_offsets(ci, c);
         for t in 0..coat.first.len() {
-            for h in coat.first[t]..coat.first[t] + coat.count[t] {
+            for h in coat.first[t]..coat.first[t] + (off[t + 1] - off[t]) {
                 let nodes = setup::hair_points(setup, ci, t, h, frame).nodes;
                 g.counts.push(nodes.len() as u32);
                 for p in &nodes {
                     g.points.push([p.x as f32, p.y as f32, p.z as f32]);
-                    g.widths.as_mut().unwrap().push(m.width as f32);
+                    g.widths
+                        .as_mut()
+                        .unwrap()
+                        .push((m.width * width_scale) as f32);
                     g.colors.as_mut().unwrap().push(m.diffuse);
                 }
             }
@@ -522,6 +538,17 @@ impl HairSystem for FurSystem {
 
     fn export(&self, _gpu: &Gpu, ctx: &FrameCtx) -> Result<Option<crate::formats::Groom>> {
         Ok(Some(export_fur(&self.setup, ctx.time())))
+    }
+
+    /// The hairs the last generation drew (its culling factor) at their drawn widths.
+    fn export_drawn(&self, _gpu: &Gpu, ctx: &FrameCtx) -> Result<Option<crate::formats::Groom>> {
+        let c = self.last_gen.map_or(1.0, |k| k.factor);
+        Ok(Some(export_fur_culled(
+            &self.setup,
+            ctx.time(),
+            c,
+            self.width_scale,
+        )))
     }
 
     fn as_any(&self) -> &dyn std::any::Any {

@@ -406,6 +406,27 @@ impl HairSystem for StripsSystem {
         Ok(Some(g))
     }
 
+    /// The fine hairs the strand texture draws on each ribbon (`texture::texture_hairs`),
+    /// placed across the ribbon as drawn (`ribbon::ribbon_reference` at the frame's head
+    /// pose), each with its drawn width, ending where its texture hair ends.
+    fn export_drawn(&self, gpu: &Gpu, ctx: &FrameCtx) -> Result<Option<crate::formats::Groom>> {
+        let lines = self.pose(gpu)?;
+        let stride = self.dynamics.stride() as usize;
+        let mut points = Vec::with_capacity(lines.len() * stride);
+        for line in &lines {
+            let last = line.last().copied().unwrap_or_default();
+            points.extend((0..stride).map(|k| line.get(k).copied().unwrap_or(last)));
+        }
+        let info = ribbon::strip_info(&self.rest);
+        let verts = ribbon::ribbon_reference(&points, stride, &info, &ctx.head);
+        Ok(Some(texture_strands(
+            &texture::texture_hairs(&self.strips.look),
+            &verts,
+            stride,
+            &self.rest,
+        )))
+    }
+
     fn as_any(&self) -> &dyn std::any::Any {
         self
     }
@@ -413,4 +434,60 @@ impl HairSystem for StripsSystem {
     fn as_any_mut(&mut self) -> &mut dyn std::any::Any {
         self
     }
+}
+
+/// Samples per stick of a texture hair (the ribbon is straight between control points, the
+/// hair's wave is not).
+const HAIR_SAMPLES_PER_STICK: usize = 4;
+
+/// The texture's `hairs` as strands on the ribbons `verts` (two per control point slot, u = 0
+/// and 1, `stride` slots per strip): each hair at its u across the ribbon at every sample,
+/// its width its texture width times the ribbon's, its colour the strip's, ending at its end.
+pub fn texture_strands(
+    hairs: &[texture::Hair],
+    verts: &[ribbon::RibbonVertex],
+    stride: usize,
+    rest: &[RestStrip],
+) -> crate::formats::Groom {
+    let mut g = crate::formats::Groom {
+        widths: Some(Vec::new()),
+        colors: Some(Vec::new()),
+        ..Default::default()
+    };
+    let (widths, colors) = (g.widths.as_mut().unwrap(), g.colors.as_mut().unwrap());
+    for (s, strip) in rest.iter().enumerate() {
+        let n = strip.points.len().clamp(1, stride);
+        if n < 2 {
+            continue;
+        }
+        let edge = |k: usize, side: usize| verts[2 * (s * stride + k) + side].position;
+        // The two edges at v (linear between control points, as the quads are drawn).
+        let at = |v: f64| {
+            let x = v.clamp(0.0, 1.0) * (n - 1) as f64;
+            let k = (x as usize).min(n - 2);
+            let f = x - k as f64;
+            (
+                edge(k, 0).lerp(edge(k + 1, 0), f),
+                edge(k, 1).lerp(edge(k + 1, 1), f),
+            )
+        };
+        let steps = HAIR_SAMPLES_PER_STICK * (n - 1);
+        for h in hairs {
+            let mut count = 0u32;
+            for j in 0..=steps {
+                let v = (j as f64 / steps as f64).min(h.end);
+                let (a, b) = at(v);
+                let p = a.lerp(b, h.u(v));
+                g.points.push([p.x as f32, p.y as f32, p.z as f32]);
+                widths.push((2.0 * h.half_width(v) * (b - a).length()) as f32);
+                colors.push(strip.color);
+                count += 1;
+                if v >= h.end {
+                    break;
+                }
+            }
+            g.counts.push(count);
+        }
+    }
+    g
 }

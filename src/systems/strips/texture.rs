@@ -60,14 +60,30 @@ pub fn shade(look: &Look, v: f64) -> f64 {
     1.0 + (tip - 1.0) * v.clamp(0.0, 1.0)
 }
 
-struct Hair {
+/// One fine hair of the texture, in texture space (u across, v along).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hair {
     center: f64,
     half_width: f64,
-    end: f64,
-    bright: f64,
+    /// Where along the strip (v) the hair ends.
+    pub end: f64,
+    /// Its brightness (times the root-to-tip gradient).
+    pub bright: f64,
     wave_amp: f64,
     wave_freq: f64,
     wave_phase: f64,
+}
+
+impl Hair {
+    /// The hair's centre across the strip (u) at `v`.
+    pub fn u(&self, v: f64) -> f64 {
+        self.center
+            + self.wave_amp * (std::f64::consts::TAU * (self.wave_freq * v + self.wave_phase)).sin()
+    }
+    /// Its half width in u at `v`: narrowing to nothing over [`TIP_TAPER`] before its end.
+    pub fn half_width(&self, v: f64) -> f64 {
+        self.half_width * ((self.end - v) / TIP_TAPER).clamp(0.0, 1.0)
+    }
 }
 
 fn hairs(n: u32) -> Vec<Hair> {
@@ -88,6 +104,14 @@ fn hairs(n: u32) -> Vec<Hair> {
         .collect()
 }
 
+/// The hairs the texture of `look` draws (hairs are capped at half the texture's width, as
+/// [`strand_texture`] caps them): the strands a strip stands for, for a path tracer that
+/// needs them as curves.
+pub fn texture_hairs(look: &Look) -> Vec<Hair> {
+    let w = texture_size(look).0;
+    hairs(look.hairs.clamp(1, (w / 2).max(1)))
+}
+
 /// Level 0 of the strand texture, `width × height` texels, row 0 at the root. Hairs are
 /// capped at `width / 2` so every gap keeps at least about a texel.
 pub fn strand_texture(look: &Look, width: u32, height: u32) -> Vec<[u8; 4]> {
@@ -105,12 +129,8 @@ pub fn strand_texture(look: &Look, width: u32, height: u32) -> Vec<[u8; 4]> {
             // Only the hairs near u can reach it (their centres move by under a spacing).
             let i = ((u * n as f64) as i64).clamp(0, n as i64 - 1);
             for hair in &hairs[(i - 2).max(0) as usize..((i + 3) as usize).min(n as usize)] {
-                let taper = ((hair.end - v) / TIP_TAPER).clamp(0.0, 1.0);
-                let c = hair.center
-                    + hair.wave_amp
-                        * (std::f64::consts::TAU * (hair.wave_freq * v + hair.wave_phase)).sin();
                 // Distance inside the hair's edge, in texels: anti-aliased at texel scale.
-                let inside = (hair.half_width * taper - (u - c).abs()) * w as f64;
+                let inside = (hair.half_width(v) - (u - hair.u(v)).abs()) * w as f64;
                 let a = (inside + 0.5).clamp(0.0, 1.0);
                 if a > cover {
                     cover = a;
