@@ -47,6 +47,10 @@ pub const HEAD: &str = wgsl!("common/frame.wgsl", "common/shadow.wgsl", "stage/h
 /// contract test `tests/it/hair_bsdf.rs` adds a compute entry point).
 pub const HAIR_BSDF: &str = wgsl!("common/hair_bsdf.wgsl");
 
+/// Per-strand variation alone with the hash it reads (the strand shaders include it; the
+/// contract test `tests/it/look_variation.rs` adds a compute entry point).
+pub const STRAND_VARY: &str = wgsl!("common/random.wgsl", "common/strand_vary.wgsl");
+
 /// Supersampling resolve.
 pub const DOWNSAMPLE: &str = wgsl!("stage/downsample.wgsl");
 

@@ -17,6 +17,8 @@ struct Material {
     file: vec4<f32>,
     // The physical mode's parameters (common/hair_bsdf.wgsl); bsdf.sigma_a.w 1 when used.
     bsdf: HairBsdf,
+    // Per-strand variation (common/strand_vary.wgsl): x melanin, y width, z tint.
+    variation: vec4<f32>,
 }
 
 @group(1) @binding(0) var<storage, read> strands: array<Strand>;
@@ -77,6 +79,7 @@ fn node_width_alpha(s: Strand, n: u32) -> vec2<f32> {
         width = select(width, bitcast<f32>(look.y), mat.file.y > 0.5);
         alpha = select(1.0, unpack4x8unorm(look.x).a, mat.file.z > 0.5);
     }
+    width *= vary_width(s.rand, mat.variation);
     // raster.z widens hair when only a share of it is drawn (level of detail).
     return vec2<f32>(width * frame.raster.z * lod.x, alpha);
 }
@@ -108,6 +111,9 @@ fn shade_node(s: Strand, n: u32) -> ShadedNode {
     if mat.file.x > 0.5 {
         base = srgb_to_linear(unpack4x8unorm(looks[s.first_vertex + n].x).rgb);
     }
+    // The strand's own pigment: its absorption scaled (vary.rs), its colour c^a.
+    let absorb = vary_absorption(s.rand, mat.variation);
+    base = pow(max(base, vec3<f32>(0.0)), absorb);
 
     // Anjyo eq 8: specular from the tangent alone; eq 9 with a per-strand ambient.
     let l = frame.light_dir.xyz;
@@ -125,10 +131,14 @@ fn shade_node(s: Strand, n: u32) -> ShadedNode {
     // the shadow structure counts, past opaque occluders, plus Kami's ambient (I_a k_a) times
     // the colour a dense volume of this hair sends back. A strand file's colours are not
     // read (the group's pigments are).
+    // A strand's own scattering reads its own absorption; the light the strands around it
+    // send (dual scattering's averages) stays the group's.
     if hair_physical(mat.bsdf) {
-        let f = hair_dual_radiance(mat.bsdf, t, v, l, shadow_layered(p));
+        var b = mat.bsdf;
+        b.sigma_a = vec4<f32>(b.sigma_a.rgb * absorb, b.sigma_a.w);
+        let f = hair_dual_radiance(b, t, v, l, shadow_layered(p));
         rgb = frame.light_color.rgb * (hair_irradiance() * shadow_opaque(p)) * f
-            + mat.bsdf.ambient.rgb * ambient;
+            + pow(max(mat.bsdf.ambient.rgb, vec3<f32>(0.0)), absorb) * ambient;
     }
     // The dynamics mark nodes whose segment felt the pseudo-force with w = 2.
     if frame.flags.x > 0.5 && verts[s.first_vertex + n].w > 1.5 {

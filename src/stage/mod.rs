@@ -953,8 +953,8 @@ impl Stage {
 
     /// Every system's hair as the last drawn frame shows it (`HairSystem::export_drawn`),
     /// one groom: the reference geometry of `kami bench look`.
-    pub fn export_drawn(&self, gpu: &Gpu) -> Result<crate::formats::Groom> {
-        let mut all = crate::formats::Groom::default();
+    pub fn export_drawn(&self, gpu: &Gpu) -> Result<crate::systems::system::DrawnHair> {
+        let mut all = crate::systems::system::DrawnHair::default();
         let ctx = self.ctx();
         for s in &self.systems {
             if let Some(g) = s.export_drawn(gpu, &ctx)? {

@@ -11,6 +11,27 @@ use crate::systems::scene::Scene;
 use crate::systems::world;
 use glam::{DMat4, DVec3};
 
+/// The hair as a frame draws it, as strands (`HairSystem::export_drawn`).
+#[derive(Clone, Debug, Default)]
+pub struct DrawnHair {
+    pub groom: crate::formats::Groom,
+    /// Per strand: what its absorption (sigma_a) is multiplied by against its group's, per
+    /// channel (per-strand variation, `anjyo::vary`); `None`: every strand its group's.
+    pub absorption: Option<Vec<[f32; 3]>>,
+}
+
+impl DrawnHair {
+    /// `other`'s strands after these (a strand without its own absorption gets 1).
+    pub fn append(&mut self, other: DrawnHair) {
+        let (mine, theirs) = (self.groom.counts.len(), other.groom.counts.len());
+        if self.absorption.is_some() || other.absorption.is_some() {
+            let a = self.absorption.get_or_insert_with(|| vec![[1.0; 3]; mine]);
+            a.extend(other.absorption.unwrap_or_else(|| vec![[1.0; 3]; theirs]));
+        }
+        self.groom.append(other.groom);
+    }
+}
+
 /// The one clock of a frame, handed to every system: frames since the rest pose, the shared
 /// force fields and the head pose at that frame.
 #[derive(Clone, Copy, Debug)]
@@ -228,9 +249,13 @@ pub trait HairSystem {
     /// The hair as the last drawn frame shows it, as strands: what a path tracer needs to
     /// draw the same picture (`kami bench look`). Where a kind draws something other than
     /// its strands (fur's culled and widened hairs, a strip's texture of fine hairs), this
-    /// is that; by default the same as [`HairSystem::export`].
-    fn export_drawn(&self, gpu: &Gpu, ctx: &FrameCtx) -> Result<Option<crate::formats::Groom>> {
-        self.export(gpu, ctx)
+    /// is that, with each strand's own absorption where strands vary; by default the same
+    /// as [`HairSystem::export`].
+    fn export_drawn(&self, gpu: &Gpu, ctx: &FrameCtx) -> Result<Option<DrawnHair>> {
+        Ok(self.export(gpu, ctx)?.map(|groom| DrawnHair {
+            groom,
+            absorption: None,
+        }))
     }
     /// For tests and benches that look inside one kind.
     fn as_any(&self) -> &dyn std::any::Any;

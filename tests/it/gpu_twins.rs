@@ -170,7 +170,7 @@ fn twins() -> Vec<Twin> {
         ),
         twin!(
             GpuMaterial,
-            [color_ks, params, file, bsdf],
+            [color_ks, params, file, bsdf, variation],
             "Material",
             ["anjyo/draw.wgsl"]
         ),

@@ -280,7 +280,11 @@ fn strips_drawn_for_the_reference_are_the_texture_hairs() {
     let gpu = crate::common::gpu();
     let scene = shipped("strips.ron");
     let look = &scene.strips().as_ref().unwrap().look;
-    let drawn = draw(gpu, &scene, (64, 64), 0, true).unwrap().groom.unwrap();
+    let drawn = draw(gpu, &scene, (64, 64), 0, true)
+        .unwrap()
+        .groom
+        .unwrap()
+        .groom;
     let lines = kami::stage::export_scene(gpu, &scene, 0).unwrap();
     let hairs = texture::texture_hairs(look);
     assert_eq!(drawn.counts.len(), lines.counts.len() * hairs.len());
@@ -355,7 +359,11 @@ fn fur_drawn_for_the_reference_is_the_culled_hairs_widened() {
     );
     assert!(c < 0.5, "culling {c}");
     let full = kami::stage::export_scene(gpu, &scene, 0).unwrap();
-    let drawn = draw(gpu, &scene, (64, 64), 0, true).unwrap().groom.unwrap();
+    let drawn = draw(gpu, &scene, (64, 64), 0, true)
+        .unwrap()
+        .groom
+        .unwrap()
+        .groom;
     let want: u32 = (0..setup.coats.len())
         .map(|ci| *setup.culled_offsets(ci, c).last().unwrap())
         .sum();

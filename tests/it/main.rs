@@ -37,6 +37,7 @@ mod snapshot;
 mod splat;
 mod stability;
 mod stage;
+mod strand_vary;
 mod strips;
 mod strips_capture;
 mod strips_dynamics;

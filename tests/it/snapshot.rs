@@ -43,6 +43,13 @@ fn bob() {
     snapshot("bob");
 }
 
+/// The bob with per-strand melanin, width and tint (`Material.variation`), in both modes.
+#[test]
+fn bob_varied() {
+    snapshot("bob_varied");
+    physical("bob_varied", "bob_varied_physical", SIZE, false);
+}
+
 /// Shadows off draws exactly what Kami drew before shadows existed: this reference is the
 /// bob's snapshot from before them, unchanged.
 #[test]

@@ -228,21 +228,52 @@ pub fn write_mitsuba(
     spp: u32,
     source: &str,
 ) -> Result<PathBuf> {
-    let shapes = write_shapes(dir, scene, groom, source)?;
+    let shapes = write_shapes(dir, scene, groom, None, source)?;
     write_view(dir, "scene.xml", scene, &shapes, size, spp)
+}
+
+/// Strands whose absorption (per-strand variation) differs are binned by its log per
+/// channel, rounded to this step: one `hair` BSDF per bin, its sigma_a within 2.5 % of
+/// every strand's in it.
+pub const ABSORPTION_STEP: f64 = 0.05;
+
+/// The bin of an absorption multiplier (`ABSORPTION_STEP`s of its log per channel).
+fn absorption_bin(a: [f32; 3]) -> [i32; 3] {
+    a.map(|x| (f64::from(x).max(1e-6).ln() / ABSORPTION_STEP).round() as i32)
 }
 
 /// Write the shapes' files of the reference (`hair_N.txt`, `head.obj`, `skin.obj`) into
 /// `dir` and return the XML that names them, for [`write_view`]: one set of files serves
-/// every camera and light the bench renders.
-pub fn write_shapes(dir: &Path, scene: &Scene, groom: &Groom, source: &str) -> Result<String> {
+/// every camera and light the bench renders. `absorption` (per strand, where strands vary):
+/// each strand's sigma_a against its group's; such strands go to the BSDF of their bin,
+/// whose sigma_a is the group's ([`hair_params`]) times the bin's multiplier.
+pub fn write_shapes(
+    dir: &Path,
+    scene: &Scene,
+    groom: &Groom,
+    absorption: Option<&[[f32; 3]]>,
+    source: &str,
+) -> Result<String> {
     std::fs::create_dir_all(dir).map_err(|source| KamiError::Io {
         path: dir.to_path_buf(),
         source,
     })?;
+    if absorption.is_some_and(|a| a.len() != groom.counts.len()) {
+        return Err(KamiError::Data {
+            path: source.into(),
+            line: None,
+            message: format!(
+                "{} strands drawn, but {} absorptions",
+                groom.counts.len(),
+                absorption.map_or(0, <[_]>::len)
+            ),
+        });
+    }
     let mut x = String::new();
-    // Strands grouped by colour (the export's colour of each strand's root), one BSDF each.
-    let mut groups: Vec<([f32; 3], Vec<usize>)> = Vec::new();
+    // Strands grouped by colour (the export's colour of each strand's root) and absorption
+    // bin, one BSDF each.
+    type Key = ([f32; 3], [i32; 3]);
+    let mut groups: Vec<(Key, Vec<usize>)> = Vec::new();
     let mut at = 0usize;
     for (i, &c) in groom.counts.iter().enumerate() {
         let col = groom
@@ -251,19 +282,36 @@ pub fn write_shapes(dir: &Path, scene: &Scene, groom: &Groom, source: &str) -> R
             .and_then(|cs| cs.get(at).copied())
             .unwrap_or([0.5; 3]);
         at += c as usize;
-        match groups.iter_mut().find(|(g, _)| *g == col) {
+        let key = (col, absorption.map_or([0; 3], |a| absorption_bin(a[i])));
+        match groups.iter_mut().find(|(g, _)| *g == key) {
             Some((_, v)) => v.push(i),
-            None => groups.push((col, vec![i])),
+            None => groups.push((key, vec![i])),
         }
     }
-    for (k, (col, strands)) in groups.iter().enumerate() {
+    for (k, ((col, bin), strands)) in groups.iter().enumerate() {
         let name = format!("hair_{k}.txt");
         write_file(&dir.join(&name), &curve_text(groom, strands, source)?)?;
         let h = hair_params(scene, *col);
+        let pigment = if *bin == [0; 3] {
+            format!(
+                "<float name=\"eumelanin\" value=\"{}\"/>\n      <float name=\"pheomelanin\" value=\"{}\"/>",
+                h.eumelanin, h.pheomelanin
+            )
+        } else {
+            let base = crate::systems::hair_bsdf::HairParams {
+                eumelanin: h.eumelanin,
+                pheomelanin: h.pheomelanin,
+                ..Default::default()
+            }
+            .sigma_a();
+            let s: [f64; 3] =
+                std::array::from_fn(|i| base[i] * (f64::from(bin[i]) * ABSORPTION_STEP).exp());
+            format!("<rgb name=\"sigma_a\" value=\"{}\"/>", rgb(s))
+        };
         let _ = writeln!(
             x,
-            "  <shape type=\"linearcurve\">\n    <string name=\"filename\" value=\"{name}\"/>\n    <bsdf type=\"hair\">\n      <float name=\"eumelanin\" value=\"{}\"/>\n      <float name=\"pheomelanin\" value=\"{}\"/>\n      <float name=\"longitudinal_roughness\" value=\"{}\"/>\n      <float name=\"azimuthal_roughness\" value=\"{}\"/>\n      <float name=\"scale_tilt\" value=\"{}\"/>\n      <float name=\"int_ior\" value=\"{}\"/>\n      <float name=\"ext_ior\" value=\"1\"/>\n    </bsdf>\n  </shape>",
-            h.eumelanin, h.pheomelanin, h.beta_m, h.beta_n, h.alpha_deg, h.eta
+            "  <shape type=\"linearcurve\">\n    <string name=\"filename\" value=\"{name}\"/>\n    <bsdf type=\"hair\">\n      {pigment}\n      <float name=\"longitudinal_roughness\" value=\"{}\"/>\n      <float name=\"azimuthal_roughness\" value=\"{}\"/>\n      <float name=\"scale_tilt\" value=\"{}\"/>\n      <float name=\"int_ior\" value=\"{}\"/>\n      <float name=\"ext_ior\" value=\"1\"/>\n    </bsdf>\n  </shape>",
+            h.beta_m, h.beta_n, h.alpha_deg, h.eta
         );
     }
 

@@ -16,7 +16,6 @@ pub use views::{close_up, lit, Lighting, View, CLOSE_SHARE, LIGHT_RISE};
 
 use super::{provenance, write_report, Report};
 use crate::error::{KamiError, Result};
-use crate::formats::Groom;
 use crate::gpu::timing::PassTimes;
 use crate::gpu::Gpu;
 use crate::scene::{ShadowMethod, Shadows};
@@ -26,10 +25,11 @@ use std::fmt::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-/// The shipped scenes compared: the bob (strand hair on the ellipsoid), fur on the critter
-/// (its skin in the reference too) and the strips.
-pub const SCENES: [&str; 3] = [
+/// The shipped scenes compared: the bob (strand hair on the ellipsoid) plain and with
+/// per-strand variation, fur on the critter (its skin in the reference too) and the strips.
+pub const SCENES: [&str; 4] = [
     "assets/scenes/bob.ron",
+    "assets/scenes/bob_varied.ron",
     "assets/scenes/fur_polyline.ron",
     "assets/scenes/strips.ron",
 ];
@@ -93,7 +93,7 @@ pub struct Drawn {
     /// "gpu-timestamps" or "cpu-wait".
     pub clock: &'static str,
     /// The hair as drawn (`Stage::export_drawn`), where asked for.
-    pub groom: Option<Groom>,
+    pub groom: Option<crate::systems::system::DrawnHair>,
 }
 
 /// Draw frame 0 of `scene` at `size`: one untimed frame, then the mean of `frames` frames
@@ -368,7 +368,13 @@ pub fn run(gpu: &Gpu, o: &Options, out: &Path) -> Result<Report> {
             let drawn = draw(gpu, &framed, o.size, 0, true)?;
             let groom = drawn.groom.expect("asked for");
             let work = o.cache.join(format!("scene_{name}")).join(view.name());
-            let shapes = write_shapes(&work, &framed, &groom, &source)?;
+            let shapes = write_shapes(
+                &work,
+                &framed,
+                &groom.groom,
+                groom.absorption.as_deref(),
+                &source,
+            )?;
             for &lighting in &o.lights {
                 let mut lit_scene = framed.clone();
                 lit_scene.light = lit(&base, &framed.camera, lighting);

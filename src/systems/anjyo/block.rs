@@ -637,6 +637,30 @@ pub struct Material {
         skip_serializing_if = "crate::systems::hair_bsdf::Physical::is_default"
     )]
     pub physical: crate::systems::hair_bsdf::Physical,
+    /// How strands differ from one another (`anjyo::vary`); none by default.
+    #[serde(default, skip_serializing_if = "Variation::is_none")]
+    pub variation: Variation,
+}
+
+/// Per-strand variation, as real grooms have it: each strand draws its own pigment amount,
+/// width and tint from its seeded random number (`GpuStrand::rand`), so the same scene
+/// varies the same way on every run and in the reference the bench hands a path tracer.
+/// Each is the standard deviation of the log of a multiplier (0: every strand the group's).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Variation {
+    /// The strand's absorption (melanin) times exp(melanin z): darker and lighter strands.
+    pub melanin: f64,
+    /// The strand's width times exp(width z).
+    pub width: f64,
+    /// The strand's absorption times exp(tint z (-1, 0, 1)): warmer (redder) or cooler.
+    pub tint: f64,
+}
+
+impl Variation {
+    pub fn is_none(&self) -> bool {
+        *self == Variation::default()
+    }
 }
 
 fn default_hair() -> [f32; 3] {
@@ -674,6 +698,7 @@ impl Default for Material {
             tip_width: default_tip(),
             shading: None,
             physical: Default::default(),
+            variation: Variation::default(),
         }
     }
 }
@@ -1208,6 +1233,10 @@ fn material(mp: &str, m: &Material) -> Result<()> {
     positive(&format!("{mp}.width"), m.width, 1e3)?;
     within(&format!("{mp}.tip_width"), m.tip_width, 0.0, 1.0)?;
     m.physical.validate(&format!("{mp}.physical"))?;
+    let v = &m.variation;
+    within(&format!("{mp}.variation.melanin"), v.melanin, 0.0, 1.0)?;
+    within(&format!("{mp}.variation.width"), v.width, 0.0, 1.0)?;
+    within(&format!("{mp}.variation.tint"), v.tint, 0.0, 1.0)?;
     Ok(())
 }
 

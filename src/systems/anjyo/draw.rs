@@ -88,6 +88,12 @@ impl GpuMaterial {
             ],
             file: [0.0; 4],
             bsdf: crate::systems::hair_bsdf::gpu_block(shading, m.shading, &m.physical, m.color),
+            variation: [
+                m.variation.melanin as f32,
+                m.variation.width as f32,
+                m.variation.tint as f32,
+                0.0,
+            ],
         }
     }
 }

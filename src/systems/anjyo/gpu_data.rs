@@ -86,8 +86,10 @@ pub struct GpuMaterial {
     pub file: [f32; 4],
     /// The physical shading mode's parameters (`bsdf.sigma_a[3]` 1 when the group uses it).
     pub bsdf: crate::systems::hair_bsdf::GpuHairBsdf,
+    /// Per-strand variation (`block::Variation`): x melanin, y width, z tint.
+    pub variation: [f32; 4],
 }
-assert_size!(GpuMaterial, 160);
+assert_size!(GpuMaterial, 176);
 
 /// A node's own look, from a strand file. Twin of the elements of `looks` (`tests/it/gpu_twins.rs` checks it) in
 /// `shaders/common/strand_shade.wgsl`.

@@ -25,6 +25,7 @@ pub mod projective;
 pub mod projective_gpu;
 pub mod simulation;
 pub mod splat;
+pub mod vary;
 
 use super::lod::{screen_lod, ScreenLod, Seen};
 use super::raster;
@@ -71,6 +72,7 @@ pub const DRAW: &str = wgsl!(
     "common/random.wgsl",
     "common/coverage.wgsl",
     "common/hair_bsdf.wgsl",
+    "common/strand_vary.wgsl",
     "common/strand_shade.wgsl",
     "anjyo/draw.wgsl",
 );
@@ -82,6 +84,8 @@ pub const CAST: &str = wgsl!(
     "common/shadow.wgsl",
     "common/shadow_cast.wgsl",
     "common/hair_bsdf.wgsl",
+    "common/random.wgsl",
+    "common/strand_vary.wgsl",
     "common/strand_shade.wgsl",
     "common/strand_drawn.wgsl",
     "anjyo/cast.wgsl",
@@ -89,11 +93,13 @@ pub const CAST: &str = wgsl!(
 
 /// The compute rasteriser for thin strands, reading a single-sampled scene depth.
 pub const SPLAT: &str = wgsl!(splat "common/depth_single.wgsl";
-    "common/strand_shade.wgsl", "anjyo/splat.wgsl");
+    "common/random.wgsl", "common/strand_vary.wgsl", "common/strand_shade.wgsl",
+    "anjyo/splat.wgsl");
 
 /// The same over a multisampled scene depth.
 pub const SPLAT_MSAA: &str = wgsl!(splat "common/depth_msaa.wgsl";
-    "common/strand_shade.wgsl", "anjyo/splat.wgsl");
+    "common/random.wgsl", "common/strand_vary.wgsl", "common/strand_shade.wgsl",
+    "anjyo/splat.wgsl");
 
 pub const KIND: Kind = Kind {
     name: "anjyo",
@@ -169,7 +175,7 @@ const FUZZ_WORDS: &[&str] = &[
     "density:", "damping:", "inertia:", "pseudo_force:", "stiffness:", "fluctuation:",
     "collision:", "max_substeps:", "root:", "tip:", "top:", "top_height:", "top_blend:",
     "alpha:", "epsilon_pore:", "epsilon_tip:", "near:", "start:", "end:", "max_iterations:",
-    "tolerance:", "guides:",
+    "tolerance:", "guides:", "variation:", "Variation(", "melanin:", "tint:",
 ];
 
 /// Anjyo hair of one scene: the groom, its simulation if the scene has dynamics, the draw.
@@ -366,9 +372,26 @@ pub fn classify(old: &Scene, new: &Scene) -> Change {
     }
 }
 
+/// Per strand [`export_strands`] writes (the same ones, in order: strands cut to nothing
+/// are left out): what its absorption is multiplied by (`vary::absorption`).
+pub fn strand_absorption(
+    materials: &[crate::systems::anjyo::block::Material],
+    records: &[crate::gpu::gpu_data::GpuStrand],
+) -> Vec<[f32; 3]> {
+    records
+        .iter()
+        .filter(|r| {
+            let drawn = (r.visible as f64).clamp(0.0, r.segments as f64);
+            drawn.floor() >= 1.0 || drawn.fract() > 1e-6
+        })
+        .map(|r| vary::absorption(r.rand, &materials[r.group as usize].variation).map(|a| a as f32))
+        .collect()
+}
+
 /// Polylines of the drawn hair: each strand's nodes up to its drawn (cut) length, the last
 /// segment shortened to the fractional part; widths tapered root to tip as the ribbon draws
-/// them; the group's colour. A group drawn with its strand file's own look (`file`, per
+/// them (times the strand's own width, `vary`); the group's colour (a strand file has no
+/// absorption: a strand's own pigment is [`strand_absorption`]'s). A group drawn with its strand file's own look (`file`, per
 /// group as [`file_look`] says; `looks` per node) writes that look: widths, colours and
 /// opacities (opaque for the others), so a groom goes back out as it came in.
 pub fn export_strands(
@@ -408,6 +431,7 @@ pub fn export_strands(
             g.points.push(q);
             let along = (i.min(whole) as f64 + if i > whole { frac } else { 0.0 }) / k as f64;
             let mut w = (m.width * (1.0 + (m.tip_width - 1.0) * along)) as f32;
+            let vary = vary::width_factor(r.rand, &m.variation) as f32;
             let mut c = m.color;
             let mut o = 1.0;
             let f = file.get(r.group as usize).copied().unwrap_or_default();
@@ -422,7 +446,7 @@ pub fn export_strands(
                     o = l.opacity;
                 }
             }
-            g.widths.as_mut().unwrap().push(w);
+            g.widths.as_mut().unwrap().push(w * vary);
             g.colors.as_mut().unwrap().push(c);
             if let Some(op) = g.opacities.as_mut() {
                 op.push(o);
@@ -747,6 +771,42 @@ impl HairSystem for AnjyoSystem {
             &records,
             &nodes,
         )))
+    }
+
+    /// The strands the last frame drew (the screen-space level of detail's share of each
+    /// range, widened by its factor) as [`HairSystem::export`] writes them, with each one's
+    /// absorption against its group's (per-strand variation), in the same order. Every node
+    /// is written, where the draw may step over some (within the level of detail's bound).
+    fn export_drawn(
+        &self,
+        gpu: &Gpu,
+        _ctx: &FrameCtx,
+    ) -> Result<Option<crate::systems::system::DrawnHair>> {
+        let nodes = self.hair.read_vertices(gpu)?;
+        let all = self.hair.read_strands(gpu)?;
+        let records: Vec<_> = self
+            .hair
+            .ranges
+            .iter()
+            .flat_map(|r| {
+                let first = r.first_strand as usize;
+                let n = draw::drawn_count(r.strand_count, self.lod) as usize;
+                all[first..first + n].iter().copied()
+            })
+            .collect();
+        let materials: Vec<_> = self.groups.iter().map(|g| g.material.clone()).collect();
+        let file: Vec<[bool; 4]> = self.groups.iter().map(file_look).collect();
+        let looks = self.input.node_looks();
+        let mut groom = export_strands(&materials, &file, looks.as_deref(), &records, &nodes);
+        let widen = self.screen.width_scale as f32;
+        if let Some(w) = groom.widths.as_mut() {
+            w.iter_mut().for_each(|w| *w *= widen);
+        }
+        let absorption = strand_absorption(&materials, &records);
+        Ok(Some(crate::systems::system::DrawnHair {
+            groom,
+            absorption: Some(absorption),
+        }))
     }
 
     fn as_any(&self) -> &dyn std::any::Any {

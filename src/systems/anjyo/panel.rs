@@ -456,6 +456,10 @@ fn look(ui: &mut Ui, cx: &mut PanelCx) {
     ui.add(Slider::new(&mut m.kd, 0.0..=1.0).text("k_d (diffuse)"));
     ui.add(Slider::new(&mut m.ka, 0.0..=3.0).text("k_a mean"));
     ui.add(Slider::new(&mut m.ka_spread, 0.0..=1.0).text("k_a spread (per strand)"));
+    // Per-strand variation (anjyo::vary): spreads of the log of each strand's multiplier.
+    ui.add(Slider::new(&mut m.variation.melanin, 0.0..=1.0).text("melanin spread (per strand)"));
+    ui.add(Slider::new(&mut m.variation.width, 0.0..=1.0).text("width spread (per strand)"));
+    ui.add(Slider::new(&mut m.variation.tint, 0.0..=1.0).text("tint spread (per strand)"));
     crate::systems::hair_bsdf::panel(ui, &mut render.shading, &mut m.shading, &mut m.physical);
     if ui.small_button("use this look for every group").clicked() {
         let m = m.clone();

@@ -198,6 +198,7 @@ mod tests {
             params: [1.0, 0.0, width, 1.0],
             file: [0.0; 4],
             bsdf: Default::default(),
+            variation: [0.0; 4],
         };
         (s, verts, m)
     }

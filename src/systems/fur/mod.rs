@@ -541,14 +541,16 @@ impl HairSystem for FurSystem {
     }
 
     /// The hairs the last generation drew (its culling factor) at their drawn widths.
-    fn export_drawn(&self, _gpu: &Gpu, ctx: &FrameCtx) -> Result<Option<crate::formats::Groom>> {
+    fn export_drawn(
+        &self,
+        _gpu: &Gpu,
+        ctx: &FrameCtx,
+    ) -> Result<Option<crate::systems::system::DrawnHair>> {
         let c = self.last_gen.map_or(1.0, |k| k.factor);
-        Ok(Some(export_fur_culled(
-            &self.setup,
-            ctx.time(),
-            c,
-            self.width_scale,
-        )))
+        Ok(Some(crate::systems::system::DrawnHair {
+            groom: export_fur_culled(&self.setup, ctx.time(), c, self.width_scale),
+            absorption: None,
+        }))
     }
 
     fn as_any(&self) -> &dyn std::any::Any {

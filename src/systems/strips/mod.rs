@@ -409,7 +409,11 @@ impl HairSystem for StripsSystem {
     /// The fine hairs the strand texture draws on each ribbon (`texture::texture_hairs`),
     /// placed across the ribbon as drawn (`ribbon::ribbon_reference` at the frame's head
     /// pose), each with its drawn width, ending where its texture hair ends.
-    fn export_drawn(&self, gpu: &Gpu, ctx: &FrameCtx) -> Result<Option<crate::formats::Groom>> {
+    fn export_drawn(
+        &self,
+        gpu: &Gpu,
+        ctx: &FrameCtx,
+    ) -> Result<Option<crate::systems::system::DrawnHair>> {
         let lines = self.pose(gpu)?;
         let stride = self.dynamics.stride() as usize;
         let mut points = Vec::with_capacity(lines.len() * stride);
@@ -419,12 +423,15 @@ impl HairSystem for StripsSystem {
         }
         let info = ribbon::strip_info(&self.rest);
         let verts = ribbon::ribbon_reference(&points, stride, &info, &ctx.head);
-        Ok(Some(texture_strands(
-            &texture::texture_hairs(&self.strips.look),
-            &verts,
-            stride,
-            &self.rest,
-        )))
+        Ok(Some(crate::systems::system::DrawnHair {
+            groom: texture_strands(
+                &texture::texture_hairs(&self.strips.look),
+                &verts,
+                stride,
+                &self.rest,
+            ),
+            absorption: None,
+        }))
     }
 
     fn as_any(&self) -> &dyn std::any::Any {

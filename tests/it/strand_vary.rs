@@ -1,0 +1,246 @@
+//! Per-strand variation (`anjyo::block::Variation`): the WGSL functions
+//! (`shaders/common/strand_vary.wgsl`) against their f64 twin (`anjyo::vary`), the numbers'
+//! spread, the draw and the export reading them, the reference binning them, and bad values
+//! refused.
+
+use crate::common;
+use kami::gpu::bind;
+use kami::systems::anjyo::block::Variation;
+use kami::systems::anjyo::vary;
+
+const ENTRY: &str = "
+// Per element: x the strand's rand, yzw the variation (melanin, width, tint).
+@group(0) @binding(0) var<storage, read> input: array<vec4<f32>>;
+// xyz absorption, w width factor.
+@group(0) @binding(1) var<storage, read_write> out: array<vec4<f32>>;
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if i >= arrayLength(&out) { return; }
+    let p = input[i];
+    let v = vec4<f32>(p.y, p.z, p.w, 0.0);
+    out[i] = vec4<f32>(vary_absorption(p.x, v), vary_width(p.x, v));
+}";
+
+/// The GPU's per-strand factors against the f64 twin, over 4096 strands and three
+/// variations (the largest allowed among them): the worst relative error is bounded.
+#[test]
+fn the_wgsl_variation_matches_the_f64_twin() {
+    let gpu = common::gpu();
+    let vars = [
+        Variation {
+            melanin: 0.2,
+            width: 0.15,
+            tint: 0.1,
+        },
+        Variation {
+            melanin: 1.0,
+            width: 1.0,
+            tint: 1.0,
+        },
+        Variation {
+            melanin: 0.0,
+            width: 0.3,
+            tint: 0.0,
+        },
+    ];
+    let mut input: Vec<[f32; 4]> = Vec::new();
+    let mut want: Vec<[f64; 4]> = Vec::new();
+    for v in &vars {
+        for i in 0..4096u32 {
+            let rand = kami::rng::hash_unit(i ^ 0x5eed);
+            input.push([rand, v.melanin as f32, v.width as f32, v.tint as f32]);
+            let a = vary::absorption(rand, v);
+            want.push([a[0], a[1], a[2], vary::width_factor(rand, v)]);
+        }
+    }
+    let dev = &gpu.device;
+    let module = kami::gpu::shader_module(
+        dev,
+        "strand vary contract",
+        &format!("{}\n{ENTRY}", kami::shaders::STRAND_VARY),
+    )
+    .unwrap();
+    let layout = bind::layout(
+        dev,
+        "strand vary contract",
+        wgpu::ShaderStages::COMPUTE,
+        &[bind::storage::<[f32; 4]>(), bind::storage_rw::<[f32; 4]>()],
+    );
+    let pl = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: None,
+        bind_group_layouts: &[Some(&layout)],
+        immediate_size: 0,
+    });
+    let pipeline = dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: None,
+        layout: Some(&pl),
+        module: &module,
+        entry_point: Some("main"),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    let none = wgpu::BufferUsages::empty();
+    let in_buf = kami::gpu::storage_buffer(dev, "in", bytemuck::cast_slice(&input), none);
+    let out_bytes = want.len() * 16;
+    let out_buf = kami::gpu::storage_buffer(
+        dev,
+        "out",
+        &vec![0u8; out_bytes],
+        wgpu::BufferUsages::COPY_SRC,
+    );
+    let bind = bind::buffers(dev, "strand vary contract", &layout, &[&in_buf, &out_buf]);
+    let mut enc = dev.create_command_encoder(&Default::default());
+    {
+        let mut pass = enc.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &bind, &[]);
+        pass.dispatch_workgroups((want.len() as u32).div_ceil(64), 1, 1);
+    }
+    gpu.queue.submit([enc.finish()]);
+    let got: Vec<[f32; 4]> = kami::gpu::read_buffer(gpu, &out_buf, out_bytes as u64).unwrap();
+    gpu.take_error().unwrap();
+    let mut worst = (0.0f64, 0);
+    for (i, (w, g)) in want.iter().zip(&got).enumerate() {
+        for c in 0..4 {
+            let err = (f64::from(g[c]) - w[c]).abs() / w[c];
+            if err > worst.0 || err.is_nan() {
+                worst = (if err.is_finite() { err } else { f64::INFINITY }, i);
+            }
+        }
+    }
+    let (err, i) = worst;
+    assert!(
+        err < 1e-5,
+        "worst relative error {err} at strand {i}: gpu {:?}, f64 {:?}",
+        got[i],
+        want[i]
+    );
+}
+
+/// The numbers have zero mean and unit variance, stay within +-sqrt(3), and the three a
+/// strand draws are uncorrelated; with no variation every factor is 1.
+#[test]
+fn the_strand_numbers_have_the_stated_spread() {
+    let n = 20_000u32;
+    let us: Vec<[f64; 3]> = (0..n)
+        .map(|i| {
+            let r = kami::rng::hash_unit(i);
+            [vary::unit(r, 0), vary::unit(r, 1), vary::unit(r, 2)]
+        })
+        .collect();
+    for k in 0..3 {
+        let mean = us.iter().map(|u| u[k]).sum::<f64>() / n as f64;
+        let var = us.iter().map(|u| (u[k] - mean).powi(2)).sum::<f64>() / n as f64;
+        assert!(
+            mean.abs() < 0.03 && (var - 1.0).abs() < 0.03,
+            "{k}: {mean} {var}"
+        );
+        assert!(us.iter().all(|u| u[k].abs() <= 3f64.sqrt()));
+        let corr = us.iter().map(|u| u[k] * u[(k + 1) % 3]).sum::<f64>() / n as f64;
+        assert!(corr.abs() < 0.03, "{k}: correlation {corr}");
+    }
+    let none = Variation::default();
+    assert_eq!(vary::absorption(0.37, &none), [1.0; 3]);
+    assert_eq!(vary::width_factor(0.37, &none), 1.0);
+}
+
+fn bob_with(v: Variation) -> kami::Scene {
+    let mut scene = common::scene("bob");
+    for g in scene.groups_mut() {
+        g.material.variation = v;
+    }
+    scene
+}
+
+/// With variation the bob draws strands of their own shades and widths (the image changes,
+/// and the exported widths spread as exp(width z) says), and the drawn export hands each
+/// strand's absorption to the reference; without it, every factor is 1.
+#[test]
+fn varied_strands_are_drawn_exported_and_binned() {
+    let gpu = common::gpu();
+    let v = Variation {
+        melanin: 0.3,
+        width: 0.2,
+        tint: 0.1,
+    };
+    let plain = bob_with(Variation::default());
+    let varied = bob_with(v);
+    let a = kami::stage::render_scene(gpu, &plain, (96, 96)).unwrap();
+    let b = kami::stage::render_scene(gpu, &varied, (96, 96)).unwrap();
+    let differ = a
+        .pixels()
+        .zip(b.pixels())
+        .filter(|(p, q)| (0..3).any(|c| p[c].abs_diff(q[c]) > 4))
+        .count();
+    assert!(
+        differ > 200,
+        "{differ} pixels differ by more than 4 levels with variation"
+    );
+    let drawn = kami::bench::look::draw(gpu, &varied, (64, 64), 0, true)
+        .unwrap()
+        .groom
+        .unwrap();
+    let flat = kami::bench::look::draw(gpu, &plain, (64, 64), 0, true)
+        .unwrap()
+        .groom
+        .unwrap();
+    let (ga, gb) = (&flat.groom, &drawn.groom);
+    assert_eq!(ga.counts, gb.counts);
+    let abs = drawn.absorption.as_ref().unwrap();
+    assert_eq!(abs.len(), gb.counts.len());
+    assert!(flat
+        .absorption
+        .as_ref()
+        .unwrap()
+        .iter()
+        .all(|a| *a == [1.0; 3]));
+    // Root widths: the log of the ratio has the variation's spread.
+    let mut at = 0usize;
+    let mut logs = Vec::new();
+    for (i, &c) in gb.counts.iter().enumerate() {
+        let r = gb.widths.as_ref().unwrap()[at] / ga.widths.as_ref().unwrap()[at];
+        logs.push(f64::from(r).ln());
+        // The absorption's middle channel is exp(melanin z): within its bound.
+        let m = f64::from(abs[i][1]).ln();
+        assert!(m.abs() <= v.melanin * 3f64.sqrt() + 1e-6, "{i}: {m}");
+        at += c as usize;
+    }
+    let n = logs.len() as f64;
+    let mean = logs.iter().sum::<f64>() / n;
+    let sd = (logs.iter().map(|l| (l - mean).powi(2)).sum::<f64>() / n).sqrt();
+    assert!(
+        mean.abs() < 0.02 && (sd - v.width).abs() < 0.02,
+        "log width ratio: mean {mean}, sd {sd}"
+    );
+    // The reference: more than one hair BSDF, each strand in one, given as sigma_a.
+    let dir = common::scratch("varied_reference");
+    let shapes = kami::bench::look::write_shapes(&dir, &varied, gb, Some(abs), "bob").unwrap();
+    let bsdfs = shapes.matches("<bsdf type=\"hair\">").count();
+    assert!(bsdfs > 10, "{bsdfs} hair BSDFs for varied strands");
+    assert!(shapes.contains("name=\"sigma_a\""));
+    let plain_shapes =
+        kami::bench::look::write_shapes(&dir, &plain, ga, flat.absorption.as_deref(), "bob");
+    assert_eq!(
+        plain_shapes
+            .unwrap()
+            .matches("<bsdf type=\"hair\">")
+            .count(),
+        1
+    );
+}
+
+/// A spread outside 0..1 is refused, naming the field.
+#[test]
+fn a_variation_out_of_range_is_refused() {
+    let text = std::fs::read_to_string(common::root().join("assets/scenes/bob.ron")).unwrap();
+    let bad = text.replacen(
+        "Material(",
+        "Material(variation: Variation(melanin: 1.5), ",
+        1,
+    );
+    assert_ne!(bad, text, "bob.ron has a Material");
+    let (field, value, _) = common::invalid(&bad);
+    assert!(field.ends_with("material.variation.melanin"), "{field}");
+    assert_eq!(value, "1.5");
+}
