@@ -456,3 +456,28 @@ fn an_unknown_view_or_light_is_refused() {
         );
     }
 }
+
+/// Anjyo's strands seen from afar are drawn as the level of detail's share of each group,
+/// widened by its inverse: the reference gets those strands at that width, so the hair's
+/// coverage (strands times width) is the full groom's.
+#[test]
+fn anjyo_drawn_for_the_reference_is_the_level_of_details_share() {
+    let gpu = crate::common::gpu();
+    let mut scene = shipped("bob.ron");
+    let eye = DVec3::from(scene.camera.eye);
+    let target = DVec3::from(scene.camera.target);
+    scene.camera.eye = (target + 8.0 * (eye - target)).to_array();
+    let full = kami::stage::export_scene(gpu, &scene, 0).unwrap();
+    let drawn = draw(gpu, &scene, (64, 64), 0, true)
+        .unwrap()
+        .groom
+        .unwrap()
+        .groom;
+    let (n, m) = (drawn.counts.len() as f64, full.counts.len() as f64);
+    assert!(n < 0.5 * m, "{n} of {m} strands drawn from afar");
+    let ratio = f64::from(drawn.widths.as_ref().unwrap()[0] / full.widths.as_ref().unwrap()[0]);
+    assert!(
+        (n * ratio - m).abs() < 0.01 * m,
+        "{n} strands widened {ratio} times for {m}"
+    );
+}
