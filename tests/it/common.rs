@@ -619,3 +619,59 @@ impl log::Log for Capture {
 
     fn flush(&self) {}
 }
+
+/// Run a contract test's compute entry point `main` (workgroup size 64) of `source` once per
+/// output element: binding k of group 0 is `inputs[k]` (read-only storage, `slots[k]` its
+/// layout), the last binding the `n` vec4<f32> results, read back.
+pub fn run_contract(
+    gpu: &Gpu,
+    label: &str,
+    source: &str,
+    inputs: &[(&[u8], kami::gpu::bind::Slot)],
+    n: usize,
+) -> Vec<[f32; 4]> {
+    use kami::gpu::bind;
+    let dev = &gpu.device;
+    let module = kami::gpu::shader_module(dev, label, source).unwrap();
+    let mut slots: Vec<bind::Slot> = inputs.iter().map(|i| i.1).collect();
+    slots.push(bind::storage_rw::<[f32; 4]>());
+    let layout = bind::layout(dev, label, wgpu::ShaderStages::COMPUTE, &slots);
+    let pl = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: None,
+        bind_group_layouts: &[Some(&layout)],
+        immediate_size: 0,
+    });
+    let pipeline = dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: None,
+        layout: Some(&pl),
+        module: &module,
+        entry_point: Some("main"),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    let none = wgpu::BufferUsages::empty();
+    let mut buffers: Vec<wgpu::Buffer> = inputs
+        .iter()
+        .map(|(bytes, _)| kami::gpu::storage_buffer(dev, label, bytes, none))
+        .collect();
+    let out_bytes = n * 16;
+    buffers.push(kami::gpu::storage_buffer(
+        dev,
+        label,
+        &vec![0u8; out_bytes],
+        wgpu::BufferUsages::COPY_SRC,
+    ));
+    let refs: Vec<&wgpu::Buffer> = buffers.iter().collect();
+    let group = bind::buffers(dev, label, &layout, &refs);
+    let mut enc = dev.create_command_encoder(&Default::default());
+    {
+        let mut pass = enc.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &group, &[]);
+        pass.dispatch_workgroups((n as u32).div_ceil(64), 1, 1);
+    }
+    gpu.queue.submit([enc.finish()]);
+    let got = kami::gpu::read_buffer(gpu, buffers.last().unwrap(), out_bytes as u64).unwrap();
+    gpu.take_error().unwrap();
+    got
+}

@@ -92,63 +92,20 @@ fn wgsl_bsdf_matches_the_f64_reference() {
             }
         }
     }
-    let dev = &gpu.device;
-    let module = kami::gpu::shader_module(
-        dev,
+    use kami::gpu::bind;
+    let got = common::run_contract(
+        gpu,
         "hair bsdf contract",
         &format!("{}\n{ENTRY}", kami::shaders::HAIR_BSDF),
-    )
-    .unwrap();
-    use kami::gpu::bind;
-    let layout = bind::layout(
-        dev,
-        "hair bsdf contract",
-        wgpu::ShaderStages::COMPUTE,
         &[
-            bind::storage::<kami::systems::hair_bsdf::GpuHairBsdf>(),
-            bind::storage::<[f32; 4]>(),
-            bind::storage_rw::<[f32; 4]>(),
+            (
+                bytemuck::cast_slice(&mats),
+                bind::storage::<kami::systems::hair_bsdf::GpuHairBsdf>(),
+            ),
+            (bytemuck::cast_slice(&input), bind::storage::<[f32; 4]>()),
         ],
+        want.len(),
     );
-    let pl = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: None,
-        bind_group_layouts: &[Some(&layout)],
-        immediate_size: 0,
-    });
-    let pipeline = dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: None,
-        layout: Some(&pl),
-        module: &module,
-        entry_point: Some("main"),
-        compilation_options: Default::default(),
-        cache: None,
-    });
-    let none = wgpu::BufferUsages::empty();
-    let mats_buf = kami::gpu::storage_buffer(dev, "mats", bytemuck::cast_slice(&mats), none);
-    let in_buf = kami::gpu::storage_buffer(dev, "in", bytemuck::cast_slice(&input), none);
-    let out_bytes = want.len() * 16;
-    let out_buf = kami::gpu::storage_buffer(
-        dev,
-        "out",
-        &vec![0u8; out_bytes],
-        wgpu::BufferUsages::COPY_SRC,
-    );
-    let bind = bind::buffers(
-        dev,
-        "hair bsdf contract",
-        &layout,
-        &[&mats_buf, &in_buf, &out_buf],
-    );
-    let mut enc = dev.create_command_encoder(&Default::default());
-    {
-        let mut pass = enc.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &bind, &[]);
-        pass.dispatch_workgroups((want.len() as u32).div_ceil(64), 1, 1);
-    }
-    gpu.queue.submit([enc.finish()]);
-    let got: Vec<[f32; 4]> = kami::gpu::read_buffer(gpu, &out_buf, out_bytes as u64).unwrap();
-    gpu.take_error().unwrap();
     let mut worst = (0.0f64, 0);
     for (i, ((m, s), g)) in want.iter().zip(&got).enumerate() {
         for c in 0..3 {

@@ -184,6 +184,14 @@ fn the_reference_scene_holds_kamis_strands_camera_and_light() {
     assert!(xml.contains("value=\"head.obj\""));
 }
 
+/// `scene` with its camera `k` times as far from its target.
+fn farther(mut scene: kami::Scene, k: f64) -> kami::Scene {
+    let eye = DVec3::from(scene.camera.eye);
+    let target = DVec3::from(scene.camera.target);
+    scene.camera.eye = (target + k * (eye - target)).to_array();
+    scene
+}
+
 fn shipped(name: &str) -> kami::Scene {
     kami::Scene::load(kami::scene::shipped(&format!("assets/scenes/{name}"))).unwrap()
 }
@@ -343,11 +351,8 @@ fn strips_drawn_for_the_reference_are_the_texture_hairs() {
 fn fur_drawn_for_the_reference_is_the_culled_hairs_widened() {
     use kami::systems::fur::setup::{culling_factor, FurSetup};
     let gpu = crate::common::gpu();
-    let mut scene = shipped("fur_polyline.ron");
     // Far enough that the culling keeps under half the hairs.
-    let eye = DVec3::from(scene.camera.eye);
-    let target = DVec3::from(scene.camera.target);
-    scene.camera.eye = (target + 6.0 * (eye - target)).to_array();
+    let scene = farther(shipped("fur_polyline.ron"), 6.0);
     let fur = scene.fur().as_ref().unwrap();
     let setup = FurSetup::new(fur, scene.seed).unwrap();
     let bounds = setup.bounds();
@@ -463,10 +468,7 @@ fn an_unknown_view_or_light_is_refused() {
 #[test]
 fn anjyo_drawn_for_the_reference_is_the_level_of_details_share() {
     let gpu = crate::common::gpu();
-    let mut scene = shipped("bob.ron");
-    let eye = DVec3::from(scene.camera.eye);
-    let target = DVec3::from(scene.camera.target);
-    scene.camera.eye = (target + 8.0 * (eye - target)).to_array();
+    let scene = farther(shipped("bob.ron"), 8.0);
     let full = kami::stage::export_scene(gpu, &scene, 0).unwrap();
     let drawn = draw(gpu, &scene, (64, 64), 0, true)
         .unwrap()

@@ -97,13 +97,19 @@ fn each_method_matches_the_f64_reference_on_the_bob() {
     check(&small_bob(ShadowMethod::Volume), 97, "the bob");
 }
 
-/// A dense clump (the bob's bangs alone, every hair), lit from the side so the light grazes
-/// the scalp, and a single strand.
+/// A dense clump (the bob's bangs alone, every hair) under the scene's light and lit from
+/// behind (the camera looks through the clump towards the light: rim light, where the
+/// light crosses the most hair), a light that grazes the scalp, and a single strand.
 #[test]
 fn hard_cases_match_the_f64_reference() {
     let mut clump = common::scene("bob");
     clump.groups_mut().truncate(1);
     check(&clump, 53, "a dense clump");
+    let eye = DVec3::from(clump.camera.eye);
+    let target = DVec3::from(clump.camera.target);
+    let behind = ((target - eye).normalize() + DVec3::new(0.0, 0.3, 0.0)).normalize();
+    clump.light.direction = behind.to_array();
+    check(&clump, 53, "a dense clump lit from behind");
     let mut grazing = small_bob(ShadowMethod::Volume);
     grazing.light.direction = [0.0, 0.03, 1.0];
     check(&grazing, 97, "a grazing light");

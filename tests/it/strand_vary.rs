@@ -54,52 +54,13 @@ fn the_wgsl_variation_matches_the_f64_twin() {
             want.push([a[0], a[1], a[2], vary::width_factor(rand, v)]);
         }
     }
-    let dev = &gpu.device;
-    let module = kami::gpu::shader_module(
-        dev,
+    let got = common::run_contract(
+        gpu,
         "strand vary contract",
         &format!("{}\n{ENTRY}", kami::shaders::STRAND_VARY),
-    )
-    .unwrap();
-    let layout = bind::layout(
-        dev,
-        "strand vary contract",
-        wgpu::ShaderStages::COMPUTE,
-        &[bind::storage::<[f32; 4]>(), bind::storage_rw::<[f32; 4]>()],
+        &[(bytemuck::cast_slice(&input), bind::storage::<[f32; 4]>())],
+        want.len(),
     );
-    let pl = dev.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label: None,
-        bind_group_layouts: &[Some(&layout)],
-        immediate_size: 0,
-    });
-    let pipeline = dev.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: None,
-        layout: Some(&pl),
-        module: &module,
-        entry_point: Some("main"),
-        compilation_options: Default::default(),
-        cache: None,
-    });
-    let none = wgpu::BufferUsages::empty();
-    let in_buf = kami::gpu::storage_buffer(dev, "in", bytemuck::cast_slice(&input), none);
-    let out_bytes = want.len() * 16;
-    let out_buf = kami::gpu::storage_buffer(
-        dev,
-        "out",
-        &vec![0u8; out_bytes],
-        wgpu::BufferUsages::COPY_SRC,
-    );
-    let bind = bind::buffers(dev, "strand vary contract", &layout, &[&in_buf, &out_buf]);
-    let mut enc = dev.create_command_encoder(&Default::default());
-    {
-        let mut pass = enc.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&pipeline);
-        pass.set_bind_group(0, &bind, &[]);
-        pass.dispatch_workgroups((want.len() as u32).div_ceil(64), 1, 1);
-    }
-    gpu.queue.submit([enc.finish()]);
-    let got: Vec<[f32; 4]> = kami::gpu::read_buffer(gpu, &out_buf, out_bytes as u64).unwrap();
-    gpu.take_error().unwrap();
     let mut worst = (0.0f64, 0);
     for (i, (w, g)) in want.iter().zip(&got).enumerate() {
         for c in 0..4 {
