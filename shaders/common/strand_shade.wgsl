@@ -79,7 +79,10 @@ fn node_width_alpha(s: Strand, n: u32) -> vec2<f32> {
         width = select(width, bitcast<f32>(look.y), mat.file.y > 0.5);
         alpha = select(1.0, unpack4x8unorm(look.x).a, mat.file.z > 0.5);
     }
-    width *= vary_width(s.rand, mat.variation);
+    // Only a group that varies pays for it (a uniform branch per group).
+    if mat.variation.y != 0.0 {
+        width *= vary_width(s.rand, mat.variation);
+    }
     // raster.z widens hair when only a share of it is drawn (level of detail).
     return vec2<f32>(width * frame.raster.z * lod.x, alpha);
 }
@@ -111,9 +114,14 @@ fn shade_node(s: Strand, n: u32) -> ShadedNode {
     if mat.file.x > 0.5 {
         base = srgb_to_linear(unpack4x8unorm(looks[s.first_vertex + n].x).rgb);
     }
-    // The strand's own pigment: its absorption scaled (vary.rs), its colour c^a.
-    let absorb = vary_absorption(s.rand, mat.variation);
-    base = pow(max(base, vec3<f32>(0.0)), absorb);
+    // The strand's own pigment: its absorption scaled (vary.rs), its colour c^a; only a
+    // group that varies pays for it.
+    let varies = mat.variation.x != 0.0 || mat.variation.z != 0.0;
+    var absorb = vec3<f32>(1.0);
+    if varies {
+        absorb = vary_absorption(s.rand, mat.variation);
+        base = pow(max(base, vec3<f32>(0.0)), absorb);
+    }
 
     // Anjyo eq 8: specular from the tangent alone; eq 9 with a per-strand ambient.
     let l = frame.light_dir.xyz;
@@ -135,10 +143,13 @@ fn shade_node(s: Strand, n: u32) -> ShadedNode {
     // send (dual scattering's averages) stays the group's.
     if hair_physical(mat.bsdf) {
         var b = mat.bsdf;
-        b.sigma_a = vec4<f32>(b.sigma_a.rgb * absorb, b.sigma_a.w);
+        var around = mat.bsdf.ambient.rgb;
+        if varies {
+            b.sigma_a = vec4<f32>(b.sigma_a.rgb * absorb, b.sigma_a.w);
+            around = pow(max(around, vec3<f32>(0.0)), absorb);
+        }
         let f = hair_dual_radiance(b, t, v, l, shadow_layered(p));
-        rgb = frame.light_color.rgb * (hair_irradiance() * shadow_opaque(p)) * f
-            + pow(max(mat.bsdf.ambient.rgb, vec3<f32>(0.0)), absorb) * ambient;
+        rgb = frame.light_color.rgb * (hair_irradiance() * shadow_opaque(p)) * f + around * ambient;
     }
     // The dynamics mark nodes whose segment felt the pseudo-force with w = 2.
     if frame.flags.x > 0.5 && verts[s.first_vertex + n].w > 1.5 {
