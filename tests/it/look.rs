@@ -7,8 +7,8 @@
 
 use glam::{DVec2, DVec3};
 use kami::bench::look::{
-    close_up, draw, environment, hair, irradiance, lit, parse_compared, write_mitsuba, Lighting,
-    LIGHT_RISE,
+    close_up, drawn_hair, environment, hair, irradiance, lit, parse_compared, write_mitsuba,
+    Lighting, LIGHT_RISE,
 };
 use kami::formats::Groom;
 use kami::gpu::view::{Camera, ScreenView};
@@ -288,11 +288,7 @@ fn strips_drawn_for_the_reference_are_the_texture_hairs() {
     let gpu = crate::common::gpu();
     let scene = shipped("strips.ron");
     let look = &scene.strips().as_ref().unwrap().look;
-    let drawn = draw(gpu, &scene, (64, 64), 0, true)
-        .unwrap()
-        .groom
-        .unwrap()
-        .groom;
+    let drawn = drawn_hair(gpu, &scene, (64, 64)).unwrap().groom;
     let lines = kami::stage::export_scene(gpu, &scene, 0).unwrap();
     let hairs = texture::texture_hairs(look);
     assert_eq!(drawn.counts.len(), lines.counts.len() * hairs.len());
@@ -364,11 +360,7 @@ fn fur_drawn_for_the_reference_is_the_culled_hairs_widened() {
     );
     assert!(c < 0.5, "culling {c}");
     let full = kami::stage::export_scene(gpu, &scene, 0).unwrap();
-    let drawn = draw(gpu, &scene, (64, 64), 0, true)
-        .unwrap()
-        .groom
-        .unwrap()
-        .groom;
+    let drawn = drawn_hair(gpu, &scene, (64, 64)).unwrap().groom;
     let want: u32 = (0..setup.coats.len())
         .map(|ci| *setup.culled_offsets(ci, c).last().unwrap())
         .sum();
@@ -470,11 +462,7 @@ fn anjyo_drawn_for_the_reference_is_the_level_of_details_share() {
     let gpu = crate::common::gpu();
     let scene = farther(shipped("bob.ron"), 8.0);
     let full = kami::stage::export_scene(gpu, &scene, 0).unwrap();
-    let drawn = draw(gpu, &scene, (64, 64), 0, true)
-        .unwrap()
-        .groom
-        .unwrap()
-        .groom;
+    let drawn = drawn_hair(gpu, &scene, (64, 64)).unwrap().groom;
     let (n, m) = (drawn.counts.len() as f64, full.counts.len() as f64);
     assert!(n < 0.5 * m, "{n} of {m} strands drawn from afar");
     let ratio = f64::from(drawn.widths.as_ref().unwrap()[0] / full.widths.as_ref().unwrap()[0]);

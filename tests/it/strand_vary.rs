@@ -138,14 +138,8 @@ fn varied_strands_are_drawn_exported_and_binned() {
         differ > 200,
         "{differ} pixels differ by more than 4 levels with variation"
     );
-    let drawn = kami::bench::look::draw(gpu, &varied, (64, 64), 0, true)
-        .unwrap()
-        .groom
-        .unwrap();
-    let flat = kami::bench::look::draw(gpu, &plain, (64, 64), 0, true)
-        .unwrap()
-        .groom
-        .unwrap();
+    let drawn = kami::bench::look::drawn_hair(gpu, &varied, (64, 64)).unwrap();
+    let flat = kami::bench::look::drawn_hair(gpu, &plain, (64, 64)).unwrap();
     let (ga, gb) = (&flat.groom, &drawn.groom);
     assert_eq!(ga.counts, gb.counts);
     let abs = drawn.absorption.as_ref().unwrap();

@@ -93,7 +93,7 @@ pub struct Drawn {
     /// "gpu-timestamps" or "cpu-wait".
     pub clock: &'static str,
     /// The hair as drawn (`Stage::export_drawn`), where asked for.
-    pub groom: Option<crate::systems::system::DrawnHair>,
+    pub hair: Option<crate::systems::system::DrawnHair>,
 }
 
 /// Draw frame 0 of `scene` at `size`: one untimed frame, then the mean of `frames` frames
@@ -135,7 +135,7 @@ pub fn draw(
         }
     }
     let image = out.read_rgba(gpu)?;
-    let groom = if export {
+    let hair = if export {
         Some(stage.export_drawn(gpu)?)
     } else {
         None
@@ -145,8 +145,20 @@ pub fn draw(
         image,
         ms: ms.iter().sum::<f64>() / ms.len().max(1) as f64,
         clock: if timed { "gpu-timestamps" } else { "cpu-wait" },
-        groom,
+        hair,
     })
+}
+
+/// The hair one untimed frame of `scene` at `size` draws, as strands (what the reference
+/// gets: `Stage::export_drawn`).
+pub fn drawn_hair(
+    gpu: &Gpu,
+    scene: &Scene,
+    size: (u32, u32),
+) -> Result<crate::systems::system::DrawnHair> {
+    Ok(draw(gpu, scene, size, 0, true)?
+        .hair
+        .expect("draw exports when asked"))
 }
 
 /// Bench options.
@@ -370,8 +382,7 @@ pub fn run(gpu: &Gpu, o: &Options, out: &Path) -> Result<Report> {
             // The reference draws the hair as Kami drew it from this camera (fur's culling,
             // strips' texture hairs); its files serve every light (tens of MB of curves, kept
             // beside the cache, not in `out`).
-            let drawn = draw(gpu, &framed, o.size, 0, true)?;
-            let groom = drawn.groom.expect("asked for");
+            let groom = drawn_hair(gpu, &framed, o.size)?;
             let work = o.cache.join(format!("scene_{name}")).join(view.name());
             let shapes = write_shapes(
                 &work,
