@@ -65,8 +65,8 @@ pub const ROWS: [(Shading, bool); 4] = [
 
 /// Set `scene` up for one row: the scene's shading mode for every group (a group's own
 /// choice is cleared so the row is what it says) and the shadows on or off with the
-/// scene's method. Returns whether this build has the row (every row, now).
-pub fn look_row(scene: &mut Scene, shading: Shading, shadows: bool) -> bool {
+/// scene's method.
+pub fn look_row(scene: &mut Scene, shading: Shading, shadows: bool) {
     scene.render.shading = match shading {
         Shading::Anjyo => crate::scene::Shading::Anjyo,
         Shading::Physical => crate::scene::Shading::Physical,
@@ -83,7 +83,6 @@ pub fn look_row(scene: &mut Scene, shading: Shading, shadows: bool) -> bool {
         s.look.shading = None;
     }
     scene.render.shadows.on = shadows;
-    true
 }
 
 /// One drawn row: Kami's image and its frame time.
