@@ -32,7 +32,8 @@ struct ShadowParams {
     // deep opacity: where each layer ends, world distance behind the first depth
     layers: vec4<f32>,
     // x how far towards the light a point on a layered strand reads the structure
-    // (shadow_layered), world; y, z, w unused
+    // (shadow_layered), world; y 1 with a skin map, z its first word, w its depth bias
+    // (world; shadow_skin)
     layered: vec4<f32>,
     // world to the head ellipsoid's unit sphere (shadow_opaque)
     head_inv: mat4x4<f32>,

@@ -12,8 +12,10 @@
 //   unhindered, comes out shadowed. Fur (standing off its skin), strips, and surfaces
 //   under the hair read `shadow_strands`: there the offset skipped shadow that is there
 //   (docs/shadows.md, measured against the path tracer).
-// - `shadow_opaque(p)`: how much of the key light reaches p past opaque occluders (the head,
-//   a mesh head, a fur skin): 1 lit, 0 in their shadow; 1 while shadows are off.
+// - `shadow_opaque(p)`: how much of the key light reaches p past opaque occluders (the head
+//   ellipsoid, which stands for a mesh head, and a fur mesh's skin through the skin map):
+//   1 lit, 0 in their shadow, between on the skin map's one-texel soft edge; 1 while
+//   shadows are off.
 // - `shadow_direct(p)`: the factor on the direct (diffuse + specular) light of hair:
 //   exp(-absorption * shadow_strands(p)) * shadow_opaque(p); `shadow_direct_layered(p)`
 //   the same with `shadow_layered(p)`.
@@ -111,12 +113,48 @@ fn shadow_strands(p: vec3<f32>) -> f32 {
     return mix(a, b, f.y);
 }
 
-// The ray from p towards the light against the head ellipsoid (drawn 2 % smaller, so roots
-// on the scalp's lit side do not shadow themselves). A mesh head is stood for by its
-// scene ellipsoid.
-fn shadow_opaque(p: vec3<f32>) -> f32 {
-    if shadow_lookup() == 0u || frame.shadow.center.w < 0.5 || frame.shadow.dims.w < 0.5 {
+// The skin map (src/stage/shadow.rs, `SKIN_TEXELS`; present while `layered.y` is 1): per
+// texel of a SHADOW_SKIN^2 grid across the box, the depth (world, from the box's light
+// side) of the nearest skin triangle towards the light, the box's far side where none; its
+// words start at `layered.z`. A fur mesh's skin casts it (`deposit_triangle`).
+const SHADOW_SKIN: u32 = 256u;
+
+// 0 where `depth` lies more than the bias (`layered.w`, two texels: a surface's own depth
+// varies across a texel) behind texel (x, y)'s skin; 1 otherwise and off the map.
+fn shadow_skin_at(x: i32, y: i32, depth: f32) -> f32 {
+    let n = i32(SHADOW_SKIN);
+    if x < 0 || y < 0 || x >= n || y >= n {
         return 1.0;
+    }
+    let d = shadow_word(u32(frame.shadow.layered.z) + u32(y * n + x));
+    return select(1.0, 0.0, depth > d + frame.shadow.layered.w);
+}
+
+// The four nearest texels' answers blended bilinearly (percentage-closer filtering: a soft
+// edge one texel wide instead of a staircase).
+fn shadow_skin(p: vec3<f32>) -> f32 {
+    let c = shadow_coords(p);
+    let g = c.xy * (f32(SHADOW_SKIN) / frame.shadow.dims.x) - 0.5;
+    let i = vec2<i32>(floor(g));
+    let f = g - floor(g);
+    let a = mix(shadow_skin_at(i.x, i.y, c.z), shadow_skin_at(i.x + 1, i.y, c.z), f.x);
+    let b = mix(shadow_skin_at(i.x, i.y + 1, c.z), shadow_skin_at(i.x + 1, i.y + 1, c.z), f.x);
+    return mix(a, b, f.y);
+}
+
+// The skin map's answer times the ray from p towards the light against the head ellipsoid
+// (drawn 2 % smaller, so roots on the scalp's lit side do not shadow themselves). A mesh
+// head is stood for by its scene ellipsoid.
+fn shadow_opaque(p: vec3<f32>) -> f32 {
+    if shadow_lookup() == 0u || frame.shadow.center.w < 0.5 {
+        return 1.0;
+    }
+    var lit = 1.0;
+    if frame.shadow.layered.y > 0.5 {
+        lit = shadow_skin(p);
+    }
+    if frame.shadow.dims.w < 0.5 {
+        return lit;
     }
     let o = (frame.shadow.head_inv * vec4<f32>(p, 1.0)).xyz;
     let d = (frame.shadow.head_inv * vec4<f32>(frame.shadow.axis_l.xyz, 0.0)).xyz;
@@ -126,10 +164,10 @@ fn shadow_opaque(p: vec3<f32>) -> f32 {
     let c = dot(o, o) - 0.98 * 0.98;
     let disc = b * b - a * c;
     if disc < 0.0 || a <= 0.0 {
-        return 1.0;
+        return lit;
     }
     let far = (-b + sqrt(disc)) / a;
-    return select(1.0, 0.0, far > 0.0);
+    return select(lit, 0.0, far > 0.0);
 }
 
 fn shadow_layered(p: vec3<f32>) -> f32 {

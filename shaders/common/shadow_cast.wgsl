@@ -79,3 +79,49 @@ fn deposit_segment(a: vec3<f32>, b: vec3<f32>, width: f32, opacity: f32) {
         deposit_point(a + d * ((f32(k) + 0.5) / f32(n)), coverage);
     }
 }
+
+// Edge function of q against the edge a-b (twice the signed area of a, b, q).
+fn shadow_edge(a: vec2<f32>, b: vec2<f32>, q: vec2<f32>) -> f32 {
+    return (b.x - a.x) * (q.y - a.y) - (b.y - a.y) * (q.x - a.x);
+}
+
+// An opaque triangle into the skin map, in phase 1 (the phase every method runs; nothing
+// without a skin map): each texel whose centre the triangle covers (edges inclusive, so a
+// closed mesh leaves no gaps) keeps the nearest depth, as the first depth does (atomicMax
+// of its complement). The loops are bounded by the map's size.
+fn deposit_triangle(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) {
+    if frame.shadow.center.w < 0.5 || frame.shadow.layered.y < 0.5 || shadow_phase.x != 1u {
+        return;
+    }
+    let s = f32(SHADOW_SKIN) / frame.shadow.dims.x;
+    let pa = shadow_coords(a);
+    let pb = shadow_coords(b);
+    let pc = shadow_coords(c);
+    let qa = pa.xy * s;
+    let qb = pb.xy * s;
+    let qc = pc.xy * s;
+    let area = shadow_edge(qa, qb, qc);
+    if !(abs(area) > 1e-12) {
+        return;
+    }
+    let n = i32(SHADOW_SKIN);
+    let lo = max(vec2<i32>(ceil(min(min(qa, qb), qc) - 0.5)), vec2<i32>(0));
+    let hi = min(vec2<i32>(floor(max(max(qa, qb), qc) - 0.5)), vec2<i32>(n - 1));
+    let two_half = 2.0 * frame.shadow.axis_u.w;
+    let base = u32(frame.shadow.layered.z);
+    let tol = -1e-6;
+    for (var y = lo.y; y <= hi.y; y++) {
+        for (var x = lo.x; x <= hi.x; x++) {
+            let q = vec2<f32>(f32(x) + 0.5, f32(y) + 0.5);
+            let wa = shadow_edge(qb, qc, q) / area;
+            let wb = shadow_edge(qc, qa, q) / area;
+            let wc = shadow_edge(qa, qb, q) / area;
+            if wa < tol || wb < tol || wc < tol {
+                continue;
+            }
+            let z = (wa * pa.z + wb * pb.z + wc * pc.z) / (wa + wb + wc);
+            let depth = u32(clamp(z / two_half, 0.0, 1.0) * SHADOW_DEPTH_SCALE);
+            atomicMax(&shadow_accum[base + u32(y * n + x)], u32(SHADOW_DEPTH_SCALE) - depth);
+        }
+    }
+}

@@ -1,5 +1,7 @@
 // The fur mesh's skin: its triangles read from storage (the same buffers the fur generator
-// reads), moved by the same deformation, lit like the head.
+// reads), moved by the same deformation, lit like the head, shadowed by the hair and by
+// itself; and cast into the shadow structure's skin map (`cast_skin`, groups 0 and 2 of
+// common/shadow_cast.wgsl bound as for every caster).
 
 // Twin of GpuSkin (tests/it/gpu_twins.rs checks it) in src/systems/fur/gpu_data.rs.
 struct Skin {
@@ -38,12 +40,16 @@ struct VOut {
     @location(1) normal: vec3<f32>,
 }
 
+// Vertex v of the skin this frame: skinned, then moved by the mesh motion.
+fn skin_vertex(v: u32) -> Deformed {
+    let sk = skinned(v, mesh[2u * v].xyz, mesh[2u * v + 1u].xyz);
+    return deform(skin.motion, skin.motion_axis.xyz, skin.motion_dir.xyz, sk.p, sk.n);
+}
+
 @vertex
 fn vs(@builtin(vertex_index) vi: u32) -> VOut {
     var out: VOut;
-    let v = tris[vi / 3u][vi % 3u];
-    let sk = skinned(v, mesh[2u * v].xyz, mesh[2u * v + 1u].xyz);
-    let d = deform(skin.motion, skin.motion_axis.xyz, skin.motion_dir.xyz, sk.p, sk.n);
+    let d = skin_vertex(tris[vi / 3u][vi % 3u]);
     out.pos = frame.view_proj * vec4<f32>(d.p, 1.0);
     out.world = d.p;
     out.normal = d.n;
@@ -55,8 +61,22 @@ fn fs(in: VOut) -> @location(0) vec4<f32> {
     let n = normalize(in.normal);
     let l = frame.light_dir.xyz;
     let wrap = max((dot(n, l) + 0.3) / 1.3, 0.0);
-    // The fur's shadow (common/shadow.wgsl) dims the direct light.
-    let direct = frame.light_dir.w * exp(-frame.shadow.axis_l.w * shadow_strands(in.world));
+    // The fur's shadow (common/shadow.wgsl) dims the direct light, and so does the skin
+    // where it faces away from the light behind more skin (read off the surface along
+    // the normal by the skin map's bias, so a lit face does not shadow itself).
+    let off = in.world + n * frame.shadow.layered.w;
+    let direct = frame.light_dir.w * exp(-frame.shadow.axis_l.w * shadow_strands(in.world)) * shadow_opaque(off);
     let rgb = skin.color.rgb * (0.3 * frame.light_color.w + 0.8 * direct * wrap);
     return vec4<f32>(rgb, 1.0);
+}
+
+// One invocation per skin triangle, posed as `vs` poses it, into the skin map.
+@compute @workgroup_size(64)
+fn cast_skin(@builtin(global_invocation_id) id: vec3<u32>) {
+    let t = id.x + id.y * 65535u * 64u;
+    if t >= arrayLength(&tris) {
+        return;
+    }
+    let i = tris[t];
+    deposit_triangle(skin_vertex(i.x).p, skin_vertex(i.y).p, skin_vertex(i.z).p);
 }

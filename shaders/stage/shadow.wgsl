@@ -14,10 +14,15 @@ const DEPTH_SCALE: f32 = 16777215.0;
 // One invocation per column: the volume's slices summed along the light (each cell gets the
 // strands before it and half of its own); deep opacity's first depth (world, past the box's
 // light side; a texel no strand reached gets the box's far side) and cumulative layers.
+// With a skin map, invocation c also turns texel c's nearest skin into a depth (world).
 @compute @workgroup_size(64)
 fn resolve(@builtin(global_invocation_id) id: vec3<u32>) {
     let columns = u32(frame.shadow.dims.x * frame.shadow.dims.y);
     let c = id.x;
+    if frame.shadow.layered.y > 0.5 && c < SHADOW_SKIN * SHADOW_SKIN {
+        let at = u32(frame.shadow.layered.z) + c;
+        resolved[at] = (DEPTH_SCALE - f32(cast_in[at])) / DEPTH_SCALE * (2.0 * frame.shadow.axis_u.w);
+    }
     if c >= columns {
         return;
     }

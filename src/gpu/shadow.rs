@@ -106,7 +106,8 @@ pub struct GpuShadow {
     /// Deep opacity: where each layer ends, world distance behind the first depth.
     pub layers: [f32; 4],
     /// x: how far towards the light a point on a layered strand reads the structure
-    /// (`shadow_layered`), world units; y, z, w: unused (0).
+    /// (`shadow_layered`), world units; y: 1 with a skin map (`stage::shadow::SKIN_TEXELS`),
+    /// z: its first word in the structure, w: its depth bias (world; `shadow_skin`).
     pub layered: [f32; 4],
     /// World to the head ellipsoid's unit sphere.
     pub head_inv: [[f32; 4]; 4],

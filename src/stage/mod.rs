@@ -743,7 +743,8 @@ impl Stage {
             .head
             .visible
             .then(|| head_sphere(&self.scene, head_pose));
-        let mut params = shadow::params(&settings, &light_box, head, casting);
+        let skin = casting && self.systems.iter().any(|s| s.casts_opaque());
+        let mut params = shadow::params(&settings, &light_box, head, casting, skin);
         if self.shadow_variant.toon {
             // Toon wisps: shadows are steps (`shadow_toon`).
             params.center[3] = 2.0;

@@ -11,9 +11,16 @@
 //!   depth (one casting phase), then 4 opacity layers behind that depth (a second phase),
 //!   summed in the resolve.
 //!
+//! Opaque casters (a fur mesh's skin, `HairSystem::casts_opaque`) add a **skin map**: a
+//! 256^2 light-space map of the nearest skin's depth, rasterised from the skin's triangles
+//! in the same cast pass and read by `shadow_opaque` (the head stays an analytic
+//! ellipsoid).
+//!
 //! The light-space box is fitted to the stage's bounding sphere each frame. Buffers exist
-//! only while shadows are on and some system casts. [`reference_strands`] is the f64
-//! reference of `shadow_strands` (brute force over every segment).
+//! only while shadows are on and some system casts, the skin map only while one casts
+//! opaque. [`reference_strands`] is the f64 reference of `shadow_strands` (brute force over
+//! every segment), [`reference_skin`] of the skin map's answer (a ray against every
+//! triangle).
 
 use crate::error::{KamiError, Result};
 use crate::gpu::gpu_data::GpuFrame;
@@ -31,6 +38,13 @@ pub const DEEP_LAYERS: u32 = 4;
 /// Where the deep opacity layers end, in units of the box's size / 64 behind the first depth
 /// (layers widen with depth, as Yuksel & Keyser's do).
 pub const DEEP_LAYER_ENDS: [f64; 4] = [1.0, 2.0, 4.0, 8.0];
+/// Texels across the skin map (`SHADOW_SKIN` in `shaders/common/shadow.wgsl`).
+pub const SKIN_TEXELS: u32 = 256;
+/// How far behind the nearest skin a point must lie to be in its shadow, in skin texels: a
+/// surface's depth varies across the texel it is read from (and the blend reads four), so
+/// the skin would shadow itself, and the roots of hair on its lit side, without it.
+pub const SKIN_BIAS_TEXELS: f64 = 2.0;
+
 /// How far towards the light a point on a strand lying in layers (Anjyo's hair) reads the
 /// structure (`shadow_layered`), in units of the box's size / 64 (a volume cell): the
 /// scene's `layered_offset`, else the method's own. Chosen against the path tracer (`kami
@@ -96,7 +110,8 @@ fn cells(method: ShadowMethod) -> u32 {
     }
 }
 
-/// f32 words of the resolved structure (and u32 words cast) of `method`.
+/// f32 words of the resolved structure (and u32 words cast) of `method`, before the skin
+/// map's.
 fn words(method: ShadowMethod) -> u64 {
     let n = cells(method) as u64;
     match method {
@@ -105,9 +120,30 @@ fn words(method: ShadowMethod) -> u64 {
     }
 }
 
+/// Words of the whole structure: the method's, then the skin map's when there is one.
+fn all_words(method: ShadowMethod, skin: bool) -> u64 {
+    words(method)
+        + if skin {
+            SKIN_TEXELS as u64 * SKIN_TEXELS as u64
+        } else {
+            0
+        }
+}
+
+/// The skin map's depth bias in world units for a box (`SKIN_BIAS_TEXELS`).
+pub fn skin_bias(b: &LightBox) -> f64 {
+    SKIN_BIAS_TEXELS * 2.0 * b.half / SKIN_TEXELS as f64
+}
+
 /// The uniform for one frame. `head` is the head ellipsoid's unit-sphere-to-world matrix
-/// when a head shadows the hair.
-pub fn params(settings: &Shadows, b: &LightBox, head: Option<DMat4>, on: bool) -> GpuShadow {
+/// when a head shadows the hair; `skin` whether some system casts an opaque skin.
+pub fn params(
+    settings: &Shadows,
+    b: &LightBox,
+    head: Option<DMat4>,
+    on: bool,
+    skin: bool,
+) -> GpuShadow {
     let f = |v: DVec3, w: f64| [v.x as f32, v.y as f32, v.z as f32, w as f32];
     let method = settings.method;
     let n = cells(method) as f32;
@@ -133,7 +169,12 @@ pub fn params(settings: &Shadows, b: &LightBox, head: Option<DMat4>, on: bool) -
             f32::from(u8::from(head.is_some())),
         ],
         layers: DEEP_LAYER_ENDS.map(|e| (e * unit) as f32),
-        layered: [(layered_offset(settings) * unit) as f32, 0.0, 0.0, 0.0],
+        layered: [
+            (layered_offset(settings) * unit) as f32,
+            f32::from(u8::from(skin)),
+            if skin { words(method) as f32 } else { 0.0 },
+            if skin { skin_bias(b) as f32 } else { 0.0 },
+        ],
         head_inv: head
             .map(|m| m.inverse())
             .unwrap_or(DMat4::IDENTITY)
@@ -145,6 +186,8 @@ pub fn params(settings: &Shadows, b: &LightBox, head: Option<DMat4>, on: bool) -
 /// The cast and resolved buffers of one method.
 struct Grid {
     method: ShadowMethod,
+    /// Whether the structure ends with the skin map.
+    skin: bool,
     cast: wgpu::Buffer,
     resolved: wgpu::Buffer,
     /// What group 0 reads: `resolved` copied after the resolve.
@@ -235,7 +278,8 @@ impl ShadowPass {
     }
 
     /// Take this frame's box (the caller writes it into the frame uniform) and make (or
-    /// free) the structure; true when the view group 0 must bind changed.
+    /// free) the structure, with a skin map when `uniform` says so; true when the view
+    /// group 0 must bind changed.
     pub fn prepare(
         &mut self,
         gpu: &Gpu,
@@ -243,19 +287,20 @@ impl ShadowPass {
         method: Option<ShadowMethod>,
     ) -> Result<bool> {
         self.last = uniform;
-        let had = self.grid.as_ref().map(|g| g.method);
-        if had == method {
+        let skin = uniform.layered[1] > 0.5;
+        let had = self.grid.as_ref().map(|g| (g.method, g.skin));
+        if had == method.map(|m| (m, skin)) {
             return Ok(false);
         }
         self.grid = match method {
             None => None,
-            Some(m) => Some(self.grid(gpu, m)?),
+            Some(m) => Some(self.grid(gpu, m, skin)?),
         };
         Ok(true)
     }
 
-    fn grid(&self, gpu: &Gpu, method: ShadowMethod) -> Result<Grid> {
-        let bytes = words(method) * 4;
+    fn grid(&self, gpu: &Gpu, method: ShadowMethod, skin: bool) -> Result<Grid> {
+        let bytes = all_words(method, skin) * 4;
         gpu.check_storage_size("the shadow structure", bytes)?;
         let buffer = |label| {
             gpu.device.create_buffer(&wgpu::BufferDescriptor {
@@ -283,10 +328,11 @@ impl ShadowPass {
             &self.resolve_layout,
             &[&cast, &resolved],
         );
-        let map = layouts::map_texture(&gpu.device, words(method));
+        let map = layouts::map_texture(&gpu.device, all_words(method, skin));
         let view = map.create_view(&Default::default());
         Ok(Grid {
             method,
+            skin,
             cast,
             resolved,
             map,
@@ -328,7 +374,8 @@ impl ShadowPass {
         pass.set_bind_group(0, &self.params_group, &[]);
         pass.set_bind_group(1, &g.resolve_group, &[]);
         let n = cells(g.method);
-        pass.dispatch_workgroups((n * n).div_ceil(64), 1, 1);
+        let texels = if g.skin { SKIN_TEXELS * SKIN_TEXELS } else { 0 };
+        pass.dispatch_workgroups((n * n).max(texels).div_ceil(64), 1, 1);
         drop(pass);
         let size = g.map.size();
         enc.copy_buffer_to_texture(
@@ -527,6 +574,38 @@ pub fn reference_opaque(head: DMat4, l: DVec3, p: DVec3) -> f64 {
         return 1.0;
     }
     if (-bb + disc.sqrt()) / a > 0.0 {
+        0.0
+    } else {
+        1.0
+    }
+}
+
+/// The f64 reference of the skin map's answer (`shadow_skin`) at `p`: 0 when the ray from
+/// `p` towards the light (`l`, unit) meets one of `triangles` farther than `bias` from `p`
+/// (Moller-Trumbore, both faces), 1 otherwise. The map stands for this at its texels'
+/// centres, so the two agree wherever the answer does not change within a texel or two.
+pub fn reference_skin(triangles: &[[DVec3; 3]], l: DVec3, bias: f64, p: DVec3) -> f64 {
+    let hit = triangles.iter().any(|t| {
+        let e1 = t[1] - t[0];
+        let e2 = t[2] - t[0];
+        let q = l.cross(e2);
+        let det = e1.dot(q);
+        if det.abs() < 1e-18 {
+            return false;
+        }
+        let s = p - t[0];
+        let u = s.dot(q) / det;
+        if !(0.0..=1.0).contains(&u) {
+            return false;
+        }
+        let r = s.cross(e1);
+        let v = l.dot(r) / det;
+        if v < 0.0 || u + v > 1.0 {
+            return false;
+        }
+        e2.dot(r) / det > bias
+    });
+    if hit {
         0.0
     } else {
         1.0

@@ -216,6 +216,12 @@ pub trait HairSystem {
     fn casts(&self) -> bool {
         false
     }
+    /// Whether the system also casts an opaque surface (a fur mesh's skin): the stage then
+    /// adds the skin map (`stage::shadow::SKIN_TEXELS`), which `cast_shadow` fills with
+    /// `deposit_triangle`.
+    fn casts_opaque(&self) -> bool {
+        false
+    }
     /// Deposit this frame's strands into the shadow structure (`stage::shadow`); groups 0
     /// (the frame) and 2 (the structure, `shaders/common/shadow_cast.wgsl`) are bound. Runs
     /// once per casting phase.

@@ -32,6 +32,7 @@ mod mesh_head;
 mod numerics;
 mod scale;
 mod shader_validation;
+mod shadow_skin;
 mod shadows;
 mod snapshot;
 mod splat;

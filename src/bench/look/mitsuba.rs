@@ -340,10 +340,7 @@ pub fn write_shapes(
     }
     if let Some(fur) = scene.fur() {
         let setup = crate::systems::fur::setup::FurSetup::new(fur, scene.seed)?;
-        let mats = setup.joint_matrices(0.0);
-        let (p, n): (Vec<DVec3>, Vec<DVec3>) = (0..setup.mesh.positions.len())
-            .map(|v| setup.vertex_at(v, 0.0, mats.as_deref()))
-            .unzip();
+        let (p, n) = setup.posed_mesh(0.0);
         mesh("skin.obj", (p, n, setup.mesh.triangles.clone()), fur.skin)?;
     }
     Ok(x)

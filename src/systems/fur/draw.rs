@@ -32,6 +32,9 @@ pub struct FurPass {
     /// The shadow cast: its group 1 and pipeline (`shaders/fur/cast.wgsl`).
     cast_layout: wgpu::BindGroupLayout,
     cast: Option<wgpu::ComputePipeline>,
+    /// The skin's cast into the skin map (`cast_skin` in `shaders/fur/skin.wgsl`, group 1
+    /// the skin's own).
+    cast_skin: wgpu::ComputePipeline,
     bound: Option<Bound>,
     /// The compute rasteriser's group 1 (the coats' strands, nodes, shading info,
     /// materials and drawn ranges), group 0 and the target's group 2 layouts.
@@ -143,12 +146,14 @@ impl FurPass {
                 bind::storage::<GpuFurMaterial>(),
             ],
         );
+        // Read by the skin's draw and by its cast (compute).
         let mesh_layout = bind::layout(
             device,
             "fur skin",
-            vs,
+            vs | wgpu::ShaderStages::COMPUTE,
             &[
-                bind::uniform::<GpuSkin>().seen_by(wgpu::ShaderStages::VERTEX_FRAGMENT),
+                bind::uniform::<GpuSkin>()
+                    .seen_by(wgpu::ShaderStages::VERTEX_FRAGMENT | wgpu::ShaderStages::COMPUTE),
                 bind::storage::<[f32; 4]>(),
                 bind::storage::<[u32; 4]>(),
                 bind::uniform::<GpuJoints>(),
@@ -190,6 +195,19 @@ impl FurPass {
             compilation_options: Default::default(),
             cache: None,
         });
+        let skin_cast_pl = pipeline::pipeline_layout(
+            device,
+            "fur skin cast",
+            &[frame_layout, &mesh_layout, shadow_cast_layout],
+        );
+        let cast_skin = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("fur skin cast"),
+            layout: Some(&skin_cast_pl),
+            module: &mesh_module,
+            entry_point: Some("cast_skin"),
+            compilation_options: Default::default(),
+            cache: None,
+        });
         // Group 1 of `shaders/fur/splat.wgsl` (`strand_drawn.wgsl`'s ranges at 4).
         let splat_layout = bind::layout(
             device,
@@ -212,6 +230,7 @@ impl FurPass {
             gl: gpu.info.backend == wgpu::Backend::Gl,
             cast_layout,
             cast: Some(cast),
+            cast_skin,
             module,
             mesh_module,
             pipeline_layout,
@@ -456,6 +475,18 @@ impl FurPass {
         }
         pass.set_pipeline(p);
         pass.set_bind_group(1, &b.cast_group, &[]);
+        pass.dispatch_workgroups(groups.min(65535), groups.div_ceil(65535), 1);
+    }
+
+    /// Cast the skin's triangles into the skin map (groups 0 and 2 are bound).
+    pub fn cast_skin(&self, pass: &mut wgpu::ComputePass<'_>) {
+        let Some(b) = &self.bound else { return };
+        let groups = (b.mesh_vertices / 3).div_ceil(64);
+        if groups == 0 {
+            return;
+        }
+        pass.set_pipeline(&self.cast_skin);
+        pass.set_bind_group(1, &b.mesh_bind_group, &[]);
         pass.dispatch_workgroups(groups.min(65535), groups.div_ceil(65535), 1);
     }
 

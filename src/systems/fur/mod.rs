@@ -74,10 +74,11 @@ pub const CAST: &str = wgsl!(
     "fur/cast.wgsl",
 );
 
-/// The fur mesh's skin.
+/// The fur mesh's skin: its draw and its cast into the skin map.
 pub const SKIN: &str = wgsl!(
     "common/frame.wgsl",
     "common/shadow.wgsl",
+    "common/shadow_cast.wgsl",
     "common/deform.wgsl",
     "fur/skin.wgsl"
 );
@@ -481,9 +482,15 @@ impl HairSystem for FurSystem {
         true
     }
 
+    /// The skin is opaque: it shadows the hair behind it (the skin map).
+    fn casts_opaque(&self) -> bool {
+        true
+    }
+
     fn cast_shadow(&self, pass: &mut wgpu::ComputePass<'_>) {
         let hairs = self.setup.coats.iter().map(|c| c.total).sum::<u32>();
         self.draw.cast(pass, hairs);
+        self.draw.cast_skin(pass);
     }
 
     fn reset(&mut self, _gpu: &Gpu) -> Result<()> {

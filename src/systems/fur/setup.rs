@@ -233,6 +233,25 @@ impl FurSetup {
         off
     }
 
+    /// Every vertex's position and normal at `frame` ([`FurSetup::vertex_at`]): the skin as
+    /// drawn, for the reference renderer and the skin map's f64 reference.
+    pub fn posed_mesh(&self, frame: f64) -> (Vec<DVec3>, Vec<DVec3>) {
+        let mats = self.joint_matrices(frame);
+        (0..self.mesh.positions.len())
+            .map(|v| self.vertex_at(v, frame, mats.as_deref()))
+            .unzip()
+    }
+
+    /// The skin's triangles at `frame`.
+    pub fn posed_triangles(&self, frame: f64) -> Vec<[DVec3; 3]> {
+        let (p, _) = self.posed_mesh(frame);
+        self.mesh
+            .triangles
+            .iter()
+            .map(|t| t.map(|v| p[v as usize]))
+            .collect()
+    }
+
     /// Bounding sphere of the (rest) mesh grown by the longest hair.
     pub fn bounds(&self) -> (DVec3, f64) {
         self.bounds
