@@ -14,8 +14,7 @@
 //   (docs/shadows.md, measured against the path tracer).
 // - `shadow_opaque(p)`: how much of the key light reaches p past opaque occluders (the head
 //   ellipsoid, which stands for a mesh head, and a fur mesh's skin through the skin map):
-//   1 lit, 0 in their shadow, between on the skin map's one-texel soft edge; 1 while
-//   shadows are off.
+//   1 lit, 0 in their shadow (the skin map answers per texel); 1 while shadows are off.
 // - `shadow_direct(p)`: the factor on the direct (diffuse + specular) light of hair:
 //   exp(-absorption * shadow_strands(p)) * shadow_opaque(p); `shadow_direct_layered(p)`
 //   the same with `shadow_layered(p)`.
@@ -130,16 +129,13 @@ fn shadow_skin_at(x: i32, y: i32, depth: f32) -> f32 {
     return select(1.0, 0.0, depth > d + frame.shadow.layered.w);
 }
 
-// The four nearest texels' answers blended bilinearly (percentage-closer filtering: a soft
-// edge one texel wide instead of a staircase).
+// The nearest texel's answer: one load. Blending the four nearest (percentage-closer
+// filtering, a soft edge) cost the software viewer several times more of fur's frame, read
+// at every hair vertex (docs/shadows.md).
 fn shadow_skin(p: vec3<f32>) -> f32 {
     let c = shadow_coords(p);
-    let g = c.xy * (f32(SHADOW_SKIN) / frame.shadow.dims.x) - 0.5;
-    let i = vec2<i32>(floor(g));
-    let f = g - floor(g);
-    let a = mix(shadow_skin_at(i.x, i.y, c.z), shadow_skin_at(i.x + 1, i.y, c.z), f.x);
-    let b = mix(shadow_skin_at(i.x, i.y + 1, c.z), shadow_skin_at(i.x + 1, i.y + 1, c.z), f.x);
-    return mix(a, b, f.y);
+    let i = vec2<i32>(floor(c.xy * (f32(SHADOW_SKIN) / frame.shadow.dims.x)));
+    return shadow_skin_at(i.x, i.y, c.z);
 }
 
 // The skin map's answer times the ray from p towards the light against the head ellipsoid

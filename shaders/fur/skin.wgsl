@@ -38,6 +38,11 @@ struct VOut {
     @builtin(position) pos: vec4<f32>,
     @location(0) world: vec3<f32>,
     @location(1) normal: vec3<f32>,
+    // The skin map's answer (shadow_opaque) at the vertex, read off the surface along the
+    // normal by the map's bias so a lit face does not shadow itself: per vertex, as the
+    // hair is shaded: per pixel it cost the software viewer more of fur's frame than the
+    // whole map costs now (docs/shadows.md).
+    @location(2) lit: f32,
 }
 
 // Vertex v of the skin this frame: skinned, then moved by the mesh motion.
@@ -53,6 +58,7 @@ fn vs(@builtin(vertex_index) vi: u32) -> VOut {
     out.pos = frame.view_proj * vec4<f32>(d.p, 1.0);
     out.world = d.p;
     out.normal = d.n;
+    out.lit = shadow_opaque(d.p + d.n * frame.shadow.layered.w);
     return out;
 }
 
@@ -62,10 +68,8 @@ fn fs(in: VOut) -> @location(0) vec4<f32> {
     let l = frame.light_dir.xyz;
     let wrap = max((dot(n, l) + 0.3) / 1.3, 0.0);
     // The fur's shadow (common/shadow.wgsl) dims the direct light, and so does the skin
-    // where it faces away from the light behind more skin (read off the surface along
-    // the normal by the skin map's bias, so a lit face does not shadow itself).
-    let off = in.world + n * frame.shadow.layered.w;
-    let direct = frame.light_dir.w * exp(-frame.shadow.axis_l.w * shadow_strands(in.world)) * shadow_opaque(off);
+    // where more skin lies towards the light.
+    let direct = frame.light_dir.w * exp(-frame.shadow.axis_l.w * shadow_strands(in.world)) * in.lit;
     let rgb = skin.color.rgb * (0.3 * frame.light_color.w + 0.8 * direct * wrap);
     return vec4<f32>(rgb, 1.0);
 }
