@@ -22,7 +22,7 @@
 
 // The structure this pipeline reads, fixed when the pipeline is built
 // (gpu::shadow::ShadowVariant): 0 none, 1 the volume, 2 deep opacity maps; plus 4 for toon
-// steps. A pipeline constant, not a test of the frame uniform: a software rasteriser runs
+// steps; plus 8 for the skin map (only a scene with fur pays for its read). A pipeline constant, not a test of the frame uniform: a software rasteriser runs
 // both sides of a branch under a mask, so only a lookup compiled out costs nothing.
 override SHADOW_LOOKUP: u32 = 0u;
 
@@ -146,7 +146,7 @@ fn shadow_opaque(p: vec3<f32>) -> f32 {
         return 1.0;
     }
     var lit = 1.0;
-    if frame.shadow.layered.y > 0.5 {
+    if (SHADOW_LOOKUP & 8u) != 0u && frame.shadow.layered.y > 0.5 {
         lit = shadow_skin(p);
     }
     if frame.shadow.dims.w < 0.5 {
@@ -185,7 +185,7 @@ fn shadow_direct_layered(p: vec3<f32>) -> f32 {
 const TOON_STRANDS: f32 = 0.5;
 
 fn shadow_toon(p: vec3<f32>) -> f32 {
-    if SHADOW_LOOKUP < 4u || frame.shadow.center.w < 0.5 {
+    if (SHADOW_LOOKUP & 4u) == 0u || frame.shadow.center.w < 0.5 {
         return 0.0;
     }
     let bias = 3.0 * frame.shadow.axis_u.w / frame.shadow.dims.x;
@@ -195,5 +195,5 @@ fn shadow_toon(p: vec3<f32>) -> f32 {
 
 // Whether the scene's shadows are toon steps (a scene with wisps; center.w is 2 too).
 fn shadow_is_toon() -> bool {
-    return SHADOW_LOOKUP >= 4u;
+    return (SHADOW_LOOKUP & 4u) != 0u;
 }

@@ -56,6 +56,8 @@ pub struct ShadowVariant {
     pub lookup: Lookup,
     /// Toon steps (a scene with wisps: `shadow_toon`, `shadow_is_toon`).
     pub toon: bool,
+    /// The skin map (a system casts opaque: fur's skin, `shadow_skin`).
+    pub skin: bool,
 }
 
 impl ShadowVariant {
@@ -63,16 +65,18 @@ impl ShadowVariant {
     pub const OFF: ShadowVariant = ShadowVariant {
         lookup: Lookup::Off,
         toon: false,
+        skin: false,
     };
 
-    /// `SHADOW_LOOKUP`: 0 none, 1 the volume, 2 deep opacity; plus 4 for toon steps.
+    /// `SHADOW_LOOKUP`: 0 none, 1 the volume, 2 deep opacity; plus 4 for toon steps, plus 8
+    /// for the skin map.
     pub fn code(self) -> u32 {
         let lookup = match self.lookup {
             Lookup::Off => 0,
             Lookup::Volume => 1,
             Lookup::DeepOpacity => 2,
         };
-        lookup + if self.toon { 4 } else { 0 }
+        lookup + if self.toon { 4 } else { 0 } + if self.skin { 8 } else { 0 }
     }
 
     /// The pipeline-overridable constants of every module that includes

@@ -211,7 +211,7 @@ impl Stage {
             last_frame: bytemuck::Zeroable::zeroed(),
             shadow,
             // What the scene asks for; corrected below once the systems say who casts.
-            shadow_variant: shadow_variant(scene, scene.render.shadows.on),
+            shadow_variant: shadow_variant(scene, scene.render.shadows.on, false),
         };
         stage.ensure_head(gpu)?;
         for kind in KINDS {
@@ -221,7 +221,7 @@ impl Stage {
                 stage.systems.push(system);
             }
         }
-        let variant = shadow_variant(scene, stage.casting());
+        let variant = shadow_variant(scene, stage.casting(), stage.casting_opaque());
         stage.set_shadow_variant(gpu, variant);
         gpu.take_error()?;
         Ok(stage)
@@ -250,6 +250,12 @@ impl Stage {
     /// Whether this frame has a shadow structure: shadows on and some system casting.
     fn casting(&self) -> bool {
         self.scene.render.shadows.on && self.systems.iter().any(|s| s.casts())
+    }
+
+    /// Whether this frame's structure has the skin map: casting, and some system casts an
+    /// opaque surface.
+    fn casting_opaque(&self) -> bool {
+        self.casting() && self.systems.iter().any(|s| s.casts_opaque())
     }
 
     /// Build the shading pipelines again when the shadow lookup they compile changes (a
@@ -601,7 +607,8 @@ impl Stage {
         );
         // The shading pipelines compile the lookup of this frame's structure, or none.
         let casting = self.casting();
-        self.set_shadow_variant(gpu, shadow_variant(&self.scene, casting));
+        let skin = self.casting_opaque();
+        self.set_shadow_variant(gpu, shadow_variant(&self.scene, casting, skin));
         // The frame uniform first: systems that work in screen space (the wisps' tiles)
         // prepare with the same view-projection the shaders see.
         let bounds = self.bounds();
@@ -743,7 +750,7 @@ impl Stage {
             .head
             .visible
             .then(|| head_sphere(&self.scene, head_pose));
-        let skin = casting && self.systems.iter().any(|s| s.casts_opaque());
+        let skin = self.casting_opaque();
         let mut params = shadow::params(&settings, &light_box, head, casting, skin);
         if self.shadow_variant.toon {
             // Toon wisps: shadows are steps (`shadow_toon`).
@@ -841,7 +848,7 @@ impl Stage {
 /// What the shading pipelines compile of the shadow lookup for `scene` when it has a shadow
 /// structure (`casting`): its method, as toon steps in a scene with a kind that reads them
 /// so (`Kind::shadow_steps`).
-fn shadow_variant(scene: &Scene, casting: bool) -> ShadowVariant {
+fn shadow_variant(scene: &Scene, casting: bool, skin: bool) -> ShadowVariant {
     if !casting {
         return ShadowVariant::OFF;
     }
@@ -853,6 +860,7 @@ fn shadow_variant(scene: &Scene, casting: bool) -> ShadowVariant {
         toon: crate::systems::KINDS
             .iter()
             .any(|k| k.shadow_steps && (k.in_scene)(scene)),
+        skin,
     }
 }
 

@@ -502,7 +502,8 @@ fn a_shadow_switch_draws_as_a_stage_built_with_it() {
             stage.shadow_variant(),
             ShadowVariant {
                 lookup: lookup(from),
-                toon: false
+                toon: false,
+                skin: false,
             }
         );
         let (_, fresh) = drawn(to);
