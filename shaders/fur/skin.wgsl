@@ -9,7 +9,8 @@ struct Skin {
     motion: vec4<f32>,
     motion_axis: vec4<f32>,
     motion_dir: vec4<f32>,
-    // x: where the per-vertex (joints, weights) start in `mesh`; 0: not skinned.
+    // x: where the per-vertex (joints, weights) start in `mesh`, 0: not skinned; y: 1 for a
+    // closed mesh (cast_skin may skip its far side).
     skin: vec4<u32>,
 }
 
@@ -74,7 +75,11 @@ fn fs(in: VOut) -> @location(0) vec4<f32> {
     return vec4<f32>(rgb, 1.0);
 }
 
-// One invocation per skin triangle, posed as `vs` poses it, into the skin map.
+// One invocation per skin triangle, posed as `vs` poses it, into the skin map. On a closed
+// mesh a triangle whose three vertex normals all face well away from the light is skipped:
+// the nearest surface towards the light faces it, so the far side (half the work) adds
+// nothing; near the silhouette, where normals turn, every triangle is kept. An open mesh's
+// back may be what the light meets first, so there every triangle is cast.
 @compute @workgroup_size(64)
 fn cast_skin(@builtin(global_invocation_id) id: vec3<u32>) {
     let t = id.x + id.y * 65535u * 64u;
@@ -82,5 +87,12 @@ fn cast_skin(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let i = tris[t];
-    deposit_triangle(skin_vertex(i.x).p, skin_vertex(i.y).p, skin_vertex(i.z).p);
+    let a = skin_vertex(i.x);
+    let b = skin_vertex(i.y);
+    let c = skin_vertex(i.z);
+    let l = frame.shadow.axis_l.xyz;
+    if skin.skin.y != 0u && max(max(dot(a.n, l), dot(b.n, l)), dot(c.n, l)) < -0.2 {
+        return;
+    }
+    deposit_triangle(a.p, b.p, c.p);
 }

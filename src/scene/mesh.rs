@@ -29,6 +29,9 @@ pub struct Mesh {
     /// Triangles that were reversed so closed components face outwards (0 when the file
     /// already wound them so).
     pub reoriented: usize,
+    /// Every triangle lies on a closed, oriented component (a watertight skin: the side
+    /// facing away from a light is hidden behind the side facing it).
+    pub closed: bool,
 }
 
 /// The most vertices, faces or PLY elements Kami loads (its buffers are indexed by u32, and
@@ -217,11 +220,18 @@ impl Mesh {
                 closed.non_orientable
             );
         }
+        // Triangles without area (a sphere's poles) take no part in the components.
+        let all_closed = triangles.iter().all(|t| {
+            let p = t.map(|v| positions[v as usize]);
+            (p[1] - p[0]).cross(p[2] - p[0]) == DVec3::ZERO
+                || t.iter().all(|&v| closed.vertices[v as usize])
+        });
         Ok(Mesh {
             positions,
             normals,
             triangles,
             reoriented: closed.reversed,
+            closed: all_closed,
         })
     }
 

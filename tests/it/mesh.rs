@@ -681,6 +681,7 @@ fn check_polygons(m: &Mesh) {
     }
     assert!(m.normals.iter().all(|n| n.z > 0.999));
     assert_eq!(m.reoriented, 0, "an open mesh is left as it is");
+    assert!(!m.closed, "a quad and a pentagon are open");
 }
 
 #[test]
@@ -900,6 +901,7 @@ fn a_sphere_wound_inside_out_loads_like_the_right_one() {
     outward(&wrong, &[DVec3::new(0.3, -0.2, 0.1)]);
     assert_eq!(right.reoriented, 0);
     assert_eq!(wrong.reoriented, t.len());
+    assert!(right.closed && wrong.closed, "a sphere is closed");
     // Through OBJ (tobj renumbers vertices) and PLY too.
     let obj = |t: &[[u32; 3]]| {
         let mut s = String::new();

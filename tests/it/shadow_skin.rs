@@ -129,8 +129,9 @@ fn check(scene: &kami::Scene, frame: u32, what: &str) {
     }
     let n = points.len();
     eprintln!(
-        "{what}: {n} points, {clear} clear ({lit} lit, {dark} in the skin's shadow); \
-         {unclear_off} of the {} near an edge answer otherwise",
+        "{what} (closed mesh: {}): {n} points, {clear} clear ({lit} lit, {dark} in the \
+         skin's shadow); {unclear_off} of the {} near an edge answer otherwise",
+        setup.mesh.closed,
         n - clear
     );
     assert!(

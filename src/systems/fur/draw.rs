@@ -118,7 +118,7 @@ pub fn skin_uniform(setup: &FurSetup, frame: f64, skin_base: u32) -> GpuSkin {
         motion,
         motion_axis: axis,
         motion_dir: dir,
-        skin: [skin_base, 0, 0, 0],
+        skin: [skin_base, u32::from(setup.mesh.closed), 0, 0],
     }
 }
 

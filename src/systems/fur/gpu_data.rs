@@ -62,7 +62,8 @@ pub struct GpuSkin {
     pub motion: [f32; 4],
     pub motion_axis: [f32; 4],
     pub motion_dir: [f32; 4],
-    /// x: where the skin's joints and weights start in the mesh buffer (0: not skinned).
+    /// x: where the skin's joints and weights start in the mesh buffer (0: not skinned);
+    /// y: 1 for a closed mesh (`Mesh::closed`: its cast skips the side facing away).
     pub skin: [u32; 4],
 }
 assert_size!(GpuSkin, 80);
