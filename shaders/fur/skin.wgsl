@@ -83,7 +83,9 @@ fn fs(in: VOut) -> @location(0) vec4<f32> {
 @compute @workgroup_size(64)
 fn cast_skin(@builtin(global_invocation_id) id: vec3<u32>) {
     let t = id.x + id.y * 65535u * 64u;
-    if t >= arrayLength(&tris) {
+    // Deep opacity runs every caster twice; the map is cast in phase 1 only, so phase 0
+    // poses nothing.
+    if t >= arrayLength(&tris) || shadow_phase.x != 1u {
         return;
     }
     let i = tris[t];

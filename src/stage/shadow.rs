@@ -41,8 +41,8 @@ pub const DEEP_LAYER_ENDS: [f64; 4] = [1.0, 2.0, 4.0, 8.0];
 /// Texels across the skin map (`SHADOW_SKIN` in `shaders/common/shadow.wgsl`).
 pub const SKIN_TEXELS: u32 = 256;
 /// How far behind the nearest skin a point must lie to be in its shadow, in skin texels: a
-/// surface's depth varies across the texel it is read from (and the blend reads four), so
-/// the skin would shadow itself, and the roots of hair on its lit side, without it.
+/// surface's depth varies across the texel it is read from, so the skin would shadow
+/// itself, and the roots of hair on its lit side, without it.
 pub const SKIN_BIAS_TEXELS: f64 = 2.0;
 
 /// How far towards the light a point on a strand lying in layers (Anjyo's hair) reads the
