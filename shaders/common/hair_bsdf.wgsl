@@ -23,6 +23,9 @@ struct HairBsdf {
 }
 
 const HAIR_PI: f32 = 3.14159265358979;
+// Keep equal to AMBIENT_RADIANCE in src/systems/hair_bsdf.rs (tests/it/hair_bsdf.rs checks it):
+// the ambient colour (HairBsdf.ambient) is this times the colour a dense volume sends back.
+const HAIR_AMBIENT_RADIANCE: f32 = 0.3;
 // Keep equal to CELLS in src/systems/hair_bsdf.rs.
 const HAIR_CELLS: u32 = 12u;
 
@@ -193,4 +196,45 @@ fn hair_dual_radiance(b: HairBsdf, t: vec3<f32>, v: vec3<f32>, l: vec3<f32>, n_i
     let direct = exp(-n);
     let w = direct + (1.0 - direct) * 0.7 * exp(n * log(max(b.a_f.rgb, vec3<f32>(1e-6))));
     return w * (s + b.back.rgb * back);
+}
+
+// 2 E_3(x), the share of even light through a slab of optical depth x (the exponential
+// integral; E_1 by Abramowitz & Stegun 5.1.53 below 1 and 5.1.56 above, then E_2 and E_3 by
+// their recurrence written as multiples of e^-x so nothing cancels).
+fn hair_two_e3(x_in: f32) -> f32 {
+    let x = max(x_in, 0.0);
+    if x > 60.0 {
+        return 0.0;
+    }
+    let ex = exp(-x);
+    // r = x e^x E_1(x)
+    var r: f32;
+    if x < 1.0 {
+        if x < 1e-8 {
+            return 1.0;
+        }
+        let e1 = -log(x) - 0.57721566 + x * (0.99999193 + x * (-0.24991055 + x * (0.05519968
+            + x * (-0.00976004 + x * 0.00107857))));
+        r = x * e1 / ex;
+    } else {
+        let num = 0.2677737343 + x * (8.6347608925 + x * (18.0590169730 + x * (8.5733287401 + x)));
+        let den = 3.9584969228 + x * (21.0996530827 + x * (25.6329561486 + x * (9.5733223454 + x)));
+        r = num / den;
+    }
+    // E_2 = e^-x (1 - r), E_3 = (e^-x - x E_2) / 2.
+    return ex * (1.0 - x * (1.0 - r));
+}
+
+// The share of Kami's even ambient light that reaches a fibre under a coat of fibre-area
+// index `area` (hair_bsdf::ambient_transmittance, its f64 reference): dual scattering's
+// forward transmittance averaged over the open hemisphere.
+fn hair_ambient_through(b: HairBsdf, area: f32) -> vec3<f32> {
+    let a = max(area, 0.0);
+    if a <= 0.0 {
+        return vec3<f32>(1.0);
+    }
+    let k = -log(max(b.a_f.rgb, vec3<f32>(1e-6)));
+    let open = hair_two_e3(a);
+    return vec3<f32>(open) + 0.7 * (vec3<f32>(hair_two_e3(k.x * a), hair_two_e3(k.y * a), hair_two_e3(k.z * a))
+        - vec3<f32>(hair_two_e3((1.0 + k.x) * a), hair_two_e3((1.0 + k.y) * a), hair_two_e3((1.0 + k.z) * a)));
 }

@@ -146,7 +146,9 @@ fn shade_node(s: Strand, n: u32) -> ShadedNode {
         var around = mat.bsdf.ambient.rgb;
         if varies {
             b.sigma_a = vec4<f32>(b.sigma_a.rgb * absorb, b.sigma_a.w);
-            around = pow(max(around, vec3<f32>(0.0)), absorb);
+            // The volume's colour (not the environment's radiance) to the strand's power.
+            around = HAIR_AMBIENT_RADIANCE
+                * pow(max(around / HAIR_AMBIENT_RADIANCE, vec3<f32>(0.0)), absorb);
         }
         let f = hair_dual_radiance(b, t, v, l, shadow_layered(p));
         rgb = frame.light_color.rgb * (hair_irradiance() * shadow_opaque(p)) * f + around * ambient;

@@ -32,7 +32,7 @@ fn vs_ribbon(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -
     let drawn_px = max(width_px, frame.raster.y);
     let offset = across * (side * drawn_px) * frame.viewport.zw;
     out.pos = vec4<f32>(clip.xy + offset * clip.w, clip.z, clip.w);
-    out.color = vec4<f32>(shade_hair(m, shading_normal(si, s, m, n, t), t, p), width_px / drawn_px);
+    out.color = vec4<f32>(shade_hair(m, shading_normal(si, s, m, n, t), t, p, s, n), width_px / drawn_px);
     out.strand = si;
     return out;
 }
@@ -63,7 +63,7 @@ fn vs_tube(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -> 
     let radius = 0.5 * m.ambient.w * mix(1.0, 0.5, along) * m.extra.y;
     let q = p + radial * radius;
     out.pos = frame.view_proj * vec4<f32>(q, 1.0);
-    out.color = vec4<f32>(shade_hair(m, radial, t, q), 1.0);
+    out.color = vec4<f32>(shade_hair(m, radial, t, q, s, n), 1.0);
     out.strand = si;
     return out;
 }

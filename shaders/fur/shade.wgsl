@@ -48,17 +48,33 @@ fn shade(m: FurMaterial, n_in: vec3<f32>, p: vec3<f32>) -> vec3<f32> {
         + lit * frame.light_dir.w * frame.light_color.rgb * (m.diffuse.rgb * diff + m.specular.rgb * spec);
 }
 
-// The coat's shading at a vertex: the paper's GL lighting, or the physical mode
-// (docs/shading.md) from the hair's tangent t, with Kami's ambient times the colour a dense
-// coat of this hair sends back.
-fn shade_hair(m: FurMaterial, n: vec3<f32>, t: vec3<f32>, p: vec3<f32>) -> vec3<f32> {
+// The coat's shading at node `node` of hair s: the paper's GL lighting, or the physical
+// mode (docs/shading.md) from the hair's tangent t, with Kami's ambient times the colour a
+// dense coat of this hair sends back, dimmed by the coat above the node.
+fn shade_hair(m: FurMaterial, n: vec3<f32>, t: vec3<f32>, p: vec3<f32>, s: Strand, node: u32) -> vec3<f32> {
     if hair_physical(m.bsdf) {
         let v = normalize(frame.eye.xyz - p);
         let f = hair_dual_radiance(m.bsdf, t, v, frame.light_dir.xyz, shadow_strands(p));
+        let through = hair_ambient_through(m.bsdf, coat_above(s, m, node));
         return frame.light_color.rgb * (hair_irradiance() * shadow_opaque(p)) * f
-            + m.bsdf.ambient.rgb * frame.light_color.w;
+            + m.bsdf.ambient.rgb * through * frame.light_color.w;
     }
     return shade(m, n, p);
+}
+
+// The coat's fibre-area index above node n (FurSetup::coat_density, src/systems/fur/setup.rs):
+// its density times the hair's tapered length from the node to the tip, as if its
+// neighbours were like it. Every segment, whatever the level of detail's node step.
+fn coat_above(s: Strand, m: FurMaterial, n: u32) -> f32 {
+    let k = s.segments;
+    var area = 0.0;
+    var a = verts[s.first_vertex + n].xyz;
+    for (var j = n; j < k; j++) {
+        let b = verts[s.first_vertex + j + 1u].xyz;
+        area += length(b - a) * mix(1.0, 0.5, (f32(j) + 0.5) / f32(max(k, 1u)));
+        a = b;
+    }
+    return m.extra.w * area;
 }
 
 fn tangent(s: Strand, n: u32) -> vec3<f32> {

@@ -15,7 +15,7 @@ fn splat_node(si: u32, s: Strand, n: u32) -> SplatNode {
     let m = materials[s.group];
     let p = verts[s.first_vertex + n].xyz;
     let t = tangent(s, n);
-    let rgb = shade_hair(m, shading_normal(si, s, m, n, t), t, p);
+    let rgb = shade_hair(m, shading_normal(si, s, m, n, t), t, p, s, n);
     return SplatNode(p, rgb, ribbon_width(s, m, n), 1.0);
 }
 

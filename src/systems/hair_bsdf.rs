@@ -633,6 +633,67 @@ pub fn dual_radiance(b: &Bsdf, d: &DualScattering, a: &Angles, n: f64) -> [f64; 
     })
 }
 
+/// The exponential integral E_n(x) for n >= 1, x >= 0 (Numerical Recipes' `expint`: the
+/// series below x = 1, Lentz's continued fraction above), to about 1e-15 relative.
+pub fn expint(n: u32, x: f64) -> f64 {
+    let nm1 = n as f64 - 1.0;
+    if x <= 0.0 {
+        return if n > 1 { 1.0 / nm1 } else { f64::INFINITY };
+    }
+    if x > 1.0 {
+        let mut b = x + n as f64;
+        let mut c = 1.0 / 1e-300;
+        let mut d = 1.0 / b;
+        let mut h = d;
+        for i in 1..200 {
+            let an = -(i as f64) * (nm1 + i as f64);
+            b += 2.0;
+            d = 1.0 / (an * d + b);
+            c = b + an / c;
+            let del = c * d;
+            h *= del;
+            if (del - 1.0).abs() < 1e-16 {
+                break;
+            }
+        }
+        return h * (-x).exp();
+    }
+    let euler = 0.577_215_664_901_532_9;
+    let mut ans = if n > 1 { 1.0 / nm1 } else { -x.ln() - euler };
+    let mut fact = 1.0;
+    for i in 1..200 {
+        fact *= -x / i as f64;
+        let del = if i as f64 != nm1 {
+            -fact / (i as f64 - nm1)
+        } else {
+            let psi = -euler + (1..n).map(|k| 1.0 / k as f64).sum::<f64>();
+            fact * (-x.ln() + psi)
+        };
+        ans += del;
+        if del.abs() < ans.abs() * 1e-16 {
+            break;
+        }
+    }
+    ans
+}
+
+/// The share of Kami's even ambient light that reaches a fibre under a coat of fibre-area
+/// index `area` (the fibres' projected area above it per unit of skin, `fur::setup`): dual
+/// scattering's forward transmittance W(n) = e^-n + (1 - e^-n) d_f a_f^n through the n =
+/// area / mu fibres a path at cosine mu to the coat's normal crosses, averaged over the open
+/// hemisphere with weight 2 mu (irradiance). With k = -ln a_f that is, per channel,
+/// 2 E_3(A) + d_f (2 E_3(k A) - 2 E_3((1 + k) A)): 1 at the coat's top, falling and
+/// reddening (blue is absorbed first) towards the skin.
+pub fn ambient_transmittance(a_f: [f64; 3], area: f64) -> [f64; 3] {
+    let a = area.max(0.0);
+    let e = |x: f64| 2.0 * expint(3, x);
+    let open = e(a);
+    a_f.map(|af| {
+        let k = -af.max(1e-6).ln();
+        open + D_F * (e(k * a) - e((1.0 + k) * a))
+    })
+}
+
 /// A material's physical shading as the shaders read it. Twin of `struct HairBsdf` (`tests/it/gpu_twins.rs` checks it)
 /// in `shaders/common/hair_bsdf.wgsl`.
 #[repr(C)]

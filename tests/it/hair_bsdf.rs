@@ -124,3 +124,156 @@ fn wgsl_bsdf_matches_the_f64_reference() {
         want[i].1
     );
 }
+
+const THROUGH_ENTRY: &str = "
+@group(0) @binding(0) var<storage, read> mats: array<HairBsdf>;
+// Per element: x the fibre-area index, y the material.
+@group(0) @binding(1) var<storage, read> input: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read_write> out: array<vec4<f32>>;
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if i >= arrayLength(&out) { return; }
+    let p = input[i];
+    out[i] = vec4<f32>(hair_ambient_through(mats[u32(p.y)], p.x), hair_two_e3(p.x));
+}";
+
+/// The ambient's transmittance through a coat (`hair_ambient_through`, fur's physical
+/// ambient) against its f64 reference (`hair_bsdf::ambient_transmittance`, exact
+/// exponential integrals), over three materials and fibre-area indices from none to a
+/// hundred: the worst error is bounded relative to the value or 1e-4 (the darkest
+/// share that shows), and so is `hair_two_e3` against 2 E_3.
+#[test]
+fn wgsl_ambient_transmittance_matches_the_f64_reference() {
+    use kami::systems::hair_bsdf::{ambient_transmittance, expint, AMBIENT_RADIANCE};
+    let gpu = common::gpu();
+    // The constant the varied ambient divides by is the reference's.
+    assert!(
+        kami::shaders::HAIR_BSDF.contains(&format!(
+            "const HAIR_AMBIENT_RADIANCE: f32 = {AMBIENT_RADIANCE};"
+        )),
+        "HAIR_AMBIENT_RADIANCE in shaders/common/hair_bsdf.wgsl is not AMBIENT_RADIANCE"
+    );
+    let params = [
+        HairParams::default(),
+        HairParams {
+            eumelanin: 0.05,
+            pheomelanin: 0.3,
+            ..HairParams::default()
+        },
+        HairParams {
+            eumelanin: 0.0,
+            pheomelanin: 2.15,
+            ..HairParams::default()
+        },
+    ];
+    let mats: Vec<GpuHairBsdf> = params.iter().map(|p| GpuHairBsdf::new(p, true)).collect();
+    let areas = [
+        0.0, 1e-6, 1e-3, 0.02, 0.1, 0.3, 0.7, 0.99, 1.0, 1.01, 1.7, 3.0, 6.0, 12.0, 30.0, 100.0,
+    ];
+    let mut input: Vec<[f32; 4]> = Vec::new();
+    let mut want = Vec::new();
+    for (m, mat) in mats.iter().enumerate() {
+        for a in areas {
+            // The GPU reads its a_f in f32: the reference starts from the same numbers.
+            let a_f = mat.a_f.map(f64::from);
+            let t = ambient_transmittance([a_f[0], a_f[1], a_f[2]], a);
+            assert!(
+                t.iter().all(|x| (0.0..=1.0 + 1e-12).contains(x)),
+                "{t:?} at {a}"
+            );
+            input.push([a as f32, m as f32, 0.0, 0.0]);
+            want.push((t, 2.0 * expint(3, a)));
+        }
+    }
+    use kami::gpu::bind;
+    let got = common::run_contract(
+        gpu,
+        "ambient transmittance contract",
+        &format!("{}\n{THROUGH_ENTRY}", kami::shaders::HAIR_BSDF),
+        &[
+            (
+                bytemuck::cast_slice(&mats),
+                bind::storage::<kami::systems::hair_bsdf::GpuHairBsdf>(),
+            ),
+            (bytemuck::cast_slice(&input), bind::storage::<[f32; 4]>()),
+        ],
+        want.len(),
+    );
+    let mut worst = (0.0f64, 0);
+    for (i, ((t, e3), g)) in want.iter().zip(&got).enumerate() {
+        for c in 0..4 {
+            let w = if c < 3 { t[c] } else { *e3 };
+            let err = (g[c] as f64 - w).abs() / w.max(1e-4);
+            if err > worst.0 || !g[c].is_finite() {
+                worst = (if g[c].is_finite() { err } else { f64::INFINITY }, i);
+            }
+        }
+    }
+    let (err, i) = worst;
+    eprintln!("ambient transmittance: worst relative error {err:.2e}");
+    assert!(
+        err < 1e-3,
+        "worst relative error {err} at element {i} (area {}): gpu {:?}, f64 {:?}",
+        input[i][0],
+        got[i],
+        want[i]
+    );
+}
+
+/// The reference's closed form (exponential integrals) is the integral it stands for:
+/// W(area / mu) averaged over the hemisphere with weight 2 mu, by brute-force quadrature;
+/// it is 1 with no coat, falls as the coat thickens, and the channel a fibre absorbs most
+/// (smallest a_f) falls first.
+#[test]
+fn ambient_transmittance_is_the_hemisphere_average_of_dual_scattering() {
+    use kami::systems::hair_bsdf::{ambient_transmittance, expint, D_F};
+    // E_1 against Abramowitz & Stegun's table 5.1, E_3 against E_1 through the recurrence
+    // E_(n+1) = (e^-x - x E_n) / n.
+    for (n, x, v) in [
+        (1, 0.5, 0.559_773_594_8),
+        (1, 2.0, 0.048_900_510_7),
+        (3, 0.5, 0.221_604_364_3),
+        (3, 2.0, 0.030_133_379_8),
+    ] {
+        assert!(
+            (expint(n, x) - v).abs() < 1e-9,
+            "E_{n}({x}) = {}",
+            expint(n, x)
+        );
+    }
+    let a_f = [0.405, 0.2, 0.074];
+    let mut last = [1.0f64; 3];
+    for area in [0.0, 0.05, 0.3, 1.0, 2.5, 8.0] {
+        let t = ambient_transmittance(a_f, area);
+        // Midpoint rule in mu on a fine grid (the integrand is smooth and bounded).
+        let n = 200_000;
+        let brute: [f64; 3] = std::array::from_fn(|c| {
+            (0..n)
+                .map(|i| {
+                    let mu = (i as f64 + 0.5) / n as f64;
+                    let k = area / mu;
+                    let direct = (-k).exp();
+                    let w = direct + (1.0 - direct) * D_F * a_f[c].powf(k);
+                    2.0 * mu * w / n as f64
+                })
+                .sum()
+        });
+        for c in 0..3 {
+            assert!(
+                (t[c] - brute[c]).abs() < 1e-6,
+                "area {area} channel {c}: closed form {} against quadrature {}",
+                t[c],
+                brute[c]
+            );
+            assert!(t[c] <= last[c] + 1e-15, "not falling at {area}");
+        }
+        if area == 0.0 {
+            assert!(t.iter().all(|x| (x - 1.0).abs() < 1e-12), "{t:?}");
+        } else {
+            assert!(t[2] < t[0], "blue should fall first: {t:?}");
+        }
+        last = t;
+    }
+    assert!(expint(3, 0.0) == 0.5);
+}

@@ -546,16 +546,19 @@ fn auto_picks_compute_for_thin_hair_and_ribbons_for_close_ups() {
 /// accumulation is the f64 reference's (`kami::systems::fur::splat`, which shades the nodes
 /// as `shaders/fur/shade.wgsl` does), within the bounds of the Anjyo contract above, with
 /// the fur's own skin hiding the hairs behind it (its depth read back) — in each style
-/// (polylines with randomized normals), and in the physical mode.
+/// (polylines with randomized normals), and in the physical mode — once more lit by the
+/// ambient alone, strongly, on light fur, so that the coat's dimming of the ambient
+/// (`coat_above`) is most of every word.
 #[test]
 fn fur_accumulation_matches_the_f64_reference() {
     use kami::systems::fur::{self, draw::fur_materials, FurSystem};
     let gpu = common::gpu();
-    for (name, shading) in [
-        ("fur_line", Shading::Anjyo),
-        ("fur_polyline", Shading::Anjyo),
-        ("fur_curve", Shading::Anjyo),
-        ("fur_polyline", Shading::Physical),
+    for (name, shading, ambient_only) in [
+        ("fur_line", Shading::Anjyo, false),
+        ("fur_polyline", Shading::Anjyo, false),
+        ("fur_curve", Shading::Anjyo, false),
+        ("fur_polyline", Shading::Physical, false),
+        ("fur_polyline", Shading::Physical, true),
     ] {
         let mut scene = common::scene(name);
         scene.render.msaa = 1;
@@ -570,6 +573,13 @@ fn fur_accumulation_matches_the_f64_reference() {
         // Polylines' normals turned by a random angle about each segment (the paper's
         // normal randomize; the scene leaves it 0).
         fur.coats.iter_mut().for_each(|c| c.normal_randomize = 0.5);
+        if ambient_only {
+            fur.coats
+                .iter_mut()
+                .for_each(|c| c.material.physical.melanin = Some(0.15));
+            scene.light.intensity = 0.0;
+            scene.light.ambient = 4.0;
+        }
         let d = draw(gpu, &scene);
         let f = d.stage.system::<FurSystem>().unwrap();
         assert!(
@@ -607,7 +617,10 @@ fn fur_accumulation_matches_the_f64_reference() {
             })
         };
         let covered = assert_accumulation_agrees(
-            &format!("{name} {shading:?}"),
+            &format!(
+                "{name} {shading:?}{}",
+                if ambient_only { " ambient only" } else { "" }
+            ),
             &got,
             &reference(-NEAR),
             &reference(NEAR),

@@ -96,7 +96,7 @@ pub fn fur_materials(
                     c.normal_randomize as f32,
                     width_scale as f32,
                     step as f32,
-                    0.0,
+                    setup.coat_density(ci) as f32,
                 ],
                 bsdf: crate::systems::hair_bsdf::gpu_block(
                     shading,

@@ -47,7 +47,8 @@ pub struct GpuFurMaterial {
     pub diffuse: [f32; 4],
     /// rgb: linear specular; w: shininess.
     pub specular: [f32; 4],
-    /// x: normal randomize (share of 180 degrees), y: width scale (culling).
+    /// x: normal randomize (share of 180 degrees), y: width scale (culling), z: node step
+    /// (ribbons), w: the coat's density (`FurSetup::coat_density`).
     pub extra: [f32; 4],
     /// The physical shading mode's parameters (`bsdf.sigma_a[3]` 1 when the coat uses it).
     pub bsdf: crate::systems::hair_bsdf::GpuHairBsdf,

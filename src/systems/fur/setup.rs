@@ -66,6 +66,8 @@ pub struct FurSetup {
     /// Bounding sphere of the rest mesh grown by the longest hair: asked for every frame
     /// (culling, framing), so computed once.
     bounds: (DVec3, f64),
+    /// The rest mesh's area: with a coat's hair count, its roots per unit of skin.
+    skin_area: f64,
 }
 
 /// Uniform in [0, 1) from a hash of (seed, hair, which); the same function is in
@@ -211,6 +213,7 @@ impl FurSetup {
             coats,
             skin,
             bounds: (c, r + longest),
+            skin_area: total_area,
         })
     }
 
@@ -250,6 +253,14 @@ impl FurSetup {
             .iter()
             .map(|t| t.map(|v| p[v as usize]))
             .collect()
+    }
+
+    /// A coat's fibre area per unit of skin and of hair length at the root: roots per unit
+    /// of skin times the root width (culling draws fewer, wider hairs and keeps it). Times
+    /// the tapered length above a point, it is the coat's fibre-area index there, which
+    /// dims the physical mode's ambient (`hair_bsdf::ambient_transmittance`).
+    pub fn coat_density(&self, coat: usize) -> f64 {
+        self.coats[coat].total as f64 / self.skin_area * self.fur.coats[coat].material.width
     }
 
     /// Bounding sphere of the (rest) mesh grown by the longest hair.

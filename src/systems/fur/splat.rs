@@ -75,8 +75,29 @@ impl Input<'_> {
         )
     }
 
-    /// `shade_hair` with no strands or head between the hair and the light.
-    fn shade(&self, m: &GpuFurMaterial, normal: DVec3, t: DVec3, p: DVec3) -> DVec3 {
+    /// `coat_above`: the coat's density times the hair's tapered length above node n.
+    fn coat_above(&self, s: &GpuStrand, m: &GpuFurMaterial, n: u32) -> f64 {
+        let k = s.segments;
+        let area: f64 = (n..k)
+            .map(|j| {
+                let along = (j as f64 + 0.5) / k.max(1) as f64;
+                (self.vert(s, j + 1) - self.vert(s, j)).length() * (1.0 - 0.5 * along)
+            })
+            .sum();
+        m.extra[3] as f64 * area
+    }
+
+    /// `shade_hair` at node n of hair s with no strands or head between the hair and the
+    /// light.
+    fn shade(
+        &self,
+        m: &GpuFurMaterial,
+        normal: DVec3,
+        t: DVec3,
+        p: DVec3,
+        s: &GpuStrand,
+        node: u32,
+    ) -> DVec3 {
         let f = self.frame;
         let l = v3(f.light_dir);
         let v = (v3(f.eye) - p).normalize();
@@ -85,10 +106,14 @@ impl Input<'_> {
         if m.bsdf.physical() {
             let (b, d) = m.bsdf.reference();
             let a = hair_bsdf::Angles::new(v.to_array(), l.to_array(), t.to_array());
-            let s = hair_bsdf::dual_radiance(&b, &d, &a, 0.0);
+            let rad = hair_bsdf::dual_radiance(&b, &d, &a, 0.0);
             let amb = m.bsdf.ambient;
-            return v3(f.light_color) * (std::f64::consts::PI * intensity) * DVec3::from_array(s)
-                + DVec3::new(amb[0] as f64, amb[1] as f64, amb[2] as f64) * ambient;
+            let through = DVec3::from_array(hair_bsdf::ambient_transmittance(
+                d.a_f,
+                self.coat_above(s, m, node),
+            ));
+            return v3(f.light_color) * (std::f64::consts::PI * intensity) * DVec3::from_array(rad)
+                + DVec3::new(amb[0] as f64, amb[1] as f64, amb[2] as f64) * through * ambient;
         }
         let n = if normal.dot(v) < 0.0 { -normal } else { normal };
         let h = (l + v).normalize();
@@ -123,7 +148,7 @@ impl Nodes for Input<'_> {
         let along = n as f64 / s.segments.max(1) as f64;
         Node {
             pos: p,
-            rgb: self.shade(m, self.shading_normal(si, m, n, t), t, p),
+            rgb: self.shade(m, self.shading_normal(si, m, n, t), t, p, s, n),
             width: m.ambient[3] as f64 * (1.0 + (0.5 - 1.0) * along) * m.extra[1] as f64,
             alpha: 1.0,
         }
