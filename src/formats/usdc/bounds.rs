@@ -12,7 +12,8 @@
 //!   only kind `openusd` 0.6 decodes);
 //! - nesting is bounded: dictionaries at most [`MAX_NEST`] deep, time samples hold no time
 //!   samples or dictionaries, and value types that none of the fields Kami reads can hold
-//!   (references, payloads, relocates) are refused in them;
+//!   (references, payloads, relocates) are refused in them, as are arrays and payload list
+//!   ops marked inlined (openusd reads them at their offset all the same);
 //! - every value checked adds what openusd will decode for it to one running total, so
 //!   many time samples or dictionary entries pointing at one large array count each time
 //!   they would be decoded; the total is at most [`decode_budget`];
@@ -289,6 +290,16 @@ impl File<'_> {
         let compressed = rep >> 61 & 1 == 1;
         let ty = rep >> 48 & 0xff;
         let at = rep & ((1 << 48) - 1);
+        // openusd decodes only a single value from the rep itself: an array (other than an
+        // empty one) and a payload list op (55) it reads at the payload offset even when
+        // the rep is marked inlined, so such a rep would skip every check below (a token
+        // array so marked took a count of 10^15 from the file's header). No writer inlines
+        // them: refused.
+        if inlined && ((array && at != 0) || ty == 55) {
+            return Err(format!(
+                "a value of type {ty} marked inlined, which only a single value can be (it would be read at offset {at})"
+            ));
+        }
         // Inlined, invalid, or an empty array (Pixar's writer stores one with payload 0).
         if inlined || ty == 0 || (array && at == 0) {
             return Ok(());
