@@ -153,4 +153,14 @@ fn generate(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroup
             verts[base + i] = vec4<f32>(root * (u * u * u) + p1 * (3.0 * u * u * s) + p2 * (3.0 * u * s * s) + end * (s * s * s), 1.0);
         }
     }
+    // w: the hair's tapered length from each node to the tip (fur/shade.wgsl's coat_above
+    // times the coat's density), summed once here rather than per shaded vertex.
+    let k = select(select(coat.segments, 7u, coat.style == POLYLINE), 1u, coat.style == LINE);
+    var above = 0.0;
+    verts[base + k].w = 0.0;
+    for (var j = k; j > 0u; j--) {
+        let seg = length(verts[base + j].xyz - verts[base + j - 1u].xyz);
+        above += seg * mix(1.0, 0.5, (f32(j - 1u) + 0.5) / f32(k));
+        verts[base + j - 1u].w = above;
+    }
 }

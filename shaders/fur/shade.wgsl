@@ -63,18 +63,11 @@ fn shade_hair(m: FurMaterial, n: vec3<f32>, t: vec3<f32>, p: vec3<f32>, s: Stran
 }
 
 // The coat's fibre-area index above node n (FurSetup::coat_density, src/systems/fur/setup.rs):
-// its density times the hair's tapered length from the node to the tip, as if its
-// neighbours were like it. Every segment, whatever the level of detail's node step.
+// its density times the hair's tapered length from the node to the tip (every segment,
+// whatever the level of detail's node step; fur/generate.wgsl sums it into the node's w),
+// as if its neighbours were like it.
 fn coat_above(s: Strand, m: FurMaterial, n: u32) -> f32 {
-    let k = s.segments;
-    var area = 0.0;
-    var a = verts[s.first_vertex + n].xyz;
-    for (var j = n; j < k; j++) {
-        let b = verts[s.first_vertex + j + 1u].xyz;
-        area += length(b - a) * mix(1.0, 0.5, (f32(j) + 0.5) / f32(max(k, 1u)));
-        a = b;
-    }
-    return m.extra.w * area;
+    return m.extra.w * verts[s.first_vertex + n].w;
 }
 
 fn tangent(s: Strand, n: u32) -> vec3<f32> {
