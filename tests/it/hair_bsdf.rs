@@ -24,6 +24,29 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     out[i] = vec4<f32>(hair_dual_radiance(mats[u32(v.w)], t.xyz, v.xyz, l.xyz, t.w), 0.0);
 }";
 
+/// `entry` after the hair BSDF's WGSL, run over `n` elements with the materials at binding 0
+/// and `input` at binding 1.
+fn run_bsdf_contract(
+    gpu: &kami::gpu::Gpu,
+    label: &str,
+    entry: &str,
+    mats: &[GpuHairBsdf],
+    input: &[[f32; 4]],
+    n: usize,
+) -> Vec<[f32; 4]> {
+    use kami::gpu::bind;
+    common::run_contract(
+        gpu,
+        label,
+        &format!("{}\n{entry}", kami::shaders::HAIR_BSDF),
+        &[
+            (bytemuck::cast_slice(mats), bind::storage::<GpuHairBsdf>()),
+            (bytemuck::cast_slice(input), bind::storage::<[f32; 4]>()),
+        ],
+        n,
+    )
+}
+
 fn unit(v: [f64; 3]) -> [f64; 3] {
     let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
     v.map(|x| x / n)
@@ -92,20 +115,7 @@ fn wgsl_bsdf_matches_the_f64_reference() {
             }
         }
     }
-    use kami::gpu::bind;
-    let got = common::run_contract(
-        gpu,
-        "hair bsdf contract",
-        &format!("{}\n{ENTRY}", kami::shaders::HAIR_BSDF),
-        &[
-            (
-                bytemuck::cast_slice(&mats),
-                bind::storage::<kami::systems::hair_bsdf::GpuHairBsdf>(),
-            ),
-            (bytemuck::cast_slice(&input), bind::storage::<[f32; 4]>()),
-        ],
-        want.len(),
-    );
+    let got = run_bsdf_contract(gpu, "hair bsdf contract", ENTRY, &mats, &input, want.len());
     let mut worst = (0.0f64, 0);
     for (i, ((m, s), g)) in want.iter().zip(&got).enumerate() {
         for c in 0..3 {
@@ -186,18 +196,12 @@ fn wgsl_ambient_transmittance_matches_the_f64_reference() {
             want.push((t, 2.0 * expint(3, a)));
         }
     }
-    use kami::gpu::bind;
-    let got = common::run_contract(
+    let got = run_bsdf_contract(
         gpu,
         "ambient transmittance contract",
-        &format!("{}\n{THROUGH_ENTRY}", kami::shaders::HAIR_BSDF),
-        &[
-            (
-                bytemuck::cast_slice(&mats),
-                bind::storage::<kami::systems::hair_bsdf::GpuHairBsdf>(),
-            ),
-            (bytemuck::cast_slice(&input), bind::storage::<[f32; 4]>()),
-        ],
+        THROUGH_ENTRY,
+        &mats,
+        &input,
         want.len(),
     );
     let mut worst = (0.0f64, 0);
