@@ -155,7 +155,7 @@ fn generate(@builtin(global_invocation_id) id: vec3<u32>, @builtin(num_workgroup
     }
     // w: the hair's tapered length from each node to the tip (fur/shade.wgsl's coat_above
     // times the coat's density), summed once here rather than per shaded vertex.
-    let k = select(select(coat.segments, 7u, coat.style == POLYLINE), 1u, coat.style == LINE);
+    let k = coat.segments;
     var above = 0.0;
     verts[base + k].w = 0.0;
     for (var j = k; j > 0u; j--) {
