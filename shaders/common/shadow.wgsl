@@ -15,9 +15,11 @@
 // - `shadow_opaque(p)`: how much of the key light reaches p past opaque occluders (the head
 //   ellipsoid, which stands for a mesh head, and a fur mesh's skin through the skin map):
 //   1 lit, 0 in their shadow (the skin map answers per texel); 1 while shadows are off.
-// - `shadow_direct(p)`: the factor on the direct (diffuse + specular) light of hair:
-//   exp(-absorption * shadow_strands(p)) * shadow_opaque(p); `shadow_direct_layered(p)`
-//   the same with `shadow_layered(p)`.
+// - `shadow_absorbed(n)`: the share of the direct light left past n strands,
+//   exp(-absorption * n); the factor on hair's direct (diffuse + specular) light is
+//   shadow_absorbed(shadow_strands(p)) * shadow_opaque(p). A module reads each lookup once
+//   and hands it to both shading modes: a software rasteriser runs both sides of a branch,
+//   so a lookup repeated on each side is paid twice.
 
 
 // The structure this pipeline reads, fixed when the pipeline is built
@@ -170,13 +172,11 @@ fn shadow_layered(p: vec3<f32>) -> f32 {
     return shadow_strands(p + frame.shadow.axis_l.xyz * frame.shadow.layered.x);
 }
 
-fn shadow_direct(p: vec3<f32>) -> f32 {
-    return exp(-frame.shadow.axis_l.w * shadow_strands(p)) * shadow_opaque(p);
+// The share of the direct light left after `crossed` strands (the absorption per strand).
+fn shadow_absorbed(crossed: f32) -> f32 {
+    return exp(-frame.shadow.axis_l.w * crossed);
 }
 
-fn shadow_direct_layered(p: vec3<f32>) -> f32 {
-    return exp(-frame.shadow.axis_l.w * shadow_layered(p)) * shadow_opaque(p);
-}
 
 // Toon shadows (the wisps, and the head in a toon scene): a step, not a gradient. 1 where
 // more than TOON_STRANDS strands lie towards the light, or the head does; read 1.5 cells

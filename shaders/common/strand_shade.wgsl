@@ -132,8 +132,10 @@ fn shade_node(s: Strand, n: u32) -> ShadedNode {
     let tdl = dot(t, l);
     let diffuse = mat.params.y * sqrt(max(1.0 - tdl * tdl, 0.0));
     let ambient = frame.light_color.w * s.ka;
-    // Hair shadows (common/shadow.wgsl) dim the direct light only.
-    let intensity = frame.light_dir.w * shadow_direct_layered(p);
+    // Hair shadows (common/shadow.wgsl) dim the direct light only; each lookup read once.
+    let crossed = shadow_layered(p);
+    let opaque = shadow_opaque(p);
+    let intensity = frame.light_dir.w * shadow_absorbed(crossed) * opaque;
     var rgb = base * (ambient + intensity * diffuse) + frame.light_color.rgb * (intensity * spec);
     // The physical mode (docs/shading.md): the key light dual-scattered through the strands
     // the shadow structure counts, past opaque occluders, plus Kami's ambient (I_a k_a) times
@@ -150,8 +152,8 @@ fn shade_node(s: Strand, n: u32) -> ShadedNode {
             around = HAIR_AMBIENT_RADIANCE
                 * pow(max(around / HAIR_AMBIENT_RADIANCE, vec3<f32>(0.0)), absorb);
         }
-        let f = hair_dual_radiance(b, t, v, l, shadow_layered(p));
-        rgb = frame.light_color.rgb * (hair_irradiance() * shadow_opaque(p)) * f + around * ambient;
+        let f = hair_dual_radiance(b, t, v, l, crossed);
+        rgb = frame.light_color.rgb * (hair_irradiance() * opaque) * f + around * ambient;
     }
     // The dynamics mark nodes whose segment felt the pseudo-force with w = 2.
     if frame.flags.x > 0.5 && verts[s.first_vertex + n].w > 1.5 {

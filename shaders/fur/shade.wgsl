@@ -31,8 +31,9 @@ fn rotate_about(axis: vec3<f32>, v: vec3<f32>, angle: f32) -> vec3<f32> {
     return v * c + cross(axis, v) * s + axis * dot(axis, v) * (1.0 - c);
 }
 
-// Ambient + diffuse + specular (Phong-Blinn) with the coat's material.
-fn shade(m: FurMaterial, n_in: vec3<f32>, p: vec3<f32>) -> vec3<f32> {
+// Ambient + diffuse + specular (Phong-Blinn) with the coat's material; `lit` the hair
+// shadows' factor on the direct light (common/shadow.wgsl's shadow_absorbed times shadow_opaque).
+fn shade(m: FurMaterial, n_in: vec3<f32>, p: vec3<f32>, lit: f32) -> vec3<f32> {
     let l = frame.light_dir.xyz;
     let v = normalize(frame.eye.xyz - p);
     var n = n_in;
@@ -42,8 +43,7 @@ fn shade(m: FurMaterial, n_in: vec3<f32>, p: vec3<f32>) -> vec3<f32> {
     let h = normalize(l + v);
     let diff = max(dot(n, l), 0.0);
     let spec = pow(max(dot(n, h), 0.0), max(m.specular.w, 1.0));
-    // Hair shadows (common/shadow.wgsl) dim the direct light only.
-    let lit = shadow_direct(p);
+    // Hair shadows dim the direct light only.
     return m.ambient.rgb * frame.light_color.w
         + lit * frame.light_dir.w * frame.light_color.rgb * (m.diffuse.rgb * diff + m.specular.rgb * spec);
 }
@@ -51,15 +51,18 @@ fn shade(m: FurMaterial, n_in: vec3<f32>, p: vec3<f32>) -> vec3<f32> {
 // The coat's shading at node `node` of hair s: the paper's GL lighting, or the physical
 // mode (docs/shading.md) from the hair's tangent t, with Kami's ambient times the colour a
 // dense coat of this hair sends back, dimmed by the coat above the node.
+// The shadow lookups are read once, before the branch: a software rasteriser runs both sides.
 fn shade_hair(m: FurMaterial, n: vec3<f32>, t: vec3<f32>, p: vec3<f32>, s: Strand, node: u32) -> vec3<f32> {
+    let crossed = shadow_strands(p);
+    let opaque = shadow_opaque(p);
     if hair_physical(m.bsdf) {
         let v = normalize(frame.eye.xyz - p);
-        let f = hair_dual_radiance(m.bsdf, t, v, frame.light_dir.xyz, shadow_strands(p));
+        let f = hair_dual_radiance(m.bsdf, t, v, frame.light_dir.xyz, crossed);
         let through = hair_ambient_through(m.bsdf, coat_above(s, m, node));
-        return frame.light_color.rgb * (hair_irradiance() * shadow_opaque(p)) * f
+        return frame.light_color.rgb * (hair_irradiance() * opaque) * f
             + m.bsdf.ambient.rgb * through * frame.light_color.w;
     }
-    return shade(m, n, p);
+    return shade(m, n, p, shadow_absorbed(crossed) * opaque);
 }
 
 // The coat's fibre-area index above node n (FurSetup::coat_density, src/systems/fur/setup.rs):

@@ -65,7 +65,7 @@ fn vs(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -> VOut 
     out.physical = vec3<f32>(0.0);
     let n = shadow_strands(v.position.xyz);
     let opaque = shadow_opaque(v.position.xyz);
-    out.lit = exp(-frame.shadow.axis_l.w * n) * opaque;
+    out.lit = shadow_absorbed(n) * opaque;
     if hair_physical(strip_look.bsdf) {
         // Per vertex, as the other kinds shade per node (docs/shading.md).
         var t = v.tangent.xyz;

@@ -491,7 +491,8 @@ impl Bsdf {
                     if dphi.abs() > 1e-3 {
                         (self.np_cdf(a.phi - phi0[p]) - self.np_cdf(a.phi - phi1[p])) / dphi
                     } else {
-                        self.np(a.phi - mid.phi[p])
+                        // Phi linear across the cell, as the CDF form takes it.
+                        self.np(a.phi - 0.5 * (phi0[p] + phi1[p]))
                     }
                 } else {
                     1.0 / (2.0 * PI)

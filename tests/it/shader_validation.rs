@@ -8,7 +8,7 @@ fn every_shader_validates() {
         let module = naga::front::wgsl::parse_str(source).unwrap_or_else(|e| {
             panic!("{name}.wgsl does not parse:\n{}", e.emit_to_string(source))
         });
-        naga::valid::Validator::new(
+        let info = naga::valid::Validator::new(
             naga::valid::ValidationFlags::all(),
             // Per-sample shading (sub-pixel hair coverage): Kami requires the adapter to
             // have it.
@@ -21,6 +21,53 @@ fn every_shader_validates() {
                 e.emit_to_string(source)
             )
         });
+        every_override_setting_validates(name, source, &module, &info);
+    }
+}
+
+/// The pipelines set `HAIR_PHYSICAL` (`gpu::pipeline::Variant::constants`) and wgpu
+/// evaluates and validates the module again with it, per entry point: a function valid
+/// before that can fail there (only when a pipeline is built, on every adapter). Both
+/// settings, every entry point.
+fn every_override_setting_validates(
+    name: &str,
+    source: &str,
+    module: &naga::Module,
+    info: &naga::valid::ModuleInfo,
+) {
+    let overrides: Vec<String> = module
+        .overrides
+        .iter()
+        .filter_map(|(_, o)| o.name.clone())
+        .filter(|n| n == "HAIR_PHYSICAL")
+        .collect();
+    if overrides.is_empty() {
+        return;
+    }
+    for value in [0.0, 1.0] {
+        let mut constants = naga::back::PipelineConstants::default();
+        for o in &overrides {
+            constants.insert(o.clone(), value);
+        }
+        for ep in &module.entry_points {
+            if let Err(e) = naga::back::pipeline_constants::process_overrides(
+                module,
+                info,
+                Some((ep.stage, &ep.name)),
+                &constants,
+            ) {
+                let why = match &e {
+                    naga::back::pipeline_constants::PipelineConstantError::ValidationError(v) => {
+                        v.emit_to_string(source)
+                    }
+                    other => format!("{other:?}"),
+                };
+                panic!(
+                    "{name}.wgsl, entry point {} with {overrides:?} = {value}:\n{why}",
+                    ep.name
+                );
+            }
+        }
     }
 }
 
