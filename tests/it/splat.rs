@@ -237,17 +237,29 @@ fn assert_accumulation_agrees(
 /// Sample by sample, every word of the GPU's accumulation is the f64 reference's within
 /// 0.5 % relative plus the fixed-point rounding of the hairs that add to it
 /// (`ROUNDING_UNITS`, a few thousandths for the faintest words), over single-sampled and
-/// multisampled targets, in Anjyo's shading and in the physical mode.
+/// multisampled targets, in Anjyo's shading and in the physical mode, with strands of one
+/// look and with per-strand variation (melanin, width, tint) in both modes.
 #[test]
 fn gpu_accumulation_matches_the_f64_reference() {
     let gpu = common::gpu();
-    for (msaa, shading) in [
-        (1, Shading::Anjyo),
-        (4, Shading::Anjyo),
-        (1, Shading::Physical),
+    for (msaa, shading, varied) in [
+        (1, Shading::Anjyo, false),
+        (4, Shading::Anjyo, false),
+        (1, Shading::Physical, false),
+        (1, Shading::Anjyo, true),
+        (1, Shading::Physical, true),
     ] {
         let mut scene = small(false, msaa);
         scene.render.shading = shading;
+        if varied {
+            for g in scene.groups_mut() {
+                g.material.variation = anjyo::block::Variation {
+                    melanin: 0.4,
+                    width: 0.3,
+                    tint: 0.2,
+                };
+            }
+        }
         let d = draw(gpu, &scene);
         if msaa > 1 && gpu.info.backend == wgpu::Backend::Gl {
             // Not over MSAA targets on GL (StrandsPass::can_splat): the ribbons draw.
@@ -256,8 +268,12 @@ fn gpu_accumulation_matches_the_f64_reference() {
         }
         let got = gpu_samples(gpu, &d.stage);
         let want = reference(gpu, &d.stage, &scene, None);
-        let covered =
-            assert_accumulation_agrees(&format!("MSAA {msaa} {shading:?}"), &got, &want, &want);
+        let covered = assert_accumulation_agrees(
+            &format!("MSAA {msaa} {shading:?}, varied {varied}"),
+            &got,
+            &want,
+            &want,
+        );
         // The hair is on screen: a good share of the image is covered.
         assert!(covered > 2000, "only {covered} samples covered");
     }

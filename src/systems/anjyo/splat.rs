@@ -1,6 +1,7 @@
 //! Anjyo's strands for the f64 reference of the compute rasteriser (`systems::splat`):
 //! nodes placed, sized and shaded as `shaders/anjyo/splat.wgsl` gives them
-//! (`shaders/common/strand_shade.wgsl`).
+//! (`shaders/common/strand_shade.wgsl`, with `common/strand_vary.wgsl`'s per-strand
+//! variation through its f64 twin `anjyo::vary`).
 
 use super::gpu_data::{GpuLook, GpuMaterial};
 use crate::gpu::gpu_data::{GpuFrame, GpuStrand};
@@ -101,6 +102,24 @@ impl Input<'_> {
                 alpha = c[3];
             }
         }
+        // Per-strand variation (`vary`), only for a group that varies, as the shader.
+        let vary = super::block::Variation {
+            melanin: mat.variation[0] as f64,
+            width: mat.variation[1] as f64,
+            tint: mat.variation[2] as f64,
+        };
+        if mat.variation[1] != 0.0 {
+            width *= super::vary::width_factor(s.rand, &vary);
+        }
+        let varies = mat.variation[0] != 0.0 || mat.variation[2] != 0.0;
+        let absorb = if varies {
+            super::vary::absorption(s.rand, &vary)
+        } else {
+            [1.0; 3]
+        };
+        if varies {
+            base = DVec3::from_array(super::vary::color(base.to_array(), s.rand, &vary));
+        }
         let width = width * f.raster[2] as f64 * self.lod[0] as f64;
         let l = v3(f.light_dir);
         let v = (v3(f.eye) - p).normalize();
@@ -117,12 +136,18 @@ impl Input<'_> {
         if mat.bsdf.physical() {
             // The physical mode, with the shadow structure's stub values (no strands in the
             // way, lit).
-            let (b, d) = mat.bsdf.reference();
+            // A varied strand's own absorption; the volume's colour around it to the
+            // strand's power (dual scattering's averages stay the group's).
+            let (mut b, d) = mat.bsdf.reference();
+            b.sigma_a = std::array::from_fn(|c| b.sigma_a[c] * absorb[c]);
             let a = hair_bsdf::Angles::new(v.to_array(), l.to_array(), t.to_array());
             let s = hair_bsdf::dual_radiance(&b, &d, &a, 0.0);
-            let amb = mat.bsdf.ambient;
+            let r = hair_bsdf::AMBIENT_RADIANCE;
+            let around: [f64; 3] = std::array::from_fn(|c| {
+                r * (mat.bsdf.ambient[c] as f64 / r).max(0.0).powf(absorb[c])
+            });
             rgb = v3(f.light_color) * (std::f64::consts::PI * intensity) * DVec3::from_array(s)
-                + DVec3::new(amb[0] as f64, amb[1] as f64, amb[2] as f64) * ambient;
+                + DVec3::from_array(around) * ambient;
         }
         if f.flags[0] > 0.5 && self.verts[(s.first_vertex + n) as usize][3] > 1.5 {
             rgb = DVec3::new(0.9, 0.1, 0.05);
