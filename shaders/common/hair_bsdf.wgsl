@@ -257,11 +257,16 @@ fn hair_two_e3(x_in: f32) -> f32 {
 // index `area` (hair_bsdf::ambient_transmittance, its f64 reference): dual scattering's
 // forward transmittance averaged over the open hemisphere.
 fn hair_ambient_through(b: HairBsdf, area: f32) -> vec3<f32> {
+    return hair_ambient_through_af(b.a_f.rgb, area);
+}
+
+// The same for fibres of forward scattering attenuation a_f (rgb).
+fn hair_ambient_through_af(a_f: vec3<f32>, area: f32) -> vec3<f32> {
     let a = max(area, 0.0);
     if a <= 0.0 {
         return vec3<f32>(1.0);
     }
-    let k = -log(max(b.a_f.rgb, vec3<f32>(1e-6)));
+    let k = -log(max(a_f, vec3<f32>(1e-6)));
     let open = hair_two_e3(a);
     return vec3<f32>(open) + 0.7 * (vec3<f32>(hair_two_e3(k.x * a), hair_two_e3(k.y * a), hair_two_e3(k.z * a))
         - vec3<f32>(hair_two_e3((1.0 + k.x) * a), hair_two_e3((1.0 + k.y) * a), hair_two_e3((1.0 + k.z) * a)));

@@ -12,6 +12,9 @@ struct Skin {
     // x: where the per-vertex (joints, weights) start in `mesh`, 0: not skinned; y: 1 for a
     // closed mesh (cast_skin may skip its far side).
     skin: vec4<u32>,
+    // The physical coats over the skin: rgb their a_f, w their fibre-area index per unit of
+    // the mesh's hair length (0: none; src/systems/fur/draw.rs `skin_coat`).
+    coat: vec4<f32>,
 }
 
 @group(1) @binding(0) var<uniform> skin: Skin;
@@ -44,6 +47,10 @@ struct VOut {
     // hair is shaded: per pixel it cost the software viewer more of fur's frame than the
     // whole map costs now (docs/shadows.md).
     @location(2) lit: f32,
+    // The share of the even ambient light that reaches the skin through the coat above it
+    // (common/hair_bsdf.wgsl), per vertex: the coat's fibre area over the vertex is its
+    // hair length (the mesh's w) times the coats' index.
+    @location(3) ambient: vec3<f32>,
 }
 
 // Vertex v of the skin this frame: skinned, then moved by the mesh motion.
@@ -55,7 +62,9 @@ fn skin_vertex(v: u32) -> Deformed {
 @vertex
 fn vs(@builtin(vertex_index) vi: u32) -> VOut {
     var out: VOut;
-    let d = skin_vertex(tris[vi / 3u][vi % 3u]);
+    let v = tris[vi / 3u][vi % 3u];
+    let d = skin_vertex(v);
+    out.ambient = hair_ambient_through_af(skin.coat.rgb, mesh[2u * v].w * skin.coat.w);
     out.pos = frame.view_proj * vec4<f32>(d.p, 1.0);
     out.world = d.p;
     out.normal = d.n;
@@ -71,7 +80,7 @@ fn fs(in: VOut) -> @location(0) vec4<f32> {
     // The fur's shadow (common/shadow.wgsl) dims the direct light, and so does the skin
     // where more skin lies towards the light.
     let direct = frame.light_dir.w * exp(-frame.shadow.axis_l.w * shadow_strands(in.world)) * in.lit;
-    let rgb = skin.color.rgb * (0.3 * frame.light_color.w + 0.8 * direct * wrap);
+    let rgb = skin.color.rgb * (0.3 * frame.light_color.w * in.ambient + 0.8 * direct * wrap);
     return vec4<f32>(rgb, 1.0);
 }
 

@@ -517,3 +517,51 @@ fn render_counting(
     let drawn = stage.systems().iter().map(|s| s.stats().drawn).sum();
     (img, drawn)
 }
+
+/// The skin's ambient under a physical coat (`draw::skin_coat`, read by
+/// `shaders/fur/skin.wgsl`) counts the fibre area the generator actually grows: over the
+/// whole skin, the coat index times each triangle's mean hair length, summed by area, is
+/// the sum over every hair of its root width times its tapered length (the f64 generator's
+/// nodes, bent by gravity, so a few percent longer than the straight length the skin
+/// reads). Anjyo's mode dims nothing.
+#[test]
+fn the_skin_ambient_counts_the_coats_fibre_area() {
+    use kami::scene::Shading;
+    use kami::systems::fur::draw::{fur_materials, skin_coat};
+    let f = common::scene("fur_polyline").fur().clone().unwrap();
+    let s = FurSetup::new(&f, 5).unwrap();
+    let coat = skin_coat(&s, &fur_materials(&s, 1.0, &[], Shading::Physical));
+    let tris = s.posed_triangles(0.0);
+    let predicted: f64 = s
+        .mesh
+        .triangles
+        .iter()
+        .zip(&tris)
+        .map(|(t, p)| {
+            let area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
+            let len = t.iter().map(|&v| s.lengths[v as usize]).sum::<f64>() / 3.0;
+            area * len * coat[3] as f64
+        })
+        .sum();
+    let mut grown = 0.0;
+    for (ci, alloc) in s.coats.iter().enumerate() {
+        let width = f.coats[ci].material.width;
+        for t in 0..alloc.count.len() {
+            for h in alloc.first[t]..alloc.first[t] + alloc.count[t] {
+                let nodes = hair_points(&s, ci, t, h, 0.0).nodes;
+                let k = (nodes.len() - 1) as f64;
+                grown += (1..nodes.len())
+                    .map(|j| {
+                        let taper = 1.0 - 0.5 * (j as f64 - 0.5) / k;
+                        width * taper * (nodes[j] - nodes[j - 1]).length()
+                    })
+                    .sum::<f64>();
+            }
+        }
+    }
+    let ratio = grown / predicted;
+    eprintln!("fibre area grown / read by the skin: {ratio:.4}");
+    assert!((1.0..1.06).contains(&ratio), "ratio {ratio}");
+    let anjyo = skin_coat(&s, &fur_materials(&s, 1.0, &[], Shading::Anjyo));
+    assert_eq!(anjyo, [0.0; 4]);
+}

@@ -255,7 +255,7 @@ fn twins() -> Vec<Twin> {
         ),
         twin!(
             GpuSkin,
-            [color, motion, motion_axis, motion_dir, skin],
+            [color, motion, motion_axis, motion_dir, skin, coat],
             "Skin",
             ["fur/skin.wgsl"]
         ),

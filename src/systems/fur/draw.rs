@@ -109,8 +109,13 @@ pub fn fur_materials(
         .collect()
 }
 
-/// The skin uniform at `frame`.
-pub fn skin_uniform(setup: &FurSetup, frame: f64, skin_base: u32) -> GpuSkin {
+/// The skin uniform at `frame`, under the coats' `materials` (`fur_materials`).
+pub fn skin_uniform(
+    setup: &FurSetup,
+    materials: &[GpuFurMaterial],
+    frame: f64,
+    skin_base: u32,
+) -> GpuSkin {
     let c = linear_rgb(setup.fur.skin);
     let (motion, axis, dir) = motion_uniform(setup.fur.motion.as_ref(), frame);
     GpuSkin {
@@ -119,7 +124,37 @@ pub fn skin_uniform(setup: &FurSetup, frame: f64, skin_base: u32) -> GpuSkin {
         motion_axis: axis,
         motion_dir: dir,
         skin: [skin_base, u32::from(setup.mesh.closed), 0, 0],
+        coat: skin_coat(setup, materials),
     }
+}
+
+/// The physical coats over the skin, as the skin's ambient reads them: w the fibre-area
+/// index of all of them per unit of the mesh's hair length (each coat's density times its
+/// relative length times 0.75, the mean of the width's taper from 1 to 1/2), rgb their a_f
+/// weighted by it (exact for one coat). The skin's ambient is dimmed by
+/// `hair_bsdf::ambient_transmittance(a_f, w * length)`, as a node's by the coat above it.
+/// Zero where no coat shades physically (Anjyo's mode keeps the paper's skin).
+pub fn skin_coat(setup: &FurSetup, materials: &[GpuFurMaterial]) -> [f32; 4] {
+    let (mut w, mut a_f) = (0.0f64, [0.0f64; 3]);
+    for (ci, (coat, m)) in setup.fur.coats.iter().zip(materials).enumerate() {
+        if m.bsdf.sigma_a[3] <= 0.5 {
+            continue;
+        }
+        let wc = setup.coat_density(ci) * coat.relative_length * 0.75;
+        w += wc;
+        for (a, &f) in a_f.iter_mut().zip(&m.bsdf.a_f) {
+            *a += wc * f as f64;
+        }
+    }
+    if w <= 0.0 {
+        return [0.0; 4];
+    }
+    [
+        (a_f[0] / w) as f32,
+        (a_f[1] / w) as f32,
+        (a_f[2] / w) as f32,
+        w as f32,
+    ]
 }
 
 impl FurPass {
@@ -434,7 +469,7 @@ impl FurPass {
             gpu.queue.write_buffer(
                 &b.skin,
                 0,
-                bytemuck::bytes_of(&skin_uniform(setup, frame, b.skin_base)),
+                bytemuck::bytes_of(&skin_uniform(setup, &materials, frame, b.skin_base)),
             );
         }
     }

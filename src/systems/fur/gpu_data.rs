@@ -66,5 +66,8 @@ pub struct GpuSkin {
     /// x: where the skin's joints and weights start in the mesh buffer (0: not skinned);
     /// y: 1 for a closed mesh (`Mesh::closed`: its cast skips the side facing away).
     pub skin: [u32; 4],
+    /// The physical coats over the skin, which dim its ambient (`draw::skin_coat`): rgb
+    /// their a_f, w their fibre-area index per unit of the mesh's hair length (0: none).
+    pub coat: [f32; 4],
 }
-assert_size!(GpuSkin, 80);
+assert_size!(GpuSkin, 96);

@@ -80,6 +80,7 @@ pub const SKIN: &str = wgsl!(
     "common/shadow.wgsl",
     "common/shadow_cast.wgsl",
     "common/deform.wgsl",
+    "common/hair_bsdf.wgsl",
     "fur/skin.wgsl"
 );
 
