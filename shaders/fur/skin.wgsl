@@ -79,7 +79,7 @@ fn fs(in: VOut) -> @location(0) vec4<f32> {
     let wrap = max((dot(n, l) + 0.3) / 1.3, 0.0);
     // The fur's shadow (common/shadow.wgsl) dims the direct light, and so does the skin
     // where more skin lies towards the light.
-    let direct = frame.light_dir.w * exp(-frame.shadow.axis_l.w * shadow_strands(in.world)) * in.lit;
+    let direct = frame.light_dir.w * shadow_absorbed(shadow_strands(in.world)) * in.lit;
     let rgb = skin.color.rgb * (0.3 * frame.light_color.w * in.ambient + 0.8 * direct * wrap);
     return vec4<f32>(rgb, 1.0);
 }

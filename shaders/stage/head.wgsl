@@ -46,7 +46,7 @@ fn fs(in: VOut) -> @location(0) vec4<f32> {
         // A toon scene's head: the wisps' shadow is a step.
         direct = frame.light_dir.w * (1.0 - shadow_toon(in.world));
     } else {
-        direct = frame.light_dir.w * exp(-frame.shadow.axis_l.w * shadow_strands(in.world));
+        direct = frame.light_dir.w * shadow_absorbed(shadow_strands(in.world));
     }
     let rgb = head.color.rgb * (ambient + 0.8 * direct * wrap) + frame.light_color.rgb * spec * direct;
     return vec4<f32>(rgb, 1.0);
