@@ -48,6 +48,12 @@ fn fs(in: VOut) -> @location(0) vec4<f32> {
     } else {
         direct = frame.light_dir.w * shadow_absorbed(shadow_strands(in.world));
     }
+    if head.color.w > 0.5 {
+        // The physical mode: a Lambertian of the head's colour under the light and the even
+        // ambient environment, as the path tracer's head (src/bench/look/mitsuba.rs).
+        let lambert = ambient + direct * max(dot(n, l), 0.0);
+        return vec4<f32>(head.color.rgb * frame.light_color.rgb * lambert, 1.0);
+    }
     let rgb = head.color.rgb * (ambient + 0.8 * direct * wrap) + frame.light_color.rgb * spec * direct;
     return vec4<f32>(rgb, 1.0);
 }

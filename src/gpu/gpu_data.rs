@@ -74,7 +74,8 @@ pub struct GpuHead {
     pub model: [[f32; 4]; 4],
     /// The head pose's rotation (normals turn with it).
     pub rotation: [[f32; 4]; 4],
-    /// rgb: linear skin colour.
+    /// rgb: linear skin colour; w: 1 for the physical mode's Lambertian, 0 for the paper
+    /// scenes' look (`shaders/stage/head.wgsl`).
     pub color: [f32; 4],
     /// 1 / radii^2 (for normals of the ellipsoid; 1 for a mesh head).
     pub inv_radii2: [f32; 4],

@@ -144,10 +144,19 @@ impl HeadPass {
         Ok(())
     }
 
-    /// Set the ellipsoid (and its pose) and colour. The head is drawn `DRAWN_SCALE` smaller
+    /// Set the ellipsoid (and its pose), colour and look (`physical`: a Lambertian, as the
+    /// path tracer's head, for a scene shaded physically; else the paper scenes' soft wrap
+    /// and highlight). The head is drawn `DRAWN_SCALE` smaller
     /// than the collision hull: nodes sit on the hull, so the chord between two of them dips
     /// below it by d^2/8R (0.01-0.03 cm here) and would vanish into the skin between nodes.
-    pub fn prepare(&self, queue: &wgpu::Queue, hull: &Ellipsoid, pose: DMat4, color: [f32; 3]) {
+    pub fn prepare(
+        &self,
+        queue: &wgpu::Queue,
+        hull: &Ellipsoid,
+        pose: DMat4,
+        color: [f32; 3],
+        physical: bool,
+    ) {
         // A mesh head's vertices are in head coordinates already.
         let radii = if self.mesh.is_some() {
             DVec3::ONE
@@ -168,7 +177,7 @@ impl HeadPass {
         let data = GpuHead {
             model: model.to_cols_array_2d(),
             rotation: rotation.to_cols_array_2d(),
-            color: [c[0], c[1], c[2], 1.0],
+            color: [c[0], c[1], c[2], if physical { 1.0 } else { 0.0 }],
             inv_radii2: [
                 (1.0 / r2.x) as f32,
                 (1.0 / r2.y) as f32,

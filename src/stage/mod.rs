@@ -783,6 +783,7 @@ impl Stage {
                 &self.scene.head_ellipsoid(),
                 head_pose,
                 self.scene.head.color,
+                self.scene.render.shading == crate::scene::Shading::Physical,
             );
         }
         Ok(())

@@ -23,6 +23,7 @@ mod fuzz;
 mod gpu_twins;
 mod guides;
 mod hair_bsdf;
+mod head;
 mod imported;
 mod layers;
 mod lod;
