@@ -26,6 +26,8 @@ const HAIR_PI: f32 = 3.14159265358979;
 // Keep equal to AMBIENT_RADIANCE in src/systems/hair_bsdf.rs (tests/it/hair_bsdf.rs checks it):
 // the ambient colour (HairBsdf.ambient) is this times the colour a dense volume sends back.
 const HAIR_AMBIENT_RADIANCE: f32 = 0.3;
+// hair_bsdf::SKY_SEEN: the share of a_b a fibre on the hair's surface gets from the open sky.
+const HAIR_SKY_SEEN: f32 = 0.8183098861837907;
 // Keep equal to CELLS in src/systems/hair_bsdf.rs.
 const HAIR_CELLS: u32 = 12u;
 // A cell's width in gamma. The cells' edges and middles are fixed, so their sines and
@@ -266,8 +268,27 @@ fn hair_ambient_through_af(a_f: vec3<f32>, area: f32) -> vec3<f32> {
     if a <= 0.0 {
         return vec3<f32>(1.0);
     }
+    return vec3<f32>(hair_two_e3(a)) + hair_scattered_through(a_f, a);
+}
+
+// The forward-scattered part of hair_ambient_through_af: d_f (2 E_3(k A) - 2 E_3((1 + k) A)),
+// k = -ln a_f (0 at A = 0).
+fn hair_scattered_through(a_f: vec3<f32>, a: f32) -> vec3<f32> {
     let k = -log(max(a_f, vec3<f32>(1e-6)));
-    let open = hair_two_e3(a);
-    return vec3<f32>(open) + 0.7 * (vec3<f32>(hair_two_e3(k.x * a), hair_two_e3(k.y * a), hair_two_e3(k.z * a))
+    return 0.7 * (vec3<f32>(hair_two_e3(k.x * a), hair_two_e3(k.y * a), hair_two_e3(k.z * a))
         - vec3<f32>(hair_two_e3((1.0 + k.x) * a), hair_two_e3((1.0 + k.y) * a), hair_two_e3((1.0 + k.z) * a)));
+}
+
+// The share of a fibre's ambient colour that reaches it under a coat of fibre-area index
+// `area` (hair_bsdf::ambient_in_coat, its f64 reference): the sky's single backscattering
+// past the fibres above unscattered (2 E_3), the volume's multiple backscattering fed by
+// all that comes through (hair_ambient_through); a_f alone splits the colour.
+// 2 E_3 is computed once for both parts.
+fn hair_ambient_in_coat(b: HairBsdf, area: f32) -> vec3<f32> {
+    let a = max(area, 0.0);
+    let open = hair_two_e3(a);
+    let af = b.a_f.rgb;
+    let t = vec3<f32>(open) + hair_scattered_through(af, a);
+    let m = af / max(vec3<f32>(1.0) - af * af, vec3<f32>(1e-6));
+    return (HAIR_SKY_SEEN * open + m * t) / (HAIR_SKY_SEEN + m);
 }

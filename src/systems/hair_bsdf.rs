@@ -33,6 +33,14 @@ pub const D_B: f64 = 0.7;
 /// gives Mitsuba's environment the same, so the physical mode's hair gets it too.
 pub const AMBIENT_RADIANCE: f64 = 0.3;
 
+/// The share of a_b, the light a fibre scatters back from the half of the sphere facing
+/// the viewer, that comes from the open sky for a fibre lying on the surface of hair over
+/// a convex shape: seen at theta from the surface's normal, that half and the open half
+/// overlap over pi - theta of the fibre's azimuth; the projected area weights theta by
+/// cos theta, so the mean is 1 - (pi / 2 - 1) / pi = 1/2 + 1/pi. The other half is the
+/// volume's, whose light [`DualScattering::even_multiple`] stands for.
+pub const SKY_SEEN: f64 = 0.5 + std::f64::consts::FRAC_1_PI;
+
 pub use crate::scene::Shading;
 
 /// A group's physical look as an artist sets it (Blender's Principled Hair names; a scene's
@@ -605,11 +613,25 @@ impl DualScattering {
         }
     }
 
-    /// The colour a dense volume of this hair sends back under even light (single plus
-    /// multiple backscattering), times the radiance of Kami's ambient environment per unit
-    /// of the light's `ambient` ([`AMBIENT_RADIANCE`]): the physical mode's ambient colour.
+    /// The colour a dense volume of this hair sends back under even light, times the
+    /// radiance of Kami's ambient environment per unit of the light's `ambient`
+    /// ([`AMBIENT_RADIANCE`]): the physical mode's ambient colour. Single backscattering
+    /// of the part of the sky a fibre on the hair's surface sees ([`SKY_SEEN`] of a_b),
+    /// plus the light the volume under it sends back ([`Self::even_multiple`]).
     pub fn ambient(&self) -> [f64; 3] {
-        std::array::from_fn(|c| AMBIENT_RADIANCE * (self.a_b[c] + D_B * self.big_a_b[c]).min(1.0))
+        let m = self.even_multiple();
+        std::array::from_fn(|c| AMBIENT_RADIANCE * (SKY_SEEN * self.a_b[c] + m[c]).min(1.0))
+    }
+
+    /// Multiple backscattering under even light: a_b a_f / (1 - a_f^2) per channel, the
+    /// backscattered paths with an odd number of forward passes (a_b (a_f + a_f^3 + ...)).
+    /// Zinke's A_b (a_b a_f^2 / (1 - a_f^2) + ...) is for light from one direction, which
+    /// must cross the fibres above twice; even light also enters the volume from the side,
+    /// and the path tracer's multiple scattering (`kami bench look`'s close-ups rendered
+    /// with and without paths of three or more vertices) is 3 to 7 times Zinke's and
+    /// within 25 % of this form on the bob (docs/shading.md, "The ambient colour").
+    pub fn even_multiple(&self) -> [f64; 3] {
+        std::array::from_fn(|c| self.a_b[c] * multiple_share(self.a_f[c]))
     }
 }
 
@@ -693,6 +715,28 @@ pub fn ambient_transmittance(a_f: [f64; 3], area: f64) -> [f64; 3] {
         let k = -af.max(1e-6).ln();
         open + D_F * (e(k * a) - e((1.0 + k) * a))
     })
+}
+
+/// The share of a fibre's ambient colour ([`DualScattering::ambient`]) that reaches it
+/// under a coat of fibre-area index `area` (fur). The single backscattering of the sky
+/// (`SKY_SEEN` a_b) needs the sky seen past the fibres above unscattered: 2 E_3(A), the
+/// open part of [`ambient_transmittance`]. The volume's multiple backscattering
+/// ([`DualScattering::even_multiple`]) is fed by all the light that comes through,
+/// scattered or not: the whole transmittance T(A). The two parts stand in the ratio
+/// SKY_SEEN : a_f / (1 - a_f^2), so a_f alone splits the colour (exact unless the colour
+/// was clipped at 1).
+pub fn ambient_in_coat(a_f: [f64; 3], area: f64) -> [f64; 3] {
+    let t = ambient_transmittance(a_f, area);
+    let open = 2.0 * expint(3, area.max(0.0));
+    std::array::from_fn(|c| {
+        let m = multiple_share(a_f[c]);
+        (SKY_SEEN * open + m * t[c]) / (SKY_SEEN + m)
+    })
+}
+
+/// a_f / (1 - a_f^2): the even light's multiple backscattering per unit of a_b.
+fn multiple_share(a_f: f64) -> f64 {
+    a_f / (1.0 - a_f * a_f).max(1e-6)
 }
 
 /// A material's physical shading as the shaders read it. Twin of `struct HairBsdf` (`tests/it/gpu_twins.rs` checks it)

@@ -226,6 +226,97 @@ fn wgsl_ambient_transmittance_matches_the_f64_reference() {
     );
 }
 
+const IN_COAT_ENTRY: &str = "
+@group(0) @binding(0) var<storage, read> mats: array<HairBsdf>;
+// Per element: x the fibre-area index, y the material.
+@group(0) @binding(1) var<storage, read> input: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read_write> out: array<vec4<f32>>;
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if i >= arrayLength(&out) { return; }
+    let p = input[i];
+    out[i] = vec4<f32>(hair_ambient_in_coat(mats[u32(p.y)], p.x), 0.0);
+}";
+
+/// The share of the ambient colour under a coat (`hair_ambient_in_coat`, fur's physical
+/// ambient) against its f64 reference (`hair_bsdf::ambient_in_coat`) over three materials
+/// and fibre-area indices from none to a hundred, within 1e-3 relative (floor 1e-4); it
+/// lies between the open sky's share 2 E_3(A) and the whole transmittance T(A), and the
+/// shader's `HAIR_SKY_SEEN` is `SKY_SEEN`.
+#[test]
+fn wgsl_ambient_in_coat_matches_the_f64_reference() {
+    use kami::systems::hair_bsdf::{ambient_in_coat, ambient_transmittance, expint, SKY_SEEN};
+    let gpu = common::gpu();
+    assert!(
+        kami::shaders::HAIR_BSDF.contains(&format!("const HAIR_SKY_SEEN: f32 = {SKY_SEEN};")),
+        "HAIR_SKY_SEEN in shaders/common/hair_bsdf.wgsl is not SKY_SEEN"
+    );
+    let params = [
+        HairParams::default(),
+        HairParams {
+            eumelanin: 0.05,
+            pheomelanin: 0.3,
+            ..HairParams::default()
+        },
+        HairParams {
+            eumelanin: 0.0,
+            pheomelanin: 2.15,
+            ..HairParams::default()
+        },
+    ];
+    let mats: Vec<GpuHairBsdf> = params.iter().map(|p| GpuHairBsdf::new(p, true)).collect();
+    let areas = [
+        0.0, 1e-3, 0.1, 0.3, 0.99, 1.0, 1.7, 3.0, 6.0, 12.0, 30.0, 100.0,
+    ];
+    let mut input: Vec<[f32; 4]> = Vec::new();
+    let mut want = Vec::new();
+    for (m, mat) in mats.iter().enumerate() {
+        for a in areas {
+            let a_f = mat.a_f.map(f64::from);
+            let a_f = [a_f[0], a_f[1], a_f[2]];
+            let s = ambient_in_coat(a_f, a);
+            let (t, open) = (ambient_transmittance(a_f, a), 2.0 * expint(3, a));
+            for c in 0..3 {
+                assert!(
+                    s[c] >= open - 1e-12 && s[c] <= t[c] + 1e-12,
+                    "share {} outside [{open}, {}] at {a}",
+                    s[c],
+                    t[c]
+                );
+            }
+            input.push([a as f32, m as f32, 0.0, 0.0]);
+            want.push(s);
+        }
+    }
+    let got = run_bsdf_contract(
+        gpu,
+        "ambient in coat contract",
+        IN_COAT_ENTRY,
+        &mats,
+        &input,
+        want.len(),
+    );
+    let mut worst = (0.0f64, 0);
+    for (i, (w, g)) in want.iter().zip(&got).enumerate() {
+        for c in 0..3 {
+            let err = (g[c] as f64 - w[c]).abs() / w[c].max(1e-4);
+            if err > worst.0 || !g[c].is_finite() {
+                worst = (if g[c].is_finite() { err } else { f64::INFINITY }, i);
+            }
+        }
+    }
+    let (err, i) = worst;
+    eprintln!("ambient in coat: worst relative error {err:.2e}");
+    assert!(
+        err < 1e-3,
+        "worst relative error {err} at element {i} (area {}): gpu {:?}, f64 {:?}",
+        input[i][0],
+        got[i],
+        want[i]
+    );
+}
+
 /// The reference's closed form (exponential integrals) is the integral it stands for:
 /// W(area / mu) averaged over the hemisphere with weight 2 mu, by brute-force quadrature;
 /// it is 1 with no coat, falls as the coat thickens, and the channel a fibre absorbs most

@@ -108,7 +108,7 @@ impl Input<'_> {
             let a = hair_bsdf::Angles::new(v.to_array(), l.to_array(), t.to_array());
             let rad = hair_bsdf::dual_radiance(&b, &d, &a, 0.0);
             let amb = m.bsdf.ambient;
-            let through = DVec3::from_array(hair_bsdf::ambient_transmittance(
+            let through = DVec3::from_array(hair_bsdf::ambient_in_coat(
                 d.a_f,
                 self.coat_above(s, m, node),
             ));
