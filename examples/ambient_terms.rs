@@ -50,17 +50,17 @@ fn main() -> Result<()> {
             scene
                 .groups()
                 .iter()
-                .map(|g| (g.material.color, g.material.physical.clone())),
+                .map(|g| (g.material.color, g.material.physical)),
         );
         for f in scene.fur().iter() {
             mats.extend(
                 f.coats
                     .iter()
-                    .map(|c| (c.material.diffuse, c.material.physical.clone())),
+                    .map(|c| (c.material.diffuse, c.material.physical)),
             );
         }
         if let Some(s) = scene.strips() {
-            mats.extend(s.layers.iter().map(|l| (l.color, s.look.physical.clone())));
+            mats.extend(s.layers.iter().map(|l| (l.color, s.look.physical)));
         }
         let Some((color, physical)) = mats.first() else {
             bail!("{path}: no hair material");
