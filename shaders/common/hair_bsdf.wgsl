@@ -255,14 +255,10 @@ fn hair_two_e3(x_in: f32) -> f32 {
     return ex * (1.0 - x * (1.0 - r));
 }
 
-// The share of Kami's even ambient light that reaches a fibre under a coat of fibre-area
-// index `area` (hair_bsdf::ambient_transmittance, its f64 reference): dual scattering's
-// forward transmittance averaged over the open hemisphere.
-fn hair_ambient_through(b: HairBsdf, area: f32) -> vec3<f32> {
-    return hair_ambient_through_af(b.a_f.rgb, area);
-}
-
-// The same for fibres of forward scattering attenuation a_f (rgb).
+// The share of Kami's even ambient light that reaches a fibre of forward scattering
+// attenuation a_f (rgb) under a coat of fibre-area index `area`
+// (hair_bsdf::ambient_transmittance, its f64 reference): dual scattering's forward
+// transmittance averaged over the open hemisphere.
 fn hair_ambient_through_af(a_f: vec3<f32>, area: f32) -> vec3<f32> {
     let a = max(area, 0.0);
     if a <= 0.0 {
@@ -282,7 +278,7 @@ fn hair_scattered_through(a_f: vec3<f32>, a: f32) -> vec3<f32> {
 // The share of a fibre's ambient colour that reaches it under a coat of fibre-area index
 // `area` (hair_bsdf::ambient_in_coat, its f64 reference): the sky's single backscattering
 // past the fibres above unscattered (2 E_3), the volume's multiple backscattering fed by
-// all that comes through (hair_ambient_through); a_f alone splits the colour.
+// all that comes through (hair_ambient_through_af); a_f alone splits the colour.
 // 2 E_3 is computed once for both parts.
 fn hair_ambient_in_coat(b: HairBsdf, area: f32) -> vec3<f32> {
     let a = max(area, 0.0);

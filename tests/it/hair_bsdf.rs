@@ -155,7 +155,7 @@ fn coat_materials() -> Vec<GpuHairBsdf> {
     params.iter().map(|p| GpuHairBsdf::new(p, true)).collect()
 }
 
-/// A coat contract's entry point: per element, `SHARE(material, area)` in rgb and
+/// A coat contract's entry point: per element, `SHARE(m, p.x)` (material m, area p.x) in rgb and
 /// `hair_two_e3(area)` in w.
 const COAT_ENTRY: &str = "
 @group(0) @binding(0) var<storage, read> mats: array<HairBsdf>;
@@ -167,10 +167,11 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = id.x;
     if i >= arrayLength(&out) { return; }
     let p = input[i];
-    out[i] = vec4<f32>(SHARE(mats[u32(p.y)], p.x), hair_two_e3(p.x));
+    let m = mats[u32(p.y)];
+    out[i] = vec4<f32>(SHARE(m, p.x), hair_two_e3(p.x));
 }";
 
-/// The ambient's transmittance through a coat (`hair_ambient_through`, fur's physical
+/// The ambient's transmittance through a coat (`hair_ambient_through_af`, fur's skin
 /// ambient) against its f64 reference (`hair_bsdf::ambient_transmittance`, exact
 /// exponential integrals), over three materials and fibre-area indices from none to a
 /// hundred: the worst error is bounded relative to the value or 1e-4 (the darkest
@@ -208,7 +209,7 @@ fn wgsl_ambient_transmittance_matches_the_f64_reference() {
     let got = run_bsdf_contract(
         gpu,
         "ambient transmittance contract",
-        &COAT_ENTRY.replace("SHARE", "hair_ambient_through"),
+        &COAT_ENTRY.replace("SHARE(m, p.x)", "hair_ambient_through_af(m.a_f.rgb, p.x)"),
         &mats,
         &input,
         want.len(),
@@ -279,7 +280,7 @@ fn wgsl_ambient_in_coat_matches_the_f64_reference() {
     let got = run_bsdf_contract(
         gpu,
         "ambient in coat contract",
-        &COAT_ENTRY.replace("SHARE", "hair_ambient_in_coat"),
+        &COAT_ENTRY.replace("SHARE(m, p.x)", "hair_ambient_in_coat(m, p.x)"),
         &mats,
         &input,
         want.len(),
