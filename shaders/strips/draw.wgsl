@@ -46,7 +46,18 @@ struct VOut {
     // cells are wider than a stick, and read per fragment the lookup cost a fifth of the
     // strips' frame on a software rasteriser.
     @location(5) lit: f32,
+    // The physical mode's ambient: the share of the ambient colour that reaches this
+    // control point past the strips that hide its sky (hair_ambient_in_coat of strip_sky).
+    @location(6) ambient: vec3<f32>,
 }
+
+// How far towards the light a control point reads the shadow structure, in units of the
+// layered strands' offset (`shadow_layered`): the structure smooths a strip over a cell, so
+// read at the point it counts part of the strip's own layer. Chosen against the path tracer
+// (docs/shadows.md, "Strips"): at 0 the side light's close-up got none of its direct light,
+// at 1 the back light's rim came out too bright. The physical mode's only: Anjyo's strips
+// keep the paper scenes' look (and read at the point).
+const STRIP_SHADOW_OFFSET: f32 = 0.5;
 
 @vertex
 fn vs(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -> VOut {
@@ -63,7 +74,10 @@ fn vs(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -> VOut 
     out.tangent = v.tangent.xyz;
     out.strip = si;
     out.physical = vec3<f32>(0.0);
-    let n = shadow_strands(v.position.xyz);
+    out.ambient = vec3<f32>(1.0);
+    // One lookup for both modes (a software rasteriser would pay one per branch).
+    let offset = select(0.0, STRIP_SHADOW_OFFSET * frame.shadow.layered.x, hair_physical(strip_look.bsdf));
+    let n = shadow_strands(v.position.xyz + frame.shadow.axis_l.xyz * offset);
     let opaque = shadow_opaque(v.position.xyz);
     out.lit = shadow_absorbed(n) * opaque;
     if hair_physical(strip_look.bsdf) {
@@ -75,6 +89,7 @@ fn vs(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -> VOut 
         let view = normalize(frame.eye.xyz - p);
         let f = hair_dual_radiance(strip_look.bsdf, t, view, frame.light_dir.xyz, n);
         out.physical = frame.light_color.rgb * (hair_irradiance() * opaque) * f;
+        out.ambient = hair_ambient_in_coat(strip_look.bsdf, strip_sky(info_s, v.tangent.w));
     }
     return out;
 }
@@ -113,7 +128,7 @@ fn strip_color(in: VOut) -> vec4<f32> {
     var rgb = base * (frame.light_color.w + intensity * diffuse) + frame.light_color.rgb * (intensity * spec);
     if hair_physical(strip_look.bsdf) {
         // The pigments' colour instead of the layer's; the texture's gradient kept.
-        rgb = (in.physical + strip_look.bsdf.ambient.rgb * frame.light_color.w) * tex.rgb
+        rgb = (in.physical + strip_look.bsdf.ambient.rgb * in.ambient * frame.light_color.w) * tex.rgb
             * strip_look.look.w;
     }
     return vec4<f32>(rgb, alpha);

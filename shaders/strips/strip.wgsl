@@ -11,6 +11,19 @@ struct StripInfo {
     color: vec4<f32>,
     // x control points, y layer
     counts: vec4<u32>,
+    // The fibre-area index of the sky hidden from the strip at v = k / 7 (src/systems/strips/
+    // sky.rs; strip_sky interpolates it): the physical mode's ambient reads it.
+    sky: array<vec4<f32>, 2>,
+}
+
+// The strip's hidden-sky index at v (0 root .. 1 tip), linear between the baked points.
+fn strip_sky(s: StripInfo, v: f32) -> f32 {
+    let x = clamp(v, 0.0, 1.0) * 7.0;
+    let k = min(u32(x), 6u);
+    let f = x - f32(k);
+    let a = s.sky[k / 4u][k % 4u];
+    let b = s.sky[(k + 1u) / 4u][(k + 1u) % 4u];
+    return mix(a, b, f);
 }
 
 // Twin of GpuRibbonVertex (tests/it/gpu_twins.rs checks it) in src/systems/strips/ribbon.rs.

@@ -301,7 +301,7 @@ fn twins() -> Vec<Twin> {
         ),
         twin!(
             GpuStripInfo,
-            [side, normal, color, counts],
+            [side, normal, color, counts, sky],
             "StripInfo",
             ["strips/strip.wgsl"]
         ),

@@ -46,6 +46,7 @@ mod strips_dynamics;
 mod strips_mesh_head;
 mod strips_pick;
 mod strips_render;
+mod strips_sky;
 mod usd_curves;
 mod viewer;
 mod winding;

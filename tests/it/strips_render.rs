@@ -9,10 +9,13 @@ use kami::gpu::gpu_data::GpuFrame;
 use kami::gpu::pipeline::Variant;
 use kami::gpu::{self, Gpu};
 use kami::rng::Rng;
+use kami::scene::Shading;
 use kami::scene::{Ellipsoid, Head};
 use kami::stage::target::{DownsamplePass, Offscreen, SceneTargets, SCENE_FORMAT};
+use kami::systems::hair_bsdf;
 use kami::systems::strips::block::{Layer, Look, Strips};
 use kami::systems::strips::ribbon::{self, GpuRibbonVertex, RibbonPass, RibbonVertex};
+use kami::systems::strips::sky::SKY_SAMPLES;
 use kami::systems::strips::{hom, texture, RestStrip};
 use kami::KamiError;
 
@@ -819,6 +822,17 @@ fn frame(size: (u32, u32), samples: u32) -> GpuFrame {
 /// Draw the test strip (8 hairs, so each is several pixels wide) with `samples` MSAA
 /// samples through the stage's scene targets and resolve, on black.
 fn render(gpu: &Gpu, samples: u32, look: &Look) -> image::RgbaImage {
+    render_with(gpu, samples, look, None)
+}
+
+/// [`render`], or with `sky` (one strip's hidden-sky index) in the physical mode under the
+/// ambient light alone.
+fn render_with(
+    gpu: &Gpu,
+    samples: u32,
+    look: &Look,
+    sky: Option<[f32; SKY_SAMPLES]>,
+) -> image::RgbaImage {
     let rest = vec![test_strip()];
     let layout = frame_layout(gpu);
     // Built with the default look and MSAA off, then changed: the look and the sample count
@@ -834,16 +848,26 @@ fn render(gpu: &Gpu, samples: u32, look: &Look) -> image::RgbaImage {
     )
     .unwrap();
     pass.set_variant(gpu, Variant::samples(samples));
+    if let Some(sky) = sky {
+        pass.set_shading(Shading::Physical);
+        pass.set_sky(gpu, &[sky]).unwrap();
+    }
     pass.write_look(gpu, look).unwrap();
     assert_eq!(pass.texture().size, texture::texture_size(look));
     let mut pts = rest[0].points.clone();
     pts.resize(8, *pts.last().unwrap());
     let points = points_buffer(gpu, &pts);
     let targets = SceneTargets::new(gpu, (SIZE, SIZE), samples, 1, false).unwrap();
+    let mut f = frame(targets.size, samples);
+    if sky.is_some() {
+        // No direct light; an ambient strong enough that the dark hair reads well in 8 bits.
+        f.light_dir[3] = 0.0;
+        f.light_color[3] = SKY_AMBIENT;
+    }
     let frame_buffer = gpu::storage_buffer(
         &gpu.device,
         "frame",
-        bytemuck::bytes_of(&frame(targets.size, samples)),
+        bytemuck::bytes_of(&f),
         wgpu::BufferUsages::UNIFORM,
     );
     let frame_bg =
@@ -1059,4 +1083,84 @@ fn ribbons_with_msaa_coverage() {
     };
     let img = render(gpu, 4, &look);
     check_render(&img, "4x MSAA");
+}
+
+/// The light's `ambient` in the sky test: the physical hair's ambient colour is about 0.03.
+const SKY_AMBIENT: f32 = 6.0;
+
+/// sRGB byte to linear.
+fn linear(c: u8) -> f64 {
+    let c = c as f64 / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+/// Linear RGB summed over the hair pixels of row `y` inside the ribbon's span.
+fn row_sum(img: &image::RgbaImage, y: u32, half_px: f64) -> [f64; 3] {
+    let c = SIZE as f64 / 2.0;
+    let (x0, x1) = ((c - half_px + 1.0) as u32, (c + half_px - 1.0) as u32);
+    let mut s = [0.0; 3];
+    for x in x0..x1 {
+        let p = img.get_pixel(x, y);
+        for k in 0..3 {
+            s[k] += linear(p[k]);
+        }
+    }
+    s
+}
+
+/// The physical mode's ambient past the strips that hide a strip's sky (`strips::sky`): the
+/// strip drawn under the ambient light alone with a hidden-sky index rising root to tip,
+/// against the same strip under the open sky. Row by row, at the control points (where the
+/// shader evaluates it), the ratio is the f64 `hair_bsdf::ambient_in_coat` of the index
+/// interpolated there, per channel: texture, coverage and colour cancel.
+#[test]
+fn the_strips_ambient_follows_the_hidden_sky() {
+    let gpu = common::gpu();
+    let look = Look {
+        hairs: 8,
+        ..Look::default()
+    };
+    let ramp: [f32; SKY_SAMPLES] = std::array::from_fn(|k| 0.4 * k as f32);
+    let open = render_with(gpu, 1, &look, Some([0.0; SKY_SAMPLES]));
+    let hidden = render_with(gpu, 1, &look, Some(ramp));
+    let bsdf = hair_bsdf::gpu_block(
+        Shading::Physical,
+        look.shading,
+        &look.physical,
+        test_strip().color,
+    );
+    let a_f = bsdf.a_f.map(f64::from);
+    let px = SIZE as f64 / (2.0 * HALF as f64);
+    let mut worst = 0.0f64;
+    // Control points 1..=4 of the 7 (v = k / 6); the root and the ragged tip are left out.
+    for k in 1..=4 {
+        let v = k as f64 / 6.0;
+        let y = ((HALF as f64 - (6.0 - 12.0 * v)) * px) as u32;
+        let half = 0.5 * (6.0 - 4.0 * v) * px;
+        let (a, b) = (row_sum(&open, y, half), row_sum(&hidden, y, half));
+        let x = v * 7.0;
+        let j = (x as usize).min(6);
+        let index = ramp[j] as f64 + (ramp[j + 1] - ramp[j]) as f64 * (x - j as f64);
+        let want = hair_bsdf::ambient_in_coat([a_f[0], a_f[1], a_f[2]], index);
+        for c in 0..3 {
+            let got = b[c] / a[c];
+            let err = (got - want[c]).abs();
+            println!(
+                "v = {v:.3}, index {index:.3}, channel {c}: ratio {got:.4}, f64 {:.4}",
+                want[c]
+            );
+            assert!(
+                a[c] > 1.0,
+                "v = {v}: too little light to compare ({})",
+                a[c]
+            );
+            worst = worst.max(err);
+        }
+    }
+    println!("worst ratio error {worst:.4}");
+    assert!(worst < 0.015, "worst ratio error {worst}");
 }

@@ -13,6 +13,7 @@ pub mod keyframe;
 pub mod panel;
 pub mod pick;
 pub mod ribbon;
+pub mod sky;
 pub mod texture;
 pub mod tools;
 
@@ -243,6 +244,7 @@ impl StripsSystem {
             ribbon.set_shading(scene.render.shading);
             ribbon.write_look(gpu, &strips.look)?;
         }
+        ribbon.set_sky(gpu, &sky::bake(&rest, &head, &strips.look))?;
         let reach = strips
             .layers
             .iter()
@@ -335,6 +337,11 @@ impl HairSystem for StripsSystem {
         let Some(st) = scene.strips() else {
             return Ok(());
         };
+        // The sky's coverage is the texture's: new hairs, a new bake.
+        if st.look.hairs != self.strips.look.hairs {
+            self.ribbon
+                .set_sky(gpu, &sky::bake(&self.rest, &self.head, &st.look))?;
+        }
         match change {
             Change::Redraw => {
                 self.ribbon.set_shading(scene.render.shading);

@@ -98,8 +98,11 @@ pub struct GpuStripInfo {
     pub color: [f32; 4],
     /// x: control points; y: layer; z, w: unused.
     pub counts: [u32; 4],
+    /// The fibre-area index of the sky hidden from the strip at v = k / 7, k = 0..8
+    /// (`sky::bake`; the physical mode's ambient reads it). 0: the open sky.
+    pub sky: [[f32; 4]; 2],
 }
-const _: () = assert!(std::mem::size_of::<GpuStripInfo>() == 64);
+const _: () = assert!(std::mem::size_of::<GpuStripInfo>() == 96);
 
 /// One ribbon vertex. Twin of `struct RibbonVertex` (`tests/it/gpu_twins.rs` checks it) in the two WGSL files.
 #[repr(C)]
@@ -157,6 +160,7 @@ impl StripInfo {
             normal: f(self.normal, self.width[1]),
             color: [self.color[0], self.color[1], self.color[2], 1.0],
             counts: [self.points, self.layer, 0, 0],
+            sky: [[0.0; 4]; 2],
         }
     }
 }
@@ -337,6 +341,8 @@ pub struct RibbonPass {
     build_layout: wgpu::BindGroupLayout,
     params: wgpu::Buffer,
     info: wgpu::Buffer,
+    /// What `info` holds (`set_sky` rewrites it).
+    gpu_info: Vec<GpuStripInfo>,
     vertices: wgpu::Buffer,
     /// The points buffer the cached bind group reads, and that bind group.
     bound: Mutex<Option<(wgpu::Buffer, wgpu::BindGroup)>>,
@@ -449,7 +455,7 @@ impl RibbonPass {
             device,
             "strips info",
             bytemuck::cast_slice(&gpu_info),
-            wgpu::BufferUsages::empty(),
+            wgpu::BufferUsages::COPY_DST,
         );
         let vertices = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("strips ribbon vertices"),
@@ -500,6 +506,7 @@ impl RibbonPass {
             build_layout,
             params,
             info: info_buffer,
+            gpu_info,
             vertices,
             bound: Mutex::new(None),
             dims,
@@ -742,6 +749,25 @@ impl RibbonPass {
         gpu.queue
             .write_buffer(&self.look_buffer, 0, bytemuck::bytes_of(&uniform));
         self.look = look.clone();
+        Ok(())
+    }
+
+    /// The sky each strip sees (`sky::bake`, one entry per strip): the physical mode's
+    /// ambient reads it. A new pass has the open sky everywhere.
+    pub fn set_sky(&mut self, gpu: &Gpu, sky: &[[f32; super::sky::SKY_SAMPLES]]) -> Result<()> {
+        if sky.len() != self.gpu_info.len() {
+            return Err(KamiError::Invalid {
+                file: String::new(),
+                field: "strips sky".into(),
+                value: format!("{} strips", sky.len()),
+                allowed: format!("one entry per strip ({})", self.gpu_info.len()),
+            });
+        }
+        for (g, s) in self.gpu_info.iter_mut().zip(sky) {
+            g.sky = [[s[0], s[1], s[2], s[3]], [s[4], s[5], s[6], s[7]]];
+        }
+        gpu.queue
+            .write_buffer(&self.info, 0, bytemuck::cast_slice(&self.gpu_info));
         Ok(())
     }
 

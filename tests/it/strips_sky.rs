@@ -1,0 +1,127 @@
+//! The sky each strip sees (`strips::sky`): the hidden-sky index inverts 2 E_3, an open strip
+//! sees all of it, a strip under flat sheets of hair gets the sheets' coverage, and in the
+//! shipped layered scene inner layers see less than outer ones.
+
+use glam::DVec3;
+use kami::scene::Head;
+use kami::systems::strips::block::Look;
+use kami::systems::strips::sky::{self, SKY_MAX_AREA, SKY_RAYS, SKY_SAMPLES};
+use kami::systems::strips::{hom, RestStrip};
+
+/// A head far below (−z) the strips, so every strip faces +z and the head hides nothing.
+fn far_head() -> Head {
+    Head {
+        center: [0.0, 0.0, -1.0e4],
+        radii: [1.0, 1.0, 1.0],
+        ..Head::default()
+    }
+}
+
+/// A straight strip in the plane z = `z` from y = `half` to y = −`half`, `width` wide.
+fn sheet(z: f64, half: f64, width: f64, sticks: usize) -> RestStrip {
+    RestStrip {
+        layer: 0,
+        points: (0..=sticks)
+            .map(|k| DVec3::new(0.0, half - 2.0 * half * k as f64 / sticks as f64, z))
+            .collect(),
+        normal: DVec3::Z,
+        width: [width, width],
+        stiffness: 1.0,
+        color: [0.1, 0.06, 0.03],
+    }
+}
+
+#[test]
+fn sky_area_inverts_the_open_share() {
+    for a in [0.0, 1e-3, 0.1, 0.6, 1.0, 2.5, 7.0] {
+        let back = sky::area_for_share(sky::open_share(a));
+        assert!((back - a).abs() < 1e-9, "A = {a}: inverted to {back}");
+    }
+    assert_eq!(sky::area_for_share(1.0), 0.0);
+    assert_eq!(sky::area_for_share(1.5), 0.0);
+    assert_eq!(sky::area_for_share(0.0), SKY_MAX_AREA);
+    assert_eq!(sky::area_for_share(f64::NAN), 0.0);
+}
+
+#[test]
+fn an_open_strip_sees_the_whole_sky() {
+    let rest = vec![sheet(0.0, 1.0, 1.0, 4)];
+    let baked = sky::bake(&rest, &far_head(), &Look::default());
+    assert_eq!(baked, vec![[0.0f32; SKY_SAMPLES]]);
+}
+
+/// Under sheets wide enough to stand for infinite ones (rays that miss them leave at a cosine
+/// below 1e-3, a 1e-6 share of the cosine-weighted sky), a strip's index is the sheets'
+/// summed coverage: what a coat of that fibre-area index hides.
+#[test]
+fn a_strip_under_sheets_gets_their_coverage() {
+    let look = Look::default();
+    let rows = sky::row_coverage(&look);
+    // The sheets are crossed near their middle (v = 1/2).
+    let c = rows[rows.len() / 2];
+    assert!((0.3..0.9).contains(&c), "the texture's body coverage {c}");
+    for sheets in 1..=2 {
+        let mut rest = vec![sheet(0.0, 1.0, 1.0, 4)];
+        for k in 0..sheets {
+            rest.push(sheet(0.5 * (k + 1) as f64, 2000.0, 4000.0, 1));
+        }
+        let baked = sky::bake(&rest, &far_head(), &look);
+        let want = sheets as f64 * c;
+        for (j, &a) in baked[0].iter().enumerate() {
+            let err = (a as f64 - want).abs() / want;
+            println!("{sheets} sheets, sample {j}: A = {a:.5}, want {want:.5}, error {err:.2e}");
+            assert!(
+                err < 0.01,
+                "{sheets} sheets, sample {j}: A = {a}, want {want}"
+            );
+        }
+        // The sheets themselves are open.
+        assert!(
+            baked[sheets].iter().all(|&a| a == 0.0),
+            "{:?}",
+            baked[sheets]
+        );
+    }
+}
+
+/// The shipped layered scene (assets/scenes/strips.ron), where strips overlap their
+/// neighbours and the layers over them: the bake's `SKY_RAYS` rays per point against 16
+/// times as many. Every index is finite and at least 0, and each point's error in the share
+/// of the sky it sees (2 E_3(A)) is bounded.
+#[test]
+fn the_bake_converges_on_the_layered_scene() {
+    let scene = kami::Scene::load(kami::scene::shipped("assets/scenes/strips.ron")).unwrap();
+    let strips = scene.strips().clone().unwrap();
+    let rest = hom::build(&strips, &scene.head).unwrap();
+    let t = std::time::Instant::now();
+    let baked = sky::bake(&rest, &scene.head, &strips.look);
+    println!(
+        "{} rays: {} strips in {:?}",
+        SKY_RAYS,
+        rest.len(),
+        t.elapsed()
+    );
+    let t = std::time::Instant::now();
+    let fine = sky::bake_rays(&rest, &scene.head, &strips.look, 16 * SKY_RAYS);
+    println!("{} rays: {:?}", 16 * SKY_RAYS, t.elapsed());
+    assert_eq!(baked.len(), rest.len());
+    assert!(baked.iter().flatten().all(|a| a.is_finite() && *a >= 0.0));
+    let share = |a: f32| sky::open_share(a as f64);
+    let errs: Vec<f64> = baked
+        .iter()
+        .flatten()
+        .zip(fine.iter().flatten())
+        .map(|(&a, &b)| (share(a) - share(b)).abs())
+        .collect();
+    let worst = errs.iter().copied().fold(0.0, f64::max);
+    let mean = errs.iter().sum::<f64>() / errs.len() as f64;
+    let index = baked.iter().flatten().map(|&a| a as f64).sum::<f64>() / errs.len() as f64;
+    println!(
+        "sky seen, {} points: mean error {mean:.4}, worst {worst:.4}; mean index {index:.3}",
+        errs.len()
+    );
+    assert!(mean < 0.01, "mean error {mean}");
+    assert!(worst < 0.06, "worst error {worst}");
+    // The layers do hide the sky: this is not an open scene.
+    assert!(index > 0.3, "mean index {index}");
+}
