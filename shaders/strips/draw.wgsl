@@ -38,17 +38,17 @@ struct VOut {
     @location(1) world: vec3<f32>,
     @location(2) tangent: vec3<f32>,
     @location(3) @interpolate(flat) strip: u32,
-    // The physical mode's key light, per control point: light colour x intensity x
-    // dual-scattered radiance factor (zero in Anjyo's shading).
+    // The physical mode's light, per control point (zero in Anjyo's shading): the key light
+    // (light colour x intensity x dual-scattered radiance factor) plus the ambient colour
+    // times what reaches this point past the strips that hide its sky (hair_ambient_in_coat
+    // of strip_sky) times I_a. One varying for both: a software rasteriser interpolates
+    // each per fragment.
     @location(4) physical: vec3<f32>,
     // Hair shadows (common/shadow.wgsl): the share of the direct light that reaches this
     // control point. Per control point, as the other kinds shade per node: the structure's
     // cells are wider than a stick, and read per fragment the lookup cost a fifth of the
     // strips' frame on a software rasteriser.
     @location(5) lit: f32,
-    // The physical mode's ambient: the share of the ambient colour that reaches this
-    // control point past the strips that hide its sky (hair_ambient_in_coat of strip_sky).
-    @location(6) ambient: vec3<f32>,
 }
 
 // How far towards the light a control point reads the shadow structure, in units of the
@@ -74,7 +74,6 @@ fn vs(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -> VOut 
     out.tangent = v.tangent.xyz;
     out.strip = si;
     out.physical = vec3<f32>(0.0);
-    out.ambient = vec3<f32>(1.0);
     // One lookup for both modes (a software rasteriser would pay one per branch).
     let offset = select(0.0, STRIP_SHADOW_OFFSET * frame.shadow.layered.x, hair_physical(strip_look.bsdf));
     let n = shadow_strands(v.position.xyz + frame.shadow.axis_l.xyz * offset);
@@ -88,8 +87,9 @@ fn vs(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -> VOut 
         let p = v.position.xyz;
         let view = normalize(frame.eye.xyz - p);
         let f = hair_dual_radiance(strip_look.bsdf, t, view, frame.light_dir.xyz, n);
-        out.physical = frame.light_color.rgb * (hair_irradiance() * opaque) * f;
-        out.ambient = hair_ambient_in_coat(strip_look.bsdf, strip_sky(info_s, v.tangent.w));
+        let sky = hair_ambient_in_coat(strip_look.bsdf, strip_sky(info_s, v.tangent.w));
+        out.physical = frame.light_color.rgb * (hair_irradiance() * opaque) * f
+            + strip_look.bsdf.ambient.rgb * sky * frame.light_color.w;
     }
     return out;
 }
@@ -128,7 +128,7 @@ fn strip_color(in: VOut) -> vec4<f32> {
     var rgb = base * (frame.light_color.w + intensity * diffuse) + frame.light_color.rgb * (intensity * spec);
     if hair_physical(strip_look.bsdf) {
         // The pigments' colour instead of the layer's; the texture's gradient kept.
-        rgb = (in.physical + strip_look.bsdf.ambient.rgb * in.ambient * frame.light_color.w) * tex.rgb
+        rgb = in.physical * tex.rgb
             * strip_look.look.w;
     }
     return vec4<f32>(rgb, alpha);
