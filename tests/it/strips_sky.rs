@@ -125,3 +125,41 @@ fn the_bake_converges_on_the_layered_scene() {
     // The layers do hide the sky: this is not an open scene.
     assert!(index > 0.3, "mean index {index}");
 }
+
+/// The grid's walk finds every crossing the exhaustive test of every ribbon finds: the same
+/// index at every point of the shipped scene (to the summation order's rounding), and the
+/// bake's time at 16 times its strips (the strips bench's largest scene), where the
+/// exhaustive test would take about 256 times as long.
+#[test]
+fn the_grid_walk_matches_the_exhaustive_bake() {
+    let scene = kami::Scene::load(kami::scene::shipped("assets/scenes/strips.ron")).unwrap();
+    let mut strips = scene.strips().clone().unwrap();
+    let rest = hom::build(&strips, &scene.head).unwrap();
+    let t = std::time::Instant::now();
+    let grid = sky::bake_rays(&rest, &scene.head, &strips.look, 16);
+    let t_grid = t.elapsed();
+    let t = std::time::Instant::now();
+    let all = sky::bake_exhaustive(&rest, &scene.head, &strips.look, 16);
+    println!("16 rays: grid {t_grid:?}, exhaustive {:?}", t.elapsed());
+    let worst = grid
+        .iter()
+        .flatten()
+        .zip(all.iter().flatten())
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f32, f32::max);
+    println!("worst index difference {worst:.2e}");
+    assert!(worst < 1e-5, "worst index difference {worst}");
+    for l in &mut strips.layers {
+        l.count *= 16;
+    }
+    let rest = hom::build(&strips, &scene.head).unwrap();
+    let t = std::time::Instant::now();
+    let big = sky::bake(&rest, &scene.head, &strips.look);
+    println!(
+        "{} strips, {} rays: {:?}",
+        rest.len(),
+        SKY_RAYS,
+        t.elapsed()
+    );
+    assert!(big.iter().flatten().all(|a| a.is_finite() && *a >= 0.0));
+}

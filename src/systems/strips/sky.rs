@@ -15,7 +15,9 @@
 //!
 //! Baked once from the rest strips (as hair cards bake their occlusion): the strips move
 //! under the dynamics but keep their layers, so the index stands for the moving strips too.
-//! 120 strips of 8 sticks take a few tens of milliseconds (one thread).
+//! Rays walk a uniform grid of the ribbons' triangles and stop where next to nothing comes
+//! through, the strips split across the machine's threads: the shipped 120 strips take tens
+//! of milliseconds, 1,920 about a second on 2 threads (`tests/it/strips_sky.rs` prints both).
 
 use glam::{DMat4, DVec3};
 
@@ -116,15 +118,6 @@ fn ribbons(rest: &[RestStrip]) -> (Vec<Ribbon>, Vec<ribbon::RibbonVertex>, usize
     (out, verts, stride)
 }
 
-/// Whether the ray o + t d (t > 0) meets the box.
-fn hits_box(o: DVec3, inv_d: DVec3, lo: DVec3, hi: DVec3) -> bool {
-    let t0 = (lo - o) * inv_d;
-    let t1 = (hi - o) * inv_d;
-    let near = t0.min(t1).max_element();
-    let far = t0.max(t1).min_element();
-    far >= near.max(0.0)
-}
-
 /// Möller–Trumbore, both faces: the hit's barycentrics (of corners 1 and 2) for t > 0.
 fn hit_triangle(o: DVec3, d: DVec3, p: &[DVec3; 3]) -> Option<(f64, f64)> {
     let e1 = p[1] - p[0];
@@ -186,76 +179,299 @@ pub fn bake(rest: &[RestStrip], head: &Head, look: &Look) -> Vec<[f32; SKY_SAMPL
 }
 
 /// [`bake`] with `rays` rays per point (at least 1): how the bake's error falls with its
-/// rays (`tests/it/strips_sky.rs`).
+/// rays (`tests/it/strips_sky.rs`). Rays walk a uniform grid of the ribbons' triangles.
 pub fn bake_rays(
     rest: &[RestStrip],
     head: &Head,
     look: &Look,
     rays: usize,
 ) -> Vec<[f32; SKY_SAMPLES]> {
-    let rays = rays.max(1);
+    bake_with(rest, head, look, rays, true)
+}
+
+/// [`bake_rays`] testing every ray against every ribbon (no grid): the reference the grid's
+/// walk is tested against. Its cost grows with the square of the strips.
+pub fn bake_exhaustive(
+    rest: &[RestStrip],
+    head: &Head,
+    look: &Look,
+    rays: usize,
+) -> Vec<[f32; SKY_SAMPLES]> {
+    bake_with(rest, head, look, rays, false)
+}
+
+/// The triangles of every ribbon: corners, their v, and the strip they belong to.
+struct Tri {
+    p: [DVec3; 3],
+    v: [f64; 3],
+    strip: usize,
+}
+
+/// A uniform grid over the triangles' boxes: each cell lists the triangles whose box meets
+/// it. About 2 triangles per cell, at most 64 cells a side.
+struct Grid {
+    lo: DVec3,
+    cell: DVec3,
+    dims: [usize; 3],
+    cells: Vec<Vec<u32>>,
+}
+
+impl Grid {
+    fn new(tris: &[Tri]) -> Grid {
+        let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+        for t in tris {
+            for q in t.p {
+                lo = lo.min(q);
+                hi = hi.max(q);
+            }
+        }
+        if tris.is_empty() {
+            (lo, hi) = (DVec3::ZERO, DVec3::ONE);
+        }
+        let pad = (hi - lo).max_element().max(1e-9) * 1e-6;
+        let (lo, hi) = (lo - pad, hi + pad);
+        let ext = hi - lo;
+        let per_axis = ((tris.len() as f64 * 8.0).cbrt().ceil() as usize).clamp(1, 64);
+        let step = ext.max_element() / per_axis as f64;
+        let dims = [0, 1, 2].map(|a| ((ext[a] / step).ceil() as usize).clamp(1, 64));
+        let cell = DVec3::new(
+            ext.x / dims[0] as f64,
+            ext.y / dims[1] as f64,
+            ext.z / dims[2] as f64,
+        );
+        let mut cells = vec![Vec::new(); dims[0] * dims[1] * dims[2]];
+        let index = |q: DVec3| -> [usize; 3] {
+            let c = ((q - lo) / cell).floor();
+            [0, 1, 2].map(|a| (c[a].max(0.0) as usize).min(dims[a] - 1))
+        };
+        for (i, t) in tris.iter().enumerate() {
+            let a = index(t.p[0].min(t.p[1]).min(t.p[2]));
+            let b = index(t.p[0].max(t.p[1]).max(t.p[2]));
+            for z in a[2]..=b[2] {
+                for y in a[1]..=b[1] {
+                    for x in a[0]..=b[0] {
+                        cells[(z * dims[1] + y) * dims[0] + x].push(i as u32);
+                    }
+                }
+            }
+        }
+        Grid {
+            lo,
+            cell,
+            dims,
+            cells,
+        }
+    }
+
+    /// Calls `f` with each cell's triangles, cell by cell along the ray o + t d, t >= 0
+    /// (Amanatides and Woo's walk), from where it enters the grid to where it leaves or `f`
+    /// returns false.
+    fn walk(&self, o: DVec3, d: DVec3, mut f: impl FnMut(&[u32]) -> bool) {
+        let hi = self.lo
+            + self.cell
+                * DVec3::new(
+                    self.dims[0] as f64,
+                    self.dims[1] as f64,
+                    self.dims[2] as f64,
+                );
+        let inv = d.recip();
+        let t0 = (self.lo - o) * inv;
+        let t1 = (hi - o) * inv;
+        let enter = t0.min(t1).max_element().max(0.0);
+        let leave = t0.max(t1).min_element();
+        if leave.is_nan() || leave < enter {
+            return;
+        }
+        let start = o + d * enter;
+        let mut c = [0usize; 3];
+        let mut step = [0i64; 3];
+        let mut next = [f64::INFINITY; 3];
+        let mut delta = [f64::INFINITY; 3];
+        for a in 0..3 {
+            let x = ((start[a] - self.lo[a]) / self.cell[a]).floor();
+            c[a] = (x.max(0.0) as usize).min(self.dims[a] - 1);
+            if d[a] > 0.0 {
+                step[a] = 1;
+                next[a] = (self.lo[a] + (c[a] + 1) as f64 * self.cell[a] - o[a]) * inv[a];
+                delta[a] = self.cell[a] * inv[a];
+            } else if d[a] < 0.0 {
+                step[a] = -1;
+                next[a] = (self.lo[a] + c[a] as f64 * self.cell[a] - o[a]) * inv[a];
+                delta[a] = -self.cell[a] * inv[a];
+            }
+        }
+        loop {
+            if !f(&self.cells[(c[2] * self.dims[1] + c[1]) * self.dims[0] + c[0]]) {
+                return;
+            }
+            let a = if next[0] <= next[1] && next[0] <= next[2] {
+                0
+            } else if next[1] <= next[2] {
+                1
+            } else {
+                2
+            };
+            if next[a] > leave {
+                return;
+            }
+            let moved = c[a] as i64 + step[a];
+            if moved < 0 || moved >= self.dims[a] as i64 {
+                return;
+            }
+            c[a] = moved as usize;
+            next[a] += delta[a];
+        }
+    }
+}
+
+/// Past this optical depth a ray lets through under 1e-9 of its light: its walk stops.
+const DEEP: f64 = 21.0;
+
+fn bake_with(
+    rest: &[RestStrip],
+    head: &Head,
+    look: &Look,
+    rays: usize,
+    grid: bool,
+) -> Vec<[f32; SKY_SAMPLES]> {
     let rows = row_coverage(look);
     let (rib, verts, stride) = ribbons(rest);
-    let dirs = directions(rays);
-    let center = DVec3::from(head.center);
-    // Drawn 2 % smaller, as the shadows' head, so a root on the scalp does not hide itself.
-    let radii = DVec3::from(head.radii) * 0.98;
-    let scale = rib
+    let tris: Vec<Tri> = rib
         .iter()
-        .map(|r| (r.hi - r.lo).max_element())
-        .fold(1e-9, f64::max);
-    rest.iter()
         .enumerate()
-        .map(|(s, strip)| {
-            let n_pts = strip.points.len();
-            std::array::from_fn(|j| {
-                if n_pts < 2 {
-                    return 0.0;
-                }
-                // The centre line and the ribbon's normal at v = j / (SKY_SAMPLES - 1).
-                let x = j as f64 / (SKY_SAMPLES - 1) as f64 * (n_pts - 1) as f64;
-                let k = (x.floor() as usize).min(n_pts - 2);
-                let f = x - k as f64;
-                let at = |k: usize, side: usize| verts[2 * (s * stride + k) + side];
-                let mid = |k: usize| 0.5 * (at(k, 0).position + at(k, 1).position);
-                let p = mid(k).lerp(mid(k + 1), f);
-                let side = (at(k, 1).position - at(k, 0).position)
-                    .lerp(at(k + 1, 1).position - at(k + 1, 0).position, f);
-                let t = at(k, 0).tangent.lerp(at(k + 1, 0).tangent, f);
-                let mut n = side
-                    .cross(t)
-                    .normalize_or(p - center)
-                    .normalize_or(DVec3::Y);
-                if n.dot(p - center) < 0.0 {
-                    n = -n;
-                }
-                let (b1, b2) = n.any_orthonormal_pair();
-                let o = p + n * (1e-7 * scale);
-                let mut through = 0.0;
-                for d0 in &dirs {
-                    let d = b1 * d0.x + b2 * d0.y + n * d0.z;
-                    if hits_ellipsoid(o, d, center, radii) {
-                        continue;
-                    }
-                    let inv = d.recip();
-                    let mut depth = 0.0;
-                    for (r, ribbon) in rib.iter().enumerate() {
-                        if r == s || !hits_box(o, inv, ribbon.lo, ribbon.hi) {
-                            continue;
-                        }
-                        for (tri, v) in &ribbon.tris {
-                            if let Some((u1, u2)) = hit_triangle(o, d, tri) {
-                                let vv = v[0] + u1 * (v[1] - v[0]) + u2 * (v[2] - v[0]);
-                                let normal = (tri[1] - tri[0]).cross(tri[2] - tri[0]);
-                                let mu = normal.normalize_or(n).dot(d).abs().max(1e-3);
-                                depth += coverage_at(&rows, vv) / mu;
-                            }
-                        }
-                    }
-                    through += (-depth).exp();
-                }
-                area_for_share(through / rays as f64) as f32
+        .flat_map(|(s, r)| {
+            r.tris.iter().map(move |(p, v)| Tri {
+                p: *p,
+                v: *v,
+                strip: s,
             })
         })
-        .collect()
+        .collect();
+    let scene = Scene {
+        rest,
+        rows,
+        verts,
+        stride,
+        all: (0..tris.len() as u32).collect(),
+        grid: grid.then(|| Grid::new(&tris)),
+        tris,
+        dirs: directions(rays.max(1)),
+        center: DVec3::from(head.center),
+        // Drawn 2 % smaller, as the shadows' head, so a root on the scalp does not hide itself.
+        radii: DVec3::from(head.radii) * 0.98,
+        scale: rib
+            .iter()
+            .map(|r| (r.hi - r.lo).max_element())
+            .fold(1e-9, f64::max),
+    };
+    // The strips split across the machine's threads (each point's rays are independent).
+    let threads = std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1)
+        .clamp(1, 16)
+        .min(rest.len().max(1));
+    let chunk = rest.len().div_ceil(threads).max(1);
+    let mut out = vec![[0.0f32; SKY_SAMPLES]; rest.len()];
+    std::thread::scope(|sc| {
+        for (c, part) in out.chunks_mut(chunk).enumerate() {
+            let scene = &scene;
+            sc.spawn(move || {
+                let mut seen = vec![u32::MAX; scene.tris.len()];
+                let mut ray_id = 0u32;
+                for (k, slot) in part.iter_mut().enumerate() {
+                    *slot = scene.strip(c * chunk + k, &mut seen, &mut ray_id);
+                }
+            });
+        }
+    });
+    out
+}
+
+/// What every point's rays read.
+struct Scene<'a> {
+    rest: &'a [RestStrip],
+    rows: Vec<f64>,
+    verts: Vec<ribbon::RibbonVertex>,
+    stride: usize,
+    tris: Vec<Tri>,
+    all: Vec<u32>,
+    grid: Option<Grid>,
+    dirs: Vec<DVec3>,
+    center: DVec3,
+    radii: DVec3,
+    scale: f64,
+}
+
+impl Scene<'_> {
+    /// Strip `s`'s index at its [`SKY_SAMPLES`] points. `seen` (one entry per triangle) and
+    /// `ray_id` are the thread's: a triangle in several cells counts once per ray.
+    fn strip(&self, s: usize, seen: &mut [u32], ray_id: &mut u32) -> [f32; SKY_SAMPLES] {
+        let n_pts = self.rest[s].points.len();
+        let mut baked = [0.0f32; SKY_SAMPLES];
+        if n_pts < 2 {
+            return baked;
+        }
+        let (verts, stride) = (&self.verts, self.stride);
+        for (j, slot) in baked.iter_mut().enumerate() {
+            // The centre line and the ribbon's normal at v = j / (SKY_SAMPLES - 1).
+            let x = j as f64 / (SKY_SAMPLES - 1) as f64 * (n_pts - 1) as f64;
+            let k = (x.floor() as usize).min(n_pts - 2);
+            let f = x - k as f64;
+            let at = |k: usize, side: usize| verts[2 * (s * stride + k) + side];
+            let mid = |k: usize| 0.5 * (at(k, 0).position + at(k, 1).position);
+            let p = mid(k).lerp(mid(k + 1), f);
+            let side = (at(k, 1).position - at(k, 0).position)
+                .lerp(at(k + 1, 1).position - at(k + 1, 0).position, f);
+            let t = at(k, 0).tangent.lerp(at(k + 1, 0).tangent, f);
+            let mut n = side
+                .cross(t)
+                .normalize_or(p - self.center)
+                .normalize_or(DVec3::Y);
+            if n.dot(p - self.center) < 0.0 {
+                n = -n;
+            }
+            let (b1, b2) = n.any_orthonormal_pair();
+            let o = p + n * (1e-7 * self.scale);
+            let mut through = 0.0;
+            for d0 in &self.dirs {
+                let d = b1 * d0.x + b2 * d0.y + n * d0.z;
+                if hits_ellipsoid(o, d, self.center, self.radii) {
+                    continue;
+                }
+                *ray_id = ray_id.wrapping_add(1);
+                if *ray_id == u32::MAX {
+                    seen.fill(u32::MAX);
+                    *ray_id = 0;
+                }
+                let id = *ray_id;
+                let mut depth = 0.0;
+                let mut test = |ids: &[u32]| {
+                    for &i in ids {
+                        let tri = &self.tris[i as usize];
+                        if tri.strip == s || seen[i as usize] == id {
+                            continue;
+                        }
+                        seen[i as usize] = id;
+                        if let Some((u1, u2)) = hit_triangle(o, d, &tri.p) {
+                            let v = &tri.v;
+                            let vv = v[0] + u1 * (v[1] - v[0]) + u2 * (v[2] - v[0]);
+                            let normal = (tri.p[1] - tri.p[0]).cross(tri.p[2] - tri.p[0]);
+                            let mu = normal.normalize_or(n).dot(d).abs().max(1e-3);
+                            depth += coverage_at(&self.rows, vv) / mu;
+                        }
+                    }
+                    depth < DEEP
+                };
+                match &self.grid {
+                    Some(g) => g.walk(o, d, &mut test),
+                    None => {
+                        test(&self.all);
+                    }
+                }
+                through += (-depth).exp();
+            }
+            *slot = area_for_share(through / self.dirs.len() as f64) as f32;
+        }
+        baked
+    }
 }
