@@ -833,6 +833,30 @@ fn ply_error(name: &str, text: &str) -> KamiError {
     err(name, line, short)
 }
 
+/// Möller–Trumbore, both faces: where the ray o + t d meets triangle `p`, as (t, b1, b2)
+/// with b1, b2 the barycentrics of corners 1 and 2 (t of any sign; None when it misses or
+/// runs parallel to the triangle).
+pub fn ray_triangle(o: DVec3, d: DVec3, p: &[DVec3; 3]) -> Option<(f64, f64, f64)> {
+    let e1 = p[1] - p[0];
+    let e2 = p[2] - p[0];
+    let h = d.cross(e2);
+    let det = e1.dot(h);
+    if det.abs() < 1e-18 {
+        return None;
+    }
+    let s = o - p[0];
+    let b1 = s.dot(h) / det;
+    if !(0.0..=1.0).contains(&b1) {
+        return None;
+    }
+    let q = s.cross(e1);
+    let b2 = d.dot(q) / det;
+    if b2 < 0.0 || b1 + b2 > 1.0 {
+        return None;
+    }
+    Some((e2.dot(q) / det, b1, b2))
+}
+
 /// Area-weighted vertex normals; vertices no triangle gives a normal point up (never NaN).
 /// Computed on the mesh scaled to a unit box, so tiny or huge meshes neither underflow nor
 /// overflow.

@@ -585,26 +585,9 @@ pub fn reference_opaque(head: DMat4, l: DVec3, p: DVec3) -> f64 {
 /// (Moller-Trumbore, both faces), 1 otherwise. The map stands for this at its texels'
 /// centres, so the two agree wherever the answer does not change within a texel or two.
 pub fn reference_skin(triangles: &[[DVec3; 3]], l: DVec3, bias: f64, p: DVec3) -> f64 {
-    let hit = triangles.iter().any(|t| {
-        let e1 = t[1] - t[0];
-        let e2 = t[2] - t[0];
-        let q = l.cross(e2);
-        let det = e1.dot(q);
-        if det.abs() < 1e-18 {
-            return false;
-        }
-        let s = p - t[0];
-        let u = s.dot(q) / det;
-        if !(0.0..=1.0).contains(&u) {
-            return false;
-        }
-        let r = s.cross(e1);
-        let v = l.dot(r) / det;
-        if v < 0.0 || u + v > 1.0 {
-            return false;
-        }
-        e2.dot(r) / det > bias
-    });
+    let hit = triangles
+        .iter()
+        .any(|t| crate::scene::mesh::ray_triangle(p, l, t).is_some_and(|(t, _, _)| t > bias));
     if hit {
         0.0
     } else {

@@ -21,6 +21,7 @@
 
 use glam::{DMat4, DVec3};
 
+use crate::scene::mesh::ray_triangle;
 use crate::scene::Head;
 use crate::systems::hair_bsdf::expint;
 use crate::systems::strips::block::Look;
@@ -118,23 +119,10 @@ fn ribbons(rest: &[RestStrip]) -> (Vec<Ribbon>, Vec<ribbon::RibbonVertex>, usize
     (out, verts, stride)
 }
 
-/// Möller–Trumbore, both faces: the hit's barycentrics (of corners 1 and 2) for t > 0.
+/// The hit's barycentrics (of corners 1 and 2) where the ray o + t d, t > 0, meets `p`
+/// (either face).
 fn hit_triangle(o: DVec3, d: DVec3, p: &[DVec3; 3]) -> Option<(f64, f64)> {
-    let e1 = p[1] - p[0];
-    let e2 = p[2] - p[0];
-    let h = d.cross(e2);
-    let det = e1.dot(h);
-    if det.abs() < 1e-18 {
-        return None;
-    }
-    let s = o - p[0];
-    let b1 = s.dot(h) / det;
-    let q = s.cross(e1);
-    let b2 = d.dot(q) / det;
-    if b1 < 0.0 || b2 < 0.0 || b1 + b2 > 1.0 {
-        return None;
-    }
-    (e2.dot(q) / det > 0.0).then_some((b1, b2))
+    ray_triangle(o, d, p).and_then(|(t, b1, b2)| (t > 0.0).then_some((b1, b2)))
 }
 
 /// Whether the ray o + t d (t > 0) meets the ellipsoid (`center`, `radii`).
