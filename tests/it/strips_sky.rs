@@ -163,3 +163,49 @@ fn the_grid_walk_matches_the_exhaustive_bake() {
     );
     assert!(big.iter().flatten().all(|a| a.is_finite() && *a >= 0.0));
 }
+
+/// The sky is baked only where the physical mode reads it, and a switch to the physical mode
+/// bakes it: a strips stage built in Anjyo's mode and switched draws what a stage built
+/// physical draws, pixel for pixel, and both differ from the open sky's.
+#[test]
+fn a_switch_to_physical_bakes_the_sky() {
+    let gpu = crate::common::gpu();
+    let size = (96, 96);
+    let mut anjyo = crate::common::scene("strips");
+    anjyo.render.lod_tolerance_px = 0.0;
+    let mut physical = anjyo.clone();
+    physical.render.shading = kami::scene::Shading::Physical;
+    let mut fresh = crate::common::stage_one_sample(gpu, &physical);
+    let want = crate::common::draw(&mut fresh, size);
+    let mut stage = crate::common::stage_one_sample(gpu, &anjyo);
+    crate::common::draw(&mut stage, size);
+    stage.apply(gpu, &physical).unwrap();
+    let got = crate::common::draw(&mut stage, size);
+    let differ = |a: &image::RgbaImage, b: &image::RgbaImage| {
+        a.pixels()
+            .zip(b.pixels())
+            .filter(|(p, q)| p.0.iter().zip(q.0).any(|(x, y)| x.abs_diff(y) > 2))
+            .count()
+    };
+    assert_eq!(
+        differ(&got, &want),
+        0,
+        "switched to physical: pixels differ from a fresh stage"
+    );
+    // The strips with the open sky everywhere (what a missing bake draws) look otherwise.
+    let strips = fresh
+        .system_mut::<kami::systems::strips::StripsSystem>()
+        .unwrap();
+    let n = strips.rest.len();
+    strips
+        .ribbon
+        .set_sky(gpu, &vec![[0.0; SKY_SAMPLES]; n])
+        .unwrap();
+    let open = crate::common::draw(&mut fresh, size);
+    let n = differ(&open, &want);
+    println!("{n} pixels differ under the open sky");
+    assert!(
+        n > 50,
+        "the open sky draws like the baked one ({n} pixels differ)"
+    );
+}

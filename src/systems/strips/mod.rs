@@ -212,6 +212,8 @@ pub struct StripsSystem {
     cast: ribbon::StripCast,
     /// How far beyond the head the strips can reach (the bounds).
     reach: f64,
+    /// The look's hair count the ribbons' sky was baked for; None before the first bake.
+    sky_hairs: Option<u32>,
 }
 
 impl StripsSystem {
@@ -244,13 +246,12 @@ impl StripsSystem {
             ribbon.set_shading(scene.render.shading);
             ribbon.write_look(gpu, &strips.look)?;
         }
-        ribbon.set_sky(gpu, &sky::bake(&rest, &head, &strips.look))?;
         let reach = strips
             .layers
             .iter()
             .map(|l| l.length + l.width[0])
             .fold(0.0, f64::max);
-        Ok(StripsSystem {
+        let mut me = StripsSystem {
             strips,
             head,
             rest,
@@ -259,7 +260,23 @@ impl StripsSystem {
             cast: ribbon.shadow_cast(gpu, setup.frame_layout, setup.shadow_cast_layout)?,
             ribbon,
             reach,
-        })
+            sky_hairs: None,
+        };
+        let look = me.strips.look.clone();
+        me.refresh_sky(gpu, &look)?;
+        Ok(me)
+    }
+
+    /// Bake the strips' sky (`sky::bake`) when the physical mode reads it and it is missing
+    /// or stale: its coverage is the texture's, so new hairs make it stale. Anjyo's mode
+    /// never pays for it.
+    fn refresh_sky(&mut self, gpu: &Gpu, look: &block::Look) -> Result<()> {
+        if self.ribbon.is_physical() && self.sky_hairs != Some(look.hairs) {
+            self.ribbon
+                .set_sky(gpu, &sky::bake(&self.rest, &self.head, look))?;
+            self.sky_hairs = Some(look.hairs);
+        }
+        Ok(())
     }
 }
 
@@ -337,11 +354,6 @@ impl HairSystem for StripsSystem {
         let Some(st) = scene.strips() else {
             return Ok(());
         };
-        // The sky's coverage is the texture's: new hairs, a new bake.
-        if st.look.hairs != self.strips.look.hairs {
-            self.ribbon
-                .set_sky(gpu, &sky::bake(&self.rest, &self.head, &st.look))?;
-        }
         match change {
             Change::Redraw => {
                 self.ribbon.set_shading(scene.render.shading);
@@ -367,6 +379,7 @@ impl HairSystem for StripsSystem {
             }
             _ => {}
         }
+        self.refresh_sky(gpu, &st.look)?;
         self.strips = st.clone();
         Ok(())
     }

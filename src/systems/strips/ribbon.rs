@@ -784,6 +784,11 @@ impl RibbonPass {
         self.stride
     }
 
+    /// Whether the pass shades physically (its look's or the scene's shading).
+    pub fn is_physical(&self) -> bool {
+        self.physical
+    }
+
     pub fn samples(&self) -> u32 {
         self.variant.samples
     }
