@@ -74,15 +74,9 @@ pub fn row_coverage(look: &Look) -> Vec<f64> {
         .collect()
 }
 
-/// One ribbon as the rays see it: its triangles (corners and their v) and a bounding box.
-struct Ribbon {
-    tris: Vec<([DVec3; 3], [f64; 3])>,
-    lo: DVec3,
-    hi: DVec3,
-}
-
-/// The rest ribbons of `rest` (`ribbon::ribbon_reference` at the head's rest pose).
-fn ribbons(rest: &[RestStrip]) -> (Vec<Ribbon>, Vec<ribbon::RibbonVertex>, usize) {
+/// The rest ribbons of `rest` (`ribbon::ribbon_reference` at the head's rest pose): their
+/// triangles, the ribbon vertices and the stride.
+fn ribbons(rest: &[RestStrip]) -> (Vec<Tri>, Vec<ribbon::RibbonVertex>, usize) {
     let stride = rest
         .iter()
         .map(|s| s.points.len())
@@ -97,26 +91,24 @@ fn ribbons(rest: &[RestStrip]) -> (Vec<Ribbon>, Vec<ribbon::RibbonVertex>, usize
     }
     let info = ribbon::strip_info(rest);
     let verts = ribbon::ribbon_reference(&points, stride, &info, &DMat4::IDENTITY);
-    let out = rest
-        .iter()
-        .enumerate()
-        .map(|(s, strip)| {
-            let at = |k: usize, side: usize| verts[2 * (s * stride + k) + side];
-            let mut tris = Vec::new();
-            let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
-            for k in 0..strip.points.len().saturating_sub(1) {
-                let [a0, a1, b0, b1] = [at(k, 0), at(k, 1), at(k + 1, 0), at(k + 1, 1)];
-                for q in [a0, a1, b0, b1] {
-                    lo = lo.min(q.position);
-                    hi = hi.max(q.position);
-                }
-                tris.push(([a0.position, a1.position, b0.position], [a0.v, a1.v, b0.v]));
-                tris.push(([a1.position, b1.position, b0.position], [a1.v, b1.v, b0.v]));
-            }
-            Ribbon { tris, lo, hi }
-        })
-        .collect();
-    (out, verts, stride)
+    let mut tris = Vec::new();
+    for (s, strip) in rest.iter().enumerate() {
+        let at = |k: usize, side: usize| verts[2 * (s * stride + k) + side];
+        for k in 0..strip.points.len().saturating_sub(1) {
+            let [a0, a1, b0, b1] = [at(k, 0), at(k, 1), at(k + 1, 0), at(k + 1, 1)];
+            tris.push(Tri {
+                p: [a0.position, a1.position, b0.position],
+                v: [a0.v, a1.v, b0.v],
+                strip: s,
+            });
+            tris.push(Tri {
+                p: [a1.position, b1.position, b0.position],
+                v: [a1.v, b1.v, b0.v],
+                strip: s,
+            });
+        }
+    }
+    (tris, verts, stride)
 }
 
 /// The hit's barycentrics (of corners 1 and 2) where the ray o + t d, t > 0, meets `p`
@@ -323,18 +315,15 @@ fn bake_with(
     grid: bool,
 ) -> Vec<[f32; SKY_SAMPLES]> {
     let rows = row_coverage(look);
-    let (rib, verts, stride) = ribbons(rest);
-    let tris: Vec<Tri> = rib
-        .iter()
-        .enumerate()
-        .flat_map(|(s, r)| {
-            r.tris.iter().map(move |(p, v)| Tri {
-                p: *p,
-                v: *v,
-                strip: s,
-            })
-        })
-        .collect();
+    let (tris, verts, stride) = ribbons(rest);
+    let (mut lo, mut hi) = (DVec3::ZERO, DVec3::ZERO);
+    for (i, q) in tris.iter().flat_map(|t| t.p).enumerate() {
+        (lo, hi) = if i == 0 {
+            (q, q)
+        } else {
+            (lo.min(q), hi.max(q))
+        };
+    }
     let scene = Scene {
         rest,
         rows,
@@ -347,10 +336,7 @@ fn bake_with(
         center: DVec3::from(head.center),
         // Drawn 2 % smaller, as the shadows' head, so a root on the scalp does not hide itself.
         radii: DVec3::from(head.radii) * 0.98,
-        scale: rib
-            .iter()
-            .map(|r| (r.hi - r.lo).max_element())
-            .fold(1e-9, f64::max),
+        scale: (hi - lo).max_element().max(1e-9),
     };
     // The strips split across the machine's threads (each point's rays are independent).
     let threads = std::thread::available_parallelism()
