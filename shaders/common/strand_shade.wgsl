@@ -19,6 +19,9 @@ struct Material {
     bsdf: HairBsdf,
     // Per-strand variation (common/strand_vary.wgsl): x melanin, y width, z tint.
     variation: vec4<f32>,
+    // A physical group that varies: the sky's single backscattering (rgb) at absorption
+    // factors e^x, x evenly from -span to span (the first w). hair_bsdf::varied_single.
+    vary_single: array<vec4<f32>, 17>,
 }
 
 @group(1) @binding(0) var<storage, read> strands: array<Strand>;
@@ -87,6 +90,22 @@ fn node_width_alpha(s: Strand, n: u32) -> vec2<f32> {
     return vec2<f32>(width * frame.raster.z * lod.x, alpha);
 }
 
+// The sky's single backscattering by a strand of group g whose log absorption factor is x
+// (per channel): the group's table, its log linear between entries, held at its ends (the
+// f64 twin is hair_bsdf::varied_single_at).
+fn varied_single(g: u32, x: vec3<f32>) -> vec3<f32> {
+    let span = materials[g].vary_single[0].w;
+    let u = clamp((x / (2.0 * span) + 0.5) * 16.0, vec3<f32>(0.0), vec3<f32>(16.0));
+    var out = vec3<f32>(0.0);
+    for (var c = 0u; c < 3u; c++) {
+        let i = min(u32(u[c]), 15u);
+        let a = log(max(materials[g].vary_single[i][c], 1e-30));
+        let b = log(max(materials[g].vary_single[i + 1u][c], 1e-30));
+        out[c] = exp(mix(a, b, u[c] - f32(i)));
+    }
+    return out;
+}
+
 // Node n (a multiple of the step, or the last) of strand s.
 fn shade_node(s: Strand, n: u32) -> ShadedNode {
     var out: ShadedNode;
@@ -142,15 +161,15 @@ fn shade_node(s: Strand, n: u32) -> ShadedNode {
     // the colour a dense volume of this hair sends back. A strand file's colours are not
     // read (the group's pigments are).
     // A strand's own scattering reads its own absorption; the light the strands around it
-    // send (dual scattering's averages) stays the group's.
+    // send (dual scattering's averages, the ambient's multiple part) stays the group's.
     if hair_physical(mat.bsdf) {
         var b = mat.bsdf;
         var around = mat.bsdf.ambient.rgb;
         if varies {
             b.sigma_a = vec4<f32>(b.sigma_a.rgb * absorb, b.sigma_a.w);
-            // The volume's colour (not the environment's radiance) to the strand's power.
-            around = HAIR_AMBIENT_RADIANCE
-                * pow(max(around / HAIR_AMBIENT_RADIANCE, vec3<f32>(0.0)), absorb);
+            // The sky it scatters once is its own pigment's (the table's middle is the
+            // group's).
+            around += varied_single(s.group, log(absorb)) - mat.vary_single[8].rgb;
         }
         let f = hair_dual_radiance(b, t, v, l, crossed);
         rgb = frame.light_color.rgb * (hair_irradiance() * opaque) * f + around * ambient;

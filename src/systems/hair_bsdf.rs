@@ -739,6 +739,82 @@ fn multiple_share(a_f: f64) -> f64 {
     a_f / (1.0 - a_f * a_f).max(1e-6)
 }
 
+/// Entries of a varied group's table of the sky's single backscattering ([`varied_single`]).
+pub const VARY_TABLE: usize = 17;
+
+/// The single backscattering of the sky (the `SKY_SEEN` a_b part of
+/// [`DualScattering::ambient`]) by a strand whose absorption is the group's times e^x, at
+/// x = span (2 i / (VARY_TABLE - 1) - 1): per channel, a_b of that channel's scaled sigma_a.
+/// A varied strand's ambient colour is the group's with this part read at its own factor
+/// (docs/shading.md, "Strands that differ"): the sky it scatters once is its own pigment's,
+/// the light the volume around it sends back is the group's.
+pub fn varied_single(p: &HairParams, span: f64) -> [[f64; 3]; VARY_TABLE] {
+    let b = p.bsdf();
+    std::array::from_fn(|i| {
+        let x = span * (2.0 * i as f64 / (VARY_TABLE - 1) as f64 - 1.0);
+        let mut bi = b;
+        bi.sigma_a = b.sigma_a.map(|s| s * x.exp());
+        sky_single(&DualScattering::new(&bi))
+    })
+}
+
+/// The part of the ambient colour a fibre scatters once from the open sky:
+/// AMBIENT_RADIANCE x SKY_SEEN x a_b.
+pub fn sky_single(d: &DualScattering) -> [f64; 3] {
+    d.a_b.map(|a| AMBIENT_RADIANCE * SKY_SEEN * a)
+}
+
+/// [`varied_single`] as the shader reads it from the material (`vary_single` in
+/// `shaders/common/strand_shade.wgsl`): rgb the entries, the first entry's w the span;
+/// linear between entries in x = ln(absorption factor) per channel, held at the ends.
+pub fn varied_single_at(table: &[[f32; 4]; VARY_TABLE], x: [f64; 3]) -> [f64; 3] {
+    let span = table[0][3] as f64;
+    let last = (VARY_TABLE - 1) as f64;
+    std::array::from_fn(|c| {
+        let u = if span > 0.0 {
+            ((x[c] / (2.0 * span) + 0.5) * last).clamp(0.0, last)
+        } else {
+            0.5 * last
+        };
+        let i = (u.floor() as usize).min(VARY_TABLE - 2);
+        let f = u - i as f64;
+        let (a, b) = (table[i][c] as f64, table[i + 1][c] as f64);
+        (a.max(1e-30).ln() * (1.0 - f) + b.max(1e-30).ln() * f).exp()
+    })
+}
+
+/// The GPU table of [`varied_single`] (the first entry's w is `span`), remembered as
+/// [`cached`] remembers blocks: each entry is a dual-scattering integration.
+pub fn gpu_varied_single(p: &HairParams, span: f64) -> [[f32; 4]; VARY_TABLE] {
+    use std::sync::Mutex;
+    type Key = [u64; 7];
+    type Table = [[f32; 4]; VARY_TABLE];
+    static CACHE: Mutex<Vec<(Key, Table)>> = Mutex::new(Vec::new());
+    let key = [
+        p.eumelanin,
+        p.pheomelanin,
+        p.beta_m,
+        p.beta_n,
+        p.alpha,
+        p.eta,
+        span,
+    ]
+    .map(f64::to_bits);
+    let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some((_, t)) = cache.iter().find(|(k, _)| *k == key) {
+        return *t;
+    }
+    let t = varied_single(p, span);
+    let mut g: Table =
+        std::array::from_fn(|i| [t[i][0] as f32, t[i][1] as f32, t[i][2] as f32, 0.0]);
+    g[0][3] = span as f32;
+    if cache.len() >= 64 {
+        cache.clear();
+    }
+    cache.push((key, g));
+    g
+}
+
 /// A material's physical shading as the shaders read it. Twin of `struct HairBsdf` (`tests/it/gpu_twins.rs` checks it)
 /// in `shaders/common/hair_bsdf.wgsl`.
 #[repr(C)]

@@ -170,7 +170,7 @@ fn twins() -> Vec<Twin> {
         ),
         twin!(
             GpuMaterial,
-            [color_ks, params, file, bsdf, variation],
+            [color_ks, params, file, bsdf, variation, vary_single],
             "Material",
             ["anjyo/draw.wgsl"]
         ),

@@ -238,19 +238,26 @@ fn assert_accumulation_agrees(
 /// 0.5 % relative plus the fixed-point rounding of the hairs that add to it
 /// (`ROUNDING_UNITS`, a few thousandths for the faintest words), over single-sampled and
 /// multisampled targets, in Anjyo's shading and in the physical mode, with strands of one
-/// look and with per-strand variation (melanin, width, tint) in both modes.
+/// look and with per-strand variation (melanin, width, tint) in both modes, and varied
+/// physical strands under the ambient light alone (where their own sky shows).
 #[test]
 fn gpu_accumulation_matches_the_f64_reference() {
     let gpu = common::gpu();
-    for (msaa, shading, varied) in [
-        (1, Shading::Anjyo, false),
-        (4, Shading::Anjyo, false),
-        (1, Shading::Physical, false),
-        (1, Shading::Anjyo, true),
-        (1, Shading::Physical, true),
+    for (msaa, shading, varied, ambient_only) in [
+        (1, Shading::Anjyo, false, false),
+        (4, Shading::Anjyo, false, false),
+        (1, Shading::Physical, false, false),
+        (1, Shading::Anjyo, true, false),
+        (1, Shading::Physical, true, false),
+        (1, Shading::Physical, true, true),
     ] {
         let mut scene = small(false, msaa);
         scene.render.shading = shading;
+        if ambient_only {
+            scene.light.intensity = 0.0;
+            // Bright enough that its words stand well above the fixed-point rounding.
+            scene.light.ambient = 10.0;
+        }
         if varied {
             for g in scene.groups_mut() {
                 g.material.variation = anjyo::block::Variation {
@@ -269,7 +276,7 @@ fn gpu_accumulation_matches_the_f64_reference() {
         let got = gpu_samples(gpu, &d.stage);
         let want = reference(gpu, &d.stage, &scene, None);
         let covered = assert_accumulation_agrees(
-            &format!("MSAA {msaa} {shading:?}, varied {varied}"),
+            &format!("MSAA {msaa} {shading:?}, varied {varied}, ambient only {ambient_only}"),
             &got,
             &want,
             &want,

@@ -106,6 +106,70 @@ fn the_strand_numbers_have_the_stated_spread() {
     assert_eq!(vary::width_factor(0.37, &none), 1.0);
 }
 
+/// A varied physical strand's sky: the group's table of single backscattering
+/// (`hair_bsdf::gpu_varied_single`, read as the shader reads it) against a_b integrated
+/// afresh at each strand's own absorption, over the shipped spread and the largest allowed
+/// (factors from e^-3.5 to e^3.5): the worst relative error is bounded. The table's middle
+/// is the group's own single part, so a strand of factor 1 keeps the group's ambient.
+#[test]
+fn a_varied_strands_sky_table_matches_its_own_backscattering() {
+    use kami::systems::hair_bsdf::{self, DualScattering, VARY_TABLE};
+    let scene = common::scene("bob");
+    let m = &scene.groups()[0].material;
+    let p = m.physical.hair(m.color);
+    let group = hair_bsdf::sky_single(&DualScattering::new(&p.bsdf()));
+    for (v, bound) in [
+        (
+            Variation {
+                melanin: 0.3,
+                width: 0.0,
+                tint: 0.1,
+            },
+            5e-4,
+        ),
+        (
+            Variation {
+                melanin: 1.0,
+                width: 0.0,
+                tint: 1.0,
+            },
+            1e-2,
+        ),
+    ] {
+        let span = 3f64.sqrt() * (v.melanin + v.tint);
+        let table = hair_bsdf::gpu_varied_single(&p, span);
+        let mid = table[VARY_TABLE / 2];
+        for c in 0..3 {
+            assert!(
+                (f64::from(mid[c]) - group[c]).abs() < 1e-6 * group[c].max(1e-3),
+                "middle {mid:?} against the group's {group:?}"
+            );
+        }
+        let mut worst = (0.0f64, 0u32);
+        for i in 0..48u32 {
+            let rand = kami::rng::hash_unit(i ^ 0xab5);
+            let a = vary::absorption(rand, &v);
+            let got = hair_bsdf::varied_single_at(&table, a.map(f64::ln));
+            let mut b = p.bsdf();
+            b.sigma_a = std::array::from_fn(|c| b.sigma_a[c] * a[c]);
+            let want = hair_bsdf::sky_single(&DualScattering::new(&b));
+            for c in 0..3 {
+                let err = (got[c] - want[c]).abs() / want[c];
+                if err > worst.0 || err.is_nan() {
+                    worst = (if err.is_finite() { err } else { f64::INFINITY }, i);
+                }
+            }
+        }
+        assert!(
+            worst.0 < bound,
+            "{v:?}: worst relative error {} at strand {}",
+            worst.0,
+            worst.1
+        );
+        println!("{v:?}: worst relative error {:.2e}", worst.0);
+    }
+}
+
 fn bob_with(v: Variation) -> kami::Scene {
     let mut scene = common::scene("bob");
     for g in scene.groups_mut() {

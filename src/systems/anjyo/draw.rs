@@ -78,6 +78,14 @@ impl GpuMaterial {
     /// A group's look; `shading` is the scene's (the group's own overrides it).
     pub fn from_material(m: &Material, shading: crate::scene::Shading) -> GpuMaterial {
         let c = linear_rgb(m.color);
+        let bsdf = crate::systems::hair_bsdf::gpu_block(shading, m.shading, &m.physical, m.color);
+        // The spread of a strand's log absorption factor: |melanin z0| + |tint z2| at most.
+        let span = 3f64.sqrt() * (m.variation.melanin + m.variation.tint);
+        let vary_single = if bsdf.physical() && span > 0.0 {
+            crate::systems::hair_bsdf::gpu_varied_single(&m.physical.hair(m.color), span)
+        } else {
+            Default::default()
+        };
         GpuMaterial {
             color_ks: [c[0], c[1], c[2], m.ks as f32],
             params: [
@@ -87,13 +95,14 @@ impl GpuMaterial {
                 m.tip_width as f32,
             ],
             file: [0.0; 4],
-            bsdf: crate::systems::hair_bsdf::gpu_block(shading, m.shading, &m.physical, m.color),
+            bsdf,
             variation: [
                 m.variation.melanin as f32,
                 m.variation.width as f32,
                 m.variation.tint as f32,
                 0.0,
             ],
+            vary_single,
         }
     }
 }

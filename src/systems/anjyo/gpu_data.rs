@@ -88,8 +88,12 @@ pub struct GpuMaterial {
     pub bsdf: crate::systems::hair_bsdf::GpuHairBsdf,
     /// Per-strand variation (`block::Variation`): x melanin, y width, z tint.
     pub variation: [f32; 4],
+    /// A physical group that varies: the sky's single backscattering at absorption factors
+    /// across the group's spread (`hair_bsdf::gpu_varied_single`; the first w the span in
+    /// log). Zero otherwise.
+    pub vary_single: [[f32; 4]; crate::systems::hair_bsdf::VARY_TABLE],
 }
-assert_size!(GpuMaterial, 176);
+assert_size!(GpuMaterial, 448);
 
 /// A node's own look, from a strand file. Twin of the elements of `looks` (`tests/it/gpu_twins.rs` checks it) in
 /// `shaders/common/strand_shade.wgsl`.

@@ -136,16 +136,21 @@ impl Input<'_> {
         if mat.bsdf.physical() {
             // The physical mode, with the shadow structure's stub values (no strands in the
             // way, lit).
-            // A varied strand's own absorption; the volume's colour around it to the
-            // strand's power (dual scattering's averages stay the group's).
+            // A varied strand's own absorption; of the ambient colour, the sky it
+            // scatters once is its own, the volume's light the group's (dual scattering's
+            // averages stay the group's).
             let (mut b, d) = mat.bsdf.reference();
             b.sigma_a = std::array::from_fn(|c| b.sigma_a[c] * absorb[c]);
             let a = hair_bsdf::Angles::new(v.to_array(), l.to_array(), t.to_array());
             let s = hair_bsdf::dual_radiance(&b, &d, &a, 0.0);
-            let r = hair_bsdf::AMBIENT_RADIANCE;
-            let around: [f64; 3] = std::array::from_fn(|c| {
-                r * (mat.bsdf.ambient[c] as f64 / r).max(0.0).powf(absorb[c])
-            });
+            let mut around: [f64; 3] = std::array::from_fn(|c| mat.bsdf.ambient[c] as f64);
+            if varies {
+                let own = hair_bsdf::varied_single_at(&mat.vary_single, absorb.map(f64::ln));
+                let mid = mat.vary_single[hair_bsdf::VARY_TABLE / 2];
+                for c in 0..3 {
+                    around[c] += own[c] - mid[c] as f64;
+                }
+            }
             rgb = v3(f.light_color) * (std::f64::consts::PI * intensity) * DVec3::from_array(s)
                 + DVec3::from_array(around) * ambient;
         }
@@ -224,6 +229,7 @@ mod tests {
             file: [0.0; 4],
             bsdf: Default::default(),
             variation: [0.0; 4],
+            vary_single: Default::default(),
         };
         (s, verts, m)
     }
