@@ -11,7 +11,8 @@
 // smooth over one sample (alpha minus the cutoff over its screen derivative), so hair edges
 // are crisp and anti-aliased; where several texels fall in a sample (far away, read from
 // the alpha-averaged mips), the mean alpha is the coverage itself, so a far strip keeps its
-// density instead of vanishing or turning solid. The two blend over one mip level. The
+// density instead of vanishing or turning solid (in the physical mode, closed further
+// where the strip is seen obliquely: oblique_coverage). The two blend over one mip level. The
 // coverage then goes through common/coverage.wgsl as every hair pass's does: blended
 // without MSAA, a per-sample mask with it (per-sample discard on GL).
 
@@ -49,7 +50,24 @@ struct VOut {
     // cells are wider than a stick, and read per fragment the lookup cost a fifth of the
     // strips' frame on a software rasteriser.
     @location(5) lit: f32,
+    // The physical mode's obliquity of the strip to the view, 1 / |cos| between its normal
+    // and the view (1 in Anjyo's shading): see `oblique_coverage`.
+    @location(6) oblique: f32,
 }
+
+// The coverage of a strip of fine hairs seen obliquely (the physical mode's). The texture's
+// alpha a is the share of the strip's width its hairs cover, seen face on. Tilted by theta,
+// the strip's width on screen shrinks by cos theta but the hairs, round, keep theirs, so
+// they overlap and close the gaps: with the hairs placed independently, what shows through
+// is (1 - a)^(1 / cos theta), the form the strips' sky bake (src/systems/strips/sky.rs)
+// gives a ray crossing a strip. The path tracer draws the strip's hairs as curves and sees
+// the same: a curtain of strips seen edge on is opaque.
+fn oblique_coverage(a: f32, oblique: f32) -> f32 {
+    return 1.0 - pow(max(1.0 - a, 0.0), oblique);
+}
+
+// Cosines below this are taken as this (a strip seen exactly edge on is opaque already).
+const MIN_STRIP_COS: f32 = 0.05;
 
 // How far towards the light a control point reads the shadow structure, in units of the
 // layered strands' offset (`shadow_layered`): the structure smooths a strip over a cell, so
@@ -74,6 +92,7 @@ fn vs(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -> VOut 
     out.tangent = v.tangent.xyz;
     out.strip = si;
     out.physical = vec3<f32>(0.0);
+    out.oblique = 1.0;
     // One lookup for both modes (a software rasteriser would pay one per branch).
     let offset = select(0.0, STRIP_SHADOW_OFFSET * frame.shadow.layered.x, hair_physical(strip_look.bsdf));
     let n = shadow_strands(v.position.xyz + frame.shadow.axis_l.xyz * offset);
@@ -90,6 +109,12 @@ fn vs(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -> VOut 
         let sky = hair_ambient_in_coat(strip_look.bsdf, strip_sky(info_s, v.tangent.w));
         out.physical = frame.light_color.rgb * (hair_irradiance() * opaque) * f
             + strip_look.bsdf.ambient.rgb * sky * frame.light_color.w;
+        // The normal from the control point's other edge vertex.
+        let other = verts[2u * (si * strip_look.counts.x + (vi >> 1u)) + ((vi & 1u) ^ 1u)];
+        let nrm = cross(t, other.position.xyz - p);
+        let nl2 = dot(nrm, nrm);
+        let c = select(1.0, abs(dot(nrm, view)) * inverseSqrt(nl2), nl2 > 1e-20);
+        out.oblique = 1.0 / max(c, MIN_STRIP_COS);
     }
     return out;
 }
@@ -110,7 +135,7 @@ fn strip_color(in: VOut) -> vec4<f32> {
     // Nothing where no hair is (also with a cutoff of 0).
     let sharp = select(0.0, clamp((tex.a - cutoff) / edge + 0.5, 0.0, 1.0), tex.a > 0.0);
     let far = clamp(log2(max(footprint, 1e-6)), 0.0, 1.0);
-    let alpha = mix(sharp, tex.a, far);
+    let alpha = mix(sharp, oblique_coverage(tex.a, in.oblique), far);
 
     var t = in.tangent;
     let tl2 = dot(t, t);
