@@ -79,10 +79,10 @@ impl GpuMaterial {
     pub fn from_material(m: &Material, shading: crate::scene::Shading) -> GpuMaterial {
         let c = linear_rgb(m.color);
         let bsdf = crate::systems::hair_bsdf::gpu_block(shading, m.shading, &m.physical, m.color);
-        // The spread of a strand's log absorption factor: |melanin z0| + |tint z2| at most.
-        let span = 3f64.sqrt() * (m.variation.melanin + m.variation.tint);
-        let vary_single = if bsdf.physical() && span > 0.0 {
-            crate::systems::hair_bsdf::gpu_varied_single(&m.physical.hair(m.color), span)
+        let varies = m.variation.melanin > 0.0 || m.variation.tint > 0.0;
+        let vary_single = if bsdf.physical() && varies {
+            use crate::systems::hair_bsdf::{gpu_varied_single, VARY_SPAN};
+            gpu_varied_single(&m.physical.hair(m.color), VARY_SPAN)
         } else {
             Default::default()
         };
