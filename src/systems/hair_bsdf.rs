@@ -150,6 +150,19 @@ impl Default for HairParams {
 }
 
 impl HairParams {
+    /// The parameters' bits: what the caches of precomputed blocks are keyed on.
+    fn key(&self) -> [u64; 6] {
+        [
+            self.eumelanin,
+            self.pheomelanin,
+            self.beta_m,
+            self.beta_n,
+            self.alpha,
+            self.eta,
+        ]
+        .map(f64::to_bits)
+    }
+
     /// Absorption per unit length inside the fibre (inverse radii), rgb.
     pub fn sigma_a(&self) -> [f64; 3] {
         std::array::from_fn(|i| {
@@ -818,35 +831,38 @@ pub fn varied_single_at(table: &[[f32; 4]; VARY_TABLE], x: [f64; 3]) -> [f64; 3]
 }
 
 /// The GPU table of [`varied_single`] (the first entry's w is `span`), remembered as
-/// [`cached`] remembers blocks: each entry is a dual-scattering integration.
+/// [`cached`] remembers blocks.
 pub fn gpu_varied_single(p: &HairParams, span: f64) -> [[f32; 4]; VARY_TABLE] {
-    use std::sync::Mutex;
-    type Key = [u64; 7];
     type Table = [[f32; 4]; VARY_TABLE];
-    static CACHE: Mutex<Vec<(Key, Table)>> = Mutex::new(Vec::new());
-    let key = [
-        p.eumelanin,
-        p.pheomelanin,
-        p.beta_m,
-        p.beta_n,
-        p.alpha,
-        p.eta,
-        span,
-    ]
-    .map(f64::to_bits);
-    let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
+    static CACHE: std::sync::Mutex<Vec<([u64; 7], Table)>> = std::sync::Mutex::new(Vec::new());
+    let k = p.key();
+    let key = [k[0], k[1], k[2], k[3], k[4], k[5], span.to_bits()];
+    remembered(&CACHE, key, || {
+        let t = varied_single(p, span);
+        let mut g: Table =
+            std::array::from_fn(|i| [t[i][0] as f32, t[i][1] as f32, t[i][2] as f32, 0.0]);
+        g[0][3] = span as f32;
+        g
+    })
+}
+
+/// `make()`, or what it made before for `key`. Bounded: a slider drag makes a new entry per
+/// step.
+fn remembered<K: PartialEq, T: Copy>(
+    cache: &std::sync::Mutex<Vec<(K, T)>>,
+    key: K,
+    make: impl FnOnce() -> T,
+) -> T {
+    let mut cache = cache.lock().unwrap_or_else(|e| e.into_inner());
     if let Some((_, t)) = cache.iter().find(|(k, _)| *k == key) {
         return *t;
     }
-    let t = varied_single(p, span);
-    let mut g: Table =
-        std::array::from_fn(|i| [t[i][0] as f32, t[i][1] as f32, t[i][2] as f32, 0.0]);
-    g[0][3] = span as f32;
+    let t = make();
     if cache.len() >= 64 {
         cache.clear();
     }
-    cache.push((key, g));
-    g
+    cache.push((key, t));
+    t
 }
 
 /// A material's physical shading as the shaders read it. Twin of `struct HairBsdf` (`tests/it/gpu_twins.rs` checks it)
@@ -962,29 +978,9 @@ pub fn gpu_block(
 /// `GpuHairBsdf::new(p, true)`, remembered: the dual-scattering integration takes
 /// milliseconds and some kinds write their materials every frame.
 fn cached(p: &HairParams) -> GpuHairBsdf {
-    use std::sync::Mutex;
-    type Key = [u64; 6];
-    static CACHE: Mutex<Vec<(Key, GpuHairBsdf)>> = Mutex::new(Vec::new());
-    let key = [
-        p.eumelanin,
-        p.pheomelanin,
-        p.beta_m,
-        p.beta_n,
-        p.alpha,
-        p.eta,
-    ]
-    .map(f64::to_bits);
-    let mut cache = CACHE.lock().unwrap_or_else(|e| e.into_inner());
-    if let Some((_, g)) = cache.iter().find(|(k, _)| *k == key) {
-        return *g;
-    }
-    let g = GpuHairBsdf::new(p, true);
-    // Bounded: a slider drag makes a new entry per step.
-    if cache.len() >= 64 {
-        cache.clear();
-    }
-    cache.push((key, g));
-    g
+    static CACHE: std::sync::Mutex<Vec<([u64; 6], GpuHairBsdf)>> =
+        std::sync::Mutex::new(Vec::new());
+    remembered(&CACHE, p.key(), || GpuHairBsdf::new(p, true))
 }
 
 /// The look panels' shading controls (every kind's): the scene's mode, this group's own
