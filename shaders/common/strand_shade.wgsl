@@ -94,7 +94,11 @@ fn node_width_alpha(s: Strand, n: u32) -> vec2<f32> {
 // (per channel): the group's table, its log linear between entries, held at its ends (the
 // f64 twin is hair_bsdf::varied_single_at).
 fn varied_single(g: u32, x: vec3<f32>) -> vec3<f32> {
+    // 17 entries (hair_bsdf::VARY_TABLE): 16 intervals, the middle at 8.
     let span = materials[g].vary_single[0].w;
+    if span <= 0.0 {
+        return materials[g].vary_single[8].rgb;
+    }
     let u = clamp((x / (2.0 * span) + 0.5) * 16.0, vec3<f32>(0.0), vec3<f32>(16.0));
     var out = vec3<f32>(0.0);
     for (var c = 0u; c < 3u; c++) {

@@ -56,12 +56,13 @@ struct VOut {
 }
 
 // The coverage of a strip of fine hairs seen obliquely (the physical mode's). The texture's
-// alpha a is the share of the strip's width its hairs cover, seen face on. Tilted by theta,
-// the strip's width on screen shrinks by cos theta but the hairs, round, keep theirs, so
-// they overlap and close the gaps: with the hairs placed independently, what shows through
-// is (1 - a)^(1 / cos theta), the form the strips' sky bake (src/systems/strips/sky.rs)
-// gives a ray crossing a strip. The path tracer draws the strip's hairs as curves and sees
-// the same: a curtain of strips seen edge on is opaque.
+// alpha a is the share of the strip's width its hairs cover, seen face on. Turned by theta
+// about the hairs' direction, the strip's width across them shrinks by cos theta on screen
+// but the hairs, round, keep theirs, so they overlap and close the gaps: with the hairs
+// placed independently, what shows through is (1 - a)^(1 / cos theta), the form the
+// strips' sky bake (src/systems/strips/sky.rs) gives a ray crossing a strip. Tilted along
+// the hairs, the gaps keep their share. The path tracer draws the strip's hairs as curves
+// and sees the same: a curtain of strips seen edge on is opaque.
 fn oblique_coverage(a: f32, oblique: f32) -> f32 {
     return 1.0 - pow(max(1.0 - a, 0.0), oblique);
 }
@@ -109,11 +110,15 @@ fn vs(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -> VOut 
         let sky = hair_ambient_in_coat(strip_look.bsdf, strip_sky(info_s, v.tangent.w));
         out.physical = frame.light_color.rgb * (hair_irradiance() * opaque) * f
             + strip_look.bsdf.ambient.rgb * sky * frame.light_color.w;
-        // The normal from the control point's other edge vertex.
+        // The normal from the control point's other edge vertex. The hairs run along t, so
+        // only the turn about t narrows the gaps: across the hairs' projection the strip's
+        // width shrinks by |n . v| / sqrt(1 - (t . v)^2), 1 for a view in the plane of n and t.
         let other = verts[2u * (si * strip_look.counts.x + (vi >> 1u)) + ((vi & 1u) ^ 1u)];
         let nrm = cross(t, other.position.xyz - p);
         let nl2 = dot(nrm, nrm);
-        let c = select(1.0, abs(dot(nrm, view)) * inverseSqrt(nl2), nl2 > 1e-20);
+        let tv = dot(t, view);
+        let across = inverseSqrt(max(1.0 - tv * tv, 1e-12));
+        let c = select(1.0, min(abs(dot(nrm, view)) * inverseSqrt(nl2) * across, 1.0), nl2 > 1e-20);
         out.oblique = 1.0 / max(c, MIN_STRIP_COS);
     }
     return out;

@@ -847,6 +847,17 @@ fn render_tilted(
 ) -> image::RgbaImage {
     let mut strip = test_strip();
     strip.normal = DVec3::new(tilt.sin(), 0.0, tilt.cos());
+    render_strip(gpu, samples, look, sky, strip)
+}
+
+/// [`render_with`] of `strip` (7 control points).
+fn render_strip(
+    gpu: &Gpu,
+    samples: u32,
+    look: &Look,
+    sky: Option<[f32; SKY_SAMPLES]>,
+    strip: RestStrip,
+) -> image::RgbaImage {
     let rest = vec![strip];
     let layout = frame_layout(gpu);
     // Built with the default look and MSAA off, then changed: the look and the sample count
@@ -1185,7 +1196,8 @@ fn the_strips_ambient_follows_the_hidden_sky() {
 /// light alone. Row by row, the light the turned strip sends is cos 60 times its coverage
 /// 1 - (1 - a)^(1 / cos 60) over the face-on strip's a, with a the texture's alpha averaged
 /// over each pixel's texels (f64, from the texture): the gaps close as round hairs overlap.
-/// Without it the ratio is cos 60 and the worst error 0.30.
+/// Without it the ratio is cos 60 and the worst error 0.30. Leaned back 60 degrees along its
+/// hairs instead, the gaps keep their share and the light is cos 60 of the face-on strip's.
 #[test]
 fn an_oblique_strip_covers_more_of_its_width() {
     let gpu = common::gpu();
@@ -1235,4 +1247,29 @@ fn an_oblique_strip_covers_more_of_its_width() {
     }
     println!("worst relative error {worst:.4}");
     assert!(worst < 0.05, "worst relative error {worst}");
+    // Leaned back along its hairs by 60 degrees instead, the strip's gaps keep their share:
+    // its light is cos 60 of the face-on strip's, as its projected area is.
+    let lean = 60f64.to_radians();
+    let mut leaned = test_strip();
+    leaned.points = (0..=6)
+        .map(|k| {
+            DVec3::new(
+                0.0,
+                6.0 - 2.0 * k as f64 * lean.cos(),
+                -2.0 * k as f64 * lean.sin(),
+            )
+        })
+        .collect();
+    leaned.normal = DVec3::new(0.0, -lean.sin(), lean.cos());
+    let back = render_strip(gpu, 1, &look, open, leaned);
+    let total = |img: &image::RgbaImage| -> f64 { (0..SIZE).map(|y| whole_row(img, y)).sum() };
+    let got = total(&back) / total(&face);
+    println!(
+        "leaned along its hairs: light ratio {got:.4}, cos 60 {:.4}",
+        lean.cos()
+    );
+    assert!(
+        (got / lean.cos() - 1.0).abs() < 0.05,
+        "leaned along its hairs: light ratio {got}, want cos 60"
+    );
 }
