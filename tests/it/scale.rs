@@ -64,6 +64,9 @@ fn every_phase_of_a_frame_is_timed_on_the_gpu() {
         return;
     }
     let mut last = None;
+    // The smallest empty pair over the frames: under load one pair may read long (a CI
+    // run saw 0.12 ms), and a phase is held to the floor an empty phase reads.
+    let mut empty = f64::INFINITY;
     for _ in 0..3 {
         let mut enc = gpu.device.create_command_encoder(&Default::default());
         let info = stage.advance(gpu, &mut enc, 2).unwrap();
@@ -81,9 +84,12 @@ fn every_phase_of_a_frame_is_timed_on_the_gpu() {
         gpu.queue.submit([enc.finish()]);
         t.submitted();
         last = t.wait(gpu).unwrap();
+        if let Some(e) = last.as_ref().and_then(|t| t.get(Phase::Panels)) {
+            empty = empty.min(e);
+        }
     }
     let times = last.expect("timings come back after a wait");
-    let empty = times.get(Phase::Panels).expect("the empty pair is timed");
+    assert!(empty.is_finite(), "the empty pair is timed");
     eprintln!("{times:?}; an empty phase {empty} ms");
     for p in [
         Phase::Simulation,
