@@ -342,7 +342,7 @@ fn strips_drawn_for_the_reference_are_the_texture_hairs() {
 
 /// Fur seen from afar is drawn culled and widened: the reference gets the same hairs (each
 /// triangle's first ones, `culled_offsets`) at the same widened width, fewer than the full
-/// export's.
+/// export's, tapered to half at the tip as drawn.
 #[test]
 fn fur_drawn_for_the_reference_is_the_culled_hairs_widened() {
     use kami::systems::fur::setup::{culling_factor, FurSetup};
@@ -372,6 +372,22 @@ fn fur_drawn_for_the_reference_is_the_culled_hairs_widened() {
         (got - w / c).abs() < 1e-4 * w / c,
         "drawn width {got}, the coat's {w} widened by 1/{c}"
     );
+    // Each hair tapers to half its root width at the tip, as every fur shader draws it
+    // (`ribbon_width`; the splat twin's contract holds the shader to `drawn_width`).
+    let widths = drawn.widths.as_ref().unwrap();
+    let mut at = 0;
+    for &n in drawn.counts.iter().take(50) {
+        let n = n as usize;
+        for j in 0..n {
+            let want = (w / c) * (1.0 - 0.5 * j as f64 / (n - 1) as f64);
+            let got = widths[at + j] as f64;
+            assert!(
+                (got - want).abs() < 1e-4 * want,
+                "point {j} of {n}: width {got}, the taper's {want}"
+            );
+        }
+        at += n;
+    }
 }
 
 /// An image of `w` x `h` background pixels with the rectangle `r` (x0, y0, x1, y1) painted.

@@ -253,9 +253,21 @@ struct GenKey {
     factor: f64,
 }
 
+/// A fur hair's width at the tip as a share of its root width: every fur shader
+/// (`ribbon_width` in `shaders/fur/shade.wgsl`, the tubes, the shadow caster) tapers it
+/// linearly to this, and the exports carry the same taper.
+pub const TIP_WIDTH: f64 = 0.5;
+
+/// The drawn width at node `j` of `nodes` (0 the root), root width `root`: the shaders'
+/// linear taper to [`TIP_WIDTH`].
+pub fn drawn_width(root: f64, j: usize, nodes: usize) -> f64 {
+    let along = j as f64 / (nodes.max(2) - 1) as f64;
+    root * (1.0 + (TIP_WIDTH - 1.0) * along)
+}
+
 /// Every hair of every coat at full density (no distance culling) at `frame`, from the f64
-/// reference the GPU generator matches: the polylines, the coat's width (constant along a
-/// hair, as drawn) and diffuse colour.
+/// reference the GPU generator matches: the polylines, the coat's width at each point as
+/// drawn (tapered root to tip, [`drawn_width`]) and diffuse colour.
 pub fn export_fur(setup: &FurSetup, frame: f64) -> crate::formats::Groom {
     export_fur_culled(setup, frame, 1.0, 1.0)
 }
@@ -281,12 +293,13 @@ pub fn export_fur_culled(
             for h in coat.first[t]..coat.first[t] + (off[t + 1] - off[t]) {
                 let nodes = setup::hair_points(setup, ci, t, h, frame).nodes;
                 g.counts.push(nodes.len() as u32);
-                for p in &nodes {
+                for (j, p) in nodes.iter().enumerate() {
                     g.points.push([p.x as f32, p.y as f32, p.z as f32]);
-                    g.widths
-                        .as_mut()
-                        .unwrap()
-                        .push((m.width * width_scale) as f32);
+                    g.widths.as_mut().unwrap().push(drawn_width(
+                        m.width * width_scale,
+                        j,
+                        nodes.len(),
+                    ) as f32);
                     g.colors.as_mut().unwrap().push(m.diffuse);
                 }
             }

@@ -145,11 +145,15 @@ impl Nodes for Input<'_> {
         let m = &self.materials[s.group as usize];
         let p = self.vert(s, n);
         let t = self.tangent(s, n);
-        let along = n as f64 / s.segments.max(1) as f64;
         Node {
             pos: p,
             rgb: self.shade(m, self.shading_normal(si, m, n, t), t, p, s, n),
-            width: m.ambient[3] as f64 * (1.0 + (0.5 - 1.0) * along) * m.extra[1] as f64,
+            // The export's taper: this twin's contract binds it to `ribbon_width`.
+            width: super::drawn_width(
+                m.ambient[3] as f64 * m.extra[1] as f64,
+                n as usize,
+                s.segments as usize + 1,
+            ),
             alpha: 1.0,
         }
     }
