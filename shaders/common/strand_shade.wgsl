@@ -21,8 +21,13 @@ struct Material {
     variation: vec4<f32>,
     // A physical group that varies: the sky's single backscattering (rgb) at absorption
     // factors e^x, x evenly from -span to span (the first w). hair_bsdf::varied_single.
-    vary_single: array<vec4<f32>, 17>,
+    vary_single: array<vec4<f32>, VARY_TABLE>,
 }
+
+// The varied table's entries (hair_bsdf::VARY_TABLE; tests/it/gpu_twins.rs checks it), odd:
+// the middle one is the group's own.
+const VARY_TABLE: u32 = 17u;
+const VARY_MIDDLE: u32 = VARY_TABLE / 2u;
 
 @group(1) @binding(0) var<storage, read> strands: array<Strand>;
 @group(1) @binding(1) var<storage, read> verts: array<vec4<f32>>;
@@ -94,15 +99,16 @@ fn node_width_alpha(s: Strand, n: u32) -> vec2<f32> {
 // (per channel): the group's table, its log linear between entries, held at its ends (the
 // f64 twin is hair_bsdf::varied_single_at).
 fn varied_single(g: u32, x: vec3<f32>) -> vec3<f32> {
-    // 17 entries (hair_bsdf::VARY_TABLE): 16 intervals, the middle at 8.
+    // VARY_TABLE entries: VARY_TABLE - 1 intervals, the middle at VARY_MIDDLE.
     let span = materials[g].vary_single[0].w;
     if span <= 0.0 {
-        return materials[g].vary_single[8].rgb;
+        return materials[g].vary_single[VARY_MIDDLE].rgb;
     }
-    let u = clamp((x / (2.0 * span) + 0.5) * 16.0, vec3<f32>(0.0), vec3<f32>(16.0));
+    let last = f32(VARY_TABLE - 1u);
+    let u = clamp((x / (2.0 * span) + 0.5) * last, vec3<f32>(0.0), vec3<f32>(last));
     var out = vec3<f32>(0.0);
     for (var c = 0u; c < 3u; c++) {
-        let i = min(u32(u[c]), 15u);
+        let i = min(u32(u[c]), VARY_TABLE - 2u);
         let a = log(max(materials[g].vary_single[i][c], 1e-30));
         let b = log(max(materials[g].vary_single[i + 1u][c], 1e-30));
         out[c] = exp(mix(a, b, u[c] - f32(i)));
@@ -173,7 +179,7 @@ fn shade_node(s: Strand, n: u32) -> ShadedNode {
             b.sigma_a = vec4<f32>(b.sigma_a.rgb * absorb, b.sigma_a.w);
             // The sky it scatters once is its own pigment's (the table's middle is the
             // group's).
-            around += varied_single(s.group, log(absorb)) - mat.vary_single[8].rgb;
+            around += varied_single(s.group, log(absorb)) - mat.vary_single[VARY_MIDDLE].rgb;
         }
         let f = hair_dual_radiance(b, t, v, l, crossed);
         rgb = frame.light_color.rgb * (hair_irradiance() * opaque) * f + around * ambient;

@@ -641,6 +641,12 @@ fn twin_constants() -> Vec<(&'static str, &'static str, f64, &'static str)> {
             "gpu::shadow::DEPTH_SCALE",
         ),
         (
+            "common/strand_shade.wgsl",
+            "VARY_TABLE",
+            kami::systems::hair_bsdf::VARY_TABLE as f64,
+            "systems::hair_bsdf::VARY_TABLE",
+        ),
+        (
             "common/shadow.wgsl",
             "SHADOW_ROW",
             f64::from(shadow::ROW),

@@ -239,17 +239,23 @@ fn assert_accumulation_agrees(
 /// (`ROUNDING_UNITS`, a few thousandths for the faintest words), over single-sampled and
 /// multisampled targets, in Anjyo's shading and in the physical mode, with strands of one
 /// look and with per-strand variation (melanin, width, tint) in both modes, and varied
-/// physical strands under the ambient light alone (where their own sky shows).
+/// physical strands under the ambient light alone (where their own sky shows), at the
+/// shipped spread and at the widest the scene format allows (melanin and tint 1: the log
+/// absorption reaches the sky table's end entries, `hair_bsdf::VARY_SPAN`).
 #[test]
 fn gpu_accumulation_matches_the_f64_reference() {
     let gpu = common::gpu();
+    // (melanin, tint) of the variation, None for none.
+    let shipped = Some((0.4, 0.2));
+    let widest = Some((1.0, 1.0));
     for (msaa, shading, varied, ambient_only) in [
-        (1, Shading::Anjyo, false, false),
-        (4, Shading::Anjyo, false, false),
-        (1, Shading::Physical, false, false),
-        (1, Shading::Anjyo, true, false),
-        (1, Shading::Physical, true, false),
-        (1, Shading::Physical, true, true),
+        (1, Shading::Anjyo, None, false),
+        (4, Shading::Anjyo, None, false),
+        (1, Shading::Physical, None, false),
+        (1, Shading::Anjyo, shipped, false),
+        (1, Shading::Physical, shipped, false),
+        (1, Shading::Physical, shipped, true),
+        (1, Shading::Physical, widest, true),
     ] {
         let mut scene = small(false, msaa);
         scene.render.shading = shading;
@@ -258,12 +264,12 @@ fn gpu_accumulation_matches_the_f64_reference() {
             // Bright enough that its words stand well above the fixed-point rounding.
             scene.light.ambient = 10.0;
         }
-        if varied {
+        if let Some((melanin, tint)) = varied {
             for g in scene.groups_mut() {
                 g.material.variation = anjyo::block::Variation {
-                    melanin: 0.4,
+                    melanin,
                     width: 0.3,
-                    tint: 0.2,
+                    tint,
                 };
             }
         }
@@ -276,7 +282,7 @@ fn gpu_accumulation_matches_the_f64_reference() {
         let got = gpu_samples(gpu, &d.stage);
         let want = reference(gpu, &d.stage, &scene, None);
         let covered = assert_accumulation_agrees(
-            &format!("MSAA {msaa} {shading:?}, varied {varied}, ambient only {ambient_only}"),
+            &format!("MSAA {msaa} {shading:?}, varied {varied:?}, ambient only {ambient_only}"),
             &got,
             &want,
             &want,

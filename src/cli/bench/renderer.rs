@@ -215,9 +215,13 @@ struct Look {
     /// Image size as WIDTHxHEIGHT (Kami's and Mitsuba's).
     #[arg(long, value_parser = parse_size, default_value = "256x256")]
     size: (u32, u32),
-    /// Mitsuba's samples per pixel.
+    /// Mitsuba's samples per pixel to start from.
     #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=65536))]
     spp: u32,
+    /// The most samples per pixel a reference is raised to (doubling from --spp) while its
+    /// noise on the hair's pixels is above half the goal; --max-spp equal to --spp keeps it.
+    #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    max_spp: u32,
     /// Timed frames per row (the mean is reported).
     #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u32).range(1..=1000))]
     frames: u32,
@@ -260,6 +264,7 @@ impl Study for Look {
             scenes,
             size: self.size,
             spp: self.spp,
+            max_spp: self.max_spp.max(self.spp),
             frames: self.frames,
             python: self.python,
             cache: self.cache,
