@@ -86,7 +86,8 @@ pub enum KamiError {
     #[error("window: {0}")]
     Window(String),
 
-    /// A viewer option that cannot be applied (`--set` with an unknown key or bad value).
+    /// A command-line option that cannot be applied (`--set` with an unknown key or bad
+    /// value, a bench's options that contradict each other).
     #[error("{0}")]
     Option(String),
 }

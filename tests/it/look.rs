@@ -472,12 +472,14 @@ fn the_scripts_result_line_is_read_or_refused() {
 }
 
 /// A view or light the bench does not have is refused on the command line, naming the
-/// ones it has.
+/// ones it has; so is a sample cap below the samples it starts from.
 #[test]
 fn an_unknown_view_or_light_is_refused() {
     for (arg, value, want) in [
         ("--views", "scene,top", "scene or close"),
         ("--lights", "key,rim", "key, side or back"),
+        // Before Mitsuba is looked for: the options alone are wrong.
+        ("--max-spp", "64", "--max-spp 64 is below --spp 128"),
     ] {
         let out = crate::common::kami(&["bench", "look", arg, value]);
         let err = String::from_utf8_lossy(&out.stderr);

@@ -219,7 +219,8 @@ struct Look {
     #[arg(long, default_value_t = 128, value_parser = clap::value_parser!(u32).range(1..=65536))]
     spp: u32,
     /// The most samples per pixel a reference is raised to (doubling from --spp) while its
-    /// noise on the hair's pixels is above half the goal; --max-spp equal to --spp keeps it.
+    /// noise on the hair's pixels is above half the goal; --max-spp equal to --spp keeps it
+    /// (below it is refused).
     #[arg(long, default_value_t = 1024, value_parser = clap::value_parser!(u32).range(1..=65536))]
     max_spp: u32,
     /// Timed frames per row (the mean is reported).
@@ -249,6 +250,13 @@ impl Study for Look {
         &["look.md", "look.csv", "look_offsets.md", "look_offsets.csv"];
     const ALSO: Option<&'static str> = Some("the image pairs");
     fn run(self) -> Result<(Report, PathBuf)> {
+        if self.max_spp < self.spp {
+            return Err(kami::KamiError::Option(format!(
+                "--max-spp {} is below --spp {}: a reference is raised from --spp, never cut",
+                self.max_spp, self.spp
+            ))
+            .into());
+        }
         let scenes = if self.scenes.is_empty() {
             kami::bench::look::SCENES
                 .iter()
@@ -264,7 +272,7 @@ impl Study for Look {
             scenes,
             size: self.size,
             spp: self.spp,
-            max_spp: self.max_spp.max(self.spp),
+            max_spp: self.max_spp,
             frames: self.frames,
             python: self.python,
             cache: self.cache,
