@@ -130,7 +130,7 @@ pub fn skin_uniform(
 
 /// The physical coats over the skin, as the skin's ambient reads them: w the fibre-area
 /// index of all of them per unit of the mesh's hair length (each coat's density times its
-/// relative length times 0.75, the mean of the width's taper from 1 to 1/2), rgb their a_f
+/// relative length times 0.75, the mean of the width's taper from 1 to `TIP_WIDTH`), rgb their a_f
 /// weighted by it (exact for one coat). The skin's ambient is dimmed by
 /// `hair_bsdf::ambient_transmittance(a_f, w * length)`, as a node's by the coat above it.
 /// Zero where no coat shades physically (Anjyo's mode keeps the paper's skin).
@@ -140,7 +140,7 @@ pub fn skin_coat(setup: &FurSetup, materials: &[GpuFurMaterial]) -> [f32; 4] {
         if m.bsdf.sigma_a[3] <= 0.5 {
             continue;
         }
-        let wc = setup.coat_density(ci) * coat.relative_length * 0.75;
+        let wc = setup.coat_density(ci) * coat.relative_length * (1.0 + super::TIP_WIDTH) / 2.0;
         w += wc;
         for (a, &f) in a_f.iter_mut().zip(&m.bsdf.a_f) {
             *a += wc * f as f64;

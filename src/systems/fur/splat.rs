@@ -81,7 +81,8 @@ impl Input<'_> {
         let area: f64 = (n..k)
             .map(|j| {
                 let along = (j as f64 + 0.5) / k.max(1) as f64;
-                (self.vert(s, j + 1) - self.vert(s, j)).length() * (1.0 - 0.5 * along)
+                (self.vert(s, j + 1) - self.vert(s, j)).length()
+                    * (1.0 + (super::TIP_WIDTH - 1.0) * along)
             })
             .sum();
         m.extra[3] as f64 * area
