@@ -51,6 +51,10 @@ pub const HAIR_BSDF: &str = wgsl!("common/hair_bsdf.wgsl");
 /// contract test `tests/it/look_variation.rs` adds a compute entry point).
 pub const STRAND_VARY: &str = wgsl!("common/random.wgsl", "common/strand_vary.wgsl");
 
+/// The MSAA coverage mask of sub-pixel hair alone with the hash it reads (the hair draw
+/// shaders include it; the contract test `tests/it/coverage.rs` adds a compute entry point).
+pub const COVERAGE_MASK: &str = wgsl!("common/random.wgsl", "common/coverage_mask.wgsl");
+
 /// Supersampling resolve.
 pub const DOWNSAMPLE: &str = wgsl!("stage/downsample.wgsl");
 

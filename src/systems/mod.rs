@@ -19,6 +19,7 @@
 //! state (`ui::KindUi`). It knows no window and imports neither `app` nor `stage`.
 
 pub mod anjyo;
+pub mod coverage;
 pub mod fur;
 pub mod hair_bsdf;
 pub mod kind;

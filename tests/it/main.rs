@@ -12,6 +12,7 @@ mod caches;
 mod cli;
 mod common;
 mod contract;
+mod coverage;
 mod docs;
 mod eff;
 mod eff_anjyo;

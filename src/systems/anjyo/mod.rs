@@ -70,6 +70,7 @@ pub const DRAW: &str = wgsl!(
     "common/frame.wgsl",
     "common/shadow.wgsl",
     "common/random.wgsl",
+    "common/coverage_mask.wgsl",
     "common/coverage.wgsl",
     "common/hair_bsdf.wgsl",
     "common/strand_vary.wgsl",
