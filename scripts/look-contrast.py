@@ -13,10 +13,13 @@ images' blurs over the mask): what is left once every shading error broader than
 taken away. What docs/shading.md ("Strands that differ") and docs/look.md quote.
 
 Usage: python3 scripts/look-contrast.py [--out FILE.md] PAIR.png...
-(needs scripts/look-deps.sh first: Mitsuba reads the PNGs).
+A PAIR of the form REV:PATH is read from git (`git show REV:PATH`), for a report before a
+change. Needs scripts/look-deps.sh first (Mitsuba reads the PNGs).
 """
 import os
+import subprocess
 import sys
+import tempfile
 
 import flip_evaluator as fe
 import mitsuba as mi
@@ -56,8 +59,22 @@ def matched_flip(p, mask, s=4.0):
     return float(err[mask].mean())
 
 
+def read_pair(path):
+    """The pair's file, or for REV:PATH the file at that git revision."""
+    if ":" not in path or os.path.exists(path):
+        return mi.Bitmap(path)
+    rev, name = path.split(":", 1)
+    data = subprocess.run(["git", "show", f"{rev}:{name}"], capture_output=True)
+    if data.returncode != 0:
+        sys.exit(f"{path}: git show failed: {data.stderr.decode().strip()}")
+    with tempfile.NamedTemporaryFile(suffix=".png") as f:
+        f.write(data.stdout)
+        f.flush()
+        return mi.Bitmap(f.name)
+
+
 def contrast(path):
-    bmp = mi.Bitmap(path).convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8, srgb_gamma=True)
+    bmp = read_pair(path).convert(mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.UInt8, srgb_gamma=True)
     p = np.array(bmp).astype(np.float64) / 255.0
     if p.shape[1] < 1036:
         sys.exit(f"{path}: {p.shape[1]} pixels wide, not a `kami bench look` pair (1036)")
