@@ -9,14 +9,17 @@
 // Stratified (Enderton et al. 2010, "Stochastic Transparency"): the block's 4 x samples
 // slots are ranked by a random affine permutation, and a strand keeps the slots ranked below
 // alpha x slots, the fraction by a random offset. One layer then covers the block to within
-// a slot, where a coin per sample (as before) scattered binomial noise over every pixel: the
+// a slot and each pixel to within a sample, where a coin per sample (as before) scattered
+// binomial noise over every pixel: the
 // strips' thin tips came out as salt and pepper (docs/look.md, "Coverage without the salt
 // and pepper"). `samples` is a power of two (wgpu's sample counts), at most 32.
 fn sample_keeps(pos: vec2<f32>, strand: u32, sample: u32, samples: u32, alpha: f32) -> bool {
     let px = vec2<u32>(pos);
     let slots = 4u * samples;
     let h = pcg_hash((px.x >> 1u) * 1973u + (px.y >> 1u) * 9277u + strand * 26699u);
-    let slot = ((px.y & 1u) * 2u + (px.x & 1u)) * samples + sample;
+    // Sample-major: a pixel's slots are 4 apart, so any odd multiplier spreads their ranks
+    // 4 apart too, and each pixel is stratified as well as the block.
+    let slot = sample * 4u + (px.y & 1u) * 2u + (px.x & 1u);
     let rank = (((h >> 16u) | 1u) * slot + (h & 0xffffu)) & (slots - 1u);
     // Both sides exact in f32 (a 24-bit fraction; alpha x slots less an integer), so the
     // twin decides every case as the GPU does.

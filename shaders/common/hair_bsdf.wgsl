@@ -228,21 +228,20 @@ fn hair_dual_radiance(b: HairBsdf, t: vec3<f32>, v: vec3<f32>, l: vec3<f32>, n_i
     return w * (s + b.back.rgb * back);
 }
 
-// 2 E_3(x), the share of even light through a slab of optical depth x (the exponential
-// integral; E_1 by Abramowitz & Stegun 5.1.53 below 1 and 5.1.56 above, then E_2 and E_3 by
-// their recurrence written as multiples of e^-x so nothing cancels).
-fn hair_two_e3(x_in: f32) -> f32 {
+// E_2(x), the exponential integral (E_1 by Abramowitz & Stegun 5.1.53 below 1 and 5.1.56
+// above, E_2 written as a multiple of e^-x so nothing cancels); 1 at 0, 0 past 60.
+fn hair_e2(x_in: f32) -> f32 {
     let x = max(x_in, 0.0);
     if x > 60.0 {
         return 0.0;
+    }
+    if x < 1e-8 {
+        return 1.0;
     }
     let ex = exp(-x);
     // r = x e^x E_1(x)
     var r: f32;
     if x < 1.0 {
-        if x < 1e-8 {
-            return 1.0;
-        }
         let e1 = -log(x) - 0.57721566 + x * (0.99999193 + x * (-0.24991055 + x * (0.05519968
             + x * (-0.00976004 + x * 0.00107857))));
         r = x * e1 / ex;
@@ -251,8 +250,37 @@ fn hair_two_e3(x_in: f32) -> f32 {
         let den = 3.9584969228 + x * (21.0996530827 + x * (25.6329561486 + x * (9.5733223454 + x)));
         r = num / den;
     }
-    // E_2 = e^-x (1 - r), E_3 = (e^-x - x E_2) / 2.
-    return ex * (1.0 - x * (1.0 - r));
+    return ex * (1.0 - r);
+}
+
+// 2 E_3(x), the share of even light through a slab of optical depth x, weighed by
+// irradiance (E_3 = (e^-x - x E_2) / 2).
+fn hair_two_e3(x_in: f32) -> f32 {
+    let x = max(x_in, 0.0);
+    if x > 60.0 {
+        return 0.0;
+    }
+    return exp(-x) - x * hair_e2(x);
+}
+
+// The share of the open sky's light a fibre lying across its coat's normal gets past a coat
+// of fibre-area index x unscattered (hair_bsdf::fibre_sky, its f64 reference): e^(-x / mu)
+// weighed by the fibre's cross-section towards each direction (FIBRE_SKY_WEIGHT, a quartic
+// in mu), sum_k c_k E_(k+2)(x) / sum_k c_k / (k + 1), the E_n by their recurrence
+// E_(n+1) = (e^-x - x E_n) / n.
+fn hair_fibre_sky(x_in: f32) -> f32 {
+    let x = max(x_in, 0.0);
+    if x > 60.0 {
+        return 0.0;
+    }
+    let ex = exp(-x);
+    let e2 = hair_e2(x);
+    let e3 = (ex - x * e2) / 2.0;
+    let e4 = (ex - x * e3) / 3.0;
+    let e5 = (ex - x * e4) / 4.0;
+    let e6 = (ex - x * e5) / 5.0;
+    return (0.63530033 * e2 + 0.062738523 * e3 + 0.60936659 * e4 - 0.46037703 * e5
+        + 0.15350340 * e6) / 0.78539821;
 }
 
 // The share of Kami's even ambient light that reaches a fibre of forward scattering
@@ -277,14 +305,14 @@ fn hair_scattered_through(a_f: vec3<f32>, a: f32) -> vec3<f32> {
 
 // The share of a fibre's ambient colour that reaches it under a coat of fibre-area index
 // `area` (hair_bsdf::ambient_in_coat, its f64 reference): the sky's single backscattering
-// past the fibres above unscattered (2 E_3), the volume's multiple backscattering fed by
-// all that comes through (hair_ambient_through_af); a_f alone splits the colour.
-// 2 E_3 is computed once for both parts.
-fn hair_ambient_in_coat(b: HairBsdf, area: f32) -> vec3<f32> {
+// past the fibres above unscattered, `open` (as the fibre weighs the sky: hair_fibre_sky for
+// fur, hair_two_e3 for a strip's sheet; hair_bsdf::SkyWeight), the volume's multiple
+// backscattering fed by all that comes through the coat's top (hair_ambient_through_af, by
+// irradiance); a_f alone splits the colour.
+fn hair_ambient_in_coat(b: HairBsdf, area: f32, open: f32) -> vec3<f32> {
     let a = max(area, 0.0);
-    let open = hair_two_e3(a);
     let af = b.a_f.rgb;
-    let t = vec3<f32>(open) + hair_scattered_through(af, a);
+    let t = vec3<f32>(hair_two_e3(a)) + hair_scattered_through(af, a);
     let m = af / max(vec3<f32>(1.0) - af * af, vec3<f32>(1e-6));
     return (HAIR_SKY_SEEN * open + m * t) / (HAIR_SKY_SEEN + m);
 }

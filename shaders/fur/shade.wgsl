@@ -58,7 +58,9 @@ fn shade_hair(m: FurMaterial, n: vec3<f32>, t: vec3<f32>, p: vec3<f32>, s: Stran
     if hair_physical(m.bsdf) {
         let v = normalize(frame.eye.xyz - p);
         let f = hair_dual_radiance(m.bsdf, t, v, frame.light_dir.xyz, crossed);
-        let through = hair_ambient_in_coat(m.bsdf, coat_above(s, m, node));
+        // A fur fibre stands free in its coat: it weighs the sky by its cross-section.
+        let above = coat_above(s, m, node);
+        let through = hair_ambient_in_coat(m.bsdf, above, hair_fibre_sky(above));
         return frame.light_color.rgb * (hair_irradiance() * opaque) * f
             + m.bsdf.ambient.rgb * through * frame.light_color.w;
     }

@@ -107,7 +107,9 @@ fn vs(@builtin(vertex_index) vi: u32, @builtin(instance_index) si: u32) -> VOut 
         let p = v.position.xyz;
         let view = normalize(frame.eye.xyz - p);
         let f = hair_dual_radiance(strip_look.bsdf, t, view, frame.light_dir.xyz, n);
-        let sky = hair_ambient_in_coat(strip_look.bsdf, strip_sky(info_s, v.tangent.w));
+        // A strip is a sheet of hairs: it weighs the sky as a surface does (hair_bsdf::SkyWeight).
+        let index = strip_sky(info_s, v.tangent.w);
+        let sky = hair_ambient_in_coat(strip_look.bsdf, index, hair_two_e3(index));
         out.physical = frame.light_color.rgb * (hair_irradiance() * opaque) * f
             + strip_look.bsdf.ambient.rgb * sky * frame.light_color.w;
         // The normal from the control point's other edge vertex. The hairs run along t, so

@@ -7,8 +7,10 @@
 //! pixels, stratified (Enderton et al. 2010, "Stochastic Transparency"): the block's
 //! `4 * samples` slots are ranked by a random affine permutation hashed from the block and the
 //! strand, and the strand keeps the slots ranked below `alpha * slots`, the fraction by a
-//! random offset. So one layer covers a block to within a slot (an independent coin per
-//! sample scattered binomial noise over every pixel), distinct strands choose independently
+//! random offset. The slots are numbered sample-major, so the ranks of one pixel's samples
+//! lie 4 apart under any odd multiplier: one layer covers a block to within a slot and each
+//! of its pixels to within a sample (an independent coin per sample scattered binomial noise
+//! over every pixel), distinct strands choose independently
 //! (layers add up as real coverage, `1 - (1 - a)^n`), and one strand drawn twice over a
 //! sample counts once.
 
@@ -25,7 +27,8 @@ pub fn sample_keeps(px: [u32; 2], strand: u32, sample: u32, samples: u32, alpha:
             .wrapping_add((px[1] >> 1).wrapping_mul(9277))
             .wrapping_add(strand.wrapping_mul(26699)),
     );
-    let slot = ((px[1] & 1) * 2 + (px[0] & 1)) * samples + sample;
+    // Sample-major, so a pixel's ranks lie 4 apart and the pixel is stratified too.
+    let slot = sample * 4 + (px[1] & 1) * 2 + (px[0] & 1);
     let rank = ((h >> 16) | 1).wrapping_mul(slot).wrapping_add(h & 0xffff) & (slots - 1);
     let offset = f64::from(pcg_hash(h) >> 8) / 16_777_216.0;
     offset < f64::from(alpha) * f64::from(slots) - f64::from(rank)

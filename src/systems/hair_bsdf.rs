@@ -730,17 +730,80 @@ pub fn ambient_transmittance(a_f: [f64; 3], area: f64) -> [f64; 3] {
     })
 }
 
+/// A fibre's weight for sky light from a direction at cosine mu to its coat's normal: the
+/// fibre's cross-section towards it, sqrt(1 - (w.t)^2) (the hair BSDF's cos theta), averaged
+/// over the fibre's azimuth for a fibre lying across the normal: (2 / pi) E(1 - mu^2), the
+/// complete elliptic integral, 1 straight up and 2 / pi at the horizon. A surface weighs the
+/// sky by mu instead (irradiance). These are the coefficients of its quartic fit in mu,
+/// within 1.4e-3 of it (`tests/it/hair_bsdf.rs` checks against the integral itself).
+pub const FIBRE_SKY_WEIGHT: [f64; 5] = [
+    0.635_300_332_604_072_1,
+    0.062_738_522_792_406_98,
+    0.609_366_591_729_718_1,
+    -0.460_377_034_086_148_3,
+    0.153_503_399_825_667_57,
+];
+
+/// The fibre's weight at cosine `mu` ([`FIBRE_SKY_WEIGHT`]).
+pub fn fibre_sky_weight(mu: f64) -> f64 {
+    FIBRE_SKY_WEIGHT
+        .iter()
+        .rev()
+        .fold(0.0, |acc, c| acc * mu + c)
+}
+
+/// The share of the open sky's light a fibre lying across its coat's normal receives under a
+/// coat of fibre-area index `a`: e^(-a / mu) weighted by [`fibre_sky_weight`] over the open
+/// hemisphere, sum_k c_k E_(k+2)(a) / sum_k c_k / (k + 1). It sits near E_2(a) (every
+/// direction alike) and below 2 E_3(a), the surface's share: the grazing sky, which the coat
+/// hides most, counts for a fibre where a surface hardly sees it.
+pub fn fibre_sky(a: f64) -> f64 {
+    if a <= 0.0 {
+        return 1.0;
+    }
+    let mut num = 0.0;
+    let mut den = 0.0;
+    for (k, c) in FIBRE_SKY_WEIGHT.iter().enumerate() {
+        num += c * expint(k as u32 + 2, a);
+        den += c / (k + 1) as f64;
+    }
+    num / den
+}
+
+/// How a fibre under a coat weighs the sky it sees past the fibres above.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SkyWeight {
+    /// A fibre standing free in a coat (fur): by its cross-section towards each direction,
+    /// [`fibre_sky`].
+    Fibre,
+    /// A fibre in a sheet of others (a strip's texture hairs, coverage about 0.6): its
+    /// neighbours in the sheet hide the grazing sky across it, and the sheet weighs the sky
+    /// as a surface does, by irradiance, 2 E_3 (the strips' sky bake finds its index so).
+    Sheet,
+}
+
+impl SkyWeight {
+    /// The share of the open sky's light that reaches the fibre past a coat of index `a`
+    /// unscattered.
+    pub fn open(self, a: f64) -> f64 {
+        match self {
+            SkyWeight::Fibre => fibre_sky(a),
+            SkyWeight::Sheet => 2.0 * expint(3, a.max(0.0)),
+        }
+    }
+}
+
 /// The share of a fibre's ambient colour ([`DualScattering::ambient`]) that reaches it
-/// under a coat of fibre-area index `area` (fur). The single backscattering of the sky
-/// (`SKY_SEEN` a_b) needs the sky seen past the fibres above unscattered: 2 E_3(A), the
-/// open part of [`ambient_transmittance`]. The volume's multiple backscattering
-/// ([`DualScattering::even_multiple`]) is fed by all the light that comes through,
-/// scattered or not: the whole transmittance T(A). The two parts stand in the ratio
-/// SKY_SEEN : a_f / (1 - a_f^2), so a_f alone splits the colour (exact unless the colour
-/// was clipped at 1).
-pub fn ambient_in_coat(a_f: [f64; 3], area: f64) -> [f64; 3] {
+/// under a coat of fibre-area index `area` (fur's coat; the strips' baked index). The single
+/// backscattering of the sky (`SKY_SEEN` a_b) needs the sky seen past the fibres above
+/// unscattered, as the fibre weighs it ([`SkyWeight::open`]). The volume's multiple
+/// backscattering ([`DualScattering::even_multiple`]) is fed by all the light that comes
+/// through the coat's top, scattered or not: the whole transmittance T(A), by irradiance.
+/// The two parts stand in the ratio SKY_SEEN : a_f / (1 - a_f^2), so a_f alone splits the
+/// colour (exact unless the colour was clipped at 1).
+pub fn ambient_in_coat(a_f: [f64; 3], area: f64, sky: SkyWeight) -> [f64; 3] {
     let t = ambient_transmittance(a_f, area);
-    let open = 2.0 * expint(3, area.max(0.0));
+    let open = sky.open(area.max(0.0));
     std::array::from_fn(|c| {
         let m = multiple_share(a_f[c]);
         (SKY_SEEN * open + m * t[c]) / (SKY_SEEN + m)

@@ -1,7 +1,8 @@
 //! The MSAA coverage mask of sub-pixel hair (`shaders/common/coverage_mask.wgsl`): the WGSL
 //! against its twin (`kami::systems::coverage`) case by case, and the statistics the drawing
-//! relies on: one layer covers its 2x2 block of pixels to within a slot, distinct strands add
-//! up as real coverage does, a strand drawn twice counts once.
+//! relies on: one layer covers its 2x2 block of pixels to within a slot and each pixel to
+//! within a sample, distinct strands add up as real coverage does, a strand drawn twice
+//! counts once.
 
 use crate::common;
 use kami::gpu::bind;
@@ -90,17 +91,28 @@ fn block_mask(bx: u32, by: u32, strand: u32, samples: u32, alpha: f32) -> u128 {
     m
 }
 
-/// One layer covers each 2x2 block with the floor or the ceiling of alpha times its slots
-/// (an independent coin per sample would be off by about sqrt(slots alpha (1 - alpha))), and
-/// on average exactly alpha; 0 keeps nothing and 1 everything.
+/// One layer covers each 2x2 block with the floor or the ceiling of alpha times its slots,
+/// and each pixel of it with the floor or the ceiling of alpha times its samples (an
+/// independent coin per sample would be off by about sqrt(samples alpha (1 - alpha)); a hair
+/// a pixel wide crosses one pixel of a block), and on average exactly alpha; 0 keeps nothing
+/// and 1 everything.
 #[test]
-fn one_layer_covers_its_block_to_within_a_slot() {
+fn one_layer_covers_its_block_and_each_pixel_to_within_a_sample() {
     for samples in [2u32, 4, 8] {
         let slots = 4 * samples;
         for alpha in [0.03f32, 0.3, 0.5, 0.77, 0.999] {
             let (mut sum, n) = (0u64, 4000u32);
             for i in 0..n {
-                let kept = block_mask(i % 61, i / 61, i * 7 + 3, samples, alpha).count_ones();
+                let (bx, by, strand) = (i % 61, i / 61, i * 7 + 3);
+                for q in 0..4 {
+                    let px = [2 * bx + (q & 1), 2 * by + (q >> 1)];
+                    let kept = mask(px, strand, samples, alpha).count_ones();
+                    assert!(
+                        (kept as f64 - alpha as f64 * samples as f64).abs() < 1.0,
+                        "{samples} samples, alpha {alpha}: pixel {px:?} keeps {kept}"
+                    );
+                }
+                let kept = block_mask(bx, by, strand, samples, alpha).count_ones();
                 let want = alpha as f64 * slots as f64;
                 assert!(
                     (kept as f64 - want).abs() < 1.0,

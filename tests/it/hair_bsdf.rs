@@ -156,7 +156,7 @@ fn coat_materials() -> Vec<GpuHairBsdf> {
 }
 
 /// A coat contract's entry point: per element, `SHARE(m, p.x)` (material m, area p.x) in rgb and
-/// `hair_two_e3(area)` in w.
+/// `OPEN(p.x)` (a share of the open sky: `hair_two_e3` or `hair_fibre_sky`) in w.
 const COAT_ENTRY: &str = "
 @group(0) @binding(0) var<storage, read> mats: array<HairBsdf>;
 // Per element: x the fibre-area index, y the material.
@@ -168,7 +168,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if i >= arrayLength(&out) { return; }
     let p = input[i];
     let m = mats[u32(p.y)];
-    out[i] = vec4<f32>(SHARE(m, p.x), hair_two_e3(p.x));
+    out[i] = vec4<f32>(SHARE(m, p.x), OPEN(p.x));
 }";
 
 /// The ambient's transmittance through a coat (`hair_ambient_through_af`, fur's skin
@@ -209,7 +209,9 @@ fn wgsl_ambient_transmittance_matches_the_f64_reference() {
     let got = run_bsdf_contract(
         gpu,
         "ambient transmittance contract",
-        &COAT_ENTRY.replace("SHARE(m, p.x)", "hair_ambient_through_af(m.a_f.rgb, p.x)"),
+        &COAT_ENTRY
+            .replace("SHARE(m, p.x)", "hair_ambient_through_af(m.a_f.rgb, p.x)")
+            .replace("OPEN(p.x)", "hair_two_e3(p.x)"),
         &mats,
         &input,
         want.len(),
@@ -240,14 +242,16 @@ fn check_coat_contract(what: &str, input: &[[f32; 4]], got: &[[f32; 4]], want: &
     );
 }
 
-/// The share of the ambient colour under a coat (`hair_ambient_in_coat`, fur's physical
-/// ambient) against its f64 reference (`hair_bsdf::ambient_in_coat`) over three materials
-/// and fibre-area indices from none to a hundred, within 1e-3 relative (floor 1e-4); it
-/// lies between the open sky's share 2 E_3(A) and the whole transmittance T(A), and the
-/// shader's `HAIR_SKY_SEEN` is `SKY_SEEN`.
+/// The share of the ambient colour under a coat (`hair_ambient_in_coat`: fur's physical
+/// ambient, a fibre weighing the sky by its cross-section; the strips', a sheet weighing it
+/// by irradiance) against its f64 reference (`hair_bsdf::ambient_in_coat`) over three
+/// materials and fibre-area indices from none to a hundred, within 1e-3 relative (floor
+/// 1e-4), and the share of the open sky (`hair_fibre_sky`, `hair_two_e3`) with it; the share
+/// lies between the open sky's and the whole transmittance T(A), and the shader's
+/// `HAIR_SKY_SEEN` is `SKY_SEEN`.
 #[test]
 fn wgsl_ambient_in_coat_matches_the_f64_reference() {
-    use kami::systems::hair_bsdf::{ambient_in_coat, ambient_transmittance, expint, SKY_SEEN};
+    use kami::systems::hair_bsdf::{ambient_in_coat, ambient_transmittance, SkyWeight, SKY_SEEN};
     let gpu = common::gpu();
     assert!(
         kami::shaders::HAIR_BSDF.contains(&format!("const HAIR_SKY_SEEN: f32 = {SKY_SEEN};")),
@@ -255,37 +259,93 @@ fn wgsl_ambient_in_coat_matches_the_f64_reference() {
     );
     let mats = coat_materials();
     let areas = [
-        0.0, 1e-3, 0.1, 0.3, 0.99, 1.0, 1.7, 3.0, 6.0, 12.0, 30.0, 100.0,
+        0.0, 1e-6, 1e-3, 0.02, 0.1, 0.3, 0.99, 1.0, 1.7, 3.0, 6.0, 12.0, 30.0, 100.0,
     ];
-    let mut input: Vec<[f32; 4]> = Vec::new();
-    let mut want = Vec::new();
-    for (m, mat) in mats.iter().enumerate() {
-        for a in areas {
-            let a_f = mat.a_f.map(f64::from);
-            let a_f = [a_f[0], a_f[1], a_f[2]];
-            let s = ambient_in_coat(a_f, a);
-            let (t, open) = (ambient_transmittance(a_f, a), 2.0 * expint(3, a));
-            for c in 0..3 {
-                assert!(
-                    s[c] >= open - 1e-12 && s[c] <= t[c] + 1e-12,
-                    "share {} outside [{open}, {}] at {a}",
-                    s[c],
-                    t[c]
-                );
+    for (sky, open_wgsl) in [
+        (SkyWeight::Fibre, "hair_fibre_sky(p.x)"),
+        (SkyWeight::Sheet, "hair_two_e3(p.x)"),
+    ] {
+        let mut input: Vec<[f32; 4]> = Vec::new();
+        let mut want = Vec::new();
+        for (m, mat) in mats.iter().enumerate() {
+            for a in areas {
+                let a_f = mat.a_f.map(f64::from);
+                let a_f = [a_f[0], a_f[1], a_f[2]];
+                let s = ambient_in_coat(a_f, a, sky);
+                let (t, open) = (ambient_transmittance(a_f, a), sky.open(a));
+                for c in 0..3 {
+                    assert!(
+                        s[c] >= open - 1e-12 && s[c] <= t[c] + 1e-12,
+                        "{sky:?}: share {} outside [{open}, {}] at {a}",
+                        s[c],
+                        t[c]
+                    );
+                }
+                input.push([a as f32, m as f32, 0.0, 0.0]);
+                want.push([s[0], s[1], s[2], open]);
             }
-            input.push([a as f32, m as f32, 0.0, 0.0]);
-            want.push([s[0], s[1], s[2], open]);
         }
+        let shader = COAT_ENTRY
+            .replace(
+                "SHARE(m, p.x)",
+                &format!("hair_ambient_in_coat(m, p.x, {open_wgsl})"),
+            )
+            .replace("OPEN(p.x)", open_wgsl);
+        let what = format!("ambient in coat ({sky:?})");
+        let got = run_bsdf_contract(gpu, &what, &shader, &mats, &input, want.len());
+        check_coat_contract(&what, &input, &got, &want);
     }
-    let got = run_bsdf_contract(
-        gpu,
-        "ambient in coat contract",
-        &COAT_ENTRY.replace("SHARE(m, p.x)", "hair_ambient_in_coat(m, p.x)"),
-        &mats,
-        &input,
-        want.len(),
-    );
-    check_coat_contract("ambient in coat", &input, &got, &want);
+}
+
+/// A fibre's share of the open sky under a coat (`hair_bsdf::fibre_sky`, from the quartic
+/// fit of its weight) against its definition by brute-force quadrature: e^(-A / mu) weighed
+/// by the fibre's cross-section sqrt(1 - (w.t)^2) over the open hemisphere and the fibre's
+/// azimuth, within 1e-3 relative (floor 1e-4) for A up to 6. It lies between E_2(A) (every
+/// direction alike) and 2 E_3(A) (a surface's, by irradiance).
+#[test]
+fn the_fibre_sky_is_the_cross_section_weighted_sky() {
+    use kami::systems::hair_bsdf::{expint, fibre_sky, fibre_sky_weight};
+    let (nm, np) = (4000, 256);
+    let weight = |mu: f64| {
+        // sqrt(1 - (1 - mu^2) cos^2 phi) averaged over phi (midpoint rule; smooth, periodic).
+        (0..np)
+            .map(|j| {
+                let c = (std::f64::consts::TAU * (j as f64 + 0.5) / np as f64).cos();
+                (1.0 - (1.0 - mu * mu) * c * c).max(0.0).sqrt()
+            })
+            .sum::<f64>()
+            / np as f64
+    };
+    let mus: Vec<(f64, f64)> = (0..nm)
+        .map(|i| {
+            let mu = (i as f64 + 0.5) / nm as f64;
+            (mu, weight(mu))
+        })
+        .collect();
+    let norm: f64 = mus.iter().map(|m| m.1).sum();
+    for (mu, w) in mus.iter().step_by(97) {
+        assert!(
+            (fibre_sky_weight(*mu) - w).abs() < 1.5e-3,
+            "weight at {mu}: {w}"
+        );
+    }
+    let mut worst = 0.0f64;
+    for a in [0.0, 1e-4, 1e-2, 0.1, 0.3, 0.7, 1.0, 2.0, 4.0, 6.0] {
+        let brute = mus.iter().map(|(mu, w)| w * (-a / mu).exp()).sum::<f64>() / norm;
+        let got = fibre_sky(a);
+        let err = (got - brute).abs() / brute.max(1e-4);
+        println!(
+            "A = {a}: fibre_sky {got:.6}, quadrature {brute:.6}, E_2 {:.6}, 2 E_3 {:.6}",
+            expint(2, a),
+            2.0 * expint(3, a)
+        );
+        worst = worst.max(err);
+        assert!(
+            got >= expint(2, a) - 1e-12 && got <= 2.0 * expint(3, a) + 1e-12,
+            "A = {a}: {got} outside [E_2, 2 E_3]"
+        );
+    }
+    assert!(worst < 1e-3, "worst relative error {worst}");
 }
 
 /// The reference's closed form (exponential integrals) is the integral it stands for:

@@ -1170,7 +1170,11 @@ fn the_strips_ambient_follows_the_hidden_sky() {
         let x = v * 7.0;
         let j = (x as usize).min(6);
         let index = ramp[j] as f64 + (ramp[j + 1] - ramp[j]) as f64 * (x - j as f64);
-        let want = hair_bsdf::ambient_in_coat([a_f[0], a_f[1], a_f[2]], index);
+        let want = hair_bsdf::ambient_in_coat(
+            [a_f[0], a_f[1], a_f[2]],
+            index,
+            hair_bsdf::SkyWeight::Sheet,
+        );
         for c in 0..3 {
             let got = b[c] / a[c];
             let err = (got - want[c]).abs();

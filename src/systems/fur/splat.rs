@@ -112,6 +112,7 @@ impl Input<'_> {
             let through = DVec3::from_array(hair_bsdf::ambient_in_coat(
                 d.a_f,
                 self.coat_above(s, m, node),
+                hair_bsdf::SkyWeight::Fibre,
             ));
             return v3(f.light_color) * (std::f64::consts::PI * intensity) * DVec3::from_array(rad)
                 + DVec3::new(amb[0] as f64, amb[1] as f64, amb[2] as f64) * through * ambient;
