@@ -22,8 +22,9 @@ fn hair_fragment(color: vec4<f32>, pos: vec2<f32>, strand: u32) -> HairFragment 
         return out;
     }
     var mask = 0u;
+    let draw = coverage_draw(pos, strand, samples, color.a);
     for (var i = 0u; i < samples; i++) {
-        if sample_keeps(pos, strand, i, samples, color.a) {
+        if coverage_keeps(draw, i) {
             mask |= 1u << i;
         }
     }
