@@ -8,6 +8,11 @@
 // where naga's GLSL for a written sample mask does not compile (gfx-rs/wgpu#6085).
 // raster.w: MSAA samples, 1 without.
 
+// MSAA samples a pixel (1 without), at most the 32 a sample mask holds.
+fn coverage_samples() -> u32 {
+    return min(u32(frame.raster.w + 0.5), 32u);
+}
+
 struct HairFragment {
     @location(0) color: vec4<f32>,
     @builtin(sample_mask) mask: u32,
@@ -15,7 +20,7 @@ struct HairFragment {
 
 fn hair_fragment(color: vec4<f32>, pos: vec2<f32>, strand: u32) -> HairFragment {
     var out: HairFragment;
-    let samples = min(u32(frame.raster.w + 0.5), 32u);
+    let samples = coverage_samples();
     if samples <= 1u {
         out.color = color;
         out.mask = 0xffffffffu;
@@ -37,7 +42,7 @@ fn hair_fragment_per_sample(color: vec4<f32>, pos: vec2<f32>, strand: u32, sampl
     if frame.raster.w < 1.5 {
         return color;
     }
-    if !sample_keeps(pos, strand, sample, min(u32(frame.raster.w + 0.5), 32u), color.a) {
+    if !sample_keeps(pos, strand, sample, coverage_samples(), color.a) {
         discard;
     }
     return vec4<f32>(color.rgb, 1.0);

@@ -10,9 +10,9 @@
 // slots are ranked by a random affine permutation, and a strand keeps the slots ranked below
 // alpha x slots, the fraction by a random offset. One layer then covers the block to within
 // a slot and each pixel to within a sample, where a coin per sample (as before) scattered
-// binomial noise over every pixel: the
-// strips' thin tips came out as salt and pepper (docs/look.md, "Coverage without the salt
-// and pepper"). `samples` is a power of two (wgpu's sample counts), at most 32.
+// binomial noise over every pixel: the strips' thin tips came out as salt and pepper
+// (docs/look.md, "Coverage without the salt and pepper"). `samples` is a power of two
+// (wgpu's sample counts), at most 32.
 // One fragment's draw: what every sample's decision needs, hashed once per fragment.
 struct CoverageDraw {
     // The affine permutation's odd multiplier and its shift, the pixel's place in its block.
