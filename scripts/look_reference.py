@@ -17,9 +17,16 @@ file it names, spp, seed, Mitsuba's version): a rerun renders nothing again.
 
 Needs `pip install mitsuba flip-evaluator numpy` (scripts/look-deps.sh).
 
+With --fibre it renders the single-fibre check Kami writes before any reference
+(`write_fibre_check` in src/bench/look/mitsuba.rs: one fibre, one directional light, direct
+light only) once, seed 0, cached the same way, and prints the mean radiance over the fibre's
+pixels (the sum of its RGB over the sum of its alpha), which Kami compares with its f64 S.
+
 Usage: look_reference.py --xml SCENE.xml --background R,G,B --spp N --kami KAMI.png
                          --pair OUT.png --cache DIR --maps DIR
+       look_reference.py --fibre --xml FIBRE.xml --spp N --cache DIR
 Prints: flip=F noise=N reference_s=S cached=0|1
+        (--fibre) radiance=R,G,B
 """
 import argparse
 import hashlib
@@ -90,13 +97,25 @@ def to_srgb8(rgba, background):
 def main():
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--xml", type=pathlib.Path, required=True)
-    p.add_argument("--background", required=True, help="sRGB R,G,B in 0..1")
     p.add_argument("--spp", type=int, required=True)
-    p.add_argument("--kami", type=pathlib.Path, required=True)
-    p.add_argument("--pair", type=pathlib.Path, required=True)
     p.add_argument("--cache", type=pathlib.Path, required=True)
-    p.add_argument("--maps", type=pathlib.Path, required=True)
+    p.add_argument("--fibre", action="store_true", help="the single-fibre check")
+    p.add_argument("--background", help="sRGB R,G,B in 0..1")
+    p.add_argument("--kami", type=pathlib.Path)
+    p.add_argument("--pair", type=pathlib.Path)
+    p.add_argument("--maps", type=pathlib.Path)
     a = p.parse_args()
+    if a.fibre:
+        img, _, _ = reference(a.xml, a.spp, 0, a.cache)
+        alpha = float(img[..., 3].sum())
+        if not alpha > 0.0:
+            sys.exit(f"{a.xml}: the fibre covers no pixel")
+        rgb = img[..., :3].reshape(-1, 3).sum(0) / alpha
+        print("radiance=" + ",".join(f"{x:.7g}" for x in rgb))
+        return
+    missing = [n for n in ("background", "kami", "pair", "maps") if getattr(a, n) is None]
+    if missing:
+        p.error("needs " + ", ".join("--" + n for n in missing) + " (or --fibre)")
     bg = [float(x) for x in a.background.split(",")]
     if len(bg) != 3:
         sys.exit(f"--background {a.background!r}: need R,G,B")

@@ -7,8 +7,9 @@
 
 use glam::{DVec2, DVec3};
 use kami::bench::look::{
-    close_up, drawn_hair, environment, hair, irradiance, lit, parse_compared, write_mitsuba,
-    Lighting, LIGHT_RISE,
+    close_up, curve_text, drawn_hair, environment, fibre_check, hair, irradiance, lit,
+    parse_compared, write_fibre_check, write_mitsuba, Lighting, Options, View, CURVE_SHAPE,
+    FIBRE_LIGHTS, FIBRE_TOLERANCE, LIGHT_RISE, MITSUBA_DEFAULT_HAIR,
 };
 use kami::formats::Groom;
 use kami::gpu::view::{Camera, ScreenView};
@@ -53,6 +54,225 @@ fn mitsuba_pixel(o: DVec3, target: DVec3, up: DVec3, fov_deg: f64, size: DVec2, 
     )
 }
 
+/// The control points of one curve of a curve file: `x y z radius` per line.
+fn control_points(curve: &str) -> Vec<[f64; 4]> {
+    curve
+        .lines()
+        .map(|l| {
+            let v: Vec<f64> = l.split(' ').map(|s| s.parse().unwrap()).collect();
+            assert_eq!(v.len(), 4, "{l:?}: x y z radius");
+            [v[0], v[1], v[2], v[3]]
+        })
+        .collect()
+}
+
+/// The polyline a curve's B-spline control points were written from: the root and tip
+/// three times, every other point twice (`curve_text`); panics on any other pattern.
+fn polyline_of(c: &[[f64; 4]]) -> Vec<[f64; 4]> {
+    let n = c.len();
+    assert!(n >= 6 && n % 2 == 0, "{n} control points: {c:?}");
+    let mut out = vec![c[0]];
+    assert!(
+        c[1] == c[0] && c[2] == c[0],
+        "the root not three times: {c:?}"
+    );
+    let mut i = 3;
+    while i + 3 < n {
+        assert_eq!(c[i], c[i + 1], "an inner point not twice: {c:?}");
+        out.push(c[i]);
+        i += 2;
+    }
+    assert!(
+        c[n - 3] == c[n - 1] && c[n - 2] == c[n - 1],
+        "the tip not three times: {c:?}"
+    );
+    out.push(c[n - 1]);
+    out
+}
+
+/// A uniform cubic B-spline segment of control points `p[0..4]` at u in [0, 1].
+fn bspline(p: &[[f64; 4]], u: f64) -> DVec3 {
+    let b = [
+        (1.0 - u).powi(3) / 6.0,
+        (3.0 * u.powi(3) - 6.0 * u * u + 4.0) / 6.0,
+        (-3.0 * u.powi(3) + 3.0 * u * u + 3.0 * u + 1.0) / 6.0,
+        u.powi(3) / 6.0,
+    ];
+    (0..4).fold(DVec3::ZERO, |a, k| {
+        a + b[k] * DVec3::new(p[k][0], p[k][1], p[k][2])
+    })
+}
+
+/// The distance from `q` to the polyline `pts`.
+fn to_polyline(q: DVec3, pts: &[DVec3]) -> f64 {
+    pts.windows(2)
+        .map(|w| {
+            let d = w[1] - w[0];
+            let t = ((q - w[0]).dot(d) / d.length_squared()).clamp(0.0, 1.0);
+            (q - (w[0] + t * d)).length()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// The strands go to Mitsuba as `bsplinecurve`s, the only curve whose shading frame its
+/// `hair` BSDF reads the fibre's axis from; the control points make the spline the polyline
+/// Kami drew: from the root to the tip, straight along the middle two thirds of each
+/// segment, every joint rounded within |a - 2b + c| / 48 of the polyline.
+#[test]
+fn the_written_spline_is_the_drawn_polyline() {
+    assert_eq!(CURVE_SHAPE, "bsplinecurve");
+    let pts = [
+        [0.0f32, 0.0, 0.0],
+        [0.0, -1.0, 0.2],
+        [0.3, -1.8, 0.2],
+        [0.2, -2.5, -0.4],
+        [0.25, -2.6, -0.45],
+    ];
+    let groom = Groom {
+        counts: vec![pts.len() as u32],
+        points: pts.to_vec(),
+        widths: Some(vec![0.01; pts.len()]),
+        ..Default::default()
+    };
+    let c = control_points(curve_text(&groom, &[0], "test").unwrap().trim_end());
+    let poly: Vec<DVec3> = pts.iter().map(|p| DVec3::from(p.map(f64::from))).collect();
+    assert_eq!(polyline_of(&c).len(), pts.len());
+    let segs = c.len() - 3;
+    // The ends.
+    assert!((bspline(&c[0..4], 0.0) - poly[0]).length() < 1e-6);
+    assert!((bspline(&c[segs - 1..segs + 3], 1.0) - poly[pts.len() - 1]).length() < 1e-6);
+    // Near the polyline everywhere: the joints' rounding at most |a - 2b + c| / 48.
+    let bound = poly
+        .windows(3)
+        .map(|w| (w[0] - 2.0 * w[1] + w[2]).length() / 48.0)
+        .fold(0.0, f64::max);
+    for s in 0..segs {
+        for k in 0..=32 {
+            let q = bspline(&c[s..s + 4], f64::from(k) / 32.0);
+            let d = to_polyline(q, &poly);
+            assert!(
+                d <= bound + 1e-6,
+                "segment {s} at {k}/32: {d} from the polyline (bound {bound})"
+            );
+        }
+    }
+    // Each segment's middle two thirds lie on the spline (the straight control segments).
+    for w in poly.windows(2) {
+        for f in [1.0 / 6.0, 0.5, 5.0 / 6.0] {
+            let q = w[0] + f * (w[1] - w[0]);
+            let near = (0..segs)
+                .flat_map(|s| (0..=600).map(move |k| (s, f64::from(k) / 600.0)))
+                .map(|(s, u)| (bspline(&c[s..s + 4], u) - q).length())
+                .fold(f64::INFINITY, f64::min);
+            assert!(
+                near < 2e-3,
+                "{q} ({f} along its segment) is {near} from the spline"
+            );
+        }
+    }
+    // A strand of one point is refused, naming it.
+    let one = Groom {
+        counts: vec![1],
+        points: vec![[0.0; 3]],
+        widths: Some(vec![0.01]),
+        ..Default::default()
+    };
+    let e = curve_text(&one, &[0], "one.hair").unwrap_err().to_string();
+    assert!(e.contains("one.hair") && e.contains("strand 0"), "{e}");
+}
+
+/// The single fibre the bench checks Mitsuba's BSDF with: written as the strands are, seen
+/// by an orthographic camera on +z, lit by one directional light of unit irradiance, direct
+/// light only.
+#[test]
+fn the_single_fibre_check_is_one_fibre_under_one_light() {
+    let dir = std::env::temp_dir().join("kami_look_fibre");
+    let _ = std::fs::remove_dir_all(&dir);
+    for k in 0..FIBRE_LIGHTS.len() {
+        let xml =
+            std::fs::read_to_string(write_fibre_check(&dir, &MITSUBA_DEFAULT_HAIR, k, 64).unwrap())
+                .unwrap();
+        assert!(xml.contains("<sensor type=\"orthographic\">"), "{xml}");
+        assert_eq!(value(&xml, "<integrator", "max_depth"), 2.0);
+        assert_eq!(xml.matches("<emitter").count(), 1, "{xml}");
+        assert_eq!(
+            triple(&xml, "<emitter type=\"directional\">", "value"),
+            -DVec3::from(FIBRE_LIGHTS[k]).normalize()
+        );
+        assert_eq!(triple(&xml, "name=\"irradiance\"", "value"), DVec3::ONE);
+        assert!(xml.contains(&format!("<shape type=\"{CURVE_SHAPE}\">")));
+        assert_eq!(value(&xml, "<bsdf type=\"hair\">", "eumelanin"), 1.3);
+    }
+    let text = std::fs::read_to_string(dir.join("fibre.txt")).unwrap();
+    let line = polyline_of(&control_points(text.trim_end()));
+    assert_eq!(line.len(), 3);
+    assert!(
+        line.iter().all(|p| p[1] == 0.0 && p[2] == 0.0),
+        "along x: {line:?}"
+    );
+}
+
+/// The bench compares the single fibre's radiance, as the script prints it, with Kami's f64
+/// S and refuses to go on when a channel is off by more than the tolerance, naming the
+/// light and the curve shape; the script's own values pass. (A stand-in for Python prints
+/// the radiance: no Mitsuba needed.)
+#[test]
+fn the_single_fibre_check_refuses_a_reference_that_is_not_kamis_bsdf() {
+    use kami::systems::hair_bsdf::{Angles, HairParams};
+    let dir = std::env::temp_dir().join("kami_look_fibre_check");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let h = MITSUBA_DEFAULT_HAIR;
+    let bsdf = HairParams {
+        eumelanin: h.eumelanin,
+        pheomelanin: h.pheomelanin,
+        beta_m: h.beta_m,
+        beta_n: h.beta_n,
+        alpha: h.alpha_deg,
+        eta: h.eta,
+    }
+    .bsdf();
+    // Kami's own S for each light, times `scale`, printed by light index (the XML's name).
+    let fake = |name: &str, scale: f64| {
+        let mut sh = String::from("#!/bin/sh\ncase \"$*\" in\n");
+        for (k, l) in FIBRE_LIGHTS.iter().enumerate() {
+            let n = DVec3::from(*l).normalize().to_array();
+            let s = bsdf.radiance(&Angles::new([0.0, 0.0, 1.0], n, [1.0, 0.0, 0.0]));
+            sh += &format!(
+                "  *fibre_{k}.xml*) echo radiance={},{},{} ;;\n",
+                s[0] * scale,
+                s[1] * scale,
+                s[2] * scale
+            );
+        }
+        sh += "esac\n";
+        let path = dir.join(name);
+        std::fs::write(&path, sh).unwrap();
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o755)).unwrap();
+        Options {
+            scenes: vec![],
+            size: (16, 16),
+            spp: 16,
+            max_spp: 16,
+            frames: 1,
+            python: path,
+            cache: dir.join("cache"),
+            views: vec![View::Scene],
+            lights: vec![Lighting::Key],
+        }
+    };
+    let worst = fibre_check(&fake("same", 1.0 + 0.5 * FIBRE_TOLERANCE)).unwrap();
+    assert!((worst - 0.5 * FIBRE_TOLERANCE).abs() < 1e-3, "{worst}");
+    let e = fibre_check(&fake("off", 1.0 + 2.0 * FIBRE_TOLERANCE))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("fibre_0.xml") && e.contains("bsplinecurve") && e.contains("4.0 %"),
+        "{e}"
+    );
+}
+
 #[test]
 fn the_reference_scene_holds_kamis_strands_camera_and_light() {
     let scene = kami::Scene::load(kami::scene::shipped("assets/scenes/bob.ron")).unwrap();
@@ -90,19 +310,12 @@ fn the_reference_scene_holds_kamis_strands_camera_and_light() {
     let mut read: Vec<Vec<[f64; 4]>> = Vec::new();
     let mut k = 0;
     while let Some(at) = xml.find(&format!("value=\"hair_{k}.txt\"")) {
-        assert!(xml[..at].rfind("<shape type=\"linearcurve\">").is_some());
+        assert!(xml[..at]
+            .rfind(&format!("<shape type=\"{CURVE_SHAPE}\">"))
+            .is_some());
         let text = std::fs::read_to_string(dir.join(format!("hair_{k}.txt"))).unwrap();
         for curve in text.split("\n\n") {
-            read.push(
-                curve
-                    .lines()
-                    .map(|l| {
-                        let v: Vec<f64> = l.split(' ').map(|s| s.parse().unwrap()).collect();
-                        assert_eq!(v.len(), 4, "{l:?}: x y z radius");
-                        [v[0], v[1], v[2], v[3]]
-                    })
-                    .collect(),
-            );
+            read.push(polyline_of(&control_points(curve)));
         }
         k += 1;
     }

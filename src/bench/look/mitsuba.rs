@@ -1,6 +1,8 @@
 //! The reference scene `kami bench look` hands the path tracer: Mitsuba 3 XML (camera, key
-//! light, environment, shapes), `linearcurve` text files of the strands and OBJ meshes of the
-//! head and skin, guarded by `tests/it/look.rs`.
+//! light, environment, shapes), `bsplinecurve` text files of the strands and OBJ meshes of
+//! the head and skin, guarded by `tests/it/look.rs`; and the single fibre that checks
+//! Mitsuba's `hair` BSDF reads the written curves as Kami's f64 reference does
+//! ([`write_fibre_check`]).
 
 use crate::error::{KamiError, Result};
 use crate::formats::Groom;
@@ -96,8 +98,21 @@ pub fn environment(scene: &Scene) -> [f64; 3] {
     l.color.map(|c| AMBIENT_RADIANCE * l.ambient * f64::from(c))
 }
 
-/// Mitsuba's `linearcurve` text of the strands `which` of `groom`: per control point
-/// `x y z radius` (radius = width / 2, scene units), a blank line between curves.
+/// The Mitsuba shape the strands are written as. Mitsuba's `hair` BSDF takes the fibre's
+/// axis to be its shading frame's second axis (`sin theta = w.y`), which `bsplinecurve`
+/// sets to the curve's tangent; `linearcurve` puts the tangent in the first axis, so on it
+/// the BSDF scatters as if the fibre ran around its own circumference (on one fibre, 0.25 to
+/// 2.2 times Kami's f64 S, against 0.3 % with `bsplinecurve`: docs/look.md, "The
+/// reference's fibres lay crosswise"). [`write_fibre_check`] guards it.
+pub const CURVE_SHAPE: &str = "bsplinecurve";
+
+/// Mitsuba's `bsplinecurve` text of the strands `which` of `groom`: per control point
+/// `x y z radius` (radius = width / 2, scene units), a blank line between curves. The
+/// polyline's points are the control points of a uniform cubic B-spline, the root and tip
+/// three times and every other point twice: the spline then starts at the root and ends at
+/// the tip, runs straight along the middle two thirds of every segment and rounds each joint
+/// within 1/48 of the neighbouring segments' difference (|a - 2b + c| / 48 from b), with no
+/// zero tangent inside the strand.
 pub fn curve_text(groom: &Groom, which: &[usize], source: &str) -> Result<String> {
     let widths = groom.widths.as_ref().ok_or_else(|| KamiError::Data {
         path: source.into(),
@@ -137,9 +152,22 @@ pub fn curve_text(groom: &Groom, which: &[usize], source: &str) -> Result<String
         if k > 0 {
             s.push('\n');
         }
-        let r = first[i]..first[i] + groom.counts[i] as usize;
-        for (p, w) in groom.points[r.clone()].iter().zip(&widths[r]) {
-            let _ = writeln!(s, "{} {} {} {}", p[0], p[1], p[2], 0.5 * w);
+        let n = groom.counts[i] as usize;
+        if n < 2 {
+            return Err(KamiError::Data {
+                path: source.into(),
+                line: None,
+                message: format!(
+                    "the exported groom's strand {i} has {n} point(s); a strand needs 2"
+                ),
+            });
+        }
+        let r = first[i]..first[i] + n;
+        for (j, (p, w)) in groom.points[r.clone()].iter().zip(&widths[r]).enumerate() {
+            let times = if j == 0 || j + 1 == n { 3 } else { 2 };
+            for _ in 0..times {
+                let _ = writeln!(s, "{} {} {} {}", p[0], p[1], p[2], 0.5 * w);
+            }
         }
     }
     Ok(s)
@@ -293,10 +321,7 @@ pub fn write_shapes(
         write_file(&dir.join(&name), &curve_text(groom, strands, source)?)?;
         let h = hair_params(scene, *col);
         let pigment = if *bin == [0; 3] {
-            format!(
-                "<float name=\"eumelanin\" value=\"{}\"/>\n      <float name=\"pheomelanin\" value=\"{}\"/>",
-                h.eumelanin, h.pheomelanin
-            )
+            melanin_xml(&h)
         } else {
             let base = crate::systems::hair_bsdf::HairParams {
                 eumelanin: h.eumelanin,
@@ -308,11 +333,7 @@ pub fn write_shapes(
                 std::array::from_fn(|i| base[i] * (f64::from(bin[i]) * ABSORPTION_STEP).exp());
             format!("<rgb name=\"sigma_a\" value=\"{}\"/>", rgb(s))
         };
-        let _ = writeln!(
-            x,
-            "  <shape type=\"linearcurve\">\n    <string name=\"filename\" value=\"{name}\"/>\n    <bsdf type=\"hair\">\n      {pigment}\n      <float name=\"longitudinal_roughness\" value=\"{}\"/>\n      <float name=\"azimuthal_roughness\" value=\"{}\"/>\n      <float name=\"scale_tilt\" value=\"{}\"/>\n      <float name=\"int_ior\" value=\"{}\"/>\n      <float name=\"ext_ior\" value=\"1\"/>\n    </bsdf>\n  </shape>",
-            h.beta_m, h.beta_n, h.alpha_deg, h.eta
-        );
+        x.push_str(&hair_shape(&name, &pigment, &h));
     }
 
     let mut mesh = |name: &str, (p, n, t): (Vec<DVec3>, Vec<DVec3>, Vec<[u32; 3]>), color| {
@@ -344,6 +365,85 @@ pub fn write_shapes(
         mesh("skin.obj", (p, n, setup.mesh.triangles.clone()), fur.skin)?;
     }
     Ok(x)
+}
+
+/// The pigment lines of a `hair` BSDF given by melanin.
+fn melanin_xml(h: &MitsubaHair) -> String {
+    format!(
+        "<float name=\"eumelanin\" value=\"{}\"/>\n      <float name=\"pheomelanin\" value=\"{}\"/>",
+        h.eumelanin, h.pheomelanin
+    )
+}
+
+/// The XML of one shape of strands: the curve file `name` ([`curve_text`]) as
+/// [`CURVE_SHAPE`] with a `hair` BSDF of `h`'s roughness, tilt and index and `pigment`'s
+/// absorption.
+fn hair_shape(name: &str, pigment: &str, h: &MitsubaHair) -> String {
+    format!(
+        "  <shape type=\"{CURVE_SHAPE}\">\n    <string name=\"filename\" value=\"{name}\"/>\n    <bsdf type=\"hair\">\n      {pigment}\n      <float name=\"longitudinal_roughness\" value=\"{}\"/>\n      <float name=\"azimuthal_roughness\" value=\"{}\"/>\n      <float name=\"scale_tilt\" value=\"{}\"/>\n      <float name=\"int_ior\" value=\"{}\"/>\n      <float name=\"ext_ior\" value=\"1\"/>\n    </bsdf>\n  </shape>\n",
+        h.beta_m, h.beta_n, h.alpha_deg, h.eta
+    )
+}
+
+/// The single fibre's radius and pixels across its image ([`write_fibre_check`]).
+pub const FIBRE_RADIUS: f64 = 0.01;
+pub const FIBRE_PIXELS: u32 = 32;
+
+/// The directions towards the light the single-fibre check lights the fibre from, the fibre
+/// along x and the camera on +z: in its normal plane from the front and at 45 degrees of
+/// azimuth, out of it by 24 degrees, and from behind (transmission).
+pub const FIBRE_LIGHTS: [[f64; 3]; 4] = [
+    [0.0, 0.0, 1.0],
+    [0.0, 1.0, 1.0],
+    [0.5, 0.5, 1.0],
+    [0.0, 0.3, -1.0],
+];
+
+/// Write `fibre_<k>.xml` and `fibre.txt` into `dir`: one straight fibre of `h` along x
+/// (three points, so a joint is in it), written as the strands are ([`curve_text`],
+/// [`hair_shape`]), seen by an orthographic camera on +z whose frame it crosses, lit only
+/// by a `directional` light of unit irradiance towards `FIBRE_LIGHTS[k]`, direct light only
+/// (paths of two vertices). The mean radiance over the fibre's pixels (alpha-weighted) is
+/// then the far-field S of Kami's f64 reference (`hair_bsdf::Bsdf::radiance`) for the view
+/// +z, that light and the tangent +x: `kami bench look` compares the two before it renders
+/// a reference.
+pub fn write_fibre_check(dir: &Path, h: &MitsubaHair, k: usize, spp: u32) -> Result<PathBuf> {
+    std::fs::create_dir_all(dir).map_err(|source| KamiError::Io {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    let w = (2.0 * FIBRE_RADIUS) as f32;
+    let groom = Groom {
+        counts: vec![3],
+        points: vec![[-5.0, 0.0, 0.0], [0.5, 0.0, 0.0], [5.0, 0.0, 0.0]],
+        widths: Some(vec![w; 3]),
+        ..Default::default()
+    };
+    write_file(
+        &dir.join("fibre.txt"),
+        &curve_text(&groom, &[0], "the single-fibre check")?,
+    )?;
+    let to_light = DVec3::from(FIBRE_LIGHTS[k]).normalize();
+    let half = 2.0 * FIBRE_RADIUS;
+    let mut x = String::from("<scene version=\"3.0.0\">\n");
+    let _ = writeln!(
+        x,
+        "  <integrator type=\"path\">\n    <integer name=\"max_depth\" value=\"2\"/>\n    <boolean name=\"hide_emitters\" value=\"true\"/>\n  </integrator>"
+    );
+    let _ = writeln!(
+        x,
+        "  <sensor type=\"orthographic\">\n    <transform name=\"to_world\">\n      <scale value=\"{half}, {half}, 1\"/>\n      <lookat origin=\"0.3, 0, 1\" target=\"0.3, 0, 0\" up=\"0, 1, 0\"/>\n    </transform>\n    <sampler type=\"independent\">\n      <integer name=\"sample_count\" value=\"{spp}\"/>\n    </sampler>\n    <film type=\"hdrfilm\">\n      <integer name=\"width\" value=\"{FIBRE_PIXELS}\"/>\n      <integer name=\"height\" value=\"{FIBRE_PIXELS}\"/>\n      <string name=\"pixel_format\" value=\"rgba\"/>\n      <rfilter type=\"box\"/>\n    </film>\n  </sensor>"
+    );
+    let _ = writeln!(
+        x,
+        "  <emitter type=\"directional\">\n    <vector name=\"direction\" value=\"{}\"/>\n    <rgb name=\"irradiance\" value=\"1, 1, 1\"/>\n  </emitter>",
+        rgb((-to_light).to_array())
+    );
+    x.push_str(&hair_shape("fibre.txt", &melanin_xml(h), h));
+    x.push_str("</scene>\n");
+    let xml = dir.join(format!("fibre_{k}.xml"));
+    write_file(&xml, &x)?;
+    Ok(xml)
 }
 
 /// Write `name` in `dir`: the scene XML of `scene`'s camera and light (see

@@ -2,9 +2,10 @@
 //! `hair` BSDF after Chiang et al. 2016) of the same groom, camera, lights and size: mean
 //! FLIP and Kami's ms per frame for every shading mode x shadows row, and the image pairs.
 //!
-//! Kami writes the reference scene here (Mitsuba XML, `linearcurve` text files, OBJ meshes:
+//! Kami writes the reference scene here (Mitsuba XML, `bsplinecurve` text files, OBJ meshes:
 //! [`write_mitsuba`], guarded by `tests/it/look.rs`); `scripts/look_reference.py` renders it,
-//! caches it and computes FLIP. Mitsuba and FLIP are bench dependencies only
+//! caches it and computes FLIP. Before any reference, [`fibre_check`] has Mitsuba render one
+//! fibre written the same way and refuses to go on unless it matches Kami's f64 BSDF. Mitsuba and FLIP are bench dependencies only
 //! (`scripts/look-deps.sh`); `cargo test` needs neither.
 
 pub mod hair;
@@ -231,6 +232,86 @@ pub fn check_deps(python: &Path) -> Result<()> {
     }
 }
 
+/// Samples per pixel of the single-fibre check's renders.
+pub const FIBRE_SPP: u32 = 1024;
+
+/// The most the single fibre's radiance may differ from Kami's f64 S, relative, per channel.
+/// Mitsuba's `hair` on a `bsplinecurve` is within 0.3 % of it; on a `linearcurve` 0.25 to 2.2
+/// times it.
+pub const FIBRE_TOLERANCE: f64 = 0.02;
+
+/// Render the single fibre of [`write_fibre_check`] under each of [`FIBRE_LIGHTS`] with
+/// Mitsuba (cached like the references) and compare its mean radiance with Kami's f64
+/// `Bsdf::radiance` for the same view, light and tangent, Mitsuba's default brown hair. What
+/// it guards is how the reference is written (the curve shape, its control points, the BSDF's
+/// parameters and frame), on which every FLIP the bench reports depends. Returns the worst
+/// relative difference; an error naming the light above [`FIBRE_TOLERANCE`].
+pub fn fibre_check(o: &Options) -> Result<f64> {
+    use crate::systems::hair_bsdf::{Angles, HairParams};
+    let h = MITSUBA_DEFAULT_HAIR;
+    let bsdf = HairParams {
+        eumelanin: h.eumelanin,
+        pheomelanin: h.pheomelanin,
+        beta_m: h.beta_m,
+        beta_n: h.beta_n,
+        alpha: h.alpha_deg,
+        eta: h.eta,
+    }
+    .bsdf();
+    let dir = o.cache.join("fibre_check");
+    let mut worst = 0.0f64;
+    for (k, l) in FIBRE_LIGHTS.iter().enumerate() {
+        let xml = write_fibre_check(&dir, &h, k, FIBRE_SPP)?;
+        let err = |message: String| KamiError::Data {
+            path: xml.display().to_string(),
+            line: None,
+            message,
+        };
+        let out = std::process::Command::new(&o.python)
+            .arg(script())
+            .args(["--fibre", "--xml"])
+            .arg(&xml)
+            .args(["--spp", &FIBRE_SPP.to_string(), "--cache"])
+            .arg(&o.cache)
+            .output()
+            .map_err(|e| err(format!("cannot run {}: {e}", o.python.display())))?;
+        let text = String::from_utf8_lossy(&out.stdout);
+        if !out.status.success() {
+            return Err(err(format!(
+                "the single-fibre check failed: {text}{}",
+                String::from_utf8_lossy(&out.stderr)
+            )));
+        }
+        let got: Vec<f64> = text
+            .lines()
+            .find_map(|l| l.strip_prefix("radiance="))
+            .map(|v| v.split(',').filter_map(|x| x.trim().parse().ok()).collect())
+            .unwrap_or_default();
+        if got.len() != 3 || got.iter().any(|x: &f64| !x.is_finite()) {
+            return Err(err(format!(
+                "the single-fibre check printed no radiance: {text}"
+            )));
+        }
+        let n = (l[0] * l[0] + l[1] * l[1] + l[2] * l[2]).sqrt();
+        let want = bsdf.radiance(&Angles::new(
+            [0.0, 0.0, 1.0],
+            l.map(|x| x / n),
+            [1.0, 0.0, 0.0],
+        ));
+        for c in 0..3 {
+            let rel = (got[c] - want[c]).abs() / want[c].abs().max(1e-12);
+            worst = worst.max(rel);
+            if rel > FIBRE_TOLERANCE {
+                return Err(err(format!(
+                    "Mitsuba's hair BSDF on the written curve gives {:.5}, {:.5}, {:.5} for one fibre lit from {l:?}, Kami's f64 reference {:.5}, {:.5}, {:.5} ({:.1} % off in channel {c}, more than {:.0} %): the reference would not be the material Kami shades (is the curve shape one whose shading frame Mitsuba's `hair` reads, `bsplinecurve`?)",
+                    got[0], got[1], got[2], want[0], want[1], want[2], 100.0 * rel, 100.0 * FIBRE_TOLERANCE
+                )));
+            }
+        }
+    }
+    Ok(worst)
+}
+
 /// One row's comparison: what the script printed (FLIP over the whole image beside the
 /// reference's own noise, Mitsuba's time) and the figures over the hair's pixels
 /// ([`hair::measure`]).
@@ -379,6 +460,7 @@ impl Row {
 /// scene with Kami's images and the other pairs into `<cache>/scene_<scene>/<view>/`.
 pub fn run(gpu: &Gpu, o: &Options, out: &Path) -> Result<Report> {
     check_deps(&o.python)?;
+    let fibre = fibre_check(o)?;
     std::fs::create_dir_all(out).map_err(|source| KamiError::Io {
         path: out.to_path_buf(),
         source,
@@ -457,7 +539,7 @@ pub fn run(gpu: &Gpu, o: &Options, out: &Path) -> Result<Report> {
             }
         }
     }
-    let (md, csv) = report(gpu, o, &rows_out);
+    let (md, csv) = report(gpu, o, &rows_out, fibre);
     write_report(out, "look", &md, &csv)?;
     let (md_off, csv_off) = offsets_report(gpu, &offsets);
     write_report(out, "look_offsets", &md_off, &csv_off)?;
@@ -511,18 +593,21 @@ fn hair_cell(c: &Compared) -> String {
 }
 
 /// look.md and look.csv: every row, then the goal's rows (physical, shadows on).
-fn report(gpu: &Gpu, o: &Options, rows: &[Row]) -> (String, String) {
+fn report(gpu: &Gpu, o: &Options, rows: &[Row], fibre: f64) -> (String, String) {
     let mut md = String::new();
     let _ = writeln!(
         md,
-        "### `kami bench look`\n\n{}\n\nAdapter: **{}**. Each scene at frame 0, {}x{} pixels, with its own MSAA and supersampling, from the scene's camera and a close-up (*close*: the same eye, narrowed onto the hair's near side so half its extent fills the frame), under the scene's key light and a light from the side and from behind (*side*, *back*: shadows on only). *ms*: Kami's frame (generation, draw, resolve), the mean of {} frames after one untimed. *FLIP hair*: mean FLIP (LDR, 67 pixels per degree) of Kami's image against Mitsuba 3 (`scalar_rgb`, `path` integrator, `hair` BSDF, longest path {MAX_DEPTH}) over the pixels where either image differs from the background (hair and head); *noise hair*: the same between two seeds of the reference; *spp*: the reference's samples per pixel, {} to start with and doubled, up to {}, while its noise hair is above {WELL_BELOW_GOAL} (half the goal); *overlap*: intersection over union of the two images' masks (a FLIP in brackets compares silhouettes that overlap less than {MIN_OVERLAP}); *share*: the masks' share of the frame; *FLIP image*, *noise image*: the means over the whole image. *reference s*: Mitsuba's time for both seeds (as recorded when rendered; `cached` in the CSV says whether this run took them from `--cache`). The reference draws the strands Kami drew: fur's culled hairs at their widened width, tapered to the tip as drawn, each strip's texture hairs.\n",
+        "### `kami bench look`\n\n{}\n\nAdapter: **{}**. Each scene at frame 0, {}x{} pixels, with its own MSAA and supersampling, from the scene's camera and a close-up (*close*: the same eye, narrowed onto the hair's near side so half its extent fills the frame), under the scene's key light and a light from the side and from behind (*side*, *back*: shadows on only). *ms*: Kami's frame (generation, draw, resolve), the mean of {} frames after one untimed. *FLIP hair*: mean FLIP (LDR, 67 pixels per degree) of Kami's image against Mitsuba 3 (`scalar_rgb`, `path` integrator, `hair` BSDF, longest path {MAX_DEPTH}) over the pixels where either image differs from the background (hair and head); *noise hair*: the same between two seeds of the reference; *spp*: the reference's samples per pixel, {} to start with and doubled, up to {}, while its noise hair is above {WELL_BELOW_GOAL} (half the goal); *overlap*: intersection over union of the two images' masks (a FLIP in brackets compares silhouettes that overlap less than {MIN_OVERLAP}); *share*: the masks' share of the frame; *FLIP image*, *noise image*: the means over the whole image. *reference s*: Mitsuba's time for both seeds (as recorded when rendered; `cached` in the CSV says whether this run took them from `--cache`). The reference draws the strands Kami drew: fur's culled hairs at their widened width, tapered to the tip as drawn, each strip's texture hairs, as `bsplinecurve`s (`mitsuba::CURVE_SHAPE`). *Single fibre*: before any reference, Mitsuba rendered one fibre written the same way under {} directional lights (direct light only, {FIBRE_SPP} spp); its mean radiance was within {:.2} % of Kami's f64 S in every channel (the bench refuses above {:.0} %).\n",
         provenance(),
         gpu.describe(),
         o.size.0,
         o.size.1,
         o.frames,
         o.spp,
-        o.max_spp
+        o.max_spp,
+        FIBRE_LIGHTS.len(),
+        100.0 * fibre,
+        100.0 * FIBRE_TOLERANCE
     );
     let _ = writeln!(
         md,
