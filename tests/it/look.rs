@@ -188,7 +188,7 @@ fn the_written_spline_is_the_drawn_polyline() {
 fn the_single_fibre_check_is_one_fibre_under_one_light() {
     let dir = std::env::temp_dir().join("kami_look_fibre");
     let _ = std::fs::remove_dir_all(&dir);
-    for k in 0..FIBRE_LIGHTS.len() {
+    for (k, l) in FIBRE_LIGHTS.iter().enumerate() {
         let xml =
             std::fs::read_to_string(write_fibre_check(&dir, &MITSUBA_DEFAULT_HAIR, k, 64).unwrap())
                 .unwrap();
@@ -197,7 +197,7 @@ fn the_single_fibre_check_is_one_fibre_under_one_light() {
         assert_eq!(xml.matches("<emitter").count(), 1, "{xml}");
         assert_eq!(
             triple(&xml, "<emitter type=\"directional\">", "value"),
-            -DVec3::from(FIBRE_LIGHTS[k]).normalize()
+            -DVec3::from(*l).normalize()
         );
         assert_eq!(triple(&xml, "name=\"irradiance\"", "value"), DVec3::ONE);
         assert!(xml.contains(&format!("<shape type=\"{CURVE_SHAPE}\">")));

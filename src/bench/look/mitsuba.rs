@@ -101,9 +101,9 @@ pub fn environment(scene: &Scene) -> [f64; 3] {
 /// The Mitsuba shape the strands are written as. Mitsuba's `hair` BSDF takes the fibre's
 /// axis to be its shading frame's second axis (`sin theta = w.y`), which `bsplinecurve`
 /// sets to the curve's tangent; `linearcurve` puts the tangent in the first axis, so on it
-/// the BSDF scatters as if the fibre ran around its own circumference (on one fibre, 0.25 to
-/// 2.2 times Kami's f64 S, against 0.3 % with `bsplinecurve`: docs/look.md, "The
-/// reference's fibres lay crosswise"). [`write_fibre_check`] guards it.
+/// the BSDF scatters as if the fibre ran around its own circumference (on one fibre, 0.27 to
+/// 3.6 times what it gives on a `bsplinecurve`, which is Kami's f64 S within 0.5 %:
+/// docs/look.md, "The reference's fibres lay crosswise"). [`write_fibre_check`] guards it.
 pub const CURVE_SHAPE: &str = "bsplinecurve";
 
 /// Mitsuba's `bsplinecurve` text of the strands `which` of `groom`: per control point
