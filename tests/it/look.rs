@@ -218,20 +218,11 @@ fn the_single_fibre_check_is_one_fibre_under_one_light() {
 /// the radiance: no Mitsuba needed.)
 #[test]
 fn the_single_fibre_check_refuses_a_reference_that_is_not_kamis_bsdf() {
-    use kami::systems::hair_bsdf::{Angles, HairParams};
+    use kami::systems::hair_bsdf::Angles;
     let dir = std::env::temp_dir().join("kami_look_fibre_check");
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
-    let h = MITSUBA_DEFAULT_HAIR;
-    let bsdf = HairParams {
-        eumelanin: h.eumelanin,
-        pheomelanin: h.pheomelanin,
-        beta_m: h.beta_m,
-        beta_n: h.beta_n,
-        alpha: h.alpha_deg,
-        eta: h.eta,
-    }
-    .bsdf();
+    let bsdf = MITSUBA_DEFAULT_HAIR.params().bsdf();
     // Kami's own S for each light, times `scale`, printed by light index (the XML's name).
     let fake = |name: &str, scale: f64| {
         let mut sh = String::from("#!/bin/sh\ncase \"$*\" in\n");

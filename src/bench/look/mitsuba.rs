@@ -29,6 +29,20 @@ pub struct MitsubaHair {
     pub eta: f64,
 }
 
+impl MitsubaHair {
+    /// The same material as Kami's f64 reference takes it.
+    pub fn params(&self) -> crate::systems::hair_bsdf::HairParams {
+        crate::systems::hair_bsdf::HairParams {
+            eumelanin: self.eumelanin,
+            pheomelanin: self.pheomelanin,
+            beta_m: self.beta_m,
+            beta_n: self.beta_n,
+            alpha: self.alpha_deg,
+            eta: self.eta,
+        }
+    }
+}
+
 /// Mitsuba's own defaults for its `hair` BSDF (Chiang et al. 2016's brown hair): eumelanin
 /// 1.3, pheomelanin 0.2, beta_m = beta_n = 0.3, alpha 2 degrees, eta 1.55.
 pub const MITSUBA_DEFAULT_HAIR: MitsubaHair = MitsubaHair {
@@ -323,12 +337,7 @@ pub fn write_shapes(
         let pigment = if *bin == [0; 3] {
             melanin_xml(&h)
         } else {
-            let base = crate::systems::hair_bsdf::HairParams {
-                eumelanin: h.eumelanin,
-                pheomelanin: h.pheomelanin,
-                ..Default::default()
-            }
-            .sigma_a();
+            let base = h.params().sigma_a();
             let s: [f64; 3] =
                 std::array::from_fn(|i| base[i] * (f64::from(bin[i]) * ABSORPTION_STEP).exp());
             format!("<rgb name=\"sigma_a\" value=\"{}\"/>", rgb(s))

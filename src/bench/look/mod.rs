@@ -247,17 +247,9 @@ pub const FIBRE_TOLERANCE: f64 = 0.02;
 /// parameters and frame), on which every FLIP the bench reports depends. Returns the worst
 /// relative difference; an error naming the light above [`FIBRE_TOLERANCE`].
 pub fn fibre_check(o: &Options) -> Result<f64> {
-    use crate::systems::hair_bsdf::{Angles, HairParams};
+    use crate::systems::hair_bsdf::Angles;
     let h = MITSUBA_DEFAULT_HAIR;
-    let bsdf = HairParams {
-        eumelanin: h.eumelanin,
-        pheomelanin: h.pheomelanin,
-        beta_m: h.beta_m,
-        beta_n: h.beta_n,
-        alpha: h.alpha_deg,
-        eta: h.eta,
-    }
-    .bsdf();
+    let bsdf = h.params().bsdf();
     let dir = o.cache.join("fibre_check");
     let mut worst = 0.0f64;
     for (k, l) in FIBRE_LIGHTS.iter().enumerate() {
