@@ -259,21 +259,20 @@ pub fn fibre_check(o: &Options) -> Result<f64> {
             line: None,
             message,
         };
-        let out = std::process::Command::new(&o.python)
-            .arg(script())
-            .args(["--fibre", "--xml"])
-            .arg(&xml)
-            .args(["--spp", &FIBRE_SPP.to_string(), "--cache"])
-            .arg(&o.cache)
-            .output()
-            .map_err(|e| err(format!("cannot run {}: {e}", o.python.display())))?;
-        let text = String::from_utf8_lossy(&out.stdout);
-        if !out.status.success() {
-            return Err(err(format!(
-                "the single-fibre check failed: {text}{}",
-                String::from_utf8_lossy(&out.stderr)
-            )));
-        }
+        let spp = FIBRE_SPP.to_string();
+        let text = run_script(
+            o,
+            &[
+                "--fibre".as_ref(),
+                "--xml".as_ref(),
+                xml.as_os_str(),
+                "--spp".as_ref(),
+                spp.as_ref(),
+                "--cache".as_ref(),
+                o.cache.as_os_str(),
+            ],
+        )
+        .map_err(|m| err(format!("the single-fibre check failed: {m}")))?;
         let got: Vec<f64> = text
             .lines()
             .find_map(|l| l.strip_prefix("radiance="))
@@ -338,6 +337,22 @@ pub fn parse_compared(text: &str) -> std::result::Result<Compared, String> {
     })
 }
 
+/// Run `scripts/look_reference.py` with `args` under `o.python`: its stdout, or what it
+/// printed (stdout, then stderr) when it could not run or failed.
+fn run_script(o: &Options, args: &[&std::ffi::OsStr]) -> std::result::Result<String, String> {
+    let out = std::process::Command::new(&o.python)
+        .arg(script())
+        .args(args)
+        .output()
+        .map_err(|e| format!("cannot run {}: {e}", o.python.display()))?;
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    if out.status.success() {
+        Ok(text)
+    } else {
+        Err(format!("{text}{}", String::from_utf8_lossy(&out.stderr)))
+    }
+}
+
 /// Compare Kami's `image` (saved at `kami`) with the reference of `xml`; the pair image
 /// goes to `pair`, the script's maps beside `kami`.
 fn compare(
@@ -355,33 +370,27 @@ fn compare(
         line: None,
         message,
     };
-    let out = std::process::Command::new(&o.python)
-        .arg(script())
-        .arg("--xml")
-        .arg(xml)
-        .arg("--background")
-        .arg(format!("{},{},{}", bg[0], bg[1], bg[2]))
-        .arg("--spp")
-        .arg(spp.to_string())
-        .arg("--kami")
-        .arg(kami)
-        .arg("--pair")
-        .arg(pair)
-        .arg("--cache")
-        .arg(&o.cache)
-        .arg("--maps")
-        .arg(&maps)
-        .output()
-        .map_err(|e| err(format!("cannot run {}: {e}", o.python.display())))?;
-    let text = String::from_utf8_lossy(&out.stdout);
-    if !out.status.success() {
-        return Err(err(format!(
-            "failed on {}: {}{}",
-            xml.display(),
-            text,
-            String::from_utf8_lossy(&out.stderr)
-        )));
-    }
+    let (background, spp) = (format!("{},{},{}", bg[0], bg[1], bg[2]), spp.to_string());
+    let text = run_script(
+        o,
+        &[
+            "--xml".as_ref(),
+            xml.as_os_str(),
+            "--background".as_ref(),
+            background.as_ref(),
+            "--spp".as_ref(),
+            spp.as_ref(),
+            "--kami".as_ref(),
+            kami.as_os_str(),
+            "--pair".as_ref(),
+            pair.as_os_str(),
+            "--cache".as_ref(),
+            o.cache.as_os_str(),
+            "--maps".as_ref(),
+            maps.as_os_str(),
+        ],
+    )
+    .map_err(|m| err(format!("failed on {}: {m}", xml.display())))?;
     let mut c = parse_compared(&text).map_err(err)?;
     c.hair = hair::measure(image, &maps, pair, bg)?;
     Ok(c)
