@@ -147,6 +147,22 @@ fn hair_angles(t: vec3<f32>, v: vec3<f32>, l: vec3<f32>) -> HairAngles {
 // S of `Bsdf::radiance_cells`: the far-field radiance factor with the longitudinal variances
 // widened by extra_var.
 fn hair_radiance_cells(b: HairBsdf, a: HairAngles, extra_var: f32) -> vec3<f32> {
+    return hair_bins_sum(hair_radiance_bins(b, a, extra_var));
+}
+
+// Keep equal to BINS in src/systems/hair_bsdf.rs: the bins of the fibre's width that the
+// near field is kept in, HAIR_CELLS / HAIR_BINS cells of gamma each.
+const HAIR_BINS: u32 = 6u;
+
+fn hair_bins_sum(s: array<vec3<f32>, HAIR_BINS>) -> vec3<f32> {
+    return s[0] + s[1] + s[2] + s[3] + s[4] + s[5];
+}
+
+// `Bsdf::radiance_bins`: S of `hair_radiance_cells` split by where on the fibre's width it
+// leaves. Bin k holds the cells of gamma from -pi/2 + k pi/6 to -pi/2 + (k + 1) pi/6, each
+// weighed by its share of h as in S (so the bins sum to S); gamma is measured so that
+// the azimuth phi from the view to the light is positive (hair_angles).
+fn hair_radiance_bins(b: HairBsdf, a: HairAngles, extra_var: f32) -> array<vec3<f32>, HAIR_BINS> {
     let sin_v = a.sc.x;
     let cos_v = a.sc.y;
     let eta = b.misc.z;
@@ -165,7 +181,7 @@ fn hair_radiance_cells(b: HairBsdf, a: HairAngles, extra_var: f32) -> vec3<f32> 
     let eta_p = sqrt(max(eta * eta - sin_v * sin_v, 0.0)) / max(cos_v, 1e-12);
     let trim = hair_trim(s);
     let rot = HAIR_CELL_TURN;
-    var out = vec3<f32>(0.0);
+    var out: array<vec3<f32>, HAIR_BINS>;
     // A cell's far edge is the next one's near edge: its sine, azimuths and CDFs carry over.
     var g0 = -0.5 * HAIR_PI;
     // (cos, sin) of the near edge and of the middle.
@@ -197,7 +213,7 @@ fn hair_radiance_cells(b: HairBsdf, a: HairAngles, extra_var: f32) -> vec3<f32> 
             }
         }
         let w = 0.5 * (e1.y - e0.y);
-        out += w * (vec3<f32>(m0 * f * n.x) + m1 * a1 * n.y + m2 * a2 * n.z
+        out[i / (HAIR_CELLS / HAIR_BINS)] += w * (vec3<f32>(m0 * f * n.x) + m1 * a1 * n.y + m2 * a2 * n.z
             + m3 * a3 / (2.0 * HAIR_PI));
         g0 = g1;
         e0 = e1;
@@ -212,20 +228,40 @@ fn hair_radiance_cells(b: HairBsdf, a: HairAngles, extra_var: f32) -> vec3<f32> 
 // dual scattering through n fibres (shadow_strands), the forward-scattered share
 // d_f a_f^n, the longitudinal spread n beta_f^2, plus the local backscattering d_b f_back.
 fn hair_dual_radiance(b: HairBsdf, t: vec3<f32>, v: vec3<f32>, l: vec3<f32>, n_in: f32) -> vec3<f32> {
+    let d = hair_dual_parts(b, t, v, l, n_in);
+    return hair_bins_sum(d.single) + d.back;
+}
+
+// hair_dual_radiance in two parts (`hair_bsdf::dual_parts`): W S by bins of the fibre's
+// width (hair_radiance_bins) and W d_b f_back, which leaves the fibre evenly.
+struct HairDual {
+    single: array<vec3<f32>, HAIR_BINS>,
+    back: vec3<f32>,
+}
+
+fn hair_dual_parts(b: HairBsdf, t: vec3<f32>, v: vec3<f32>, l: vec3<f32>, n_in: f32) -> HairDual {
     let n = max(n_in, 0.0);
     let a = hair_angles(t, v, l);
     let spread = n * b.a_f.w;
-    let s = hair_radiance_cells(b, a, 4.0 * spread);
+    let s = hair_radiance_bins(b, a, 4.0 * spread);
     let theta_v = atan2(a.sc.x, a.sc.y);
     let theta_l = atan2(a.sc.z, a.sc.w);
     let th = 0.5 * (theta_v + theta_l) - b.back.w;
     let var_b = b.ambient.w + spread;
     let g = exp(-th * th / (2.0 * var_b)) / sqrt(2.0 * HAIR_PI * var_b);
     let cos_d = max(cos(0.5 * (theta_v - theta_l)), 0.2);
-    let back = (1.0 + cos(a.phi)) / (2.0 * HAIR_PI) * g / (2.0 * cos_d);
+    // Zinke's f_back = 2 A_b g / (pi cos^2 theta_d), times cos theta_l (S's convention).
+    let back = 2.0 * g * a.sc.w / (HAIR_PI * cos_d * cos_d);
     let direct = exp(-n);
-    let w = direct + (1.0 - direct) * 0.7 * exp(n * log(max(b.a_f.rgb, vec3<f32>(1e-6))));
-    return w * (s + b.back.rgb * back);
+    let through = (1.0 - direct) * 0.7 * exp(n * log(max(b.a_f.rgb, vec3<f32>(1e-6))));
+    let w = direct + through;
+    var out: HairDual;
+    for (var k = 0u; k < HAIR_BINS; k++) {
+        out.single[k] = w * s[k];
+    }
+    // The forward-scattered light's backscattering counts pi times (Zinke's F^scatter).
+    out.back = (direct + HAIR_PI * through) * b.back.rgb * back;
+    return out;
 }
 
 // E_2(x), the exponential integral (E_1 by Abramowitz & Stegun 5.1.53 below 1 and 5.1.56

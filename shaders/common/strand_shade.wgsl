@@ -63,6 +63,19 @@ struct ShadedNode {
     width: f32,
     // Opacity (the file's, or 1).
     alpha: f32,
+    // The physical mode's single scattering of the key light (already in rgb), by where on
+    // the fibre's width it leaves: each bin's mean over its h-range (hair_radiance_bins;
+    // 0 in Anjyo's mode). The ribbons shade a fragment with its own bin (anjyo/draw.wgsl).
+    near: array<vec3<f32>, HAIR_BINS>,
+    // The part of rgb those bins make up (their h-weighted mean).
+    single: vec3<f32>,
+}
+
+// Half the h-width of bin k of hair_radiance_bins, the weight of its mean in S: bin k
+// spans gamma from -pi/2 + k pi/6, so h from -1, -sqrt(3)/2, -1/2, 0, 1/2, sqrt(3)/2, 1.
+fn hair_bin_weight(k: u32) -> f32 {
+    let edge = array<f32, 7>(-1.0, -0.8660254, -0.5, 0.0, 0.5, 0.8660254, 1.0);
+    return 0.5 * (edge[k + 1u] - edge[k]);
 }
 
 fn lod_step() -> u32 {
@@ -181,8 +194,13 @@ fn shade_node(s: Strand, n: u32) -> ShadedNode {
             // group's).
             around += varied_single(s.group, log(absorb)) - mat.vary_single[VARY_MIDDLE].rgb;
         }
-        let f = hair_dual_radiance(b, t, v, l, crossed);
-        rgb = frame.light_color.rgb * (hair_irradiance() * opaque) * f + around * ambient;
+        let d = hair_dual_parts(b, t, v, l, crossed);
+        let key = frame.light_color.rgb * (hair_irradiance() * opaque);
+        out.single = key * hair_bins_sum(d.single);
+        for (var k = 0u; k < HAIR_BINS; k++) {
+            out.near[k] = key * d.single[k] / hair_bin_weight(k);
+        }
+        rgb = out.single + key * d.back + around * ambient;
     }
     // The dynamics mark nodes whose segment felt the pseudo-force with w = 2.
     if frame.flags.x > 0.5 && verts[s.first_vertex + n].w > 1.5 {

@@ -34,6 +34,16 @@ pub fn hair_fragment_entry(gpu: &Gpu) -> &'static str {
     }
 }
 
+/// [`hair_fragment_entry`] of the strand ribbons' near-field pair (`shaders/anjyo/draw.wgsl`,
+/// `fs_near`), which a pass that shades physically draws with.
+pub fn near_fragment_entry(gpu: &Gpu) -> &'static str {
+    if gpu.info.backend == wgpu::Backend::Gl {
+        "fs_near_per_sample"
+    } else {
+        "fs_near"
+    }
+}
+
 /// What a scene pipeline is built for besides its shader: the MSAA sample count of the
 /// targets and the shadow lookup it compiles. A change of either builds the pipelines
 /// again (`HairSystem::set_variant`, the stage's head pass).

@@ -25,6 +25,9 @@ pub const PHEOMELANIN_SIGMA_A: [f64; 3] = [0.187, 0.4, 1.05];
 pub const P_MAX: usize = 3;
 /// Cells across the fibre in the shaders' fixed-cost form (`Bsdf::radiance_cells`).
 pub const CELLS: usize = 12;
+/// Bins of the fibre's width the near field is kept in ([`Bsdf::radiance_bins`]); divides
+/// [`CELLS`]. Keep equal to HAIR_BINS in shaders/common/hair_bsdf.wgsl.
+pub const BINS: usize = 6;
 /// Zinke et al.'s density factors for forward and backward multiple scattering.
 pub const D_F: f64 = 0.7;
 pub const D_B: f64 = 0.7;
@@ -495,17 +498,50 @@ impl Bsdf {
 
     /// `radiance_cells` with `cells` cells.
     pub fn radiance_n(&self, a: &Angles, extra_var: f64, cells: usize) -> [f64; 3] {
+        let mut out = [0.0; 3];
+        self.each_cell(a, extra_var, cells, |_, s| {
+            for c in 0..3 {
+                out[c] += s[c];
+            }
+        });
+        out
+    }
+
+    /// S of `radiance_cells` split by where on the fibre's width it leaves: bin k holds the
+    /// `CELLS / BINS` cells of gamma_i from -pi/2 + k pi/BINS on, each weighed by its share
+    /// of h as in S, so the bins sum to S. gamma_i is measured with the azimuth from the
+    /// view to the light positive (`Angles::phi`). `shaders/common/hair_bsdf.wgsl`
+    /// (`hair_radiance_bins`) must match it; the ribbons shade each fragment with its own
+    /// bin (docs/shading.md, "The near field across a ribbon").
+    pub fn radiance_bins(&self, a: &Angles, extra_var: f64) -> [[f64; 3]; BINS] {
+        let mut out = [[0.0; 3]; BINS];
+        self.each_cell(a, extra_var, CELLS, |i, s| {
+            for c in 0..3 {
+                out[i / (CELLS / BINS)][c] += s[c];
+            }
+        });
+        out
+    }
+
+    /// Cell i's h-weighted share of S (`radiance_n`'s cells) to `f`.
+    fn each_cell(
+        &self,
+        a: &Angles,
+        extra_var: f64,
+        cells: usize,
+        mut f: impl FnMut(usize, [f64; 3]),
+    ) {
         let m = self.longitudinal(a, extra_var);
         let d = PI / cells as f64;
-        let mut out = [0.0; 3];
         let mut g0 = -0.5 * PI;
         let mut phi0 = self.offset(a, g0).phi;
-        for _ in 0..cells {
+        for i in 0..cells {
             let g1 = g0 + d;
             let phi1 = self.offset(a, g1).phi;
             let mid = self.offset(a, 0.5 * (g0 + g1));
             // Half the h-width of the cell: the h-average's weight.
             let w = 0.5 * (g1.sin() - g0.sin());
+            let mut out = [0.0; 3];
             for p in 0..=P_MAX {
                 let n = if p < P_MAX {
                     let dphi = phi1[p] - phi0[p];
@@ -522,11 +558,17 @@ impl Bsdf {
                     out[c] += w * m[p] * mid.a[p][c] * n;
                 }
             }
+            f(i, out);
             g0 = g1;
             phi0 = phi1;
         }
-        out
     }
+}
+
+/// Half the h-width of bin k of [`Bsdf::radiance_bins`]: the weight of the bin's mean in S.
+pub fn bin_weight(k: usize) -> f64 {
+    let edge = |j: usize| (-0.5 * PI + j as f64 * PI / BINS as f64).sin();
+    0.5 * (edge(k + 1) - edge(k))
 }
 
 /// Dual scattering's per-material constants (Zinke et al. 2008), averaged over the
@@ -652,21 +694,38 @@ impl DualScattering {
 /// `n` fibres (the shadow structure's count) as the shaders apply it:
 /// W (S(v + 4 n beta_f^2) + d_b S_back) with W = e^-n + (1 - e^-n) d_f a_f^n.
 pub fn dual_radiance(b: &Bsdf, d: &DualScattering, a: &Angles, n: f64) -> [f64; 3] {
+    let (single, back) = dual_parts(b, d, a, n);
+    std::array::from_fn(|c| single.iter().map(|s| s[c]).sum::<f64>() + back[c])
+}
+
+/// [`dual_radiance`] in two parts, as `hair_dual_parts` in shaders/common/hair_bsdf.wgsl:
+/// W S by bins of the fibre's width ([`Bsdf::radiance_bins`]) and W d_b S_back, which
+/// leaves the fibre evenly.
+pub fn dual_parts(
+    b: &Bsdf,
+    d: &DualScattering,
+    a: &Angles,
+    n: f64,
+) -> ([[f64; 3]; BINS], [f64; 3]) {
     let n = n.max(0.0);
     let spread = n * d.beta_f2;
-    let s = b.radiance_cells(a, 4.0 * spread);
+    let s = b.radiance_bins(a, 4.0 * spread);
     let theta_v = a.sin_v.atan2(a.cos_v);
     let theta_l = a.sin_l.atan2(a.cos_l);
     let th = 0.5 * (theta_v + theta_l) - d.delta_b;
     let var = d.sigma_b2 + spread;
     let g = (-th * th / (2.0 * var)).exp() / (2.0 * PI * var).sqrt();
     let cos_d = (0.5 * (theta_v - theta_l)).cos().max(0.2);
-    let back = (1.0 + a.phi.cos()) / (2.0 * PI) * g / (2.0 * cos_d);
+    // Zinke's f_back = 2 A_b g / (pi cos^2 theta_d), times cos theta_l (S's convention).
+    let back = 2.0 * g * a.cos_l / (PI * cos_d * cos_d);
     let direct = (-n).exp();
-    std::array::from_fn(|c| {
-        let w = direct + (1.0 - direct) * D_F * (n * d.a_f[c].max(1e-6).ln()).exp();
-        w * (s[c] + D_B * d.big_a_b[c] * back)
-    })
+    let through: [f64; 3] =
+        std::array::from_fn(|c| (1.0 - direct) * D_F * (n * d.a_f[c].max(1e-6).ln()).exp());
+    (
+        s.map(|s| std::array::from_fn(|c| (direct + through[c]) * s[c])),
+        // The forward-scattered light's backscattering counts pi times (Zinke's F^scatter).
+        std::array::from_fn(|c| (direct + PI * through[c]) * D_B * d.big_a_b[c] * back),
+    )
 }
 
 /// The exponential integral E_n(x) for n >= 1, x >= 0 (Numerical Recipes' `expint`: the

@@ -31,6 +31,7 @@ mod lod;
 mod look;
 mod mesh;
 mod mesh_head;
+mod near_field;
 mod numerics;
 mod scale;
 mod shader_validation;

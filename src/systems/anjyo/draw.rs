@@ -262,8 +262,14 @@ impl StrandsPass {
             label: "strands",
             layout: pl,
             module,
-            vertex_entry: "vs",
-            fragment_entry: pipeline::hair_fragment_entry(gpu),
+            // A physical pass shades each fragment as its place on the fibre (the near
+            // field, `vs_near`); Anjyo's interpolates the nodes' colours.
+            vertex_entry: if physical { "vs_near" } else { "vs" },
+            fragment_entry: if physical {
+                pipeline::near_fragment_entry(gpu)
+            } else {
+                pipeline::hair_fragment_entry(gpu)
+            },
             topology: wgpu::PrimitiveTopology::TriangleStrip,
             cull_mode: None,
             vertex_buffers: &[],
