@@ -24,7 +24,7 @@ fn source_scene() -> kami::Scene {
 }
 
 /// `scene` with its one group replaced by `groom` read as a file group of `segments`.
-fn imported_scene(mut scene: kami::Scene, groom: Groom, segments: u32) -> kami::Scene {
+pub(crate) fn imported_scene(mut scene: kami::Scene, groom: Groom, segments: u32) -> kami::Scene {
     let material = scene.groups()[0].material.clone();
     *scene.groups_mut() = vec![HairGroup {
         name: "imported".into(),

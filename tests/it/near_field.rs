@@ -7,9 +7,7 @@ use crate::common;
 use kami::formats::Groom;
 use kami::gpu::gpu_data::srgb_to_linear;
 use kami::scene::{CameraDesc, Light, Shading, StrandRaster};
-use kami::systems::anjyo::block::{HairGroup, StrandFile};
 use kami::systems::hair_bsdf::{bin_weight, dual_parts, Angles, Bsdf, DualScattering, BINS};
-use std::sync::Arc;
 
 const SIZE: (u32, u32) = (96, 96);
 /// The strand's width (world) and where it hangs: far from the head, across the view.
@@ -20,43 +18,14 @@ const Z: f32 = 30.0;
 /// no ambient, no shadows and no head: what the ribbon shows is the key light's scattering
 /// alone.
 fn one_strand(light: [f64; 3]) -> kami::Scene {
-    let mut scene = common::scene("bob");
-    let material = scene.groups()[0].material.clone();
     let groom = Groom {
         counts: vec![2],
         points: vec![[0.0, 5.0, Z], [0.0, -5.0, Z]],
         widths: Some(vec![WIDTH; 2]),
         ..Default::default()
     };
-    *scene.groups_mut() = vec![HairGroup {
-        name: "one".into(),
-        file: Some(StrandFile {
-            path: "in-memory.hair".into(),
-            scale: 1.0,
-            rotate: [0.0; 3],
-            translate: [0.0; 3],
-            colors: true,
-            widths: true,
-            time: None,
-            play: true,
-            group_id: None,
-            groom: Some(Arc::new(groom)),
-            frames: None,
-        }),
-        roots: Default::default(),
-        count: 1,
-        segments: 8,
-        length: 0.0,
-        length_jitter: 0.0,
-        direction: Default::default(),
-        direction_jitter: 0.0,
-        rigidity: 0.0,
-        bending: Default::default(),
-        loads: vec![],
-        cuts: vec![],
-        material,
-        dynamic: false,
-    }];
+    // The bob's material on the one strand, read as a file group of 8 segments.
+    let mut scene = crate::imported::imported_scene(common::scene("bob"), groom, 8);
     scene.head.visible = false;
     scene.render.shading = Shading::Physical;
     scene.render.shadows.on = false;
