@@ -144,12 +144,6 @@ fn hair_angles(t: vec3<f32>, v: vec3<f32>, l: vec3<f32>) -> HairAngles {
     return a;
 }
 
-// S of `Bsdf::radiance_cells`: the far-field radiance factor with the longitudinal variances
-// widened by extra_var.
-fn hair_radiance_cells(b: HairBsdf, a: HairAngles, extra_var: f32) -> vec3<f32> {
-    return hair_bins_sum(hair_radiance_bins(b, a, extra_var));
-}
-
 // Keep equal to BINS in src/systems/hair_bsdf.rs: the bins of the fibre's width that the
 // near field is kept in, HAIR_CELLS / HAIR_BINS cells of gamma each.
 const HAIR_BINS: u32 = 6u;
@@ -158,109 +152,176 @@ fn hair_bins_sum(s: array<vec3<f32>, HAIR_BINS>) -> vec3<f32> {
     return s[0] + s[1] + s[2] + s[3] + s[4] + s[5];
 }
 
-// `Bsdf::radiance_bins`: S of `hair_radiance_cells` split by where on the fibre's width it
-// leaves. Bin k holds the cells of gamma from -pi/2 + k pi/6 to -pi/2 + (k + 1) pi/6, each
-// weighed by its share of h as in S (so the bins sum to S); gamma is measured so that
-// the azimuth phi from the view to the light is positive (hair_angles).
-fn hair_radiance_bins(b: HairBsdf, a: HairAngles, extra_var: f32) -> array<vec3<f32>, HAIR_BINS> {
+// A walk over the cells of gamma of `Bsdf::radiance_cells`, one cell per hair_cell_next:
+// what the evaluation fixes, and what a cell hands the next (its far edge is the next one's
+// near edge: its sine, azimuths and CDFs carry over). S and its bins are two walks.
+struct HairCells {
+    // The longitudinal terms R, TT, TRT and the rest, the view turned by the tilt.
+    m: vec4<f32>,
+    cos_v: f32,
+    cos_t: f32,
+    eta_p: f32,
+    trim: HairTrim,
+    // The near edge's gamma and (cos, sin), the middle's (cos, sin), the near edge's
+    // azimuths and CDFs.
+    g0: f32,
+    e0: vec2<f32>,
+    em: vec2<f32>,
+    phi0: vec3<f32>,
+    cdf0: vec3<f32>,
+}
+
+fn hair_cells_begin(b: HairBsdf, a: HairAngles, extra_var: f32) -> HairCells {
+    var c: HairCells;
     let sin_v = a.sc.x;
     let cos_v = a.sc.y;
     let eta = b.misc.z;
-    let s = b.misc.w;
     // Longitudinal terms, the view turned by the tilt: R -2a, TT +a, TRT +4a.
-    let m0 = hair_mp(sin_v * b.tilt.y - cos_v * b.tilt.x, abs(cos_v * b.tilt.y + sin_v * b.tilt.x),
-        a.sc.z, a.sc.w, b.v.x + extra_var);
-    let m1 = hair_mp(sin_v * b.tilt.w + cos_v * b.tilt.z, abs(cos_v * b.tilt.w - sin_v * b.tilt.z),
-        a.sc.z, a.sc.w, b.v.y + extra_var);
-    let m2 = hair_mp(sin_v * b.misc.y + cos_v * b.misc.x, abs(cos_v * b.misc.y - sin_v * b.misc.x),
-        a.sc.z, a.sc.w, b.v.z + extra_var);
-    let m3 = hair_mp(sin_v, cos_v, a.sc.z, a.sc.w, b.v.w + extra_var);
-
+    c.m = vec4<f32>(
+        hair_mp(sin_v * b.tilt.y - cos_v * b.tilt.x, abs(cos_v * b.tilt.y + sin_v * b.tilt.x),
+            a.sc.z, a.sc.w, b.v.x + extra_var),
+        hair_mp(sin_v * b.tilt.w + cos_v * b.tilt.z, abs(cos_v * b.tilt.w - sin_v * b.tilt.z),
+            a.sc.z, a.sc.w, b.v.y + extra_var),
+        hair_mp(sin_v * b.misc.y + cos_v * b.misc.x, abs(cos_v * b.misc.y - sin_v * b.misc.x),
+            a.sc.z, a.sc.w, b.v.z + extra_var),
+        hair_mp(sin_v, cos_v, a.sc.z, a.sc.w, b.v.w + extra_var));
+    c.cos_v = cos_v;
     let sin_t = sin_v / eta;
-    let cos_t = sqrt(max(1.0 - sin_t * sin_t, 0.0));
-    let eta_p = sqrt(max(eta * eta - sin_v * sin_v, 0.0)) / max(cos_v, 1e-12);
-    let trim = hair_trim(s);
+    c.cos_t = sqrt(max(1.0 - sin_t * sin_t, 0.0));
+    c.eta_p = sqrt(max(eta * eta - sin_v * sin_v, 0.0)) / max(cos_v, 1e-12);
+    c.trim = hair_trim(b.misc.w);
+    c.g0 = -0.5 * HAIR_PI;
+    c.e0 = vec2<f32>(0.0, -1.0);
+    c.em = vec2<f32>(HAIR_CELL_HALF_TURN.y, -HAIR_CELL_HALF_TURN.x);
+    c.phi0 = hair_phis(c.g0, c.e0.y, c.eta_p);
+    c.cdf0 = vec3<f32>(hair_np_cdf(a.phi - c.phi0.x, c.trim), hair_np_cdf(a.phi - c.phi0.y, c.trim),
+        hair_np_cdf(a.phi - c.phi0.z, c.trim));
+    return c;
+}
+
+// The next cell's share of S (weighed by its share of h), and the walk moved past it.
+fn hair_cell_next(c: ptr<function, HairCells>, b: HairBsdf, a: HairAngles) -> vec3<f32> {
     let rot = HAIR_CELL_TURN;
-    var out: array<vec3<f32>, HAIR_BINS>;
-    // A cell's far edge is the next one's near edge: its sine, azimuths and CDFs carry over.
-    var g0 = -0.5 * HAIR_PI;
-    // (cos, sin) of the near edge and of the middle.
-    var e0 = vec2<f32>(0.0, -1.0);
-    var em = vec2<f32>(HAIR_CELL_HALF_TURN.y, -HAIR_CELL_HALF_TURN.x);
-    var phi0 = hair_phis(g0, e0.y, eta_p);
-    var cdf0 = vec3<f32>(hair_np_cdf(a.phi - phi0.x, trim), hair_np_cdf(a.phi - phi0.y, trim),
-        hair_np_cdf(a.phi - phi0.z, trim));
-    for (var i = 0u; i < HAIR_CELLS; i++) {
-        let g1 = g0 + HAIR_CELL;
-        let e1 = vec2<f32>(e0.x * rot.x - e0.y * rot.y, e0.y * rot.x + e0.x * rot.y);
-        let phi1 = hair_phis(g1, e1.y, eta_p);
-        let cdf1 = vec3<f32>(hair_np_cdf(a.phi - phi1.x, trim), hair_np_cdf(a.phi - phi1.y, trim),
-            hair_np_cdf(a.phi - phi1.z, trim));
-        let sin_gt = clamp(em.y / eta_p, -1.0, 1.0);
-        let f = hair_fresnel(cos_v * em.x, eta);
-        let tr = exp(-b.sigma_a.rgb * (2.0 * sqrt(1.0 - sin_gt * sin_gt) / max(cos_t, 1e-12)));
-        let a1 = (1.0 - f) * (1.0 - f) * tr;
-        let a2 = a1 * tr * f;
-        let a3 = a2 * f * tr / (1.0 - tr * f);
-        // R's centre moves by -2 HAIR_CELL across every cell, so its CDF difference never
-        // degenerates; TT's and TRT's can (TRT at its caustic): there N_p at the cell's
-        // middle, Phi_p linear across the cell as the CDF form takes it.
-        let dphi = phi1 - phi0;
-        var n = (cdf0 - cdf1) / select(vec3<f32>(1.0), dphi, abs(dphi) > vec3<f32>(1e-3));
-        for (var p = 1u; p < 3u; p++) {
-            if abs(dphi[p]) <= 1e-3 {
-                n[p] = hair_np(a.phi - 0.5 * (phi0[p] + phi1[p]), trim);
-            }
+    let eta = b.misc.z;
+    let g1 = (*c).g0 + HAIR_CELL;
+    let e0 = (*c).e0;
+    let em = (*c).em;
+    let phi0 = (*c).phi0;
+    let e1 = vec2<f32>(e0.x * rot.x - e0.y * rot.y, e0.y * rot.x + e0.x * rot.y);
+    let phi1 = hair_phis(g1, e1.y, (*c).eta_p);
+    let trim = (*c).trim;
+    let cdf1 = vec3<f32>(hair_np_cdf(a.phi - phi1.x, trim), hair_np_cdf(a.phi - phi1.y, trim),
+        hair_np_cdf(a.phi - phi1.z, trim));
+    let sin_gt = clamp(em.y / (*c).eta_p, -1.0, 1.0);
+    let f = hair_fresnel((*c).cos_v * em.x, eta);
+    let tr = exp(-b.sigma_a.rgb * (2.0 * sqrt(1.0 - sin_gt * sin_gt) / max((*c).cos_t, 1e-12)));
+    let a1 = (1.0 - f) * (1.0 - f) * tr;
+    let a2 = a1 * tr * f;
+    let a3 = a2 * f * tr / (1.0 - tr * f);
+    // R's centre moves by -2 HAIR_CELL across every cell, so its CDF difference never
+    // degenerates; TT's and TRT's can (TRT at its caustic): there N_p at the cell's
+    // middle, Phi_p linear across the cell as the CDF form takes it.
+    let dphi = phi1 - phi0;
+    var n = ((*c).cdf0 - cdf1) / select(vec3<f32>(1.0), dphi, abs(dphi) > vec3<f32>(1e-3));
+    for (var p = 1u; p < 3u; p++) {
+        if abs(dphi[p]) <= 1e-3 {
+            n[p] = hair_np(a.phi - 0.5 * (phi0[p] + phi1[p]), trim);
         }
-        let w = 0.5 * (e1.y - e0.y);
-        out[i / (HAIR_CELLS / HAIR_BINS)] += w * (vec3<f32>(m0 * f * n.x) + m1 * a1 * n.y + m2 * a2 * n.z
-            + m3 * a3 / (2.0 * HAIR_PI));
-        g0 = g1;
-        e0 = e1;
-        em = vec2<f32>(em.x * rot.x - em.y * rot.y, em.y * rot.x + em.x * rot.y);
-        phi0 = phi1;
-        cdf0 = cdf1;
+    }
+    let w = 0.5 * (e1.y - e0.y);
+    let m = (*c).m;
+    (*c).g0 = g1;
+    (*c).e0 = e1;
+    (*c).em = vec2<f32>(em.x * rot.x - em.y * rot.y, em.y * rot.x + em.x * rot.y);
+    (*c).phi0 = phi1;
+    (*c).cdf0 = cdf1;
+    return w * (vec3<f32>(m.x * f * n.x) + m.y * a1 * n.y + m.z * a2 * n.z
+        + m.w * a3 / (2.0 * HAIR_PI));
+}
+
+// S of `Bsdf::radiance_cells`: the far-field radiance factor with the longitudinal variances
+// widened by extra_var. Fur, the strips and the compute rasteriser's strands need no more.
+fn hair_radiance_cells(b: HairBsdf, a: HairAngles, extra_var: f32) -> vec3<f32> {
+    var c = hair_cells_begin(b, a, extra_var);
+    var s = vec3<f32>(0.0);
+    for (var i = 0u; i < HAIR_CELLS; i++) {
+        s += hair_cell_next(&c, b, a);
+    }
+    return s;
+}
+
+// `Bsdf::radiance_bins`: S split by where on the fibre's width it leaves. Bin k holds the
+// cells of gamma from -pi/2 + k pi/6 to -pi/2 + (k + 1) pi/6, each weighed by its share of
+// h as in S (so the bins sum to S); gamma is measured so that the azimuth phi from the view
+// to the light is positive (hair_angles).
+fn hair_radiance_bins(b: HairBsdf, a: HairAngles, extra_var: f32) -> array<vec3<f32>, HAIR_BINS> {
+    var c = hair_cells_begin(b, a, extra_var);
+    var out: array<vec3<f32>, HAIR_BINS>;
+    for (var k = 0u; k < HAIR_BINS; k++) {
+        var s = vec3<f32>(0.0);
+        for (var j = 0u; j < HAIR_CELLS / HAIR_BINS; j++) {
+            s += hair_cell_next(&c, b, a);
+        }
+        out[k] = s;
     }
     return out;
 }
 
-// The physical mode's radiance factor of the key light at a node (`hair_bsdf::dual_radiance`):
-// dual scattering through n fibres (shadow_strands), the forward-scattered share
-// d_f a_f^n, the longitudinal spread n beta_f^2, plus the local backscattering d_b f_back.
-fn hair_dual_radiance(b: HairBsdf, t: vec3<f32>, v: vec3<f32>, l: vec3<f32>, n_in: f32) -> vec3<f32> {
-    let d = hair_dual_parts(b, t, v, l, n_in);
-    return hair_bins_sum(d.single) + d.back;
-}
-
-// hair_dual_radiance in two parts (`hair_bsdf::dual_parts`): W S by bins of the fibre's
-// width (hair_radiance_bins) and W d_b f_back, which leaves the fibre evenly.
-struct HairDual {
-    single: array<vec3<f32>, HAIR_BINS>,
+// Dual scattering's weights at a node (`hair_bsdf::dual_parts`), all but S: W, the share
+// of the key light that reaches the fibre directly or forward scattered through n fibres
+// (shadow_strands), d_f a_f^n of it; the longitudinal spread n beta_f^2; and the local
+// backscattering W d_b f_back, which leaves the fibre evenly.
+struct HairDualWeights {
+    a: HairAngles,
+    spread: f32,
+    w: vec3<f32>,
     back: vec3<f32>,
 }
 
-fn hair_dual_parts(b: HairBsdf, t: vec3<f32>, v: vec3<f32>, l: vec3<f32>, n_in: f32) -> HairDual {
+fn hair_dual_weights(b: HairBsdf, t: vec3<f32>, v: vec3<f32>, l: vec3<f32>, n_in: f32) -> HairDualWeights {
+    var d: HairDualWeights;
     let n = max(n_in, 0.0);
     let a = hair_angles(t, v, l);
-    let spread = n * b.a_f.w;
-    let s = hair_radiance_bins(b, a, 4.0 * spread);
+    d.a = a;
+    d.spread = n * b.a_f.w;
     let theta_v = atan2(a.sc.x, a.sc.y);
     let theta_l = atan2(a.sc.z, a.sc.w);
     let th = 0.5 * (theta_v + theta_l) - b.back.w;
-    let var_b = b.ambient.w + spread;
+    let var_b = b.ambient.w + d.spread;
     let g = exp(-th * th / (2.0 * var_b)) / sqrt(2.0 * HAIR_PI * var_b);
     let cos_d = max(cos(0.5 * (theta_v - theta_l)), 0.2);
     // Zinke's f_back = 2 A_b g / (pi cos^2 theta_d), times cos theta_l (S's convention).
     let back = 2.0 * g * a.sc.w / (HAIR_PI * cos_d * cos_d);
     let direct = exp(-n);
     let through = (1.0 - direct) * 0.7 * exp(n * log(max(b.a_f.rgb, vec3<f32>(1e-6))));
-    let w = direct + through;
+    d.w = direct + through;
+    // The forward-scattered light's backscattering counts pi times (Zinke's F^scatter).
+    d.back = (direct + HAIR_PI * through) * b.back.rgb * back;
+    return d;
+}
+
+// The physical mode's radiance factor of the key light at a node (`hair_bsdf::dual_radiance`):
+// W S(v + 4 n beta_f^2) plus the backscattering.
+fn hair_dual_radiance(b: HairBsdf, t: vec3<f32>, v: vec3<f32>, l: vec3<f32>, n_in: f32) -> vec3<f32> {
+    let d = hair_dual_weights(b, t, v, l, n_in);
+    return d.w * hair_radiance_cells(b, d.a, 4.0 * d.spread) + d.back;
+}
+
+// hair_dual_radiance in two parts (`hair_bsdf::dual_parts`), for the ribbons' near field:
+// W S by bins of the fibre's width (hair_radiance_bins), and the backscattering.
+struct HairDual {
+    single: array<vec3<f32>, HAIR_BINS>,
+    back: vec3<f32>,
+}
+
+fn hair_dual_parts(b: HairBsdf, t: vec3<f32>, v: vec3<f32>, l: vec3<f32>, n_in: f32) -> HairDual {
+    let d = hair_dual_weights(b, t, v, l, n_in);
+    let s = hair_radiance_bins(b, d.a, 4.0 * d.spread);
     var out: HairDual;
     for (var k = 0u; k < HAIR_BINS; k++) {
-        out.single[k] = w * s[k];
+        out.single[k] = d.w * s[k];
     }
-    // The forward-scattered light's backscattering counts pi times (Zinke's F^scatter).
-    out.back = (direct + HAIR_PI * through) * b.back.rgb * back;
+    out.back = d.back;
     return out;
 }
 

@@ -154,6 +154,26 @@ fn worst_relative(want: &[(usize, [f64; 3])], got: &[[f32; 4]], top: &[f64]) -> 
     worst
 }
 
+/// Fails unless the worst error of `got` against `want` ([`worst_relative`]) is under
+/// `bound`; `at` says what the worst element is (its case and part).
+fn assert_contract(
+    what: &str,
+    (want, got, top): (&[(usize, [f64; 3])], &[[f32; 4]], &[f64]),
+    bound: f64,
+    at: impl Fn(usize) -> String,
+) {
+    let (err, i) = worst_relative(want, got, top);
+    eprintln!("{what}: worst relative error {err:.2e}");
+    assert!(
+        err < bound,
+        "{what}: worst relative error {err} at element {i} of {} ({}): gpu {:?}, f64 {:?}",
+        want.len(),
+        at(i),
+        got[i],
+        want[i].1
+    );
+}
+
 #[test]
 fn wgsl_bsdf_matches_the_f64_reference() {
     let gpu = common::gpu();
@@ -170,15 +190,9 @@ fn wgsl_bsdf_matches_the_f64_reference() {
         .collect();
     let input = contract_input(&cases);
     let got = run_bsdf_contract(gpu, "hair bsdf contract", ENTRY, &mats, &input, want.len());
-    let (err, i) = worst_relative(&want, &got, &top);
-    eprintln!("hair BSDF: worst relative error {err:.2e}");
-    assert!(
-        err < 2e-3,
-        "worst relative error {err} at element {i} of {}: gpu {:?}, f64 {:?}",
-        want.len(),
-        got[i],
-        want[i].1
-    );
+    assert_contract("hair BSDF", (&want, &got, &top), 2e-3, |i| {
+        format!("case {i}")
+    });
 }
 
 const PARTS_ENTRY: &str = "
@@ -241,22 +255,14 @@ fn wgsl_bins_of_the_fibres_width_match_the_f64_reference() {
             *g = g.map(|x| (x as f64 / bin_weight(part)) as f32);
         }
     }
-    let (err, i) = worst_relative(&want, &got, &top);
-    eprintln!("hair BSDF bins: worst relative error {err:.2e}");
     // Looser than the whole S's 2e-3: f32 rounding of the azimuthal CDF at a cell edge
     // moves light between the two cells beside it, which cancels in S (the differences
     // telescope) but not where a bin's edge falls between them. The worst element, on the
     // dark material's narrow lobes, is 4.3e-3 on lavapipe and 5.4e-3 on llvmpipe over GL,
     // at a bin about 2 % of the material's largest.
-    assert!(
-        err < 1e-2,
-        "worst relative error {err} at element {i} of {} (case {}, part {}): gpu {:?}, f64 {:?}",
-        want.len(),
-        i / (BINS + 1),
-        i % (BINS + 1),
-        got[i],
-        want[i].1
-    );
+    assert_contract("hair BSDF bins", (&want, &got, &top), 1e-2, |i| {
+        format!("case {}, part {}", i / (BINS + 1), i % (BINS + 1))
+    });
 }
 
 /// Three physical materials for the coat contracts: Mitsuba's default brown, a light
