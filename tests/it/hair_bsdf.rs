@@ -158,7 +158,9 @@ fn worst_relative(want: &[(usize, [f64; 3])], got: &[[f32; 4]], top: &[f64]) -> 
 /// `bound`; `at` says what the worst element is (its case and part).
 fn assert_contract(
     what: &str,
-    (want, got, top): (&[(usize, [f64; 3])], &[[f32; 4]], &[f64]),
+    want: &[(usize, [f64; 3])],
+    got: &[[f32; 4]],
+    top: &[f64],
     bound: f64,
     at: impl Fn(usize) -> String,
 ) {
@@ -190,7 +192,7 @@ fn wgsl_bsdf_matches_the_f64_reference() {
         .collect();
     let input = contract_input(&cases);
     let got = run_bsdf_contract(gpu, "hair bsdf contract", ENTRY, &mats, &input, want.len());
-    assert_contract("hair BSDF", (&want, &got, &top), 2e-3, |i| {
+    assert_contract("hair BSDF", &want, &got, &top, 2e-3, |i| {
         format!("case {i}")
     });
 }
@@ -260,7 +262,7 @@ fn wgsl_bins_of_the_fibres_width_match_the_f64_reference() {
     // telescope) but not where a bin's edge falls between them. The worst element, on the
     // dark material's narrow lobes, is 4.3e-3 on lavapipe and 5.4e-3 on llvmpipe over GL,
     // at a bin about 2 % of the material's largest.
-    assert_contract("hair BSDF bins", (&want, &got, &top), 1e-2, |i| {
+    assert_contract("hair BSDF bins", &want, &got, &top, 1e-2, |i| {
         format!("case {}, part {}", i / (BINS + 1), i % (BINS + 1))
     });
 }
