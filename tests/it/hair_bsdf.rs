@@ -10,22 +10,28 @@ use kami::systems::hair_bsdf::{
 };
 
 const ENTRY: &str = "
-@group(0) @binding(0) var<storage, read> mats: array<HairBsdf>;
 // Per element: tangent (xyz, w strand count n), view (xyz, w material), light.
-@group(0) @binding(1) var<storage, read> input: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read_write> out: array<vec4<f32>>;
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = id.x;
     if i >= arrayLength(&out) { return; }
-    let t = input[3u * i];
-    let v = input[3u * i + 1u];
-    let l = input[3u * i + 2u];
-    out[i] = vec4<f32>(hair_dual_radiance(mats[u32(v.w)], t.xyz, v.xyz, l.xyz, t.w), 0.0);
+    let c = case_input(i);
+    out[i] = vec4<f32>(hair_dual_radiance(mats[u32(c[1].w)], c[0].xyz, c[1].xyz, c[2].xyz, c[0].w), 0.0);
 }";
 
-/// `entry` after the hair BSDF's WGSL, run over `n` elements with the materials at binding 0
-/// and `input` at binding 1.
+/// What every contract's entry point reads and writes: the materials, its input (laid out
+/// as the entry says) and one vec4 per element; `case_input` reads a case of
+/// [`contract_input`].
+const BINDINGS: &str = "
+@group(0) @binding(0) var<storage, read> mats: array<HairBsdf>;
+@group(0) @binding(1) var<storage, read> input: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read_write> out: array<vec4<f32>>;
+fn case_input(c: u32) -> array<vec4<f32>, 3> {
+    return array<vec4<f32>, 3>(input[3u * c], input[3u * c + 1u], input[3u * c + 2u]);
+}";
+
+/// `entry` after the hair BSDF's WGSL and [`BINDINGS`], run over `n` elements with the
+/// materials at binding 0 and `input` at binding 1.
 fn run_bsdf_contract(
     gpu: &kami::gpu::Gpu,
     label: &str,
@@ -38,7 +44,7 @@ fn run_bsdf_contract(
     common::run_contract(
         gpu,
         label,
-        &format!("{}\n{entry}", kami::shaders::HAIR_BSDF),
+        &format!("{}\n{BINDINGS}\n{entry}", kami::shaders::HAIR_BSDF),
         &[
             (bytemuck::cast_slice(mats), bind::storage::<GpuHairBsdf>()),
             (bytemuck::cast_slice(input), bind::storage::<[f32; 4]>()),
@@ -198,9 +204,6 @@ fn wgsl_bsdf_matches_the_f64_reference() {
 }
 
 const PARTS_ENTRY: &str = "
-@group(0) @binding(0) var<storage, read> mats: array<HairBsdf>;
-@group(0) @binding(1) var<storage, read> input: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read_write> out: array<vec4<f32>>;
 // Element i: part i % (HAIR_BINS + 1) of case i / (HAIR_BINS + 1): the bins, then the back.
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -208,10 +211,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if i >= arrayLength(&out) { return; }
     let c = i / (HAIR_BINS + 1u);
     let part = i % (HAIR_BINS + 1u);
-    let t = input[3u * c];
-    let v = input[3u * c + 1u];
-    let l = input[3u * c + 2u];
-    let d = hair_dual_parts(mats[u32(v.w)], t.xyz, v.xyz, l.xyz, t.w);
+    let k = case_input(c);
+    let d = hair_dual_parts(mats[u32(k[1].w)], k[0].xyz, k[1].xyz, k[2].xyz, k[0].w);
     var s = d.back;
     for (var k = 0u; k < HAIR_BINS; k++) {
         if k == part {
@@ -289,10 +290,7 @@ fn coat_materials() -> Vec<GpuHairBsdf> {
 /// A coat contract's entry point: per element, `SHARE(m, p.x)` (material m, area p.x) in rgb and
 /// `OPEN(p.x)` (a share of the open sky: `hair_two_e3` or `hair_fibre_sky`) in w.
 const COAT_ENTRY: &str = "
-@group(0) @binding(0) var<storage, read> mats: array<HairBsdf>;
 // Per element: x the fibre-area index, y the material.
-@group(0) @binding(1) var<storage, read> input: array<vec4<f32>>;
-@group(0) @binding(2) var<storage, read_write> out: array<vec4<f32>>;
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = id.x;
